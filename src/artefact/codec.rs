@@ -1,0 +1,392 @@
+//! Reading and writing artefact directories: `meta.json`, Parquet and Arrow IPC tables, blobs,
+//! and (with the `hdf5` feature) a single HDF5 file.
+
+use super::{Artefact, ArtefactError, ArtefactKind, Column, Format, Storage, Table};
+use arrow_array::{Array, ArrayRef, Float32Array, Float64Array, Int32Array, Int64Array, LargeStringArray, RecordBatch, StringArray};
+use arrow_schema::{DataType, Field, Schema};
+use std::collections::BTreeMap;
+use std::fs::File;
+use std::io::BufWriter;
+use std::path::Path;
+use std::sync::Arc;
+
+/// Name of the metadata file in every artefact directory.
+pub const META_FILE: &str = "meta.json";
+
+/// Writes `a` into the (existing, empty) directory `dir`. `producer` (stage kind and key) is
+/// recorded in `meta.json` but is not part of the digest. Returns the digest.
+pub fn write_dir(
+    a: &Artefact,
+    dir: &Path,
+    format: Format,
+    producer: Option<serde_json::Value>,
+) -> Result<String, ArtefactError> {
+    let digest = a.digest();
+    let mut tables = serde_json::Map::new();
+    match format {
+        Format::Arrow => {
+            for (name, (table, storage)) in &a.tables {
+                table.check_lengths(name)?;
+                let file = match storage {
+                    Storage::Parquet => format!("{name}.parquet"),
+                    Storage::Ipc => format!("{name}.arrow"),
+                };
+                let path = dir.join(&file);
+                match storage {
+                    Storage::Parquet => write_parquet(table, &path)?,
+                    Storage::Ipc => write_ipc(table, &path)?,
+                }
+                tables.insert(name.clone(), table_meta(table, &file, *storage));
+            }
+        }
+        Format::Hdf5 => {
+            for (name, (table, storage)) in &a.tables {
+                table.check_lengths(name)?;
+                tables.insert(name.clone(), table_meta(table, HDF5_FILE, *storage));
+            }
+            write_hdf5(a, &dir.join(HDF5_FILE))?;
+        }
+    }
+    for (name, bytes) in &a.blobs {
+        let path = dir.join(name);
+        std::fs::write(&path, bytes).map_err(|e| ArtefactError::io(&path, e))?;
+    }
+    let mut meta = serde_json::Map::new();
+    meta.insert("femu_artefact".into(), a.kind.name().into());
+    meta.insert("schema_version".into(), a.kind.schema_version().into());
+    meta.insert(
+        "format".into(),
+        serde_json::to_value(format).expect("format serialises"),
+    );
+    meta.insert("digest".into(), digest.clone().into());
+    meta.insert("meta".into(), serde_json::Value::Object(a.meta.clone()));
+    meta.insert("tables".into(), serde_json::Value::Object(tables));
+    meta.insert(
+        "blobs".into(),
+        a.blobs.keys().cloned().collect::<Vec<_>>().into(),
+    );
+    if let Some(p) = producer {
+        meta.insert("producer".into(), p);
+    }
+    let path = dir.join(META_FILE);
+    let text = serde_json::to_string_pretty(&serde_json::Value::Object(meta)).expect("meta serialises");
+    std::fs::write(&path, text + "\n").map_err(|e| ArtefactError::io(&path, e))?;
+    Ok(digest)
+}
+
+fn table_meta(table: &Table, file: &str, storage: Storage) -> serde_json::Value {
+    serde_json::json!({
+        "file": file,
+        "storage": match storage { Storage::Parquet => "parquet", Storage::Ipc => "arrow_ipc" },
+        "rows": table.rows(),
+        "columns": table.columns.iter().map(|(n, c)| serde_json::json!({"name": n, "type": c.type_name()})).collect::<Vec<_>>(),
+    })
+}
+
+/// The parsed `meta.json` of an artefact directory.
+#[derive(Clone, Debug)]
+pub struct DirMeta {
+    /// Kind.
+    pub kind: ArtefactKind,
+    /// Format on disk.
+    pub format: Format,
+    /// Recorded digest.
+    pub digest: String,
+    /// The whole JSON object.
+    pub raw: serde_json::Map<String, serde_json::Value>,
+}
+
+/// Reads and checks `meta.json` in `dir`.
+pub fn read_meta(dir: &Path) -> Result<DirMeta, ArtefactError> {
+    let path = dir.join(META_FILE);
+    let text = std::fs::read_to_string(&path).map_err(|e| ArtefactError::io(&path, e))?;
+    let bad = |message: String| ArtefactError::Decode {
+        path: path.clone(),
+        message,
+    };
+    let raw: serde_json::Value = serde_json::from_str(&text).map_err(|e| bad(format!("not JSON: {e}")))?;
+    let raw = raw.as_object().cloned().ok_or_else(|| bad("not a JSON object".into()))?;
+    let kind_name = raw.get("femu_artefact").and_then(|v| v.as_str()).ok_or_else(|| bad("no `femu_artefact` kind; is this a femu artefact directory?".into()))?;
+    let kind = ArtefactKind::from_name(kind_name).ok_or_else(|| bad(format!("unknown artefact kind `{kind_name}`")))?;
+    let version = raw.get("schema_version").and_then(|v| v.as_u64()).unwrap_or(0);
+    if version != kind.schema_version() as u64 {
+        return Err(bad(format!(
+            "schema version {version} of `{kind}`; this femu reads version {}",
+            kind.schema_version()
+        )));
+    }
+    let format = raw
+        .get("format")
+        .cloned()
+        .map(serde_json::from_value::<Format>)
+        .transpose()
+        .map_err(|e| bad(format!("bad `format`: {e}")))?
+        .unwrap_or_default();
+    let digest = raw.get("digest").and_then(|v| v.as_str()).unwrap_or_default().to_string();
+    Ok(DirMeta { kind, format, digest, raw })
+}
+
+/// Reads the artefact in `dir`.
+pub fn read_dir(dir: &Path) -> Result<Artefact, ArtefactError> {
+    let m = read_meta(dir)?;
+    let meta_path = dir.join(META_FILE);
+    let bad = |message: String| ArtefactError::Decode {
+        path: meta_path.clone(),
+        message,
+    };
+    let mut a = Artefact::new(m.kind);
+    a.meta = m.raw.get("meta").and_then(|v| v.as_object()).cloned().unwrap_or_default();
+    let tables = m.raw.get("tables").and_then(|v| v.as_object()).cloned().unwrap_or_default();
+    let hdf5_tables = if m.format == Format::Hdf5 {
+        Some(read_hdf5(&dir.join(HDF5_FILE))?)
+    } else {
+        None
+    };
+    for (name, t) in &tables {
+        let storage = match t.get("storage").and_then(|v| v.as_str()) {
+            Some("parquet") => Storage::Parquet,
+            Some("arrow_ipc") => Storage::Ipc,
+            other => return Err(bad(format!("table `{name}`: unknown storage {other:?}"))),
+        };
+        let table = match &hdf5_tables {
+            Some(h) => h.get(name).cloned().ok_or_else(|| bad(format!("table `{name}` is missing from {HDF5_FILE}")))?,
+            None => {
+                let file = t.get("file").and_then(|v| v.as_str()).ok_or_else(|| bad(format!("table `{name}` names no file")))?;
+                if file.contains('/') || file.contains("..") {
+                    return Err(bad(format!("table `{name}`: file `{file}` must be a plain name in the artefact directory")));
+                }
+                let path = dir.join(file);
+                match storage {
+                    Storage::Parquet => read_parquet(&path)?,
+                    Storage::Ipc => read_ipc(&path)?,
+                }
+            }
+        };
+        a.tables.insert(name.clone(), (table, storage));
+    }
+    if let Some(blobs) = m.raw.get("blobs").and_then(|v| v.as_array()) {
+        for b in blobs {
+            let name = b.as_str().ok_or_else(|| bad("`blobs` must list file names".into()))?;
+            if name.contains('/') || name.contains("..") {
+                return Err(bad(format!("blob `{name}` must be a plain name")));
+            }
+            let path = dir.join(name);
+            let bytes = std::fs::read(&path).map_err(|e| ArtefactError::io(&path, e))?;
+            a.blobs.insert(name.to_string(), bytes);
+        }
+    }
+    Ok(a)
+}
+
+fn to_batch(table: &Table) -> Result<RecordBatch, ArtefactError> {
+    let mut fields = Vec::new();
+    let mut arrays: Vec<ArrayRef> = Vec::new();
+    for (name, col) in &table.columns {
+        let (dt, arr): (DataType, ArrayRef) = match col {
+            Column::F64(v) => (DataType::Float64, Arc::new(Float64Array::from(v.clone()))),
+            Column::I64(v) => (DataType::Int64, Arc::new(Int64Array::from(v.clone()))),
+            Column::Str(v) => (DataType::Utf8, Arc::new(StringArray::from(v.clone()))),
+        };
+        fields.push(Field::new(name, dt, false));
+        arrays.push(arr);
+    }
+    let schema = Arc::new(Schema::new(fields));
+    if arrays.is_empty() {
+        return Ok(RecordBatch::new_empty(schema));
+    }
+    RecordBatch::try_new(schema, arrays).map_err(|e| ArtefactError::Decode {
+        path: "<table>".into(),
+        message: e.to_string(),
+    })
+}
+
+fn append_batch(table: &mut Table, batch: &RecordBatch, path: &Path) -> Result<(), ArtefactError> {
+    let schema = batch.schema();
+    let first = table.columns.is_empty();
+    for (i, field) in schema.fields().iter().enumerate() {
+        let arr = batch.column(i);
+        let bad = || ArtefactError::Decode {
+            path: path.to_path_buf(),
+            message: format!(
+                "column `{}` has type {}; femu reads float64/float32, int64/int32 and utf8 columns",
+                field.name(),
+                field.data_type()
+            ),
+        };
+        if arr.null_count() > 0 {
+            return Err(ArtefactError::Decode {
+                path: path.to_path_buf(),
+                message: format!("column `{}` holds {} null values; nulls are not allowed", field.name(), arr.null_count()),
+            });
+        }
+        let col = match field.data_type() {
+            DataType::Float64 => Column::F64(arr.as_any().downcast_ref::<Float64Array>().ok_or_else(bad)?.values().to_vec()),
+            DataType::Float32 => Column::F64(arr.as_any().downcast_ref::<Float32Array>().ok_or_else(bad)?.values().iter().map(|v| *v as f64).collect()),
+            DataType::Int64 => Column::I64(arr.as_any().downcast_ref::<Int64Array>().ok_or_else(bad)?.values().to_vec()),
+            DataType::Int32 => Column::I64(arr.as_any().downcast_ref::<Int32Array>().ok_or_else(bad)?.values().iter().map(|v| *v as i64).collect()),
+            DataType::Utf8 => Column::Str(arr.as_any().downcast_ref::<StringArray>().ok_or_else(bad)?.iter().map(|s| s.unwrap_or_default().to_string()).collect()),
+            DataType::LargeUtf8 => Column::Str(arr.as_any().downcast_ref::<LargeStringArray>().ok_or_else(bad)?.iter().map(|s| s.unwrap_or_default().to_string()).collect()),
+            _ => return Err(bad()),
+        };
+        if first {
+            table.columns.push((field.name().clone(), col));
+        } else {
+            match (&mut table.columns[i].1, col) {
+                (Column::F64(a), Column::F64(b)) => a.extend(b),
+                (Column::I64(a), Column::I64(b)) => a.extend(b),
+                (Column::Str(a), Column::Str(b)) => a.extend(b),
+                _ => return Err(bad()),
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Writes one table as Parquet (zstd).
+pub fn write_parquet(table: &Table, path: &Path) -> Result<(), ArtefactError> {
+    use parquet::arrow::ArrowWriter;
+    use parquet::basic::{Compression, ZstdLevel};
+    use parquet::file::properties::WriterProperties;
+    let batch = to_batch(table)?;
+    let file = File::create(path).map_err(|e| ArtefactError::io(path, e))?;
+    let props = WriterProperties::builder()
+        .set_compression(Compression::ZSTD(ZstdLevel::default()))
+        .build();
+    let enc = |e: parquet::errors::ParquetError| ArtefactError::Decode {
+        path: path.to_path_buf(),
+        message: e.to_string(),
+    };
+    let mut w = ArrowWriter::try_new(BufWriter::new(file), batch.schema(), Some(props)).map_err(enc)?;
+    w.write(&batch).map_err(enc)?;
+    w.close().map_err(enc)?;
+    Ok(())
+}
+
+/// Reads a Parquet file into a table.
+pub fn read_parquet(path: &Path) -> Result<Table, ArtefactError> {
+    use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
+    let file = File::open(path).map_err(|e| ArtefactError::io(path, e))?;
+    let dec = |m: String| ArtefactError::Decode {
+        path: path.to_path_buf(),
+        message: m,
+    };
+    let reader = ParquetRecordBatchReaderBuilder::try_new(file)
+        .map_err(|e| dec(format!("not a readable Parquet file: {e}")))?
+        .with_batch_size(65536)
+        .build()
+        .map_err(|e| dec(e.to_string()))?;
+    let mut table = Table::new();
+    for batch in reader {
+        let batch = batch.map_err(|e| dec(e.to_string()))?;
+        append_batch(&mut table, &batch, path)?;
+    }
+    Ok(table)
+}
+
+/// Writes one table as an Arrow IPC file.
+pub fn write_ipc(table: &Table, path: &Path) -> Result<(), ArtefactError> {
+    let batch = to_batch(table)?;
+    let file = File::create(path).map_err(|e| ArtefactError::io(path, e))?;
+    let enc = |e: arrow_schema::ArrowError| ArtefactError::Decode {
+        path: path.to_path_buf(),
+        message: e.to_string(),
+    };
+    let mut w = arrow_ipc::writer::FileWriter::try_new(BufWriter::new(file), &batch.schema()).map_err(enc)?;
+    w.write(&batch).map_err(enc)?;
+    w.finish().map_err(enc)?;
+    Ok(())
+}
+
+/// Reads an Arrow IPC file into a table.
+pub fn read_ipc(path: &Path) -> Result<Table, ArtefactError> {
+    let file = File::open(path).map_err(|e| ArtefactError::io(path, e))?;
+    let dec = |m: String| ArtefactError::Decode {
+        path: path.to_path_buf(),
+        message: m,
+    };
+    let reader = arrow_ipc::reader::FileReader::try_new(std::io::BufReader::new(file), None)
+        .map_err(|e| dec(format!("not a readable Arrow IPC file: {e}")))?;
+    let mut table = Table::new();
+    let schema = reader.schema();
+    for batch in reader {
+        let batch = batch.map_err(|e| dec(e.to_string()))?;
+        append_batch(&mut table, &batch, path)?;
+    }
+    if table.columns.is_empty() {
+        // A table with zero rows still has its columns.
+        append_batch(&mut table, &RecordBatch::new_empty(schema), path)?;
+    }
+    Ok(table)
+}
+
+/// File name of the single HDF5 file of an artefact in `hdf5` format.
+pub const HDF5_FILE: &str = "data.h5";
+
+#[cfg(feature = "hdf5")]
+fn write_hdf5(a: &Artefact, path: &Path) -> Result<(), ArtefactError> {
+    super::hdf5_codec::write(a, path)
+}
+
+#[cfg(feature = "hdf5")]
+fn read_hdf5(path: &Path) -> Result<BTreeMap<String, Table>, ArtefactError> {
+    super::hdf5_codec::read(path)
+}
+
+#[cfg(not(feature = "hdf5"))]
+fn write_hdf5(_: &Artefact, _: &Path) -> Result<(), ArtefactError> {
+    Err(ArtefactError::Hdf5Unavailable)
+}
+
+#[cfg(not(feature = "hdf5"))]
+fn read_hdf5(_: &Path) -> Result<BTreeMap<String, Table>, ArtefactError> {
+    Err(ArtefactError::Hdf5Unavailable)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sample() -> Artefact {
+        Artefact::new(ArtefactKind::Frf)
+            .with_meta("quantity", "receptance".into())
+            .with_table(
+                "frf",
+                Table::new()
+                    .with("freq_hz", Column::F64(vec![0.0, 0.5, 1.0]))
+                    .with("n", Column::I64(vec![1, -2, 3]))
+                    .with("dof", Column::Str(vec!["1:ux".into(), "2:uy".into(), "3:rz".into()])),
+                Storage::Parquet,
+            )
+            .with_table("shapes", Table::new().with("phi_1", Column::F64(vec![1.5, -0.25])), Storage::Ipc)
+    }
+
+    #[test]
+    fn round_trip_keeps_content_and_digest() {
+        let dir = tempfile::tempdir().unwrap();
+        let a = sample();
+        let d = write_dir(&a, dir.path(), Format::Arrow, None).unwrap();
+        let b = read_dir(dir.path()).unwrap();
+        assert_eq!(a, b);
+        assert_eq!(d, b.digest());
+        assert!(dir.path().join("frf.parquet").exists() && dir.path().join("shapes.arrow").exists());
+    }
+
+    #[test]
+    fn writing_twice_gives_identical_bytes() {
+        let (d1, d2) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
+        write_dir(&sample(), d1.path(), Format::Arrow, None).unwrap();
+        write_dir(&sample(), d2.path(), Format::Arrow, None).unwrap();
+        for f in ["frf.parquet", "shapes.arrow", "meta.json"] {
+            assert_eq!(std::fs::read(d1.path().join(f)).unwrap(), std::fs::read(d2.path().join(f)).unwrap(), "{f}");
+        }
+    }
+
+    #[test]
+    fn garbage_file_is_a_decode_error_naming_the_file() {
+        let dir = tempfile::tempdir().unwrap();
+        write_dir(&sample(), dir.path(), Format::Arrow, None).unwrap();
+        std::fs::write(dir.path().join("frf.parquet"), b"not parquet").unwrap();
+        let e = read_dir(dir.path()).unwrap_err().to_string();
+        assert!(e.contains("frf.parquet"), "{e}");
+    }
+}

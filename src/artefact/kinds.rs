@@ -1,0 +1,345 @@
+//! Typed views of artefacts: conversions between numerical types and [`Artefact`] tables.
+//!
+//! | kind | tables (storage) | columns |
+//! |---|---|---|
+//! | `matrices` | `dofs` (Parquet); `K`, `M`, `C`, `D` (IPC) | `index, dof, node, comp`; `row, col, value` |
+//! | `modes` | `frequencies` (Parquet); `shapes` (IPC) | `mode, freq_hz, eigenvalue_rad2_s2, residual`; `dof, phi_1 … phi_m` |
+//! | `frf` | `frf` (Parquet) | `freq_hz, response, excitation, re, im` |
+//! | `correlation` | `lines`, `frac` (Parquet) | `freq_hz, chi_s, chi_a`; `response, excitation, frac` |
+//! | `plot` | blobs `*.png`, `*.svg` | |
+
+use super::{Artefact, ArtefactError, ArtefactKind, Column, Storage, Table};
+use crate::core::DofId;
+use crate::correlation::FrfCorrelation;
+use crate::eigen::Modes;
+use crate::fe::SystemMatrices;
+use crate::fe::system::{sparse_from_triplets, sparse_triplets};
+use crate::frf::{FrfPair, FrfSet, Quantity};
+use faer::{Mat, c64};
+
+/// Digest of a DOF list: artefacts that refer to the same DOFs record the same value.
+pub fn dof_index_digest(dofs: &[DofId]) -> String {
+    let text: Vec<String> = dofs.iter().map(|d| d.to_string()).collect();
+    super::digest::hash_bytes(text.join("\n").as_bytes())
+}
+
+fn dof_table(dofs: &[DofId]) -> Table {
+    Table::new()
+        .with("index", Column::I64((0..dofs.len() as i64).collect()))
+        .with("dof", Column::Str(dofs.iter().map(|d| d.to_string()).collect()))
+        .with("node", Column::I64(dofs.iter().map(|d| d.node as i64).collect()))
+        .with("comp", Column::Str(dofs.iter().map(|d| d.comp.name().to_string()).collect()))
+}
+
+fn parse_dofs(kind: ArtefactKind, table: &str, labels: &[String]) -> Result<Vec<DofId>, ArtefactError> {
+    labels
+        .iter()
+        .enumerate()
+        .map(|(row, s)| {
+            s.parse::<DofId>()
+                .map_err(|e| ArtefactError::schema(kind, format!("table `{table}` row {row}: {e}")))
+        })
+        .collect()
+}
+
+fn expect_kind(a: &Artefact, kind: ArtefactKind) -> Result<(), ArtefactError> {
+    if a.kind == kind {
+        Ok(())
+    } else {
+        Err(ArtefactError::schema(kind, format!("got a `{}` artefact", a.kind)))
+    }
+}
+
+/// System matrices as an artefact.
+pub fn matrices_to_artefact(sys: &SystemMatrices) -> Artefact {
+    let mut a = Artefact::new(ArtefactKind::Matrices)
+        .with_meta("n_dofs", sys.n().into())
+        .with_meta("dof_index", dof_index_digest(&sys.dofs).into())
+        .with_meta(
+            "units",
+            serde_json::json!({"K": "N/m", "M": "kg", "C": "N*s/m", "D": "N/m"}),
+        )
+        .with_table("dofs", dof_table(&sys.dofs), Storage::Parquet);
+    for (name, mat) in sys.named() {
+        let t = sparse_triplets(mat);
+        let table = Table::new()
+            .with("row", Column::I64(t.iter().map(|e| e.0 as i64).collect()))
+            .with("col", Column::I64(t.iter().map(|e| e.1 as i64).collect()))
+            .with("value", Column::F64(t.iter().map(|e| e.2).collect()));
+        a = a.with_table(name, table, Storage::Ipc);
+    }
+    a
+}
+
+/// System matrices from an artefact.
+pub fn matrices_from_artefact(a: &Artefact) -> Result<SystemMatrices, ArtefactError> {
+    let kind = ArtefactKind::Matrices;
+    expect_kind(a, kind)?;
+    let dofs = parse_dofs(kind, "dofs", a.table("dofs")?.strs("dofs", "dof")?)?;
+    let n = dofs.len();
+    let read = |name: &'static str| -> Result<Option<_>, ArtefactError> {
+        let Some((t, _)) = a.tables.get(name) else {
+            return Ok(None);
+        };
+        let (r, c, v) = (t.i64s(name, "row")?, t.i64s(name, "col")?, t.f64s(name, "value")?);
+        let trip: Vec<(usize, usize, f64)> = r
+            .iter()
+            .zip(c)
+            .zip(v)
+            .map(|((r, c), v)| (usize::try_from(*r).unwrap_or(usize::MAX), usize::try_from(*c).unwrap_or(usize::MAX), *v))
+            .collect();
+        sparse_from_triplets(name, n, &trip)
+            .map(Some)
+            .map_err(|e| ArtefactError::schema(kind, e.to_string()))
+    };
+    let sys = SystemMatrices {
+        k: read("K")?.ok_or_else(|| ArtefactError::schema(kind, "no stiffness table `K`"))?,
+        m: read("M")?.ok_or_else(|| ArtefactError::schema(kind, "no mass table `M`"))?,
+        c: read("C")?,
+        d: read("D")?,
+        dofs,
+    };
+    sys.validate().map_err(|e| ArtefactError::schema(kind, e.to_string()))?;
+    Ok(sys)
+}
+
+/// Modes with their DOF labels.
+#[derive(Clone, Debug)]
+pub struct ModesArtefact {
+    /// Row labels of the shapes.
+    pub dofs: Vec<DofId>,
+    /// The modes.
+    pub modes: Modes,
+}
+
+/// Modes as an artefact.
+pub fn modes_to_artefact(dofs: &[DofId], modes: &Modes) -> Artefact {
+    let m = modes.len();
+    let freqs = Table::new()
+        .with("mode", Column::I64((1..=m as i64).collect()))
+        .with("freq_hz", Column::F64(modes.frequencies_hz()))
+        .with("eigenvalue_rad2_s2", Column::F64(modes.eigenvalues.clone()))
+        .with("residual", Column::F64(modes.residuals.clone()));
+    let mut shapes = Table::new().with("dof", Column::Str(dofs.iter().map(|d| d.to_string()).collect()));
+    for r in 0..m {
+        shapes = shapes.with(
+            format!("phi_{}", r + 1),
+            Column::F64((0..dofs.len()).map(|i| modes.shapes[(i, r)]).collect()),
+        );
+    }
+    Artefact::new(ArtefactKind::Modes)
+        .with_meta("n_modes", m.into())
+        .with_meta("n_dofs", dofs.len().into())
+        .with_meta("rigid_body_modes", modes.rigid_body_modes.into())
+        .with_meta("orthogonality_error", modes.orthogonality_error.into())
+        .with_meta("dof_index", dof_index_digest(dofs).into())
+        .with_meta("normalisation", "mass".into())
+        .with_meta("units", serde_json::json!({"freq_hz": "Hz", "eigenvalue_rad2_s2": "rad^2/s^2", "phi": "1/sqrt(kg)"}))
+        .with_table("frequencies", freqs, Storage::Parquet)
+        .with_table("shapes", shapes, Storage::Ipc)
+}
+
+/// Modes from an artefact.
+pub fn modes_from_artefact(a: &Artefact) -> Result<ModesArtefact, ArtefactError> {
+    let kind = ArtefactKind::Modes;
+    expect_kind(a, kind)?;
+    let f = a.table("frequencies")?;
+    let lambdas = f.f64s("frequencies", "eigenvalue_rad2_s2")?.to_vec();
+    let residuals = f.f64s("frequencies", "residual")?.to_vec();
+    let s = a.table("shapes")?;
+    let dofs = parse_dofs(kind, "shapes", s.strs("shapes", "dof")?)?;
+    let mut shapes = Mat::<f64>::zeros(dofs.len(), lambdas.len());
+    for r in 0..lambdas.len() {
+        let col = s.f64s("shapes", &format!("phi_{}", r + 1))?;
+        for (i, v) in col.iter().enumerate() {
+            shapes[(i, r)] = *v;
+        }
+    }
+    Ok(ModesArtefact {
+        dofs,
+        modes: Modes {
+            rigid_body_modes: lambdas.iter().filter(|l| **l == 0.0).count(),
+            orthogonality_error: a.meta.get("orthogonality_error").and_then(|v| v.as_f64()).unwrap_or(0.0),
+            eigenvalues: lambdas,
+            shapes,
+            residuals,
+        },
+    })
+}
+
+/// FRFs as an artefact (long table: one row per line and pair, pair-major).
+pub fn frf_to_artefact(set: &FrfSet) -> Artefact {
+    let (nl, np) = (set.freqs_hz.len(), set.pairs.len());
+    let mut freq = Vec::with_capacity(nl * np);
+    let (mut resp, mut exc) = (Vec::with_capacity(nl * np), Vec::with_capacity(nl * np));
+    let (mut re, mut im) = (Vec::with_capacity(nl * np), Vec::with_capacity(nl * np));
+    for (p, pair) in set.pairs.iter().enumerate() {
+        let (r, e) = (pair.response.to_string(), pair.excitation.to_string());
+        for (k, f) in set.freqs_hz.iter().enumerate() {
+            freq.push(*f);
+            resp.push(r.clone());
+            exc.push(e.clone());
+            re.push(set.values[(k, p)].re);
+            im.push(set.values[(k, p)].im);
+        }
+    }
+    let table = Table::new()
+        .with("freq_hz", Column::F64(freq))
+        .with("response", Column::Str(resp))
+        .with("excitation", Column::Str(exc))
+        .with("re", Column::F64(re))
+        .with("im", Column::F64(im));
+    Artefact::new(ArtefactKind::Frf)
+        .with_meta("quantity", set.quantity.name().into())
+        .with_meta("units", serde_json::json!({"freq_hz": "Hz", "re": set.quantity.unit(), "im": set.quantity.unit()}))
+        .with_meta("n_lines", nl.into())
+        .with_meta("n_frfs", np.into())
+        .with_table("frf", table, Storage::Parquet)
+}
+
+/// FRFs from an artefact: rows grouped by (response, excitation) in order of first appearance,
+/// every FRF on the same ascending lines.
+pub fn frf_from_artefact(a: &Artefact) -> Result<FrfSet, ArtefactError> {
+    let kind = ArtefactKind::Frf;
+    expect_kind(a, kind)?;
+    let q = a.meta_str("quantity")?;
+    let quantity = Quantity::from_name(q).ok_or_else(|| {
+        ArtefactError::schema(kind, format!("quantity `{q}` is not one of receptance, mobility, accelerance"))
+    })?;
+    let t = a.table("frf")?;
+    let f = t.f64s("frf", "freq_hz")?;
+    let r = t.strs("frf", "response")?;
+    let e = t.strs("frf", "excitation")?;
+    let (re, im) = (t.f64s("frf", "re")?, t.f64s("frf", "im")?);
+    let mut pairs: Vec<FrfPair> = Vec::new();
+    let mut rows: Vec<Vec<usize>> = Vec::new();
+    let mut last: Option<(&String, &String, usize)> = None;
+    for row in 0..f.len() {
+        let slot = match last {
+            Some((lr, le, s)) if lr == &r[row] && le == &e[row] => s,
+            _ => {
+                let parse = |s: &String, col: &str| {
+                    s.parse::<DofId>().map_err(|err| ArtefactError::schema(kind, format!("table `frf` row {row} column `{col}`: {err}")))
+                };
+                let pair = FrfPair { response: parse(&r[row], "response")?, excitation: parse(&e[row], "excitation")? };
+                match pairs.iter().position(|p| *p == pair) {
+                    Some(s) => s,
+                    None => {
+                        pairs.push(pair);
+                        rows.push(Vec::new());
+                        pairs.len() - 1
+                    }
+                }
+            }
+        };
+        rows[slot].push(row);
+        last = Some((&r[row], &e[row], slot));
+    }
+    let Some(first) = rows.first() else {
+        return Err(ArtefactError::schema(kind, "table `frf` has no rows"));
+    };
+    let freqs: Vec<f64> = first.iter().map(|&i| f[i]).collect();
+    if freqs.windows(2).any(|w| !(w[1] > w[0])) {
+        return Err(ArtefactError::schema(kind, format!("FRF {}/{}: frequencies must strictly increase", pairs[0].response, pairs[0].excitation)));
+    }
+    let mut values = Mat::<c64>::zeros(freqs.len(), pairs.len());
+    for (p, idx) in rows.iter().enumerate() {
+        let same = idx.len() == freqs.len() && idx.iter().zip(&freqs).all(|(&i, fr)| (f[i] - fr).abs() <= 1e-9 * fr.abs().max(1.0));
+        if !same {
+            return Err(ArtefactError::schema(
+                kind,
+                format!("FRF {}/{} has {} lines that differ from the first FRF's {} lines; every FRF must share one set of lines", pairs[p].response, pairs[p].excitation, idx.len(), freqs.len()),
+            ));
+        }
+        for (k, &i) in idx.iter().enumerate() {
+            values[(k, p)] = c64::new(re[i], im[i]);
+        }
+    }
+    Ok(FrfSet { quantity, freqs_hz: freqs, pairs, values })
+}
+
+/// A correlation as an artefact.
+pub fn correlation_to_artefact(c: &FrfCorrelation) -> Artefact {
+    let lines = Table::new()
+        .with("freq_hz", Column::F64(c.freqs_hz.clone()))
+        .with("chi_s", Column::F64(c.chi_s.clone()))
+        .with("chi_a", Column::F64(c.chi_a.clone()));
+    let frac = Table::new()
+        .with("response", Column::Str(c.pairs.iter().map(|p| p.response.to_string()).collect()))
+        .with("excitation", Column::Str(c.pairs.iter().map(|p| p.excitation.to_string()).collect()))
+        .with("frac", Column::F64(c.frac.clone()));
+    let min = |v: &[f64]| v.iter().copied().fold(f64::INFINITY, f64::min);
+    Artefact::new(ArtefactKind::Correlation)
+        .with_meta(
+            "summary",
+            serde_json::json!({
+                "mean_chi_s": c.mean_chi_s(),
+                "mean_chi_a": c.mean_chi_a(),
+                "mean_chi": c.mean_chi(),
+                "min_chi_s": min(&c.chi_s),
+                "min_chi_a": min(&c.chi_a),
+                "mean_frac": if c.frac.is_empty() { 0.0 } else { c.frac.iter().sum::<f64>() / c.frac.len() as f64 },
+                "n_lines": c.freqs_hz.len(),
+                "n_frfs": c.pairs.len(),
+            }),
+        )
+        .with_table("lines", lines, Storage::Parquet)
+        .with_table("frac", frac, Storage::Parquet)
+}
+
+/// A correlation from an artefact.
+pub fn correlation_from_artefact(a: &Artefact) -> Result<FrfCorrelation, ArtefactError> {
+    let kind = ArtefactKind::Correlation;
+    expect_kind(a, kind)?;
+    let l = a.table("lines")?;
+    let fr = a.table("frac")?;
+    let resp = parse_dofs(kind, "frac", fr.strs("frac", "response")?)?;
+    let exc = parse_dofs(kind, "frac", fr.strs("frac", "excitation")?)?;
+    Ok(FrfCorrelation {
+        freqs_hz: l.f64s("lines", "freq_hz")?.to_vec(),
+        chi_s: l.f64s("lines", "chi_s")?.to_vec(),
+        chi_a: l.f64s("lines", "chi_a")?.to_vec(),
+        pairs: resp.into_iter().zip(exc).map(|(response, excitation)| FrfPair { response, excitation }).collect(),
+        frac: fr.f64s("frac", "frac")?.to_vec(),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::fe::lumped::assemble_lumped;
+    use crate::model::LumpedModel;
+
+    #[test]
+    fn matrices_round_trip() {
+        let sys = assemble_lumped(&LumpedModel::chain(&[1.0, 1.3, 1.0], 10.0)).unwrap();
+        let back = matrices_from_artefact(&matrices_to_artefact(&sys)).unwrap();
+        assert_eq!(back.dofs, sys.dofs);
+        assert_eq!(back.k_dense(), sys.k_dense());
+        assert_eq!(back.m_dense(), sys.m_dense());
+    }
+
+    #[test]
+    fn frf_round_trip_and_line_mismatch_is_reported() {
+        let dofs: Vec<DofId> = vec!["1:ux".parse().unwrap(), "2:uz".parse().unwrap()];
+        let set = FrfSet {
+            quantity: Quantity::Mobility,
+            freqs_hz: vec![1.0, 2.0, 3.0],
+            pairs: FrfSet::all_pairs(&dofs, &dofs[..1]),
+            values: Mat::from_fn(3, 2, |k, p| c64::new(k as f64, p as f64 - 0.5)),
+        };
+        let a = frf_to_artefact(&set);
+        let back = frf_from_artefact(&a).unwrap();
+        assert_eq!(back.values, set.values);
+        assert_eq!(back.pairs, set.pairs);
+        assert_eq!(back.quantity, Quantity::Mobility);
+        let mut broken = a.clone();
+        if let Some((t, _)) = broken.tables.get_mut("frf") {
+            if let Column::F64(f) = &mut t.columns[0].1 {
+                f[4] = 2.5;
+            }
+        }
+        let e = frf_from_artefact(&broken).unwrap_err().to_string();
+        assert!(e.contains("2:uz/1:ux"), "{e}");
+    }
+}

@@ -1,0 +1,216 @@
+//! Artefacts: typed, versioned values that stages read and write.
+//!
+//! In memory an artefact is a kind, a JSON metadata object, named [`Table`]s and named binary
+//! blobs (images). On disk it is a directory holding `meta.json` and one file per table —
+//! Parquet for row tables, Arrow IPC for matrices and mode shapes — or, with the `hdf5` feature
+//! and `format: hdf5`, a single `data.h5`. Its digest is a blake3 hash of a canonical encoding of
+//! the content, independent of the file format, so downstream cache keys do not change when only
+//! the storage does. Typed views (`Frf`, `Modes`, …) live in [`kinds`].
+
+pub mod codec;
+pub mod digest;
+pub mod kinds;
+mod table;
+#[cfg(feature = "hdf5")]
+mod hdf5_codec;
+
+pub use table::{Column, Storage, Table, TableError};
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+/// Every artefact kind with its schema version.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum ArtefactKind {
+    /// System matrices `K`, `M`, optional `C`, `D`, with their DOF labels.
+    Matrices,
+    /// Natural frequencies and mass-normalised mode shapes.
+    Modes,
+    /// Frequency response functions.
+    Frf,
+    /// FRF correlation: `χ_s`, `χ_a` per line, FRAC per FRF.
+    Correlation,
+    /// A figure as PNG and SVG.
+    Plot,
+}
+
+impl ArtefactKind {
+    /// All kinds.
+    pub const ALL: [ArtefactKind; 5] = [
+        ArtefactKind::Matrices,
+        ArtefactKind::Modes,
+        ArtefactKind::Frf,
+        ArtefactKind::Correlation,
+        ArtefactKind::Plot,
+    ];
+
+    /// The name used in files and port declarations.
+    pub fn name(self) -> &'static str {
+        match self {
+            ArtefactKind::Matrices => "matrices",
+            ArtefactKind::Modes => "modes",
+            ArtefactKind::Frf => "frf",
+            ArtefactKind::Correlation => "correlation",
+            ArtefactKind::Plot => "plot",
+        }
+    }
+
+    /// Kind from its name.
+    pub fn from_name(s: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|k| k.name() == s)
+    }
+
+    /// Current schema version; bumped on any change of layout or meaning.
+    pub fn schema_version(self) -> u32 {
+        1
+    }
+}
+
+impl std::fmt::Display for ArtefactKind {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// File format of an artefact on disk.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize, schemars::JsonSchema)]
+#[serde(rename_all = "lowercase")]
+pub enum Format {
+    /// Parquet for tables, Arrow IPC for matrices and shapes.
+    #[default]
+    Arrow,
+    /// One HDF5 file (`hdf5` cargo feature).
+    Hdf5,
+}
+
+/// An artefact in memory.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Artefact {
+    /// Its kind.
+    pub kind: ArtefactKind,
+    /// Metadata: units, quantity, summaries (a JSON object). Part of the digest.
+    pub meta: serde_json::Map<String, serde_json::Value>,
+    /// Named tables with their preferred storage.
+    pub tables: BTreeMap<String, (Table, Storage)>,
+    /// Named binary files (images).
+    pub blobs: BTreeMap<String, Vec<u8>>,
+}
+
+/// Why an artefact could not be read, written or interpreted.
+#[derive(Debug, thiserror::Error)]
+pub enum ArtefactError {
+    /// File system failure.
+    #[error("{path}: {source}")]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The cause.
+        source: std::io::Error,
+    },
+    /// A file could not be decoded.
+    #[error("{path}: {message}")]
+    Decode {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong.
+        message: String,
+    },
+    /// The artefact is of another kind than expected.
+    #[error("{path}: artefact is `{found}`, expected `{expected}`")]
+    WrongKind {
+        /// Its directory.
+        path: PathBuf,
+        /// Kind found.
+        found: String,
+        /// Kind wanted.
+        expected: ArtefactKind,
+    },
+    /// The content does not fit the kind's schema.
+    #[error("{kind} artefact: {message}")]
+    Schema {
+        /// The kind.
+        kind: ArtefactKind,
+        /// What is wrong, naming table, column, row or DOF.
+        message: String,
+    },
+    /// The HDF5 format was chosen but femu was built without it.
+    #[error("`format: hdf5` needs femu built with the `hdf5` feature (cargo build --features hdf5; apt-get install -y libhdf5-dev)")]
+    Hdf5Unavailable,
+}
+
+impl ArtefactError {
+    /// A schema error for `kind`.
+    pub fn schema(kind: ArtefactKind, message: impl Into<String>) -> Self {
+        ArtefactError::Schema {
+            kind,
+            message: message.into(),
+        }
+    }
+
+    /// An I/O error at `path`.
+    pub fn io(path: &Path, source: std::io::Error) -> Self {
+        ArtefactError::Io {
+            path: path.to_path_buf(),
+            source,
+        }
+    }
+}
+
+impl From<TableError> for ArtefactError {
+    fn from(e: TableError) -> Self {
+        ArtefactError::Decode {
+            path: PathBuf::from(&e.table),
+            message: e.problem,
+        }
+    }
+}
+
+impl Artefact {
+    /// An empty artefact of `kind`.
+    pub fn new(kind: ArtefactKind) -> Self {
+        Artefact {
+            kind,
+            meta: serde_json::Map::new(),
+            tables: BTreeMap::new(),
+            blobs: BTreeMap::new(),
+        }
+    }
+
+    /// Adds a table.
+    pub fn with_table(mut self, name: &str, table: Table, storage: Storage) -> Self {
+        self.tables.insert(name.to_string(), (table, storage));
+        self
+    }
+
+    /// Sets a metadata entry.
+    pub fn with_meta(mut self, key: &str, value: serde_json::Value) -> Self {
+        self.meta.insert(key.to_string(), value);
+        self
+    }
+
+    /// A table by name, or a schema error naming what is there.
+    pub fn table(&self, name: &str) -> Result<&Table, ArtefactError> {
+        self.tables.get(name).map(|t| &t.0).ok_or_else(|| {
+            ArtefactError::schema(
+                self.kind,
+                format!(
+                    "no table `{name}` (tables: {})",
+                    self.tables.keys().cloned().collect::<Vec<_>>().join(", ")
+                ),
+            )
+        })
+    }
+
+    /// A metadata string.
+    pub fn meta_str(&self, key: &str) -> Result<&str, ArtefactError> {
+        self.meta
+            .get(key)
+            .and_then(|v| v.as_str())
+            .ok_or_else(|| ArtefactError::schema(self.kind, format!("metadata `{key}` missing or not text")))
+    }
+
+    /// Canonical content digest (hex).
+    pub fn digest(&self) -> String {
+        digest::artefact_digest(self)
+    }
+}

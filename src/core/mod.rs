@@ -1,0 +1,5 @@
+//! Identifiers shared by every layer: degrees of freedom and their labels.
+
+mod dof;
+
+pub use dof::{Component, DofId, DofParseError};

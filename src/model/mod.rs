@@ -1,0 +1,5 @@
+//! Model descriptions: what the structure is, before any matrix is built.
+
+pub mod lumped;
+
+pub use lumped::{LumpedMass, LumpedModel, LumpedModelError, LumpedSpring};
