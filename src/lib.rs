@@ -9,9 +9,13 @@
 #![warn(missing_docs)]
 
 pub mod artefact;
+pub mod cache;
+pub mod cli;
 pub mod core;
 pub mod correlation;
 pub mod eigen;
 pub mod fe;
 pub mod frf;
 pub mod model;
+pub mod pipeline;
+pub mod stages;

@@ -1,1 +1,5 @@
-fn main() {}
+//! The `femu` binary.
+
+fn main() -> std::process::ExitCode {
+    femu::cli::main()
+}

@@ -2,7 +2,10 @@
 //! and (with the `hdf5` feature) a single HDF5 file.
 
 use super::{Artefact, ArtefactError, ArtefactKind, Column, Format, Storage, Table};
-use arrow_array::{Array, ArrayRef, Float32Array, Float64Array, Int32Array, Int64Array, LargeStringArray, RecordBatch, StringArray};
+use arrow_array::{
+    Array, ArrayRef, Float32Array, Float64Array, Int32Array, Int64Array, LargeStringArray,
+    RecordBatch, StringArray,
+};
 use arrow_schema::{DataType, Field, Schema};
 use std::collections::BTreeMap;
 use std::fs::File;
@@ -69,7 +72,8 @@ pub fn write_dir(
         meta.insert("producer".into(), p);
     }
     let path = dir.join(META_FILE);
-    let text = serde_json::to_string_pretty(&serde_json::Value::Object(meta)).expect("meta serialises");
+    let text =
+        serde_json::to_string_pretty(&serde_json::Value::Object(meta)).expect("meta serialises");
     std::fs::write(&path, text + "\n").map_err(|e| ArtefactError::io(&path, e))?;
     Ok(digest)
 }
@@ -104,11 +108,22 @@ pub fn read_meta(dir: &Path) -> Result<DirMeta, ArtefactError> {
         path: path.clone(),
         message,
     };
-    let raw: serde_json::Value = serde_json::from_str(&text).map_err(|e| bad(format!("not JSON: {e}")))?;
-    let raw = raw.as_object().cloned().ok_or_else(|| bad("not a JSON object".into()))?;
-    let kind_name = raw.get("femu_artefact").and_then(|v| v.as_str()).ok_or_else(|| bad("no `femu_artefact` kind; is this a femu artefact directory?".into()))?;
-    let kind = ArtefactKind::from_name(kind_name).ok_or_else(|| bad(format!("unknown artefact kind `{kind_name}`")))?;
-    let version = raw.get("schema_version").and_then(|v| v.as_u64()).unwrap_or(0);
+    let raw: serde_json::Value =
+        serde_json::from_str(&text).map_err(|e| bad(format!("not JSON: {e}")))?;
+    let raw = raw
+        .as_object()
+        .cloned()
+        .ok_or_else(|| bad("not a JSON object".into()))?;
+    let kind_name = raw
+        .get("femu_artefact")
+        .and_then(|v| v.as_str())
+        .ok_or_else(|| bad("no `femu_artefact` kind; is this a femu artefact directory?".into()))?;
+    let kind = ArtefactKind::from_name(kind_name)
+        .ok_or_else(|| bad(format!("unknown artefact kind `{kind_name}`")))?;
+    let version = raw
+        .get("schema_version")
+        .and_then(|v| v.as_u64())
+        .unwrap_or(0);
     if version != kind.schema_version() as u64 {
         return Err(bad(format!(
             "schema version {version} of `{kind}`; this femu reads version {}",
@@ -122,8 +137,17 @@ pub fn read_meta(dir: &Path) -> Result<DirMeta, ArtefactError> {
         .transpose()
         .map_err(|e| bad(format!("bad `format`: {e}")))?
         .unwrap_or_default();
-    let digest = raw.get("digest").and_then(|v| v.as_str()).unwrap_or_default().to_string();
-    Ok(DirMeta { kind, format, digest, raw })
+    let digest = raw
+        .get("digest")
+        .and_then(|v| v.as_str())
+        .unwrap_or_default()
+        .to_string();
+    Ok(DirMeta {
+        kind,
+        format,
+        digest,
+        raw,
+    })
 }
 
 /// Reads the artefact in `dir`.
@@ -135,8 +159,18 @@ pub fn read_dir(dir: &Path) -> Result<Artefact, ArtefactError> {
         message,
     };
     let mut a = Artefact::new(m.kind);
-    a.meta = m.raw.get("meta").and_then(|v| v.as_object()).cloned().unwrap_or_default();
-    let tables = m.raw.get("tables").and_then(|v| v.as_object()).cloned().unwrap_or_default();
+    a.meta = m
+        .raw
+        .get("meta")
+        .and_then(|v| v.as_object())
+        .cloned()
+        .unwrap_or_default();
+    let tables = m
+        .raw
+        .get("tables")
+        .and_then(|v| v.as_object())
+        .cloned()
+        .unwrap_or_default();
     let hdf5_tables = if m.format == Format::Hdf5 {
         Some(read_hdf5(&dir.join(HDF5_FILE))?)
     } else {
@@ -149,11 +183,19 @@ pub fn read_dir(dir: &Path) -> Result<Artefact, ArtefactError> {
             other => return Err(bad(format!("table `{name}`: unknown storage {other:?}"))),
         };
         let table = match &hdf5_tables {
-            Some(h) => h.get(name).cloned().ok_or_else(|| bad(format!("table `{name}` is missing from {HDF5_FILE}")))?,
+            Some(h) => h
+                .get(name)
+                .cloned()
+                .ok_or_else(|| bad(format!("table `{name}` is missing from {HDF5_FILE}")))?,
             None => {
-                let file = t.get("file").and_then(|v| v.as_str()).ok_or_else(|| bad(format!("table `{name}` names no file")))?;
+                let file = t
+                    .get("file")
+                    .and_then(|v| v.as_str())
+                    .ok_or_else(|| bad(format!("table `{name}` names no file")))?;
                 if file.contains('/') || file.contains("..") {
-                    return Err(bad(format!("table `{name}`: file `{file}` must be a plain name in the artefact directory")));
+                    return Err(bad(format!(
+                        "table `{name}`: file `{file}` must be a plain name in the artefact directory"
+                    )));
                 }
                 let path = dir.join(file);
                 match storage {
@@ -166,7 +208,9 @@ pub fn read_dir(dir: &Path) -> Result<Artefact, ArtefactError> {
     }
     if let Some(blobs) = m.raw.get("blobs").and_then(|v| v.as_array()) {
         for b in blobs {
-            let name = b.as_str().ok_or_else(|| bad("`blobs` must list file names".into()))?;
+            let name = b
+                .as_str()
+                .ok_or_else(|| bad("`blobs` must list file names".into()))?;
             if name.contains('/') || name.contains("..") {
                 return Err(bad(format!("blob `{name}` must be a plain name")));
             }
@@ -216,16 +260,62 @@ fn append_batch(table: &mut Table, batch: &RecordBatch, path: &Path) -> Result<(
         if arr.null_count() > 0 {
             return Err(ArtefactError::Decode {
                 path: path.to_path_buf(),
-                message: format!("column `{}` holds {} null values; nulls are not allowed", field.name(), arr.null_count()),
+                message: format!(
+                    "column `{}` holds {} null values; nulls are not allowed",
+                    field.name(),
+                    arr.null_count()
+                ),
             });
         }
         let col = match field.data_type() {
-            DataType::Float64 => Column::F64(arr.as_any().downcast_ref::<Float64Array>().ok_or_else(bad)?.values().to_vec()),
-            DataType::Float32 => Column::F64(arr.as_any().downcast_ref::<Float32Array>().ok_or_else(bad)?.values().iter().map(|v| *v as f64).collect()),
-            DataType::Int64 => Column::I64(arr.as_any().downcast_ref::<Int64Array>().ok_or_else(bad)?.values().to_vec()),
-            DataType::Int32 => Column::I64(arr.as_any().downcast_ref::<Int32Array>().ok_or_else(bad)?.values().iter().map(|v| *v as i64).collect()),
-            DataType::Utf8 => Column::Str(arr.as_any().downcast_ref::<StringArray>().ok_or_else(bad)?.iter().map(|s| s.unwrap_or_default().to_string()).collect()),
-            DataType::LargeUtf8 => Column::Str(arr.as_any().downcast_ref::<LargeStringArray>().ok_or_else(bad)?.iter().map(|s| s.unwrap_or_default().to_string()).collect()),
+            DataType::Float64 => Column::F64(
+                arr.as_any()
+                    .downcast_ref::<Float64Array>()
+                    .ok_or_else(bad)?
+                    .values()
+                    .to_vec(),
+            ),
+            DataType::Float32 => Column::F64(
+                arr.as_any()
+                    .downcast_ref::<Float32Array>()
+                    .ok_or_else(bad)?
+                    .values()
+                    .iter()
+                    .map(|v| *v as f64)
+                    .collect(),
+            ),
+            DataType::Int64 => Column::I64(
+                arr.as_any()
+                    .downcast_ref::<Int64Array>()
+                    .ok_or_else(bad)?
+                    .values()
+                    .to_vec(),
+            ),
+            DataType::Int32 => Column::I64(
+                arr.as_any()
+                    .downcast_ref::<Int32Array>()
+                    .ok_or_else(bad)?
+                    .values()
+                    .iter()
+                    .map(|v| *v as i64)
+                    .collect(),
+            ),
+            DataType::Utf8 => Column::Str(
+                arr.as_any()
+                    .downcast_ref::<StringArray>()
+                    .ok_or_else(bad)?
+                    .iter()
+                    .map(|s| s.unwrap_or_default().to_string())
+                    .collect(),
+            ),
+            DataType::LargeUtf8 => Column::Str(
+                arr.as_any()
+                    .downcast_ref::<LargeStringArray>()
+                    .ok_or_else(bad)?
+                    .iter()
+                    .map(|s| s.unwrap_or_default().to_string())
+                    .collect(),
+            ),
             _ => return Err(bad()),
         };
         if first {
@@ -256,7 +346,8 @@ pub fn write_parquet(table: &Table, path: &Path) -> Result<(), ArtefactError> {
         path: path.to_path_buf(),
         message: e.to_string(),
     };
-    let mut w = ArrowWriter::try_new(BufWriter::new(file), batch.schema(), Some(props)).map_err(enc)?;
+    let mut w =
+        ArrowWriter::try_new(BufWriter::new(file), batch.schema(), Some(props)).map_err(enc)?;
     w.write(&batch).map_err(enc)?;
     w.close().map_err(enc)?;
     Ok(())
@@ -291,7 +382,8 @@ pub fn write_ipc(table: &Table, path: &Path) -> Result<(), ArtefactError> {
         path: path.to_path_buf(),
         message: e.to_string(),
     };
-    let mut w = arrow_ipc::writer::FileWriter::try_new(BufWriter::new(file), &batch.schema()).map_err(enc)?;
+    let mut w = arrow_ipc::writer::FileWriter::try_new(BufWriter::new(file), &batch.schema())
+        .map_err(enc)?;
     w.write(&batch).map_err(enc)?;
     w.finish().map_err(enc)?;
     Ok(())
@@ -354,10 +446,17 @@ mod tests {
                 Table::new()
                     .with("freq_hz", Column::F64(vec![0.0, 0.5, 1.0]))
                     .with("n", Column::I64(vec![1, -2, 3]))
-                    .with("dof", Column::Str(vec!["1:ux".into(), "2:uy".into(), "3:rz".into()])),
+                    .with(
+                        "dof",
+                        Column::Str(vec!["1:ux".into(), "2:uy".into(), "3:rz".into()]),
+                    ),
                 Storage::Parquet,
             )
-            .with_table("shapes", Table::new().with("phi_1", Column::F64(vec![1.5, -0.25])), Storage::Ipc)
+            .with_table(
+                "shapes",
+                Table::new().with("phi_1", Column::F64(vec![1.5, -0.25])),
+                Storage::Ipc,
+            )
     }
 
     #[test]
@@ -368,7 +467,9 @@ mod tests {
         let b = read_dir(dir.path()).unwrap();
         assert_eq!(a, b);
         assert_eq!(d, b.digest());
-        assert!(dir.path().join("frf.parquet").exists() && dir.path().join("shapes.arrow").exists());
+        assert!(
+            dir.path().join("frf.parquet").exists() && dir.path().join("shapes.arrow").exists()
+        );
     }
 
     #[test]
@@ -377,7 +478,11 @@ mod tests {
         write_dir(&sample(), d1.path(), Format::Arrow, None).unwrap();
         write_dir(&sample(), d2.path(), Format::Arrow, None).unwrap();
         for f in ["frf.parquet", "shapes.arrow", "meta.json"] {
-            assert_eq!(std::fs::read(d1.path().join(f)).unwrap(), std::fs::read(d2.path().join(f)).unwrap(), "{f}");
+            assert_eq!(
+                std::fs::read(d1.path().join(f)).unwrap(),
+                std::fs::read(d2.path().join(f)).unwrap(),
+                "{f}"
+            );
         }
     }
 

@@ -26,12 +26,25 @@ pub fn dof_index_digest(dofs: &[DofId]) -> String {
 fn dof_table(dofs: &[DofId]) -> Table {
     Table::new()
         .with("index", Column::I64((0..dofs.len() as i64).collect()))
-        .with("dof", Column::Str(dofs.iter().map(|d| d.to_string()).collect()))
-        .with("node", Column::I64(dofs.iter().map(|d| d.node as i64).collect()))
-        .with("comp", Column::Str(dofs.iter().map(|d| d.comp.name().to_string()).collect()))
+        .with(
+            "dof",
+            Column::Str(dofs.iter().map(|d| d.to_string()).collect()),
+        )
+        .with(
+            "node",
+            Column::I64(dofs.iter().map(|d| d.node as i64).collect()),
+        )
+        .with(
+            "comp",
+            Column::Str(dofs.iter().map(|d| d.comp.name().to_string()).collect()),
+        )
 }
 
-fn parse_dofs(kind: ArtefactKind, table: &str, labels: &[String]) -> Result<Vec<DofId>, ArtefactError> {
+fn parse_dofs(
+    kind: ArtefactKind,
+    table: &str,
+    labels: &[String],
+) -> Result<Vec<DofId>, ArtefactError> {
     labels
         .iter()
         .enumerate()
@@ -46,7 +59,10 @@ fn expect_kind(a: &Artefact, kind: ArtefactKind) -> Result<(), ArtefactError> {
     if a.kind == kind {
         Ok(())
     } else {
-        Err(ArtefactError::schema(kind, format!("got a `{}` artefact", a.kind)))
+        Err(ArtefactError::schema(
+            kind,
+            format!("got a `{}` artefact", a.kind),
+        ))
     }
 }
 
@@ -81,12 +97,22 @@ pub fn matrices_from_artefact(a: &Artefact) -> Result<SystemMatrices, ArtefactEr
         let Some((t, _)) = a.tables.get(name) else {
             return Ok(None);
         };
-        let (r, c, v) = (t.i64s(name, "row")?, t.i64s(name, "col")?, t.f64s(name, "value")?);
+        let (r, c, v) = (
+            t.i64s(name, "row")?,
+            t.i64s(name, "col")?,
+            t.f64s(name, "value")?,
+        );
         let trip: Vec<(usize, usize, f64)> = r
             .iter()
             .zip(c)
             .zip(v)
-            .map(|((r, c), v)| (usize::try_from(*r).unwrap_or(usize::MAX), usize::try_from(*c).unwrap_or(usize::MAX), *v))
+            .map(|((r, c), v)| {
+                (
+                    usize::try_from(*r).unwrap_or(usize::MAX),
+                    usize::try_from(*c).unwrap_or(usize::MAX),
+                    *v,
+                )
+            })
             .collect();
         sparse_from_triplets(name, n, &trip)
             .map(Some)
@@ -99,7 +125,8 @@ pub fn matrices_from_artefact(a: &Artefact) -> Result<SystemMatrices, ArtefactEr
         d: read("D")?,
         dofs,
     };
-    sys.validate().map_err(|e| ArtefactError::schema(kind, e.to_string()))?;
+    sys.validate()
+        .map_err(|e| ArtefactError::schema(kind, e.to_string()))?;
     Ok(sys)
 }
 
@@ -120,7 +147,10 @@ pub fn modes_to_artefact(dofs: &[DofId], modes: &Modes) -> Artefact {
         .with("freq_hz", Column::F64(modes.frequencies_hz()))
         .with("eigenvalue_rad2_s2", Column::F64(modes.eigenvalues.clone()))
         .with("residual", Column::F64(modes.residuals.clone()));
-    let mut shapes = Table::new().with("dof", Column::Str(dofs.iter().map(|d| d.to_string()).collect()));
+    let mut shapes = Table::new().with(
+        "dof",
+        Column::Str(dofs.iter().map(|d| d.to_string()).collect()),
+    );
     for r in 0..m {
         shapes = shapes.with(
             format!("phi_{}", r + 1),
@@ -159,7 +189,11 @@ pub fn modes_from_artefact(a: &Artefact) -> Result<ModesArtefact, ArtefactError>
         dofs,
         modes: Modes {
             rigid_body_modes: lambdas.iter().filter(|l| **l == 0.0).count(),
-            orthogonality_error: a.meta.get("orthogonality_error").and_then(|v| v.as_f64()).unwrap_or(0.0),
+            orthogonality_error: a
+                .meta
+                .get("orthogonality_error")
+                .and_then(|v| v.as_f64())
+                .unwrap_or(0.0),
             eigenvalues: lambdas,
             shapes,
             residuals,
@@ -204,7 +238,10 @@ pub fn frf_from_artefact(a: &Artefact) -> Result<FrfSet, ArtefactError> {
     expect_kind(a, kind)?;
     let q = a.meta_str("quantity")?;
     let quantity = Quantity::from_name(q).ok_or_else(|| {
-        ArtefactError::schema(kind, format!("quantity `{q}` is not one of receptance, mobility, accelerance"))
+        ArtefactError::schema(
+            kind,
+            format!("quantity `{q}` is not one of receptance, mobility, accelerance"),
+        )
     })?;
     let t = a.table("frf")?;
     let f = t.f64s("frf", "freq_hz")?;
@@ -219,9 +256,17 @@ pub fn frf_from_artefact(a: &Artefact) -> Result<FrfSet, ArtefactError> {
             Some((lr, le, s)) if lr == &r[row] && le == &e[row] => s,
             _ => {
                 let parse = |s: &String, col: &str| {
-                    s.parse::<DofId>().map_err(|err| ArtefactError::schema(kind, format!("table `frf` row {row} column `{col}`: {err}")))
+                    s.parse::<DofId>().map_err(|err| {
+                        ArtefactError::schema(
+                            kind,
+                            format!("table `frf` row {row} column `{col}`: {err}"),
+                        )
+                    })
                 };
-                let pair = FrfPair { response: parse(&r[row], "response")?, excitation: parse(&e[row], "excitation")? };
+                let pair = FrfPair {
+                    response: parse(&r[row], "response")?,
+                    excitation: parse(&e[row], "excitation")?,
+                };
                 match pairs.iter().position(|p| *p == pair) {
                     Some(s) => s,
                     None => {
@@ -240,22 +285,43 @@ pub fn frf_from_artefact(a: &Artefact) -> Result<FrfSet, ArtefactError> {
     };
     let freqs: Vec<f64> = first.iter().map(|&i| f[i]).collect();
     if freqs.windows(2).any(|w| !(w[1] > w[0])) {
-        return Err(ArtefactError::schema(kind, format!("FRF {}/{}: frequencies must strictly increase", pairs[0].response, pairs[0].excitation)));
+        return Err(ArtefactError::schema(
+            kind,
+            format!(
+                "FRF {}/{}: frequencies must strictly increase",
+                pairs[0].response, pairs[0].excitation
+            ),
+        ));
     }
     let mut values = Mat::<c64>::zeros(freqs.len(), pairs.len());
     for (p, idx) in rows.iter().enumerate() {
-        let same = idx.len() == freqs.len() && idx.iter().zip(&freqs).all(|(&i, fr)| (f[i] - fr).abs() <= 1e-9 * fr.abs().max(1.0));
+        let same = idx.len() == freqs.len()
+            && idx
+                .iter()
+                .zip(&freqs)
+                .all(|(&i, fr)| (f[i] - fr).abs() <= 1e-9 * fr.abs().max(1.0));
         if !same {
             return Err(ArtefactError::schema(
                 kind,
-                format!("FRF {}/{} has {} lines that differ from the first FRF's {} lines; every FRF must share one set of lines", pairs[p].response, pairs[p].excitation, idx.len(), freqs.len()),
+                format!(
+                    "FRF {}/{} has {} lines that differ from the first FRF's {} lines; every FRF must share one set of lines",
+                    pairs[p].response,
+                    pairs[p].excitation,
+                    idx.len(),
+                    freqs.len()
+                ),
             ));
         }
         for (k, &i) in idx.iter().enumerate() {
             values[(k, p)] = c64::new(re[i], im[i]);
         }
     }
-    Ok(FrfSet { quantity, freqs_hz: freqs, pairs, values })
+    Ok(FrfSet {
+        quantity,
+        freqs_hz: freqs,
+        pairs,
+        values,
+    })
 }
 
 /// A correlation as an artefact.
@@ -265,8 +331,14 @@ pub fn correlation_to_artefact(c: &FrfCorrelation) -> Artefact {
         .with("chi_s", Column::F64(c.chi_s.clone()))
         .with("chi_a", Column::F64(c.chi_a.clone()));
     let frac = Table::new()
-        .with("response", Column::Str(c.pairs.iter().map(|p| p.response.to_string()).collect()))
-        .with("excitation", Column::Str(c.pairs.iter().map(|p| p.excitation.to_string()).collect()))
+        .with(
+            "response",
+            Column::Str(c.pairs.iter().map(|p| p.response.to_string()).collect()),
+        )
+        .with(
+            "excitation",
+            Column::Str(c.pairs.iter().map(|p| p.excitation.to_string()).collect()),
+        )
         .with("frac", Column::F64(c.frac.clone()));
     let min = |v: &[f64]| v.iter().copied().fold(f64::INFINITY, f64::min);
     Artefact::new(ArtefactKind::Correlation)
@@ -299,7 +371,14 @@ pub fn correlation_from_artefact(a: &Artefact) -> Result<FrfCorrelation, Artefac
         freqs_hz: l.f64s("lines", "freq_hz")?.to_vec(),
         chi_s: l.f64s("lines", "chi_s")?.to_vec(),
         chi_a: l.f64s("lines", "chi_a")?.to_vec(),
-        pairs: resp.into_iter().zip(exc).map(|(response, excitation)| FrfPair { response, excitation }).collect(),
+        pairs: resp
+            .into_iter()
+            .zip(exc)
+            .map(|(response, excitation)| FrfPair {
+                response,
+                excitation,
+            })
+            .collect(),
         frac: fr.f64s("frac", "frac")?.to_vec(),
     })
 }
@@ -342,4 +421,225 @@ mod tests {
         let e = frf_from_artefact(&broken).unwrap_err().to_string();
         assert!(e.contains("2:uz/1:ux"), "{e}");
     }
+}
+
+/// One column of a table layout.
+#[derive(Clone, Debug)]
+pub struct ColumnLayout {
+    /// Column name (`phi_{r}` stands for `phi_1 … phi_m`).
+    pub name: &'static str,
+    /// `float64`, `int64` or `string`.
+    pub dtype: &'static str,
+    /// SI unit, or empty.
+    pub unit: &'static str,
+    /// What it holds.
+    pub doc: &'static str,
+}
+
+/// One table of a kind's layout.
+#[derive(Clone, Debug)]
+pub struct TableLayout {
+    /// Table name.
+    pub name: &'static str,
+    /// `parquet` or `arrow_ipc`.
+    pub storage: &'static str,
+    /// Whether every artefact of the kind has it.
+    pub required: bool,
+    /// Columns in order.
+    pub columns: Vec<ColumnLayout>,
+}
+
+const fn col(
+    name: &'static str,
+    dtype: &'static str,
+    unit: &'static str,
+    doc: &'static str,
+) -> ColumnLayout {
+    ColumnLayout {
+        name,
+        dtype,
+        unit,
+        doc,
+    }
+}
+
+/// The tables and columns every artefact of `kind` has (the published schema).
+pub fn layout(kind: ArtefactKind) -> Vec<TableLayout> {
+    let t = |name, storage, required, columns| TableLayout {
+        name,
+        storage,
+        required,
+        columns,
+    };
+    let triplets = |name: &'static str, unit: &'static str, required| {
+        t(
+            name,
+            "arrow_ipc",
+            required,
+            vec![
+                col("row", "int64", "", "row index into `dofs`"),
+                col("col", "int64", "", "column index into `dofs`"),
+                col("value", "float64", unit, "entry; duplicates sum"),
+            ],
+        )
+    };
+    match kind {
+        ArtefactKind::Matrices => vec![
+            t(
+                "dofs",
+                "parquet",
+                true,
+                vec![
+                    col("index", "int64", "", "row/column index"),
+                    col("dof", "string", "", "DOF label node:comp"),
+                    col("node", "int64", "", "node id"),
+                    col("comp", "string", "", "component ux uy uz rx ry rz"),
+                ],
+            ),
+            triplets("K", "N/m", true),
+            triplets("M", "kg", true),
+            triplets("C", "N*s/m", false),
+            triplets("D", "N/m", false),
+        ],
+        ArtefactKind::Modes => vec![
+            t(
+                "frequencies",
+                "parquet",
+                true,
+                vec![
+                    col("mode", "int64", "", "mode number from 1"),
+                    col("freq_hz", "float64", "Hz", "natural frequency"),
+                    col(
+                        "eigenvalue_rad2_s2",
+                        "float64",
+                        "rad^2/s^2",
+                        "eigenvalue omega^2",
+                    ),
+                    col(
+                        "residual",
+                        "float64",
+                        "",
+                        "relative residual |K phi - lambda M phi| / |K phi|",
+                    ),
+                ],
+            ),
+            t(
+                "shapes",
+                "arrow_ipc",
+                true,
+                vec![
+                    col("dof", "string", "", "DOF label node:comp"),
+                    col(
+                        "phi_{r}",
+                        "float64",
+                        "1/sqrt(kg)",
+                        "mass-normalised shape of mode r, one column per mode",
+                    ),
+                ],
+            ),
+        ],
+        ArtefactKind::Frf => vec![t(
+            "frf",
+            "parquet",
+            true,
+            vec![
+                col("freq_hz", "float64", "Hz", "frequency line"),
+                col("response", "string", "", "response DOF node:comp"),
+                col("excitation", "string", "", "excitation DOF node:comp"),
+                col("re", "float64", "meta.units.re", "real part"),
+                col("im", "float64", "meta.units.im", "imaginary part"),
+            ],
+        )],
+        ArtefactKind::Correlation => vec![
+            t(
+                "lines",
+                "parquet",
+                true,
+                vec![
+                    col("freq_hz", "float64", "Hz", "frequency line"),
+                    col(
+                        "chi_s",
+                        "float64",
+                        "",
+                        "shape correlation coefficient (4.8)",
+                    ),
+                    col(
+                        "chi_a",
+                        "float64",
+                        "",
+                        "amplitude correlation coefficient (4.9)",
+                    ),
+                ],
+            ),
+            t(
+                "frac",
+                "parquet",
+                true,
+                vec![
+                    col("response", "string", "", "response DOF"),
+                    col("excitation", "string", "", "excitation DOF"),
+                    col(
+                        "frac",
+                        "float64",
+                        "",
+                        "FRF assurance criterion over all lines (1.19)",
+                    ),
+                ],
+            ),
+        ],
+        ArtefactKind::Plot => vec![],
+    }
+}
+
+/// Checks an artefact against its kind's layout: required tables present, columns in order with
+/// their types.
+pub fn check_layout(a: &Artefact) -> Result<(), ArtefactError> {
+    for tl in layout(a.kind) {
+        let Some((table, _)) = a.tables.get(tl.name) else {
+            if tl.required {
+                return Err(ArtefactError::schema(
+                    a.kind,
+                    format!("missing table `{}`", tl.name),
+                ));
+            }
+            continue;
+        };
+        let mut cols = table.columns.iter();
+        for cl in &tl.columns {
+            let repeated = cl.name.ends_with("_{r}");
+            let stem = cl.name.trim_end_matches("{r}");
+            loop {
+                let Some((name, c)) = cols.next() else {
+                    if repeated {
+                        break;
+                    }
+                    return Err(ArtefactError::schema(
+                        a.kind,
+                        format!("table `{}` lacks column `{}`", tl.name, cl.name),
+                    ));
+                };
+                let name_ok = if repeated {
+                    name.starts_with(stem)
+                } else {
+                    name == cl.name
+                };
+                if !name_ok || c.type_name() != cl.dtype {
+                    return Err(ArtefactError::schema(
+                        a.kind,
+                        format!(
+                            "table `{}`: column `{name}` ({}) where `{}` ({}) belongs",
+                            tl.name,
+                            c.type_name(),
+                            cl.name,
+                            cl.dtype
+                        ),
+                    ));
+                }
+                if !repeated {
+                    break;
+                }
+            }
+        }
+    }
+    Ok(())
 }

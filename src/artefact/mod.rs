@@ -8,11 +8,12 @@
 //! the storage does. Typed views (`Frf`, `Modes`, …) live in [`kinds`].
 
 pub mod codec;
+pub mod compare;
 pub mod digest;
-pub mod kinds;
-mod table;
 #[cfg(feature = "hdf5")]
 mod hdf5_codec;
+pub mod kinds;
+mod table;
 
 pub use table::{Column, Storage, Table, TableError};
 
@@ -73,7 +74,17 @@ impl std::fmt::Display for ArtefactKind {
 }
 
 /// File format of an artefact on disk.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize, schemars::JsonSchema)]
+#[derive(
+    Clone,
+    Copy,
+    Debug,
+    PartialEq,
+    Eq,
+    Default,
+    serde::Serialize,
+    serde::Deserialize,
+    schemars::JsonSchema,
+)]
 #[serde(rename_all = "lowercase")]
 pub enum Format {
     /// Parquet for tables, Arrow IPC for matrices and shapes.
@@ -134,7 +145,9 @@ pub enum ArtefactError {
         message: String,
     },
     /// The HDF5 format was chosen but femu was built without it.
-    #[error("`format: hdf5` needs femu built with the `hdf5` feature (cargo build --features hdf5; apt-get install -y libhdf5-dev)")]
+    #[error(
+        "`format: hdf5` needs femu built with the `hdf5` feature (cargo build --features hdf5; apt-get install -y libhdf5-dev)"
+    )]
     Hdf5Unavailable,
 }
 
@@ -203,10 +216,9 @@ impl Artefact {
 
     /// A metadata string.
     pub fn meta_str(&self, key: &str) -> Result<&str, ArtefactError> {
-        self.meta
-            .get(key)
-            .and_then(|v| v.as_str())
-            .ok_or_else(|| ArtefactError::schema(self.kind, format!("metadata `{key}` missing or not text")))
+        self.meta.get(key).and_then(|v| v.as_str()).ok_or_else(|| {
+            ArtefactError::schema(self.kind, format!("metadata `{key}` missing or not text"))
+        })
     }
 
     /// Canonical content digest (hex).

@@ -120,7 +120,11 @@ impl Table {
             table: table.into(),
             problem: format!(
                 "no column `{name}` (columns: {})",
-                self.columns.iter().map(|c| c.0.as_str()).collect::<Vec<_>>().join(", ")
+                self.columns
+                    .iter()
+                    .map(|c| c.0.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", ")
             ),
         })?;
         pick(col).map(|v| v.as_slice()).ok_or_else(|| TableError {

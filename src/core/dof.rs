@@ -87,7 +87,9 @@ impl fmt::Display for DofId {
 
 /// Why a DOF label could not be read.
 #[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
-#[error("`{label}` is not a DOF label: {reason}; write `node:comp` with comp one of ux uy uz rx ry rz (or 1-6), e.g. `12:uz`")]
+#[error(
+    "`{label}` is not a DOF label: {reason}; write `node:comp` with comp one of ux uy uz rx ry rz (or 1-6), e.g. `12:uz`"
+)]
 pub struct DofParseError {
     /// The text that failed.
     pub label: String,

@@ -52,7 +52,9 @@ fn products(x: &[c64], a: &[c64]) -> (c64, f64, f64) {
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum CorrelationError {
     /// A measured FRF has no predicted counterpart.
-    #[error("the measured FRF {response}/{excitation} (response/excitation) has no predicted counterpart; predicted pairs are {known}")]
+    #[error(
+        "the measured FRF {response}/{excitation} (response/excitation) has no predicted counterpart; predicted pairs are {known}"
+    )]
     MissingPair {
         /// Response DOF.
         response: String,
@@ -62,7 +64,9 @@ pub enum CorrelationError {
         known: String,
     },
     /// Frequency lines differ.
-    #[error("frequency lines differ: measured line {index} is {measured} Hz, predicted {predicted} Hz ({n_measured} vs {n_predicted} lines); synthesise the prediction on the measured lines")]
+    #[error(
+        "frequency lines differ: measured line {index} is {measured} Hz, predicted {predicted} Hz ({n_measured} vs {n_predicted} lines); synthesise the prediction on the measured lines"
+    )]
     Lines {
         /// First differing index.
         index: usize,
@@ -89,12 +93,16 @@ pub fn match_pairs(measured: &FrfSet, predicted: &FrfSet) -> Result<Vec<usize>, 
         return Err(CorrelationError::Empty);
     }
     if measured.quantity != predicted.quantity {
-        return Err(CorrelationError::Quantity(measured.quantity.name(), predicted.quantity.name()));
+        return Err(CorrelationError::Quantity(
+            measured.quantity.name(),
+            predicted.quantity.name(),
+        ));
     }
     let (nm, np) = (measured.freqs_hz.len(), predicted.freqs_hz.len());
     for k in 0..nm.max(np) {
         let (fm, fp) = (measured.freqs_hz.get(k), predicted.freqs_hz.get(k));
-        let same = matches!((fm, fp), (Some(a), Some(b)) if (a - b).abs() <= 1e-9 * a.abs().max(1.0));
+        let same =
+            matches!((fm, fp), (Some(a), Some(b)) if (a - b).abs() <= 1e-9 * a.abs().max(1.0));
         if !same {
             return Err(CorrelationError::Lines {
                 index: k,
@@ -109,16 +117,18 @@ pub fn match_pairs(measured: &FrfSet, predicted: &FrfSet) -> Result<Vec<usize>, 
         .pairs
         .iter()
         .map(|p: &FrfPair| {
-            predicted.pair_index(p).ok_or_else(|| CorrelationError::MissingPair {
-                response: p.response.to_string(),
-                excitation: p.excitation.to_string(),
-                known: predicted
-                    .pairs
-                    .iter()
-                    .map(|q| format!("{}/{}", q.response, q.excitation))
-                    .collect::<Vec<_>>()
-                    .join(", "),
-            })
+            predicted
+                .pair_index(p)
+                .ok_or_else(|| CorrelationError::MissingPair {
+                    response: p.response.to_string(),
+                    excitation: p.excitation.to_string(),
+                    known: predicted
+                        .pairs
+                        .iter()
+                        .map(|q| format!("{}/{}", q.response, q.excitation))
+                        .collect::<Vec<_>>()
+                        .join(", "),
+                })
         })
         .collect()
 }
@@ -156,11 +166,18 @@ impl FrfCorrelation {
 }
 
 fn mean(v: &[f64]) -> f64 {
-    if v.is_empty() { 0.0 } else { v.iter().sum::<f64>() / v.len() as f64 }
+    if v.is_empty() {
+        0.0
+    } else {
+        v.iter().sum::<f64>() / v.len() as f64
+    }
 }
 
 /// Correlates a measured set with a prediction holding at least the measured pairs.
-pub fn correlate(measured: &FrfSet, predicted: &FrfSet) -> Result<FrfCorrelation, CorrelationError> {
+pub fn correlate(
+    measured: &FrfSet,
+    predicted: &FrfSet,
+) -> Result<FrfCorrelation, CorrelationError> {
     let cols = match_pairs(measured, predicted)?;
     let lines = measured.freqs_hz.len();
     let (mut chi_s, mut chi_a) = (Vec::with_capacity(lines), Vec::with_capacity(lines));

@@ -7,7 +7,9 @@
 //! largest-magnitude entry is positive, which makes results reproducible run to run.
 
 use crate::core::DofId;
-use faer::linalg::triangular_solve::{solve_lower_triangular_in_place, solve_upper_triangular_in_place};
+use faer::linalg::triangular_solve::{
+    solve_lower_triangular_in_place, solve_upper_triangular_in_place,
+};
 use faer::{Mat, MatRef, Par, Side};
 
 /// Which modes to keep.
@@ -60,7 +62,9 @@ impl Modes {
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum EigenError {
     /// A DOF has no mass (zero or negative diagonal).
-    #[error("the mass matrix is not positive definite: DOF {dof} has diagonal mass {value:e}; give every DOF a mass (or condense massless DOFs out)")]
+    #[error(
+        "the mass matrix is not positive definite: DOF {dof} has diagonal mass {value:e}; give every DOF a mass (or condense massless DOFs out)"
+    )]
     MasslessDof {
         /// The DOF.
         dof: DofId,
@@ -68,10 +72,14 @@ pub enum EigenError {
         value: f64,
     },
     /// The mass matrix is indefinite although its diagonal is positive.
-    #[error("the mass matrix is not positive definite (Cholesky failed); check for negative masses or inconsistent mass couplings")]
+    #[error(
+        "the mass matrix is not positive definite (Cholesky failed); check for negative masses or inconsistent mass couplings"
+    )]
     IndefiniteMass,
     /// The stiffness matrix has a clearly negative eigenvalue.
-    #[error("the stiffness matrix is indefinite: eigenvalue {value:e} rad²/s² is negative beyond round-off (largest {largest:e}); check for negative stiffnesses")]
+    #[error(
+        "the stiffness matrix is indefinite: eigenvalue {value:e} rad²/s² is negative beyond round-off (largest {largest:e}); check for negative stiffnesses"
+    )]
     IndefiniteStiffness {
         /// The negative eigenvalue.
         value: f64,
@@ -243,13 +251,19 @@ mod tests {
             let theta = r as f64 * std::f64::consts::PI / (2.0 * (n as f64 + 1.0));
             let expected = 4.0 * k / m * theta.sin().powi(2);
             let got = modes.eigenvalues[r - 1];
-            assert!(((got - expected) / expected).abs() < 1e-12, "mode {r}: {got} vs {expected}");
+            assert!(
+                ((got - expected) / expected).abs() < 1e-12,
+                "mode {r}: {got} vs {expected}"
+            );
         }
         assert!(modes.orthogonality_error < 1e-12);
         assert!(modes.residuals.iter().all(|r| *r < 1e-12));
         // The reconstructed C1 stiffness puts the first two resonances near 9.8 and 18.7 Hz.
         let f = modes.frequencies_hz();
-        assert!((f[0] - 9.836).abs() < 0.01 && (f[1] - 18.71).abs() < 0.01, "{f:?}");
+        assert!(
+            (f[0] - 9.836).abs() < 0.01 && (f[1] - 18.71).abs() < 0.01,
+            "{f:?}"
+        );
     }
 
     #[test]
@@ -278,9 +292,16 @@ mod tests {
         assert_eq!(modes.len(), 4);
         let sys = assemble_lumped(&LumpedModel::chain(&[1.0; 4], 1e4)).unwrap();
         let (k, m) = (sys.k_dense(), sys.m_dense());
-        let below = dense_generalized(k.as_ref(), m.as_ref(), &sys.dofs, ModeSelection::BelowHz(20.0)).unwrap();
+        let below = dense_generalized(
+            k.as_ref(),
+            m.as_ref(),
+            &sys.dofs,
+            ModeSelection::BelowHz(20.0),
+        )
+        .unwrap();
         assert_eq!(below.len(), 2);
-        let two = dense_generalized(k.as_ref(), m.as_ref(), &sys.dofs, ModeSelection::Count(3)).unwrap();
+        let two =
+            dense_generalized(k.as_ref(), m.as_ref(), &sys.dofs, ModeSelection::Count(3)).unwrap();
         assert_eq!(two.len(), 3);
         assert_eq!(two.shapes.ncols(), 3);
     }

@@ -22,15 +22,23 @@ pub enum LumpedAssemblyError {
 pub fn assemble_lumped(model: &LumpedModel) -> Result<SystemMatrices, LumpedAssemblyError> {
     model.validate()?;
     let n = model.dofs.len();
-    let index: std::collections::HashMap<_, _> =
-        model.dofs.iter().enumerate().map(|(i, d)| (*d, i)).collect();
+    let index: std::collections::HashMap<_, _> = model
+        .dofs
+        .iter()
+        .enumerate()
+        .map(|(i, d)| (*d, i))
+        .collect();
     let mut k = Vec::new();
     let mut c = Vec::new();
     let mut d = Vec::new();
     for s in &model.springs {
         let a = index[&s.from];
         let b = s.to.map(|t| index[&t]);
-        for (list, value) in [(&mut k, s.stiffness), (&mut c, s.viscous), (&mut d, s.structural)] {
+        for (list, value) in [
+            (&mut k, s.stiffness),
+            (&mut c, s.viscous),
+            (&mut d, s.structural),
+        ] {
             if value == 0.0 {
                 continue;
             }

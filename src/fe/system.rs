@@ -52,7 +52,9 @@ pub enum SystemMatricesError {
         n: usize,
     },
     /// A matrix is not symmetric.
-    #[error("matrix {name} is not symmetric: entry ({row_dof}, {col_dof}) = {a:e} but its transpose is {b:e}")]
+    #[error(
+        "matrix {name} is not symmetric: entry ({row_dof}, {col_dof}) = {a:e} but its transpose is {b:e}"
+    )]
     NotSymmetric {
         /// Matrix name.
         name: &'static str,

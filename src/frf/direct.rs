@@ -6,9 +6,9 @@ use super::{FrfPair, FrfSet, Quantity, convert_from_receptance};
 use crate::core::DofId;
 use crate::fe::SystemMatrices;
 use crate::fe::system::sparse_triplets;
+use faer::linalg::solvers::Solve;
 use faer::sparse::linalg::solvers::{Lu, SymbolicLu};
 use faer::sparse::{Pair, SparseColMat, SymbolicSparseColMat};
-use faer::linalg::solvers::Solve;
 use faer::{Mat, c64};
 use rayon::prelude::*;
 use std::collections::HashMap;
@@ -30,7 +30,9 @@ pub enum DirectError {
     #[error("DOF {0} is not a DOF of the model ({1} DOFs)")]
     UnknownDof(DofId, usize),
     /// `Z(ω)` is singular at a line.
-    #[error("the dynamic stiffness is singular at {0} Hz (an undamped resonance, or a rigid-body mode at 0 Hz); move the line or add damping")]
+    #[error(
+        "the dynamic stiffness is singular at {0} Hz (an undamped resonance, or a rigid-body mode at 0 Hz); move the line or add damping"
+    )]
     Singular(f64),
     /// Sparse factorisation failed for another reason.
     #[error("sparse LU failed: {0}")]
@@ -62,7 +64,10 @@ pub fn direct_receptance(
     }
 
     // One pattern for Z: the union of K, M, C, D, with each entry's four real coefficients.
-    let (eta, (ra, rb)) = (damping.structural_eta, damping.rayleigh.unwrap_or((0.0, 0.0)));
+    let (eta, (ra, rb)) = (
+        damping.structural_eta,
+        damping.rayleigh.unwrap_or((0.0, 0.0)),
+    );
     let mut coef: HashMap<(usize, usize), [f64; 4]> = HashMap::new(); // [K, M, C, D]
     let mut add = |mat: &crate::fe::system::SparseMatrix, slot: usize| {
         for (i, j, v) in sparse_triplets(mat) {
@@ -83,7 +88,10 @@ pub fn direct_receptance(
         c[2] += ra * c[1] + rb * c[0];
         c[3] += eta * c[0];
     }
-    let idx: Vec<Pair<usize, usize>> = entries.iter().map(|((i, j), _)| Pair { row: *i, col: *j }).collect();
+    let idx: Vec<Pair<usize, usize>> = entries
+        .iter()
+        .map(|((i, j), _)| Pair { row: *i, col: *j })
+        .collect();
     let (symbolic, argsort) = SymbolicSparseColMat::try_new_from_indices(n, n, &idx)
         .map_err(|e| DirectError::Factorisation(format!("{e:?}")))?;
     let symbolic_lu = SymbolicLu::try_new(symbolic.as_ref())
@@ -141,17 +149,48 @@ mod tests {
     #[test]
     fn modal_and_direct_agree_with_all_modes() {
         let sys = assemble_lumped(&LumpedModel::chain(&[1.0, 1.3, 1.0, 1.0], 1e4)).unwrap();
-        let modes = dense_generalized(sys.k_dense().as_ref(), sys.m_dense().as_ref(), &sys.dofs, ModeSelection::All).unwrap();
+        let modes = dense_generalized(
+            sys.k_dense().as_ref(),
+            sys.m_dense().as_ref(),
+            &sys.dofs,
+            ModeSelection::All,
+        )
+        .unwrap();
         let pairs = FrfSet::all_pairs(&sys.dofs, &sys.dofs);
         let freqs = crate::frf::frequency_lines(0.0, 40.0, 0.25);
-        for q in [Quantity::Receptance, Quantity::Mobility, Quantity::Accelerance] {
-            let direct = direct_receptance(&sys, &DirectDamping { structural_eta: 0.02, rayleigh: None }, &pairs, &freqs, q).unwrap();
-            let modal = modal_receptance(&modes, &sys.dofs, &ModalDamping::Structural(vec![0.02]), &pairs, &freqs, q).unwrap();
+        for q in [
+            Quantity::Receptance,
+            Quantity::Mobility,
+            Quantity::Accelerance,
+        ] {
+            let direct = direct_receptance(
+                &sys,
+                &DirectDamping {
+                    structural_eta: 0.02,
+                    rayleigh: None,
+                },
+                &pairs,
+                &freqs,
+                q,
+            )
+            .unwrap();
+            let modal = modal_receptance(
+                &modes,
+                &sys.dofs,
+                &ModalDamping::Structural(vec![0.02]),
+                &pairs,
+                &freqs,
+                q,
+            )
+            .unwrap();
             for k in 0..freqs.len() {
                 for p in 0..pairs.len() {
                     let (a, b) = (direct.values[(k, p)], modal.values[(k, p)]);
                     // Both are backward stable; the peak amplitude is 1/(η λ m) so allow 1e-10 relative.
-                    assert!((a - b).norm() <= 1e-10 * a.norm().max(1e-12), "{q:?} line {k} pair {p}: {a} vs {b}");
+                    assert!(
+                        (a - b).norm() <= 1e-10 * a.norm().max(1e-12),
+                        "{q:?} line {k} pair {p}: {a} vs {b}"
+                    );
                 }
             }
         }
@@ -165,7 +204,14 @@ mod tests {
         sys.c = Some(crate::fe::system::sparse_from_triplets("C", 2, &[(0, 0, 1.5)]).unwrap());
         let pairs = FrfSet::all_pairs(&sys.dofs, &sys.dofs);
         let freqs = [0.0, 1.7, 4.2];
-        let r = direct_receptance(&sys, &DirectDamping::default(), &pairs, &freqs, Quantity::Receptance).unwrap();
+        let r = direct_receptance(
+            &sys,
+            &DirectDamping::default(),
+            &pairs,
+            &freqs,
+            Quantity::Receptance,
+        )
+        .unwrap();
         for (row, f) in freqs.iter().enumerate() {
             let w = 2.0 * PI * f;
             let z11 = c64::new(1000.0 - w * w * 2.0, 1.5 * w);
@@ -183,12 +229,22 @@ mod tests {
     fn free_body_at_zero_hz_is_singular() {
         let model = LumpedModel {
             dofs: vec!["1:ux".parse().unwrap()],
-            masses: vec![crate::model::LumpedMass { dof: "1:ux".parse().unwrap(), value: 1.0 }],
+            masses: vec![crate::model::LumpedMass {
+                dof: "1:ux".parse().unwrap(),
+                value: 1.0,
+            }],
             springs: vec![],
         };
         let sys = assemble_lumped(&model).unwrap();
         let pairs = FrfSet::all_pairs(&sys.dofs, &sys.dofs);
-        let e = direct_receptance(&sys, &DirectDamping::default(), &pairs, &[0.0], Quantity::Receptance).unwrap_err();
+        let e = direct_receptance(
+            &sys,
+            &DirectDamping::default(),
+            &pairs,
+            &[0.0],
+            Quantity::Receptance,
+        )
+        .unwrap_err();
         assert_eq!(e, DirectError::Singular(0.0));
     }
 }

@@ -13,7 +13,9 @@ pub use modal::{ModalDamping, ModalError, modal_receptance};
 pub use noise::{NoiseModel, add_noise};
 
 /// Which response quantity an FRF holds (1.4).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize, schemars::JsonSchema)]
+#[derive(
+    Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize, schemars::JsonSchema,
+)]
 #[serde(rename_all = "snake_case")]
 pub enum Quantity {
     /// Displacement per force, `α = Z⁻¹`, m/N.

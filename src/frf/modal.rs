@@ -24,7 +24,11 @@ pub enum ModalDamping {
 impl ModalDamping {
     /// The value for mode `r`: uniform when one value is given.
     fn value(values: &[f64], r: usize) -> f64 {
-        if values.len() == 1 { values[0] } else { values[r] }
+        if values.len() == 1 {
+            values[0]
+        } else {
+            values[r]
+        }
     }
 
     /// Denominator `d_r(ω)` of mode `r` with eigenvalue `λ_r`.
@@ -70,7 +74,9 @@ pub enum ModalError {
     #[error("damping value {0} must be finite and >= 0")]
     BadDamping(f64),
     /// An undamped (or rigid-body) resonance falls on a line.
-    #[error("the response is undefined at {freq_hz} Hz: mode {mode} ({mode_hz:.6} Hz) is undamped there; move the line or add damping")]
+    #[error(
+        "the response is undefined at {freq_hz} Hz: mode {mode} ({mode_hz:.6} Hz) is undamped there; move the line or add damping"
+    )]
     Singular {
         /// Line frequency.
         freq_hz: f64,
@@ -192,8 +198,24 @@ mod tests {
             excitation: dofs[0],
         };
         let freqs = [0.0, 3.0, 20.0, 55.0];
-        let s = modal_receptance(&modes, &dofs, &ModalDamping::Structural(vec![eta]), &[pair], &freqs, Quantity::Receptance).unwrap();
-        let v = modal_receptance(&modes, &dofs, &ModalDamping::Viscous(vec![zeta]), &[pair], &freqs, Quantity::Accelerance).unwrap();
+        let s = modal_receptance(
+            &modes,
+            &dofs,
+            &ModalDamping::Structural(vec![eta]),
+            &[pair],
+            &freqs,
+            Quantity::Receptance,
+        )
+        .unwrap();
+        let v = modal_receptance(
+            &modes,
+            &dofs,
+            &ModalDamping::Viscous(vec![zeta]),
+            &[pair],
+            &freqs,
+            Quantity::Accelerance,
+        )
+        .unwrap();
         for (row, f) in freqs.iter().enumerate() {
             let w = 2.0 * PI * f;
             let exact = c64::new(1.0, 0.0) / c64::new(k - w * w * m, eta * k);
@@ -207,8 +229,19 @@ mod tests {
     #[test]
     fn undamped_resonance_on_a_line_is_an_error() {
         let (modes, dofs) = single_dof(4.0 * PI * PI, 1.0); // 1 Hz
-        let pair = FrfPair { response: dofs[0], excitation: dofs[0] };
-        let e = modal_receptance(&modes, &dofs, &ModalDamping::None, &[pair], &[1.0], Quantity::Receptance).unwrap_err();
+        let pair = FrfPair {
+            response: dofs[0],
+            excitation: dofs[0],
+        };
+        let e = modal_receptance(
+            &modes,
+            &dofs,
+            &ModalDamping::None,
+            &[pair],
+            &[1.0],
+            Quantity::Receptance,
+        )
+        .unwrap_err();
         assert!(matches!(e, ModalError::Singular { mode: 1, .. }), "{e}");
     }
 }

@@ -45,7 +45,11 @@ pub fn add_noise(set: &mut FrfSet, model: &NoiseModel, seed: u64) {
             rng.set_stream(p as u64);
             let column: Vec<c64> = (0..lines).map(|k| set.values[(k, p)]).collect();
             match *model {
-                NoiseModel::Multiplicative { level, lower, upper } => column
+                NoiseModel::Multiplicative {
+                    level,
+                    lower,
+                    upper,
+                } => column
                     .iter()
                     .map(|h| {
                         let eps = lower + (upper - lower) * rng.random::<f64>();
@@ -53,8 +57,10 @@ pub fn add_noise(set: &mut FrfSet, model: &NoiseModel, seed: u64) {
                     })
                     .collect(),
                 NoiseModel::Gaussian { snr_db } => {
-                    let power = column.iter().map(|h| h.norm_sqr()).sum::<f64>() / lines.max(1) as f64;
-                    let sigma = (power / 10f64.powf(snr_db / 10.0)).sqrt() / std::f64::consts::SQRT_2;
+                    let power =
+                        column.iter().map(|h| h.norm_sqr()).sum::<f64>() / lines.max(1) as f64;
+                    let sigma =
+                        (power / 10f64.powf(snr_db / 10.0)).sqrt() / std::f64::consts::SQRT_2;
                     column
                         .iter()
                         .map(|h| {
@@ -85,7 +91,13 @@ mod tests {
         FrfSet {
             quantity: Quantity::Receptance,
             freqs_hz: (0..lines).map(|k| k as f64).collect(),
-            pairs: vec![FrfPair { response: dof, excitation: dof }; pairs],
+            pairs: vec![
+                FrfPair {
+                    response: dof,
+                    excitation: dof
+                };
+                pairs
+            ],
             values: Mat::from_fn(lines, pairs, |_, _| c64::new(2.0, -1.0)),
         }
     }
@@ -93,7 +105,15 @@ mod tests {
     #[test]
     fn multiplicative_noise_stays_in_its_interval_and_keeps_phase() {
         let mut s = constant_set(2000, 2);
-        add_noise(&mut s, &NoiseModel::Multiplicative { level: 0.1, lower: 0.0, upper: 1.0 }, 7);
+        add_noise(
+            &mut s,
+            &NoiseModel::Multiplicative {
+                level: 0.1,
+                lower: 0.0,
+                upper: 1.0,
+            },
+            7,
+        );
         let mut mean = 0.0;
         for k in 0..2000 {
             let ratio = s.values[(k, 0)] / c64::new(2.0, -1.0);
@@ -107,7 +127,11 @@ mod tests {
     #[test]
     fn same_seed_same_draws_other_seed_other_draws() {
         let model = NoiseModel::Gaussian { snr_db: 20.0 };
-        let (mut a, mut b, mut c) = (constant_set(50, 3), constant_set(50, 3), constant_set(50, 3));
+        let (mut a, mut b, mut c) = (
+            constant_set(50, 3),
+            constant_set(50, 3),
+            constant_set(50, 3),
+        );
         add_noise(&mut a, &model, 1);
         add_noise(&mut b, &model, 1);
         add_noise(&mut c, &model, 2);
@@ -121,7 +145,10 @@ mod tests {
     fn gaussian_noise_has_the_requested_snr() {
         let mut s = constant_set(20000, 1);
         add_noise(&mut s, &NoiseModel::Gaussian { snr_db: 10.0 }, 3);
-        let noise_power: f64 = (0..20000).map(|k| (s.values[(k, 0)] - c64::new(2.0, -1.0)).norm_sqr()).sum::<f64>() / 20000.0;
+        let noise_power: f64 = (0..20000)
+            .map(|k| (s.values[(k, 0)] - c64::new(2.0, -1.0)).norm_sqr())
+            .sum::<f64>()
+            / 20000.0;
         let snr = 10.0 * (5.0 / noise_power).log10();
         assert!((snr - 10.0).abs() < 0.1, "{snr}");
     }

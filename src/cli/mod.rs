@@ -1,0 +1,568 @@
+//! The `femu` command line. `anyhow` lives here only. Exit codes: 0 success (or no difference),
+//! 1 failure or difference found, 2 bad input or usage.
+
+use crate::artefact::codec::{read_dir, read_meta};
+use crate::artefact::compare::{Tol, Tolerances, compare};
+use crate::artefact::{Artefact, ArtefactKind};
+use crate::cache::Cache;
+use crate::pipeline::lock::LockFile;
+use crate::pipeline::schema::{artefact_schema, pipeline_schema};
+use crate::pipeline::{
+    Diagnostics, Plan, ProgressMode, RunOptions, Status, execute, materialise, plan, read_pipeline,
+};
+use crate::stages::registry;
+use anyhow::Context;
+use clap::{Parser, Subcommand};
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+/// femu: finite-element model updating from measured FRFs, as cached pipelines.
+#[derive(Parser, Debug)]
+#[command(name = "femu", version, about, long_about = None)]
+pub struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(clap::Args, Debug, Clone)]
+struct PipelineArgs {
+    /// The pipeline YAML file.
+    pipeline: PathBuf,
+    /// Override a parameter: STAGE.PARAM=VALUE (VALUE is YAML); repeatable.
+    #[arg(long = "set", value_name = "STAGE.PARAM=VALUE")]
+    sets: Vec<String>,
+}
+
+#[derive(clap::Args, Debug, Clone)]
+struct CacheArgs {
+    /// Cache directory (default: $FEMU_CACHE_DIR or .femu/cache).
+    #[arg(long, value_name = "DIR")]
+    cache_dir: Option<PathBuf>,
+}
+
+impl CacheArgs {
+    fn dir(&self) -> PathBuf {
+        self.cache_dir
+            .clone()
+            .or_else(|| std::env::var_os("FEMU_CACHE_DIR").map(PathBuf::from))
+            .unwrap_or_else(|| PathBuf::from(".femu/cache"))
+    }
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Run a pipeline: every stage not already cached.
+    Run {
+        #[command(flatten)]
+        p: PipelineArgs,
+        #[command(flatten)]
+        c: CacheArgs,
+        /// Copy every stage's artefacts to DIR/<stage>/<port>/ and write DIR/femu.lock.json.
+        #[arg(long, value_name = "DIR")]
+        out: Option<PathBuf>,
+        /// Run only this stage and what it needs; repeatable.
+        #[arg(long, value_name = "STAGE")]
+        only: Vec<String>,
+        /// Recompute even cached stages.
+        #[arg(long)]
+        force: bool,
+        /// No progress lines.
+        #[arg(long, short)]
+        quiet: bool,
+    },
+    /// Check a pipeline without running it.
+    Validate {
+        #[command(flatten)]
+        p: PipelineArgs,
+    },
+    /// Show the resolved plan: order, wiring, parameters with defaults, cache state.
+    Explain {
+        #[command(flatten)]
+        p: PipelineArgs,
+        #[command(flatten)]
+        c: CacheArgs,
+    },
+    /// List stage kinds, or describe one.
+    List {
+        /// A stage kind to describe in full.
+        kind: Option<String>,
+    },
+    /// Describe an artefact directory: kind, digest, units, tables and a preview.
+    Show {
+        /// Artefact directory (holding meta.json).
+        artefact: PathBuf,
+    },
+    /// Compare two artefacts, or two directories of artefacts (e.g. two --out trees).
+    Diff {
+        /// New artefact or tree.
+        a: PathBuf,
+        /// Reference artefact or tree.
+        b: PathBuf,
+        /// Relative tolerance.
+        #[arg(long, default_value_t = 1e-9)]
+        rtol: f64,
+        /// Absolute tolerance.
+        #[arg(long, default_value_t = 0.0)]
+        atol: f64,
+        /// YAML file of per-column tolerances (overrides --rtol/--atol).
+        #[arg(long, value_name = "FILE")]
+        tolerances: Option<PathBuf>,
+    },
+    /// Inspect or clean the cache.
+    Cache {
+        #[command(subcommand)]
+        action: CacheAction,
+    },
+    /// Write the JSON Schemas of pipelines and artefacts.
+    Schema {
+        /// Output directory.
+        #[arg(long, default_value = "schemas")]
+        out: PathBuf,
+    },
+}
+
+#[derive(Subcommand, Debug)]
+enum CacheAction {
+    /// List entries.
+    Ls {
+        #[command(flatten)]
+        c: CacheArgs,
+    },
+    /// Remove entries no lock file refers to, and stale temporary files.
+    Gc {
+        #[command(flatten)]
+        c: CacheArgs,
+        /// Remove every entry.
+        #[arg(long)]
+        all: bool,
+    },
+}
+
+/// A failure with its exit code.
+struct Failure {
+    code: u8,
+    error: anyhow::Error,
+}
+
+impl<E: Into<anyhow::Error>> From<E> for Failure {
+    fn from(e: E) -> Self {
+        let error = e.into();
+        let code = if error.downcast_ref::<Diagnostics>().is_some() {
+            2
+        } else {
+            1
+        };
+        Failure { code, error }
+    }
+}
+
+/// Entry point of the binary.
+pub fn main() -> ExitCode {
+    let filter = tracing_subscriber::EnvFilter::try_from_env("FEMU_LOG")
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("warn"));
+    let _ = tracing_subscriber::fmt()
+        .with_env_filter(filter)
+        .with_writer(std::io::stderr)
+        .try_init();
+    let cli = Cli::parse();
+    match dispatch(cli) {
+        Ok(code) => ExitCode::from(code),
+        Err(f) => {
+            if f.error.downcast_ref::<Diagnostics>().is_some() {
+                eprintln!("{}", f.error);
+            } else {
+                eprintln!("error: {:#}", f.error);
+            }
+            ExitCode::from(f.code)
+        }
+    }
+}
+
+fn load_plan(p: &PipelineArgs) -> Result<Plan, Diagnostics> {
+    let mut src = read_pipeline(&p.pipeline)?;
+    src.apply_overrides(&p.sets)?;
+    plan(&src, &registry())
+}
+
+fn dispatch(cli: Cli) -> Result<u8, Failure> {
+    match cli.command {
+        Command::Run {
+            p,
+            c,
+            out,
+            only,
+            force,
+            quiet,
+        } => {
+            let plan = load_plan(&p)?;
+            let cache = Cache::open(&c.dir())?;
+            let opts = RunOptions {
+                force,
+                only,
+                progress: if quiet {
+                    ProgressMode::Quiet
+                } else {
+                    ProgressMode::Auto
+                },
+            };
+            let report = execute(&plan, &cache, &opts)?;
+            let lock = LockFile::from_run(&plan, &report);
+            if opts.only.is_empty() {
+                lock.write(&cache.lock_path(&plan.name))
+                    .context("writing the lock file")?;
+            }
+            if let Some(out) = &out {
+                materialise(&report, &cache, out)?;
+                lock.write(&out.join("femu.lock.json"))
+                    .context("writing the lock file")?;
+            }
+            println!(
+                "pipeline {}: {} stages, {} ran, {} cached",
+                plan.name,
+                report.stages.len(),
+                report.executed(),
+                report
+                    .stages
+                    .iter()
+                    .filter(|s| s.status == Status::Cached)
+                    .count()
+            );
+            println!(
+                "{:<20} {:<18} {:<34} {:>9}  outputs",
+                "stage", "kind", "status", "time (s)"
+            );
+            for s in &report.stages {
+                let outs: Vec<String> = s
+                    .outputs
+                    .iter()
+                    .map(|(p, r)| format!("{p}={}", &r.digest[..12]))
+                    .collect();
+                println!(
+                    "{:<20} {:<18} {:<34} {:>9.3}  {}",
+                    s.name,
+                    s.kind,
+                    s.status.label(),
+                    s.elapsed.as_secs_f64(),
+                    outs.join(" ")
+                );
+            }
+            if let Some(out) = out {
+                println!("artefacts in {}", out.display());
+            }
+            Ok(0)
+        }
+        Command::Validate { p } => {
+            let plan = load_plan(&p)?;
+            println!(
+                "{}: valid pipeline `{}` with {} stages",
+                p.pipeline.display(),
+                plan.name,
+                plan.nodes.len()
+            );
+            Ok(0)
+        }
+        Command::Explain { p, c } => {
+            let plan = load_plan(&p)?;
+            explain(&plan, &c.dir());
+            Ok(0)
+        }
+        Command::List { kind } => list(kind.as_deref()),
+        Command::Show { artefact } => {
+            show(&artefact)?;
+            Ok(0)
+        }
+        Command::Diff {
+            a,
+            b,
+            rtol,
+            atol,
+            tolerances,
+        } => {
+            let tol = match tolerances {
+                Some(f) => {
+                    let text = std::fs::read_to_string(&f)
+                        .with_context(|| format!("reading {}", f.display()))?;
+                    serde_yaml::from_str(&text).map_err(|e| Failure {
+                        code: 2,
+                        error: anyhow::anyhow!("{}: {e}", f.display()),
+                    })?
+                }
+                None => Tolerances {
+                    default: Tol { rtol, atol },
+                    ..Default::default()
+                },
+            };
+            diff(&a, &b, &tol)
+        }
+        Command::Cache { action } => {
+            match action {
+                CacheAction::Ls { c } => {
+                    let cache = Cache::open(&c.dir())?;
+                    let entries = cache.entries()?;
+                    let total: u64 = entries.iter().map(|e| e.bytes).sum();
+                    for e in &entries {
+                        let outs: Vec<String> =
+                            e.outputs.iter().map(|(p, k)| format!("{p}:{k}")).collect();
+                        println!(
+                            "{}  {:<18} {:>10} B  {}",
+                            &e.key[..16],
+                            e.stage_kind,
+                            e.bytes,
+                            outs.join(" ")
+                        );
+                    }
+                    println!(
+                        "{} entries, {} bytes in {}",
+                        entries.len(),
+                        total,
+                        c.dir().display()
+                    );
+                }
+                CacheAction::Gc { c, all } => {
+                    let cache = Cache::open(&c.dir())?;
+                    let keep = if all {
+                        Default::default()
+                    } else {
+                        cache.locked_keys()
+                    };
+                    let (n, bytes) = cache.gc(&keep)?;
+                    println!("removed {n} entries ({bytes} bytes); kept {}", keep.len());
+                }
+            }
+            Ok(0)
+        }
+        Command::Schema { out } => {
+            write_schemas(&out)?;
+            println!("schemas written to {}", out.display());
+            Ok(0)
+        }
+    }
+}
+
+/// Writes `pipeline.schema.json` and `artefacts/<kind>.schema.json` under `out`.
+pub fn write_schemas(out: &Path) -> anyhow::Result<()> {
+    std::fs::create_dir_all(out.join("artefacts"))?;
+    let text = serde_json::to_string_pretty(&pipeline_schema(&registry()))? + "\n";
+    std::fs::write(out.join("pipeline.schema.json"), text)?;
+    for kind in ArtefactKind::ALL {
+        let text = serde_json::to_string_pretty(&artefact_schema(kind))? + "\n";
+        std::fs::write(
+            out.join("artefacts")
+                .join(format!("{}.schema.json", kind.name())),
+            text,
+        )?;
+    }
+    Ok(())
+}
+
+fn explain(plan: &Plan, cache_dir: &Path) {
+    println!("pipeline `{}`: {}", plan.name, plan.description.trim());
+    let cache = Cache::open(cache_dir).ok();
+    for (i, n) in plan.nodes.iter().enumerate() {
+        println!(
+            "\n{}. {} ({}) — {}",
+            i + 1,
+            n.name,
+            n.stage.kind(),
+            n.stage.summary()
+        );
+        if !n.description.is_empty() {
+            println!("   {}", n.description.trim());
+        }
+        for (port, r) in &n.inputs {
+            println!("   in  {port} <- {}.{}", plan.nodes[r.node].name, r.port);
+        }
+        for p in n.stage.outputs() {
+            println!("   out {} ({})", p.name, p.kind);
+        }
+        let params = serde_yaml::to_string(&n.params).unwrap_or_default();
+        for line in params.lines() {
+            println!("   | {line}");
+        }
+        if let Some(lock) = cache
+            .as_ref()
+            .and_then(|c| std::fs::read_to_string(c.lock_path(&plan.name)).ok())
+        {
+            if let Ok(lock) = serde_json::from_str::<LockFile>(&lock) {
+                if let Some(s) = lock.stages.get(&n.name) {
+                    println!(
+                        "   last run: key {} (params {})",
+                        &s.key[..16],
+                        if s.params == n.params {
+                            "unchanged"
+                        } else {
+                            "changed since"
+                        }
+                    );
+                }
+            }
+        }
+    }
+}
+
+fn list(kind: Option<&str>) -> Result<u8, Failure> {
+    let reg = registry();
+    match kind {
+        None => {
+            for s in reg.all() {
+                println!("{:<18} {}", s.kind(), s.summary());
+            }
+            Ok(0)
+        }
+        Some(k) => {
+            let Some(s) = reg.get(k) else {
+                let names: Vec<&str> = reg.all().iter().map(|s| s.kind()).collect();
+                return Err(Failure {
+                    code: 2,
+                    error: anyhow::anyhow!("unknown stage kind `{k}`; kinds: {}", names.join(", ")),
+                });
+            };
+            println!(
+                "{} (impl version {}): {}",
+                s.kind(),
+                s.impl_version(),
+                s.summary()
+            );
+            for p in s.inputs() {
+                println!(
+                    "  input  {:<12} {:<12} {}{}",
+                    p.name,
+                    p.kind.name(),
+                    p.doc,
+                    if p.required { " (required)" } else { "" }
+                );
+            }
+            for p in s.outputs() {
+                println!("  output {:<12} {:<12} {}", p.name, p.kind.name(), p.doc);
+            }
+            println!("  parameters (JSON Schema):");
+            let schema = serde_json::to_string_pretty(&s.params_schema()).unwrap_or_default();
+            for line in schema.lines() {
+                println!("    {line}");
+            }
+            Ok(0)
+        }
+    }
+}
+
+fn show(dir: &Path) -> anyhow::Result<()> {
+    let meta = read_meta(dir)?;
+    let a = read_dir(dir)?;
+    let digest = a.digest();
+    println!(
+        "{}: `{}` artefact, schema version {}, format {:?}",
+        dir.display(),
+        a.kind,
+        a.kind.schema_version(),
+        meta.format
+    );
+    println!(
+        "digest {} ({})",
+        digest,
+        if digest == meta.digest {
+            "verified"
+        } else {
+            "DOES NOT MATCH meta.json: the files were changed"
+        }
+    );
+    if let Some(p) = meta.raw.get("producer") {
+        println!("made by {p}");
+    }
+    println!(
+        "meta: {}",
+        serde_json::to_string_pretty(&serde_json::Value::Object(a.meta.clone()))?
+    );
+    let units = a.meta.get("units").and_then(|u| u.as_object());
+    for (name, (t, storage)) in &a.tables {
+        println!("\ntable `{name}` ({storage:?}, {} rows)", t.rows());
+        for (c, col) in &t.columns {
+            let unit = units
+                .and_then(|u| u.get(c))
+                .and_then(|u| u.as_str())
+                .map(|u| format!(" [{u}]"))
+                .unwrap_or_default();
+            println!("  {c}: {}{unit}", col.type_name());
+        }
+        print!("{t}");
+    }
+    for (name, bytes) in &a.blobs {
+        println!("\nfile `{name}` ({} bytes)", bytes.len());
+    }
+    Ok(())
+}
+
+/// Artefact directories below `root`, by relative path.
+fn artefact_dirs(root: &Path) -> Vec<PathBuf> {
+    let mut out = Vec::new();
+    let mut todo = vec![root.to_path_buf()];
+    while let Some(d) = todo.pop() {
+        if d.join(crate::artefact::codec::META_FILE).is_file() {
+            out.push(d.strip_prefix(root).unwrap_or(&d).to_path_buf());
+            continue;
+        }
+        if let Ok(rd) = std::fs::read_dir(&d) {
+            todo.extend(rd.flatten().map(|e| e.path()).filter(|p| p.is_dir()));
+        }
+    }
+    out.sort();
+    out
+}
+
+fn diff(a: &Path, b: &Path, tol: &Tolerances) -> Result<u8, Failure> {
+    let read = |p: &Path| -> Result<Artefact, Failure> {
+        read_dir(p).map_err(|e| Failure {
+            code: 2,
+            error: e.into(),
+        })
+    };
+    for p in [a, b] {
+        if !p.exists() {
+            return Err(Failure {
+                code: 2,
+                error: anyhow::anyhow!("{} does not exist", p.display()),
+            });
+        }
+    }
+    let (da, db) = (artefact_dirs(a), artefact_dirs(b));
+    if da.is_empty() || db.is_empty() {
+        return Err(Failure {
+            code: 2,
+            error: anyhow::anyhow!(
+                "no femu artefact (a directory with meta.json) under {}",
+                if da.is_empty() { a } else { b }.display()
+            ),
+        });
+    }
+    let mut different = 0;
+    let all: std::collections::BTreeSet<&PathBuf> = da.iter().chain(&db).collect();
+    for rel in all {
+        let label = if rel.as_os_str().is_empty() {
+            ".".to_string()
+        } else {
+            rel.display().to_string()
+        };
+        match (da.contains(rel), db.contains(rel)) {
+            (true, true) => {
+                let c = compare(&read(&a.join(rel))?, &read(&b.join(rel))?, tol);
+                if c.same() {
+                    println!("same      {label}");
+                } else {
+                    different += 1;
+                    println!("DIFFERENT {label}: {} values", c.count);
+                    for d in &c.differences {
+                        println!("    {}: {}", d.location, d.detail);
+                    }
+                }
+            }
+            (true, false) => {
+                different += 1;
+                println!("ONLY IN   {}: {label}", a.display());
+            }
+            _ => {
+                different += 1;
+                println!("ONLY IN   {}: {label}", b.display());
+            }
+        }
+    }
+    Ok(if different == 0 { 0 } else { 1 })
+}

@@ -1,0 +1,83 @@
+//! Lock files: for every stage of a run, its kind, implementation version, key, wiring and
+//! output digests (DVC's `dvc.lock` is the model). Written atomically; no times or hosts, so two
+//! identical runs write identical lock files.
+
+use super::executor::RunReport;
+use super::plan::Plan;
+use crate::cache::OutputRecord;
+use std::collections::BTreeMap;
+use std::path::Path;
+
+/// One stage in a lock file.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct LockStage {
+    /// Kind.
+    pub kind: String,
+    /// Implementation version.
+    pub impl_version: u32,
+    /// Cache key.
+    pub key: String,
+    /// Parameters with defaults.
+    pub params: serde_json::Value,
+    /// Input port → `stage.port`.
+    pub inputs: BTreeMap<String, String>,
+    /// Outputs.
+    pub outputs: BTreeMap<String, OutputRecord>,
+}
+
+/// A lock file.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct LockFile {
+    /// Pipeline name.
+    pub pipeline: String,
+    /// femu version.
+    pub femu_version: String,
+    /// Stages by name.
+    pub stages: BTreeMap<String, LockStage>,
+}
+
+impl LockFile {
+    /// The lock file of a run.
+    pub fn from_run(plan: &Plan, report: &RunReport) -> Self {
+        let stages = report
+            .stages
+            .iter()
+            .filter_map(|r| {
+                let node = &plan.nodes[plan.index(&r.name)?];
+                Some((
+                    r.name.clone(),
+                    LockStage {
+                        kind: r.kind.clone(),
+                        impl_version: node.stage.impl_version(),
+                        key: r.key.clone(),
+                        params: node.params.clone(),
+                        inputs: node
+                            .inputs
+                            .iter()
+                            .map(|(p, i)| {
+                                (p.clone(), format!("{}.{}", plan.nodes[i.node].name, i.port))
+                            })
+                            .collect(),
+                        outputs: r.outputs.clone(),
+                    },
+                ))
+            })
+            .collect();
+        LockFile {
+            pipeline: plan.name.clone(),
+            femu_version: env!("CARGO_PKG_VERSION").into(),
+            stages,
+        }
+    }
+
+    /// Writes the lock file atomically.
+    pub fn write(&self, path: &Path) -> std::io::Result<()> {
+        if let Some(parent) = path.parent() {
+            std::fs::create_dir_all(parent)?;
+        }
+        let text = serde_json::to_string_pretty(self).map_err(std::io::Error::other)? + "\n";
+        let tmp = path.with_extension(format!("tmp.{}", std::process::id()));
+        std::fs::write(&tmp, text)?;
+        std::fs::rename(&tmp, path)
+    }
+}

@@ -1,0 +1,243 @@
+//! The stage abstraction: one object per YAML `kind:`, with typed parameters, declared ports,
+//! an implementation version that enters the cache key, and a `run` that maps input artefacts to
+//! output artefacts. Stages never touch the cache or the file system of the engine.
+
+use crate::artefact::{Artefact, ArtefactError, ArtefactKind};
+use serde::Serialize;
+use serde::de::DeserializeOwned;
+use std::collections::{BTreeMap, BTreeSet};
+use std::marker::PhantomData;
+
+/// A named input or output port.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PortSpec {
+    /// Port name.
+    pub name: &'static str,
+    /// Artefact kind it carries.
+    pub kind: ArtefactKind,
+    /// Whether an input must be connected (outputs are always produced).
+    pub required: bool,
+    /// One line saying what it is.
+    pub doc: &'static str,
+}
+
+impl PortSpec {
+    /// A required port.
+    pub const fn required(name: &'static str, kind: ArtefactKind, doc: &'static str) -> Self {
+        PortSpec {
+            name,
+            kind,
+            required: true,
+            doc,
+        }
+    }
+
+    /// An optional input port.
+    pub const fn optional(name: &'static str, kind: ArtefactKind, doc: &'static str) -> Self {
+        PortSpec {
+            name,
+            kind,
+            required: false,
+            doc,
+        }
+    }
+}
+
+/// A problem with one parameter: its path below `with` and what would be valid.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ParamIssue {
+    /// Path below `with` (`["springs", "2", "k"]`); empty for the whole block.
+    pub path: Vec<String>,
+    /// What is wrong and what would be valid.
+    pub message: String,
+}
+
+impl ParamIssue {
+    /// An issue at a single field.
+    pub fn at(field: &str, message: impl Into<String>) -> Self {
+        ParamIssue {
+            path: field.split('.').map(str::to_string).collect(),
+            message: message.into(),
+        }
+    }
+}
+
+/// Why a stage failed while running.
+#[derive(Debug, thiserror::Error)]
+pub enum StageError {
+    /// An input artefact could not be interpreted.
+    #[error(transparent)]
+    Artefact(#[from] ArtefactError),
+    /// The computation failed; the message says why and what to change.
+    #[error("{0}")]
+    Failed(String),
+}
+
+impl StageError {
+    /// A failure from any error.
+    pub fn failed(e: impl std::fmt::Display) -> Self {
+        StageError::Failed(e.to_string())
+    }
+}
+
+/// The input artefacts of one run, by port.
+#[derive(Clone, Debug, Default)]
+pub struct StageInputs {
+    /// Connected inputs.
+    pub artefacts: BTreeMap<String, std::sync::Arc<Artefact>>,
+}
+
+impl StageInputs {
+    /// An optional input.
+    pub fn get(&self, port: &str) -> Option<&Artefact> {
+        self.artefacts.get(port).map(|a| a.as_ref())
+    }
+
+    /// A required input (connection is checked when planning, so absence is an engine bug
+    /// reported as an error, never a panic).
+    pub fn require(&self, port: &str) -> Result<&Artefact, StageError> {
+        self.get(port)
+            .ok_or_else(|| StageError::Failed(format!("input port `{port}` is not connected")))
+    }
+}
+
+/// Output artefacts by port.
+pub type StageOutputs = BTreeMap<String, Artefact>;
+
+/// A stage kind as the engine sees it.
+pub trait Stage: Send + Sync {
+    /// The YAML `kind:`.
+    fn kind(&self) -> &'static str;
+    /// One line saying what it does.
+    fn summary(&self) -> &'static str;
+    /// Bumped on any change of meaning of the outputs; part of the cache key.
+    fn impl_version(&self) -> u32;
+    /// Input ports.
+    fn inputs(&self) -> Vec<PortSpec>;
+    /// Output ports.
+    fn outputs(&self) -> Vec<PortSpec>;
+    /// JSON Schema of the `with:` block.
+    fn params_schema(&self) -> schemars::Schema;
+    /// Parses and checks `with`, given which inputs are connected; returns the parameters with
+    /// every default filled in (the form that enters the cache key).
+    fn check(
+        &self,
+        with: &serde_json::Value,
+        connected: &BTreeSet<String>,
+    ) -> Result<serde_json::Value, Vec<ParamIssue>>;
+    /// Runs on checked parameters.
+    fn run(
+        &self,
+        params: &serde_json::Value,
+        inputs: &StageInputs,
+    ) -> Result<StageOutputs, StageError>;
+}
+
+/// A stage with typed parameters; [`Typed`] adapts it to [`Stage`].
+pub trait TypedStage: Send + Sync + 'static {
+    /// The `with:` block.
+    type Params: DeserializeOwned + Serialize + schemars::JsonSchema;
+    /// The YAML `kind:`.
+    const KIND: &'static str;
+    /// One line saying what it does.
+    const SUMMARY: &'static str;
+    /// Implementation version.
+    const IMPL_VERSION: u32;
+    /// Input ports.
+    fn inputs() -> Vec<PortSpec>;
+    /// Output ports.
+    fn outputs() -> Vec<PortSpec>;
+    /// Range and consistency checks beyond types; may fill defaults that depend on the wiring.
+    fn validate(_params: &mut Self::Params, _connected: &BTreeSet<String>) -> Vec<ParamIssue> {
+        Vec::new()
+    }
+    /// The computation.
+    fn run(params: &Self::Params, inputs: &StageInputs) -> Result<StageOutputs, StageError>;
+}
+
+/// Adapter from [`TypedStage`] to [`Stage`].
+pub struct Typed<T>(PhantomData<T>);
+
+impl<T> Typed<T> {
+    /// The adapter.
+    pub const fn new() -> Self {
+        Typed(PhantomData)
+    }
+}
+
+impl<T> Default for Typed<T> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+/// Deserialises typed parameters, reporting the path of the first bad field.
+pub fn parse_params<P: DeserializeOwned>(with: &serde_json::Value) -> Result<P, ParamIssue> {
+    let value = if with.is_null() {
+        serde_json::Value::Object(Default::default())
+    } else {
+        with.clone()
+    };
+    serde_path_to_error::deserialize(value).map_err(|e| {
+        let path: Vec<String> = e
+            .path()
+            .iter()
+            .filter_map(|seg| match seg {
+                serde_path_to_error::Segment::Seq { index } => Some(index.to_string()),
+                serde_path_to_error::Segment::Map { key } => Some(key.clone()),
+                serde_path_to_error::Segment::Enum { variant } => Some(variant.clone()),
+                serde_path_to_error::Segment::Unknown => None,
+            })
+            .collect();
+        ParamIssue {
+            path,
+            message: e.into_inner().to_string(),
+        }
+    })
+}
+
+impl<T: TypedStage> Stage for Typed<T> {
+    fn kind(&self) -> &'static str {
+        T::KIND
+    }
+    fn summary(&self) -> &'static str {
+        T::SUMMARY
+    }
+    fn impl_version(&self) -> u32 {
+        T::IMPL_VERSION
+    }
+    fn inputs(&self) -> Vec<PortSpec> {
+        T::inputs()
+    }
+    fn outputs(&self) -> Vec<PortSpec> {
+        T::outputs()
+    }
+    fn params_schema(&self) -> schemars::Schema {
+        schemars::schema_for!(T::Params)
+    }
+    fn check(
+        &self,
+        with: &serde_json::Value,
+        connected: &BTreeSet<String>,
+    ) -> Result<serde_json::Value, Vec<ParamIssue>> {
+        let mut params: T::Params = parse_params(with).map_err(|e| vec![e])?;
+        let issues = T::validate(&mut params, connected);
+        if !issues.is_empty() {
+            return Err(issues);
+        }
+        serde_json::to_value(&params).map_err(|e| {
+            vec![ParamIssue {
+                path: vec![],
+                message: e.to_string(),
+            }]
+        })
+    }
+    fn run(
+        &self,
+        params: &serde_json::Value,
+        inputs: &StageInputs,
+    ) -> Result<StageOutputs, StageError> {
+        let params: T::Params = parse_params(params).map_err(|e| StageError::Failed(e.message))?;
+        T::run(&params, inputs)
+    }
+}

@@ -1,0 +1,335 @@
+//! `frf.synthesise`: receptance, mobility or accelerance at chosen DOFs over a band, by modal
+//! summation (structural `η_r` or viscous `ζ_r`, uniform or per mode, optionally truncated) or by
+//! direct solution of `Z(ω)` (THEORY §1).
+
+use crate::artefact::ArtefactKind;
+use crate::artefact::kinds::{frf_to_artefact, matrices_from_artefact, modes_from_artefact};
+use crate::core::DofId;
+use crate::frf::{
+    DirectDamping, FrfSet, ModalDamping, Quantity, direct_receptance, frequency_lines,
+    modal_receptance,
+};
+use crate::pipeline::{ParamIssue, PortSpec, StageError, StageInputs, StageOutputs, TypedStage};
+use std::collections::BTreeSet;
+
+/// The stage.
+pub struct FrfSynthesise;
+
+/// How the FRFs are computed.
+#[derive(
+    Clone, Copy, Debug, PartialEq, serde::Deserialize, serde::Serialize, schemars::JsonSchema,
+)]
+#[serde(rename_all = "snake_case")]
+pub enum Method {
+    /// Modal summation over the `modes` input.
+    Modal,
+    /// `α = Z(ω)⁻¹` from the `model` input.
+    Direct,
+}
+
+/// One value for every mode, or one per mode.
+#[derive(Clone, Debug, PartialEq, serde::Deserialize, serde::Serialize, schemars::JsonSchema)]
+#[serde(untagged)]
+pub enum PerMode {
+    /// The same value for every mode.
+    Uniform(f64),
+    /// One value per mode, in mode order.
+    PerMode(Vec<f64>),
+}
+
+impl PerMode {
+    fn values(&self) -> Vec<f64> {
+        match self {
+            PerMode::Uniform(v) => vec![*v],
+            PerMode::PerMode(v) => v.clone(),
+        }
+    }
+}
+
+/// Damping of the synthesis.
+#[derive(
+    Clone, Debug, Default, PartialEq, serde::Deserialize, serde::Serialize, schemars::JsonSchema,
+)]
+#[serde(rename_all = "snake_case", deny_unknown_fields)]
+pub enum Damping {
+    /// Undamped (the model's own C and D still apply to `direct`).
+    #[default]
+    None,
+    /// Structural loss factor `η` (modal: per mode allowed; direct: uniform, `D += η K`).
+    Structural(PerMode),
+    /// Viscous damping ratio `ζ` per mode (modal only).
+    Viscous(PerMode),
+    /// Rayleigh viscous damping `C += α M + β K` (direct only).
+    Rayleigh {
+        /// Mass-proportional coefficient α in 1/s.
+        alpha: f64,
+        /// Stiffness-proportional coefficient β in s.
+        beta: f64,
+    },
+}
+
+/// Parameters of `frf.synthesise`.
+#[derive(Clone, Debug, serde::Deserialize, serde::Serialize, schemars::JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct Params {
+    /// `modal` (needs `modes`) or `direct` (needs `model`); default: modal when `modes` is connected.
+    #[serde(default)]
+    pub method: Option<Method>,
+    /// receptance (m/N), mobility (m/s/N) or accelerance (m/s²/N).
+    #[serde(default = "receptance")]
+    pub quantity: Quantity,
+    /// Response DOFs.
+    pub responses: Vec<DofId>,
+    /// Excitation DOFs; every response/excitation pair is synthesised.
+    pub excitations: Vec<DofId>,
+    /// Band `[start, stop]` in Hz, with `step_hz`.
+    #[serde(default)]
+    pub band_hz: Option<[f64; 2]>,
+    /// Line spacing in Hz, with `band_hz`.
+    #[serde(default)]
+    pub step_hz: Option<f64>,
+    /// Explicit lines in Hz, instead of `band_hz`/`step_hz`.
+    #[serde(default)]
+    pub lines_hz: Option<Vec<f64>>,
+    /// Damping model.
+    #[serde(default)]
+    pub damping: Damping,
+    /// Use only the lowest `mode_count` modes (modal only; default: all modes given).
+    #[serde(default)]
+    pub mode_count: Option<usize>,
+}
+
+fn receptance() -> Quantity {
+    Quantity::Receptance
+}
+
+/// Most lines one stage synthesises.
+const MAX_LINES: usize = 1_000_000;
+
+impl Params {
+    fn lines(&self) -> Vec<f64> {
+        match (&self.lines_hz, self.band_hz, self.step_hz) {
+            (Some(l), _, _) => l.clone(),
+            (None, Some([a, b]), Some(s)) => frequency_lines(a, b, s),
+            _ => Vec::new(),
+        }
+    }
+}
+
+impl TypedStage for FrfSynthesise {
+    type Params = Params;
+    const KIND: &'static str = "frf.synthesise";
+    const SUMMARY: &'static str =
+        "FRFs (receptance, mobility, accelerance) by modal summation or direct solution of Z(w)";
+    const IMPL_VERSION: u32 = 1;
+
+    fn inputs() -> Vec<PortSpec> {
+        vec![
+            PortSpec::optional(
+                "model",
+                ArtefactKind::Matrices,
+                "system matrices, for `method: direct`",
+            ),
+            PortSpec::optional("modes", ArtefactKind::Modes, "modes, for `method: modal`"),
+        ]
+    }
+
+    fn outputs() -> Vec<PortSpec> {
+        vec![PortSpec::required(
+            "frf",
+            ArtefactKind::Frf,
+            "the synthesised FRFs",
+        )]
+    }
+
+    fn validate(p: &mut Params, connected: &BTreeSet<String>) -> Vec<ParamIssue> {
+        let mut issues = Vec::new();
+        let method = *p.method.get_or_insert(if connected.contains("modes") {
+            Method::Modal
+        } else {
+            Method::Direct
+        });
+        match method {
+            Method::Modal if !connected.contains("modes") => issues.push(ParamIssue::at(
+                "method",
+                "`modal` needs the `modes` input connected (or use `method: direct` with `model`)",
+            )),
+            Method::Direct if !connected.contains("model") => issues.push(ParamIssue::at(
+                "method",
+                "`direct` needs the `model` input connected (or use `method: modal` with `modes`)",
+            )),
+            _ => {}
+        }
+        if p.responses.is_empty() {
+            issues.push(ParamIssue::at(
+                "responses",
+                "give at least one response DOF, e.g. [\"1:ux\"]",
+            ));
+        }
+        if p.excitations.is_empty() {
+            issues.push(ParamIssue::at(
+                "excitations",
+                "give at least one excitation DOF, e.g. [\"1:ux\"]",
+            ));
+        }
+        match (&p.lines_hz, p.band_hz, p.step_hz) {
+            (Some(_), None, None) | (None, Some(_), Some(_)) => {}
+            _ => issues.push(ParamIssue::at(
+                "band_hz",
+                "give `band_hz: [start, stop]` with `step_hz`, or `lines_hz: [...]`",
+            )),
+        }
+        if let Some([a, b]) = p.band_hz {
+            if !(a.is_finite() && b.is_finite() && a >= 0.0 && b >= a) {
+                issues.push(ParamIssue::at(
+                    "band_hz",
+                    format!("[{a}, {b}] must satisfy 0 <= start <= stop"),
+                ));
+            }
+        }
+        if let Some(s) = p.step_hz {
+            if !(s.is_finite() && s > 0.0) {
+                issues.push(ParamIssue::at("step_hz", format!("{s} must be positive")));
+            }
+        }
+        if let Some(l) = &p.lines_hz {
+            if l.is_empty()
+                || l.iter().any(|f| !(f.is_finite() && *f >= 0.0))
+                || l.windows(2).any(|w| w[1] <= w[0])
+            {
+                issues.push(ParamIssue::at(
+                    "lines_hz",
+                    "lines must be non-negative and strictly increasing",
+                ));
+            }
+        }
+        if issues.is_empty() && p.lines().len() > MAX_LINES {
+            issues.push(ParamIssue::at(
+                "step_hz",
+                format!(
+                    "{} lines exceed the limit of {MAX_LINES}; widen the step",
+                    p.lines().len()
+                ),
+            ));
+        }
+        let values = match &p.damping {
+            Damping::Structural(v) | Damping::Viscous(v) => v.values(),
+            Damping::Rayleigh { alpha, beta } => vec![*alpha, *beta],
+            Damping::None => vec![],
+        };
+        if values.is_empty() && !matches!(p.damping, Damping::None) {
+            issues.push(ParamIssue::at("damping", "give at least one damping value"));
+        }
+        if values.iter().any(|v| !(v.is_finite() && *v >= 0.0)) {
+            issues.push(ParamIssue::at(
+                "damping",
+                "damping values must be finite and >= 0",
+            ));
+        }
+        match (method, &p.damping) {
+            (Method::Direct, Damping::Viscous(_)) => issues.push(ParamIssue::at("damping", "modal viscous ratios need `method: modal`; for `direct` use `rayleigh: {alpha, beta}` or the model's own C")),
+            (Method::Direct, Damping::Structural(PerMode::PerMode(_))) => issues.push(ParamIssue::at("damping", "per-mode loss factors need `method: modal`; `direct` takes one uniform value")),
+            (Method::Modal, Damping::Rayleigh { .. }) => issues.push(ParamIssue::at("damping", "Rayleigh damping needs `method: direct`; for `modal` give `viscous` ratios per mode")),
+            _ => {}
+        }
+        if method == Method::Direct && p.mode_count.is_some() {
+            issues.push(ParamIssue::at(
+                "mode_count",
+                "mode truncation applies to `method: modal` only",
+            ));
+        }
+        if p.mode_count == Some(0) {
+            issues.push(ParamIssue::at("mode_count", "must be at least 1"));
+        }
+        issues
+    }
+
+    fn run(p: &Params, inputs: &StageInputs) -> Result<StageOutputs, StageError> {
+        let pairs = FrfSet::all_pairs(&p.responses, &p.excitations);
+        let lines = p.lines();
+        let set = match p.method {
+            Some(Method::Modal) => {
+                let m = modes_from_artefact(inputs.require("modes")?)?;
+                let mut modes = m.modes;
+                if let Some(c) = p.mode_count {
+                    if c > modes.len() {
+                        return Err(StageError::Failed(format!(
+                            "mode_count {c} exceeds the {} modes given; compute more modes upstream",
+                            modes.len()
+                        )));
+                    }
+                    modes.eigenvalues.truncate(c);
+                    modes.residuals.truncate(c);
+                    modes.shapes = modes.shapes.subcols(0, c).to_owned();
+                }
+                let damping = match &p.damping {
+                    Damping::None | Damping::Rayleigh { .. } => ModalDamping::None,
+                    Damping::Structural(v) => ModalDamping::Structural(v.values()),
+                    Damping::Viscous(v) => ModalDamping::Viscous(v.values()),
+                };
+                modal_receptance(&modes, &m.dofs, &damping, &pairs, &lines, p.quantity)
+                    .map_err(StageError::failed)?
+            }
+            _ => {
+                let sys = matrices_from_artefact(inputs.require("model")?)?;
+                let damping = match &p.damping {
+                    Damping::Structural(v) => DirectDamping {
+                        structural_eta: v.values()[0],
+                        rayleigh: None,
+                    },
+                    Damping::Rayleigh { alpha, beta } => DirectDamping {
+                        structural_eta: 0.0,
+                        rayleigh: Some((*alpha, *beta)),
+                    },
+                    _ => DirectDamping::default(),
+                };
+                direct_receptance(&sys, &damping, &pairs, &lines, p.quantity)
+                    .map_err(StageError::failed)?
+            }
+        };
+        Ok(StageOutputs::from([(
+            "frf".to_string(),
+            frf_to_artefact(&set),
+        )]))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::pipeline::{Stage, Typed};
+
+    fn check(
+        with: serde_json::Value,
+        ports: &[&str],
+    ) -> Result<serde_json::Value, Vec<ParamIssue>> {
+        Typed::<FrfSynthesise>::new().check(&with, &ports.iter().map(|s| s.to_string()).collect())
+    }
+
+    #[test]
+    fn method_defaults_from_the_wiring() {
+        let base = serde_json::json!({"responses": ["1:ux"], "excitations": ["1:ux"], "band_hz": [0, 10], "step_hz": 1});
+        assert_eq!(check(base.clone(), &["modes"]).unwrap()["method"], "modal");
+        assert_eq!(check(base, &["model"]).unwrap()["method"], "direct");
+    }
+
+    #[test]
+    fn inconsistent_damping_is_explained() {
+        let with = serde_json::json!({"method": "direct", "responses": ["1:ux"], "excitations": ["1:ux"], "band_hz": [0, 10], "step_hz": 1, "damping": {"viscous": 0.01}});
+        let e = check(with, &["model"]).unwrap_err();
+        assert_eq!(e[0].path, vec!["damping"]);
+        assert!(e[0].message.contains("rayleigh"));
+    }
+
+    #[test]
+    fn missing_lines_and_bad_band() {
+        let e = check(
+            serde_json::json!({"responses": ["1:ux"], "excitations": ["1:ux"]}),
+            &["modes"],
+        )
+        .unwrap_err();
+        assert!(e[0].message.contains("band_hz"));
+        let e = check(serde_json::json!({"responses": ["1:ux"], "excitations": ["1:ux"], "band_hz": [10, 0], "step_hz": 1}), &["modes"]).unwrap_err();
+        assert!(e[0].message.contains("start <= stop"));
+    }
+}

@@ -1,0 +1,28 @@
+//! Stage kinds: the glue between numerical modules and the pipeline engine, one kind per file.
+//! Each parses its typed parameters, calls the numerics and writes artefacts.
+
+pub mod correlate_frf;
+pub mod frf_synthesise;
+pub mod model_lumped;
+pub mod modes;
+pub mod noise_add;
+
+use crate::pipeline::{Registry, Stage, Typed};
+
+static MODEL_LUMPED: Typed<model_lumped::ModelLumped> = Typed::new();
+static MODES: Typed<modes::ModesStage> = Typed::new();
+static FRF_SYNTHESISE: Typed<frf_synthesise::FrfSynthesise> = Typed::new();
+static NOISE_ADD: Typed<noise_add::NoiseAdd> = Typed::new();
+static CORRELATE_FRF: Typed<correlate_frf::CorrelateFrf> = Typed::new();
+
+/// Every stage kind femu knows.
+pub fn registry() -> Registry {
+    let all: Vec<&'static dyn Stage> = vec![
+        &MODEL_LUMPED,
+        &MODES,
+        &FRF_SYNTHESISE,
+        &NOISE_ADD,
+        &CORRELATE_FRF,
+    ];
+    Registry::new(all)
+}

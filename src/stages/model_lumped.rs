@@ -1,0 +1,194 @@
+//! `model.lumped`: a lumped-parameter model (point masses, springs with optional dampers) from
+//! the YAML itself, assembled into system matrices.
+
+use crate::artefact::ArtefactKind;
+use crate::artefact::kinds::matrices_to_artefact;
+use crate::core::DofId;
+use crate::fe::lumped::assemble_lumped;
+use crate::model::{LumpedMass, LumpedModel, LumpedSpring};
+use crate::pipeline::{ParamIssue, PortSpec, StageError, StageInputs, StageOutputs, TypedStage};
+use std::collections::BTreeSet;
+
+/// The stage.
+pub struct ModelLumped;
+
+/// A point mass.
+#[derive(Clone, Debug, serde::Deserialize, serde::Serialize, schemars::JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct MassSpec {
+    /// DOF carrying the mass.
+    pub dof: DofId,
+    /// Mass in kg (kg·m² on a rotation).
+    pub m: f64,
+}
+
+/// A spring, to ground when `to` is omitted.
+#[derive(Clone, Debug, serde::Deserialize, serde::Serialize, schemars::JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct SpringSpec {
+    /// First end.
+    pub from: DofId,
+    /// Second end; omitted for a spring to ground.
+    #[serde(default)]
+    pub to: Option<DofId>,
+    /// Stiffness in N/m (N·m/rad on rotations).
+    pub k: f64,
+    /// Viscous damping in N·s/m.
+    #[serde(default)]
+    pub c: f64,
+    /// Structural damping in N/m (enters as i·d).
+    #[serde(default)]
+    pub d: f64,
+}
+
+/// Parameters of `model.lumped`.
+#[derive(Clone, Debug, serde::Deserialize, serde::Serialize, schemars::JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct Params {
+    /// Point masses; their order fixes the DOF order (spring-only DOFs follow).
+    pub masses: Vec<MassSpec>,
+    /// Springs between DOFs or to ground.
+    #[serde(default)]
+    pub springs: Vec<SpringSpec>,
+}
+
+impl Params {
+    fn model(&self) -> LumpedModel {
+        let mut dofs: Vec<DofId> = Vec::new();
+        let mut push = |d: DofId| {
+            if !dofs.contains(&d) {
+                dofs.push(d);
+            }
+        };
+        self.masses.iter().for_each(|m| push(m.dof));
+        for s in &self.springs {
+            push(s.from);
+            if let Some(t) = s.to {
+                push(t);
+            }
+        }
+        LumpedModel {
+            dofs,
+            masses: self
+                .masses
+                .iter()
+                .map(|m| LumpedMass {
+                    dof: m.dof,
+                    value: m.m,
+                })
+                .collect(),
+            springs: self
+                .springs
+                .iter()
+                .map(|s| LumpedSpring {
+                    from: s.from,
+                    to: s.to,
+                    stiffness: s.k,
+                    viscous: s.c,
+                    structural: s.d,
+                })
+                .collect(),
+        }
+    }
+}
+
+impl TypedStage for ModelLumped {
+    type Params = Params;
+    const KIND: &'static str = "model.lumped";
+    const SUMMARY: &'static str =
+        "Lumped masses and springs (with optional dampers) assembled into K, M, C, D";
+    const IMPL_VERSION: u32 = 1;
+
+    fn inputs() -> Vec<PortSpec> {
+        vec![]
+    }
+
+    fn outputs() -> Vec<PortSpec> {
+        vec![PortSpec::required(
+            "model",
+            ArtefactKind::Matrices,
+            "assembled system matrices",
+        )]
+    }
+
+    fn validate(p: &mut Params, _: &BTreeSet<String>) -> Vec<ParamIssue> {
+        let mut issues = Vec::new();
+        let check = |issues: &mut Vec<ParamIssue>, path: String, v: f64| {
+            if !(v.is_finite() && v >= 0.0) {
+                issues.push(ParamIssue::at(
+                    &path,
+                    format!("{v} must be a finite number >= 0"),
+                ));
+            }
+        };
+        if p.masses.is_empty() {
+            issues.push(ParamIssue::at(
+                "masses",
+                "give at least one mass: `- {dof: \"1:ux\", m: 1.0}`",
+            ));
+        }
+        let mut seen = BTreeSet::new();
+        for (i, m) in p.masses.iter().enumerate() {
+            check(&mut issues, format!("masses.{i}.m"), m.m);
+            if !seen.insert(m.dof) {
+                issues.push(ParamIssue::at(
+                    &format!("masses.{i}.dof"),
+                    format!("DOF {} has a mass already; give each DOF one mass", m.dof),
+                ));
+            }
+        }
+        for (i, s) in p.springs.iter().enumerate() {
+            check(&mut issues, format!("springs.{i}.k"), s.k);
+            check(&mut issues, format!("springs.{i}.c"), s.c);
+            check(&mut issues, format!("springs.{i}.d"), s.d);
+            if s.to == Some(s.from) {
+                issues.push(ParamIssue::at(
+                    &format!("springs.{i}.to"),
+                    format!(
+                        "the spring connects {} to itself; omit `to` for a spring to ground",
+                        s.from
+                    ),
+                ));
+            }
+        }
+        issues
+    }
+
+    fn run(p: &Params, _: &StageInputs) -> Result<StageOutputs, StageError> {
+        let sys = assemble_lumped(&p.model()).map_err(StageError::failed)?;
+        Ok(StageOutputs::from([(
+            "model".to_string(),
+            matrices_to_artefact(&sys),
+        )]))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::pipeline::{Stage, Typed};
+
+    fn check(with: serde_json::Value) -> Result<serde_json::Value, Vec<ParamIssue>> {
+        Typed::<ModelLumped>::new().check(&with, &BTreeSet::new())
+    }
+
+    #[test]
+    fn negative_stiffness_names_the_field() {
+        let e = check(serde_json::json!({"masses": [{"dof": "1:ux", "m": 1.0}], "springs": [{"from": "1:ux", "k": -5.0}]})).unwrap_err();
+        assert_eq!(e[0].path, vec!["springs", "0", "k"]);
+    }
+
+    #[test]
+    fn bad_dof_label_names_the_field() {
+        let e = check(serde_json::json!({"masses": [{"dof": "1:uw", "m": 1.0}]})).unwrap_err();
+        assert_eq!(e[0].path, vec!["masses", "0", "dof"]);
+        assert!(e[0].message.contains("ux uy uz"), "{}", e[0].message);
+    }
+
+    #[test]
+    fn defaults_are_filled() {
+        let v = check(serde_json::json!({"masses": [{"dof": "1:ux", "m": 1.0}], "springs": [{"from": "1:ux", "k": 5.0}]})).unwrap();
+        assert_eq!(v["springs"][0]["c"], serde_json::json!(0.0));
+        assert_eq!(v["springs"][0]["to"], serde_json::Value::Null);
+    }
+}

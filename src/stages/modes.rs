@@ -1,0 +1,126 @@
+//! `modes`: natural frequencies and mass-normalised mode shapes of a model (dense path; THEORY §1).
+
+use crate::artefact::ArtefactKind;
+use crate::artefact::kinds::{matrices_from_artefact, modes_to_artefact};
+use crate::eigen::{ModeSelection, dense_generalized};
+use crate::pipeline::{ParamIssue, PortSpec, StageError, StageInputs, StageOutputs, TypedStage};
+use std::collections::BTreeSet;
+
+/// The stage.
+pub struct ModesStage;
+
+/// Largest model the dense path takes: its cost grows as `N³`.
+pub const DENSE_LIMIT: usize = 6000;
+
+/// Parameters of `modes`.
+#[derive(Clone, Debug, Default, serde::Deserialize, serde::Serialize, schemars::JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct Params {
+    /// Keep the lowest `count` modes (default: all).
+    #[serde(default)]
+    pub count: Option<usize>,
+    /// Keep the modes up to this frequency in Hz (default: all).
+    #[serde(default)]
+    pub max_freq_hz: Option<f64>,
+}
+
+impl TypedStage for ModesStage {
+    type Params = Params;
+    const KIND: &'static str = "modes";
+    const SUMMARY: &'static str =
+        "Natural frequencies and mass-normalised mode shapes (K phi = lambda M phi)";
+    const IMPL_VERSION: u32 = 1;
+
+    fn inputs() -> Vec<PortSpec> {
+        vec![PortSpec::required(
+            "model",
+            ArtefactKind::Matrices,
+            "system matrices K and M",
+        )]
+    }
+
+    fn outputs() -> Vec<PortSpec> {
+        vec![PortSpec::required(
+            "modes",
+            ArtefactKind::Modes,
+            "frequencies, shapes and residuals",
+        )]
+    }
+
+    fn validate(p: &mut Params, _: &BTreeSet<String>) -> Vec<ParamIssue> {
+        let mut issues = Vec::new();
+        if p.count.is_some() && p.max_freq_hz.is_some() {
+            issues.push(ParamIssue::at(
+                "count",
+                "give `count` or `max_freq_hz`, not both",
+            ));
+        }
+        if p.count == Some(0) {
+            issues.push(ParamIssue::at("count", "must be at least 1"));
+        }
+        if let Some(f) = p.max_freq_hz {
+            if !(f.is_finite() && f > 0.0) {
+                issues.push(ParamIssue::at(
+                    "max_freq_hz",
+                    format!("{f} must be a positive frequency in Hz"),
+                ));
+            }
+        }
+        issues
+    }
+
+    fn run(p: &Params, inputs: &StageInputs) -> Result<StageOutputs, StageError> {
+        let sys = matrices_from_artefact(inputs.require("model")?)?;
+        if sys.n() > DENSE_LIMIT {
+            return Err(StageError::Failed(format!(
+                "the model has {} DOFs; this stage's dense eigensolver takes at most {DENSE_LIMIT} (its cost grows as N^3)",
+                sys.n()
+            )));
+        }
+        let selection = match (p.count, p.max_freq_hz) {
+            (Some(c), _) => ModeSelection::Count(c),
+            (_, Some(f)) => ModeSelection::BelowHz(f),
+            _ => ModeSelection::All,
+        };
+        let modes = dense_generalized(
+            sys.k_dense().as_ref(),
+            sys.m_dense().as_ref(),
+            &sys.dofs,
+            selection,
+        )
+        .map_err(StageError::failed)?;
+        Ok(StageOutputs::from([(
+            "modes".to_string(),
+            modes_to_artefact(&sys.dofs, &modes),
+        )]))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::pipeline::{Stage, Typed};
+
+    #[test]
+    fn count_and_max_freq_exclude_each_other() {
+        let e = Typed::<ModesStage>::new()
+            .check(
+                &serde_json::json!({"count": 3, "max_freq_hz": 10.0}),
+                &BTreeSet::new(),
+            )
+            .unwrap_err();
+        assert!(e[0].message.contains("not both"));
+    }
+
+    #[test]
+    fn unknown_param_is_rejected() {
+        let e = Typed::<ModesStage>::new()
+            .check(&serde_json::json!({"cout": 3}), &BTreeSet::new())
+            .unwrap_err();
+        assert!(
+            e[0].message.contains("unknown field `cout`"),
+            "{}",
+            e[0].message
+        );
+    }
+}
