@@ -27,8 +27,13 @@ pub struct Locator {
 }
 
 enum Frame {
-    Map { key: Option<String> },
-    Seq { index: usize },
+    Map {
+        key: Option<String>,
+        seen: HashMap<String, Pos>,
+    },
+    Seq {
+        index: usize,
+    },
 }
 
 struct Recorder<'a> {
@@ -49,19 +54,20 @@ impl Recorder<'_> {
     /// is a value, `None` if it was a mapping key.
     fn node(&mut self, scalar: Option<&str>, mark: Marker) -> Option<Vec<String>> {
         match self.stack.last_mut() {
-            Some(Frame::Map { key }) if key.is_none() => {
+            Some(Frame::Map { key, seen }) if key.is_none() => {
                 let k = scalar.unwrap_or("<complex key>").to_string();
                 let mut p = self.path.clone();
                 p.push(k.clone());
-                if let Some(first) = self.loc.keys.get(&p) {
+                if let Some(first) = seen.get(&k) {
                     self.loc.duplicates.push((p.clone(), *first, pos(mark)));
                 } else {
-                    self.loc.keys.insert(p, pos(mark));
+                    seen.insert(k.clone(), pos(mark));
+                    self.loc.keys.entry(p).or_insert(pos(mark));
                 }
                 *key = Some(k);
                 None
             }
-            Some(Frame::Map { key }) => {
+            Some(Frame::Map { key, .. }) => {
                 let k = key.take().unwrap_or_default();
                 let mut p = self.path.clone();
                 p.push(k);
@@ -101,7 +107,10 @@ impl MarkedEventReceiver for Recorder<'_> {
                     self.path.push("<complex key>".into());
                 }
                 self.stack.push(if is_map {
-                    Frame::Map { key: None }
+                    Frame::Map {
+                        key: None,
+                        seen: HashMap::new(),
+                    }
                 } else {
                     Frame::Seq { index: 0 }
                 });

@@ -1,0 +1,224 @@
+//! The engine on real pipelines: determinism, cache hits, partial re-runs, early cutoff,
+//! corruption recovery, concurrent processes, `femu diff`.
+
+mod common;
+
+use common::*;
+use femu::pipeline::Status;
+use std::collections::BTreeMap;
+
+fn digests(report: &femu::pipeline::RunReport) -> BTreeMap<String, String> {
+    report
+        .stages
+        .iter()
+        .flat_map(|s| {
+            s.outputs
+                .iter()
+                .map(move |(p, o)| (format!("{}.{p}", s.name), o.digest.clone()))
+        })
+        .collect()
+}
+
+#[test]
+fn two_runs_in_fresh_caches_give_identical_digests() {
+    let (a, b) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
+    let (_, r1, _) = run(&pipeline("four-dof"), a.path(), &[]);
+    let (_, r2, _) = run(&pipeline("four-dof"), b.path(), &[]);
+    assert_eq!(digests(&r1), digests(&r2));
+    assert_eq!(executed(&r2).len(), r2.stages.len());
+}
+
+#[test]
+fn an_unchanged_rerun_executes_no_stage() {
+    let dir = tempfile::tempdir().unwrap();
+    let (_, first, _) = run(&pipeline("four-dof"), dir.path(), &[]);
+    assert_eq!(executed(&first).len(), first.stages.len());
+    let (_, second, _) = run(&pipeline("four-dof"), dir.path(), &[]);
+    assert_eq!(executed(&second), Vec::<String>::new());
+    assert_eq!(digests(&first), digests(&second));
+}
+
+#[test]
+fn changing_one_param_reruns_only_downstream() {
+    let dir = tempfile::tempdir().unwrap();
+    run(&pipeline("four-dof"), dir.path(), &[]);
+    let (plan, report, _) = run(&pipeline("four-dof"), dir.path(), &["measured.seed=2"]);
+    let ran = executed(&report);
+    let measured = plan.index("measured").unwrap();
+    let downstream: Vec<String> = plan
+        .nodes
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| *i == measured || plan.upstream_closure(&[*i]).contains(&measured))
+        .map(|(_, n)| n.name.clone())
+        .collect();
+    assert!(
+        ran.contains(&"measured".to_string()) && ran.contains(&"correlation".to_string()),
+        "{ran:?}"
+    );
+    assert_eq!(ran, downstream);
+}
+
+/// A stage re-run with other parameters but identical outputs leaves its consumers cached.
+#[test]
+fn identical_outputs_stop_recomputation_downstream() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = pipeline("four-dof");
+    let text = std::fs::read_to_string(&p).unwrap().replace(
+        "  analytical_modes:\n    kind: modes\n    inputs: {model: analytical}\n",
+        "  analytical_modes:\n    kind: modes\n    inputs: {model: analytical}\n    with: {count: 4}\n\n  modal:\n    kind: frf.synthesise\n    inputs: {modes: analytical_modes}\n    with: {responses: [\"1:ux\"], excitations: [\"1:ux\"], band_hz: [1, 5], step_hz: 1}\n",
+    );
+    let file = dir.path().join("p.yaml");
+    std::fs::write(&file, text).unwrap();
+    let cache = dir.path().join("cache");
+    run(&file, &cache, &[]);
+    // All four modes either way: `max_freq_hz: 100` changes the key, not the content.
+    let (_, report, _) = run(
+        &file,
+        &cache,
+        &[
+            "analytical_modes.count=null",
+            "analytical_modes.max_freq_hz=100",
+        ],
+    );
+    assert_eq!(executed(&report), vec!["analytical_modes".to_string()]);
+}
+
+#[test]
+fn a_corrupted_artefact_is_detected_and_recomputed() {
+    let dir = tempfile::tempdir().unwrap();
+    let (_, first, cache) = run(&pipeline("four-dof"), dir.path(), &[]);
+    let victim = first.stages.iter().find(|s| s.name == "predicted").unwrap();
+    let file = cache.artefact_dir(&victim.key, "frf").join("frf.parquet");
+    let mut bytes = std::fs::read(&file).unwrap();
+    let n = bytes.len();
+    bytes[n / 2] ^= 0x5a;
+    std::fs::write(&file, bytes).unwrap();
+    let (_, second, _) = run(&pipeline("four-dof"), dir.path(), &[]);
+    let s = second
+        .stages
+        .iter()
+        .find(|s| s.name == "predicted")
+        .unwrap();
+    assert_eq!(s.status, Status::Recovered);
+    assert!(s.note.as_deref().unwrap_or("").contains("corrupt"));
+    assert_eq!(
+        executed(&second),
+        vec!["predicted".to_string()],
+        "downstream stays cached: same digest"
+    );
+    assert_eq!(digests(&first), digests(&second));
+}
+
+#[test]
+fn two_processes_on_one_cache_both_succeed() {
+    let dir = tempfile::tempdir().unwrap();
+    let spawn = |out: &str| {
+        femu()
+            .args(["run", "--quiet", "--cache-dir"])
+            .arg(dir.path().join("cache"))
+            .arg("--out")
+            .arg(dir.path().join(out))
+            .arg(pipeline("four-dof"))
+            .stdout(std::process::Stdio::null())
+            .spawn()
+            .unwrap()
+    };
+    let (mut a, mut b) = (spawn("a"), spawn("b"));
+    assert!(a.wait().unwrap().success());
+    assert!(b.wait().unwrap().success());
+    let la = std::fs::read_to_string(dir.path().join("a/femu.lock.json")).unwrap();
+    let lb = std::fs::read_to_string(dir.path().join("b/femu.lock.json")).unwrap();
+    assert_eq!(la, lb);
+    let status = femu()
+        .arg("diff")
+        .arg(dir.path().join("a"))
+        .arg(dir.path().join("b"))
+        .output()
+        .unwrap();
+    assert_eq!(status.status.code(), Some(0));
+}
+
+#[test]
+fn diff_finds_a_changed_value_and_exits_one() {
+    let dir = tempfile::tempdir().unwrap();
+    let run_to = |out: &str, seed: &str| {
+        let s = femu()
+            .args(["run", "--quiet", "--cache-dir"])
+            .arg(dir.path().join("cache"))
+            .arg("--out")
+            .arg(dir.path().join(out))
+            .args(["--set", &format!("measured.seed={seed}")])
+            .arg(pipeline("four-dof"))
+            .output()
+            .unwrap();
+        assert!(s.status.success(), "{}", String::from_utf8_lossy(&s.stderr));
+    };
+    run_to("a", "1");
+    run_to("b", "2");
+    let same = femu()
+        .arg("diff")
+        .arg(dir.path().join("a/predicted/frf"))
+        .arg(dir.path().join("b/predicted/frf"))
+        .output()
+        .unwrap();
+    assert_eq!(same.status.code(), Some(0));
+    let d = femu()
+        .arg("diff")
+        .arg(dir.path().join("a/measured/frf"))
+        .arg(dir.path().join("b/measured/frf"))
+        .output()
+        .unwrap();
+    assert_eq!(d.status.code(), Some(1));
+    let text = String::from_utf8_lossy(&d.stdout);
+    assert!(
+        text.contains("DIFFERENT") && text.contains("frf.re row"),
+        "{text}"
+    );
+    // Thesis noise at 5 % changes values by less than 5.1 %: a loose tolerance accepts it.
+    let loose = femu()
+        .arg("diff")
+        .args(["--rtol", "0.06"])
+        .arg(dir.path().join("a/measured/frf"))
+        .arg(dir.path().join("b/measured/frf"))
+        .output()
+        .unwrap();
+    assert_eq!(
+        loose.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&loose.stdout)
+    );
+    let missing = femu()
+        .arg("diff")
+        .arg(dir.path().join("nope"))
+        .arg(dir.path().join("b"))
+        .output()
+        .unwrap();
+    assert_eq!(missing.status.code(), Some(2));
+}
+
+#[test]
+fn only_runs_the_stage_and_its_upstream() {
+    let dir = tempfile::tempdir().unwrap();
+    let plan = load(&pipeline("four-dof"), &[]);
+    let cache = femu::cache::Cache::open(dir.path()).unwrap();
+    let opts = femu::pipeline::RunOptions {
+        only: vec!["measured".into()],
+        progress: femu::pipeline::ProgressMode::Quiet,
+        ..Default::default()
+    };
+    let r = femu::pipeline::execute(&plan, &cache, &opts).unwrap();
+    let names: Vec<&str> = r.stages.iter().map(|s| s.name.as_str()).collect();
+    assert_eq!(names, vec!["truth", "measured_clean", "measured"]);
+    let forced = femu::pipeline::execute(
+        &plan,
+        &cache,
+        &femu::pipeline::RunOptions {
+            force: true,
+            ..opts
+        },
+    )
+    .unwrap();
+    assert_eq!(executed(&forced).len(), 3);
+}
