@@ -565,4 +565,22 @@ mod tests {
         assert_eq!(digest, b.digest());
         assert_eq!(digest, a.digest());
     }
+
+    #[test]
+    fn tmp_write_to_env_path() {
+        if let Ok(p) = std::env::var("FEMU_TMP_H5") {
+            write(&sample(), Path::new(&p)).unwrap();
+        }
+    }
+
+    #[test]
+    fn tmp_wide_table() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("wide.h5");
+        let mut t = Table::new();
+        for i in 0..6000 { t = t.with(format!("phi_{i:05}_with_a_longish_name"), Column::F64(vec![i as f64; 3])); }
+        let a = Artefact::new(ArtefactKind::Modes).with_table("shapes", t.clone(), Storage::Ipc);
+        write(&a, &path).unwrap();
+        assert_eq!(read(&path).unwrap()["shapes"], t);
+    }
 }
