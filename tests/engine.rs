@@ -222,3 +222,27 @@ fn only_runs_the_stage_and_its_upstream() {
     .unwrap();
     assert_eq!(executed(&forced).len(), 3);
 }
+
+/// `format: hdf5` writes one `data.h5` per artefact; the content digests are the same as with
+/// Parquet/IPC, so the choice of storage never changes a downstream key's inputs.
+#[cfg(feature = "hdf5")]
+#[test]
+fn hdf5_outputs_have_the_same_digests() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(pipeline("four-dof")).unwrap();
+    let mut hdf = String::new();
+    for line in text.lines() {
+        hdf.push_str(line);
+        hdf.push('\n');
+        if line.starts_with("    kind: ") {
+            hdf.push_str("    format: hdf5\n");
+        }
+    }
+    let file = dir.path().join("p.yaml");
+    std::fs::write(&file, hdf).unwrap();
+    let (_, a, cache) = run(&file, &dir.path().join("c1"), &[]);
+    let (_, b, _) = run(&pipeline("four-dof"), &dir.path().join("c2"), &[]);
+    assert_eq!(digests(&a), digests(&b));
+    let s = &a.stages[0];
+    assert!(cache.artefact_dir(&s.key, "model").join("data.h5").exists());
+}

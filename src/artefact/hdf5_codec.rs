@@ -19,6 +19,7 @@
 //! without `column_order` the columns are taken in name order.
 
 use super::{Artefact, ArtefactError, Column, Table};
+use hdf5::file::LibraryVersion;
 use hdf5::types::{IntSize, TypeDescriptor, VarLenAscii, VarLenUnicode};
 use hdf5::{Container, Dataset, File, Group, H5Type};
 use ndarray::ArrayView1;
@@ -67,6 +68,7 @@ fn check_name(path: &Path, what: &str, name: &str) -> Result<(), ArtefactError> 
 pub fn write(a: &Artefact, path: &Path) -> Result<(), ArtefactError> {
     let file = File::with_options()
         .with_fcpl(|p| p.obj_track_times(false))
+        .with_fapl(|p| p.libver_bounds(LibraryVersion::V18, LibraryVersion::V18))
         .create(path)
         .map_err(ctx(path, "cannot create HDF5 file"))?;
     write_tables(&file, a, path)?;
@@ -578,7 +580,12 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("wide.h5");
         let mut t = Table::new();
-        for i in 0..6000 { t = t.with(format!("phi_{i:05}_with_a_longish_name"), Column::F64(vec![i as f64; 3])); }
+        for i in 0..6000 {
+            t = t.with(
+                format!("phi_{i:05}_with_a_longish_name"),
+                Column::F64(vec![i as f64; 3]),
+            );
+        }
         let a = Artefact::new(ArtefactKind::Modes).with_table("shapes", t.clone(), Storage::Ipc);
         write(&a, &path).unwrap();
         assert_eq!(read(&path).unwrap()["shapes"], t);
