@@ -590,4 +590,43 @@ mod tests {
         write(&a, &path).unwrap();
         assert_eq!(read(&path).unwrap()["shapes"], t);
     }
+
+    #[test]
+    fn tmp_read_env() {
+        if let Ok(p) = std::env::var("FEMU_TMP_READ") {
+            println!("READ: {:?}", read(Path::new(&p)));
+        }
+    }
+
+    #[test]
+    fn tmp_corrupt() {
+        let dir = tempfile::tempdir().unwrap();
+        let good = dir.path().join("good.h5");
+        write(&sample(), &good).unwrap();
+        let bytes = std::fs::read(&good).unwrap();
+        let bad = dir.path().join("bad.h5");
+        let (mut ok, mut err) = (0, 0);
+        for i in 0..bytes.len() {
+            for x in [0xffu8, 0x01] {
+                let mut b = bytes.clone();
+                b[i] ^= x;
+                std::fs::write(&bad, &b).unwrap();
+                match read(&bad) {
+                    Ok(_) => ok += 1,
+                    Err(e) => {
+                        assert!(e.to_string().contains("bad.h5"));
+                        err += 1
+                    }
+                }
+            }
+        }
+        for n in (0..bytes.len()).step_by(7) {
+            std::fs::write(&bad, &bytes[..n]).unwrap();
+            match read(&bad) {
+                Ok(_) => ok += 1,
+                Err(_) => err += 1,
+            }
+        }
+        println!("CORRUPT ok={ok} err={err}");
+    }
 }

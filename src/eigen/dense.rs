@@ -97,8 +97,42 @@ pub enum EigenError {
         dofs: usize,
     },
     /// The dense eigensolver did not converge.
-    #[error("the dense symmetric eigensolver did not converge")]
+    #[error("the eigensolver did not converge")]
     NoConvergence,
+    /// A DOF has neither stiffness nor mass.
+    #[error(
+        "DOF {dof} has neither stiffness nor mass, so the problem is singular there; constrain it (SPC) or connect it (e.g. a drilling stiffness for shell rotations)"
+    )]
+    Unsupported {
+        /// The DOF.
+        dof: DofId,
+    },
+    /// `K − σM` could not be factored.
+    #[error(
+        "K - sigma M is not positive definite at the shift sigma = {shift:e} rad^2/s^2: the stiffness has an eigenvalue below the shift (negative stiffness) or the mass matrix is indefinite"
+    )]
+    NotPositiveDefinite {
+        /// The shift.
+        shift: f64,
+    },
+    /// Not every wanted mode converged.
+    #[error(
+        "only {converged} of {wanted} modes converged after {restarts} restarts; loosen the tolerance, ask for fewer modes, or give a shift near the wanted frequencies"
+    )]
+    NotConverged {
+        /// Converged count.
+        converged: usize,
+        /// Wanted count.
+        wanted: usize,
+        /// Restarts done.
+        restarts: usize,
+    },
+    /// "All modes" of a large model.
+    #[error("all {n} modes of a sparse model were asked for; give a count or a frequency limit")]
+    AllModesOfLargeModel {
+        /// DOF count.
+        n: usize,
+    },
 }
 
 /// All (or the selected) modes of a small model, mass-normalised.
@@ -209,19 +243,22 @@ pub fn dense_generalized(
     })
 }
 
-/// Flips a shape so that its largest-magnitude entry (the first, on ties) is positive.
-pub fn fix_sign(mut col: faer::ColMut<'_, f64>) {
+/// Flips a shape so that its largest-magnitude entry (the first, on ties) is positive; returns
+/// whether it flipped.
+pub fn fix_sign(mut col: faer::ColMut<'_, f64>) -> bool {
     let mut best = 0usize;
     for i in 0..col.nrows() {
         if col[i].abs() > col[best].abs() * (1.0 + 1e-12) {
             best = i;
         }
     }
-    if col.nrows() > 0 && col[best] < 0.0 {
+    let flip = col.nrows() > 0 && col[best] < 0.0;
+    if flip {
         for i in 0..col.nrows() {
             col[i] = -col[i];
         }
     }
+    flip
 }
 
 #[cfg(test)]

@@ -1,0 +1,637 @@
+//! Lowest modes of large sparse models by shift-invert Lanczos (THEORY §1, 1.7–1.12).
+//!
+//! With a shift `σ` below the wanted eigenvalues, `A = K − σM` is factored once by sparse
+//! Cholesky (faer, AMD ordering, supernodal). The operator `A⁻¹M` is symmetric in the
+//! `M`-inner product and its largest eigenvalues `ν = 1/(λ − σ)` belong to the lowest `λ`.
+//! A thick-restart Lanczos process builds an `M`-orthonormal basis `V` with full
+//! re-orthogonalisation done as two block Gram–Schmidt passes (parallel dense products), and
+//! the projected matrix `H = VᵀM A⁻¹ M V` is formed explicitly from the same projections, so it is
+//! exact in floating point rather than assumed tridiagonal. Ritz pairs whose Lanczos residual
+//! `‖f‖_M |y_last|` falls below `tol · ν` are accepted; the others seed the next cycle.
+//!
+//! Free-free structures need `σ < 0`: the automatic shift is `−10⁻⁶` times the median ratio of
+//! the diagonals of `K` and `M` (the scale of the model's eigenvalues), or, for a frequency
+//! limit, `−1 %` of its eigenvalue — far enough from zero for a stable factorisation, close
+//! enough that the lowest modes stay well separated. The final eigenvalues are Rayleigh
+//! quotients `φᵀKφ` (`φᵀMφ = 1`), and every mode reports its relative residual. "All modes below
+//! f" enlarges the request until a mode above `f` is found.
+
+use super::dense::{EigenError, ModeSelection, Modes, dense_generalized, fix_sign};
+use crate::core::DofId;
+use crate::fe::system::{SparseMatrix, sparse_to_dense};
+use faer::linalg::solvers::SolveCore;
+use faer::{Conj, Mat, MatMut, MatRef, Par, Side};
+use rand::{Rng, SeedableRng};
+use rayon::prelude::*;
+use std::time::Instant;
+
+/// Settings of the sparse eigensolver.
+#[derive(Clone, Debug)]
+pub struct SparseEigenParams {
+    /// Shift `σ` in rad²/s²; automatic when `None`.
+    pub shift: Option<f64>,
+    /// Relative tolerance on the operator's eigenvalues.
+    pub tolerance: f64,
+    /// Most restarts of the Lanczos process.
+    pub max_restarts: usize,
+    /// Models with at most this many DOFs use the dense path.
+    pub dense_limit: usize,
+    /// Seed of the start vector.
+    pub seed: u64,
+}
+
+impl Default for SparseEigenParams {
+    fn default() -> Self {
+        SparseEigenParams {
+            shift: None,
+            tolerance: 1e-10,
+            max_restarts: 300,
+            dense_limit: 800,
+            seed: 1,
+        }
+    }
+}
+
+/// Where the time went.
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct SparseEigenInfo {
+    /// Shift used.
+    pub shift: f64,
+    /// Whether the dense path was taken.
+    pub dense: bool,
+    /// Seconds in the Cholesky factorisation (symbolic and numeric).
+    pub factor_seconds: f64,
+    /// Seconds in triangular solves.
+    pub solve_seconds: f64,
+    /// Seconds in re-orthogonalisation and restarts (dense products).
+    pub orthogonalisation_seconds: f64,
+    /// Seconds in `M` products.
+    pub mass_product_seconds: f64,
+    /// Operator applications.
+    pub solves: usize,
+    /// Lanczos restarts.
+    pub restarts: usize,
+}
+
+/// `y = A x` for a sparse symmetric `A` stored in full, parallel over output rows.
+pub fn sym_matvec(a: &SparseMatrix, x: MatRef<'_, f64>, mut y: MatMut<'_, f64>) {
+    let n = a.ncols();
+    for c in 0..x.ncols() {
+        let xc: Vec<f64> = (0..n).map(|i| x[(i, c)]).collect();
+        let out: Vec<f64> = (0..n)
+            .into_par_iter()
+            .with_min_len(4096)
+            .map(|j| {
+                let rows = a.row_idx_of_col_raw(j);
+                let vals = a.val_of_col(j);
+                rows.iter().zip(vals).map(|(&i, &v)| v * xc[i]).sum()
+            })
+            .collect();
+        for (j, v) in out.into_iter().enumerate() {
+            y[(j, c)] = v;
+        }
+    }
+}
+
+fn diag(a: &SparseMatrix, j: usize) -> f64 {
+    let rows = a.row_idx_of_col_raw(j);
+    rows.iter()
+        .zip(a.val_of_col(j))
+        .filter(|(i, _)| **i == j)
+        .map(|(_, v)| *v)
+        .sum()
+}
+
+/// The median of `K_jj / M_jj` over DOFs with mass: the scale of the model's eigenvalues.
+fn eigenvalue_scale(k: &SparseMatrix, m: &SparseMatrix) -> f64 {
+    let mut r: Vec<f64> = (0..k.ncols())
+        .filter_map(|j| {
+            let (kj, mj) = (diag(k, j), diag(m, j));
+            (mj > 0.0 && kj > 0.0).then_some(kj / mj)
+        })
+        .collect();
+    if r.is_empty() {
+        return 1.0;
+    }
+    let mid = r.len() / 2;
+    r.select_nth_unstable_by(mid, |a, b| a.total_cmp(b));
+    r[mid]
+}
+
+/// Lowest modes of `K φ = λ M φ`; `dofs` labels the rows.
+pub fn lowest_modes(
+    k: &SparseMatrix,
+    m: &SparseMatrix,
+    dofs: &[DofId],
+    selection: ModeSelection,
+    params: &SparseEigenParams,
+) -> Result<(Modes, SparseEigenInfo), EigenError> {
+    let n = dofs.len();
+    if k.nrows() != n || k.ncols() != n || m.nrows() != n || m.ncols() != n {
+        return Err(EigenError::Shape {
+            k: k.nrows(),
+            m: m.nrows(),
+            dofs: n,
+        });
+    }
+    for j in 0..n {
+        let (kj, mj) = (diag(k, j), diag(m, j));
+        if !(mj >= 0.0) {
+            return Err(EigenError::MasslessDof {
+                dof: dofs[j],
+                value: mj,
+            });
+        }
+        if kj == 0.0 && mj == 0.0 {
+            return Err(EigenError::Unsupported { dof: dofs[j] });
+        }
+    }
+    if n <= params.dense_limit {
+        let modes = dense_generalized(
+            sparse_to_dense(k).as_ref(),
+            sparse_to_dense(m).as_ref(),
+            dofs,
+            selection,
+        )?;
+        return Ok((
+            modes,
+            SparseEigenInfo {
+                dense: true,
+                ..Default::default()
+            },
+        ));
+    }
+    let scale = eigenvalue_scale(k, m);
+    let shift = params.shift.unwrap_or(match selection {
+        ModeSelection::BelowHz(f) => {
+            -0.01 * (2.0 * std::f64::consts::PI * f).powi(2).max(1e-12 * scale)
+        }
+        _ => -1e-6 * scale,
+    });
+    let mut info = SparseEigenInfo {
+        shift,
+        ..Default::default()
+    };
+    let t0 = Instant::now();
+    // A = K − σM over the union pattern.
+    let mut trip = Vec::with_capacity(k.compute_nnz() + m.compute_nnz());
+    for (mat, f) in [(k, 1.0), (m, -shift)] {
+        for j in 0..n {
+            for (&i, &v) in mat.row_idx_of_col_raw(j).iter().zip(mat.val_of_col(j)) {
+                if i >= j {
+                    trip.push(faer::sparse::Triplet::new(i, j, f * v));
+                }
+            }
+        }
+    }
+    let a =
+        SparseMatrix::try_new_from_triplets(n, n, &trip).map_err(|_| EigenError::NoConvergence)?;
+    drop(trip);
+    let llt = a
+        .sp_cholesky(Side::Lower)
+        .map_err(|_| EigenError::NotPositiveDefinite { shift })?;
+    info.factor_seconds = t0.elapsed().as_secs_f64();
+
+    let (mut lambdas, mut vecs, counted) = match selection {
+        ModeSelection::All => return Err(EigenError::AllModesOfLargeModel { n }),
+        ModeSelection::Count(c) => {
+            let (l, v) = lanczos(&llt, m, n, c.min(n / 2), shift, params, &mut info)?;
+            (l, v, c.min(n / 2))
+        }
+        ModeSelection::BelowHz(f) => {
+            let limit = (2.0 * std::f64::consts::PI * f).powi(2);
+            let mut count = 20.min(n);
+            loop {
+                let (l, v) = lanczos(&llt, m, n, count, shift, params, &mut info)?;
+                if l.last().is_some_and(|x| *x > limit) || count >= n / 2 {
+                    let keep = l.iter().take_while(|x| **x <= limit).count();
+                    break (l, v, keep);
+                }
+                count = (count * 2).min(n / 2);
+            }
+        }
+    };
+    lambdas.truncate(counted);
+    vecs = vecs.subcols(0, counted).to_owned();
+    let modes = finish(k, m, lambdas, vecs)?;
+    Ok((modes, info))
+}
+
+/// Rayleigh quotients, residuals, orthogonality and sign convention for computed pairs.
+fn finish(
+    k: &SparseMatrix,
+    m: &SparseMatrix,
+    mut lambdas: Vec<f64>,
+    mut shapes: Mat<f64>,
+) -> Result<Modes, EigenError> {
+    let (n, c) = (shapes.nrows(), shapes.ncols());
+    let mut kphi = Mat::zeros(n, c);
+    let mut mphi = Mat::zeros(n, c);
+    sym_matvec(k, shapes.as_ref(), kphi.as_mut());
+    sym_matvec(m, shapes.as_ref(), mphi.as_mut());
+    let largest = lambdas.iter().fold(0.0f64, |s, l| s.max(l.abs()));
+    let k_norm = (0..n).map(|j| diag(k, j).abs()).fold(0.0f64, f64::max);
+    let mut residuals = Vec::with_capacity(c);
+    let mut rigid = 0;
+    for r in 0..c {
+        let (mut pkp, mut pmp) = (0.0, 0.0);
+        for i in 0..n {
+            pkp += shapes[(i, r)] * kphi[(i, r)];
+            pmp += shapes[(i, r)] * mphi[(i, r)];
+        }
+        let mut lam = pkp / pmp;
+        if lam.abs() <= 1e-10 * largest.max(f64::MIN_POSITIVE) {
+            lam = 0.0;
+            rigid += 1;
+        } else if lam < 0.0 {
+            return Err(EigenError::IndefiniteStiffness {
+                value: lam,
+                largest,
+            });
+        }
+        lambdas[r] = lam;
+        let s = 1.0 / pmp.sqrt();
+        let (mut r2, mut k2, mut p2) = (0.0, 0.0, 0.0);
+        for i in 0..n {
+            shapes[(i, r)] *= s;
+            let (kp, mp) = (kphi[(i, r)] * s, mphi[(i, r)] * s);
+            kphi[(i, r)] = kp;
+            mphi[(i, r)] = mp;
+            let res = kp - lam * mp;
+            r2 += res * res;
+            k2 += kp * kp;
+            p2 += shapes[(i, r)] * shapes[(i, r)];
+        }
+        let denom = if lam == 0.0 {
+            k_norm * p2.sqrt()
+        } else {
+            k2.sqrt()
+        };
+        residuals.push(if denom > 0.0 { r2.sqrt() / denom } else { 0.0 });
+        if fix_sign(shapes.as_mut().col_mut(r)) {
+            for i in 0..n {
+                mphi[(i, r)] = -mphi[(i, r)];
+            }
+        }
+    }
+    // Re-sort: Rayleigh quotients may swap nearly repeated pairs.
+    let mut order: Vec<usize> = (0..c).collect();
+    order.sort_by(|a, b| lambdas[*a].total_cmp(&lambdas[*b]));
+    let shapes = Mat::from_fn(n, c, |i, j| shapes[(i, order[j])]);
+    let mphi = Mat::from_fn(n, c, |i, j| mphi[(i, order[j])]);
+    let lambdas: Vec<f64> = order.iter().map(|&j| lambdas[j]).collect();
+    let residuals: Vec<f64> = order.iter().map(|&j| residuals[j]).collect();
+    let gram = shapes.transpose() * &mphi;
+    let mut orthogonality_error = 0.0f64;
+    for i in 0..c {
+        for j in 0..c {
+            let t = if i == j { 1.0 } else { 0.0 };
+            orthogonality_error = orthogonality_error.max((gram[(i, j)] - t).abs());
+        }
+    }
+    Ok(Modes {
+        eigenvalues: lambdas,
+        shapes,
+        residuals,
+        orthogonality_error,
+        rigid_body_modes: rigid,
+    })
+}
+
+/// Thick-restart Lanczos on `A⁻¹M` in the `M`-inner product. Returns the `nev` lowest `λ`
+/// (ascending) and their `M`-orthonormal vectors.
+fn lanczos(
+    llt: &faer::sparse::linalg::solvers::Llt<usize, f64>,
+    m: &SparseMatrix,
+    n: usize,
+    nev: usize,
+    shift: f64,
+    params: &SparseEigenParams,
+    info: &mut SparseEigenInfo,
+) -> Result<(Vec<f64>, Mat<f64>), EigenError> {
+    let p = (2 * nev).max(nev + 24).min(n - 1);
+    let mut v = Mat::<f64>::zeros(n, p);
+    let mut mv = Mat::<f64>::zeros(n, p);
+    let mut h = Mat::<f64>::zeros(p, p);
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(params.seed);
+    let mut start: Mat<f64> = Mat::from_fn(n, 1, |_, _| rng.random::<f64>() - 0.5);
+    // Start inside the operator's range (kills components of massless DOFs).
+    let mut tmp = Mat::zeros(n, 1);
+    sym_matvec(m, start.as_ref(), tmp.as_mut());
+    llt.solve_in_place_with_conj(Conj::No, tmp.as_mut());
+    start = tmp;
+    let mut ms = Mat::zeros(n, 1);
+    sym_matvec(m, start.as_ref(), ms.as_mut());
+    let nrm = dot(start.as_ref(), ms.as_ref()).sqrt();
+    if !(nrm > 0.0) {
+        return Err(EigenError::NoConvergence);
+    }
+    for i in 0..n {
+        v[(i, 0)] = start[(i, 0)] / nrm;
+        mv[(i, 0)] = ms[(i, 0)] / nrm;
+    }
+    let mut kept = 0usize;
+    let mut f = Mat::<f64>::zeros(n, 1);
+    let mut fm = Mat::<f64>::zeros(n, 1);
+    let mut beta_last = 0.0;
+    let par = Par::rayon(0);
+    for restart in 0..=params.max_restarts {
+        info.restarts = restart;
+        for j in kept..p {
+            let t = Instant::now();
+            let mut w = mv.as_ref().subcols(j, 1).to_owned();
+            llt.solve_in_place_with_conj(Conj::No, w.as_mut());
+            info.solve_seconds += t.elapsed().as_secs_f64();
+            info.solves += 1;
+            let t = Instant::now();
+            // Two passes of block Gram–Schmidt in the M-inner product; H from the projections.
+            let basis = v.as_ref().subcols(0, j + 1);
+            let mbasis = mv.as_ref().subcols(0, j + 1);
+            let mut c = Mat::<f64>::zeros(j + 1, 1);
+            for _ in 0..2 {
+                let mut pc = Mat::<f64>::zeros(j + 1, 1);
+                faer::linalg::matmul::matmul(
+                    pc.as_mut(),
+                    faer::Accum::Replace,
+                    mbasis.transpose(),
+                    w.as_ref(),
+                    1.0,
+                    par,
+                );
+                faer::linalg::matmul::matmul(
+                    w.as_mut(),
+                    faer::Accum::Add,
+                    basis,
+                    pc.as_ref(),
+                    -1.0,
+                    par,
+                );
+                for i in 0..=j {
+                    c[(i, 0)] += pc[(i, 0)];
+                }
+            }
+            for i in 0..=j {
+                h[(i, j)] = c[(i, 0)];
+                h[(j, i)] = c[(i, 0)];
+            }
+            info.orthogonalisation_seconds += t.elapsed().as_secs_f64();
+            let t = Instant::now();
+            let mut mw = Mat::<f64>::zeros(n, 1);
+            sym_matvec(m, w.as_ref(), mw.as_mut());
+            info.mass_product_seconds += t.elapsed().as_secs_f64();
+            let mut beta = dot(w.as_ref(), mw.as_ref()).max(0.0).sqrt();
+            let scale = c.as_ref().col(0).iter().fold(0.0f64, |s, x| s.max(x.abs()));
+            if beta <= 1e-14 * scale.max(f64::MIN_POSITIVE) {
+                // Invariant subspace: continue with a fresh direction M-orthogonal to the basis.
+                let mut fresh: Mat<f64> = Mat::from_fn(n, 1, |_, _| rng.random::<f64>() - 0.5);
+                let mut mf = Mat::zeros(n, 1);
+                sym_matvec(m, fresh.as_ref(), mf.as_mut());
+                llt.solve_in_place_with_conj(Conj::No, mf.as_mut());
+                fresh = mf;
+                for _ in 0..2 {
+                    let mut pc = Mat::<f64>::zeros(j + 1, 1);
+                    faer::linalg::matmul::matmul(
+                        pc.as_mut(),
+                        faer::Accum::Replace,
+                        mbasis.transpose(),
+                        fresh.as_ref(),
+                        1.0,
+                        par,
+                    );
+                    faer::linalg::matmul::matmul(
+                        fresh.as_mut(),
+                        faer::Accum::Add,
+                        basis,
+                        pc.as_ref(),
+                        -1.0,
+                        par,
+                    );
+                }
+                w = fresh;
+                sym_matvec(m, w.as_ref(), mw.as_mut());
+                beta = dot(w.as_ref(), mw.as_ref()).max(0.0).sqrt();
+                if !(beta > 0.0) {
+                    return Err(EigenError::NoConvergence);
+                }
+                // The coupling to the new direction is zero: the subspace was invariant.
+                if j + 1 == p {
+                    beta_last = 0.0;
+                }
+            } else if j + 1 == p {
+                beta_last = beta;
+            }
+            if j + 1 < p {
+                for i in 0..n {
+                    v[(i, j + 1)] = w[(i, 0)] / beta;
+                    mv[(i, j + 1)] = mw[(i, 0)] / beta;
+                }
+            } else {
+                for i in 0..n {
+                    f[(i, 0)] = w[(i, 0)] / beta;
+                    fm[(i, 0)] = mw[(i, 0)] / beta;
+                }
+            }
+        }
+        // Rayleigh–Ritz on H.
+        let t = Instant::now();
+        let evd = h
+            .self_adjoint_eigen(Side::Lower)
+            .map_err(|_| EigenError::NoConvergence)?;
+        let theta: Vec<f64> = (0..p).map(|i| evd.S()[i]).collect();
+        let y = evd.U();
+        // Largest θ first.
+        let order: Vec<usize> = (0..p).rev().collect();
+        let converged = order
+            .iter()
+            .take(nev)
+            .take_while(|&&i| {
+                (beta_last * y[(p - 1, i)]).abs() <= params.tolerance * theta[i].abs()
+            })
+            .count();
+        let done = converged >= nev || restart == params.max_restarts;
+        let keep = if done {
+            nev
+        } else {
+            (nev + (p - nev) / 2)
+                .min(p - 1)
+                .max(converged + 1)
+                .min(p - 1)
+        };
+        let yk = Mat::from_fn(p, keep, |i, c| y[(i, order[c])]);
+        let vk = &v * &yk;
+        let mvk = &mv * &yk;
+        info.orthogonalisation_seconds += t.elapsed().as_secs_f64();
+        if done {
+            if converged < nev {
+                return Err(EigenError::NotConverged {
+                    converged,
+                    wanted: nev,
+                    restarts: restart,
+                });
+            }
+            let lambdas: Vec<f64> = (0..nev).map(|c| shift + 1.0 / theta[order[c]]).collect();
+            return Ok((lambdas, vk));
+        }
+        // Thick restart: kept Ritz vectors, then the residual direction.
+        h.fill(0.0);
+        for c in 0..keep {
+            v.as_mut().col_mut(c).copy_from(vk.col(c));
+            mv.as_mut().col_mut(c).copy_from(mvk.col(c));
+            h[(c, c)] = theta[order[c]];
+        }
+        v.as_mut().col_mut(keep).copy_from(f.col(0));
+        mv.as_mut().col_mut(keep).copy_from(fm.col(0));
+        kept = keep;
+    }
+    Err(EigenError::NoConvergence)
+}
+
+fn dot(a: MatRef<'_, f64>, b: MatRef<'_, f64>) -> f64 {
+    (0..a.nrows()).map(|i| a[(i, 0)] * b[(i, 0)]).sum()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::fe::system::sparse_from_triplets;
+
+    /// A free-free chain of `n` masses: one rigid mode, `λ_r = (4k/m) sin²(rπ/(2n))`.
+    fn free_chain(n: usize, k: f64, m: f64) -> (SparseMatrix, SparseMatrix, Vec<DofId>) {
+        let mut kt = Vec::new();
+        for i in 0..n - 1 {
+            kt.extend([(i, i, k), (i + 1, i + 1, k), (i, i + 1, -k), (i + 1, i, -k)]);
+        }
+        let mt: Vec<_> = (0..n).map(|i| (i, i, m)).collect();
+        let dofs = (0..n as u64)
+            .map(|i| DofId::new(i + 1, crate::core::Component::Ux))
+            .collect();
+        (
+            sparse_from_triplets("K", n, &kt).unwrap(),
+            sparse_from_triplets("M", n, &mt).unwrap(),
+            dofs,
+        )
+    }
+
+    #[test]
+    fn free_chain_lowest_modes_match_the_analytic_values() {
+        let (n, k, m) = (3000, 1e6, 0.5);
+        let (kk, mm, dofs) = free_chain(n, k, m);
+        let (modes, info) = lowest_modes(
+            &kk,
+            &mm,
+            &dofs,
+            ModeSelection::Count(12),
+            &SparseEigenParams::default(),
+        )
+        .unwrap();
+        assert!(!info.dense);
+        assert_eq!(modes.rigid_body_modes, 1);
+        for r in 0..12 {
+            let s = (r as f64 * std::f64::consts::PI / (2.0 * n as f64)).sin();
+            let exact = 4.0 * k / m * s * s;
+            let got = modes.eigenvalues[r];
+            let err = if r == 0 {
+                got.abs()
+            } else {
+                ((got - exact) / exact).abs()
+            };
+            assert!(err < 1e-8, "mode {r}: {got} vs {exact}");
+            assert!(
+                modes.residuals[r] < 1e-8,
+                "mode {r} residual {}",
+                modes.residuals[r]
+            );
+        }
+        assert!(
+            modes.orthogonality_error < 1e-10,
+            "{}",
+            modes.orthogonality_error
+        );
+    }
+
+    #[test]
+    fn repeated_eigenvalues_are_all_found() {
+        // Two identical, uncoupled chains: every eigenvalue is double.
+        let (n, k, m) = (1200, 1e4, 1.0);
+        let (k1, m1, _) = free_chain(n, k, m);
+        let mut kt = Vec::new();
+        let mut mt = Vec::new();
+        for (off, (a, b)) in [(0, (&k1, &m1)), (n, (&k1, &m1))] {
+            for j in 0..n {
+                for (&i, &v) in a.row_idx_of_col_raw(j).iter().zip(a.val_of_col(j)) {
+                    kt.push((i + off, j + off, v));
+                }
+                for (&i, &v) in b.row_idx_of_col_raw(j).iter().zip(b.val_of_col(j)) {
+                    mt.push((i + off, j + off, v));
+                }
+            }
+        }
+        // Ground both chains at one end so there is no rigid mode.
+        kt.push((0, 0, k));
+        kt.push((n, n, k));
+        let kk = sparse_from_triplets("K", 2 * n, &kt).unwrap();
+        let mm = sparse_from_triplets("M", 2 * n, &mt).unwrap();
+        let dofs: Vec<DofId> = (0..2 * n as u64)
+            .map(|i| DofId::new(i + 1, crate::core::Component::Ux))
+            .collect();
+        let (modes, _) = lowest_modes(
+            &kk,
+            &mm,
+            &dofs,
+            ModeSelection::Count(8),
+            &SparseEigenParams::default(),
+        )
+        .unwrap();
+        for r in (0..8).step_by(2) {
+            let (a, b) = (modes.eigenvalues[r], modes.eigenvalues[r + 1]);
+            assert!(((a - b) / a).abs() < 1e-9, "pair {r}: {a} vs {b}");
+        }
+        assert!(modes.orthogonality_error < 1e-10);
+    }
+
+    #[test]
+    fn modes_below_a_frequency_match_the_dense_solution() {
+        let (kk, mm, dofs) = free_chain(1000, 2e5, 1.0);
+        let (sparse, _) = lowest_modes(
+            &kk,
+            &mm,
+            &dofs,
+            ModeSelection::BelowHz(10.0),
+            &SparseEigenParams::default(),
+        )
+        .unwrap();
+        let dense = dense_generalized(
+            sparse_to_dense(&kk).as_ref(),
+            sparse_to_dense(&mm).as_ref(),
+            &dofs,
+            ModeSelection::BelowHz(10.0),
+        )
+        .unwrap();
+        assert_eq!(sparse.len(), dense.len());
+        for r in 1..dense.len() {
+            assert!(
+                ((sparse.eigenvalues[r] - dense.eigenvalues[r]) / dense.eigenvalues[r]).abs()
+                    < 1e-9
+            );
+        }
+    }
+
+    #[test]
+    fn dof_without_stiffness_or_mass_is_named() {
+        let (kk, _, dofs) = free_chain(900, 1.0, 1.0);
+        let mt: Vec<_> = (0..899).map(|i| (i, i, 1.0)).collect();
+        let mm = sparse_from_triplets("M", 900, &mt).unwrap();
+        let mut kt = crate::fe::system::sparse_triplets(&kk);
+        kt.retain(|t| t.0 != 899 && t.1 != 899);
+        let kk = sparse_from_triplets("K", 900, &kt).unwrap();
+        let e = lowest_modes(
+            &kk,
+            &mm,
+            &dofs,
+            ModeSelection::Count(3),
+            &SparseEigenParams::default(),
+        )
+        .unwrap_err();
+        assert!(e.to_string().contains("900:ux"), "{e}");
+    }
+}
