@@ -1,5 +1,10 @@
 //! Model descriptions: what the structure is, before any matrix is built.
 
 pub mod lumped;
+pub mod structure;
 
 pub use lumped::{LumpedMass, LumpedModel, LumpedModelError, LumpedSpring};
+pub use structure::{
+    BeamProperty, BeamSection, Element, Material, Model, ModelError, Parameter, ParameterKind,
+    ShellProperty,
+};

@@ -1,0 +1,391 @@
+//! A finite-element model as engineers describe it: grid points, elements referring to
+//! properties and materials, lumped springs and masses, single-point constraints, named element
+//! sets and updating parameters (THEORY §2). Ids are the user's (Nastran) ids; nothing here is a
+//! matrix row number.
+
+use crate::core::{Component, DofId};
+use std::collections::BTreeMap;
+
+/// An isotropic linear-elastic material (Nastran MAT1).
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Material {
+    /// Young's modulus, Pa.
+    pub e: f64,
+    /// Poisson's ratio.
+    pub nu: f64,
+    /// Density, kg/m³.
+    pub rho: f64,
+}
+
+impl Material {
+    /// Shear modulus `E / (2(1 + ν))`.
+    pub fn g(&self) -> f64 {
+        self.e / (2.0 * (1.0 + self.nu))
+    }
+}
+
+/// A shell property (Nastran PSHELL, membrane + bending of one material).
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct ShellProperty {
+    /// Material id.
+    pub material: u64,
+    /// Thickness, m.
+    pub thickness: f64,
+    /// Non-structural mass per area, kg/m².
+    pub nsm: f64,
+}
+
+/// A beam cross-section.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(tag = "shape", rename_all = "snake_case")]
+pub enum BeamSection {
+    /// Solid rectangle: `width` along the element's local y, `height` along local z (PBARL BAR).
+    Rectangle {
+        /// Width, m.
+        width: f64,
+        /// Height, m.
+        height: f64,
+    },
+    /// Solid circle (PBARL ROD).
+    Circle {
+        /// Radius, m.
+        radius: f64,
+    },
+    /// Circular tube (PBARL TUBE).
+    Tube {
+        /// Outer radius, m.
+        outer_radius: f64,
+        /// Inner radius, m.
+        inner_radius: f64,
+    },
+    /// Properties given directly (PBAR, PBEAM).
+    General {
+        /// Area, m².
+        area: f64,
+        /// Second moment about local y, m⁴.
+        iy: f64,
+        /// Second moment about local z, m⁴.
+        iz: f64,
+        /// Torsion constant, m⁴.
+        j: f64,
+        /// Shear factor in y (0: no shear flexibility).
+        shear_y: f64,
+        /// Shear factor in z.
+        shear_z: f64,
+    },
+}
+
+/// A beam property (PBAR, PBARL, PBEAM).
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct BeamProperty {
+    /// Material id.
+    pub material: u64,
+    /// Cross-section.
+    pub section: BeamSection,
+    /// Non-structural mass per length, kg/m.
+    pub nsm: f64,
+}
+
+/// One element.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(tag = "type", rename_all = "snake_case")]
+pub enum Element {
+    /// Four-node shell (CQUAD4).
+    Quad4 {
+        /// Corner nodes, counter-clockwise.
+        nodes: [u64; 4],
+        /// Shell property id.
+        property: u64,
+    },
+    /// Three-node shell (CTRIA3).
+    Tria3 {
+        /// Corner nodes.
+        nodes: [u64; 3],
+        /// Shell property id.
+        property: u64,
+    },
+    /// Two-node beam (CBAR, CBEAM).
+    Beam {
+        /// End nodes.
+        nodes: [u64; 2],
+        /// Beam property id.
+        property: u64,
+        /// Orientation vector `v` in the basic system: local y lies in the plane of the axis and `v`.
+        orientation: [f64; 3],
+    },
+    /// Six-DOF lumped spring (CBUSH; or a spring to ground when `nodes[1]` is `None`),
+    /// stiffness per basic direction.
+    Bush {
+        /// First node.
+        node: u64,
+        /// Second node, or ground.
+        other: Option<u64>,
+        /// Stiffness `[kx, ky, kz, krx, kry, krz]` (N/m, N·m/rad).
+        k: [f64; 6],
+    },
+    /// Scalar spring between two DOFs, or one DOF and ground (CELAS1/2).
+    ScalarSpring {
+        /// First DOF.
+        dof: DofId,
+        /// Second DOF, or ground.
+        other: Option<DofId>,
+        /// Stiffness.
+        k: f64,
+    },
+    /// Six-DOF lumped mass (CONM2): mass, inertia tensor about the centre of gravity, offset.
+    Mass {
+        /// The node.
+        node: u64,
+        /// Mass, kg.
+        mass: f64,
+        /// Inertia `[I11, I21, I22, I31, I32, I33]` about the centre of gravity, kg·m².
+        inertia: [f64; 6],
+        /// Centre of gravity relative to the node, m.
+        offset: [f64; 3],
+    },
+}
+
+impl Element {
+    /// Grid points the element connects.
+    pub fn nodes(&self) -> Vec<u64> {
+        match self {
+            Element::Quad4 { nodes, .. } => nodes.to_vec(),
+            Element::Tria3 { nodes, .. } => nodes.to_vec(),
+            Element::Beam { nodes, .. } => nodes.to_vec(),
+            Element::Bush { node, other, .. } => std::iter::once(*node).chain(*other).collect(),
+            Element::ScalarSpring { dof, other, .. } => std::iter::once(dof.node)
+                .chain(other.map(|d| d.node))
+                .collect(),
+            Element::Mass { node, .. } => vec![*node],
+        }
+    }
+
+    /// Property id, for elements that have one.
+    pub fn property(&self) -> Option<u64> {
+        match self {
+            Element::Quad4 { property, .. }
+            | Element::Tria3 { property, .. }
+            | Element::Beam { property, .. } => Some(*property),
+            _ => None,
+        }
+    }
+
+    /// Short type name.
+    pub fn type_name(&self) -> &'static str {
+        match self {
+            Element::Quad4 { .. } => "quad4",
+            Element::Tria3 { .. } => "tria3",
+            Element::Beam { .. } => "beam",
+            Element::Bush { .. } => "bush",
+            Element::ScalarSpring { .. } => "scalar_spring",
+            Element::Mass { .. } => "mass",
+        }
+    }
+}
+
+/// What an updating parameter changes (THEORY §2).
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ParameterKind {
+    /// Shell thickness of the set's shell elements.
+    ShellThickness,
+    /// Young's modulus of the set's elements.
+    YoungsModulus,
+    /// Density of the set's elements.
+    Density,
+    /// Beam section width.
+    BeamWidth,
+    /// Beam section height.
+    BeamHeight,
+    /// Stiffness of the set's lumped springs in one direction.
+    SpringStiffness(Component),
+    /// Lumped mass of the set's mass elements (translations: `mass`; rotations: inertia).
+    LumpedMass(Component),
+}
+
+/// A named updating parameter: a property of a set of elements, with bounds on its value.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Parameter {
+    /// Name (unique in the model).
+    pub name: String,
+    /// What it changes.
+    pub kind: ParameterKind,
+    /// Name of the element set it acts on.
+    pub set: String,
+    /// Lowest allowed value (SI).
+    pub lower: f64,
+    /// Highest allowed value (SI).
+    pub upper: f64,
+}
+
+/// A whole model.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Model {
+    /// Grid points by id: coordinates in the basic system, m.
+    pub nodes: BTreeMap<u64, [f64; 3]>,
+    /// Materials by id.
+    pub materials: BTreeMap<u64, Material>,
+    /// Shell properties by id.
+    pub shell_properties: BTreeMap<u64, ShellProperty>,
+    /// Beam properties by id.
+    pub beam_properties: BTreeMap<u64, BeamProperty>,
+    /// Elements by id.
+    pub elements: BTreeMap<u64, Element>,
+    /// Constrained (zero) DOFs.
+    pub constraints: Vec<DofId>,
+    /// Named element sets (element ids, ascending).
+    pub sets: BTreeMap<String, Vec<u64>>,
+    /// Updating parameters.
+    pub parameters: Vec<Parameter>,
+}
+
+/// Why a model is inconsistent.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum ModelError {
+    /// An element names a node that does not exist.
+    #[error("element {element} ({kind}) refers to node {node}, which is not defined")]
+    MissingNode {
+        /// Element id.
+        element: u64,
+        /// Element type.
+        kind: &'static str,
+        /// Node id.
+        node: u64,
+    },
+    /// An element names a property that does not exist (or of the wrong type).
+    #[error(
+        "element {element} ({kind}) refers to property {property}, which is not a {wanted} property of the model"
+    )]
+    MissingProperty {
+        /// Element id.
+        element: u64,
+        /// Element type.
+        kind: &'static str,
+        /// Property id.
+        property: u64,
+        /// Kind of property needed.
+        wanted: &'static str,
+    },
+    /// A property names a material that does not exist.
+    #[error("property {property} refers to material {material}, which is not defined")]
+    MissingMaterial {
+        /// Property id.
+        property: u64,
+        /// Material id.
+        material: u64,
+    },
+    /// A set names an element that does not exist.
+    #[error("set `{set}` lists element {element}, which is not defined")]
+    MissingSetElement {
+        /// Set name.
+        set: String,
+        /// Element id.
+        element: u64,
+    },
+    /// A parameter names a set that does not exist.
+    #[error("parameter `{parameter}` acts on set `{set}`, which is not defined (sets: {known})")]
+    MissingSet {
+        /// Parameter.
+        parameter: String,
+        /// Set name.
+        set: String,
+        /// Known sets.
+        known: String,
+    },
+    /// A constraint names a node that does not exist.
+    #[error("a constraint refers to node {0}, which is not defined")]
+    ConstraintNode(u64),
+}
+
+impl Model {
+    /// Checks every reference.
+    pub fn validate(&self) -> Result<(), ModelError> {
+        for (&id, e) in &self.elements {
+            for n in e.nodes() {
+                if !self.nodes.contains_key(&n) {
+                    return Err(ModelError::MissingNode {
+                        element: id,
+                        kind: e.type_name(),
+                        node: n,
+                    });
+                }
+            }
+            let (ok, wanted) = match e {
+                Element::Quad4 { property, .. } | Element::Tria3 { property, .. } => {
+                    (self.shell_properties.contains_key(property), "shell")
+                }
+                Element::Beam { property, .. } => {
+                    (self.beam_properties.contains_key(property), "beam")
+                }
+                _ => (true, ""),
+            };
+            if !ok {
+                return Err(ModelError::MissingProperty {
+                    element: id,
+                    kind: e.type_name(),
+                    property: e.property().unwrap_or(0),
+                    wanted,
+                });
+            }
+        }
+        for (&id, p) in &self.shell_properties {
+            if !self.materials.contains_key(&p.material) {
+                return Err(ModelError::MissingMaterial {
+                    property: id,
+                    material: p.material,
+                });
+            }
+        }
+        for (&id, p) in &self.beam_properties {
+            if !self.materials.contains_key(&p.material) {
+                return Err(ModelError::MissingMaterial {
+                    property: id,
+                    material: p.material,
+                });
+            }
+        }
+        for (name, ids) in &self.sets {
+            for e in ids {
+                if !self.elements.contains_key(e) {
+                    return Err(ModelError::MissingSetElement {
+                        set: name.clone(),
+                        element: *e,
+                    });
+                }
+            }
+        }
+        for p in &self.parameters {
+            if !self.sets.contains_key(&p.set) {
+                return Err(ModelError::MissingSet {
+                    parameter: p.name.clone(),
+                    set: p.set.clone(),
+                    known: self.sets.keys().cloned().collect::<Vec<_>>().join(", "),
+                });
+            }
+        }
+        for d in &self.constraints {
+            if !self.nodes.contains_key(&d.node) {
+                return Err(ModelError::ConstraintNode(d.node));
+            }
+        }
+        Ok(())
+    }
+
+    /// Adds one set per property id (`pid<N>`), the usual grouping of imported models.
+    pub fn add_property_sets(&mut self) {
+        let mut by_pid: BTreeMap<u64, Vec<u64>> = BTreeMap::new();
+        for (&id, e) in &self.elements {
+            if let Some(p) = e.property() {
+                by_pid.entry(p).or_default().push(id);
+            }
+        }
+        for (pid, ids) in by_pid {
+            self.sets.entry(format!("pid{pid}")).or_insert(ids);
+        }
+    }
+
+    /// Total count of DOFs before constraints: six per node.
+    pub fn n_dofs(&self) -> usize {
+        6 * self.nodes.len()
+    }
+}
