@@ -608,6 +608,7 @@ mod tests {
         let (mut ok, mut err) = (0, 0);
         for i in 0..bytes.len() {
             for x in [0xffu8, 0x01] {
+                eprintln!("OFF {i} {x}");
                 let mut b = bytes.clone();
                 b[i] ^= x;
                 std::fs::write(&bad, &b).unwrap();
@@ -621,6 +622,7 @@ mod tests {
             }
         }
         for n in (0..bytes.len()).step_by(7) {
+            eprintln!("TRUNC {n}");
             std::fs::write(&bad, &bytes[..n]).unwrap();
             match read(&bad) {
                 Ok(_) => ok += 1,
