@@ -600,35 +600,49 @@ mod tests {
 
     #[test]
     fn tmp_corrupt() {
+        let Ok(start) = std::env::var("FEMU_FUZZ_START") else {
+            return;
+        };
+        let start: usize = start.parse().unwrap();
         let dir = tempfile::tempdir().unwrap();
         let good = dir.path().join("good.h5");
         write(&sample(), &good).unwrap();
         let bytes = std::fs::read(&good).unwrap();
-        let bad = dir.path().join("bad.h5");
         let (mut ok, mut err) = (0, 0);
+        let mut cases: Vec<(usize, Vec<u8>)> = Vec::new();
         for i in 0..bytes.len() {
-            for x in [0xffu8, 0x01] {
-                eprintln!("OFF {i} {x}");
+            for x in [0xffu8, 0x01, 0x80] {
                 let mut b = bytes.clone();
                 b[i] ^= x;
-                std::fs::write(&bad, &b).unwrap();
-                match read(&bad) {
-                    Ok(_) => ok += 1,
-                    Err(e) => {
-                        assert!(e.to_string().contains("bad.h5"));
-                        err += 1
-                    }
-                }
+                cases.push((i, b));
             }
         }
         for n in (0..bytes.len()).step_by(7) {
-            eprintln!("TRUNC {n}");
-            std::fs::write(&bad, &bytes[..n]).unwrap();
-            match read(&bad) {
-                Ok(_) => ok += 1,
-                Err(_) => err += 1,
-            }
+            cases.push((100000 + n, bytes[..n].to_vec()));
         }
-        println!("CORRUPT ok={ok} err={err}");
+        for (k, (tag, b)) in cases.into_iter().enumerate().skip(start) {
+            let bad = dir.path().join(format!("bad{k}.h5"));
+            eprintln!("CASE {k} {tag}");
+            std::fs::write(&bad, &b).unwrap();
+            let (tx, rx) = std::sync::mpsc::channel();
+            let bad2 = bad.clone();
+            std::thread::spawn(move || {
+                let r = read(&bad2).map(|_| ()).map_err(|e| e.to_string());
+                let _ = tx.send(r);
+            });
+            match rx.recv_timeout(std::time::Duration::from_secs(3)) {
+                Ok(Ok(())) => ok += 1,
+                Ok(Err(e)) => {
+                    assert!(e.contains(&format!("bad{k}.h5")), "{e}");
+                    err += 1
+                }
+                Err(_) => {
+                    println!("HANG case={k} tag={tag} ok={ok} err={err}");
+                    std::process::exit(3);
+                }
+            }
+            let _ = std::fs::remove_file(&bad);
+        }
+        println!("CORRUPT DONE ok={ok} err={err}");
     }
 }

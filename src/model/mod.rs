@@ -1,5 +1,6 @@
 //! Model descriptions: what the structure is, before any matrix is built.
 
+pub mod generate;
 pub mod lumped;
 pub mod structure;
 
