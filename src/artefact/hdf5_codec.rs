@@ -569,80 +569,19 @@ mod tests {
     }
 
     #[test]
-    fn tmp_write_to_env_path() {
-        if let Ok(p) = std::env::var("FEMU_TMP_H5") {
-            write(&sample(), Path::new(&p)).unwrap();
-        }
-    }
-
-    #[test]
-    fn tmp_wide_table() {
+    fn many_columns_exceeding_the_compact_attribute_limit_round_trip() {
+        // 6000 names make `column_order` larger than the 64 KiB an old-style object header holds.
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("wide.h5");
         let mut t = Table::new();
         for i in 0..6000 {
             t = t.with(
-                format!("phi_{i:05}_with_a_longish_name"),
-                Column::F64(vec![i as f64; 3]),
+                format!("phi_{i:05}"),
+                Column::F64(vec![i as f64, -(i as f64)]),
             );
         }
         let a = Artefact::new(ArtefactKind::Modes).with_table("shapes", t.clone(), Storage::Ipc);
         write(&a, &path).unwrap();
         assert_eq!(read(&path).unwrap()["shapes"], t);
-    }
-
-    #[test]
-    fn tmp_read_env() {
-        if let Ok(p) = std::env::var("FEMU_TMP_READ") {
-            println!("READ: {:?}", read(Path::new(&p)));
-        }
-    }
-
-    #[test]
-    fn tmp_corrupt() {
-        let Ok(start) = std::env::var("FEMU_FUZZ_START") else {
-            return;
-        };
-        let start: usize = start.parse().unwrap();
-        let dir = tempfile::tempdir().unwrap();
-        let good = dir.path().join("good.h5");
-        write(&sample(), &good).unwrap();
-        let bytes = std::fs::read(&good).unwrap();
-        let (mut ok, mut err) = (0, 0);
-        let mut cases: Vec<(usize, Vec<u8>)> = Vec::new();
-        for i in 0..bytes.len() {
-            for x in [0xffu8, 0x01, 0x80] {
-                let mut b = bytes.clone();
-                b[i] ^= x;
-                cases.push((i, b));
-            }
-        }
-        for n in (0..bytes.len()).step_by(7) {
-            cases.push((100000 + n, bytes[..n].to_vec()));
-        }
-        for (k, (tag, b)) in cases.into_iter().enumerate().skip(start) {
-            let bad = dir.path().join(format!("bad{k}.h5"));
-            eprintln!("CASE {k} {tag}");
-            std::fs::write(&bad, &b).unwrap();
-            let (tx, rx) = std::sync::mpsc::channel();
-            let bad2 = bad.clone();
-            std::thread::spawn(move || {
-                let r = read(&bad2).map(|_| ()).map_err(|e| e.to_string());
-                let _ = tx.send(r);
-            });
-            match rx.recv_timeout(std::time::Duration::from_secs(3)) {
-                Ok(Ok(())) => ok += 1,
-                Ok(Err(e)) => {
-                    assert!(e.contains(&format!("bad{k}.h5")), "{e}");
-                    err += 1
-                }
-                Err(_) => {
-                    println!("HANG case={k} tag={tag} ok={ok} err={err}");
-                    std::process::exit(3);
-                }
-            }
-            let _ = std::fs::remove_file(&bad);
-        }
-        println!("CORRUPT DONE ok={ok} err={err}");
     }
 }

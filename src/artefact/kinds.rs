@@ -588,6 +588,65 @@ pub fn layout(kind: ArtefactKind) -> Vec<TableLayout> {
             ),
         ],
         ArtefactKind::Plot => vec![],
+        ArtefactKind::Mesh => vec![
+            t(
+                "nodes",
+                "parquet",
+                true,
+                vec![
+                    col("node", "int64", "", "grid id"),
+                    col("x_m", "float64", "m", "basic x"),
+                    col("y_m", "float64", "m", "basic y"),
+                    col("z_m", "float64", "m", "basic z"),
+                ],
+            ),
+            t(
+                "elements",
+                "parquet",
+                true,
+                vec![
+                    col("element", "int64", "", "element id"),
+                    col("type", "string", "", "quad4, tria3 or beam"),
+                    col("property", "int64", "", "property id"),
+                    col("n1", "int64", "", "first node"),
+                    col("n2", "int64", "", "second node"),
+                    col("n3", "int64", "", "third node or -1"),
+                    col("n4", "int64", "", "fourth node or -1"),
+                    col(
+                        "v_x",
+                        "float64",
+                        "",
+                        "beam orientation vector, NaN otherwise",
+                    ),
+                    col("v_y", "float64", "", "beam orientation vector"),
+                    col("v_z", "float64", "", "beam orientation vector"),
+                ],
+            ),
+            t(
+                "lumped",
+                "parquet",
+                true,
+                vec![
+                    col("element", "int64", "", "element id"),
+                    col("type", "string", "", "bush, scalar_spring or mass"),
+                ],
+            ),
+            t(
+                "constraints",
+                "parquet",
+                true,
+                vec![col("dof", "string", "", "constrained DOF node:comp")],
+            ),
+            t(
+                "sets",
+                "parquet",
+                true,
+                vec![
+                    col("set", "string", "", "set name"),
+                    col("element", "int64", "", "element id"),
+                ],
+            ),
+        ],
     }
 }
 

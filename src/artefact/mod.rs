@@ -13,6 +13,7 @@ pub mod digest;
 #[cfg(feature = "hdf5")]
 mod hdf5_codec;
 pub mod kinds;
+pub mod mesh;
 mod table;
 
 pub use table::{Column, Storage, Table, TableError};
@@ -33,16 +34,19 @@ pub enum ArtefactKind {
     Correlation,
     /// A figure as PNG and SVG.
     Plot,
+    /// A finite-element model: nodes, elements, properties, constraints, sets, parameters.
+    Mesh,
 }
 
 impl ArtefactKind {
     /// All kinds.
-    pub const ALL: [ArtefactKind; 5] = [
+    pub const ALL: [ArtefactKind; 6] = [
         ArtefactKind::Matrices,
         ArtefactKind::Modes,
         ArtefactKind::Frf,
         ArtefactKind::Correlation,
         ArtefactKind::Plot,
+        ArtefactKind::Mesh,
     ];
 
     /// The name used in files and port declarations.
@@ -53,6 +57,7 @@ impl ArtefactKind {
             ArtefactKind::Frf => "frf",
             ArtefactKind::Correlation => "correlation",
             ArtefactKind::Plot => "plot",
+            ArtefactKind::Mesh => "mesh",
         }
     }
 
