@@ -3,6 +3,7 @@
 
 pub mod correlate_frf;
 pub mod frf_synthesise;
+pub mod mesh_generate;
 pub mod model_lumped;
 pub mod modes;
 pub mod noise_add;
@@ -14,6 +15,7 @@ static MODES: Typed<modes::ModesStage> = Typed::new();
 static FRF_SYNTHESISE: Typed<frf_synthesise::FrfSynthesise> = Typed::new();
 static NOISE_ADD: Typed<noise_add::NoiseAdd> = Typed::new();
 static CORRELATE_FRF: Typed<correlate_frf::CorrelateFrf> = Typed::new();
+static MESH_GENERATE: Typed<mesh_generate::MeshGenerate> = Typed::new();
 
 /// Every stage kind femu knows.
 pub fn registry() -> Registry {
