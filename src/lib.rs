@@ -15,3 +15,4 @@ pub mod eigen;
 pub mod fe;
 pub mod frf;
 pub mod model;
+pub mod report;
