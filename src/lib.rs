@@ -18,4 +18,5 @@ pub mod fe;
 pub mod frf;
 pub mod model;
 pub mod pipeline;
+pub mod report;
 pub mod stages;

@@ -1,0 +1,1621 @@
+//! Overlay of measured and predicted FRFs: amplitude (dB), phase and the correlation
+//! coefficients `χ_s`, `χ_a` in three stacked panels on a common frequency axis.
+//!
+//! The figure is rendered twice from the same layout, into an in-memory RGB bitmap that is
+//! encoded as PNG and into an SVG string; nothing touches the file system. Text uses the
+//! DejaVu Sans faces embedded by the `dejavu` crate, registered with plotters on first use, so
+//! the output does not depend on the fonts installed and is byte-identical for equal inputs.
+//!
+//! Non-finite values (zero amplitude in dB, NaN, ±inf) are skipped: lines break there, and the
+//! axes are fitted to the finite data only.
+
+use std::ops::Range;
+use std::sync::Once;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+use faer::c64;
+use plotters::backend::{BitMapBackend, RGBPixel, SVGBackend};
+use plotters::coord::Shift;
+use plotters::coord::ranged1d::{DefaultFormatting, KeyPointHint, Ranged};
+use plotters::prelude::*;
+use plotters::style::register_font;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
+
+use crate::correlation::FrfCorrelation;
+use crate::frf::{FrfPair, FrfSet, Quantity};
+
+/// What to draw.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FrfPlotOptions {
+    /// Figure title, drawn centred above the panels.
+    pub title: String,
+    /// Figure width in pixels (PNG) and user units (SVG).
+    pub width_px: u32,
+    /// Figure height in pixels (PNG) and user units (SVG).
+    pub height_px: u32,
+    /// Most FRFs drawn, one colour each (1 to [`MAX_FRFS`]); default 4.
+    pub max_frfs: usize,
+    /// FRFs to draw, in legend order; `None` draws the first `max_frfs` of the measured set.
+    pub pairs: Option<Vec<FrfPair>>,
+}
+
+impl Default for FrfPlotOptions {
+    fn default() -> Self {
+        FrfPlotOptions {
+            title: "FRF overlay".to_string(),
+            width_px: 1200,
+            height_px: 900,
+            max_frfs: 4,
+            pairs: None,
+        }
+    }
+}
+
+/// The rendered figure.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Figure {
+    /// PNG file contents (8-bit RGB).
+    pub png: Vec<u8>,
+    /// SVG document.
+    pub svg: String,
+}
+
+/// Largest `max_frfs`: the number of distinct FRF colours.
+pub const MAX_FRFS: usize = PALETTE.len();
+/// Smallest figure side in pixels.
+pub const MIN_SIDE_PX: u32 = 400;
+/// Largest figure side in pixels.
+pub const MAX_SIDE_PX: u32 = 8000;
+
+/// Why a figure could not be drawn.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum PlotError {
+    /// The measured set has no FRF or no frequency line.
+    #[error(
+        "nothing to draw: the measured set holds {pairs} FRF(s) on {lines} frequency line(s); give at least one FRF and one line"
+    )]
+    Empty {
+        /// Measured FRFs.
+        pairs: usize,
+        /// Measured frequency lines.
+        lines: usize,
+    },
+    /// `pairs` was given but empty.
+    #[error(
+        "no FRF selected: `pairs` is an empty list; request at least one of the measured FRFs {known}"
+    )]
+    NoneSelected {
+        /// Measured FRFs.
+        known: String,
+    },
+    /// A requested FRF is not in the measured set.
+    #[error("the FRF {pair} is not in the measured set; measured FRFs are {known}")]
+    UnknownPair {
+        /// The requested FRF, `response/excitation`.
+        pair: String,
+        /// Measured FRFs.
+        known: String,
+    },
+    /// A requested FRF is listed twice.
+    #[error("the FRF {pair} is requested twice; list each FRF once")]
+    DuplicatePair {
+        /// The repeated FRF, `response/excitation`.
+        pair: String,
+    },
+    /// More FRFs requested than `max_frfs`.
+    #[error(
+        "{requested} FRFs requested but max_frfs is {max}; request at most {max} or raise max_frfs (up to {limit})"
+    )]
+    TooMany {
+        /// Requested FRFs.
+        requested: usize,
+        /// `max_frfs`.
+        max: usize,
+        /// [`MAX_FRFS`].
+        limit: usize,
+    },
+    /// `max_frfs` is 0 or beyond the palette.
+    #[error(
+        "max_frfs is {given}; it must be between 1 and {limit} so that every FRF gets its own colour"
+    )]
+    MaxFrfs {
+        /// The value given.
+        given: usize,
+        /// [`MAX_FRFS`].
+        limit: usize,
+    },
+    /// Figure size out of range.
+    #[error(
+        "figure size {width}x{height} px is out of range; each side must be within {min}..={max} px"
+    )]
+    Size {
+        /// Requested width.
+        width: u32,
+        /// Requested height.
+        height: u32,
+        /// [`MIN_SIDE_PX`].
+        min: u32,
+        /// [`MAX_SIDE_PX`].
+        max: u32,
+    },
+    /// The values matrix of a set does not match its lines and pairs.
+    #[error(
+        "the {which} set's values are {rows}x{cols} but it has {lines} frequency line(s) and {pairs} FRF(s); values must be lines x FRFs"
+    )]
+    Shape {
+        /// `measured` or `predicted`.
+        which: &'static str,
+        /// Rows of `values`.
+        rows: usize,
+        /// Columns of `values`.
+        cols: usize,
+        /// Length of `freqs_hz`.
+        lines: usize,
+        /// Length of `pairs`.
+        pairs: usize,
+    },
+    /// Measured and predicted sets hold different quantities.
+    #[error(
+        "measured FRFs are {measured} but predicted FRFs are {predicted}; overlay a prediction of the measured quantity"
+    )]
+    Quantity {
+        /// Measured quantity name.
+        measured: &'static str,
+        /// Predicted quantity name.
+        predicted: &'static str,
+    },
+    /// A drawn FRF has no prediction.
+    #[error(
+        "the predicted set has no FRF {pair}; predicted FRFs are {known}; request only predicted FRFs in `pairs` or predict this one"
+    )]
+    MissingPrediction {
+        /// The FRF, `response/excitation`.
+        pair: String,
+        /// Predicted FRFs.
+        known: String,
+    },
+    /// The correlation's vectors differ in length.
+    #[error(
+        "the correlation has {lines} frequency line(s) but {chi_s} χ_s and {chi_a} χ_a value(s); give one value of each per line"
+    )]
+    CorrelationShape {
+        /// Length of `freqs_hz`.
+        lines: usize,
+        /// Length of `chi_s`.
+        chi_s: usize,
+        /// Length of `chi_a`.
+        chi_a: usize,
+    },
+    /// No finite frequency among the drawn data.
+    #[error("no finite frequency line to draw; frequency lines must be finite values in Hz")]
+    NoFrequencies,
+    /// The frequency lines span more than an `f64` can hold.
+    #[error(
+        "frequency lines run from {lo} to {hi} Hz, a span too wide to draw; frequencies must lie within ±8.9e307 Hz"
+    )]
+    FrequencySpan {
+        /// Lowest finite frequency.
+        lo: f64,
+        /// Highest finite frequency.
+        hi: f64,
+    },
+    /// The embedded font was rejected.
+    #[error(
+        "the embedded DejaVu Sans font could not be registered with plotters; the font bytes must be a valid TrueType file"
+    )]
+    Font,
+    /// The drawing backend failed.
+    #[error("drawing failed: {0}; the inputs were valid, this is a fault of the plotting backend")]
+    Backend(String),
+    /// PNG encoding failed.
+    #[error("PNG encoding failed: {0}; the RGB buffer must hold width x height x 3 bytes")]
+    Encode(String),
+}
+
+/// Renders measured FRFs, optionally overlaid with predictions and the correlation, as PNG and SVG.
+pub fn frf_overlay(
+    measured: &FrfSet,
+    predicted: Option<&FrfSet>,
+    correlation: Option<&FrfCorrelation>,
+    opts: &FrfPlotOptions,
+) -> Result<Figure, PlotError> {
+    let plan = Plan::new(measured, predicted, correlation, opts)?;
+    register_fonts()?;
+    let (w, h) = (opts.width_px, opts.height_px);
+
+    let mut rgb = vec![255u8; w as usize * h as usize * 3];
+    {
+        let backend = BitMapBackend::<RGBPixel>::with_buffer_and_format(&mut rgb, (w, h))
+            .map_err(|e| PlotError::Backend(e.to_string()))?;
+        let root = backend.into_drawing_area();
+        draw(&root, &plan)?;
+        root.present().map_err(backend_error)?;
+    }
+    let png = encode_png(&rgb, w, h)?;
+
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (w, h)).into_drawing_area();
+        draw(&root, &plan)?;
+        root.present().map_err(backend_error)?;
+    }
+    Ok(Figure { png, svg })
+}
+
+// ---------------------------------------------------------------------------------------------
+// Fonts and encoding
+
+static FONT_INIT: Once = Once::new();
+static FONT_OK: AtomicBool = AtomicBool::new(false);
+
+/// Registers DejaVu Sans (regular, bold, oblique) as plotters' `sans-serif`, once per process.
+fn register_fonts() -> Result<(), PlotError> {
+    FONT_INIT.call_once(|| {
+        let ok = register_font("sans-serif", FontStyle::Normal, dejavu::sans::regular()).is_ok()
+            && register_font("sans-serif", FontStyle::Bold, dejavu::sans::bold()).is_ok()
+            && register_font("sans-serif", FontStyle::Italic, dejavu::sans::oblique()).is_ok()
+            && register_font("sans-serif", FontStyle::Oblique, dejavu::sans::oblique()).is_ok();
+        FONT_OK.store(ok, Ordering::Release);
+    });
+    if FONT_OK.load(Ordering::Acquire) {
+        Ok(())
+    } else {
+        Err(PlotError::Font)
+    }
+}
+
+fn encode_png(rgb: &[u8], w: u32, h: u32) -> Result<Vec<u8>, PlotError> {
+    use image::ImageEncoder;
+    if rgb.len() != w as usize * h as usize * 3 {
+        return Err(PlotError::Encode(format!(
+            "buffer holds {} bytes for {w}x{h} px",
+            rgb.len()
+        )));
+    }
+    let mut png = Vec::new();
+    image::codecs::png::PngEncoder::new(&mut png)
+        .write_image(rgb, w, h, image::ColorType::Rgb8)
+        .map_err(|e| PlotError::Encode(e.to_string()))?;
+    Ok(png)
+}
+
+fn backend_error<E: std::fmt::Display>(e: E) -> PlotError {
+    PlotError::Backend(e.to_string())
+}
+
+// ---------------------------------------------------------------------------------------------
+// Data preparation: everything is validated and reduced to finite polylines before drawing.
+
+/// Colour-blind-aware categorical palette (one colour per FRF).
+const PALETTE: [RGBColor; 8] = [
+    RGBColor(0, 114, 178),   // blue
+    RGBColor(213, 94, 0),    // vermillion
+    RGBColor(0, 158, 115),   // bluish green
+    RGBColor(204, 121, 167), // reddish purple
+    RGBColor(230, 159, 0),   // orange
+    RGBColor(86, 180, 233),  // sky blue
+    RGBColor(120, 94, 240),  // violet
+    RGBColor(140, 86, 75),   // brown
+];
+
+const INK: RGBColor = RGBColor(30, 30, 30);
+const MUTED: RGBColor = RGBColor(100, 100, 100);
+const CHI_A: RGBColor = RGBColor(90, 90, 90);
+
+/// A polyline broken where data are missing: each run is drawn as one connected line.
+type Runs = Vec<Vec<(f64, f64)>>;
+
+/// One FRF ready to draw.
+struct Curve {
+    label: String,
+    color: RGBColor,
+    frac: Option<f64>,
+    measured_db: Runs,
+    measured_phase: Runs,
+    predicted_db: Option<Runs>,
+    predicted_phase: Option<Runs>,
+}
+
+/// One correlation coefficient ready to draw.
+struct ChiCurve {
+    runs: Runs,
+    mean: Option<f64>,
+}
+
+/// Everything the drawing code needs, validated.
+struct Plan {
+    title: String,
+    db_label: String,
+    curves: Vec<Curve>,
+    has_prediction: bool,
+    /// Measured frequency lines (sets the measured dot size).
+    lines: usize,
+    chi: Option<(ChiCurve, ChiCurve)>,
+    x_axis: Axis,
+    db_axis: Axis,
+    db_has_data: bool,
+    phase_axis: Axis,
+    chi_axis: Axis,
+}
+
+impl Plan {
+    fn new(
+        measured: &FrfSet,
+        predicted: Option<&FrfSet>,
+        correlation: Option<&FrfCorrelation>,
+        opts: &FrfPlotOptions,
+    ) -> Result<Plan, PlotError> {
+        let size_ok = |s: u32| (MIN_SIDE_PX..=MAX_SIDE_PX).contains(&s);
+        if !size_ok(opts.width_px) || !size_ok(opts.height_px) {
+            return Err(PlotError::Size {
+                width: opts.width_px,
+                height: opts.height_px,
+                min: MIN_SIDE_PX,
+                max: MAX_SIDE_PX,
+            });
+        }
+        if opts.max_frfs == 0 || opts.max_frfs > MAX_FRFS {
+            return Err(PlotError::MaxFrfs {
+                given: opts.max_frfs,
+                limit: MAX_FRFS,
+            });
+        }
+        check_shape("measured", measured)?;
+        if measured.pairs.is_empty() || measured.freqs_hz.is_empty() {
+            return Err(PlotError::Empty {
+                pairs: measured.pairs.len(),
+                lines: measured.freqs_hz.len(),
+            });
+        }
+        if let Some(p) = predicted {
+            check_shape("predicted", p)?;
+            if p.quantity != measured.quantity {
+                return Err(PlotError::Quantity {
+                    measured: measured.quantity.name(),
+                    predicted: p.quantity.name(),
+                });
+            }
+        }
+        if let Some(c) = correlation
+            .filter(|c| c.chi_s.len() != c.freqs_hz.len() || c.chi_a.len() != c.freqs_hz.len())
+        {
+            return Err(PlotError::CorrelationShape {
+                lines: c.freqs_hz.len(),
+                chi_s: c.chi_s.len(),
+                chi_a: c.chi_a.len(),
+            });
+        }
+
+        let selected = select_pairs(measured, opts)?;
+        let mut curves = Vec::with_capacity(selected.len());
+        for (n, (pair, col)) in selected.iter().enumerate() {
+            let pred_col = match predicted {
+                Some(p) => Some((
+                    p,
+                    p.pair_index(pair)
+                        .ok_or_else(|| PlotError::MissingPrediction {
+                            pair: pair_name(pair),
+                            known: pair_list(&p.pairs),
+                        })?,
+                )),
+                None => None,
+            };
+            let frac = correlation.and_then(|c| {
+                let i = c.pairs.iter().position(|q| q == pair)?;
+                c.frac.get(i).copied().filter(|v| v.is_finite())
+            });
+            let (measured_db, measured_phase) = frf_runs(measured, *col);
+            let (predicted_db, predicted_phase) = match pred_col {
+                Some((p, j)) => {
+                    let (d, ph) = frf_runs(p, j);
+                    (Some(d), Some(ph))
+                }
+                None => (None, None),
+            };
+            curves.push(Curve {
+                label: format!("H {}", pair_name(pair)),
+                color: PALETTE[n % PALETTE.len()],
+                frac,
+                measured_db,
+                measured_phase,
+                predicted_db,
+                predicted_phase,
+            });
+        }
+
+        let chi = correlation.map(|c| {
+            (
+                chi_curve(&c.freqs_hz, &c.chi_s),
+                chi_curve(&c.freqs_hz, &c.chi_a),
+            )
+        });
+
+        // Frequency axis: the finite extent of everything drawn.
+        let mut fx = Extent::default();
+        let mut db = Extent::default();
+        for c in &curves {
+            for runs in [Some(&c.measured_db), c.predicted_db.as_ref()]
+                .into_iter()
+                .flatten()
+            {
+                for &(f, v) in runs.iter().flatten() {
+                    fx.add(f);
+                    db.add(v);
+                }
+            }
+        }
+        if let Some((s, a)) = &chi {
+            for &(f, _) in s.runs.iter().chain(&a.runs).flatten() {
+                fx.add(f);
+            }
+        }
+        // Lines whose values are all non-finite still set the frequency extent.
+        for f in &measured.freqs_hz {
+            fx.add(*f);
+        }
+        let (flo, fhi) = fx.get().ok_or(PlotError::NoFrequencies)?;
+        if !(fhi - flo).is_finite() {
+            return Err(PlotError::FrequencySpan { lo: flo, hi: fhi });
+        }
+        let x_axis = Axis::frequency(flo, fhi);
+        let (db_axis, db_has_data) = match db.get() {
+            Some((lo, hi)) => (Axis::decibel(lo, hi), true),
+            None => (Axis::decibel(-60.0, 0.0), false),
+        };
+
+        Ok(Plan {
+            title: opts.title.clone(),
+            db_label: format!("Amplitude (dB re 1 {})", pretty_unit(measured.quantity)),
+            curves,
+            has_prediction: predicted.is_some(),
+            lines: measured.freqs_hz.len(),
+            chi,
+            x_axis,
+            db_axis,
+            db_has_data,
+            phase_axis: Axis::phase(),
+            chi_axis: Axis::unit_interval(),
+        })
+    }
+}
+
+fn check_shape(which: &'static str, set: &FrfSet) -> Result<(), PlotError> {
+    let (rows, cols) = (set.values.nrows(), set.values.ncols());
+    if rows != set.freqs_hz.len() || cols != set.pairs.len() {
+        return Err(PlotError::Shape {
+            which,
+            rows,
+            cols,
+            lines: set.freqs_hz.len(),
+            pairs: set.pairs.len(),
+        });
+    }
+    Ok(())
+}
+
+/// The FRFs to draw with their measured column, in legend order.
+fn select_pairs(
+    measured: &FrfSet,
+    opts: &FrfPlotOptions,
+) -> Result<Vec<(FrfPair, usize)>, PlotError> {
+    let Some(requested) = &opts.pairs else {
+        return Ok(measured
+            .pairs
+            .iter()
+            .copied()
+            .enumerate()
+            .take(opts.max_frfs)
+            .map(|(i, p)| (p, i))
+            .collect());
+    };
+    if requested.is_empty() {
+        return Err(PlotError::NoneSelected {
+            known: pair_list(&measured.pairs),
+        });
+    }
+    if requested.len() > opts.max_frfs {
+        return Err(PlotError::TooMany {
+            requested: requested.len(),
+            max: opts.max_frfs,
+            limit: MAX_FRFS,
+        });
+    }
+    let mut out: Vec<(FrfPair, usize)> = Vec::with_capacity(requested.len());
+    for pair in requested {
+        if out.iter().any(|(p, _)| p == pair) {
+            return Err(PlotError::DuplicatePair {
+                pair: pair_name(pair),
+            });
+        }
+        let col = measured
+            .pair_index(pair)
+            .ok_or_else(|| PlotError::UnknownPair {
+                pair: pair_name(pair),
+                known: pair_list(&measured.pairs),
+            })?;
+        out.push((*pair, col));
+    }
+    Ok(out)
+}
+
+fn pair_name(p: &FrfPair) -> String {
+    format!("{}/{}", p.response, p.excitation)
+}
+
+/// Pairs as a readable list, shortened when long.
+fn pair_list(pairs: &[FrfPair]) -> String {
+    const SHOWN: usize = 12;
+    if pairs.is_empty() {
+        return "(none)".to_string();
+    }
+    let mut s = pairs
+        .iter()
+        .take(SHOWN)
+        .map(pair_name)
+        .collect::<Vec<_>>()
+        .join(", ");
+    if pairs.len() > SHOWN {
+        s.push_str(&format!(", … ({} in all)", pairs.len()));
+    }
+    s
+}
+
+fn pretty_unit(q: Quantity) -> String {
+    q.unit().replace("^2", "²")
+}
+
+/// Amplitude (dB) and phase (degrees) runs of one column, skipping non-finite points.
+fn frf_runs(set: &FrfSet, col: usize) -> (Runs, Runs) {
+    let mut db = RunBuilder::default();
+    let mut phase = RunBuilder::default();
+    for (k, &f) in set.freqs_hz.iter().enumerate() {
+        let v: c64 = set.values[(k, col)];
+        let finite = f.is_finite() && v.re.is_finite() && v.im.is_finite();
+        let amp = v.re.hypot(v.im);
+        let d = 20.0 * amp.log10();
+        if finite && d.is_finite() {
+            db.push(f, d);
+        } else {
+            db.gap();
+        }
+        if finite && amp > 0.0 {
+            let p = v.im.atan2(v.re).to_degrees();
+            // A wrap from +180 to −180 is not a jump of the response: break the line there.
+            if phase.last().is_some_and(|(_, q)| (p - q).abs() > 180.0) {
+                phase.gap();
+            }
+            phase.push(f, p);
+        } else {
+            phase.gap();
+        }
+    }
+    (db.finish(), phase.finish())
+}
+
+fn chi_curve(freqs: &[f64], chi: &[f64]) -> ChiCurve {
+    let mut runs = RunBuilder::default();
+    let (mut sum, mut n) = (0.0, 0usize);
+    for (&f, &c) in freqs.iter().zip(chi) {
+        if f.is_finite() && c.is_finite() {
+            let c = c.clamp(0.0, 1.0);
+            runs.push(f, c);
+            sum += c;
+            n += 1;
+        } else {
+            runs.gap();
+        }
+    }
+    ChiCurve {
+        runs: runs.finish(),
+        mean: (n > 0).then(|| sum / n as f64),
+    }
+}
+
+#[derive(Default)]
+struct RunBuilder {
+    runs: Runs,
+    open: bool,
+}
+
+impl RunBuilder {
+    fn push(&mut self, x: f64, y: f64) {
+        if !self.open {
+            self.runs.push(Vec::new());
+            self.open = true;
+        }
+        if let Some(run) = self.runs.last_mut() {
+            run.push((x, y));
+        }
+    }
+
+    fn gap(&mut self) {
+        self.open = false;
+    }
+
+    fn last(&self) -> Option<(f64, f64)> {
+        if self.open {
+            self.runs.last().and_then(|r| r.last().copied())
+        } else {
+            None
+        }
+    }
+
+    fn finish(self) -> Runs {
+        self.runs
+    }
+}
+
+#[derive(Default)]
+struct Extent(Option<(f64, f64)>);
+
+impl Extent {
+    fn add(&mut self, v: f64) {
+        if v.is_finite() {
+            self.0 = Some(match self.0 {
+                Some((lo, hi)) => (lo.min(v), hi.max(v)),
+                None => (v, v),
+            });
+        }
+    }
+
+    fn get(&self) -> Option<(f64, f64)> {
+        self.0
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Axes: a linear axis with its own tick positions, so ticks are chosen here (nice steps,
+// degrees in multiples of 90) and never from a degenerate range.
+
+#[derive(Clone, Debug)]
+struct Axis {
+    lo: f64,
+    hi: f64,
+    major: Vec<f64>,
+    minor: Vec<f64>,
+    /// Decimals that print every major tick exactly.
+    decimals: usize,
+}
+
+impl Axis {
+    /// Exactly the data extent (widened if it is a single line).
+    fn frequency(lo: f64, hi: f64) -> Axis {
+        let (lo, hi) = widen(lo, hi, 0.5);
+        Axis::with_ticks(lo, hi, 8)
+    }
+
+    /// Data extent with headroom, snapped outward to ticks.
+    fn decibel(lo: f64, hi: f64) -> Axis {
+        let (lo, hi) = widen(lo, hi, 5.0);
+        let pad = ((hi - lo) * 0.06).max(2.0);
+        let (lo, hi) = (lo - pad, hi + pad);
+        let step = nice_step((hi - lo) / 6.0);
+        let (lo, hi) = ((lo / step).floor() * step, (hi / step).ceil() * step);
+        Axis::with_ticks(lo, hi, 6)
+    }
+
+    fn phase() -> Axis {
+        Axis {
+            lo: -200.0,
+            hi: 200.0,
+            major: vec![-180.0, -90.0, 0.0, 90.0, 180.0],
+            minor: (-4..=4).map(|k| 45.0 * k as f64).collect(),
+            decimals: 0,
+        }
+    }
+
+    fn unit_interval() -> Axis {
+        Axis {
+            lo: -0.04,
+            hi: 1.06,
+            major: vec![0.0, 0.25, 0.5, 0.75, 1.0],
+            minor: (0..=8).map(|k| 0.125 * k as f64).collect(),
+            decimals: 2,
+        }
+    }
+
+    fn with_ticks(lo: f64, hi: f64, target: usize) -> Axis {
+        let step = nice_step((hi - lo) / target as f64);
+        let minor_step = step / if is_two(step) { 4.0 } else { 5.0 };
+        let decimals = (-step.log10().floor()).clamp(0.0, 12.0) as usize;
+        Axis {
+            lo,
+            hi,
+            major: ticks(lo, hi, step),
+            minor: ticks(lo, hi, minor_step),
+            decimals,
+        }
+    }
+
+    fn label(&self, v: f64) -> String {
+        let s = if v.abs() >= 1e7 || (v != 0.0 && v.abs() < 1e-5 && self.decimals > 5) {
+            format!("{v:.3e}")
+        } else {
+            format!("{:.*}", self.decimals, v)
+        };
+        // Avoid "-0" and use a typographic minus.
+        let s = if s
+            .trim_start_matches('-')
+            .chars()
+            .all(|c| c == '0' || c == '.')
+        {
+            s.trim_start_matches('-').to_string()
+        } else {
+            s
+        };
+        s.replace('-', "−")
+    }
+}
+
+/// `(lo, hi)` with a positive span that survives rounding.
+fn widen(lo: f64, hi: f64, half: f64) -> (f64, f64) {
+    let min_span = (lo.abs().max(hi.abs()) * 1e-9).max(f64::MIN_POSITIVE);
+    if hi - lo > min_span {
+        (lo, hi)
+    } else {
+        let h = half.max(lo.abs() * 0.01);
+        (lo - h, hi + h)
+    }
+}
+
+/// 1, 2 or 5 times a power of ten, at least `raw`.
+fn nice_step(raw: f64) -> f64 {
+    if !(raw.is_finite() && raw > 0.0) {
+        return 1.0;
+    }
+    let mag = 10f64.powf(raw.log10().floor());
+    let norm = raw / mag;
+    let mult = if norm <= 1.0 {
+        1.0
+    } else if norm <= 2.0 {
+        2.0
+    } else if norm <= 5.0 {
+        5.0
+    } else {
+        10.0
+    };
+    mult * mag
+}
+
+fn is_two(step: f64) -> bool {
+    let mag = 10f64.powf(step.log10().floor());
+    ((step / mag) - 2.0).abs() < 1e-9
+}
+
+/// Multiples of `step` within `[lo, hi]` (at most 200).
+fn ticks(lo: f64, hi: f64, step: f64) -> Vec<f64> {
+    if !(step.is_finite() && step > 0.0) {
+        return Vec::new();
+    }
+    let first = (lo / step).ceil();
+    let tol = step * 1e-6;
+    (0..200)
+        .map(|k| (first + k as f64) * step)
+        .take_while(|v| *v <= hi + tol)
+        .filter(|v| *v >= lo - tol)
+        .collect()
+}
+
+impl Ranged for Axis {
+    type FormatOption = DefaultFormatting;
+    type ValueType = f64;
+
+    fn map(&self, value: &f64, limit: (i32, i32)) -> i32 {
+        let t = (value - self.lo) / (self.hi - self.lo);
+        let px = limit.0 as f64 + t * (limit.1 - limit.0) as f64;
+        if px.is_finite() {
+            px.round() as i32
+        } else {
+            limit.0
+        }
+    }
+
+    fn key_points<Hint: KeyPointHint>(&self, hint: Hint) -> Vec<f64> {
+        if hint.weight().allow_light_points() {
+            self.minor.clone()
+        } else {
+            self.major.clone()
+        }
+    }
+
+    fn range(&self) -> Range<f64> {
+        self.lo..self.hi
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Drawing
+
+/// Pixel sizes derived from the figure size.
+struct Metrics {
+    u: f64,
+}
+
+impl Metrics {
+    fn px(&self, v: f64) -> i32 {
+        (v * self.u).round().max(1.0) as i32
+    }
+
+    /// Width of a data line: at least 2 px so curves stay solid on small figures.
+    fn line(&self) -> u32 {
+        self.px(1.8).max(2) as u32
+    }
+
+    /// Font size in pixels, an even integer: plotters' ab_glyph renderer places each glyph at
+    /// `size / 2` truncated, so odd or fractional sizes shift some glyphs (e.g. `.`) by a pixel.
+    fn font(&self, v: f64) -> f64 {
+        ((v * self.u / 2.0).round() * 2.0).max(8.0)
+    }
+}
+
+fn text_style<'a>(size: f64, style: FontStyle, color: RGBColor, pos: Pos) -> TextStyle<'a> {
+    TextStyle {
+        font: ("sans-serif", size, style).into_font(),
+        color: color.to_backend_color(),
+        pos,
+    }
+}
+
+fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, plan: &Plan) -> Result<(), PlotError> {
+    root.fill(&WHITE).map_err(backend_error)?;
+    let (w, h) = root.dim_in_pixel();
+    let m = Metrics {
+        // Sizes are designed at 1200x900 and scale sub-linearly, so small figures keep legible
+        // text and large ones do not get oversized type.
+        u: (w as f64 / 1200.0).min(h as f64 / 900.0).powf(0.7),
+    };
+
+    // Title strip.
+    let title_font = m.font(20.0);
+    let title_h = (title_font * 2.2).round() as i32;
+    let (title_area, body) = root.split_vertically(title_h);
+    let title_style = text_style(
+        title_font,
+        FontStyle::Bold,
+        INK,
+        Pos::new(HPos::Center, VPos::Center),
+    );
+    title_area
+        .draw_text(
+            &plan.title,
+            &title_style,
+            (w as i32 / 2, title_h / 2 + m.px(2.0)),
+        )
+        .map_err(backend_error)?;
+
+    // Plots on the left, legend column on the right.
+    let body = body.margin(0, m.px(10.0), m.px(8.0), m.px(12.0));
+    let (bw, bh) = body.dim_in_pixel();
+    let legend_w = legend_width(&body, plan, &m)?.min(bw as i32 * 2 / 5);
+    let (plots, legend) = body.split_horizontally(bw as i32 - legend_w);
+
+    // Panel heights: plotting heights in the ratio of `weights`, the bottom panel also carries
+    // the frequency labels.
+    let gap = m.px(10.0);
+    let x_label_h = m.px(46.0);
+    let weights: &[f64] = if plan.chi.is_some() {
+        &[0.44, 0.25, 0.31]
+    } else {
+        &[0.62, 0.38]
+    };
+    let avail =
+        (bh as i32 - x_label_h - gap * weights.len() as i32).max(weights.len() as i32) as f64;
+    let mut breaks = Vec::new();
+    let mut y = 0i32;
+    for wt in &weights[..weights.len() - 1] {
+        y += (wt * avail).round() as i32 + gap;
+        breaks.push(y);
+    }
+    let panels = plots.split_by_breakpoints([] as [i32; 0], &breaks);
+    // The FRF legend may use the height of the amplitude and phase panels; the χ legend sits
+    // beside the correlation panel.
+    let (frf_legend, chi_legend) = match breaks.get(1) {
+        Some(&y) => {
+            let (top, bottom) = legend.split_vertically(y);
+            (top, Some(bottom))
+        }
+        None => (legend, None),
+    };
+    let n = panels.len();
+
+    let ctx = PanelCtx {
+        plan,
+        m: &m,
+        gap,
+        x_label_h,
+    };
+    if let Some(p) = panels.first() {
+        ctx.amplitude_panel(p, n == 1)?;
+    }
+    if let Some(p) = panels.get(1) {
+        ctx.phase_panel(p, n == 2)?;
+    }
+    if let Some(p) = panels.get(2) {
+        ctx.chi_panel(p)?;
+    }
+    ctx.frf_legend(&frf_legend)?;
+    if let Some(l) = &chi_legend {
+        ctx.chi_legend(l)?;
+    }
+    Ok(())
+}
+
+fn legend_text_style<'a>(m: &Metrics) -> TextStyle<'a> {
+    text_style(
+        m.font(14.0),
+        FontStyle::Normal,
+        INK,
+        Pos::new(HPos::Left, VPos::Center),
+    )
+}
+
+fn note_text_style<'a>(m: &Metrics) -> TextStyle<'a> {
+    text_style(
+        m.font(12.0),
+        FontStyle::Normal,
+        MUTED,
+        Pos::new(HPos::Left, VPos::Center),
+    )
+}
+
+/// Legend labels: FRF names, then their FRAC line.
+fn frf_label(c: &Curve) -> (String, Option<String>) {
+    (c.label.clone(), c.frac.map(|f| format!("FRAC {f:.3}")))
+}
+
+fn chi_labels(plan: &Plan) -> Vec<(String, Option<String>)> {
+    let Some((s, a)) = &plan.chi else {
+        return Vec::new();
+    };
+    let mean = |c: &ChiCurve| c.mean.map(|v| format!("mean {v:.3}"));
+    vec![
+        ("χₛ  shape".to_string(), mean(s)),
+        ("χₐ  amplitude".to_string(), mean(a)),
+    ]
+}
+
+fn legend_width<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    plan: &Plan,
+    m: &Metrics,
+) -> Result<i32, PlotError> {
+    let main = legend_text_style(m);
+    let note = note_text_style(m);
+    let mut widest = area
+        .estimate_text_size("predicted", &main)
+        .map_err(backend_error)?
+        .0;
+    let labels = plan.curves.iter().map(frf_label).chain(chi_labels(plan));
+    for (label, sub) in labels {
+        widest = widest.max(
+            area.estimate_text_size(&label, &main)
+                .map_err(backend_error)?
+                .0,
+        );
+        if let Some(sub) = sub {
+            widest = widest.max(
+                area.estimate_text_size(&sub, &note)
+                    .map_err(backend_error)?
+                    .0,
+            );
+        }
+    }
+    Ok(widest as i32 + m.px(24.0) + m.px(38.0) + m.px(16.0))
+}
+
+struct PanelCtx<'p> {
+    plan: &'p Plan,
+    m: &'p Metrics,
+    gap: i32,
+    x_label_h: i32,
+}
+
+type Chart<'a, DB> = ChartContext<'a, DB, Cartesian2d<Axis, Axis>>;
+
+impl PanelCtx<'_> {
+    /// A chart on `area` sharing the frequency axis; only the bottom panel shows frequencies.
+    fn chart<'a, DB: DrawingBackend>(
+        &self,
+        area: &'a DrawingArea<DB, Shift>,
+        y: &Axis,
+        y_desc: &str,
+        bottom: bool,
+    ) -> Result<Chart<'a, DB>, PlotError> {
+        let m = self.m;
+        let mut chart = ChartBuilder::on(area)
+            .margin_top(self.gap)
+            .margin_right(m.px(4.0))
+            .set_label_area_size(LabelAreaPosition::Left, m.px(68.0))
+            .set_label_area_size(
+                LabelAreaPosition::Bottom,
+                if bottom { self.x_label_h } else { 0 },
+            )
+            .build_cartesian_2d(self.plan.x_axis.clone(), y.clone())
+            .map_err(backend_error)?;
+        let x_axis = &self.plan.x_axis;
+        let x_fmt = |v: &f64| x_axis.label(*v);
+        let y_fmt = |v: &f64| y.label(*v);
+        let tick_font = ("sans-serif", m.font(12.0)).into_font().color(&INK);
+        let desc_font = ("sans-serif", m.font(14.0)).into_font().color(&INK);
+        let mut mesh = chart.configure_mesh();
+        mesh.x_label_formatter(&x_fmt)
+            .y_label_formatter(&y_fmt)
+            .label_style(tick_font)
+            .axis_desc_style(desc_font)
+            .bold_line_style(RGBColor(200, 200, 200).stroke_width(1))
+            .light_line_style(RGBColor(236, 236, 236).stroke_width(1))
+            .axis_style(INK.stroke_width(1))
+            .set_all_tick_mark_size(m.px(5.0))
+            .y_desc(y_desc);
+        if bottom {
+            mesh.x_desc("Frequency (Hz)");
+        }
+        mesh.draw().map_err(backend_error)?;
+        // Close the frame so stacked panels read as one figure.
+        let (x, y) = (&self.plan.x_axis, y);
+        chart
+            .plotting_area()
+            .draw(&Rectangle::new(
+                [(x.lo, y.lo), (x.hi, y.hi)],
+                INK.stroke_width(1),
+            ))
+            .map_err(backend_error)?;
+        Ok(chart)
+    }
+
+    fn amplitude_panel<DB: DrawingBackend>(
+        &self,
+        area: &DrawingArea<DB, Shift>,
+        bottom: bool,
+    ) -> Result<(), PlotError> {
+        let plan = self.plan;
+        let mut chart = self.chart(area, &plan.db_axis, &plan.db_label, bottom)?;
+        for c in &plan.curves {
+            self.draw_curve(&mut chart, &c.measured_db, c.predicted_db.as_ref(), c.color)?;
+        }
+        if !plan.db_has_data {
+            self.note(
+                &chart,
+                "no finite amplitude: every value is zero, NaN or infinite",
+            )?;
+        }
+        Ok(())
+    }
+
+    fn phase_panel<DB: DrawingBackend>(
+        &self,
+        area: &DrawingArea<DB, Shift>,
+        bottom: bool,
+    ) -> Result<(), PlotError> {
+        let plan = self.plan;
+        let mut chart = self.chart(area, &plan.phase_axis, "Phase (°)", bottom)?;
+        for c in &plan.curves {
+            self.draw_curve(
+                &mut chart,
+                &c.measured_phase,
+                c.predicted_phase.as_ref(),
+                c.color,
+            )?;
+        }
+        let empty = plan.curves.iter().all(|c| {
+            c.measured_phase.is_empty() && c.predicted_phase.as_ref().is_none_or(|r| r.is_empty())
+        });
+        if empty {
+            self.note(&chart, "no phase: every value is zero, NaN or infinite")?;
+        }
+        Ok(())
+    }
+
+    fn chi_panel<DB: DrawingBackend>(
+        &self,
+        area: &DrawingArea<DB, Shift>,
+    ) -> Result<(), PlotError> {
+        let plan = self.plan;
+        let mut chart = self.chart(area, &plan.chi_axis, "Correlation", true)?;
+        let Some((s, a)) = &plan.chi else {
+            return Ok(());
+        };
+        for run in &a.runs {
+            self.chi_a_line(&mut chart, run)?;
+        }
+        for run in &s.runs {
+            self.chi_s_line(&mut chart, run)?;
+        }
+        if s.runs.is_empty() && a.runs.is_empty() {
+            self.note(&chart, "no finite χs or χa values")?;
+        }
+        Ok(())
+    }
+
+    fn chi_s_line<DB: DrawingBackend>(
+        &self,
+        chart: &mut Chart<'_, DB>,
+        run: &[(f64, f64)],
+    ) -> Result<(), PlotError> {
+        chart
+            .draw_series(LineSeries::new(
+                run.iter().copied(),
+                INK.stroke_width(self.m.line()),
+            ))
+            .map_err(backend_error)?;
+        Ok(())
+    }
+
+    fn chi_a_line<DB: DrawingBackend>(
+        &self,
+        chart: &mut Chart<'_, DB>,
+        run: &[(f64, f64)],
+    ) -> Result<(), PlotError> {
+        let m = self.m;
+        let style = CHI_A.stroke_width(m.line());
+        chart
+            .draw_series(DashedLineSeries::new(
+                run.iter().copied(),
+                m.px(7.0),
+                m.px(4.0),
+                style,
+            ))
+            .map_err(backend_error)?;
+        Ok(())
+    }
+
+    /// Predicted as a solid line, measured as small dots of the same colour on top.
+    fn draw_curve<DB: DrawingBackend>(
+        &self,
+        chart: &mut Chart<'_, DB>,
+        measured: &Runs,
+        predicted: Option<&Runs>,
+        color: RGBColor,
+    ) -> Result<(), PlotError> {
+        let m = self.m;
+        if let Some(runs) = predicted {
+            let style = color.stroke_width(m.line());
+            for run in runs {
+                if run.len() == 1 {
+                    chart
+                        .draw_series(
+                            run.iter()
+                                .map(|p| Circle::new(*p, m.px(1.5), style.filled())),
+                        )
+                        .map_err(backend_error)?;
+                } else {
+                    chart
+                        .draw_series(LineSeries::new(run.iter().copied(), style))
+                        .map_err(backend_error)?;
+                }
+            }
+        }
+        // Small dots where lines are dense, larger ones where each line is seen on its own.
+        let plot_w = chart.plotting_area().dim_in_pixel().0 as f64;
+        let spacing = plot_w / self.plan.lines.max(1) as f64;
+        let r = if spacing >= 6.0 * m.u {
+            m.px(2.4)
+        } else {
+            m.px(1.4)
+        };
+        let dot = color.filled();
+        for run in measured {
+            chart
+                .draw_series(run.iter().map(|p| Circle::new(*p, r, dot)))
+                .map_err(backend_error)?;
+        }
+        Ok(())
+    }
+
+    fn note<DB: DrawingBackend>(&self, chart: &Chart<'_, DB>, text: &str) -> Result<(), PlotError> {
+        let area = chart.plotting_area().strip_coord_spec();
+        let (w, h) = area.dim_in_pixel();
+        let style = text_style(
+            self.m.font(14.0),
+            FontStyle::Italic,
+            MUTED,
+            Pos::new(HPos::Center, VPos::Center),
+        );
+        area.draw_text(text, &style, (w as i32 / 2, h as i32 / 2))
+            .map_err(backend_error)
+    }
+
+    /// Legend rows: a swatch drawn by `swatch` at `(x0..x1, y)`, a label and an optional note.
+    fn legend_rows<DB: DrawingBackend>(
+        &self,
+        area: &DrawingArea<DB, Shift>,
+        rows: Vec<(String, Option<String>, Swatch)>,
+    ) -> Result<(), PlotError> {
+        let m = self.m;
+        let main = legend_text_style(m);
+        let note = note_text_style(m);
+        let x0 = m.px(24.0);
+        let x1 = x0 + m.px(30.0);
+        let tx = x1 + m.px(8.0);
+        let mut y = self.gap + m.px(12.0);
+        for (label, sub, swatch) in rows {
+            match swatch {
+                Swatch::Line(c, width) => area
+                    .draw(&PathElement::new(
+                        vec![(x0, y), (x1, y)],
+                        c.stroke_width(width),
+                    ))
+                    .map_err(backend_error)?,
+                Swatch::Dashed(c, width) => area
+                    .draw(&plotters::element::DashedPathElement::new(
+                        vec![(x0, y), (x1, y)],
+                        m.px(7.0),
+                        m.px(4.0),
+                        c.stroke_width(width),
+                    ))
+                    .map_err(backend_error)?,
+                Swatch::Dots(c) => {
+                    for k in 0..4 {
+                        let x = x0 + (x1 - x0) * k / 3;
+                        area.draw(&Circle::new((x, y), m.px(1.8), c.filled()))
+                            .map_err(backend_error)?;
+                    }
+                }
+                Swatch::Gap => {}
+            }
+            area.draw_text(&label, &main, (tx, y))
+                .map_err(backend_error)?;
+            y += m.px(20.0);
+            if let Some(sub) = sub {
+                area.draw_text(&sub, &note, (tx, y - m.px(3.0)))
+                    .map_err(backend_error)?;
+                y += m.px(18.0);
+            }
+        }
+        Ok(())
+    }
+
+    fn frf_legend<DB: DrawingBackend>(
+        &self,
+        area: &DrawingArea<DB, Shift>,
+    ) -> Result<(), PlotError> {
+        let m = self.m;
+        let mut rows: Vec<_> = self
+            .plan
+            .curves
+            .iter()
+            .map(|c| {
+                let (label, sub) = frf_label(c);
+                (label, sub, Swatch::Line(c.color, m.px(3.0) as u32))
+            })
+            .collect();
+        rows.push((String::new(), None, Swatch::Gap));
+        rows.push(("measured".to_string(), None, Swatch::Dots(MUTED)));
+        if self.plan.has_prediction {
+            rows.push(("predicted".to_string(), None, Swatch::Line(MUTED, m.line())));
+        }
+        self.legend_rows(area, rows)
+    }
+
+    fn chi_legend<DB: DrawingBackend>(
+        &self,
+        area: &DrawingArea<DB, Shift>,
+    ) -> Result<(), PlotError> {
+        let width = self.m.line();
+        let swatches = [Swatch::Line(INK, width), Swatch::Dashed(CHI_A, width)];
+        let rows = chi_labels(self.plan)
+            .into_iter()
+            .zip(swatches)
+            .map(|((l, s), sw)| (l, s, sw))
+            .collect();
+        self.legend_rows(area, rows)
+    }
+}
+
+enum Swatch {
+    Line(RGBColor, u32),
+    Dashed(RGBColor, u32),
+    Dots(RGBColor),
+    Gap,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::core::{Component, DofId};
+    use faer::Mat;
+
+    fn dof(node: u64) -> DofId {
+        DofId::new(node, Component::Uz)
+    }
+
+    fn pair(r: u64, e: u64) -> FrfPair {
+        FrfPair {
+            response: dof(r),
+            excitation: dof(e),
+        }
+    }
+
+    /// Receptances of single-DOF oscillators `1/(k − ω²m + iωc)` scaled per FRF.
+    fn sdof_set(pairs: &[FrfPair], fn_hz: &[f64], zeta: f64, scale: &[f64]) -> FrfSet {
+        let freqs: Vec<f64> = (0..=400).map(|k| 1.0 + k as f64 * 0.1).collect();
+        let values = Mat::from_fn(freqs.len(), pairs.len(), |k, j| {
+            let w = 2.0 * std::f64::consts::PI * freqs[k];
+            let wn = 2.0 * std::f64::consts::PI * fn_hz[j];
+            let (m, kk) = (1.0, wn * wn);
+            let c = 2.0 * zeta * wn * m;
+            let z = c64::new(kk - w * w * m, w * c);
+            c64::new(scale[j], 0.0) / z
+        });
+        FrfSet {
+            quantity: Quantity::Receptance,
+            freqs_hz: freqs,
+            pairs: pairs.to_vec(),
+            values,
+        }
+    }
+
+    fn example() -> (FrfSet, FrfSet, FrfCorrelation) {
+        let pairs = [pair(1, 1), pair(2, 1)];
+        let mut measured = sdof_set(&pairs, &[12.0, 27.0], 0.02, &[1.0, -0.6]);
+        // Deterministic ripple standing in for measurement noise.
+        for k in 0..measured.freqs_hz.len() {
+            for j in 0..pairs.len() {
+                let e = 1.0 + 0.06 * ((k * 7 + j * 3) as f64).sin();
+                measured.values[(k, j)] *= e;
+            }
+        }
+        let predicted = sdof_set(&pairs, &[12.6, 26.0], 0.025, &[1.0, -0.6]);
+        let corr = crate::correlation::correlate(&measured, &predicted).unwrap();
+        (measured, predicted, corr)
+    }
+
+    fn png_size(png: &[u8]) -> (u32, u32) {
+        let img = image::load_from_memory_with_format(png, image::ImageFormat::Png).unwrap();
+        (img.width(), img.height())
+    }
+
+    #[test]
+    fn renders_png_of_requested_size_and_svg() {
+        let (m, p, c) = example();
+        let opts = FrfPlotOptions {
+            width_px: 1000,
+            height_px: 760,
+            ..FrfPlotOptions::default()
+        };
+        let fig = frf_overlay(&m, Some(&p), Some(&c), &opts).unwrap();
+        assert_eq!(&fig.png[..8], b"\x89PNG\r\n\x1a\n");
+        assert_eq!(png_size(&fig.png), (1000, 760));
+        assert!(fig.svg.contains("<svg"));
+        assert!(fig.svg.contains("H 1:uz/1:uz"));
+        assert!(fig.svg.contains("Frequency (Hz)"));
+        assert!(fig.svg.contains("dB re 1 m/N"));
+    }
+
+    #[test]
+    fn output_is_deterministic() {
+        let (m, p, c) = example();
+        let opts = FrfPlotOptions::default();
+        let a = frf_overlay(&m, Some(&p), Some(&c), &opts).unwrap();
+        let b = frf_overlay(&m, Some(&p), Some(&c), &opts).unwrap();
+        assert!(a.png == b.png, "PNG bytes differ between runs");
+        assert_eq!(a.svg, b.svg);
+    }
+
+    #[test]
+    fn measured_only_renders_two_panels() {
+        let (m, _, _) = example();
+        let opts = FrfPlotOptions {
+            title: "Measurement".to_string(),
+            ..FrfPlotOptions::default()
+        };
+        let fig = frf_overlay(&m, None, None, &opts).unwrap();
+        assert_eq!(png_size(&fig.png), (1200, 900));
+        assert!(!fig.svg.contains("Correlation"));
+        assert!(!fig.svg.contains("predicted"));
+    }
+
+    #[test]
+    fn unknown_pair_is_an_error_naming_the_valid_ones() {
+        let (m, p, c) = example();
+        let opts = FrfPlotOptions {
+            pairs: Some(vec![pair(1, 1), pair(9, 1)]),
+            ..FrfPlotOptions::default()
+        };
+        let err = frf_overlay(&m, Some(&p), Some(&c), &opts).unwrap_err();
+        assert!(matches!(err, PlotError::UnknownPair { .. }), "{err}");
+        let msg = err.to_string();
+        assert!(
+            msg.contains("9:uz/1:uz") && msg.contains("1:uz/1:uz, 2:uz/1:uz"),
+            "{msg}"
+        );
+    }
+
+    #[test]
+    fn empty_set_is_an_error() {
+        let empty = FrfSet {
+            quantity: Quantity::Receptance,
+            freqs_hz: Vec::new(),
+            pairs: Vec::new(),
+            values: Mat::zeros(0, 0),
+        };
+        let err = frf_overlay(&empty, None, None, &FrfPlotOptions::default()).unwrap_err();
+        assert_eq!(err, PlotError::Empty { pairs: 0, lines: 0 });
+        let no_lines = FrfSet {
+            pairs: vec![pair(1, 1)],
+            values: Mat::zeros(0, 1),
+            ..empty.clone()
+        };
+        let err = frf_overlay(&no_lines, None, None, &FrfPlotOptions::default()).unwrap_err();
+        assert_eq!(err, PlotError::Empty { pairs: 1, lines: 0 });
+    }
+
+    #[test]
+    fn invalid_requests_are_errors() {
+        let (m, p, c) = example();
+        let run = |opts: FrfPlotOptions| frf_overlay(&m, Some(&p), Some(&c), &opts).unwrap_err();
+        let d = FrfPlotOptions::default;
+        assert!(matches!(
+            run(FrfPlotOptions {
+                pairs: Some(vec![]),
+                ..d()
+            }),
+            PlotError::NoneSelected { .. }
+        ));
+        assert!(matches!(
+            run(FrfPlotOptions {
+                pairs: Some(vec![pair(1, 1), pair(1, 1)]),
+                ..d()
+            }),
+            PlotError::DuplicatePair { .. }
+        ));
+        assert!(matches!(
+            run(FrfPlotOptions {
+                pairs: Some(vec![pair(1, 1), pair(2, 1)]),
+                max_frfs: 1,
+                ..d()
+            }),
+            PlotError::TooMany { .. }
+        ));
+        assert!(matches!(
+            run(FrfPlotOptions { max_frfs: 0, ..d() }),
+            PlotError::MaxFrfs { .. }
+        ));
+        assert!(matches!(
+            run(FrfPlotOptions {
+                width_px: 10,
+                ..d()
+            }),
+            PlotError::Size { .. }
+        ));
+        let mut bad = m.clone();
+        bad.freqs_hz.pop();
+        assert!(matches!(
+            frf_overlay(&bad, None, None, &d()).unwrap_err(),
+            PlotError::Shape {
+                which: "measured",
+                ..
+            }
+        ));
+        let mut other = p.clone();
+        other.quantity = Quantity::Mobility;
+        assert!(matches!(
+            frf_overlay(&m, Some(&other), None, &d()).unwrap_err(),
+            PlotError::Quantity { .. }
+        ));
+        let partial = FrfSet {
+            pairs: vec![pair(1, 1)],
+            values: Mat::from_fn(p.freqs_hz.len(), 1, |k, _| p.values[(k, 0)]),
+            ..p.clone()
+        };
+        assert!(matches!(
+            frf_overlay(&m, Some(&partial), None, &d()).unwrap_err(),
+            PlotError::MissingPrediction { .. }
+        ));
+        let mut short = c.clone();
+        short.chi_a.pop();
+        assert!(matches!(
+            frf_overlay(&m, None, Some(&short), &d()).unwrap_err(),
+            PlotError::CorrelationShape { .. }
+        ));
+    }
+
+    #[test]
+    fn non_finite_values_are_skipped_not_fatal() {
+        let (mut m, p, mut c) = example();
+        for k in 0..m.freqs_hz.len() {
+            let v = match k % 5 {
+                0 => c64::new(0.0, 0.0),
+                1 => c64::new(f64::NAN, 1.0),
+                2 => c64::new(f64::INFINITY, 0.0),
+                _ => continue,
+            };
+            m.values[(k, 0)] = v;
+        }
+        m.freqs_hz[3] = f64::NAN;
+        c.chi_s[4] = f64::NAN;
+        c.chi_a[5] = 7.0;
+        let fig = frf_overlay(&m, Some(&p), Some(&c), &FrfPlotOptions::default()).unwrap();
+        assert_eq!(png_size(&fig.png), (1200, 900));
+
+        // Nothing finite at all: still a figure, with a note instead of curves.
+        let zeros = FrfSet {
+            values: Mat::zeros(m.freqs_hz.len(), m.pairs.len()),
+            ..m.clone()
+        };
+        let fig = frf_overlay(&zeros, None, None, &FrfPlotOptions::default()).unwrap();
+        assert!(fig.svg.contains("no finite amplitude"));
+
+        // A single line, and frequencies that are all NaN.
+        let one = FrfSet {
+            freqs_hz: vec![10.0],
+            values: Mat::from_fn(1, 2, |_, j| c64::new(1.0 + j as f64, 0.0)),
+            ..m.clone()
+        };
+        frf_overlay(&one, None, None, &FrfPlotOptions::default()).unwrap();
+        let nan = FrfSet {
+            freqs_hz: vec![f64::NAN],
+            ..one.clone()
+        };
+        assert_eq!(
+            frf_overlay(&nan, None, None, &FrfPlotOptions::default()).unwrap_err(),
+            PlotError::NoFrequencies
+        );
+        let wide = FrfSet {
+            freqs_hz: vec![-1e308, 1e308],
+            values: Mat::from_fn(2, 2, |_, _| c64::new(1.0, 0.0)),
+            ..m.clone()
+        };
+        assert!(matches!(
+            frf_overlay(&wide, None, None, &FrfPlotOptions::default()).unwrap_err(),
+            PlotError::FrequencySpan { .. }
+        ));
+        // Extreme but finite magnitudes.
+        let extreme = FrfSet {
+            values: Mat::from_fn(2, 2, |k, _| {
+                c64::new(if k == 0 { 1e-320 } else { 1e300 }, 0.0)
+            }),
+            freqs_hz: vec![1e12, 1e12 + 1e-3],
+            ..wide.clone()
+        };
+        frf_overlay(&extreme, None, None, &FrfPlotOptions::default()).unwrap();
+    }
+
+    #[test]
+    fn small_odd_and_crowded_figures_render() {
+        let pairs: Vec<FrfPair> = (1..=8).map(|r| pair(r, 1)).collect();
+        let fns: Vec<f64> = (0..8).map(|i| 5.0 + 4.0 * i as f64).collect();
+        let m = sdof_set(&pairs, &fns, 0.02, &[1.0; 8]);
+        let p = sdof_set(&pairs, &fns, 0.03, &[1.1; 8]);
+        let c = crate::correlation::correlate(&m, &p).unwrap();
+        for (w, h) in [(400, 400), (2400, 400), (400, 1600), (1600, 1200)] {
+            let opts = FrfPlotOptions {
+                title: "A title far too long for a small figure, it runs off both edges".into(),
+                width_px: w,
+                height_px: h,
+                max_frfs: MAX_FRFS,
+                pairs: None,
+            };
+            let fig = frf_overlay(&m, Some(&p), Some(&c), &opts).unwrap();
+            assert_eq!(png_size(&fig.png), (w, h));
+        }
+    }
+
+    #[test]
+    fn ticks_are_nice() {
+        let a = Axis::with_ticks(1.0, 41.0, 8);
+        assert_eq!(a.major, vec![5.0, 10.0, 15.0, 20.0, 25.0, 30.0, 35.0, 40.0]);
+        assert_eq!(a.label(-0.0), "0");
+        assert_eq!(a.label(-20.0), "−20");
+        let d = Axis::decibel(-143.2, -41.0);
+        assert!(d.lo <= -143.2 - 2.0 && d.hi >= -41.0 + 2.0);
+        assert!(d.major.iter().all(|v| v.fract() == 0.0));
+    }
+
+    /// Writes `/tmp/frf_plot_example.png` and `.svg` for a visual check:
+    /// `cargo test --release frf_plot::tests::write_example -- --ignored`.
+    #[test]
+    #[ignore]
+    fn write_example() {
+        let (m, p, c) = example();
+        let opts = FrfPlotOptions {
+            title: "Two-DOF check: measured vs updated model".to_string(),
+            ..FrfPlotOptions::default()
+        };
+        let fig = frf_overlay(&m, Some(&p), Some(&c), &opts).unwrap();
+        std::fs::write("/tmp/frf_plot_example.png", &fig.png).unwrap();
+        std::fs::write("/tmp/frf_plot_example.svg", &fig.svg).unwrap();
+        let fig = frf_overlay(&m, None, None, &opts).unwrap();
+        std::fs::write("/tmp/frf_plot_example_measured.png", &fig.png).unwrap();
+    }
+}

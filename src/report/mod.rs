@@ -1,0 +1,6 @@
+//! Reports: figures rendered from FRF sets and their correlation, in memory (PNG and SVG).
+//!
+//! Rendering needs no system fonts: the DejaVu Sans faces embedded in the binary are used, so
+//! figures come out the same on any machine, byte for byte.
+
+pub mod frf_plot;
