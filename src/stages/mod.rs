@@ -7,6 +7,7 @@ pub mod mesh_generate;
 pub mod model_lumped;
 pub mod modes;
 pub mod noise_add;
+pub mod plot_frf;
 
 use crate::pipeline::{Registry, Stage, Typed};
 
@@ -16,15 +17,18 @@ static FRF_SYNTHESISE: Typed<frf_synthesise::FrfSynthesise> = Typed::new();
 static NOISE_ADD: Typed<noise_add::NoiseAdd> = Typed::new();
 static CORRELATE_FRF: Typed<correlate_frf::CorrelateFrf> = Typed::new();
 static MESH_GENERATE: Typed<mesh_generate::MeshGenerate> = Typed::new();
+static PLOT_FRF: Typed<plot_frf::PlotFrf> = Typed::new();
 
 /// Every stage kind femu knows.
 pub fn registry() -> Registry {
     let all: Vec<&'static dyn Stage> = vec![
+        &MESH_GENERATE,
         &MODEL_LUMPED,
         &MODES,
         &FRF_SYNTHESISE,
         &NOISE_ADD,
         &CORRELATE_FRF,
+        &PLOT_FRF,
     ];
     Registry::new(all)
 }
