@@ -1,7 +1,9 @@
 //! Assembly of system matrices from model descriptions.
 
+pub mod beam;
 pub mod element;
 pub mod lumped;
+pub mod lumped_elements;
 pub mod system;
 
 pub use system::{SystemMatrices, SystemMatricesError};
