@@ -73,6 +73,16 @@ pub enum ElementError {
         /// The beam axis.
         axis: [f64; 3],
     },
+    /// The parameter is not one of this element's (or its section's) parameters.
+    #[error("parameter `{parameter}` does not apply to {element}; its parameters are: {valid}")]
+    UnknownParameter {
+        /// The parameter asked for.
+        parameter: &'static str,
+        /// The element (and section) it was asked of.
+        element: &'static str,
+        /// The parameters that element has.
+        valid: &'static str,
+    },
 }
 
 /// Checks a value is finite and positive (or non-negative when `allow_zero`).

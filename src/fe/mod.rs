@@ -1,8 +1,10 @@
-//! Assembly of system matrices from model descriptions.
+//! Element kernels and the assembly of system matrices from model descriptions.
 
 pub mod assembly;
+pub mod beam;
 pub mod element;
 pub mod lumped;
+pub mod lumped_elements;
 pub mod system;
 
 pub use system::{SystemMatrices, SystemMatricesError};
