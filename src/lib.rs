@@ -7,6 +7,8 @@
 //! never import the engine (`artefact`, `cache`, `pipeline`, `stages`, `cli`).
 
 #![warn(missing_docs)]
+// `!(x > 0.0)` is used on purpose: it rejects NaN together with the out-of-range values.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod artefact;
 pub mod cache;

@@ -134,16 +134,16 @@ pub fn lowest_modes(
             dofs: n,
         });
     }
-    for j in 0..n {
+    for (j, dof) in dofs.iter().enumerate() {
         let (kj, mj) = (diag(k, j), diag(m, j));
         if !(mj >= 0.0) {
             return Err(EigenError::MasslessDof {
-                dof: dofs[j],
+                dof: *dof,
                 value: mj,
             });
         }
         if kj == 0.0 && mj == 0.0 {
-            return Err(EigenError::Unsupported { dof: dofs[j] });
+            return Err(EigenError::Unsupported { dof: *dof });
         }
     }
     if n <= params.dense_limit {

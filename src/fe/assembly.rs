@@ -110,10 +110,10 @@ where
     let n = 6 * n_nodes;
     let mut col_ptr = Vec::with_capacity(n + 1);
     col_ptr.push(0usize);
-    for a in 0..n_nodes {
+    for neighbours in &adj {
         for _ in 0..6 {
             let last = *col_ptr.last().unwrap_or(&0);
-            col_ptr.push(last + 6 * adj[a].len());
+            col_ptr.push(last + 6 * neighbours.len());
         }
     }
     let nnz = col_ptr[n];

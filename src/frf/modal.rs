@@ -134,8 +134,8 @@ pub fn modal_receptance(
         .map(|&f| {
             let omega = 2.0 * PI * f;
             let mut inv = Vec::with_capacity(m);
-            for r in 0..m {
-                let d = damping.denominator(r, modes.eigenvalues[r], omega);
+            for (r, &lambda) in modes.eigenvalues.iter().enumerate().take(m) {
+                let d = damping.denominator(r, lambda, omega);
                 if d.re == 0.0 && d.im == 0.0 {
                     return Err(ModalError::Singular {
                         freq_hz: f,

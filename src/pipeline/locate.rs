@@ -185,11 +185,11 @@ mod tests {
         );
         assert_eq!(
             l.value(&["stages", "a", "with", "count"]),
-            Some(Pos { line: 5, col: 20 })
+            Some(Pos { line: 5, col: 19 })
         );
         assert_eq!(
             l.value(&["stages", "b", "with", "lines", "1"]),
-            Some(Pos { line: 9, col: 19 })
+            Some(Pos { line: 9, col: 18 })
         );
         // Unknown deeper paths fall back to the nearest ancestor.
         assert_eq!(

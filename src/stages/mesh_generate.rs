@@ -2,7 +2,9 @@
 
 use crate::artefact::ArtefactKind;
 use crate::artefact::mesh::mesh_to_artefact;
-use crate::model::generate::{BentPlate, FlatPlate, PlateSupport, ThreeBeam, bent_plate, flat_plate, steel, three_beam};
+use crate::model::generate::{
+    BentPlate, FlatPlate, PlateSupport, ThreeBeam, bent_plate, flat_plate, steel, three_beam,
+};
 use crate::pipeline::{ParamIssue, PortSpec, StageError, StageInputs, StageOutputs, TypedStage};
 use std::collections::BTreeSet;
 
@@ -92,7 +94,8 @@ const MAX_NODES: usize = 200_000;
 impl TypedStage for MeshGenerate {
     type Params = Params;
     const KIND: &'static str = "mesh.generate";
-    const SUMMARY: &'static str = "Case-study geometries (bent plate, flat plate, three-beam) with a mesh-density knob";
+    const SUMMARY: &'static str =
+        "Case-study geometries (bent plate, flat plate, three-beam) with a mesh-density knob";
     const IMPL_VERSION: u32 = 1;
 
     fn inputs() -> Vec<PortSpec> {
@@ -111,24 +114,49 @@ impl TypedStage for MeshGenerate {
             }
         };
         match p {
-            Params::BentPlate { refine, thickness_m, bend_deg, .. } => {
+            Params::BentPlate {
+                refine,
+                thickness_m,
+                bend_deg,
+                ..
+            } => {
                 positive("thickness_m", *thickness_m);
                 if *refine == 0 || 120 * refine.pow(2) > MAX_NODES {
-                    issues.push(ParamIssue::at("refine", format!("{refine} must be 1 to {}", (MAX_NODES as f64 / 120.0).sqrt() as usize)));
+                    issues.push(ParamIssue::at(
+                        "refine",
+                        format!(
+                            "{refine} must be 1 to {}",
+                            (MAX_NODES as f64 / 120.0).sqrt() as usize
+                        ),
+                    ));
                 }
                 if !(bend_deg.is_finite() && bend_deg.abs() < 180.0) {
                     issues.push(ParamIssue::at("bend_deg", "must lie in (-180, 180)"));
                 }
             }
-            Params::FlatPlate { a_m, b_m, nx, ny, thickness_m, .. } => {
+            Params::FlatPlate {
+                a_m,
+                b_m,
+                nx,
+                ny,
+                thickness_m,
+                ..
+            } => {
                 positive("a_m", *a_m);
                 positive("b_m", *b_m);
                 positive("thickness_m", *thickness_m);
                 if *nx == 0 || *ny == 0 || (*nx + 1) * (*ny + 1) > MAX_NODES {
-                    issues.push(ParamIssue::at("nx", format!("nx, ny must be >= 1 with (nx+1)(ny+1) <= {MAX_NODES}")));
+                    issues.push(ParamIssue::at(
+                        "nx",
+                        format!("nx, ny must be >= 1 with (nx+1)(ny+1) <= {MAX_NODES}"),
+                    ));
                 }
             }
-            Params::ThreeBeam { elements_per_beam, clamp, joint } => {
+            Params::ThreeBeam {
+                elements_per_beam,
+                clamp,
+                joint,
+            } => {
                 if *elements_per_beam < 2 || *elements_per_beam > 10_000 {
                     issues.push(ParamIssue::at("elements_per_beam", "must be 2 to 10000"));
                 }
@@ -144,7 +172,13 @@ impl TypedStage for MeshGenerate {
 
     fn run(p: &Params, _: &StageInputs) -> Result<StageOutputs, StageError> {
         let model = match p {
-            Params::BentPlate { refine, bend_deg, thickness_m, with_bar, clamped } => bent_plate(&BentPlate {
+            Params::BentPlate {
+                refine,
+                bend_deg,
+                thickness_m,
+                with_bar,
+                clamped,
+            } => bent_plate(&BentPlate {
                 refine: *refine,
                 bend_deg: *bend_deg,
                 thickness: *thickness_m,
@@ -152,7 +186,14 @@ impl TypedStage for MeshGenerate {
                 clamped: *clamped,
                 ..Default::default()
             }),
-            Params::FlatPlate { a_m, b_m, nx, ny, thickness_m, support } => flat_plate(&FlatPlate {
+            Params::FlatPlate {
+                a_m,
+                b_m,
+                nx,
+                ny,
+                thickness_m,
+                support,
+            } => flat_plate(&FlatPlate {
                 a: *a_m,
                 b: *b_m,
                 nx: *nx,
@@ -161,13 +202,20 @@ impl TypedStage for MeshGenerate {
                 material: steel(),
                 support: *support,
             }),
-            Params::ThreeBeam { elements_per_beam, clamp, joint } => three_beam(&ThreeBeam {
+            Params::ThreeBeam {
+                elements_per_beam,
+                clamp,
+                joint,
+            } => three_beam(&ThreeBeam {
                 elements_per_beam: *elements_per_beam,
                 clamp: *clamp,
                 joint: *joint,
                 ..Default::default()
             }),
         };
-        Ok(StageOutputs::from([("mesh".to_string(), mesh_to_artefact(&model))]))
+        Ok(StageOutputs::from([(
+            "mesh".to_string(),
+            mesh_to_artefact(&model),
+        )]))
     }
 }

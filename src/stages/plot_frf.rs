@@ -47,43 +47,78 @@ fn height() -> u32 {
 }
 
 fn parse_pair(s: &str) -> Result<FrfPair, String> {
-    let (r, e) = s.split_once('/').ok_or_else(|| format!("`{s}` is not `response/excitation`, e.g. `2:ux/1:ux`"))?;
-    let response: DofId = r.parse().map_err(|e: crate::core::DofParseError| e.to_string())?;
-    let excitation: DofId = e.parse().map_err(|e: crate::core::DofParseError| e.to_string())?;
-    Ok(FrfPair { response, excitation })
+    let (r, e) = s
+        .split_once('/')
+        .ok_or_else(|| format!("`{s}` is not `response/excitation`, e.g. `2:ux/1:ux`"))?;
+    let response: DofId = r
+        .parse()
+        .map_err(|e: crate::core::DofParseError| e.to_string())?;
+    let excitation: DofId = e
+        .parse()
+        .map_err(|e: crate::core::DofParseError| e.to_string())?;
+    Ok(FrfPair {
+        response,
+        excitation,
+    })
 }
 
 impl TypedStage for PlotFrf {
     type Params = Params;
     const KIND: &'static str = "plot.frf";
-    const SUMMARY: &'static str = "FRF overlay figure (dB amplitude, phase, chi_s and chi_a) as PNG and SVG";
+    const SUMMARY: &'static str =
+        "FRF overlay figure (dB amplitude, phase, chi_s and chi_a) as PNG and SVG";
     const IMPL_VERSION: u32 = 1;
 
     fn inputs() -> Vec<PortSpec> {
         vec![
-            PortSpec::required("measured", ArtefactKind::Frf, "measured FRFs (drawn as dots)"),
-            PortSpec::optional("predicted", ArtefactKind::Frf, "predicted FRFs (drawn as lines)"),
-            PortSpec::optional("correlation", ArtefactKind::Correlation, "chi_s and chi_a curves"),
+            PortSpec::required(
+                "measured",
+                ArtefactKind::Frf,
+                "measured FRFs (drawn as dots)",
+            ),
+            PortSpec::optional(
+                "predicted",
+                ArtefactKind::Frf,
+                "predicted FRFs (drawn as lines)",
+            ),
+            PortSpec::optional(
+                "correlation",
+                ArtefactKind::Correlation,
+                "chi_s and chi_a curves",
+            ),
         ]
     }
 
     fn outputs() -> Vec<PortSpec> {
-        vec![PortSpec::required("plot", ArtefactKind::Plot, "frf.png and frf.svg")]
+        vec![PortSpec::required(
+            "plot",
+            ArtefactKind::Plot,
+            "frf.png and frf.svg",
+        )]
     }
 
     fn validate(p: &mut Params, _: &BTreeSet<String>) -> Vec<ParamIssue> {
         let mut issues = Vec::new();
         if p.max_frfs == 0 || p.max_frfs > MAX_FRFS {
-            issues.push(ParamIssue::at("max_frfs", format!("{} must be 1 to {MAX_FRFS}", p.max_frfs)));
+            issues.push(ParamIssue::at(
+                "max_frfs",
+                format!("{} must be 1 to {MAX_FRFS}", p.max_frfs),
+            ));
         }
         for (name, v) in [("width_px", p.width_px), ("height_px", p.height_px)] {
             if !(MIN_SIDE_PX..=MAX_SIDE_PX).contains(&v) {
-                issues.push(ParamIssue::at(name, format!("{v} must be {MIN_SIDE_PX} to {MAX_SIDE_PX}")));
+                issues.push(ParamIssue::at(
+                    name,
+                    format!("{v} must be {MIN_SIDE_PX} to {MAX_SIDE_PX}"),
+                ));
             }
         }
         for (i, s) in p.frfs.iter().flatten().enumerate() {
             if let Err(e) = parse_pair(s) {
-                issues.push(ParamIssue { path: vec!["frfs".into(), i.to_string()], message: e });
+                issues.push(ParamIssue {
+                    path: vec!["frfs".into(), i.to_string()],
+                    message: e,
+                });
             }
         }
         issues
@@ -92,15 +127,29 @@ impl TypedStage for PlotFrf {
     fn run(p: &Params, inputs: &StageInputs) -> Result<StageOutputs, StageError> {
         let measured = frf_from_artefact(inputs.require("measured")?)?;
         let predicted = inputs.get("predicted").map(frf_from_artefact).transpose()?;
-        let correlation = inputs.get("correlation").map(correlation_from_artefact).transpose()?;
+        let correlation = inputs
+            .get("correlation")
+            .map(correlation_from_artefact)
+            .transpose()?;
         let pairs = p
             .frfs
             .as_ref()
-            .map(|l| l.iter().map(|s| parse_pair(s)).collect::<Result<Vec<_>, _>>())
+            .map(|l| {
+                l.iter()
+                    .map(|s| parse_pair(s))
+                    .collect::<Result<Vec<_>, _>>()
+            })
             .transpose()
             .map_err(StageError::Failed)?;
-        let opts = FrfPlotOptions { title: p.title.clone(), width_px: p.width_px, height_px: p.height_px, max_frfs: p.max_frfs, pairs };
-        let fig = frf_overlay(&measured, predicted.as_ref(), correlation.as_ref(), &opts).map_err(StageError::failed)?;
+        let opts = FrfPlotOptions {
+            title: p.title.clone(),
+            width_px: p.width_px,
+            height_px: p.height_px,
+            max_frfs: p.max_frfs,
+            pairs,
+        };
+        let fig = frf_overlay(&measured, predicted.as_ref(), correlation.as_ref(), &opts)
+            .map_err(StageError::failed)?;
         let mut a = Artefact::new(ArtefactKind::Plot).with_meta("title", p.title.clone().into());
         a.blobs.insert("frf.png".into(), fig.png);
         a.blobs.insert("frf.svg".into(), fig.svg.into_bytes());
