@@ -1,6 +1,8 @@
 //! Model descriptions: what the structure is, before any matrix is built.
 
+pub mod export;
 pub mod generate;
+pub mod import;
 pub mod lumped;
 pub mod structure;
 

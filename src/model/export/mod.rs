@@ -1,0 +1,3 @@
+//! Exporters: Nastran bulk data.
+
+pub mod nastran;

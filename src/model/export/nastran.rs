@@ -1,0 +1,634 @@
+//! Nastran bulk data export: writes a [`Model`] as a deck that
+//! [`crate::model::import::nastran::parse_bulk`] reads back to the same model.
+//!
+//! Cards written, in this order, each group by ascending id: MAT1, PSHELL, PBAR (general
+//! sections) and PBARL (BAR, ROD, TUBE), PBUSH (one per bush, ids above every property id),
+//! GRID (basic coordinates), CQUAD4, CTRIA3, CBAR (orientation X1–X3), CBUSH (CID 0), CELAS2,
+//! CONM2 (CID 0), SPC1 (SID 1, one card per component list), SET1, between `BEGIN BULK` and
+//! `ENDDATA`.
+//!
+//! Cards are in large-field format. A real is written in the shortest form that reads back to
+//! the same `f64` (`2.1+11`, `.3`, `-1.5-3`); when one field of a card needs more than 16
+//! characters, that card is written in free-field format instead, with full-length fields.
+//! Nastran itself reads at most 16 characters per field and may round such values.
+//!
+//! Deviations and femu extensions:
+//! - A set named `set<N>` becomes SET1 `N`; a `pid<N>` set equal to the one
+//!   [`Model::add_property_sets`] would make is left out (the reader adds it again). Any other
+//!   set is a SET1 with a fresh id preceded by a `$femu-set <sid> <name>` comment; an empty set
+//!   is only the comment (Nastran has no empty SET1).
+//! - Each updating parameter is a `$femu-parameter <json>` comment.
+//! - Constraints are written grouped by node and come back sorted without repeats; a model
+//!   round-trips exactly when its constraints are sorted and unique and its `pid<N>` sets are
+//!   present, as for every imported model.
+//! - Non-finite values are written as `NaN`/`inf`, which the reader rejects.
+
+use crate::core::Component;
+use crate::model::structure::{BeamSection, Element, Model};
+use std::collections::{BTreeMap, BTreeSet};
+use std::fmt::Write;
+
+/// One field to write.
+enum F {
+    Blank,
+    Int(u64),
+    Real(f64),
+    Text(String),
+}
+
+/// Formats a real in the shortest Nastran form that parses back to exactly `x`; it always
+/// has a decimal point, so it never reads as an integer.
+pub fn format_real(x: f64) -> String {
+    if !x.is_finite() {
+        return format!("{x}");
+    }
+    if x == 0.0 {
+        return if x.is_sign_negative() { "-0." } else { "0." }.to_string();
+    }
+    let sci = format!("{x:e}");
+    let Some((mantissa, exponent)) = sci.split_once('e') else {
+        return sci;
+    };
+    let Ok(exp) = exponent.parse::<i32>() else {
+        return sci;
+    };
+    let sign = if mantissa.starts_with('-') { "-" } else { "" };
+    let digits: String = mantissa.chars().filter(char::is_ascii_digit).collect();
+    let n = digits.len() as i32;
+    let (lead, rest) = digits.split_at(1);
+    let exp_form = if exp == 0 {
+        format!("{sign}{lead}.{rest}")
+    } else {
+        format!("{sign}{lead}.{rest}{exp:+}")
+    };
+    let positional = if exp >= n - 1 {
+        format!("{sign}{digits}{}.", "0".repeat((exp + 1 - n) as usize))
+    } else if exp >= 0 {
+        let (a, b) = digits.split_at(exp as usize + 1);
+        format!("{sign}{a}.{b}")
+    } else {
+        format!("{sign}.{}{digits}", "0".repeat((-exp - 1) as usize))
+    };
+    if positional.len() <= exp_form.len() {
+        positional
+    } else {
+        exp_form
+    }
+}
+
+fn text_of(f: &F) -> String {
+    match f {
+        F::Blank => String::new(),
+        F::Int(v) => v.to_string(),
+        F::Real(v) => format_real(*v),
+        F::Text(s) => s.clone(),
+    }
+}
+
+/// Appends one card: large field when every field fits 16 characters, else free field.
+fn card(out: &mut String, name: &str, mut fields: Vec<F>) {
+    while matches!(fields.last(), Some(F::Blank)) {
+        fields.pop();
+    }
+    let texts: Vec<String> = fields.iter().map(text_of).collect();
+    if texts.iter().all(|t| t.len() <= 16) {
+        for (i, chunk) in texts.chunks(4).enumerate() {
+            let mut line = if i == 0 {
+                format!("{:<8}", format!("{name}*"))
+            } else {
+                "*       ".to_string()
+            };
+            for t in chunk {
+                let _ = write!(line, "{t:<16}");
+            }
+            out.push_str(line.trim_end());
+            out.push('\n');
+        }
+        if texts.is_empty() {
+            out.push_str(&format!("{name}*\n"));
+        }
+    } else {
+        for (i, chunk) in texts.chunks(8).enumerate() {
+            out.push_str(if i == 0 { name } else { "" });
+            for t in chunk {
+                out.push(',');
+                out.push_str(t);
+            }
+            out.push('\n');
+        }
+    }
+}
+
+fn comps_text(comps: &BTreeSet<Component>) -> String {
+    comps.iter().map(|c| c.nastran().to_string()).collect()
+}
+
+/// Writes the model as bulk data (large-field cards, free field where a value needs it).
+pub fn write_bulk(model: &Model) -> String {
+    let mut out = String::new();
+    out.push_str("$ Nastran bulk data written by femu\nBEGIN BULK\n");
+    for (&id, m) in &model.materials {
+        card(
+            &mut out,
+            "MAT1",
+            vec![
+                F::Int(id),
+                F::Real(m.e),
+                F::Blank,
+                F::Real(m.nu),
+                F::Real(m.rho),
+            ],
+        );
+    }
+    for (&id, p) in &model.shell_properties {
+        card(
+            &mut out,
+            "PSHELL",
+            vec![
+                F::Int(id),
+                F::Int(p.material),
+                F::Real(p.thickness),
+                F::Int(p.material),
+                F::Blank,
+                F::Blank,
+                F::Blank,
+                F::Real(p.nsm),
+            ],
+        );
+    }
+    for (&id, p) in &model.beam_properties {
+        let head = |kind: &str| {
+            vec![
+                F::Int(id),
+                F::Int(p.material),
+                F::Blank,
+                F::Text(kind.to_string()),
+                F::Blank,
+                F::Blank,
+                F::Blank,
+                F::Blank,
+            ]
+        };
+        match &p.section {
+            BeamSection::Rectangle { width, height } => {
+                let mut f = head("BAR");
+                f.extend([F::Real(*width), F::Real(*height), F::Real(p.nsm)]);
+                card(&mut out, "PBARL", f);
+            }
+            BeamSection::Circle { radius } => {
+                let mut f = head("ROD");
+                f.extend([F::Real(*radius), F::Real(p.nsm)]);
+                card(&mut out, "PBARL", f);
+            }
+            BeamSection::Tube {
+                outer_radius,
+                inner_radius,
+            } => {
+                let mut f = head("TUBE");
+                f.extend([
+                    F::Real(*outer_radius),
+                    F::Real(*inner_radius),
+                    F::Real(p.nsm),
+                ]);
+                card(&mut out, "PBARL", f);
+            }
+            BeamSection::General {
+                area,
+                iy,
+                iz,
+                j,
+                shear_y,
+                shear_z,
+            } => {
+                let mut f = vec![
+                    F::Int(id),
+                    F::Int(p.material),
+                    F::Real(*area),
+                    F::Real(*iz),
+                    F::Real(*iy),
+                    F::Real(*j),
+                    F::Real(p.nsm),
+                    F::Blank,
+                ];
+                f.extend((0..8).map(|_| F::Blank));
+                f.extend([F::Real(*shear_y), F::Real(*shear_z)]);
+                card(&mut out, "PBAR", f);
+            }
+        }
+    }
+    let max_pid = model
+        .shell_properties
+        .keys()
+        .chain(model.beam_properties.keys())
+        .max()
+        .copied()
+        .unwrap_or(0);
+    let mut bush_pid = BTreeMap::new();
+    for (&id, e) in &model.elements {
+        if let Element::Bush { k, .. } = e {
+            let pid = max_pid + 1 + bush_pid.len() as u64;
+            bush_pid.insert(id, pid);
+            let mut f = vec![F::Int(pid), F::Text("K".to_string())];
+            f.extend(k.iter().map(|v| F::Real(*v)));
+            card(&mut out, "PBUSH", f);
+        }
+    }
+    for (&id, x) in &model.nodes {
+        card(
+            &mut out,
+            "GRID",
+            vec![
+                F::Int(id),
+                F::Blank,
+                F::Real(x[0]),
+                F::Real(x[1]),
+                F::Real(x[2]),
+            ],
+        );
+    }
+    for (&id, e) in &model.elements {
+        match e {
+            Element::Quad4 { nodes, property } => {
+                let mut f = vec![F::Int(id), F::Int(*property)];
+                f.extend(nodes.iter().map(|n| F::Int(*n)));
+                card(&mut out, "CQUAD4", f);
+            }
+            Element::Tria3 { nodes, property } => {
+                let mut f = vec![F::Int(id), F::Int(*property)];
+                f.extend(nodes.iter().map(|n| F::Int(*n)));
+                card(&mut out, "CTRIA3", f);
+            }
+            Element::Beam {
+                nodes,
+                property,
+                orientation,
+            } => {
+                let mut f = vec![
+                    F::Int(id),
+                    F::Int(*property),
+                    F::Int(nodes[0]),
+                    F::Int(nodes[1]),
+                ];
+                f.extend(orientation.iter().map(|v| F::Real(*v)));
+                card(&mut out, "CBAR", f);
+            }
+            Element::Bush { node, other, .. } => {
+                let pid = bush_pid.get(&id).copied().unwrap_or(0);
+                card(
+                    &mut out,
+                    "CBUSH",
+                    vec![
+                        F::Int(id),
+                        F::Int(pid),
+                        F::Int(*node),
+                        other.map_or(F::Blank, F::Int),
+                        F::Blank,
+                        F::Blank,
+                        F::Blank,
+                        F::Int(0),
+                    ],
+                );
+            }
+            Element::ScalarSpring { dof, other, k } => {
+                let mut f = vec![
+                    F::Int(id),
+                    F::Real(*k),
+                    F::Int(dof.node),
+                    F::Int(u64::from(dof.comp.nastran())),
+                ];
+                if let Some(o) = other {
+                    f.extend([F::Int(o.node), F::Int(u64::from(o.comp.nastran()))]);
+                }
+                card(&mut out, "CELAS2", f);
+            }
+            Element::Mass {
+                node,
+                mass,
+                inertia,
+                offset,
+            } => {
+                let mut f = vec![F::Int(id), F::Int(*node), F::Int(0), F::Real(*mass)];
+                f.extend(offset.iter().map(|v| F::Real(*v)));
+                f.push(F::Blank);
+                f.extend(inertia.iter().map(|v| F::Real(*v)));
+                card(&mut out, "CONM2", f);
+            }
+        }
+    }
+    let mut by_node: BTreeMap<u64, BTreeSet<Component>> = BTreeMap::new();
+    for d in &model.constraints {
+        by_node.entry(d.node).or_default().insert(d.comp);
+    }
+    let mut by_comps: BTreeMap<String, Vec<u64>> = BTreeMap::new();
+    for (node, comps) in by_node {
+        by_comps.entry(comps_text(&comps)).or_default().push(node);
+    }
+    for (comps, nodes) in by_comps {
+        let mut f = vec![F::Int(1), F::Text(comps)];
+        f.extend(nodes.into_iter().map(F::Int));
+        card(&mut out, "SPC1", f);
+    }
+    write_sets(&mut out, model);
+    for p in &model.parameters {
+        if let Ok(json) = serde_json::to_string(p) {
+            let _ = writeln!(out, "$femu-parameter {json}");
+        }
+    }
+    out.push_str("ENDDATA\n");
+    out
+}
+
+/// The SID a set name stands for (`set<N>`, `N` > 0 written without leading zeros).
+fn numbered(name: &str) -> Option<u64> {
+    let n: u64 = name.strip_prefix("set")?.parse().ok()?;
+    (n > 0 && format!("set{n}") == name).then_some(n)
+}
+
+fn write_sets(out: &mut String, model: &Model) {
+    let mut by_pid: BTreeMap<u64, Vec<u64>> = BTreeMap::new();
+    for (&id, e) in &model.elements {
+        if let Some(p) = e.property() {
+            by_pid.entry(p).or_default().push(id);
+        }
+    }
+    let generated = |name: &str, ids: &[u64]| {
+        name.strip_prefix("pid")
+            .and_then(|n| n.parse::<u64>().ok())
+            .is_some_and(|p| format!("pid{p}") == name && by_pid.get(&p).is_some_and(|v| v == ids))
+    };
+    let mut next = model
+        .sets
+        .keys()
+        .filter_map(|n| numbered(n))
+        .max()
+        .unwrap_or(0)
+        + 1;
+    for (name, ids) in &model.sets {
+        if generated(name, ids) {
+            continue;
+        }
+        let sid = match numbered(name) {
+            Some(n) => n,
+            None => {
+                let sid = next;
+                next += 1;
+                let _ = writeln!(out, "$femu-set {sid} {name}");
+                sid
+            }
+        };
+        if !ids.is_empty() {
+            let mut f = vec![F::Int(sid)];
+            f.extend(ids.iter().map(|e| F::Int(*e)));
+            card(out, "SET1", f);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::core::DofId;
+    use crate::model::import::nastran::{parse_bulk, parse_real};
+    use crate::model::structure::{
+        BeamProperty, Material, Parameter, ParameterKind, ShellProperty,
+    };
+    use proptest::prelude::*;
+
+    #[test]
+    fn reals_are_short_and_have_a_point() {
+        assert_eq!(format_real(2.1e11), "2.1+11");
+        assert_eq!(format_real(0.3), ".3");
+        assert_eq!(format_real(-1.5e-3), "-.0015");
+        assert_eq!(format_real(7850.0), "7850.");
+        assert_eq!(format_real(1.0), "1.");
+        assert_eq!(format_real(-2.5e-12), "-2.5-12");
+        assert_eq!(format_real(0.0), "0.");
+        assert_eq!(format_real(1e300), "1.+300");
+        assert_eq!(format_real(0.1 + 0.2), ".30000000000000004");
+    }
+
+    proptest! {
+        #[test]
+        fn every_finite_real_reads_back_exactly(x in any::<f64>().prop_filter("finite", |x| x.is_finite())) {
+            let text = format_real(x);
+            prop_assert!(text.contains('.'));
+            prop_assert_eq!(parse_real(&text).map(f64::to_bits), Some(x.to_bits()));
+        }
+    }
+
+    /// A model with every element type and section, property sets, named sets and parameters.
+    fn full_model() -> Model {
+        let mut m = Model::default();
+        let coords = [
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [1.0, 1.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [2.0, 0.5, 0.0],
+            [0.1 + 0.2, 1.0 / 3.0, -2.5e-7],
+            [3.0, 0.0, 1e-3],
+        ];
+        for (i, x) in coords.iter().enumerate() {
+            m.nodes.insert(i as u64 + 1, *x);
+        }
+        m.materials.insert(
+            1,
+            Material {
+                e: 2.1e11,
+                nu: 0.3,
+                rho: 7850.0,
+            },
+        );
+        m.materials.insert(
+            2,
+            Material {
+                e: 7.0e10,
+                nu: 1.0 / 3.0,
+                rho: 2700.0,
+            },
+        );
+        m.shell_properties.insert(
+            10,
+            ShellProperty {
+                material: 1,
+                thickness: 0.002,
+                nsm: 0.5,
+            },
+        );
+        let sections = [
+            BeamSection::Rectangle {
+                width: 0.01,
+                height: 0.02,
+            },
+            BeamSection::Circle { radius: 0.005 },
+            BeamSection::Tube {
+                outer_radius: 0.01,
+                inner_radius: 0.008,
+            },
+            BeamSection::General {
+                area: 1.2e-4,
+                iy: 3.4e-9,
+                iz: 5.6e-9,
+                j: 7.8e-9,
+                shear_y: 0.0,
+                shear_z: 5.0 / 6.0,
+            },
+        ];
+        for (i, s) in sections.into_iter().enumerate() {
+            m.beam_properties.insert(
+                20 + i as u64,
+                BeamProperty {
+                    material: 2,
+                    section: s,
+                    nsm: 0.1 * i as f64,
+                },
+            );
+        }
+        m.elements.insert(
+            1,
+            Element::Quad4 {
+                nodes: [1, 2, 3, 4],
+                property: 10,
+            },
+        );
+        m.elements.insert(
+            2,
+            Element::Tria3 {
+                nodes: [2, 5, 3],
+                property: 10,
+            },
+        );
+        for i in 0..4u64 {
+            m.elements.insert(
+                3 + i,
+                Element::Beam {
+                    nodes: [5, 6 + i % 2],
+                    property: 20 + i,
+                    orientation: [0.0, 0.0, 1.0 + i as f64],
+                },
+            );
+        }
+        m.elements.insert(
+            10,
+            Element::Bush {
+                node: 4,
+                other: Some(6),
+                k: [1e6, 2e6, 3e6, 10.0, 20.0, 30.5],
+            },
+        );
+        m.elements.insert(
+            11,
+            Element::Bush {
+                node: 7,
+                other: None,
+                k: [1e5, 0.0, 1e5, 0.0, 0.0, 0.0],
+            },
+        );
+        m.elements.insert(
+            12,
+            Element::ScalarSpring {
+                dof: DofId::new(6, Component::Uz),
+                other: Some(DofId::new(7, Component::Rx)),
+                k: 1234.5,
+            },
+        );
+        m.elements.insert(
+            13,
+            Element::ScalarSpring {
+                dof: DofId::new(3, Component::Uy),
+                other: None,
+                k: 1.0 / 7.0,
+            },
+        );
+        m.elements.insert(
+            14,
+            Element::Mass {
+                node: 5,
+                mass: 2.5,
+                inertia: [0.1, -0.01, 0.2, 0.0, 0.02, 0.3],
+                offset: [0.0, 0.05, -0.1],
+            },
+        );
+        for node in [1, 4] {
+            for comp in Component::ALL {
+                m.constraints.push(DofId::new(node, comp));
+            }
+        }
+        m.constraints.push(DofId::new(7, Component::Uz));
+        m.constraints.sort();
+        m.add_property_sets();
+        m.sets.insert("set7".to_string(), vec![1, 2]);
+        m.sets.insert("flange".to_string(), vec![3, 4, 5]);
+        m.sets.insert("springs".to_string(), vec![10, 11, 12, 13]);
+        m.sets.insert("empty".to_string(), vec![]);
+        m.sets.insert("pid21".to_string(), vec![3, 4]);
+        m.parameters.push(Parameter {
+            name: "t_plate".to_string(),
+            kind: ParameterKind::ShellThickness,
+            set: "pid10".to_string(),
+            lower: 0.001,
+            upper: 0.004,
+        });
+        m.parameters.push(Parameter {
+            name: "k_mount".to_string(),
+            kind: ParameterKind::SpringStiffness(Component::Uz),
+            set: "springs".to_string(),
+            lower: 0.0,
+            upper: 1e7,
+        });
+        m.validate().unwrap();
+        m
+    }
+
+    #[test]
+    fn write_then_read_gives_the_same_model() {
+        let m = full_model();
+        let text = write_bulk(&m);
+        let back = parse_bulk(&text, "roundtrip.bdf").unwrap();
+        assert!(back.unknown.is_empty(), "{:?}", back.unknown);
+        assert!(back.warnings.is_empty(), "{:?}", back.warnings);
+        assert_eq!(back.model, m, "{text}");
+        // Deterministic, and a fixed point.
+        assert_eq!(write_bulk(&back.model), text);
+    }
+
+    #[test]
+    fn output_is_large_field_with_free_field_only_where_needed() {
+        let text = write_bulk(&full_model());
+        assert!(text.starts_with("$ Nastran bulk data written by femu\nBEGIN BULK\n"));
+        assert!(text.ends_with("ENDDATA\n"));
+        assert!(
+            text.contains(
+                "MAT1*   1               2.1+11                          .3\n*       7850.\n"
+            ),
+            "{text}"
+        );
+        assert!(
+            text.contains("PBUSH*  24              K               1.+6            2.+6\n"),
+            "{text}"
+        );
+        assert!(
+            text.contains("$femu-set 10 pid21\nSET1*   10              3               4\n"),
+            "{text}"
+        );
+        // Grid 6 has 0.30000000000000004: free field for that card only.
+        assert!(
+            text.contains("GRID,6,,.30000000000000004,.3333333333333333,-2.5-7\n"),
+            "{text}"
+        );
+        assert!(
+            text.contains(
+                "GRID*   7                               3.              0.\n*       .001\n"
+            ),
+            "{text}"
+        );
+        for line in text
+            .lines()
+            .filter(|l| !l.contains(',') && !l.starts_with('$'))
+        {
+            assert!(line.len() <= 72, "{line}");
+        }
+        assert!(text.contains("$femu-set "));
+        assert!(text.contains("$femu-parameter {\"name\":\"t_plate\""));
+    }
+}

@@ -1,0 +1,3 @@
+//! Importers: Nastran bulk data.
+
+pub mod nastran;
