@@ -1,0 +1,3 @@
+//! Writers of files for other tools.
+
+pub mod uff;
