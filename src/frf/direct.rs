@@ -219,8 +219,8 @@ mod tests {
             let z12 = c64::new(-500.0, 0.0);
             let det = z11 * z22 - z12 * z12;
             let exact = [z22 / det, -z12 / det, -z12 / det, z11 / det];
-            for p in 0..4 {
-                assert!((r.values[(row, p)] - exact[p]).norm() <= 1e-13 * exact[p].norm());
+            for (p, e) in exact.iter().enumerate() {
+                assert!((r.values[(row, p)] - e).norm() <= 1e-13 * e.norm());
             }
         }
     }

@@ -134,13 +134,13 @@ pub fn modal_receptance(
         .map(|&f| {
             let omega = 2.0 * PI * f;
             let mut inv = Vec::with_capacity(m);
-            for r in 0..m {
+            for (r, &mode_hz) in hz.iter().enumerate().take(m) {
                 let d = damping.denominator(r, modes.eigenvalues[r], omega);
                 if d.re == 0.0 && d.im == 0.0 {
                     return Err(ModalError::Singular {
                         freq_hz: f,
                         mode: r + 1,
-                        mode_hz: hz[r],
+                        mode_hz,
                     });
                 }
                 inv.push(c64::new(1.0, 0.0) / d);
