@@ -284,7 +284,10 @@ pub fn frf_from_artefact(a: &Artefact) -> Result<FrfSet, ArtefactError> {
         return Err(ArtefactError::schema(kind, "table `frf` has no rows"));
     };
     let freqs: Vec<f64> = first.iter().map(|&i| f[i]).collect();
-    if freqs.windows(2).any(|w| !(w[1] > w[0])) {
+    if freqs
+        .windows(2)
+        .any(|w| w[1].partial_cmp(&w[0]) != Some(std::cmp::Ordering::Greater))
+    {
         return Err(ArtefactError::schema(
             kind,
             format!(

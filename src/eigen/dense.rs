@@ -151,7 +151,7 @@ pub fn dense_generalized(
         });
     }
     for (i, dof) in dofs.iter().enumerate() {
-        if !(m[(i, i)] > 0.0) {
+        if m[(i, i)].partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
             return Err(EigenError::MasslessDof {
                 dof: *dof,
                 value: m[(i, i)],

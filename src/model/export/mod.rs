@@ -1,3 +1,4 @@
-//! Exporters: Nastran bulk data.
+//! Writers of files for other tools: Nastran bulk data, UFF.
 
 pub mod nastran;
+pub mod uff;

@@ -1,0 +1,408 @@
+//! Universal File Format writer: dataset 58 / 58b for FRF sets, dataset 2411 for nodes.
+//!
+//! Records 1–11 are written in their Fortran field widths (SDRC dataset 58 description), so
+//! fixed-column readers such as pyuff read the output, as does [`crate::model::import::uff`].
+//! FRF sets are written as function type 4, complex double (ordinate type 6), in SI units with
+//! their labels (record 8 `Hz`; record 9 `m`, `m/s`, `m/s^2`, or `rad…` on a rotation; record 10
+//! `N`, or `N*m` for a moment), positive directions ±1…±6 → 1…6. Three encodings of the data:
+//!
+//! - [`UffEncoding::Ascii`]: the standard fields of record 12 (`4E20.12` double, `6E13.5`
+//!   single, `E13.5` for an uneven abscissa), each number with as many significant digits as
+//!   its field holds while keeping a leading blank: 13–14 in 20 columns (double values
+//!   round-trip to about 5e-14 relative), 6–7 in 13 columns (single values, uneven abscissas).
+//! - [`UffEncoding::AsciiExact`]: 17 significant digits in 25 columns (`4E25.16`; 9 digits in
+//!   16 columns for single data), exact for every value, but not the standard column layout:
+//!   readers that split at fixed columns (pyuff) misread it; whitespace-splitting readers and
+//!   this crate read it.
+//! - [`UffEncoding::Binary`]: 58b, IEEE 754 in the chosen byte order (uneven abscissas as
+//!   `f64` for double data), exact; the header's byte count is the data's.
+//!
+//! The abscissa is written even (record 7 minimum and increment) when the lines are exactly
+//! `start + k·step` with `start` and `step` exact in record 7's 13 columns; otherwise each
+//! value carries its abscissa (uneven).
+
+use crate::frf::FrfSet;
+use crate::model::import::uff::{Abscissa, ByteOrder, OrdinateType, Uff58};
+use std::fmt::Write as _;
+
+/// How record 12 (the data) is encoded.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum UffEncoding {
+    /// ASCII in the standard field widths, readable by fixed-column readers.
+    Ascii,
+    /// ASCII with 17 significant digits in 25 columns: exact, but not the standard widths.
+    AsciiExact,
+    /// Binary 58b in the given byte order: exact.
+    Binary(ByteOrder),
+}
+
+/// Dataset 58 (ASCII, standard widths) or 58b (binary, little endian) for every FRF of `set`.
+pub fn write_uff58(set: &FrfSet, binary: bool) -> Vec<u8> {
+    let encoding = if binary {
+        UffEncoding::Binary(ByteOrder::Little)
+    } else {
+        UffEncoding::Ascii
+    };
+    write_uff58_as(set, encoding)
+}
+
+/// Dataset 58 / 58b for every FRF of `set` in the given encoding.
+pub fn write_uff58_as(set: &FrfSet, encoding: UffEncoding) -> Vec<u8> {
+    write_uff58_records(&records_from_set(set), encoding)
+}
+
+/// The FRFs of `set` as dataset 58 records (complex double, even abscissa when exact).
+pub fn records_from_set(set: &FrfSet) -> Vec<Uff58> {
+    let abscissa = match even_spacing(&set.freqs_hz) {
+        Some((start_hz, step_hz)) => Abscissa::Even { start_hz, step_hz },
+        None => Abscissa::Uneven,
+    };
+    let lines = set.freqs_hz.len().min(set.values.nrows());
+    set.pairs
+        .iter()
+        .enumerate()
+        .filter(|(j, _)| *j < set.values.ncols())
+        .map(|(j, p)| Uff58 {
+            file: String::new(),
+            line: 0,
+            binary: None,
+            id_lines: [
+                format!(
+                    "H({}, {}) {}",
+                    p.response,
+                    p.excitation,
+                    set.quantity.name()
+                ),
+                "femu".to_string(),
+                "NONE".to_string(),
+                "NONE".to_string(),
+                "NONE".to_string(),
+            ],
+            function_id: j as i64 + 1,
+            load_case: 0,
+            response: p.response,
+            reference: p.excitation,
+            response_direction: p.response.comp.nastran() as i8,
+            reference_direction: p.excitation.comp.nastran() as i8,
+            sign_flipped: false,
+            ordinate: OrdinateType::ComplexDouble,
+            quantity: set.quantity,
+            abscissa,
+            freqs_hz: set.freqs_hz[..lines].to_vec(),
+            values: (0..lines).map(|i| set.values[(i, j)]).collect(),
+            conversions: Vec::new(),
+        })
+        .collect()
+}
+
+/// Dataset 58 / 58b for each record, in its ordinate type; SI labels, positive directions.
+/// An even abscissa is written only when the lines allow it exactly (see the module notes).
+pub fn write_uff58_records(records: &[Uff58], encoding: UffEncoding) -> Vec<u8> {
+    let mut out = Vec::new();
+    for rec in records {
+        write_record(&mut out, rec, encoding);
+    }
+    out
+}
+
+/// Dataset 2411 (nodes, double precision) with 17 significant digits: exact.
+pub fn write_uff2411(nodes: &[(u64, [f64; 3])]) -> Vec<u8> {
+    let mut s = String::from("    -1\n  2411\n");
+    for (id, xyz) in nodes {
+        let _ = writeln!(s, "{id:>10}{:>10}{:>10}{:>10}", 1, 1, 11);
+        for x in xyz {
+            s.push_str(&fmt_e(*x, 25));
+        }
+        s.push('\n');
+    }
+    s.push_str("    -1\n");
+    s.into_bytes()
+}
+
+/// `(start, step)` when `freqs` are exactly `start + k·step` with both exact in 13 columns.
+pub fn even_spacing(freqs: &[f64]) -> Option<(f64, f64)> {
+    let (&start, rest) = freqs.split_first()?;
+    if !fits_13(start) {
+        return None;
+    }
+    let Some(&last) = rest.last() else {
+        return Some((start, 1.0));
+    };
+    let raw = [rest[0] - start, (last - start) / rest.len() as f64];
+    raw.iter()
+        .flat_map(|&d| [d, round_13(d)])
+        .find(|&step| {
+            step > 0.0
+                && fits_13(step)
+                && freqs
+                    .iter()
+                    .enumerate()
+                    .all(|(k, &f)| f == start + k as f64 * step)
+        })
+        .map(|step| (start, step))
+}
+
+fn round_13(x: f64) -> f64 {
+    fmt_e(x, 13).trim().parse().unwrap_or(f64::NAN)
+}
+
+fn fits_13(x: f64) -> bool {
+    x.is_finite() && round_13(x) == x
+}
+
+/// `x` in 1P E-format (`-1.2345E+02`, at least two exponent digits), right-aligned in `width`
+/// columns, with as many significant digits as fit while keeping one leading blank.
+fn fmt_e(x: f64, width: usize) -> String {
+    if !x.is_finite() {
+        let s = if x.is_nan() {
+            "NaN"
+        } else if x > 0.0 {
+            "Inf"
+        } else {
+            "-Inf"
+        };
+        return format!("{s:>width$}");
+    }
+    let mut best = sci(x, 0);
+    for digits in (0..=16).rev() {
+        let s = sci(x, digits);
+        if s.len() < width {
+            best = s;
+            break;
+        }
+    }
+    format!("{best:>width$}")
+}
+
+/// `x` with `digits` digits after the point, exponent as `E+dd`.
+fn sci(x: f64, digits: usize) -> String {
+    let s = format!("{x:.digits$e}");
+    match s.split_once('e') {
+        Some((mantissa, exp)) => {
+            let e: i32 = exp.parse().unwrap_or(0);
+            let sign = if e < 0 { '-' } else { '+' };
+            format!("{mantissa}E{sign}{:02}", e.unsigned_abs())
+        }
+        None => s,
+    }
+}
+
+fn axis_line(specific: u32, length: i32, force: i32, label: &str, unit: &str) -> String {
+    format!(
+        "{specific:>10}{length:>5}{force:>5}{:>5} {label:<20} {unit:<20}\n",
+        0
+    )
+}
+
+/// An 80-column ID line without line ends; `NONE` when blank.
+fn id_line(s: &str) -> String {
+    let clean: String = s
+        .chars()
+        .map(|c| if c.is_control() { ' ' } else { c })
+        .collect();
+    let clean = clean.trim_end();
+    if clean.trim().is_empty() {
+        return "NONE".to_string();
+    }
+    let mut out = String::new();
+    for c in clean.chars() {
+        if out.len() + c.len_utf8() > 80 {
+            break;
+        }
+        out.push(c);
+    }
+    out
+}
+
+fn write_record(out: &mut Vec<u8>, rec: &Uff58, encoding: UffEncoding) {
+    let n = rec.freqs_hz.len().min(rec.values.len());
+    let freqs = &rec.freqs_hz[..n];
+    let even = match rec.abscissa {
+        Abscissa::Even { .. } => even_spacing(freqs),
+        Abscissa::Uneven => None,
+    };
+    let ord = rec.ordinate;
+    let double = ord.is_double();
+    let complex = ord.is_complex();
+    let single = |v: f64| if double { v } else { f64::from(v as f32) };
+    let mut values = Vec::with_capacity(n * 3);
+    for (f, v) in freqs.iter().zip(&rec.values) {
+        if even.is_none() {
+            values.push(single(*f));
+        }
+        values.push(single(v.re));
+        if complex {
+            values.push(single(v.im));
+        }
+    }
+
+    let mut s = String::from("    -1\n");
+    match encoding {
+        UffEncoding::Binary(order) => {
+            let size = if double { 8 } else { 4 };
+            let _ = writeln!(
+                s,
+                "{:>6}b{:>6}{:>6}{:>12}{:>12}{:>6}{:>6}{:>12}{:>12}",
+                58,
+                order.code(),
+                2,
+                11,
+                values.len() * size,
+                0,
+                0,
+                0,
+                0
+            );
+        }
+        UffEncoding::Ascii | UffEncoding::AsciiExact => s.push_str("    58\n"),
+    }
+    for id in &rec.id_lines {
+        s.push_str(&id_line(id));
+        s.push('\n');
+    }
+    let resp = rec.response;
+    let refr = rec.reference;
+    let _ = writeln!(
+        s,
+        "{:>5}{:>10}{:>5}{:>10} {:<10}{:>10}{:>4} {:<10}{:>10}{:>4}",
+        4,
+        rec.function_id,
+        0,
+        rec.load_case,
+        "NONE",
+        resp.node,
+        resp.comp.nastran(),
+        "NONE",
+        refr.node,
+        refr.comp.nastran()
+    );
+    let (start, step) = even.unwrap_or((0.0, 0.0));
+    let _ = writeln!(
+        s,
+        "{:>10}{:>10}{:>10}{}{}{}",
+        ord.code(),
+        n,
+        u8::from(even.is_some()),
+        fmt_e(start, 13),
+        fmt_e(step, 13),
+        fmt_e(0.0, 13)
+    );
+    s.push_str(&axis_line(18, 0, 0, "Frequency", "Hz"));
+    let rot_r = resp.comp.is_rotation();
+    let base = if rot_r { "rad" } else { "m" };
+    let (specific, label, unit) = match rec.quantity {
+        crate::frf::Quantity::Receptance => (8, "Displacement", base.to_string()),
+        crate::frf::Quantity::Mobility => (11, "Velocity", format!("{base}/s")),
+        crate::frf::Quantity::Accelerance => (12, "Acceleration", format!("{base}/s^2")),
+    };
+    s.push_str(&axis_line(specific, i32::from(!rot_r), 0, label, &unit));
+    if refr.comp.is_rotation() {
+        s.push_str(&axis_line(13, 1, 1, "Moment", "N*m"));
+    } else {
+        s.push_str(&axis_line(13, 0, 1, "Force", "N"));
+    }
+    s.push_str(&axis_line(0, 0, 0, "NONE", "NONE"));
+
+    match encoding {
+        UffEncoding::Binary(order) => {
+            let mut bytes = s.into_bytes();
+            // Single-precision data keep an uneven abscissa in single precision too.
+            for v in &values {
+                match (double, order) {
+                    (true, ByteOrder::Little) => bytes.extend_from_slice(&v.to_le_bytes()),
+                    (true, ByteOrder::Big) => bytes.extend_from_slice(&v.to_be_bytes()),
+                    (false, ByteOrder::Little) => {
+                        bytes.extend_from_slice(&(*v as f32).to_le_bytes());
+                    }
+                    (false, ByteOrder::Big) => bytes.extend_from_slice(&(*v as f32).to_be_bytes()),
+                }
+            }
+            bytes.extend_from_slice(b"    -1\n");
+            out.extend_from_slice(&bytes);
+        }
+        UffEncoding::Ascii | UffEncoding::AsciiExact => {
+            let exact = encoding == UffEncoding::AsciiExact;
+            let pattern: Vec<usize> = match (exact, double, even.is_some(), complex) {
+                (true, true, false, true) => vec![25; 3],
+                (true, true, _, _) => vec![25; 4],
+                (true, false, _, _) => vec![16; 6],
+                (false, true, true, _) => vec![20; 4],
+                (false, true, false, false) => vec![13, 20, 13, 20],
+                (false, true, false, true) => vec![13, 20, 20],
+                (false, false, _, _) => vec![13; 6],
+            };
+            write_columns(&mut s, &values, &pattern);
+            s.push_str("    -1\n");
+            out.extend_from_slice(s.as_bytes());
+        }
+    }
+}
+
+/// Values in lines of fields of the widths of `pattern`, a new line after each full pattern.
+fn write_columns(s: &mut String, values: &[f64], pattern: &[usize]) {
+    for line in values.chunks(pattern.len()) {
+        for (v, w) in line.iter().zip(pattern) {
+            s.push_str(&fmt_e(*v, *w));
+        }
+        s.push('\n');
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn numbers_fill_their_fields_with_a_leading_blank() {
+        assert_eq!(fmt_e(1.0, 13), " 1.000000E+00");
+        assert_eq!(fmt_e(-1.0 / 3.0, 13), " -3.33333E-01");
+        assert_eq!(fmt_e(-1.0 / 3.0, 20), " -3.333333333333E-01");
+        assert_eq!(fmt_e(2.0 / 3.0, 20), " 6.6666666666667E-01");
+        assert_eq!(fmt_e(-2e-300, 25), " -2.0000000000000001E-300");
+        // Rounding up to a three-digit exponent costs a digit.
+        assert_eq!(fmt_e(9.999_999_9e99, 13), " 1.00000E+100");
+        assert_eq!(fmt_e(f64::NAN, 13), "          NaN");
+        for w in [13, 16, 20, 25] {
+            for x in [
+                0.0,
+                -0.0,
+                1.5e-7,
+                -123.456,
+                6.02e23,
+                -1e-100,
+                f64::MAX,
+                f64::MIN_POSITIVE,
+            ] {
+                let s = fmt_e(x, w);
+                assert_eq!(s.len(), w, "{s}");
+                assert!(s.starts_with(' '), "{s}");
+            }
+        }
+        // 17 significant digits in 25 columns: every double comes back exactly.
+        for x in [1.0 / 3.0, -1.0 / 7.0, 1e-310, f64::MAX] {
+            assert_eq!(
+                fmt_e(x, 25).trim().parse::<f64>().unwrap().to_bits(),
+                x.to_bits()
+            );
+        }
+    }
+
+    #[test]
+    fn even_spacing_needs_exact_start_and_step() {
+        let lines: Vec<f64> = (0..801).map(|k| 1.0 + k as f64 * 0.05).collect();
+        assert_eq!(even_spacing(&lines), Some((1.0, 0.05)));
+        assert_eq!(even_spacing(&[3.0]), Some((3.0, 1.0)));
+        assert_eq!(even_spacing(&[]), None);
+        // A step that needs more than 7 significant digits is written uneven.
+        let fine: Vec<f64> = (0..4).map(|k| k as f64 * 0.123_456_789).collect();
+        assert_eq!(even_spacing(&fine), None);
+        assert_eq!(even_spacing(&[1.0, 2.0, 3.5]), None);
+    }
+
+    #[test]
+    fn id_lines_are_single_80_column_lines() {
+        assert_eq!(id_line(""), "NONE");
+        assert_eq!(id_line("a\nb\r"), "a b");
+        assert_eq!(id_line(&"é".repeat(50)).len(), 80);
+    }
+}
