@@ -1,9 +1,11 @@
 //! Dense generalised symmetric eigenproblem `K φ = λ M φ` for small models (THEORY §1, 1.7–1.12).
 //!
-//! With `M = L Lᵀ` (Cholesky) the pencil is reduced to the standard symmetric problem
-//! `(L⁻¹ K L⁻ᵀ) y = λ y`, solved by faer's self-adjoint eigendecomposition, and `φ = L⁻ᵀ y`.
-//! The shapes come out mass-normalised, `Φᵀ M Φ = I`, `Φᵀ K Φ = Λ`. Rigid-body modes
-//! (`|λ| ≤ 1e-10 λ_max`) are kept and set to `λ = 0`. Each shape's sign is fixed so that its
+//! With a shift `σ = −10⁻⁶ median(K_jj/M_jj)` below every eigenvalue, `K − σM = L Lᵀ`
+//! (Cholesky) and the pencil becomes the standard symmetric problem `(L⁻¹ M L⁻ᵀ) y = ν y`,
+//! `ν = 1/(λ − σ)`, solved by faer's self-adjoint eigendecomposition; `φ = L⁻ᵀ y / √ν`.
+//! Working with the inverse keeps the lowest modes accurate to round-off relative to
+//! themselves, not to the stiffest mode. The shapes come out mass-normalised, `Φᵀ M Φ = I`,
+//! `Φᵀ K Φ = Λ`. Rigid-body modes (`|λ| ≤ 10⁻⁶ |σ|`) are kept and set to `λ = 0`. Each shape's sign is fixed so that its
 //! largest-magnitude entry is positive, which makes results reproducible run to run.
 
 use crate::core::DofId;
@@ -158,24 +160,47 @@ pub fn dense_generalized(
             });
         }
     }
-    let llt = m.llt(Side::Lower).map_err(|_| EigenError::IndefiniteMass)?;
+    // Shift-invert: with σ < 0 below every eigenvalue, A = K − σM = L Lᵀ and the symmetric
+    // C = L⁻¹ M L⁻ᵀ has eigenvalues ν = 1/(λ − σ), largest for the lowest modes. Its
+    // eigenvectors are accurate relative to ν_max, so the low modes keep full accuracy even
+    // when λ_max/λ_1 is 1e9 or more (thin shells), where the direct form L_M⁻¹ K L_M⁻ᵀ loses
+    // them in the round-off of the stiff modes.
+    let shift = -1e-6 * diagonal_scale(k, m);
+    let a = Mat::from_fn(n, n, |i, j| k[(i, j)] - shift * m[(i, j)]);
+    let llt = a
+        .llt(Side::Lower)
+        .map_err(|_| EigenError::NotPositiveDefinite { shift })?;
     let l = llt.L();
-    // A = L⁻¹ K L⁻ᵀ, formed as L⁻¹ (L⁻¹ K)ᵀ because K is symmetric.
-    let mut x = k.to_owned();
+    let mut x = m.to_owned();
     solve_lower_triangular_in_place(l, x.as_mut(), Par::Seq);
-    let mut a = x.transpose().to_owned();
-    solve_lower_triangular_in_place(l, a.as_mut(), Par::Seq);
-    let sym = Mat::from_fn(n, n, |i, j| 0.5 * (a[(i, j)] + a[(j, i)]));
+    let mut c = x.transpose().to_owned();
+    solve_lower_triangular_in_place(l, c.as_mut(), Par::Seq);
+    let sym = Mat::from_fn(n, n, |i, j| 0.5 * (c[(i, j)] + c[(j, i)]));
     let evd = sym
         .self_adjoint_eigen(Side::Lower)
         .map_err(|_| EigenError::NoConvergence)?;
+    // Largest ν first = lowest λ first.
     let s = evd.S();
-    let mut lambdas: Vec<f64> = (0..n).map(|i| s[i]).collect();
-    let mut shapes = evd.U().to_owned();
+    let nu: Vec<f64> = (0..n).rev().map(|i| s[i]).collect();
+    let nu_max = nu.first().copied().unwrap_or(0.0);
+    if !(nu_max > 0.0) || nu.iter().any(|v| *v <= 1e-14 * nu_max) {
+        return Err(EigenError::IndefiniteMass);
+    }
+    let u = evd.U();
+    let mut shapes = Mat::from_fn(n, n, |i, j| u[(i, n - 1 - j)]);
     solve_upper_triangular_in_place(l.transpose(), shapes.as_mut(), Par::Seq);
-
+    // φᵀMφ = ν for yᵀy = 1: scale to unit modal mass.
+    for (j, v) in nu.iter().enumerate() {
+        let f = 1.0 / v.sqrt();
+        for i in 0..n {
+            shapes[(i, j)] *= f;
+        }
+    }
+    let mut lambdas: Vec<f64> = nu.iter().map(|v| shift + 1.0 / v).collect();
     let largest = lambdas.iter().fold(0.0f64, |acc, v| acc.max(v.abs()));
-    let rigid_tol = 1e-10 * largest.max(f64::MIN_POSITIVE);
+    // Round-off in λ = σ + 1/ν is a few ε|σ| for the low modes: anything within 1e-6 |σ| of
+    // zero is a rigid-body mode.
+    let rigid_tol = 1e-6 * shift.abs();
     let mut rigid = 0;
     for lam in lambdas.iter_mut() {
         if lam.abs() <= rigid_tol {
@@ -206,6 +231,18 @@ pub fn dense_generalized(
 
     let kphi = k * &shapes;
     let mphi = m * &shapes;
+    // Rayleigh quotients: second-order accurate in the shape, so the high modes (small ν) get
+    // their eigenvalues to round-off too.
+    for (j, lam) in lambdas.iter_mut().enumerate() {
+        if *lam != 0.0 {
+            let (mut pkp, mut pmp) = (0.0, 0.0);
+            for i in 0..n {
+                pkp += shapes[(i, j)] * kphi[(i, j)];
+                pmp += shapes[(i, j)] * mphi[(i, j)];
+            }
+            *lam = pkp / pmp;
+        }
+    }
     let k_norm = crate::fe::system::max_abs(k) * (n as f64).sqrt();
     let residuals = (0..keep)
         .map(|j| {
@@ -241,6 +278,20 @@ pub fn dense_generalized(
         orthogonality_error,
         rigid_body_modes,
     })
+}
+
+/// Median of `K_jj / M_jj` over DOFs with mass and stiffness: the scale of the eigenvalues.
+pub fn diagonal_scale(k: MatRef<'_, f64>, m: MatRef<'_, f64>) -> f64 {
+    let mut r: Vec<f64> = (0..k.nrows())
+        .filter(|&j| k[(j, j)] > 0.0 && m[(j, j)] > 0.0)
+        .map(|j| k[(j, j)] / m[(j, j)])
+        .collect();
+    if r.is_empty() {
+        return 1.0;
+    }
+    let mid = r.len() / 2;
+    r.select_nth_unstable_by(mid, |a, b| a.total_cmp(b));
+    r[mid]
 }
 
 /// Flips a shape so that its largest-magnitude entry (the first, on ties) is positive; returns
