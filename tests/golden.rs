@@ -81,3 +81,8 @@ fn check_pipeline(name: &str) {
 fn four_dof_matches_its_golden_artefacts() {
     check_pipeline("four-dof");
 }
+
+#[test]
+fn structures_modes_match_their_golden_artefacts() {
+    check_pipeline("structures-modes");
+}

@@ -361,15 +361,19 @@ pub fn read_parquet(path: &Path) -> Result<Table, ArtefactError> {
         path: path.to_path_buf(),
         message: m,
     };
-    let reader = ParquetRecordBatchReaderBuilder::try_new(file)
+    let builder = ParquetRecordBatchReaderBuilder::try_new(file)
         .map_err(|e| dec(format!("not a readable Parquet file: {e}")))?
-        .with_batch_size(65536)
-        .build()
-        .map_err(|e| dec(e.to_string()))?;
+        .with_batch_size(65536);
+    let schema = builder.schema().clone();
+    let reader = builder.build().map_err(|e| dec(e.to_string()))?;
     let mut table = Table::new();
     for batch in reader {
         let batch = batch.map_err(|e| dec(e.to_string()))?;
         append_batch(&mut table, &batch, path)?;
+    }
+    if table.columns.is_empty() {
+        // A table with zero rows still has its columns.
+        append_batch(&mut table, &RecordBatch::new_empty(schema), path)?;
     }
     Ok(table)
 }

@@ -137,7 +137,7 @@ pub fn compare(a: &Artefact, b: &Artefact, tol: &Tolerances) -> Comparison {
                 (ArtefactKind::Matrices, t) if t != "dofs" => {
                     compare_sparse(name, ta, tb, tol, &mut out)
                 }
-                (ArtefactKind::Modes, "shapes") => compare_table(name, ta, tb, tol, true, &mut out),
+                (ArtefactKind::Modes, "shapes") => compare_shapes(a, ta, tb, tol, &mut out),
                 _ => compare_table(name, ta, tb, tol, false, &mut out),
             },
             (Some(_), None) => out.push(&mut n, name.clone(), "table only in the first".into()),
@@ -285,6 +285,108 @@ fn compare_table(
     }
 }
 
+/// Groups of mode indices with equal eigenvalues (relative 1e-8; all rigid-body modes together).
+fn repeated_groups(eigenvalues: &[f64]) -> Vec<Vec<usize>> {
+    let mut groups: Vec<Vec<usize>> = Vec::new();
+    for (i, l) in eigenvalues.iter().enumerate() {
+        match groups.last_mut() {
+            Some(g)
+                if {
+                    let p = eigenvalues[g[0]];
+                    (l - p).abs() <= 1e-8 * l.abs().max(p.abs())
+                } =>
+            {
+                g.push(i)
+            }
+            _ => groups.push(vec![i]),
+        }
+    }
+    groups
+}
+
+/// Mode shapes: a single mode up to sign; a repeated mode (e.g. the rigid-body modes) as a
+/// subspace, since any basis of it is as right as another: each new shape must lie in the span
+/// of the reference group to the column tolerance.
+fn compare_shapes(a: &Artefact, ta: &Table, tb: &Table, tol: &Tolerances, out: &mut Comparison) {
+    let lambdas = a
+        .table("frequencies")
+        .ok()
+        .and_then(|f| f.f64s("frequencies", "eigenvalue_rad2_s2").ok())
+        .map(|v| v.to_vec());
+    let Some(lambdas) = lambdas else {
+        return compare_table("shapes", ta, tb, tol, true, out);
+    };
+    let groups = repeated_groups(&lambdas);
+    let (mut sa, mut sb) = (Table::new(), Table::new());
+    for g in &groups {
+        if g.len() == 1 {
+            let name = format!("phi_{}", g[0] + 1);
+            if let (Some(x), Some(y)) = (ta.column(&name), tb.column(&name)) {
+                sa.columns.push((name.clone(), x.clone()));
+                sb.columns.push((name, y.clone()));
+            }
+        }
+    }
+    for name in ["dof"] {
+        if let (Some(x), Some(y)) = (ta.column(name), tb.column(name)) {
+            sa.columns.insert(0, (name.into(), x.clone()));
+            sb.columns.insert(0, (name.into(), y.clone()));
+        }
+    }
+    compare_table("shapes", &sa, &sb, tol, true, out);
+    let t = tol.of("shapes", "phi_1");
+    for g in groups.iter().filter(|g| g.len() > 1) {
+        let cols = |tab: &Table| -> Option<Vec<Vec<f64>>> {
+            g.iter()
+                .map(|i| match tab.column(&format!("phi_{}", i + 1)) {
+                    Some(Column::F64(v)) => Some(v.clone()),
+                    _ => None,
+                })
+                .collect()
+        };
+        let (Some(xa), Some(xb)) = (cols(ta), cols(tb)) else {
+            let mut n = 0;
+            out.push(
+                &mut n,
+                format!("shapes phi_{}..", g[0] + 1),
+                "repeated modes missing".into(),
+            );
+            continue;
+        };
+        // Project each new shape on the reference group: r = a − B (BᵀB)⁻¹ Bᵀ a.
+        let k = xb.len();
+        let gram = faer::Mat::from_fn(k, k, |i, j| {
+            xb[i].iter().zip(&xb[j]).map(|(u, v)| u * v).sum::<f64>()
+        });
+        let Ok(llt) = gram.llt(faer::Side::Lower) else {
+            let mut n = 0;
+            out.push(
+                &mut n,
+                format!("shapes phi_{}..", g[0] + 1),
+                "reference shapes of a repeated mode are dependent".into(),
+            );
+            continue;
+        };
+        let mut listed = 0;
+        for (c, x) in xa.iter().enumerate() {
+            let rhs = faer::Mat::from_fn(k, 1, |i, _| {
+                xb[i].iter().zip(x).map(|(u, v)| u * v).sum::<f64>()
+            });
+            let coef = faer::linalg::solvers::Solve::solve(&llt, &rhs);
+            let (mut r2, mut a2) = (0.0, 0.0);
+            for row in 0..x.len() {
+                let proj: f64 = (0..k).map(|i| coef[(i, 0)] * xb[i][row]).sum();
+                r2 += (x[row] - proj).powi(2);
+                a2 += x[row] * x[row];
+            }
+            let rel = (r2 / a2.max(f64::MIN_POSITIVE)).sqrt();
+            if rel > t.rtol.max(1e-12) {
+                out.push(&mut listed, format!("shapes.phi_{}", g[c] + 1), format!("lies {rel:e} (relative) outside the reference span of the repeated modes {}..{}", g[0] + 1, g[k - 1] + 1));
+            }
+        }
+    }
+}
+
 /// +1 or −1, whichever brings `x` closer to `y`.
 fn best_sign(x: &[f64], y: &[f64]) -> f64 {
     let dot: f64 = x.iter().zip(y).map(|(u, v)| u * v).sum();
@@ -364,6 +466,39 @@ mod tests {
             ..Default::default()
         };
         assert!(compare(&frf(2.0 + 1e-6), &frf(2.0), &loose).same());
+    }
+
+    #[test]
+    fn repeated_modes_compare_as_a_subspace() {
+        let modes = |c: f64, s: f64, third: f64| {
+            Artefact::new(ArtefactKind::Modes)
+                .with_table(
+                    "frequencies",
+                    Table::new().with("eigenvalue_rad2_s2", Column::F64(vec![0.0, 0.0, 5.0])),
+                    Storage::Parquet,
+                )
+                .with_table(
+                    "shapes",
+                    Table::new()
+                        .with("phi_1", Column::F64(vec![c, s, 0.0]))
+                        .with("phi_2", Column::F64(vec![-s, c, 0.0]))
+                        .with("phi_3", Column::F64(vec![0.0, 0.0, third])),
+                    Storage::Ipc,
+                )
+        };
+        let t = Tolerances::default();
+        let (c, s) = (0.3f64.cos(), 0.3f64.sin());
+        assert!(
+            compare(&modes(c, s, 1.0), &modes(1.0, 0.0, 1.0), &t).same(),
+            "a rotated rigid basis is the same subspace"
+        );
+        assert!(!compare(&modes(c, s, 1.1), &modes(1.0, 0.0, 1.0), &t).same());
+        // Leaving the subspace is a difference.
+        let mut off = modes(1.0, 0.0, 1.0);
+        if let Some((tab, _)) = off.tables.get_mut("shapes") {
+            tab.columns[0].1 = Column::F64(vec![1.0, 0.0, 0.1]);
+        }
+        assert!(!compare(&off, &modes(1.0, 0.0, 1.0), &t).same());
     }
 
     #[test]

@@ -39,7 +39,7 @@ pub struct ShellProperty {
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(tag = "shape", rename_all = "snake_case")]
 pub enum BeamSection {
-    /// Solid rectangle: `width` along the element's local y, `height` along local z (PBARL BAR).
+    /// Solid rectangle (PBARL BAR): `width` (DIM1) along the element's local z, `height` (DIM2) along local y.
     Rectangle {
         /// Width, m.
         width: f64,

@@ -1,6 +1,7 @@
 //! Stage kinds: the glue between numerical modules and the pipeline engine, one kind per file.
 //! Each parses its typed parameters, calls the numerics and writes artefacts.
 
+pub mod assemble;
 pub mod correlate_frf;
 pub mod frf_synthesise;
 pub mod mesh_generate;
@@ -11,6 +12,7 @@ pub mod plot_frf;
 
 use crate::pipeline::{Registry, Stage, Typed};
 
+static ASSEMBLE: Typed<assemble::Assemble> = Typed::new();
 static MODEL_LUMPED: Typed<model_lumped::ModelLumped> = Typed::new();
 static MODES: Typed<modes::ModesStage> = Typed::new();
 static FRF_SYNTHESISE: Typed<frf_synthesise::FrfSynthesise> = Typed::new();
@@ -24,6 +26,7 @@ pub fn registry() -> Registry {
     let all: Vec<&'static dyn Stage> = vec![
         &MESH_GENERATE,
         &MODEL_LUMPED,
+        &ASSEMBLE,
         &MODES,
         &FRF_SYNTHESISE,
         &NOISE_ADD,

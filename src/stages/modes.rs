@@ -1,19 +1,20 @@
-//! `modes`: natural frequencies and mass-normalised mode shapes of a model (dense path; THEORY §1).
+//! `modes`: natural frequencies and mass-normalised mode shapes of a model (THEORY §1): dense
+//! shift-invert for small models, sparse shift-invert Lanczos for large ones.
 
 use crate::artefact::ArtefactKind;
 use crate::artefact::kinds::{matrices_from_artefact, modes_to_artefact};
-use crate::eigen::{ModeSelection, dense_generalized};
+use crate::eigen::{ModeSelection, SparseEigenParams, lowest_modes};
 use crate::pipeline::{ParamIssue, PortSpec, StageError, StageInputs, StageOutputs, TypedStage};
 use std::collections::BTreeSet;
 
 /// The stage.
 pub struct ModesStage;
 
-/// Largest model the dense path takes: its cost grows as `N³`.
+/// Largest model for which `all` modes may be asked: the dense path's cost grows as `N³`.
 pub const DENSE_LIMIT: usize = 6000;
 
 /// Parameters of `modes`.
-#[derive(Clone, Debug, Default, serde::Deserialize, serde::Serialize, schemars::JsonSchema)]
+#[derive(Clone, Debug, serde::Deserialize, serde::Serialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct Params {
     /// Keep the lowest `count` modes (default: all).
@@ -22,6 +23,17 @@ pub struct Params {
     /// Keep the modes up to this frequency in Hz (default: all).
     #[serde(default)]
     pub max_freq_hz: Option<f64>,
+    /// Shift of the sparse solver: it factors `K − σM` with `σ = −(2π shift_hz)²` (default:
+    /// automatic). A value near the lowest elastic frequency speeds up a slow convergence.
+    #[serde(default)]
+    pub shift_hz: Option<f64>,
+    /// Relative convergence tolerance of the sparse solver.
+    #[serde(default = "tolerance")]
+    pub tolerance: f64,
+}
+
+fn tolerance() -> f64 {
+    SparseEigenParams::default().tolerance
 }
 
 impl TypedStage for ModesStage {
@@ -58,6 +70,12 @@ impl TypedStage for ModesStage {
         if p.count == Some(0) {
             issues.push(ParamIssue::at("count", "must be at least 1"));
         }
+        if !(p.tolerance > 0.0 && p.tolerance < 1e-2) {
+            issues.push(ParamIssue::at(
+                "tolerance",
+                format!("{} must lie in (0, 0.01)", p.tolerance),
+            ));
+        }
         if let Some(f) = p.max_freq_hz {
             if !(f.is_finite() && f > 0.0) {
                 issues.push(ParamIssue::at(
@@ -71,9 +89,9 @@ impl TypedStage for ModesStage {
 
     fn run(p: &Params, inputs: &StageInputs) -> Result<StageOutputs, StageError> {
         let sys = matrices_from_artefact(inputs.require("model")?)?;
-        if sys.n() > DENSE_LIMIT {
+        if sys.n() > DENSE_LIMIT && p.count.is_none() && p.max_freq_hz.is_none() {
             return Err(StageError::Failed(format!(
-                "the model has {} DOFs; this stage's dense eigensolver takes at most {DENSE_LIMIT} (its cost grows as N^3)",
+                "the model has {} DOFs: give `count` or `max_freq_hz` (all modes only up to {DENSE_LIMIT} DOFs)",
                 sys.n()
             )));
         }
@@ -82,13 +100,20 @@ impl TypedStage for ModesStage {
             (_, Some(f)) => ModeSelection::BelowHz(f),
             _ => ModeSelection::All,
         };
-        let modes = dense_generalized(
-            sys.k_dense().as_ref(),
-            sys.m_dense().as_ref(),
-            &sys.dofs,
-            selection,
-        )
-        .map_err(StageError::failed)?;
+        let params = SparseEigenParams {
+            shift: p
+                .shift_hz
+                .map(|f| -(2.0 * std::f64::consts::PI * f).powi(2)),
+            tolerance: p.tolerance,
+            dense_limit: if matches!(selection, ModeSelection::All) {
+                DENSE_LIMIT
+            } else {
+                SparseEigenParams::default().dense_limit
+            },
+            ..Default::default()
+        };
+        let (modes, _) = lowest_modes(&sys.k, &sys.m, &sys.dofs, selection, &params)
+            .map_err(StageError::failed)?;
         Ok(StageOutputs::from([(
             "modes".to_string(),
             modes_to_artefact(&sys.dofs, &modes),
