@@ -19,6 +19,7 @@ fn committed_schemas_match_the_code() {
         "artefacts/frf.schema.json",
         "artefacts/correlation.schema.json",
         "artefacts/plot.schema.json",
+        "artefacts/mesh.schema.json",
     ] {
         let want = std::fs::read_to_string(committed.join(rel))
             .unwrap_or_else(|_| panic!("schemas/{rel} is missing; run `femu schema`"));
