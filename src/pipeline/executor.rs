@@ -293,7 +293,7 @@ fn run_node(
     let key = cache_key(
         kind,
         node.stage.impl_version(),
-        &node.params,
+        &node.stage.key_params(&node.params),
         node.format,
         &digests,
     );
@@ -322,7 +322,10 @@ fn run_node(
         }
     }
     progress.start(&node.name, kind);
-    let mut inputs = StageInputs::default();
+    let mut inputs = StageInputs {
+        base_dir: plan.base_dir.clone(),
+        ..Default::default()
+    };
     for (port, r) in &node.inputs {
         let cached = produced
             .lock()

@@ -15,5 +15,6 @@ pub use executor::{ProgressMode, RunOptions, RunReport, Status, execute, materia
 pub use plan::{Plan, Registry, plan};
 pub use spec::{SourcedSpec, parse_pipeline, read_pipeline};
 pub use stage::{
-    ParamIssue, PortSpec, Stage, StageError, StageInputs, StageOutputs, Typed, TypedStage,
+    CheckContext, ParamIssue, PortSpec, Stage, StageError, StageInputs, StageOutputs, Typed,
+    TypedStage,
 };

@@ -4,7 +4,7 @@
 
 use super::diagnostic::{Diagnostic, Diagnostics, nearest};
 use super::spec::SourcedSpec;
-use super::stage::Stage;
+use super::stage::{CheckContext, Stage};
 use crate::artefact::Format;
 use std::collections::{BTreeMap, BTreeSet};
 
@@ -65,6 +65,8 @@ pub struct Plan {
     pub description: String,
     /// Stages, upstream before downstream.
     pub nodes: Vec<PlanNode>,
+    /// Directory of the pipeline file.
+    pub base_dir: std::path::PathBuf,
 }
 
 impl Plan {
@@ -98,6 +100,17 @@ pub fn plan(src: &SourcedSpec, registry: &Registry) -> Result<Plan, Diagnostics>
     let file = src.file.as_str();
     let loc = &src.locator;
     let spec = &src.spec;
+    let base_dir = std::path::Path::new(file)
+        .parent()
+        .map(|p| {
+            if p.as_os_str().is_empty() {
+                std::path::Path::new(".")
+            } else {
+                p
+            }
+        })
+        .unwrap_or(std::path::Path::new("."))
+        .to_path_buf();
     let mut diags = Vec::new();
     let names: Vec<&str> = spec.stages.keys().map(String::as_str).collect();
     if names.is_empty() {
@@ -265,8 +278,11 @@ pub fn plan(src: &SourcedSpec, registry: &Registry) -> Result<Plan, Diagnostics>
                 );
             }
         }
-        let connected: BTreeSet<String> = st.inputs.keys().cloned().collect();
-        match stage.check(&st.with, &connected) {
+        let ctx = CheckContext {
+            connected: st.inputs.keys().cloned().collect(),
+            base_dir: base_dir.clone(),
+        };
+        match stage.check(&st.with, &ctx) {
             Ok(v) => {
                 params.insert(name, v);
             }
@@ -354,6 +370,7 @@ pub fn plan(src: &SourcedSpec, registry: &Registry) -> Result<Plan, Diagnostics>
         name: spec.name.clone(),
         description: spec.description.clone(),
         nodes,
+        base_dir,
     })
 }
 

@@ -7,6 +7,7 @@ use serde::Serialize;
 use serde::de::DeserializeOwned;
 use std::collections::{BTreeMap, BTreeSet};
 use std::marker::PhantomData;
+use std::path::PathBuf;
 
 /// A named input or output port.
 #[derive(Clone, Debug, PartialEq)]
@@ -80,11 +81,37 @@ impl StageError {
     }
 }
 
-/// The input artefacts of one run, by port.
+/// What a stage may know while checking its parameters.
+#[derive(Clone, Debug, Default)]
+pub struct CheckContext {
+    /// Names of the connected input ports.
+    pub connected: BTreeSet<String>,
+    /// Directory of the pipeline file: relative file paths in parameters resolve against it.
+    pub base_dir: PathBuf,
+}
+
+impl CheckContext {
+    /// A context with these ports connected and the current directory as base.
+    pub fn with_ports(ports: &[&str]) -> Self {
+        CheckContext {
+            connected: ports.iter().map(|s| s.to_string()).collect(),
+            base_dir: PathBuf::from("."),
+        }
+    }
+
+    /// Whether an input port is connected.
+    pub fn is_connected(&self, port: &str) -> bool {
+        self.connected.contains(port)
+    }
+}
+
+/// The input artefacts of one run, by port, and the pipeline's directory.
 #[derive(Clone, Debug, Default)]
 pub struct StageInputs {
     /// Connected inputs.
     pub artefacts: BTreeMap<String, std::sync::Arc<Artefact>>,
+    /// Directory of the pipeline file.
+    pub base_dir: PathBuf,
 }
 
 impl StageInputs {
@@ -123,8 +150,13 @@ pub trait Stage: Send + Sync {
     fn check(
         &self,
         with: &serde_json::Value,
-        connected: &BTreeSet<String>,
+        ctx: &CheckContext,
     ) -> Result<serde_json::Value, Vec<ParamIssue>>;
+    /// The part of the checked parameters that enters the cache key (default: all). Stages that
+    /// read files drop the path and key on the content digest they recorded instead.
+    fn key_params(&self, params: &serde_json::Value) -> serde_json::Value {
+        params.clone()
+    }
     /// Runs on checked parameters.
     fn run(
         &self,
@@ -148,11 +180,15 @@ pub trait TypedStage: Send + Sync + 'static {
     /// Output ports.
     fn outputs() -> Vec<PortSpec>;
     /// Range and consistency checks beyond types; may fill defaults that depend on the wiring.
-    fn validate(_params: &mut Self::Params, _connected: &BTreeSet<String>) -> Vec<ParamIssue> {
+    fn validate(_params: &mut Self::Params, _ctx: &CheckContext) -> Vec<ParamIssue> {
         Vec::new()
     }
     /// The computation.
     fn run(params: &Self::Params, inputs: &StageInputs) -> Result<StageOutputs, StageError>;
+    /// Parameters that enter the cache key (default: all).
+    fn key_params(params: &serde_json::Value) -> serde_json::Value {
+        params.clone()
+    }
 }
 
 /// Adapter from [`TypedStage`] to [`Stage`].
@@ -218,10 +254,10 @@ impl<T: TypedStage> Stage for Typed<T> {
     fn check(
         &self,
         with: &serde_json::Value,
-        connected: &BTreeSet<String>,
+        ctx: &CheckContext,
     ) -> Result<serde_json::Value, Vec<ParamIssue>> {
         let mut params: T::Params = parse_params(with).map_err(|e| vec![e])?;
-        let issues = T::validate(&mut params, connected);
+        let issues = T::validate(&mut params, ctx);
         if !issues.is_empty() {
             return Err(issues);
         }
@@ -231,6 +267,9 @@ impl<T: TypedStage> Stage for Typed<T> {
                 message: e.to_string(),
             }]
         })
+    }
+    fn key_params(&self, params: &serde_json::Value) -> serde_json::Value {
+        T::key_params(params)
     }
     fn run(
         &self,

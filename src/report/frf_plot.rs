@@ -1605,7 +1605,7 @@ mod tests {
     /// Writes `/tmp/frf_plot_example.png` and `.svg` for a visual check:
     /// `cargo test --release frf_plot::tests::write_example -- --ignored`.
     #[test]
-    #[ignore]
+    #[ignore = "writes example figures to /tmp for a visual check; run on demand"]
     fn write_example() {
         let (m, p, c) = example();
         let opts = FrfPlotOptions {

@@ -9,8 +9,9 @@ use crate::frf::{
     DirectDamping, FrfSet, ModalDamping, Quantity, direct_receptance, frequency_lines,
     modal_receptance,
 };
-use crate::pipeline::{ParamIssue, PortSpec, StageError, StageInputs, StageOutputs, TypedStage};
-use std::collections::BTreeSet;
+use crate::pipeline::{
+    CheckContext, ParamIssue, PortSpec, StageError, StageInputs, StageOutputs, TypedStage,
+};
 
 /// The stage.
 pub struct FrfSynthesise;
@@ -142,19 +143,19 @@ impl TypedStage for FrfSynthesise {
         )]
     }
 
-    fn validate(p: &mut Params, connected: &BTreeSet<String>) -> Vec<ParamIssue> {
+    fn validate(p: &mut Params, ctx: &CheckContext) -> Vec<ParamIssue> {
         let mut issues = Vec::new();
-        let method = *p.method.get_or_insert(if connected.contains("modes") {
+        let method = *p.method.get_or_insert(if ctx.is_connected("modes") {
             Method::Modal
         } else {
             Method::Direct
         });
         match method {
-            Method::Modal if !connected.contains("modes") => issues.push(ParamIssue::at(
+            Method::Modal if !ctx.is_connected("modes") => issues.push(ParamIssue::at(
                 "method",
                 "`modal` needs the `modes` input connected (or use `method: direct` with `model`)",
             )),
-            Method::Direct if !connected.contains("model") => issues.push(ParamIssue::at(
+            Method::Direct if !ctx.is_connected("model") => issues.push(ParamIssue::at(
                 "method",
                 "`direct` needs the `model` input connected (or use `method: modal` with `modes`)",
             )),
@@ -303,7 +304,7 @@ mod tests {
         with: serde_json::Value,
         ports: &[&str],
     ) -> Result<serde_json::Value, Vec<ParamIssue>> {
-        Typed::<FrfSynthesise>::new().check(&with, &ports.iter().map(|s| s.to_string()).collect())
+        Typed::<FrfSynthesise>::new().check(&with, &CheckContext::with_ports(ports))
     }
 
     #[test]

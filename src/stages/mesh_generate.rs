@@ -5,8 +5,9 @@ use crate::artefact::mesh::mesh_to_artefact;
 use crate::model::generate::{
     BentPlate, FlatPlate, PlateSupport, ThreeBeam, bent_plate, flat_plate, steel, three_beam,
 };
-use crate::pipeline::{ParamIssue, PortSpec, StageError, StageInputs, StageOutputs, TypedStage};
-use std::collections::BTreeSet;
+use crate::pipeline::{
+    CheckContext, ParamIssue, PortSpec, StageError, StageInputs, StageOutputs, TypedStage,
+};
 
 /// The stage.
 pub struct MeshGenerate;
@@ -106,7 +107,7 @@ impl TypedStage for MeshGenerate {
         vec![PortSpec::required("mesh", ArtefactKind::Mesh, "the model")]
     }
 
-    fn validate(p: &mut Params, _: &BTreeSet<String>) -> Vec<ParamIssue> {
+    fn validate(p: &mut Params, _: &CheckContext) -> Vec<ParamIssue> {
         let mut issues = Vec::new();
         let mut positive = |field: &str, v: f64| {
             if !(v.is_finite() && v > 0.0) {

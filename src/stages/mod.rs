@@ -3,8 +3,10 @@
 
 pub mod assemble;
 pub mod correlate_frf;
+pub mod frf_import;
 pub mod frf_synthesise;
 pub mod mesh_generate;
+pub mod mesh_import;
 pub mod model_lumped;
 pub mod modes;
 pub mod noise_add;
@@ -12,6 +14,8 @@ pub mod plot_frf;
 
 use crate::pipeline::{Registry, Stage, Typed};
 
+static MESH_IMPORT: Typed<mesh_import::MeshImport> = Typed::new();
+static FRF_IMPORT: Typed<frf_import::FrfImport> = Typed::new();
 static ASSEMBLE: Typed<assemble::Assemble> = Typed::new();
 static MODEL_LUMPED: Typed<model_lumped::ModelLumped> = Typed::new();
 static MODES: Typed<modes::ModesStage> = Typed::new();
@@ -25,10 +29,12 @@ static PLOT_FRF: Typed<plot_frf::PlotFrf> = Typed::new();
 pub fn registry() -> Registry {
     let all: Vec<&'static dyn Stage> = vec![
         &MESH_GENERATE,
+        &MESH_IMPORT,
         &MODEL_LUMPED,
         &ASSEMBLE,
         &MODES,
         &FRF_SYNTHESISE,
+        &FRF_IMPORT,
         &NOISE_ADD,
         &CORRELATE_FRF,
         &PLOT_FRF,

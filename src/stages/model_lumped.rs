@@ -6,7 +6,9 @@ use crate::artefact::kinds::matrices_to_artefact;
 use crate::core::DofId;
 use crate::fe::lumped::assemble_lumped;
 use crate::model::{LumpedMass, LumpedModel, LumpedSpring};
-use crate::pipeline::{ParamIssue, PortSpec, StageError, StageInputs, StageOutputs, TypedStage};
+use crate::pipeline::{
+    CheckContext, ParamIssue, PortSpec, StageError, StageInputs, StageOutputs, TypedStage,
+};
 use std::collections::BTreeSet;
 
 /// The stage.
@@ -111,7 +113,7 @@ impl TypedStage for ModelLumped {
         )]
     }
 
-    fn validate(p: &mut Params, _: &BTreeSet<String>) -> Vec<ParamIssue> {
+    fn validate(p: &mut Params, _: &CheckContext) -> Vec<ParamIssue> {
         let mut issues = Vec::new();
         let check = |issues: &mut Vec<ParamIssue>, path: String, v: f64| {
             if !(v.is_finite() && v >= 0.0) {
@@ -169,7 +171,7 @@ mod tests {
     use crate::pipeline::{Stage, Typed};
 
     fn check(with: serde_json::Value) -> Result<serde_json::Value, Vec<ParamIssue>> {
-        Typed::<ModelLumped>::new().check(&with, &BTreeSet::new())
+        Typed::<ModelLumped>::new().check(&with, &CheckContext::default())
     }
 
     #[test]

@@ -4,8 +4,9 @@
 use crate::artefact::ArtefactKind;
 use crate::artefact::kinds::{matrices_from_artefact, modes_to_artefact};
 use crate::eigen::{ModeSelection, SparseEigenParams, lowest_modes};
-use crate::pipeline::{ParamIssue, PortSpec, StageError, StageInputs, StageOutputs, TypedStage};
-use std::collections::BTreeSet;
+use crate::pipeline::{
+    CheckContext, ParamIssue, PortSpec, StageError, StageInputs, StageOutputs, TypedStage,
+};
 
 /// The stage.
 pub struct ModesStage;
@@ -59,7 +60,7 @@ impl TypedStage for ModesStage {
         )]
     }
 
-    fn validate(p: &mut Params, _: &BTreeSet<String>) -> Vec<ParamIssue> {
+    fn validate(p: &mut Params, _: &CheckContext) -> Vec<ParamIssue> {
         let mut issues = Vec::new();
         if p.count.is_some() && p.max_freq_hz.is_some() {
             issues.push(ParamIssue::at(
@@ -140,7 +141,7 @@ mod tests {
     #[test]
     fn unknown_param_is_rejected() {
         let e = Typed::<ModesStage>::new()
-            .check(&serde_json::json!({"cout": 3}), &BTreeSet::new())
+            .check(&serde_json::json!({"cout": 3}), &CheckContext::default())
             .unwrap_err();
         assert!(
             e[0].message.contains("unknown field `cout`"),

@@ -4,8 +4,9 @@
 use crate::artefact::ArtefactKind;
 use crate::artefact::kinds::{frf_from_artefact, frf_to_artefact};
 use crate::frf::{NoiseModel, add_noise};
-use crate::pipeline::{ParamIssue, PortSpec, StageError, StageInputs, StageOutputs, TypedStage};
-use std::collections::BTreeSet;
+use crate::pipeline::{
+    CheckContext, ParamIssue, PortSpec, StageError, StageInputs, StageOutputs, TypedStage,
+};
 
 /// The stage.
 pub struct NoiseAdd;
@@ -65,7 +66,7 @@ impl TypedStage for NoiseAdd {
         vec![PortSpec::required("frf", ArtefactKind::Frf, "noisy FRFs")]
     }
 
-    fn validate(p: &mut Params, _: &BTreeSet<String>) -> Vec<ParamIssue> {
+    fn validate(p: &mut Params, _: &CheckContext) -> Vec<ParamIssue> {
         let mut issues = Vec::new();
         match p.noise {
             Kind::Thesis => {
@@ -145,11 +146,17 @@ mod tests {
     fn negative_level_and_missing_snr() {
         let s = Typed::<NoiseAdd>::new();
         let e = s
-            .check(&serde_json::json!({"level": -0.1}), &BTreeSet::new())
+            .check(
+                &serde_json::json!({"level": -0.1}),
+                &CheckContext::default(),
+            )
             .unwrap_err();
         assert_eq!(e[0].path, vec!["level"]);
         let e = s
-            .check(&serde_json::json!({"noise": "gaussian"}), &BTreeSet::new())
+            .check(
+                &serde_json::json!({"noise": "gaussian"}),
+                &CheckContext::default(),
+            )
             .unwrap_err();
         assert_eq!(e[0].path, vec!["snr_db"]);
         let v = s

@@ -5,9 +5,10 @@ use crate::artefact::kinds::{correlation_from_artefact, frf_from_artefact};
 use crate::artefact::{Artefact, ArtefactKind};
 use crate::core::DofId;
 use crate::frf::FrfPair;
-use crate::pipeline::{ParamIssue, PortSpec, StageError, StageInputs, StageOutputs, TypedStage};
+use crate::pipeline::{
+    CheckContext, ParamIssue, PortSpec, StageError, StageInputs, StageOutputs, TypedStage,
+};
 use crate::report::frf_plot::{FrfPlotOptions, MAX_FRFS, MAX_SIDE_PX, MIN_SIDE_PX, frf_overlay};
-use std::collections::BTreeSet;
 
 /// The stage.
 pub struct PlotFrf;
@@ -97,7 +98,7 @@ impl TypedStage for PlotFrf {
         )]
     }
 
-    fn validate(p: &mut Params, _: &BTreeSet<String>) -> Vec<ParamIssue> {
+    fn validate(p: &mut Params, _: &CheckContext) -> Vec<ParamIssue> {
         let mut issues = Vec::new();
         if p.max_frfs == 0 || p.max_frfs > MAX_FRFS {
             issues.push(ParamIssue::at(
