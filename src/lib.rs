@@ -11,6 +11,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod artefact;
+pub mod bench;
 pub mod cache;
 pub mod cli;
 pub mod core;

@@ -113,6 +113,18 @@ enum Command {
         #[command(subcommand)]
         action: CacheAction,
     },
+    /// Benchmark assembly, factorisation and the lowest modes of a clamped shell plate.
+    Bench {
+        /// Model sizes in DOFs (repeatable); default 10000 and 100000.
+        #[arg(long = "dofs", value_name = "N")]
+        dofs: Vec<usize>,
+        /// Mode counts to time at each size (repeatable); default 50 and 100.
+        #[arg(long = "modes", value_name = "M")]
+        modes: Vec<usize>,
+        /// Write the figures as JSON to this file as well.
+        #[arg(long, value_name = "FILE")]
+        json: Option<PathBuf>,
+    },
     /// Write the JSON Schemas of pipelines and artefacts.
     Schema {
         /// Output directory.
@@ -328,6 +340,57 @@ fn dispatch(cli: Cli) -> Result<u8, Failure> {
                     let (n, bytes) = cache.gc(&keep)?;
                     println!("removed {n} entries ({bytes} bytes); kept {}", keep.len());
                 }
+            }
+            Ok(0)
+        }
+        Command::Bench { dofs, modes, json } => {
+            let dofs = if dofs.is_empty() {
+                vec![10_000, 100_000]
+            } else {
+                dofs
+            };
+            let modes = if modes.is_empty() {
+                vec![50, 100]
+            } else {
+                modes
+            };
+            let threads = rayon::current_num_threads();
+            println!("clamped steel plate of four-node shells, {threads} threads");
+            println!(
+                "{:>9} {:>11} {:>9} {:>6} {:>8} {:>8} {:>8} {:>8} {:>8} {:>10}",
+                "dofs",
+                "nnz(K)",
+                "assemble",
+                "modes",
+                "total",
+                "factor",
+                "solves",
+                "orthog",
+                "M*x",
+                "peak MiB"
+            );
+            let mut all = Vec::new();
+            for n in dofs {
+                let b = crate::bench::plate_bench(n, &modes).map_err(|e| anyhow::anyhow!(e))?;
+                for m in &b.modes {
+                    println!(
+                        "{:>9} {:>11} {:>9.2} {:>6} {:>8.2} {:>8.2} {:>8.2} {:>8.2} {:>8.2} {:>10.0}",
+                        b.dofs,
+                        b.nnz,
+                        b.assembly_seconds,
+                        m.count,
+                        m.seconds,
+                        m.info.factor_seconds,
+                        m.info.solve_seconds,
+                        m.info.orthogonalisation_seconds,
+                        m.info.mass_product_seconds,
+                        b.peak_rss_mib.unwrap_or(f64::NAN)
+                    );
+                }
+                all.push(b);
+            }
+            if let Some(f) = json {
+                std::fs::write(&f, serde_json::to_string_pretty(&all)?)?;
             }
             Ok(0)
         }

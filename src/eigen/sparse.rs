@@ -20,6 +20,7 @@ use super::dense::{EigenError, ModeSelection, Modes, dense_generalized, fix_sign
 use crate::core::DofId;
 use crate::fe::system::{SparseMatrix, sparse_to_dense};
 use faer::linalg::solvers::SolveCore;
+use faer::linalg::triangular_solve::solve_lower_triangular_in_place;
 use faer::{Conj, Mat, MatMut, MatRef, Par, Side};
 use rand::{Rng, SeedableRng};
 use rayon::prelude::*;
@@ -213,8 +214,57 @@ pub fn lowest_modes(
     };
     lambdas.truncate(counted);
     vecs = vecs.subcols(0, counted).to_owned();
+    if counted > 0 {
+        let t = Instant::now();
+        (lambdas, vecs) = refine(&llt, k, m, vecs)?;
+        info.solve_seconds += t.elapsed().as_secs_f64();
+        info.solves += counted;
+    }
     let modes = finish(k, m, lambdas, vecs)?;
     Ok((modes, info))
+}
+
+/// One block inverse-iteration step and a Rayleigh–Ritz projection: `X = A⁻¹ M V`, then the
+/// small pencil `(XᵀKX, XᵀMX)`. The Lanczos residual bounds the error of `V` in the `A⁻¹M`
+/// metric, where the stiff modes weigh little; this step divides their share by `ν_high/ν_low`,
+/// so the residuals `‖Kφ − λMφ‖ / ‖Kφ‖` reach round-off level.
+fn refine(
+    llt: &faer::sparse::linalg::solvers::Llt<usize, f64>,
+    k: &SparseMatrix,
+    m: &SparseMatrix,
+    v: Mat<f64>,
+) -> Result<(Vec<f64>, Mat<f64>), EigenError> {
+    let (n, c) = (v.nrows(), v.ncols());
+    let mut x = Mat::<f64>::zeros(n, c);
+    sym_matvec(m, v.as_ref(), x.as_mut());
+    llt.solve_in_place_with_conj(Conj::No, x.as_mut());
+    let (mut kx, mut mx) = (Mat::<f64>::zeros(n, c), Mat::<f64>::zeros(n, c));
+    sym_matvec(k, x.as_ref(), kx.as_mut());
+    sym_matvec(m, x.as_ref(), mx.as_mut());
+    let kr = x.transpose() * &kx;
+    let mr = x.transpose() * &mx;
+    let kr = Mat::from_fn(c, c, |i, j| 0.5 * (kr[(i, j)] + kr[(j, i)]));
+    let mr = Mat::from_fn(c, c, |i, j| 0.5 * (mr[(i, j)] + mr[(j, i)]));
+    // XᵀMX is well conditioned (X is nearly M-orthogonal): reduce by its Cholesky factor.
+    // Rigid-body and sign decisions are left to `finish`, which knows the full problem's scale.
+    let llt_m = mr.llt(Side::Lower).map_err(|_| EigenError::NoConvergence)?;
+    let l = llt_m.L();
+    let mut a = kr.clone();
+    solve_lower_triangular_in_place(l, a.as_mut(), Par::Seq);
+    let mut a = a.transpose().to_owned();
+    solve_lower_triangular_in_place(l, a.as_mut(), Par::Seq);
+    let a = Mat::from_fn(c, c, |i, j| 0.5 * (a[(i, j)] + a[(j, i)]));
+    let evd = a
+        .self_adjoint_eigen(Side::Lower)
+        .map_err(|_| EigenError::NoConvergence)?;
+    let lambdas: Vec<f64> = (0..c).map(|i| evd.S()[i]).collect();
+    let mut y = evd.U().to_owned();
+    faer::linalg::triangular_solve::solve_upper_triangular_in_place(
+        l.transpose(),
+        y.as_mut(),
+        Par::Seq,
+    );
+    Ok((lambdas, &x * &y))
 }
 
 /// Rayleigh quotients, residuals, orthogonality and sign convention for computed pairs.
@@ -298,8 +348,65 @@ fn finish(
     })
 }
 
-/// Thick-restart Lanczos on `A⁻¹M` in the `M`-inner product. Returns the `nev` lowest `λ`
-/// (ascending) and their `M`-orthonormal vectors.
+/// `out ← out − basis · (mbasisᵀ · w)` twice (block Gram–Schmidt in the `M`-inner product);
+/// returns the summed projection coefficients.
+fn project_out(
+    basis: MatRef<'_, f64>,
+    mbasis: MatRef<'_, f64>,
+    mut w: MatMut<'_, f64>,
+    par: Par,
+) -> Mat<f64> {
+    use faer::linalg::matmul::matmul;
+    let mut c = Mat::<f64>::zeros(basis.ncols(), w.ncols());
+    for _ in 0..2 {
+        let mut pc = Mat::<f64>::zeros(basis.ncols(), w.ncols());
+        matmul(
+            pc.as_mut(),
+            faer::Accum::Replace,
+            mbasis.transpose(),
+            w.as_ref(),
+            1.0,
+            par,
+        );
+        matmul(w.as_mut(), faer::Accum::Add, basis, pc.as_ref(), -1.0, par);
+        c += &pc;
+    }
+    c
+}
+
+/// `M`-orthonormalises the block `w` (Cholesky QR, twice for stability): returns `(w R⁻¹, M w R⁻¹, R)`
+/// with `wᵀMw = RᵀR`, or `None` when the block is rank-deficient.
+fn m_orthonormalise(m: &SparseMatrix, w: &Mat<f64>) -> Option<(Mat<f64>, Mat<f64>, Mat<f64>)> {
+    let (n, b) = (w.nrows(), w.ncols());
+    let mut q = w.clone();
+    let mut r_total = Mat::<f64>::identity(b, b);
+    let mut mq = Mat::<f64>::zeros(n, b);
+    for _ in 0..2 {
+        sym_matvec(m, q.as_ref(), mq.as_mut());
+        let g = q.transpose() * &mq;
+        let llt = g.llt(Side::Lower).ok()?;
+        let l = llt.L();
+        // R = Lᵀ; q ← q R⁻¹ (solve q_newᵀ: L q_newᵀ = qᵀ).
+        let mut qt = q.transpose().to_owned();
+        solve_lower_triangular_in_place(l, qt.as_mut(), Par::Seq);
+        q = qt.transpose().to_owned();
+        let mut mqt = mq.transpose().to_owned();
+        solve_lower_triangular_in_place(l, mqt.as_mut(), Par::Seq);
+        mq = mqt.transpose().to_owned();
+        let diag_min = (0..b).map(|i| l[(i, i)]).fold(f64::INFINITY, f64::min);
+        let diag_max = (0..b).map(|i| l[(i, i)]).fold(0.0f64, f64::max);
+        if !(diag_min > 1e-10 * diag_max) {
+            return None;
+        }
+        r_total = l.transpose() * &r_total;
+    }
+    Some((q, mq, r_total))
+}
+
+/// Block thick-restart Lanczos on `A⁻¹M` in the `M`-inner product, with blocks of `b`
+/// vectors so that every pass over the Cholesky factor serves `b` right-hand sides (the solves
+/// are memory-bound). Returns the `nev` lowest `λ` (ascending) and their `M`-orthonormal
+/// vectors.
 fn lanczos(
     llt: &faer::sparse::linalg::solvers::Llt<usize, f64>,
     m: &SparseMatrix,
@@ -309,128 +416,84 @@ fn lanczos(
     params: &SparseEigenParams,
     info: &mut SparseEigenInfo,
 ) -> Result<(Vec<f64>, Mat<f64>), EigenError> {
-    let p = (2 * nev).max(nev + 24).min(n - 1);
+    let b = BLOCK.min(nev.max(1));
+    let want = (2 * nev).max(nev + 3 * b);
+    let p = (want.div_ceil(b) * b).min((n - b) / b * b).max(2 * b);
+    if p <= nev {
+        return Err(EigenError::NoConvergence);
+    }
+    let par = Par::rayon(0);
     let mut v = Mat::<f64>::zeros(n, p);
     let mut mv = Mat::<f64>::zeros(n, p);
     let mut h = Mat::<f64>::zeros(p, p);
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(params.seed);
-    let mut start: Mat<f64> = Mat::from_fn(n, 1, |_, _| rng.random::<f64>() - 0.5);
-    // Start inside the operator's range (kills components of massless DOFs).
-    let mut tmp = Mat::zeros(n, 1);
-    sym_matvec(m, start.as_ref(), tmp.as_mut());
-    llt.solve_in_place_with_conj(Conj::No, tmp.as_mut());
-    start = tmp;
-    let mut ms = Mat::zeros(n, 1);
-    sym_matvec(m, start.as_ref(), ms.as_mut());
-    let nrm = dot(start.as_ref(), ms.as_ref()).sqrt();
-    if !(nrm > 0.0) {
-        return Err(EigenError::NoConvergence);
-    }
-    for i in 0..n {
-        v[(i, 0)] = start[(i, 0)] / nrm;
-        mv[(i, 0)] = ms[(i, 0)] / nrm;
-    }
+    let random_block = |rng: &mut rand_chacha::ChaCha8Rng| -> Mat<f64> {
+        // Start inside the operator's range (kills components of massless DOFs).
+        let x: Mat<f64> = Mat::from_fn(n, b, |_, _| rng.random::<f64>() - 0.5);
+        let mut y = Mat::zeros(n, b);
+        sym_matvec(m, x.as_ref(), y.as_mut());
+        llt.solve_in_place_with_conj(Conj::No, y.as_mut());
+        y
+    };
+    let start = random_block(&mut rng);
+    let (q, mq, _) = m_orthonormalise(m, &start).ok_or(EigenError::NoConvergence)?;
+    v.as_mut().subcols_mut(0, b).copy_from(&q);
+    mv.as_mut().subcols_mut(0, b).copy_from(&mq);
     let mut kept = 0usize;
-    let mut f = Mat::<f64>::zeros(n, 1);
-    let mut fm = Mat::<f64>::zeros(n, 1);
-    let mut beta_last = 0.0;
-    let par = Par::rayon(0);
+    let mut f = Mat::<f64>::zeros(n, b);
+    let mut fm = Mat::<f64>::zeros(n, b);
+    let mut r_last = Mat::<f64>::zeros(b, b);
     for restart in 0..=params.max_restarts {
         info.restarts = restart;
-        for j in kept..p {
+        let mut s0 = kept;
+        while s0 < p {
             let t = Instant::now();
-            let mut w = mv.as_ref().subcols(j, 1).to_owned();
+            let mut w = mv.as_ref().subcols(s0, b).to_owned();
             llt.solve_in_place_with_conj(Conj::No, w.as_mut());
             info.solve_seconds += t.elapsed().as_secs_f64();
-            info.solves += 1;
+            info.solves += b;
             let t = Instant::now();
-            // Two passes of block Gram–Schmidt in the M-inner product; H from the projections.
-            let basis = v.as_ref().subcols(0, j + 1);
-            let mbasis = mv.as_ref().subcols(0, j + 1);
-            let mut c = Mat::<f64>::zeros(j + 1, 1);
-            for _ in 0..2 {
-                let mut pc = Mat::<f64>::zeros(j + 1, 1);
-                faer::linalg::matmul::matmul(
-                    pc.as_mut(),
-                    faer::Accum::Replace,
-                    mbasis.transpose(),
-                    w.as_ref(),
-                    1.0,
-                    par,
-                );
-                faer::linalg::matmul::matmul(
-                    w.as_mut(),
-                    faer::Accum::Add,
-                    basis,
-                    pc.as_ref(),
-                    -1.0,
-                    par,
-                );
-                for i in 0..=j {
-                    c[(i, 0)] += pc[(i, 0)];
+            let upto = s0 + b;
+            let c = project_out(
+                v.as_ref().subcols(0, upto),
+                mv.as_ref().subcols(0, upto),
+                w.as_mut(),
+                par,
+            );
+            for jj in 0..b {
+                for i in 0..upto {
+                    h[(i, s0 + jj)] = c[(i, jj)];
+                    h[(s0 + jj, i)] = c[(i, jj)];
                 }
-            }
-            for i in 0..=j {
-                h[(i, j)] = c[(i, 0)];
-                h[(j, i)] = c[(i, 0)];
             }
             info.orthogonalisation_seconds += t.elapsed().as_secs_f64();
             let t = Instant::now();
-            let mut mw = Mat::<f64>::zeros(n, 1);
-            sym_matvec(m, w.as_ref(), mw.as_mut());
-            info.mass_product_seconds += t.elapsed().as_secs_f64();
-            let mut beta = dot(w.as_ref(), mw.as_ref()).max(0.0).sqrt();
-            let scale = c.as_ref().col(0).iter().fold(0.0f64, |s, x| s.max(x.abs()));
-            if beta <= 1e-14 * scale.max(f64::MIN_POSITIVE) {
-                // Invariant subspace: continue with a fresh direction M-orthogonal to the basis.
-                let mut fresh: Mat<f64> = Mat::from_fn(n, 1, |_, _| rng.random::<f64>() - 0.5);
-                let mut mf = Mat::zeros(n, 1);
-                sym_matvec(m, fresh.as_ref(), mf.as_mut());
-                llt.solve_in_place_with_conj(Conj::No, mf.as_mut());
-                fresh = mf;
-                for _ in 0..2 {
-                    let mut pc = Mat::<f64>::zeros(j + 1, 1);
-                    faer::linalg::matmul::matmul(
-                        pc.as_mut(),
-                        faer::Accum::Replace,
-                        mbasis.transpose(),
-                        fresh.as_ref(),
-                        1.0,
-                        par,
-                    );
-                    faer::linalg::matmul::matmul(
+            let next = match m_orthonormalise(m, &w) {
+                Some(x) => x,
+                None => {
+                    // (Near-)invariant subspace: continue with fresh directions, uncoupled.
+                    let mut fresh = random_block(&mut rng);
+                    project_out(
+                        v.as_ref().subcols(0, upto),
+                        mv.as_ref().subcols(0, upto),
                         fresh.as_mut(),
-                        faer::Accum::Add,
-                        basis,
-                        pc.as_ref(),
-                        -1.0,
                         par,
                     );
+                    let (q, mq, _) =
+                        m_orthonormalise(m, &fresh).ok_or(EigenError::NoConvergence)?;
+                    (q, mq, Mat::zeros(b, b))
                 }
-                w = fresh;
-                sym_matvec(m, w.as_ref(), mw.as_mut());
-                beta = dot(w.as_ref(), mw.as_ref()).max(0.0).sqrt();
-                if !(beta > 0.0) {
-                    return Err(EigenError::NoConvergence);
-                }
-                // The coupling to the new direction is zero: the subspace was invariant.
-                if j + 1 == p {
-                    beta_last = 0.0;
-                }
-            } else if j + 1 == p {
-                beta_last = beta;
-            }
-            if j + 1 < p {
-                for i in 0..n {
-                    v[(i, j + 1)] = w[(i, 0)] / beta;
-                    mv[(i, j + 1)] = mw[(i, 0)] / beta;
-                }
+            };
+            info.mass_product_seconds += t.elapsed().as_secs_f64();
+            if upto < p {
+                v.as_mut().subcols_mut(upto, b).copy_from(&next.0);
+                mv.as_mut().subcols_mut(upto, b).copy_from(&next.1);
             } else {
-                for i in 0..n {
-                    f[(i, 0)] = w[(i, 0)] / beta;
-                    fm[(i, 0)] = mw[(i, 0)] / beta;
-                }
+                f = next.0;
+                fm = next.1;
+                r_last = next.2;
             }
+            s0 = upto;
         }
         // Rayleigh–Ritz on H.
         let t = Instant::now();
@@ -439,29 +502,35 @@ fn lanczos(
             .map_err(|_| EigenError::NoConvergence)?;
         let theta: Vec<f64> = (0..p).map(|i| evd.S()[i]).collect();
         let y = evd.U();
-        // Largest θ first.
         let order: Vec<usize> = (0..p).rev().collect();
+        // Residual of Ritz pair i: ‖R_last y_last-block,i‖.
+        let resid = |i: usize| -> f64 {
+            (0..b)
+                .map(|r| {
+                    (0..b)
+                        .map(|c| r_last[(r, c)] * y[(p - b + c, i)])
+                        .sum::<f64>()
+                        .powi(2)
+                })
+                .sum::<f64>()
+                .sqrt()
+        };
         let converged = order
             .iter()
             .take(nev)
-            .take_while(|&&i| {
-                (beta_last * y[(p - 1, i)]).abs() <= params.tolerance * theta[i].abs()
-            })
+            .take_while(|&&i| resid(i) <= params.tolerance * theta[i].abs())
             .count();
         let done = converged >= nev || restart == params.max_restarts;
+        let shrink = ((p - nev) / 2 / b).max(1) * b;
         let keep = if done {
             nev
         } else {
-            (nev + (p - nev) / 2)
-                .min(p - 1)
-                .max(converged + 1)
-                .min(p - 1)
+            (p - shrink).max(converged + 1).min(p - b)
         };
-        let yk = Mat::from_fn(p, keep, |i, c| y[(i, order[c])]);
-        let vk = &v * &yk;
-        let mvk = &mv * &yk;
         info.orthogonalisation_seconds += t.elapsed().as_secs_f64();
         if done {
+            let yk = Mat::from_fn(p, keep, |i, c| y[(i, order[c])]);
+            let vk = &v * &yk;
             if converged < nev {
                 return Err(EigenError::NotConverged {
                     converged,
@@ -472,23 +541,30 @@ fn lanczos(
             let lambdas: Vec<f64> = (0..nev).map(|c| shift + 1.0 / theta[order[c]]).collect();
             return Ok((lambdas, vk));
         }
-        // Thick restart: kept Ritz vectors, then the residual direction.
+        // Thick restart: kept Ritz vectors, then the residual block; blocks must tile up to p.
+        let keep = p - (p - keep).div_ceil(b) * b;
+        let keep = keep.max(1);
+        let yk = Mat::from_fn(p, keep, |i, c| y[(i, order[c])]);
+        let vk = &v * &yk;
+        let mvk = &mv * &yk;
         h.fill(0.0);
+        v.as_mut().subcols_mut(0, keep).copy_from(&vk);
+        mv.as_mut().subcols_mut(0, keep).copy_from(&mvk);
         for c in 0..keep {
-            v.as_mut().col_mut(c).copy_from(vk.col(c));
-            mv.as_mut().col_mut(c).copy_from(mvk.col(c));
             h[(c, c)] = theta[order[c]];
         }
-        v.as_mut().col_mut(keep).copy_from(f.col(0));
-        mv.as_mut().col_mut(keep).copy_from(fm.col(0));
+        v.as_mut().subcols_mut(keep, b).copy_from(&f);
+        mv.as_mut().subcols_mut(keep, b).copy_from(&fm);
         kept = keep;
+        if kept + b > p {
+            return Err(EigenError::NoConvergence);
+        }
     }
     Err(EigenError::NoConvergence)
 }
 
-fn dot(a: MatRef<'_, f64>, b: MatRef<'_, f64>) -> f64 {
-    (0..a.nrows()).map(|i| a[(i, 0)] * b[(i, 0)]).sum()
-}
+/// Lanczos block size: the number of right-hand sides per pass over the factor.
+const BLOCK: usize = 8;
 
 #[cfg(test)]
 mod tests {

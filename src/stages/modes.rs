@@ -132,7 +132,7 @@ mod tests {
         let e = Typed::<ModesStage>::new()
             .check(
                 &serde_json::json!({"count": 3, "max_freq_hz": 10.0}),
-                &BTreeSet::new(),
+                &CheckContext::default(),
             )
             .unwrap_err();
         assert!(e[0].message.contains("not both"));

@@ -162,7 +162,7 @@ mod tests {
         let v = s
             .check(
                 &serde_json::json!({"level": 0.05, "seed": 3}),
-                &BTreeSet::new(),
+                &CheckContext::default(),
             )
             .unwrap();
         assert_eq!(v["interval"], serde_json::json!([0.0, 1.0]));
