@@ -74,32 +74,23 @@ pub struct SparseEigenInfo {
     pub restarts: usize,
 }
 
-/// `Y = A X` for a sparse symmetric `A` stored in full, parallel over output rows, every column
-/// of `X` in the same pass over `A`.
+/// `Y = A X` for a sparse symmetric `A` stored in full, parallel over output rows, column by
+/// column (row `j` of `A` is its column `j`, read contiguously).
 pub fn sym_matvec(a: &SparseMatrix, x: MatRef<'_, f64>, mut y: MatMut<'_, f64>) {
-    let (n, b) = (a.ncols(), x.ncols());
-    // Row-major copy of X so a row of A meets its b values contiguously.
-    let xr: Vec<f64> = (0..n)
-        .flat_map(|i| (0..b).map(move |c| (i, c)))
-        .map(|(i, c)| x[(i, c)])
-        .collect();
-    let mut out = vec![0.0f64; n * b];
-    out.par_chunks_mut(b)
-        .enumerate()
-        .with_min_len(2048)
-        .for_each(|(j, row)| {
-            let rows = a.row_idx_of_col_raw(j);
-            let vals = a.val_of_col(j);
-            for (&i, &v) in rows.iter().zip(vals) {
-                let xi = &xr[i * b..(i + 1) * b];
-                for (o, xv) in row.iter_mut().zip(xi) {
-                    *o += v * xv;
-                }
-            }
-        });
-    for j in 0..n {
-        for c in 0..b {
-            y[(j, c)] = out[j * b + c];
+    let n = a.ncols();
+    for c in 0..x.ncols() {
+        let xc: Vec<f64> = (0..n).map(|i| x[(i, c)]).collect();
+        let out: Vec<f64> = (0..n)
+            .into_par_iter()
+            .with_min_len(4096)
+            .map(|j| {
+                let rows = a.row_idx_of_col_raw(j);
+                let vals = a.val_of_col(j);
+                rows.iter().zip(vals).map(|(&i, &v)| v * xc[i]).sum()
+            })
+            .collect();
+        for (j, v) in out.into_iter().enumerate() {
+            y[(j, c)] = v;
         }
     }
 }
@@ -391,9 +382,11 @@ fn m_orthonormalise(m: &SparseMatrix, w: &Mat<f64>) -> Option<(Mat<f64>, Mat<f64
     let mut q = w.clone();
     let mut r_total = Mat::<f64>::identity(b, b);
     let mut mq = Mat::<f64>::zeros(n, b);
+    // One product with M: the second pass transforms `Mq` by the same triangular factor.
+    sym_matvec(m, q.as_ref(), mq.as_mut());
     for _ in 0..2 {
-        sym_matvec(m, q.as_ref(), mq.as_mut());
         let g = q.transpose() * &mq;
+        let g = Mat::from_fn(b, b, |i, j| 0.5 * (g[(i, j)] + g[(j, i)]));
         let llt = g.llt(Side::Lower).ok()?;
         let l = llt.L();
         // R = Lᵀ; q ← q R⁻¹ (solve q_newᵀ: L q_newᵀ = qᵀ).
