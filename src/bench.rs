@@ -5,10 +5,11 @@
 use crate::eigen::{ModeSelection, SparseEigenInfo, SparseEigenParams, lowest_modes};
 use crate::fe::element::MassKind;
 use crate::fe::model_assembly::assemble_model;
+use crate::model::generate::scale::{muffler, muffler_element_size};
 use crate::model::generate::{FlatPlate, PlateSupport, flat_plate, steel};
 use std::time::Instant;
 
-/// One size's figures.
+/// One model's figures.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct PlateBench {
     /// Elements per side.
@@ -50,19 +51,40 @@ pub fn peak_rss_mib() -> Option<f64> {
     Some(kb / 1024.0)
 }
 
+/// Which structure a benchmark builds.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+pub enum BenchModel {
+    /// A clamped 1 m × 1 m × 5 mm steel plate.
+    Plate,
+    /// The free-free muffler-like box with two baffles (CASES.md C5).
+    Muffler,
+}
+
 /// Benchmarks a clamped 1 m × 1 m × 5 mm steel plate of about `target_dofs` free DOFs.
 pub fn plate_bench(target_dofs: usize, mode_counts: &[usize]) -> Result<PlateBench, String> {
+    model_bench(BenchModel::Plate, target_dofs, mode_counts)
+}
+
+/// Benchmarks `which` at about `target_dofs` DOFs.
+pub fn model_bench(
+    which: BenchModel,
+    target_dofs: usize,
+    mode_counts: &[usize],
+) -> Result<PlateBench, String> {
     let side = ((target_dofs as f64 / 6.0).sqrt().round() as usize).max(2);
     let t = Instant::now();
-    let model = flat_plate(&FlatPlate {
-        a: 1.0,
-        b: 1.0,
-        nx: side,
-        ny: side,
-        thickness: 0.005,
-        material: steel(),
-        support: PlateSupport::ClampedEdge,
-    });
+    let model = match which {
+        BenchModel::Plate => flat_plate(&FlatPlate {
+            a: 1.0,
+            b: 1.0,
+            nx: side,
+            ny: side,
+            thickness: 0.005,
+            material: steel(),
+            support: PlateSupport::ClampedEdge,
+        }),
+        BenchModel::Muffler => muffler(muffler_element_size(target_dofs, 2), 2),
+    };
     let generate_seconds = t.elapsed().as_secs_f64();
     let t = Instant::now();
     let (sys, info) = assemble_model(&model, MassKind::Consistent).map_err(|e| e.to_string())?;

@@ -113,7 +113,7 @@ enum Command {
         #[command(subcommand)]
         action: CacheAction,
     },
-    /// Benchmark assembly, factorisation and the lowest modes of a clamped shell plate.
+    /// Benchmark assembly, factorisation and the lowest modes of a shell plate or the muffler box.
     Bench {
         /// Model sizes in DOFs (repeatable); default 10000 and 100000.
         #[arg(long = "dofs", value_name = "N")]
@@ -124,6 +124,9 @@ enum Command {
         /// Write the figures as JSON to this file as well.
         #[arg(long, value_name = "FILE")]
         json: Option<PathBuf>,
+        /// Benchmark the muffler-like box (CASES.md C5) instead of the plate.
+        #[arg(long)]
+        muffler: bool,
     },
     /// Write the JSON Schemas of pipelines and artefacts.
     Schema {
@@ -343,7 +346,17 @@ fn dispatch(cli: Cli) -> Result<u8, Failure> {
             }
             Ok(0)
         }
-        Command::Bench { dofs, modes, json } => {
+        Command::Bench {
+            dofs,
+            modes,
+            json,
+            muffler,
+        } => {
+            let which = if muffler {
+                crate::bench::BenchModel::Muffler
+            } else {
+                crate::bench::BenchModel::Plate
+            };
             let dofs = if dofs.is_empty() {
                 vec![10_000, 100_000]
             } else {
@@ -355,7 +368,14 @@ fn dispatch(cli: Cli) -> Result<u8, Failure> {
                 modes
             };
             let threads = rayon::current_num_threads();
-            println!("clamped steel plate of four-node shells, {threads} threads");
+            println!(
+                "{}, four-node shells, {threads} threads",
+                if muffler {
+                    "free-free muffler-like box"
+                } else {
+                    "clamped steel plate"
+                }
+            );
             println!(
                 "{:>9} {:>11} {:>9} {:>6} {:>8} {:>8} {:>8} {:>8} {:>8} {:>10}",
                 "dofs",
@@ -371,7 +391,8 @@ fn dispatch(cli: Cli) -> Result<u8, Failure> {
             );
             let mut all = Vec::new();
             for n in dofs {
-                let b = crate::bench::plate_bench(n, &modes).map_err(|e| anyhow::anyhow!(e))?;
+                let b =
+                    crate::bench::model_bench(which, n, &modes).map_err(|e| anyhow::anyhow!(e))?;
                 for m in &b.modes {
                     println!(
                         "{:>9} {:>11} {:>9.2} {:>6} {:>8.2} {:>8.2} {:>8.2} {:>8.2} {:>8.2} {:>10.0}",

@@ -221,7 +221,7 @@ pub fn lowest_modes(
         info.solve_seconds += t.elapsed().as_secs_f64();
         info.solves += counted;
     }
-    let modes = finish(k, m, lambdas, vecs)?;
+    let modes = finish(k, m, lambdas, vecs, shift)?;
     Ok((modes, info))
 }
 
@@ -274,6 +274,7 @@ fn finish(
     m: &SparseMatrix,
     mut lambdas: Vec<f64>,
     mut shapes: Mat<f64>,
+    shift: f64,
 ) -> Result<Modes, EigenError> {
     let (n, c) = (shapes.nrows(), shapes.ncols());
     let mut kphi = Mat::zeros(n, c);
@@ -291,7 +292,13 @@ fn finish(
             pmp += shapes[(i, r)] * mphi[(i, r)];
         }
         let mut lam = pkp / pmp;
-        if lam.abs() <= 1e-10 * largest.max(f64::MIN_POSITIVE) {
+        // Rigid-body modes carry round-off of the stiff modes, ~ε·λ_max; 10⁻⁶|σ| = 10⁻¹²
+        // of the model's eigenvalue scale bounds it (as in the dense path).
+        if lam.abs()
+            <= (1e-10 * largest)
+                .max(1e-6 * shift.abs())
+                .max(f64::MIN_POSITIVE)
+        {
             lam = 0.0;
             rigid += 1;
         } else if lam < 0.0 {

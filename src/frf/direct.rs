@@ -227,10 +227,12 @@ mod tests {
                 .iter()
                 .position(|x| x.response == pair.excitation && x.excitation == pair.response)
                 .unwrap();
+            // Z(ω) of a free-free shell model is ill-conditioned near its rigid-body modes
+            // (cond ≈ λ_max/ω² ≈ 1e8 at 3 Hz): LU round-off alone allows ~1e-8 relative.
             for k in 0..3 {
                 let (a, b) = (r.values[(k, p)], r.values[(k, q)]);
                 assert!(
-                    (a - b).norm() <= 1e-9 * a.norm().max(b.norm()),
+                    (a - b).norm() <= 1e-6 * a.norm().max(b.norm()),
                     "{pair:?} line {k}: {a} vs {b}"
                 );
             }

@@ -2,6 +2,9 @@
 
 use crate::artefact::ArtefactKind;
 use crate::artefact::mesh::mesh_to_artefact;
+use crate::model::generate::scale::{
+    muffler, muffler_element_size, three_plate_element_size, three_plate_two_beam,
+};
 use crate::model::generate::{
     BentPlate, FlatPlate, PlateSupport, ThreeBeam, bent_plate, flat_plate, steel, three_beam,
 };
@@ -50,6 +53,19 @@ pub enum Params {
         #[serde(default = "free")]
         support: PlateSupport,
     },
+    /// C5: three stacked plates held by two beam columns, sized by a DOF target.
+    ThreePlateTwoBeam {
+        /// About how many DOFs (sets the element size).
+        dofs: usize,
+    },
+    /// C5: a muffler-like closed shell box with baffles and tubes, sized by a DOF target.
+    Muffler {
+        /// About how many DOFs (sets the element size).
+        dofs: usize,
+        /// Internal baffles.
+        #[serde(default = "two")]
+        baffles: usize,
+    },
     /// C4: the clamped three-beam assembly (648 DOFs at 35 elements per beam).
     ThreeBeam {
         /// Elements per beam.
@@ -78,6 +94,9 @@ fn yes() -> bool {
 }
 fn free() -> PlateSupport {
     PlateSupport::Free
+}
+fn two() -> usize {
+    2
 }
 fn thirty_five() -> usize {
     35
@@ -153,6 +172,19 @@ impl TypedStage for MeshGenerate {
                     ));
                 }
             }
+            Params::ThreePlateTwoBeam { dofs } | Params::Muffler { dofs, .. } => {
+                if *dofs < 1000 || *dofs > 6 * MAX_NODES {
+                    issues.push(ParamIssue::at(
+                        "dofs",
+                        format!("{dofs} must be 1000 to {}", 6 * MAX_NODES),
+                    ));
+                }
+                if let Params::Muffler { baffles, .. } = p {
+                    if *baffles > 50 {
+                        issues.push(ParamIssue::at("baffles", "at most 50"));
+                    }
+                }
+            }
             Params::ThreeBeam {
                 elements_per_beam,
                 clamp,
@@ -213,6 +245,12 @@ impl TypedStage for MeshGenerate {
                 joint: *joint,
                 ..Default::default()
             }),
+            Params::ThreePlateTwoBeam { dofs } => {
+                three_plate_two_beam(three_plate_element_size(*dofs))
+            }
+            Params::Muffler { dofs, baffles } => {
+                muffler(muffler_element_size(*dofs, *baffles), *baffles)
+            }
         };
         Ok(StageOutputs::from([(
             "mesh".to_string(),

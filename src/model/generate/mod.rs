@@ -2,6 +2,7 @@
 
 pub mod bent_plate;
 pub mod flat_plate;
+pub mod scale;
 pub mod three_beam;
 
 pub use bent_plate::{BentPlate, bent_plate};
