@@ -282,9 +282,14 @@ pub fn dense_generalized(
 
 /// Median of `K_jj / M_jj` over DOFs with mass and stiffness: the scale of the eigenvalues.
 pub fn diagonal_scale(k: MatRef<'_, f64>, m: MatRef<'_, f64>) -> f64 {
-    let mut r: Vec<f64> = (0..k.nrows())
-        .filter(|&j| k[(j, j)] > 0.0 && m[(j, j)] > 0.0)
-        .map(|j| k[(j, j)] / m[(j, j)])
+    median_ratio((0..k.nrows()).map(|j| (k[(j, j)], m[(j, j)])))
+}
+
+/// Median of `k / m` over pairs with both positive (1 when there is none).
+pub fn median_ratio(pairs: impl Iterator<Item = (f64, f64)>) -> f64 {
+    let mut r: Vec<f64> = pairs
+        .filter(|(k, m)| *k > 0.0 && *m > 0.0)
+        .map(|(k, m)| k / m)
         .collect();
     if r.is_empty() {
         return 1.0;

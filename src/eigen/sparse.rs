@@ -16,7 +16,7 @@
 //! quotients `φᵀKφ` (`φᵀMφ = 1`), and every mode reports its relative residual. "All modes below
 //! f" enlarges the request until a mode above `f` is found.
 
-use super::dense::{EigenError, ModeSelection, Modes, dense_generalized, fix_sign};
+use super::dense::{EigenError, ModeSelection, Modes, dense_generalized, fix_sign, median_ratio};
 use crate::core::DofId;
 use crate::fe::system::{SparseMatrix, sparse_to_dense};
 use faer::linalg::solvers::SolveCore;
@@ -106,18 +106,7 @@ fn diag(a: &SparseMatrix, j: usize) -> f64 {
 
 /// The median of `K_jj / M_jj` over DOFs with mass: the scale of the model's eigenvalues.
 fn eigenvalue_scale(k: &SparseMatrix, m: &SparseMatrix) -> f64 {
-    let mut r: Vec<f64> = (0..k.ncols())
-        .filter_map(|j| {
-            let (kj, mj) = (diag(k, j), diag(m, j));
-            (mj > 0.0 && kj > 0.0).then_some(kj / mj)
-        })
-        .collect();
-    if r.is_empty() {
-        return 1.0;
-    }
-    let mid = r.len() / 2;
-    r.select_nth_unstable_by(mid, |a, b| a.total_cmp(b));
-    r[mid]
+    median_ratio((0..k.ncols()).map(|j| (diag(k, j), diag(m, j))))
 }
 
 /// Lowest modes of `K φ = λ M φ`; `dofs` labels the rows.

@@ -65,6 +65,19 @@ pub fn kernel_section(s: &BeamSection) -> Section {
     }
 }
 
+/// The kernel section of shell property `property` (references already validated).
+fn shell_section(model: &Model, property: u64) -> ShellSection {
+    let p = &model.shell_properties[&property];
+    let mat = &model.materials[&p.material];
+    ShellSection {
+        thickness: p.thickness,
+        e: mat.e,
+        nu: mat.nu,
+        rho: mat.rho,
+        nsm: p.nsm,
+    }
+}
+
 /// Element matrices of one element of `model` (references already validated).
 pub fn element_matrices(
     model: &Model,
@@ -73,30 +86,16 @@ pub fn element_matrices(
 ) -> Result<ElementMatrices, ElementError> {
     let xyz = |n: &u64| model.nodes[n];
     match e {
-        Element::Quad4 { nodes, property } => {
-            let p = &model.shell_properties[property];
-            let mat = &model.materials[&p.material];
-            let s = ShellSection {
-                thickness: p.thickness,
-                e: mat.e,
-                nu: mat.nu,
-                rho: mat.rho,
-                nsm: p.nsm,
-            };
-            quad4(&nodes.each_ref().map(xyz), &s, mass)
-        }
-        Element::Tria3 { nodes, property } => {
-            let p = &model.shell_properties[property];
-            let mat = &model.materials[&p.material];
-            let s = ShellSection {
-                thickness: p.thickness,
-                e: mat.e,
-                nu: mat.nu,
-                rho: mat.rho,
-                nsm: p.nsm,
-            };
-            tria3(&nodes.each_ref().map(xyz), &s, mass)
-        }
+        Element::Quad4 { nodes, property } => quad4(
+            &nodes.each_ref().map(xyz),
+            &shell_section(model, *property),
+            mass,
+        ),
+        Element::Tria3 { nodes, property } => tria3(
+            &nodes.each_ref().map(xyz),
+            &shell_section(model, *property),
+            mass,
+        ),
         Element::Beam {
             nodes,
             property,

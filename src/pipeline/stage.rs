@@ -207,6 +207,16 @@ impl<T> Default for Typed<T> {
     }
 }
 
+/// Checked parameters without their `path` field: the key of a stage that reads a file holds the
+/// content digest it recorded, not where the file was.
+pub fn without_path(params: &serde_json::Value) -> serde_json::Value {
+    let mut v = params.clone();
+    if let Some(map) = v.as_object_mut() {
+        map.remove("path");
+    }
+    v
+}
+
 /// Deserialises typed parameters, reporting the path of the first bad field.
 pub fn parse_params<P: DeserializeOwned>(with: &serde_json::Value) -> Result<P, ParamIssue> {
     let value = if with.is_null() {

@@ -71,11 +71,7 @@ impl TypedStage for MeshImport {
     }
 
     fn key_params(params: &serde_json::Value) -> serde_json::Value {
-        let mut v = params.clone();
-        if let Some(map) = v.as_object_mut() {
-            map.remove("path");
-        }
-        v
+        crate::pipeline::stage::without_path(params)
     }
 
     fn run(p: &Params, inputs: &StageInputs) -> Result<StageOutputs, StageError> {
