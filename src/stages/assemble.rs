@@ -1,11 +1,14 @@
 //! `assemble`: a model's stiffness and mass matrices over its free DOFs (sparse, parallel,
-//! deterministic), with constrained and unsupported DOFs removed.
+//! deterministic), with constrained and unsupported DOFs removed, and for every updating
+//! parameter of the model its assembled `∂K/∂φ`, `∂M/∂φ` (tables `dK__<name>`, `dM__<name>`).
 
 use crate::artefact::ArtefactKind;
 use crate::artefact::kinds::matrices_to_artefact;
 use crate::artefact::mesh::mesh_from_artefact;
+use crate::artefact::{Column, Storage, Table};
 use crate::fe::element::MassKind;
-use crate::fe::model_assembly::assemble_model;
+use crate::fe::model_assembly::{assemble_model, parameter_derivative};
+use crate::fe::system::sparse_triplets;
 use crate::pipeline::{PortSpec, StageError, StageInputs, StageOutputs, TypedStage};
 
 /// The stage.
@@ -25,7 +28,7 @@ impl TypedStage for Assemble {
     const KIND: &'static str = "assemble";
     const SUMMARY: &'static str =
         "Sparse K and M of a model over its free DOFs (shells, beams, springs, masses)";
-    const IMPL_VERSION: u32 = 1;
+    const IMPL_VERSION: u32 = 2;
 
     fn inputs() -> Vec<PortSpec> {
         vec![PortSpec::required("mesh", ArtefactKind::Mesh, "the model")]
@@ -43,6 +46,29 @@ impl TypedStage for Assemble {
         let model = mesh_from_artefact(inputs.require("mesh")?)?;
         let (sys, info) = assemble_model(&model, p.mass).map_err(StageError::failed)?;
         let mut a = matrices_to_artefact(&sys);
+        // Per updating parameter, the assembled derivatives `dK__<name>`, `dM__<name>` (2.13).
+        for param in &model.parameters {
+            if !param
+                .name
+                .chars()
+                .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
+            {
+                return Err(StageError::Failed(format!(
+                    "parameter name `{}` must use letters, digits, `_` and `-`",
+                    param.name
+                )));
+            }
+            let (dk, dm) = parameter_derivative(&model, param, &sys.dofs, p.mass)
+                .map_err(StageError::failed)?;
+            for (prefix, mat) in [("dK", &dk), ("dM", &dm)] {
+                let t = sparse_triplets(mat);
+                let table = Table::new()
+                    .with("row", Column::I64(t.iter().map(|e| e.0 as i64).collect()))
+                    .with("col", Column::I64(t.iter().map(|e| e.1 as i64).collect()))
+                    .with("value", Column::F64(t.iter().map(|e| e.2).collect()));
+                a = a.with_table(&format!("{prefix}__{}", param.name), table, Storage::Ipc);
+            }
+        }
         a.meta.insert("total_dofs".into(), info.total_dofs.into());
         a.meta.insert(
             "auto_constrained".into(),
