@@ -77,14 +77,18 @@ pub fn matrices_to_artefact(sys: &SystemMatrices) -> Artefact {
         )
         .with_table("dofs", dof_table(&sys.dofs), Storage::Parquet);
     for (name, mat) in sys.named() {
-        let t = sparse_triplets(mat);
-        let table = Table::new()
-            .with("row", Column::I64(t.iter().map(|e| e.0 as i64).collect()))
-            .with("col", Column::I64(t.iter().map(|e| e.1 as i64).collect()))
-            .with("value", Column::F64(t.iter().map(|e| e.2).collect()));
-        a = a.with_table(name, table, Storage::Ipc);
+        a = a.with_table(name, triplet_table(mat), Storage::Ipc);
     }
     a
+}
+
+/// A sparse matrix as a `row, col, value` table (the layout of every matrix table).
+pub fn triplet_table(mat: &crate::fe::system::SparseMatrix) -> Table {
+    let t = sparse_triplets(mat);
+    Table::new()
+        .with("row", Column::I64(t.iter().map(|e| e.0 as i64).collect()))
+        .with("col", Column::I64(t.iter().map(|e| e.1 as i64).collect()))
+        .with("value", Column::F64(t.iter().map(|e| e.2).collect()))
 }
 
 /// System matrices from an artefact.

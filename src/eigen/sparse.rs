@@ -204,15 +204,19 @@ pub fn lowest_modes(
     };
     lambdas.truncate(counted);
     vecs = vecs.subcols(0, counted).to_owned();
+    let (mut kphi, mut mphi) = (Mat::zeros(n, 0), Mat::zeros(n, 0));
     if counted > 0 {
         let t = Instant::now();
-        (lambdas, vecs) = refine(&llt, k, m, vecs)?;
+        (lambdas, vecs, kphi, mphi) = refine(&llt, k, m, vecs)?;
         info.solve_seconds += t.elapsed().as_secs_f64();
         info.solves += counted;
     }
-    let modes = finish(k, m, lambdas, vecs, shift)?;
+    let modes = finish(k, lambdas, vecs, kphi, mphi, shift)?;
     Ok((modes, info))
 }
+
+/// Eigenvalues, shapes `Φ`, and the products `KΦ`, `MΦ`.
+type RefinedModes = (Vec<f64>, Mat<f64>, Mat<f64>, Mat<f64>);
 
 /// One block inverse-iteration step and a Rayleigh–Ritz projection: `X = A⁻¹ M V`, then the
 /// small pencil `(XᵀKX, XᵀMX)`. The Lanczos residual bounds the error of `V` in the `A⁻¹M`
@@ -223,7 +227,7 @@ fn refine(
     k: &SparseMatrix,
     m: &SparseMatrix,
     v: Mat<f64>,
-) -> Result<(Vec<f64>, Mat<f64>), EigenError> {
+) -> Result<RefinedModes, EigenError> {
     let (n, c) = (v.nrows(), v.ncols());
     let mut x = Mat::<f64>::zeros(n, c);
     sym_matvec(m, v.as_ref(), x.as_mut());
@@ -254,22 +258,21 @@ fn refine(
         y.as_mut(),
         Par::Seq,
     );
-    Ok((lambdas, &x * &y))
+    // Φ = X y, and KΦ, MΦ from the products already formed.
+    Ok((lambdas, &x * &y, &kx * &y, &mx * &y))
 }
 
 /// Rayleigh quotients, residuals, orthogonality and sign convention for computed pairs.
+/// `kphi`, `mphi` are `KΦ` and `MΦ`, handed on by [`refine`] so no sparse product is repeated.
 fn finish(
     k: &SparseMatrix,
-    m: &SparseMatrix,
     mut lambdas: Vec<f64>,
     mut shapes: Mat<f64>,
+    mut kphi: Mat<f64>,
+    mut mphi: Mat<f64>,
     shift: f64,
 ) -> Result<Modes, EigenError> {
     let (n, c) = (shapes.nrows(), shapes.ncols());
-    let mut kphi = Mat::zeros(n, c);
-    let mut mphi = Mat::zeros(n, c);
-    sym_matvec(k, shapes.as_ref(), kphi.as_mut());
-    sym_matvec(m, shapes.as_ref(), mphi.as_mut());
     let largest = lambdas.iter().fold(0.0f64, |s, l| s.max(l.abs()));
     let k_norm = (0..n).map(|j| diag(k, j).abs()).fold(0.0f64, f64::max);
     let mut residuals = Vec::with_capacity(c);

@@ -3,12 +3,11 @@
 //! parameter of the model its assembled `∂K/∂φ`, `∂M/∂φ` (tables `dK__<name>`, `dM__<name>`).
 
 use crate::artefact::ArtefactKind;
-use crate::artefact::kinds::matrices_to_artefact;
+use crate::artefact::Storage;
+use crate::artefact::kinds::{matrices_to_artefact, triplet_table};
 use crate::artefact::mesh::mesh_from_artefact;
-use crate::artefact::{Column, Storage, Table};
 use crate::fe::element::MassKind;
 use crate::fe::model_assembly::{assemble_model, parameter_derivative};
-use crate::fe::system::sparse_triplets;
 use crate::pipeline::{PortSpec, StageError, StageInputs, StageOutputs, TypedStage};
 
 /// The stage.
@@ -61,12 +60,11 @@ impl TypedStage for Assemble {
             let (dk, dm) = parameter_derivative(&model, param, &sys.dofs, p.mass)
                 .map_err(StageError::failed)?;
             for (prefix, mat) in [("dK", &dk), ("dM", &dm)] {
-                let t = sparse_triplets(mat);
-                let table = Table::new()
-                    .with("row", Column::I64(t.iter().map(|e| e.0 as i64).collect()))
-                    .with("col", Column::I64(t.iter().map(|e| e.1 as i64).collect()))
-                    .with("value", Column::F64(t.iter().map(|e| e.2).collect()));
-                a = a.with_table(&format!("{prefix}__{}", param.name), table, Storage::Ipc);
+                a = a.with_table(
+                    &format!("{prefix}__{}", param.name),
+                    triplet_table(mat),
+                    Storage::Ipc,
+                );
             }
         }
         a.meta.insert("total_dofs".into(), info.total_dofs.into());
