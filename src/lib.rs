@@ -22,4 +22,5 @@ pub mod frf;
 pub mod model;
 pub mod pipeline;
 pub mod report;
+pub mod sensitivity;
 pub mod stages;
