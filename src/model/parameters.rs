@@ -400,7 +400,7 @@ impl Model {
             }
         }
         for (pid, p) in &self.beam_properties {
-            if !(!shell && own.contains(pid)) {
+            if shell || !own.contains(pid) {
                 outside.insert(p.material);
             }
         }
