@@ -15,6 +15,7 @@ mod hdf5_codec;
 pub mod kinds;
 pub mod mesh;
 mod table;
+pub mod update;
 
 pub use table::{Column, Storage, Table, TableError};
 
@@ -36,17 +37,20 @@ pub enum ArtefactKind {
     Plot,
     /// A finite-element model: nodes, elements, properties, constraints, sets, parameters.
     Mesh,
+    /// An updating run: parameter history, correlation, diagnostics of `S`, final values.
+    UpdateResult,
 }
 
 impl ArtefactKind {
     /// All kinds.
-    pub const ALL: [ArtefactKind; 6] = [
+    pub const ALL: [ArtefactKind; 7] = [
         ArtefactKind::Matrices,
         ArtefactKind::Modes,
         ArtefactKind::Frf,
         ArtefactKind::Correlation,
         ArtefactKind::Plot,
         ArtefactKind::Mesh,
+        ArtefactKind::UpdateResult,
     ];
 
     /// The name used in files and port declarations.
@@ -58,6 +62,7 @@ impl ArtefactKind {
             ArtefactKind::Correlation => "correlation",
             ArtefactKind::Plot => "plot",
             ArtefactKind::Mesh => "mesh",
+            ArtefactKind::UpdateResult => "update_result",
         }
     }
 

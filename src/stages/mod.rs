@@ -7,10 +7,12 @@ pub mod frf_import;
 pub mod frf_synthesise;
 pub mod mesh_generate;
 pub mod mesh_import;
+pub mod mesh_parameters;
 pub mod model_lumped;
 pub mod modes;
 pub mod noise_add;
 pub mod plot_frf;
+pub mod update;
 
 use crate::pipeline::{Registry, Stage, Typed};
 
@@ -23,13 +25,16 @@ static FRF_SYNTHESISE: Typed<frf_synthesise::FrfSynthesise> = Typed::new();
 static NOISE_ADD: Typed<noise_add::NoiseAdd> = Typed::new();
 static CORRELATE_FRF: Typed<correlate_frf::CorrelateFrf> = Typed::new();
 static MESH_GENERATE: Typed<mesh_generate::MeshGenerate> = Typed::new();
+static MESH_PARAMETERS: Typed<mesh_parameters::MeshParameters> = Typed::new();
 static PLOT_FRF: Typed<plot_frf::PlotFrf> = Typed::new();
+static UPDATE: Typed<update::Update> = Typed::new();
 
 /// Every stage kind femu knows.
 pub fn registry() -> Registry {
     let all: Vec<&'static dyn Stage> = vec![
         &MESH_GENERATE,
         &MESH_IMPORT,
+        &MESH_PARAMETERS,
         &MODEL_LUMPED,
         &ASSEMBLE,
         &MODES,
@@ -38,6 +43,7 @@ pub fn registry() -> Registry {
         &NOISE_ADD,
         &CORRELATE_FRF,
         &PLOT_FRF,
+        &UPDATE,
     ];
     Registry::new(all)
 }
