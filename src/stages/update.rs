@@ -68,6 +68,10 @@ pub struct PcParams {
     /// Largest relative change of a parameter in one step.
     #[serde(default = "one")]
     pub max_step: f64,
+    /// Add the truncated modes' static share to the mode-shape derivatives (Wang's correction:
+    /// one sparse Cholesky of K per iteration); `false`: the thesis's truncated sensitivities.
+    #[serde(default = "yes")]
+    pub static_correction: bool,
 }
 
 impl Default for PcParams {
@@ -79,6 +83,7 @@ impl Default for PcParams {
             subset_kappa: None,
             weighting_gamma: None,
             max_step: 1.0,
+            static_correction: true,
         }
     }
 }
@@ -91,6 +96,9 @@ fn stop_chi() -> f64 {
 }
 fn one() -> f64 {
     1.0
+}
+fn yes() -> bool {
+    true
 }
 fn ten() -> usize {
     10
@@ -393,6 +401,7 @@ impl TypedStage for Update {
                     max_step: p.pc.max_step,
                     modes: modes(2.0 * top_hz),
                     damping: p.damping.modal(),
+                    static_correction: p.pc.static_correction,
                 },
             }),
             Method::Rfm => Box::new(ResponseFunctionMethod {
