@@ -21,5 +21,6 @@ pub mod fe;
 pub mod frf;
 pub mod model;
 pub mod pipeline;
+pub mod reduction;
 pub mod report;
 pub mod stages;
