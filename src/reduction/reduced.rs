@@ -381,6 +381,10 @@ impl ReducedModel {
 
     /// Modes of the reduced model, mass-normalised in `M_c` (so the expanded shapes are
     /// mass-normalised in the full `M`); dense for up to 2000 coordinates, sparse beyond.
+    ///
+    /// The rigid-body modes of a free-free reduced model carry the round-off of `TᵀKT` (about
+    /// `ε λ_max`, far above the full model's), so the pencil is solved as `(K_c + sM_c, M_c)`
+    /// with `s = 10⁻¹⁰ max_i K_ii/M_ii`, and `λ = μ − s`; `|λ| ≤ s/2` is a rigid-body mode.
     pub fn modes(&self, selection: ModeSelection) -> Result<Modes, ReductionError> {
         // Labels only name DOFs in error messages; modal coordinates (unit modal mass, never
         // massless) carry the placeholder 0:ux.
@@ -392,26 +396,54 @@ impl ReducedModel {
                 Coordinate::Modal { .. } => DofId::new(0, Component::Ux),
             })
             .collect();
-        if self.n() <= 2000 {
-            return dense_generalized(self.k.as_ref(), self.m.as_ref(), &labels, selection)
-                .map_err(ReductionError::ReducedEigen);
-        }
-        let sparse = |a: &Mat<f64>| {
-            let mut trip = Vec::new();
-            for j in 0..a.ncols() {
-                for i in 0..a.nrows() {
-                    if a[(i, j)] != 0.0 {
-                        trip.push((i, j, a[(i, j)]));
+        let n = self.n();
+        let ratio = (0..n)
+            .filter(|i| self.m[(*i, *i)] > 0.0)
+            .map(|i| self.k[(i, i)] / self.m[(i, i)])
+            .fold(0.0f64, f64::max);
+        let s = if ratio > 0.0 { 1e-10 * ratio } else { 1e-10 };
+        let kp = &self.k + &self.m * faer::Scale(s);
+        let selection = match selection {
+            ModeSelection::BelowHz(f) => {
+                let l = (2.0 * std::f64::consts::PI * f).powi(2) + s;
+                ModeSelection::BelowHz(l.sqrt() / (2.0 * std::f64::consts::PI))
+            }
+            other => other,
+        };
+        let mut modes = if n <= 2000 {
+            dense_generalized(kp.as_ref(), self.m.as_ref(), &labels, selection)
+                .map_err(ReductionError::ReducedEigen)?
+        } else {
+            let sparse = |a: &Mat<f64>| {
+                let mut trip = Vec::new();
+                for j in 0..a.ncols() {
+                    for i in 0..a.nrows() {
+                        if a[(i, j)] != 0.0 {
+                            trip.push((i, j, a[(i, j)]));
+                        }
                     }
                 }
-            }
-            crate::fe::system::sparse_from_triplets("reduced", a.nrows(), &trip)
-                .map_err(|e| ReductionError::Replace(e.to_string()))
+                crate::fe::system::sparse_from_triplets("reduced", a.nrows(), &trip)
+                    .map_err(|e| ReductionError::Replace(e.to_string()))
+            };
+            let (k, m) = (sparse(&kp)?, sparse(&self.m)?);
+            lowest_modes(&k, &m, &labels, selection, &SparseEigenParams::default())
+                .map(|(modes, _)| modes)
+                .map_err(ReductionError::ReducedEigen)?
         };
-        let (k, m) = (sparse(&self.k)?, sparse(&self.m)?);
-        lowest_modes(&k, &m, &labels, selection, &SparseEigenParams::default())
-            .map(|(modes, _)| modes)
-            .map_err(ReductionError::ReducedEigen)
+        let largest = modes.eigenvalues.iter().fold(0.0f64, |a, b| a.max(b.abs()));
+        for l in modes.eigenvalues.iter_mut() {
+            *l -= s;
+            if l.abs() <= 0.5 * s {
+                *l = 0.0;
+            } else if *l < 0.0 {
+                return Err(ReductionError::ReducedEigen(
+                    crate::eigen::EigenError::IndefiniteStiffness { value: *l, largest },
+                ));
+            }
+        }
+        modes.rigid_body_modes = modes.eigenvalues.iter().filter(|l| **l == 0.0).count();
+        Ok(modes)
     }
 
     /// Reduced modes expanded to every physical DOF of the model (ascending DOFs).
