@@ -126,7 +126,7 @@ pub fn inverse(a: &Mat<f64>) -> Option<Mat<f64>> {
             .fold(0.0f64, f64::max)
     };
     let (na, ni) = (norm(a), norm(&inv));
-    if !(na > 0.0) || !(na.is_finite() && ni.is_finite()) || !(1.0 / (na * ni) > 1e-14) {
+    if !(na > 0.0 && na.is_finite() && ni.is_finite() && 1.0 / (na * ni) > 1e-14) {
         return None;
     }
     Some(inv)

@@ -142,7 +142,7 @@ impl Partition {
             });
         }
         let constrained: BTreeSet<DofId> = model.constraints.iter().copied().collect();
-        let per_group: Vec<Result<(String, Vec<u64>, Vec<DofId>), ReductionError>> = groups
+        let per_group: Vec<Result<Group, ReductionError>> = groups
             .into_par_iter()
             .map(|(name, mut ids)| {
                 ids.sort_unstable();
@@ -286,6 +286,9 @@ impl Partition {
             .len()
     }
 }
+
+/// A named group of elements with its DOFs.
+type Group = (String, Vec<u64>, Vec<DofId>);
 
 /// Balance tolerance of the refinement: no part grows above `(1 + tol)` or shrinks below
 /// `(1 − tol)` times its target size.
@@ -507,8 +510,8 @@ mod tests {
                     let ns = e.nodes();
                     let mut c = [0.0; 3];
                     for nd in &ns {
-                        for a in 0..3 {
-                            c[a] += model.nodes[nd][a] / ns.len() as f64;
+                        for (ca, xa) in c.iter_mut().zip(model.nodes[nd]) {
+                            *ca += xa / ns.len() as f64;
                         }
                     }
                     c

@@ -593,6 +593,9 @@ pub fn reduce(
     ReducedModel::synthesise(method.clone(), partition.junction.clone(), components)
 }
 
+/// A pair of matrices (`∂K`, `∂M`).
+type MatPair = (Mat<f64>, Mat<f64>);
+
 /// Reduced `∂K_c/∂φ`, `∂M_c/∂φ` of an updating parameter: `Σ_k T_kᵀ (∂K_k/∂φ) T_k` over the
 /// substructures holding elements of its set, the transformations held fixed (3.59).
 pub fn reduced_parameter_derivative(
@@ -613,7 +616,7 @@ pub fn reduced_parameter_derivative(
         .copied()
         .collect();
     let n = reduced.n();
-    let parts: Vec<Result<Option<(Mat<f64>, Mat<f64>)>, ReductionError>> = partition
+    let parts: Vec<Result<Option<MatPair>, ReductionError>> = partition
         .substructures
         .par_iter()
         .enumerate()
