@@ -530,7 +530,7 @@ pub struct TableLayout {
     pub columns: Vec<ColumnLayout>,
 }
 
-const fn col(
+pub(crate) const fn col(
     name: &'static str,
     dtype: &'static str,
     unit: &'static str,
@@ -669,6 +669,7 @@ pub fn layout(kind: ArtefactKind) -> Vec<TableLayout> {
             ),
         ],
         ArtefactKind::Plot => vec![],
+        ArtefactKind::Partition | ArtefactKind::ReducedModel => super::reduced::layout(kind),
         ArtefactKind::Mesh => vec![
             t(
                 "nodes",

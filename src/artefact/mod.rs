@@ -14,6 +14,7 @@ pub mod digest;
 mod hdf5_codec;
 pub mod kinds;
 pub mod mesh;
+pub mod reduced;
 mod table;
 pub mod update;
 
@@ -39,11 +40,15 @@ pub enum ArtefactKind {
     Mesh,
     /// An updating run: parameter history, correlation, diagnostics of `S`, final values.
     UpdateResult,
+    /// Substructures of a model: their elements, junction and internal DOFs, boundaries.
+    Partition,
+    /// A component-mode-synthesis model: reduced `K`, `M`, transformations, derivatives.
+    ReducedModel,
 }
 
 impl ArtefactKind {
     /// All kinds.
-    pub const ALL: [ArtefactKind; 7] = [
+    pub const ALL: [ArtefactKind; 9] = [
         ArtefactKind::Matrices,
         ArtefactKind::Modes,
         ArtefactKind::Frf,
@@ -51,6 +56,8 @@ impl ArtefactKind {
         ArtefactKind::Plot,
         ArtefactKind::Mesh,
         ArtefactKind::UpdateResult,
+        ArtefactKind::Partition,
+        ArtefactKind::ReducedModel,
     ];
 
     /// The name used in files and port declarations.
@@ -63,6 +70,8 @@ impl ArtefactKind {
             ArtefactKind::Plot => "plot",
             ArtefactKind::Mesh => "mesh",
             ArtefactKind::UpdateResult => "update_result",
+            ArtefactKind::Partition => "partition",
+            ArtefactKind::ReducedModel => "reduced_model",
         }
     }
 

@@ -9,10 +9,15 @@ pub mod mesh_generate;
 pub mod mesh_import;
 pub mod mesh_parameters;
 pub mod model_lumped;
+pub mod model_partition;
 pub mod modes;
 pub mod noise_add;
 pub mod plot_frf;
 pub mod update;
+pub mod reduce_common;
+pub mod reduce_craig_bampton;
+pub mod reduce_force_coupling;
+pub mod reduce_free_interface;
 
 use crate::pipeline::{Registry, Stage, Typed};
 
@@ -28,6 +33,10 @@ static MESH_GENERATE: Typed<mesh_generate::MeshGenerate> = Typed::new();
 static MESH_PARAMETERS: Typed<mesh_parameters::MeshParameters> = Typed::new();
 static PLOT_FRF: Typed<plot_frf::PlotFrf> = Typed::new();
 static UPDATE: Typed<update::Update> = Typed::new();
+static MODEL_PARTITION: Typed<model_partition::ModelPartition> = Typed::new();
+static REDUCE_CB: Typed<reduce_craig_bampton::ReduceCraigBampton> = Typed::new();
+static REDUCE_FI: Typed<reduce_free_interface::ReduceFreeInterface> = Typed::new();
+static REDUCE_FC: Typed<reduce_force_coupling::ReduceForceCoupling> = Typed::new();
 
 /// Every stage kind femu knows.
 pub fn registry() -> Registry {
@@ -44,6 +53,10 @@ pub fn registry() -> Registry {
         &CORRELATE_FRF,
         &PLOT_FRF,
         &UPDATE,
+        &MODEL_PARTITION,
+        &REDUCE_CB,
+        &REDUCE_FI,
+        &REDUCE_FC,
     ];
     Registry::new(all)
 }
