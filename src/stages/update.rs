@@ -161,7 +161,7 @@ impl TypedStage for Update {
     const KIND: &'static str = "update";
     const SUMMARY: &'static str =
         "Update model parameters from measured FRFs (P-C, RFM) or modes (inverse eigensensitivity)";
-    const IMPL_VERSION: u32 = 1;
+    const IMPL_VERSION: u32 = 2;
 
     fn inputs() -> Vec<PortSpec> {
         vec![

@@ -171,7 +171,7 @@ impl UpdateMethod for InverseEigensensitivity<'_> {
             record.active[a] = true;
         }
         record.relative_change = weighted_step(s.as_ref(), &eps, &active, self.settings.weighting);
-        Ok(Step { record, stop: None })
+        Ok(Step::new(record, None))
     }
 
     fn converged_by_step(&self, relative_change: &[f64]) -> bool {

@@ -69,6 +69,20 @@ pub struct Step {
     pub record: IterationRecord,
     /// Why to stop now, if so (no change was applied then).
     pub stop: Option<StopReason>,
+    /// Safer steps to try, in order, when the step in `record` lowers the merit (e.g.
+    /// increasingly damped ones); when empty the step is halved instead.
+    pub fallbacks: Vec<Vec<f64>>,
+}
+
+impl Step {
+    /// A step without fallbacks.
+    pub fn new(record: IterationRecord, stop: Option<StopReason>) -> Self {
+        Step {
+            record,
+            stop,
+            fallbacks: Vec::new(),
+        }
+    }
 }
 
 /// An updating method: one iteration per call, from given parameter values.
@@ -124,10 +138,12 @@ pub fn apply_step(
 pub const MAX_HALVINGS: usize = 6;
 
 /// Iterates `method` from the model's initial values: at most `max_iterations` steps, then one
-/// last analysis of the final model. A step after which the method's merit (the P-C's mean
-/// correlation) is lower than before is halved until it is not, at most [`MAX_HALVINGS`]
-/// times: the linearised step of an ill-conditioned iteration can overshoot far, and the
-/// analysis at the candidate is the next iteration's anyway, so a good step costs nothing.
+/// last analysis of the final model. Where the method has a merit (the P-C's mean
+/// correlation) and offers fallback steps (the P-C's Levenberg-Marquardt damped steps), every
+/// candidate is analysed and the one with the highest merit is taken — a small trust-region
+/// search: far from the solution the undamped linearised step can improve the merit by a hair
+/// and land badly. Without fallbacks a step that lowers the merit is halved, at most
+/// [`MAX_HALVINGS`] times. The analysis at the chosen candidate is the next iteration's.
 pub fn run(
     method: &dyn UpdateMethod,
     model: &dyn ParametricModel,
@@ -175,18 +191,30 @@ pub fn run(
         let mut next = method.iterate(model, &next_values, it + 1)?;
         if let (Some(before), Some(_)) = (method.merit(&current.record), method.merit(&next.record))
         {
-            let mut halvings = 0;
-            while halvings < MAX_HALVINGS
-                && method
-                    .merit(&next.record)
-                    .is_some_and(|after| after < before)
-            {
-                delta.iter_mut().for_each(|d| *d *= 0.5);
-                (next_values, applied) = apply_step(&params, &values, &delta);
-                next = method.iterate(model, &next_values, it + 1)?;
-                halvings += 1;
+            if !current.fallbacks.is_empty() {
+                // A trust-region search: the candidate with the highest merit wins.
+                for f in &current.fallbacks {
+                    let (v, a) = apply_step(&params, &values, f);
+                    let candidate = method.iterate(model, &v, it + 1)?;
+                    if method.merit(&candidate.record) > method.merit(&next.record) {
+                        (delta, next_values, applied, next) = (f.clone(), v, a, candidate);
+                    }
+                }
+            } else {
+                let mut tries = 0;
+                while tries < MAX_HALVINGS
+                    && method
+                        .merit(&next.record)
+                        .is_some_and(|after| after < before)
+                {
+                    delta.iter_mut().for_each(|d| *d *= 0.5);
+                    (next_values, applied) = apply_step(&params, &values, &delta);
+                    next = method.iterate(model, &next_values, it + 1)?;
+                    tries += 1;
+                }
             }
         }
+        let _ = &delta;
         let converged = method.converged_by_step(&applied);
         let stalled = applied.iter().all(|d| d.abs() < 1e-12);
         let mut record = current.record;

@@ -11,7 +11,7 @@
 
 use super::model::{ModalState, ParametricModel, UpdatingError};
 use super::solve::{
-    ParameterWeighting, diagnostics, select_subset, subset_condition_limit, weighted_step,
+    ParameterWeighting, damped_step, diagnostics, select_subset, subset_condition_limit,
 };
 use super::{IterationRecord, Step, StopReason, UpdateMethod};
 use crate::core::DofId;
@@ -176,18 +176,12 @@ impl UpdateMethod for PredictorCorrector<'_> {
             diagnostics: Default::default(),
         };
         if record.mean_chi() >= s.stop_chi {
-            return Ok(Step {
-                record,
-                stop: Some(StopReason::Converged),
-            });
+            return Ok(Step::new(record, Some(StopReason::Converged)));
         }
         let chosen = self.select_lines(&lines, &state.modes.frequencies_hz());
         record.lines_used = chosen.len();
         if chosen.is_empty() {
-            return Ok(Step {
-                record,
-                stop: Some(StopReason::NothingToUpdate),
-            });
+            return Ok(Step::new(record, Some(StopReason::NothingToUpdate)));
         }
 
         // Sensitivities at the chosen lines, on the DOFs the pairs need.
@@ -259,17 +253,36 @@ impl UpdateMethod for PredictorCorrector<'_> {
                 .filter(|&p| (0..m).any(|i| sw[(i, p)] != 0.0))
                 .collect(),
         };
-        let mut delta = weighted_step(sw.as_ref(), &ew, &active, s.weighting);
-        let biggest = delta.iter().fold(0.0_f64, |a, d| a.max(d.abs()));
-        if biggest > s.max_step {
-            let f = s.max_step / biggest;
-            delta.iter_mut().for_each(|d| *d *= f);
-        }
+        let cap = |mut d: Vec<f64>| {
+            let biggest = d.iter().fold(0.0_f64, |a, x| a.max(x.abs()));
+            if biggest > s.max_step {
+                let f = s.max_step / biggest;
+                d.iter_mut().for_each(|x| *x *= f);
+            }
+            d
+        };
+        let delta = cap(damped_step(sw.as_ref(), &ew, &active, s.weighting, 0.0));
+        // Fallbacks: Levenberg-Marquardt damped steps, μ = 10⁻², 10⁻¹, …, 10².
+        let fallbacks = (-2..=2)
+            .map(|e| {
+                cap(damped_step(
+                    sw.as_ref(),
+                    &ew,
+                    &active,
+                    s.weighting,
+                    10f64.powi(e),
+                ))
+            })
+            .collect();
         for &a in &active {
             record.active[a] = true;
         }
         record.relative_change = delta;
-        Ok(Step { record, stop: None })
+        Ok(Step {
+            record,
+            stop: None,
+            fallbacks,
+        })
     }
 
     fn merit(&self, record: &IterationRecord) -> Option<f64> {

@@ -239,7 +239,7 @@ impl UpdateMethod for ResponseFunctionMethod<'_> {
             condition_limit: f64::NAN,
             diagnostics: diagnostics(a.as_ref()),
         };
-        Ok(Step { record, stop: None })
+        Ok(Step::new(record, None))
     }
 
     fn converged_by_step(&self, relative_change: &[f64]) -> bool {

@@ -135,6 +135,18 @@ pub fn weighted_step(
     active: &[usize],
     weighting: ParameterWeighting,
 ) -> Vec<f64> {
+    damped_step(s, eps, active, weighting, 0.0)
+}
+
+/// [`weighted_step`] with Marquardt damping `μ diag(SᵀS)` added to `W_φ`: as `μ` grows the step
+/// shortens and turns from the Gauss-Newton direction toward the scaled gradient `Sᵀε`.
+pub fn damped_step(
+    s: MatRef<'_, f64>,
+    eps: &[f64],
+    active: &[usize],
+    weighting: ParameterWeighting,
+    mu: f64,
+) -> Vec<f64> {
     let n = s.ncols();
     let mut delta = vec![0.0; n];
     let na = active.len();
@@ -143,6 +155,9 @@ pub fn weighted_step(
     }
     let m = s.nrows();
     let sa = Mat::from_fn(m, na, |i, j| s[(i, active[j])]);
+    let marquardt: Vec<f64> = (0..na)
+        .map(|j| mu * (0..m).map(|i| sa[(i, j)] * sa[(i, j)]).sum::<f64>())
+        .collect();
     let w_phi: Vec<f64> = match weighting {
         ParameterWeighting::None => vec![0.0; na],
         ParameterWeighting::Variance { gamma } => {
@@ -167,7 +182,7 @@ pub fn weighted_step(
         if i < m {
             sa[(i, j)]
         } else if i - m == j {
-            w_phi[j].sqrt()
+            (w_phi[j] + marquardt[j]).sqrt()
         } else {
             0.0
         }
