@@ -315,8 +315,13 @@ fn run(a: RunArgs) -> Result<u8, Failure> {
                     print!("{c}");
                 }
                 println!(
-                    "# ---- {}.sbatch (after it, --dependency=afterany); task list {} with {} points",
+                    "# ---- {}.sbatch{}; task list {} with {} point(s)",
                     sub.batch,
+                    if sub.common_script.is_some() {
+                        " (submitted with --dependency=afterany on the first)"
+                    } else {
+                        ""
+                    },
                     sub.tasks_file.display(),
                     sub.points.len()
                 );

@@ -1043,6 +1043,23 @@ fn check_axis_values(
             .apply_overrides(&[param.set_arg(v)])
             .and_then(|_| plan(&src, &registry()).map(|_| ()));
         if let Err(e) = result {
+            // A parameter the stage does not have is wrong whatever its value: say so once.
+            if let Some(d) = e.0.iter().find(|d| d.message.starts_with("unknown field")) {
+                let stage = d.stage.as_deref().unwrap_or(&param.stage);
+                let mut out = sweep
+                    .at_key(
+                        at,
+                        format!(
+                            "stage `{stage}` has no parameter `{}`: {}",
+                            param.rest.join("."),
+                            d.message
+                        ),
+                    )
+                    .field(at.join("."));
+                out.help = d.help.clone();
+                diags.push(out);
+                return;
+            }
             // Point at the value in a list, or at the range.
             let pos = match raw {
                 Value::Array(items) => items.iter().position(|x| same_value(x, v)),

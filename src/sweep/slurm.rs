@@ -127,7 +127,7 @@ pub fn prepare(
     );
     let limit = sl.array_limit.map(|l| format!("%{l}")).unwrap_or_default();
     let array_header = format!(
-        "# femu sweep `{name}`: {} points in {tasks} array tasks of {per_task}, batch {batch}\n\
+        "# femu sweep `{name}`: {} point(s) in {tasks} array task(s) of {per_task}, batch {batch}\n\
          #SBATCH --job-name={}\n\
          #SBATCH --array=0-{}{limit}\n\
          #SBATCH --output={}/{batch}_%a.out\n",
