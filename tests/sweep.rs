@@ -520,3 +520,18 @@ fn slurm_dry_run_prints_the_job_array_without_slurm() {
         String::from_utf8_lossy(&out.stderr)
     );
 }
+
+#[test]
+fn shipped_sweeps_are_valid() {
+    for e in std::fs::read_dir(common::root().join("sweeps"))
+        .unwrap()
+        .flatten()
+    {
+        let p = e.path();
+        if p.extension().is_some_and(|x| x == "yaml") {
+            let s = read_sweep(&p).unwrap_or_else(|e| panic!("{e}"));
+            let r = resolve(&s).unwrap_or_else(|e| panic!("{e}"));
+            assert!(!r.unique.is_empty(), "{}", p.display());
+        }
+    }
+}

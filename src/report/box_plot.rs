@@ -266,7 +266,13 @@ fn draw<DB: DrawingBackend>(
     let x = Categories {
         labels: data.groups.iter().map(|g| g.0.clone()).collect(),
     };
-    let legend_w = if data.series.is_empty() { 0 } else { 190 };
+    let legend_font = TextStyle::from(("sans-serif", 14).into_font());
+    let mut legend_w = 0;
+    for name in &data.series {
+        let (tw, _) = root.estimate_text_size(name, &legend_font).map_err(be)?;
+        legend_w = legend_w.max(tw as i32 + 56);
+    }
+    let legend_w = legend_w.min(w_of(root) * 2 / 5);
     let (plot_area, legend) = root.split_horizontally(w_of(root) - legend_w);
     let mut chart = ChartBuilder::on(&plot_area)
         .caption(

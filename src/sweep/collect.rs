@@ -273,9 +273,10 @@ fn check_plot(
         })
     };
     let names: Vec<String> = items.iter().map(|it| it.name.clone()).collect();
+    let is_param = |c: &str| params.iter().any(|q| q.text == c || q.short() == c);
     for (field, value) in [("column", Some(&p.column)), ("split", p.split.as_ref())] {
         let Some(v) = value else { continue };
-        if !known(v) {
+        if !known(v) && !(field == "split" && is_param(v)) {
             diags.push(
                 sweep
                     .at_value(
@@ -291,8 +292,7 @@ fn check_plot(
             );
         }
     }
-    let by_param = params.iter().any(|q| q.text == p.by || q.short() == p.by);
-    if !by_param && !known(&p.by) {
+    if !is_param(&p.by) && !known(&p.by) {
         let list: Vec<&str> = params.iter().map(|q| q.text.as_str()).collect();
         diags.push(
             sweep
@@ -688,11 +688,15 @@ fn write_plot(
     params: &[ParamPath],
     out: &Path,
 ) -> Result<Vec<PathBuf>, SweepError> {
-    let by = params
-        .iter()
-        .find(|q| q.text == p.by || q.short() == p.by)
-        .map(|q| q.short())
-        .unwrap_or_else(|| p.by.clone());
+    let column_of = |name: &str| {
+        params
+            .iter()
+            .find(|q| q.text == name || q.short() == name)
+            .map(|q| q.short())
+            .unwrap_or_else(|| name.to_string())
+    };
+    let by = column_of(&p.by);
+    let split_name = p.split.as_deref().map(column_of);
     let get = |name: &str| {
         table.column(name).ok_or_else(|| {
             SweepError::Collect(format!("plot: the collected table has no column `{name}`"))
@@ -709,7 +713,7 @@ fn write_plot(
         }
     };
     let xcol = get(&by)?;
-    let split = p.split.as_deref().map(get).transpose()?;
+    let split = split_name.as_deref().map(get).transpose()?;
     let mut xs: Vec<(f64, String, String)> = (0..ys.len())
         .map(|i| {
             let (k, s) = cell_key(xcol, i);

@@ -182,6 +182,8 @@ fn null_value(sweep: &SourcedSweep, at: &[&str], key: &str) -> Diagnostic {
 }
 
 /// Parses `stage.with.param[.sub…]` against the pipeline's stages.
+// A diagnostic is built on the error path only, where its size costs nothing.
+#[allow(clippy::result_large_err)]
 fn param_path(
     sweep: &SourcedSweep,
     pipeline: &SourcedSpec,
@@ -266,6 +268,8 @@ fn show(v: &Value) -> String {
 }
 
 /// Values of one axis entry: a non-empty list or `{range: [first, last], step}`.
+// A diagnostic is built on the error path only, where its size costs nothing.
+#[allow(clippy::result_large_err)]
 fn axis_values(sweep: &SourcedSweep, at: &[&str], v: &Value) -> Result<Vec<Value>, Diagnostic> {
     let field = at.join(".");
     let err = |msg: String, help: &str| sweep.at_value(at, msg).field(field.clone()).help(help);
@@ -330,6 +334,8 @@ fn kind_of(v: &Value) -> &'static str {
 /// Largest number of values of one range.
 const MAX_RANGE: usize = 1_000_000;
 
+// A diagnostic is built on the error path only, where its size costs nothing.
+#[allow(clippy::result_large_err)]
 fn range_values(
     sweep: &SourcedSweep,
     at: &[&str],

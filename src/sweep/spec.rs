@@ -58,7 +58,7 @@ pub struct SweepSpec {
     pub slurm: SlurmSpec,
 }
 
-/// Schema only: the values of one axis.
+/// The values of one axis: a list, or an inclusive range of numbers (for the schema).
 #[derive(schemars::JsonSchema)]
 #[serde(untagged)]
 #[allow(dead_code)]
@@ -69,7 +69,7 @@ pub enum AxisSchema {
     Range(RangeSchema),
 }
 
-/// Schema only: `{range: [first, last], step}`.
+/// `{range: [first, last], step}`: first and last included (for the schema).
 #[derive(schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 #[allow(dead_code)]
@@ -80,7 +80,7 @@ pub struct RangeSchema {
     step: Option<f64>,
 }
 
-/// Schema only: one collected column.
+/// One collected column: a source path, or a source with a reduction (for the schema).
 #[derive(schemars::JsonSchema)]
 #[serde(untagged)]
 #[allow(dead_code)]
@@ -91,7 +91,7 @@ pub enum CollectSchema {
     Reduced(ReducedSchema),
 }
 
-/// Schema only: a reduced source.
+/// A source reduced to one value per point (for the schema).
 #[derive(schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 #[allow(dead_code)]
@@ -151,7 +151,7 @@ pub struct PlotSpec {
     pub column: String,
     /// A swept parameter (`stage.with.param`) or collected column: one group of boxes per value.
     pub by: String,
-    /// A collected column splitting each group into coloured boxes (e.g. the parameter name).
+    /// A swept parameter or collected column splitting each group into coloured boxes.
     #[serde(default)]
     pub split: Option<String>,
     /// Figure title (default: `COLUMN by BY`).
