@@ -22,5 +22,7 @@ pub mod frf;
 pub mod model;
 pub mod pipeline;
 pub mod report;
+pub mod sensitivity;
 pub mod stages;
 pub mod sweep;
+pub mod updating;

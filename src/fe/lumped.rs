@@ -4,7 +4,7 @@
 //! columns `(a, b)`; to ground it adds `k` to `(a, a)`. Dampers `c`, `d` assemble the same way into
 //! `C` and `D`; masses go on the diagonal of `M`.
 
-use super::system::{SystemMatrices, SystemMatricesError, sparse_from_triplets};
+use super::system::{SparseMatrix, SystemMatrices, SystemMatricesError, sparse_from_triplets};
 use crate::model::{LumpedModel, LumpedModelError};
 
 /// Why a lumped model could not be assembled.
@@ -16,6 +16,9 @@ pub enum LumpedAssemblyError {
     /// Matrix construction failed.
     #[error(transparent)]
     Matrices(#[from] SystemMatricesError),
+    /// A parameter names a mass or spring the model does not have.
+    #[error("{0} does not exist in the lumped model")]
+    UnknownTarget(String),
 }
 
 /// Assembles `K`, `M` and, where any spring carries dampers, `C` and `D`.
@@ -69,6 +72,52 @@ pub fn assemble_lumped(model: &LumpedModel) -> Result<SystemMatrices, LumpedAsse
         c: optional("C", c)?,
         d: optional("D", d)?,
     })
+}
+
+/// What a lumped-model parameter is: the value of one mass or one spring's stiffness.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LumpedTarget {
+    /// `masses[i].value`.
+    Mass(usize),
+    /// `springs[i].stiffness`.
+    Spring(usize),
+}
+
+/// `(∂K/∂p, ∂M/∂p)` of a lumped model: the unit spring pattern or the unit mass entry (both
+/// enter linearly, so the derivative is exact and constant).
+pub fn lumped_derivative(
+    model: &LumpedModel,
+    target: LumpedTarget,
+) -> Result<(SparseMatrix, SparseMatrix), LumpedAssemblyError> {
+    let mut unit = LumpedModel {
+        dofs: model.dofs.clone(),
+        masses: Vec::new(),
+        springs: Vec::new(),
+    };
+    match target {
+        LumpedTarget::Mass(i) => {
+            let mut m = model
+                .masses
+                .get(i)
+                .ok_or_else(|| LumpedAssemblyError::UnknownTarget(format!("mass {i}")))?
+                .clone();
+            m.value = 1.0;
+            unit.masses.push(m);
+        }
+        LumpedTarget::Spring(i) => {
+            let mut s = model
+                .springs
+                .get(i)
+                .ok_or_else(|| LumpedAssemblyError::UnknownTarget(format!("spring {i}")))?
+                .clone();
+            s.stiffness = 1.0;
+            s.viscous = 0.0;
+            s.structural = 0.0;
+            unit.springs.push(s);
+        }
+    }
+    let sys = assemble_lumped(&unit)?;
+    Ok((sys.k, sys.m))
 }
 
 #[cfg(test)]

@@ -63,57 +63,15 @@ pub fn direct_receptance(
         reads.push((i, slot));
     }
 
-    // One pattern for Z: the union of K, M, C, D, with each entry's four real coefficients.
-    let (eta, (ra, rb)) = (
-        damping.structural_eta,
-        damping.rayleigh.unwrap_or((0.0, 0.0)),
-    );
-    let mut coef: HashMap<(usize, usize), [f64; 4]> = HashMap::new(); // [K, M, C, D]
-    let mut add = |mat: &crate::fe::system::SparseMatrix, slot: usize| {
-        for (i, j, v) in sparse_triplets(mat) {
-            coef.entry((i, j)).or_insert([0.0; 4])[slot] += v;
-        }
-    };
-    add(&sys.k, 0);
-    add(&sys.m, 1);
-    if let Some(c) = &sys.c {
-        add(c, 2);
-    }
-    if let Some(d) = &sys.d {
-        add(d, 3);
-    }
-    let mut entries: Vec<((usize, usize), [f64; 4])> = coef.into_iter().collect();
-    entries.sort_unstable_by_key(|e| (e.0.1, e.0.0));
-    for (_, c) in entries.iter_mut() {
-        c[2] += ra * c[1] + rb * c[0];
-        c[3] += eta * c[0];
-    }
-    let idx: Vec<Pair<usize, usize>> = entries
-        .iter()
-        .map(|((i, j), _)| Pair { row: *i, col: *j })
-        .collect();
-    let (symbolic, argsort) = SymbolicSparseColMat::try_new_from_indices(n, n, &idx)
-        .map_err(|e| DirectError::Factorisation(format!("{e:?}")))?;
-    let symbolic_lu = SymbolicLu::try_new(symbolic.as_ref())
-        .map_err(|e| DirectError::Factorisation(format!("{e:?}")))?;
-
+    let z = DynamicStiffness::new(sys, damping)?;
     let lines: Vec<Result<Vec<c64>, DirectError>> = freqs_hz
         .par_iter()
         .map(|&f| {
-            let w = 2.0 * PI * f;
-            let vals: Vec<c64> = entries
-                .iter()
-                .map(|(_, [k, m, c, d])| c64::new(k - w * w * m, d + w * c))
-                .collect();
-            let z = SparseColMat::new_from_argsort(symbolic.clone(), &argsort, &vals)
-                .map_err(|e| DirectError::Factorisation(format!("{e:?}")))?;
-            let lu = Lu::try_new_with_symbolic(symbolic_lu.clone(), z.as_ref())
-                .map_err(|_| DirectError::Singular(f))?;
             let mut rhs = Mat::<c64>::zeros(n, excitations.len());
             for (s, &j) in excitations.iter().enumerate() {
                 rhs[(j, s)] = c64::new(1.0, 0.0);
             }
-            let x = lu.solve(&rhs);
+            let x = z.solve(f, rhs.as_ref())?;
             let out: Vec<c64> = reads.iter().map(|&(i, s)| x[(i, s)]).collect();
             if out.iter().any(|v| !(v.re.is_finite() && v.im.is_finite())) {
                 return Err(DirectError::Singular(f));
@@ -135,6 +93,89 @@ pub fn direct_receptance(
     };
     convert_from_receptance(&mut set, quantity);
     Ok(set)
+}
+
+/// `Z(ω) = K + iD + iωC − ω²M` with its sparsity pattern and symbolic LU analysed once, so
+/// that solving at many lines costs one numeric factorisation each.
+pub struct DynamicStiffness {
+    n: usize,
+    /// Entries in column-major order with their `[K, M, C, D]` coefficients.
+    entries: Vec<((usize, usize), [f64; 4])>,
+    symbolic: SymbolicSparseColMat<usize>,
+    argsort: faer::sparse::Argsort<usize>,
+    symbolic_lu: SymbolicLu<usize>,
+}
+
+impl DynamicStiffness {
+    /// The pattern of `K`, `M`, `C`, `D` of `sys` with `damping` added.
+    pub fn new(sys: &SystemMatrices, damping: &DirectDamping) -> Result<Self, DirectError> {
+        let n = sys.n();
+        let (eta, (ra, rb)) = (
+            damping.structural_eta,
+            damping.rayleigh.unwrap_or((0.0, 0.0)),
+        );
+        let mut coef: HashMap<(usize, usize), [f64; 4]> = HashMap::new(); // [K, M, C, D]
+        let mut add = |mat: &crate::fe::system::SparseMatrix, slot: usize| {
+            for (i, j, v) in sparse_triplets(mat) {
+                coef.entry((i, j)).or_insert([0.0; 4])[slot] += v;
+            }
+        };
+        add(&sys.k, 0);
+        add(&sys.m, 1);
+        if let Some(c) = &sys.c {
+            add(c, 2);
+        }
+        if let Some(d) = &sys.d {
+            add(d, 3);
+        }
+        let mut entries: Vec<((usize, usize), [f64; 4])> = coef.into_iter().collect();
+        entries.sort_unstable_by_key(|e| (e.0.1, e.0.0));
+        for (_, c) in entries.iter_mut() {
+            c[2] += ra * c[1] + rb * c[0];
+            c[3] += eta * c[0];
+        }
+        let idx: Vec<Pair<usize, usize>> = entries
+            .iter()
+            .map(|((i, j), _)| Pair { row: *i, col: *j })
+            .collect();
+        let (symbolic, argsort) = SymbolicSparseColMat::try_new_from_indices(n, n, &idx)
+            .map_err(|e| DirectError::Factorisation(format!("{e:?}")))?;
+        let symbolic_lu = SymbolicLu::try_new(symbolic.as_ref())
+            .map_err(|e| DirectError::Factorisation(format!("{e:?}")))?;
+        Ok(DynamicStiffness {
+            n,
+            entries,
+            symbolic,
+            argsort,
+            symbolic_lu,
+        })
+    }
+
+    /// Size of `Z`.
+    pub fn n(&self) -> usize {
+        self.n
+    }
+
+    /// `Z(ω) X = rhs` at `f_hz`.
+    pub fn solve(&self, f_hz: f64, rhs: faer::MatRef<'_, c64>) -> Result<Mat<c64>, DirectError> {
+        let w = 2.0 * PI * f_hz;
+        let vals: Vec<c64> = self
+            .entries
+            .iter()
+            .map(|(_, [k, m, c, d])| c64::new(k - w * w * m, d + w * c))
+            .collect();
+        let z = SparseColMat::new_from_argsort(self.symbolic.clone(), &self.argsort, &vals)
+            .map_err(|e| DirectError::Factorisation(format!("{e:?}")))?;
+        let lu = Lu::try_new_with_symbolic(self.symbolic_lu.clone(), z.as_ref())
+            .map_err(|_| DirectError::Singular(f_hz))?;
+        let x = lu.solve(rhs);
+        if x.col_iter()
+            .any(|c| c.iter().any(|v| !(v.re.is_finite() && v.im.is_finite())))
+        {
+            return Err(DirectError::Singular(f_hz));
+        }
+        Ok(x)
+    }
 }
 
 #[cfg(test)]

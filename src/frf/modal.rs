@@ -48,6 +48,60 @@ impl ModalDamping {
         }
     }
 
+    /// The damping value of mode `r` (`η_r` or `ζ_r`; 0 when undamped).
+    pub fn mode_value(&self, r: usize) -> f64 {
+        match self {
+            ModalDamping::None => 0.0,
+            ModalDamping::Structural(v) | ModalDamping::Viscous(v) => Self::value(v, r),
+        }
+    }
+
+    /// The imaginary part `γ_r` of `d_r = λ − ω² + iγ_r(λ, ω)` and its slope `∂γ_r/∂λ`:
+    /// `(ηλ, η)` structural, `(2ζω√λ, ζω/√λ)` viscous, zero for rigid-body modes.
+    pub fn loss(&self, r: usize, lambda: f64, omega: f64) -> (f64, f64) {
+        if lambda == 0.0 {
+            return (0.0, 0.0);
+        }
+        match self {
+            ModalDamping::None => (0.0, 0.0),
+            ModalDamping::Structural(eta) => {
+                let e = Self::value(eta, r);
+                (e * lambda, e)
+            }
+            ModalDamping::Viscous(zeta) => {
+                let z = Self::value(zeta, r);
+                let w = lambda.abs().sqrt();
+                (2.0 * z * omega * w, z * omega / w)
+            }
+        }
+    }
+
+    /// Checks the values against the number of modes `m`: one value, or one per mode, each
+    /// finite and non-negative.
+    pub fn check(&self, m: usize) -> Result<(), ModalError> {
+        let values = self.values();
+        if values.len() > 1 && values.len() != m {
+            return Err(ModalError::DampingCount {
+                given: values.len(),
+                modes: m,
+            });
+        }
+        if let Some(v) = values.iter().find(|v| !(v.is_finite() && **v >= 0.0)) {
+            return Err(ModalError::BadDamping(*v));
+        }
+        Ok(())
+    }
+
+    /// Number of damping values given (1 for a uniform value).
+    pub fn len(&self) -> usize {
+        self.values().len()
+    }
+
+    /// True when undamped.
+    pub fn is_empty(&self) -> bool {
+        self.values().is_empty()
+    }
+
     fn values(&self) -> &[f64] {
         match self {
             ModalDamping::None => &[],
@@ -98,16 +152,7 @@ pub fn modal_receptance(
     quantity: Quantity,
 ) -> Result<FrfSet, ModalError> {
     let m = modes.len();
-    let values = damping.values();
-    if values.len() > 1 && values.len() != m {
-        return Err(ModalError::DampingCount {
-            given: values.len(),
-            modes: m,
-        });
-    }
-    if let Some(v) = values.iter().find(|v| !(v.is_finite() && **v >= 0.0)) {
-        return Err(ModalError::BadDamping(*v));
-    }
+    damping.check(m)?;
     let index: HashMap<DofId, usize> = dofs.iter().enumerate().map(|(i, d)| (*d, i)).collect();
     let describe = || {
         let first = dofs.first().map(|d| d.to_string()).unwrap_or_default();

@@ -4,9 +4,11 @@ pub mod export;
 pub mod generate;
 pub mod import;
 pub mod lumped;
+pub mod parameters;
 pub mod structure;
 
 pub use lumped::{LumpedMass, LumpedModel, LumpedModelError, LumpedSpring};
+pub use parameters::ParameterValueError;
 pub use structure::{
     BeamProperty, BeamSection, Element, Material, Model, ModelError, Parameter, ParameterKind,
     ShellProperty,

@@ -1,0 +1,492 @@
+//! Reading and writing the value of an updating parameter (THEORY §2, 2.16): a parameter is one
+//! property of the elements of its set, so its value is that property's value, which must be the
+//! same on every element of the set. Writing a value gives the set its own copies of shared
+//! properties and materials first, so elements outside the set never change with it; the
+//! connectivity never changes.
+
+use super::structure::{BeamSection, Element, Model, Parameter, ParameterKind};
+use crate::core::Component;
+
+/// Why a parameter's value could not be read or written.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum ParameterValueError {
+    /// The set does not exist.
+    #[error("parameter `{parameter}`: set `{set}` is not a set of the model (sets: {known})")]
+    MissingSet {
+        /// Parameter name.
+        parameter: String,
+        /// Set name.
+        set: String,
+        /// Known sets.
+        known: String,
+    },
+    /// The set holds no element the parameter acts on.
+    #[error("parameter `{parameter}` ({kind:?}): set `{set}` holds no element it can act on")]
+    EmptySet {
+        /// Parameter name.
+        parameter: String,
+        /// What it changes.
+        kind: ParameterKind,
+        /// Set name.
+        set: String,
+    },
+    /// An element of the set does not carry this kind of parameter.
+    #[error(
+        "parameter `{parameter}` ({kind:?}) cannot act on element {element} ({element_kind}) of set `{set}`"
+    )]
+    NotApplicable {
+        /// Parameter name.
+        parameter: String,
+        /// What it changes.
+        kind: ParameterKind,
+        /// Set name.
+        set: String,
+        /// Element id.
+        element: u64,
+        /// Element type.
+        element_kind: &'static str,
+    },
+    /// The set's elements hold different values, so the parameter has none.
+    #[error(
+        "parameter `{parameter}` ({kind:?}) has no single value: element {first} of set `{set}` holds {first_value:e}, element {other} holds {other_value:e}; split the set so each holds one value"
+    )]
+    NotUniform {
+        /// Parameter name.
+        parameter: String,
+        /// What it changes.
+        kind: ParameterKind,
+        /// Set name.
+        set: String,
+        /// First element.
+        first: u64,
+        /// Its value.
+        first_value: f64,
+        /// An element with another value.
+        other: u64,
+        /// Its value.
+        other_value: f64,
+    },
+    /// A value outside what the property allows.
+    #[error("parameter `{parameter}`: value {value:e} is not a positive finite number")]
+    BadValue {
+        /// Parameter name.
+        parameter: String,
+        /// The value.
+        value: f64,
+    },
+    /// A reference of the model is broken.
+    #[error("parameter `{parameter}`: element {element} refers to a missing property or material")]
+    Broken {
+        /// Parameter name.
+        parameter: String,
+        /// Element id.
+        element: u64,
+    },
+}
+
+/// Where a parameter's value lives for one element.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Slot {
+    ShellThickness(u64),
+    ShellMaterial(u64, Field),
+    BeamMaterial(u64, Field),
+    BeamDim(u64, Dim),
+    Bush(u64, usize),
+    Scalar(u64),
+    Mass(u64),
+    Inertia(u64, usize),
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Field {
+    E,
+    Rho,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Dim {
+    Width,
+    Height,
+}
+
+impl Model {
+    /// Each element of the parameter's set with where its value lives.
+    fn slots(&self, p: &Parameter) -> Result<Vec<(u64, Slot)>, ParameterValueError> {
+        let ids = self
+            .sets
+            .get(&p.set)
+            .ok_or_else(|| ParameterValueError::MissingSet {
+                parameter: p.name.clone(),
+                set: p.set.clone(),
+                known: self.sets.keys().cloned().collect::<Vec<_>>().join(", "),
+            })?;
+        let mut out = Vec::with_capacity(ids.len());
+        for &id in ids {
+            let broken = || ParameterValueError::Broken {
+                parameter: p.name.clone(),
+                element: id,
+            };
+            let e = self.elements.get(&id).ok_or_else(broken)?;
+            let not_applicable = || ParameterValueError::NotApplicable {
+                parameter: p.name.clone(),
+                kind: p.kind.clone(),
+                set: p.set.clone(),
+                element: id,
+                element_kind: e.type_name(),
+            };
+            let slot = match (e, &p.kind) {
+                (Element::Quad4 { property, .. } | Element::Tria3 { property, .. }, kind) => {
+                    match kind {
+                        ParameterKind::ShellThickness => Slot::ShellThickness(*property),
+                        ParameterKind::YoungsModulus => Slot::ShellMaterial(*property, Field::E),
+                        ParameterKind::Density => Slot::ShellMaterial(*property, Field::Rho),
+                        _ => return Err(not_applicable()),
+                    }
+                }
+                (Element::Beam { property, .. }, kind) => match kind {
+                    ParameterKind::YoungsModulus => Slot::BeamMaterial(*property, Field::E),
+                    ParameterKind::Density => Slot::BeamMaterial(*property, Field::Rho),
+                    ParameterKind::BeamWidth | ParameterKind::BeamHeight => {
+                        let bp = self.beam_properties.get(property).ok_or_else(broken)?;
+                        let BeamSection::Rectangle { .. } = bp.section else {
+                            return Err(not_applicable());
+                        };
+                        if p.kind == ParameterKind::BeamWidth {
+                            Slot::BeamDim(*property, Dim::Width)
+                        } else {
+                            Slot::BeamDim(*property, Dim::Height)
+                        }
+                    }
+                    _ => return Err(not_applicable()),
+                },
+                (Element::Bush { .. }, ParameterKind::SpringStiffness(c)) => {
+                    Slot::Bush(id, c.nastran() as usize - 1)
+                }
+                (Element::ScalarSpring { .. }, ParameterKind::SpringStiffness(_)) => {
+                    Slot::Scalar(id)
+                }
+                (Element::Mass { .. }, ParameterKind::LumpedMass(c)) => match c {
+                    Component::Ux | Component::Uy | Component::Uz => Slot::Mass(id),
+                    Component::Rx => Slot::Inertia(id, 0),
+                    Component::Ry => Slot::Inertia(id, 2),
+                    Component::Rz => Slot::Inertia(id, 5),
+                },
+                _ => return Err(not_applicable()),
+            };
+            out.push((id, slot));
+        }
+        if out.is_empty() {
+            return Err(ParameterValueError::EmptySet {
+                parameter: p.name.clone(),
+                kind: p.kind.clone(),
+                set: p.set.clone(),
+            });
+        }
+        Ok(out)
+    }
+
+    fn slot_value(&self, slot: Slot) -> Option<f64> {
+        let material = |id: u64, f: Field| {
+            self.materials.get(&id).map(|m| match f {
+                Field::E => m.e,
+                Field::Rho => m.rho,
+            })
+        };
+        match slot {
+            Slot::ShellThickness(pid) => self.shell_properties.get(&pid).map(|p| p.thickness),
+            Slot::ShellMaterial(pid, f) => material(self.shell_properties.get(&pid)?.material, f),
+            Slot::BeamMaterial(pid, f) => material(self.beam_properties.get(&pid)?.material, f),
+            Slot::BeamDim(pid, d) => match self.beam_properties.get(&pid)?.section {
+                BeamSection::Rectangle { width, height } => Some(match d {
+                    Dim::Width => width,
+                    Dim::Height => height,
+                }),
+                _ => None,
+            },
+            Slot::Bush(id, c) => match self.elements.get(&id)? {
+                Element::Bush { k, .. } => Some(k[c]),
+                _ => None,
+            },
+            Slot::Scalar(id) => match self.elements.get(&id)? {
+                Element::ScalarSpring { k, .. } => Some(*k),
+                _ => None,
+            },
+            Slot::Mass(id) => match self.elements.get(&id)? {
+                Element::Mass { mass, .. } => Some(*mass),
+                _ => None,
+            },
+            Slot::Inertia(id, c) => match self.elements.get(&id)? {
+                Element::Mass { inertia, .. } => Some(inertia[c]),
+                _ => None,
+            },
+        }
+    }
+
+    /// The value of a parameter: its property on the set's elements, which must agree.
+    pub fn parameter_value(&self, p: &Parameter) -> Result<f64, ParameterValueError> {
+        let slots = self.slots(p)?;
+        let mut first: Option<(u64, f64)> = None;
+        for (id, slot) in slots {
+            let v = self
+                .slot_value(slot)
+                .ok_or_else(|| ParameterValueError::Broken {
+                    parameter: p.name.clone(),
+                    element: id,
+                })?;
+            match first {
+                None => first = Some((id, v)),
+                Some((f, fv)) if (v - fv).abs() > 1e-12 * fv.abs() => {
+                    return Err(ParameterValueError::NotUniform {
+                        parameter: p.name.clone(),
+                        kind: p.kind.clone(),
+                        set: p.set.clone(),
+                        first: f,
+                        first_value: fv,
+                        other: id,
+                        other_value: v,
+                    });
+                }
+                Some(_) => {}
+            }
+        }
+        Ok(first.map(|f| f.1).unwrap_or(0.0))
+    }
+
+    /// Sets a parameter's value on every element of its set. Properties (and, for `E` and `ρ`,
+    /// materials) that the set shares with other elements are copied under new ids first.
+    pub fn set_parameter_value(
+        &mut self,
+        p: &Parameter,
+        value: f64,
+    ) -> Result<(), ParameterValueError> {
+        if !(value.is_finite() && value > 0.0) {
+            return Err(ParameterValueError::BadValue {
+                parameter: p.name.clone(),
+                value,
+            });
+        }
+        let slots = self.slots(p)?;
+        let in_set: std::collections::BTreeSet<u64> = slots.iter().map(|s| s.0).collect();
+        let shell = matches!(
+            slots[0].1,
+            Slot::ShellThickness(_) | Slot::ShellMaterial(..)
+        );
+        let beam = matches!(slots[0].1, Slot::BeamMaterial(..) | Slot::BeamDim(..));
+        if shell || beam {
+            self.own_properties(&in_set, shell);
+        }
+        if matches!(slots[0].1, Slot::ShellMaterial(..) | Slot::BeamMaterial(..)) {
+            self.own_materials(&in_set, shell);
+        }
+        // Slots again: the property ids may have changed.
+        for (id, slot) in self.slots(p)? {
+            let broken = || ParameterValueError::Broken {
+                parameter: p.name.clone(),
+                element: id,
+            };
+            match slot {
+                Slot::ShellThickness(pid) => {
+                    self.shell_properties
+                        .get_mut(&pid)
+                        .ok_or_else(broken)?
+                        .thickness = value;
+                }
+                Slot::ShellMaterial(pid, f) | Slot::BeamMaterial(pid, f) => {
+                    let mid = if shell {
+                        self.shell_properties.get(&pid).map(|p| p.material)
+                    } else {
+                        self.beam_properties.get(&pid).map(|p| p.material)
+                    }
+                    .ok_or_else(broken)?;
+                    let m = self.materials.get_mut(&mid).ok_or_else(broken)?;
+                    match f {
+                        Field::E => m.e = value,
+                        Field::Rho => m.rho = value,
+                    }
+                }
+                Slot::BeamDim(pid, d) => {
+                    let bp = self.beam_properties.get_mut(&pid).ok_or_else(broken)?;
+                    if let BeamSection::Rectangle { width, height } = &mut bp.section {
+                        match d {
+                            Dim::Width => *width = value,
+                            Dim::Height => *height = value,
+                        }
+                    }
+                }
+                Slot::Bush(_, c) => {
+                    if let Some(Element::Bush { k, .. }) = self.elements.get_mut(&id) {
+                        k[c] = value;
+                    }
+                }
+                Slot::Scalar(_) => {
+                    if let Some(Element::ScalarSpring { k, .. }) = self.elements.get_mut(&id) {
+                        *k = value;
+                    }
+                }
+                Slot::Mass(_) => {
+                    if let Some(Element::Mass { mass, .. }) = self.elements.get_mut(&id) {
+                        *mass = value;
+                    }
+                }
+                Slot::Inertia(_, c) => {
+                    if let Some(Element::Mass { inertia, .. }) = self.elements.get_mut(&id) {
+                        inertia[c] = value;
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Gives the elements of `in_set` property ids no element outside the set uses.
+    fn own_properties(&mut self, in_set: &std::collections::BTreeSet<u64>, shell: bool) {
+        let mut outside = std::collections::BTreeSet::new();
+        for (id, e) in &self.elements {
+            if !in_set.contains(id) {
+                if let Some(pid) = e.property() {
+                    outside.insert(pid);
+                }
+            }
+        }
+        let mut next = self
+            .shell_properties
+            .keys()
+            .chain(self.beam_properties.keys())
+            .max()
+            .copied()
+            .unwrap_or(0)
+            + 1;
+        let mut renamed = std::collections::BTreeMap::new();
+        for id in in_set {
+            let Some(e) = self.elements.get_mut(id) else {
+                continue;
+            };
+            let property = match e {
+                Element::Quad4 { property, .. } | Element::Tria3 { property, .. } if shell => {
+                    property
+                }
+                Element::Beam { property, .. } if !shell => property,
+                _ => continue,
+            };
+            if !outside.contains(property) {
+                continue;
+            }
+            let new = *renamed.entry(*property).or_insert_with(|| {
+                let n = next;
+                next += 1;
+                n
+            });
+            if shell {
+                if let Some(p) = self.shell_properties.get(property).cloned() {
+                    self.shell_properties.insert(new, p);
+                }
+            } else if let Some(p) = self.beam_properties.get(property).cloned() {
+                self.beam_properties.insert(new, p);
+            }
+            *property = new;
+        }
+    }
+
+    /// Gives the (now owned) properties of `in_set` material ids no other property uses.
+    fn own_materials(&mut self, in_set: &std::collections::BTreeSet<u64>, shell: bool) {
+        let own: std::collections::BTreeSet<u64> = in_set
+            .iter()
+            .filter_map(|id| self.elements.get(id)?.property())
+            .collect();
+        let mut outside = std::collections::BTreeSet::new();
+        for (pid, p) in &self.shell_properties {
+            if !(shell && own.contains(pid)) {
+                outside.insert(p.material);
+            }
+        }
+        for (pid, p) in &self.beam_properties {
+            if shell || !own.contains(pid) {
+                outside.insert(p.material);
+            }
+        }
+        let mut next = self.materials.keys().max().copied().unwrap_or(0) + 1;
+        let mut renamed = std::collections::BTreeMap::new();
+        for pid in own {
+            let material = if shell {
+                self.shell_properties.get_mut(&pid).map(|p| &mut p.material)
+            } else {
+                self.beam_properties.get_mut(&pid).map(|p| &mut p.material)
+            };
+            let Some(material) = material else { continue };
+            if !outside.contains(material) {
+                continue;
+            }
+            let new = *renamed.entry(*material).or_insert_with(|| {
+                let n = next;
+                next += 1;
+                n
+            });
+            if let Some(m) = self.materials.get(material).cloned() {
+                self.materials.insert(new, m);
+            }
+            *material = new;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::generate::{BentPlate, bent_plate};
+
+    fn strip(name: &str, kind: ParameterKind) -> Parameter {
+        Parameter {
+            name: name.into(),
+            kind,
+            set: name.into(),
+            lower: 1e-9,
+            upper: 1e12,
+        }
+    }
+
+    /// Writing one strip's thickness and modulus leaves every other element as it was.
+    #[test]
+    fn writing_a_value_touches_only_the_set() {
+        let mut model = bent_plate(&BentPlate::default());
+        let before = model.clone();
+        let t = strip("strip_3", ParameterKind::ShellThickness);
+        let e = strip("strip_3", ParameterKind::YoungsModulus);
+        assert_eq!(model.parameter_value(&t).unwrap(), 1.4e-3);
+        model.set_parameter_value(&t, 0.8e-3).unwrap();
+        model.set_parameter_value(&e, 1.3 * 210e9).unwrap();
+        assert_eq!(model.parameter_value(&t).unwrap(), 0.8e-3);
+        assert!((model.parameter_value(&e).unwrap() - 1.3 * 210e9).abs() < 1.0);
+        for name in ["strip_2", "strip_4", "plate_2"] {
+            let other = strip(name, ParameterKind::ShellThickness);
+            assert_eq!(model.parameter_value(&other).unwrap(), 1.4e-3, "{name}");
+            let other = strip(name, ParameterKind::YoungsModulus);
+            assert_eq!(
+                model.parameter_value(&other).unwrap(),
+                before.parameter_value(&other).unwrap()
+            );
+        }
+        // Same nodes, same connectivity.
+        assert_eq!(model.nodes, before.nodes);
+        assert_eq!(model.elements.len(), before.elements.len());
+        // A set spanning the changed strip now has two values.
+        let plate = strip("plate_1", ParameterKind::ShellThickness);
+        let err = model.parameter_value(&plate).unwrap_err();
+        assert!(
+            matches!(err, ParameterValueError::NotUniform { .. }),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn a_kind_the_element_cannot_carry_is_named() {
+        let model = bent_plate(&BentPlate::default());
+        let err = model
+            .parameter_value(&strip("strip_1", ParameterKind::BeamWidth))
+            .unwrap_err();
+        assert!(err.to_string().contains("cannot act on element"), "{err}");
+        let err = model
+            .parameter_value(&strip("strip_99", ParameterKind::Density))
+            .unwrap_err();
+        assert!(err.to_string().contains("strip_1"), "{err}");
+    }
+}

@@ -1,0 +1,11 @@
+//! Sensitivities (THEORY §3, §4, §7): modal projections of derivative matrices, eigenvalue
+//! sensitivities, FRF and damping sensitivities on a modal basis, and the sensitivities of the
+//! correlation coefficients `χ_s`, `χ_a`.
+
+pub mod correlation;
+pub mod frf;
+pub mod projection;
+
+pub use correlation::{ChiSensitivity, chi_sensitivity};
+pub use frf::{ModalFrfModel, damping_sensitivities, frf_sensitivities, log_magnitude_sensitivity};
+pub use projection::{ProjectedDerivative, eigenvalue_sensitivity, project};

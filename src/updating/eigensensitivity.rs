@@ -1,0 +1,182 @@
+//! Classical inverse eigensensitivity updating from measured natural frequencies (and, when
+//! measured shapes are given, modes paired by MAC) — the method of FEMtools and SOL 200, here
+//! for comparison with the FRF-based methods.
+//!
+//! For each paired mode `r`: `(λ_X,r − λ_A,r)/λ_A,r = Σ_j (φ_j ∂λ_r/∂φ_j / λ_A,r) Δφ_j/φ_j`
+//! with `∂λ_r/∂φ = φ_rᵀ(∂K/∂φ − λ_r ∂M/∂φ)φ_r` (5.3), solved by (subset-selected) least
+//! squares and iterated.
+
+use super::model::{ModalState, ParametricModel, UpdatingError};
+use super::solve::{
+    ParameterWeighting, diagnostics, select_subset, subset_condition_limit, weighted_step,
+};
+use super::{IterationRecord, Step, UpdateMethod};
+use crate::core::DofId;
+use crate::eigen::ModeSelection;
+use crate::sensitivity::eigenvalue_sensitivity;
+use faer::Mat;
+
+/// Measured modes: eigenvalues and, optionally, shapes at measured DOFs.
+#[derive(Clone, Debug)]
+pub struct MeasuredModes {
+    /// `λ_X = ω²` of the measured elastic modes (rad²/s²), ascending.
+    pub eigenvalues: Vec<f64>,
+    /// Shapes at `dofs` (rows) per measured mode (columns), for MAC pairing.
+    pub shapes: Option<(Vec<DofId>, Mat<f64>)>,
+}
+
+/// Settings of inverse eigensensitivity.
+#[derive(Clone, Debug)]
+pub struct EigenSettings {
+    /// Modes of the model's basis (enough to pair every measured mode).
+    pub modes: ModeSelection,
+    /// Smallest MAC accepted for a pair.
+    pub min_mac: f64,
+    /// Stop when every relative change is below this.
+    pub tolerance: f64,
+    /// Subset selection `κ`, or every parameter.
+    pub subset_kappa: Option<f64>,
+    /// `W_φ`.
+    pub weighting: ParameterWeighting,
+}
+
+/// The method against measured modes.
+pub struct InverseEigensensitivity<'a> {
+    /// Measured modes.
+    pub measured: &'a MeasuredModes,
+    /// Settings.
+    pub settings: EigenSettings,
+}
+
+/// `MAC(a, b) = (aᵀb)² / (aᵀa bᵀb)` (1.18).
+pub fn mac(a: &[f64], b: &[f64]) -> f64 {
+    let ab: f64 = a.iter().zip(b).map(|(x, y)| x * y).sum();
+    let aa: f64 = a.iter().map(|x| x * x).sum();
+    let bb: f64 = b.iter().map(|x| x * x).sum();
+    if aa * bb > 0.0 {
+        ab * ab / (aa * bb)
+    } else {
+        0.0
+    }
+}
+
+impl InverseEigensensitivity<'_> {
+    /// Analytical mode paired with each measured mode (`None` when no MAC reaches `min_mac`).
+    fn pairs(&self, state: &ModalState) -> Result<Vec<Option<usize>>, UpdatingError> {
+        let elastic: Vec<usize> = (0..state.modes.len())
+            .filter(|&r| state.modes.eigenvalues[r] > 0.0)
+            .collect();
+        let nx = self.measured.eigenvalues.len();
+        match &self.measured.shapes {
+            None => {
+                if elastic.len() < nx {
+                    return Err(UpdatingError::Settings(format!(
+                        "{nx} measured modes but only {} elastic modes in the model's basis: raise the mode count",
+                        elastic.len()
+                    )));
+                }
+                Ok(elastic.into_iter().take(nx).map(Some).collect())
+            }
+            Some((dofs, shapes)) => {
+                let a = state.shapes_at(dofs)?;
+                let mut used = vec![false; state.modes.len()];
+                let mut out = Vec::with_capacity(nx);
+                for x in 0..nx {
+                    let xs: Vec<f64> = (0..dofs.len()).map(|i| shapes[(i, x)]).collect();
+                    let best = elastic
+                        .iter()
+                        .filter(|&&r| !used[r])
+                        .map(|&r| {
+                            let ar: Vec<f64> = (0..dofs.len()).map(|i| a[(i, r)]).collect();
+                            (r, mac(&xs, &ar))
+                        })
+                        .fold(None, |best: Option<(usize, f64)>, c| match best {
+                            Some(b) if b.1 >= c.1 => Some(b),
+                            _ => Some(c),
+                        });
+                    match best {
+                        Some((r, m)) if m >= self.settings.min_mac => {
+                            used[r] = true;
+                            out.push(Some(r));
+                        }
+                        _ => out.push(None),
+                    }
+                }
+                Ok(out)
+            }
+        }
+    }
+}
+
+impl UpdateMethod for InverseEigensensitivity<'_> {
+    fn iterate(
+        &self,
+        model: &dyn ParametricModel,
+        values: &[f64],
+        iteration: usize,
+    ) -> Result<Step, UpdatingError> {
+        let n = values.len();
+        let ev = model.evaluate(values)?;
+        let state = ModalState::new(&ev, values, self.settings.modes)?;
+        let pairs = self.pairs(&state)?;
+        let used: Vec<(usize, usize)> = pairs
+            .iter()
+            .enumerate()
+            .filter_map(|(x, a)| a.map(|a| (x, a)))
+            .collect();
+        if used.is_empty() {
+            return Err(UpdatingError::Data(format!(
+                "no measured mode pairs with a model mode at MAC >= {}",
+                self.settings.min_mac
+            )));
+        }
+        let dl: Vec<Vec<f64>> = state
+            .projected
+            .iter()
+            .map(|d| eigenvalue_sensitivity(&state.modes.eigenvalues, d))
+            .collect();
+        let m = used.len();
+        let s = Mat::from_fn(m, n, |i, j| {
+            let (_, a) = used[i];
+            dl[j][a] / state.modes.eigenvalues[a]
+        });
+        let eps: Vec<f64> = used
+            .iter()
+            .map(|&(x, a)| {
+                let la = state.modes.eigenvalues[a];
+                (self.measured.eigenvalues[x] - la) / la
+            })
+            .collect();
+        let mut record = IterationRecord {
+            iteration,
+            values: values.to_vec(),
+            relative_change: vec![0.0; n],
+            active: vec![false; n],
+            lines_used: m,
+            mean_chi_s: f64::NAN,
+            mean_chi_a: f64::NAN,
+            residual_norm: eps.iter().map(|e| e * e).sum::<f64>().sqrt(),
+            condition_limit: f64::NAN,
+            diagnostics: diagnostics(s.as_ref()),
+        };
+        let active: Vec<usize> = match self.settings.subset_kappa {
+            Some(kappa) => {
+                let limit = subset_condition_limit(kappa, m, n);
+                record.condition_limit = limit;
+                select_subset(s.as_ref(), limit)
+            }
+            None => (0..n).collect(),
+        };
+        for &a in &active {
+            record.active[a] = true;
+        }
+        record.relative_change = weighted_step(s.as_ref(), &eps, &active, self.settings.weighting);
+        Ok(Step { record, stop: None })
+    }
+
+    fn converged_by_step(&self, relative_change: &[f64]) -> bool {
+        relative_change
+            .iter()
+            .all(|d| d.abs() < self.settings.tolerance)
+    }
+}

@@ -1,0 +1,211 @@
+//! Model updating (THEORY §5, §6, §11): the predictor-corrector on FRF correlation coefficients,
+//! the response function method as baseline and classical inverse eigensensitivity, all driven
+//! one iteration at a time by [`run`], which owns the loop, the stop rule and the history.
+//!
+//! Changes are unity-based (2.13–2.16): every method solves for the relative changes
+//! `Δφ_i/φ_i` with sensitivities `φ_i ∂(·)/∂φ_i`, and new values are clamped to the bounds.
+
+pub mod eigensensitivity;
+pub mod model;
+pub mod pc;
+pub mod rfm;
+pub mod solve;
+
+pub use model::{
+    Evaluated, FeModel, LinearModel, ModalState, ParametricModel, UpdatingError, UpdatingParameter,
+};
+pub use solve::{Diagnostics, ParameterWeighting};
+
+/// One iteration as recorded in the result.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct IterationRecord {
+    /// 0-based iteration number (0 = the initial model).
+    pub iteration: usize,
+    /// Parameter values the iteration started from.
+    pub values: Vec<f64>,
+    /// Relative change applied, `Δφ_i/φ_i` (0 for frozen parameters and on the last record).
+    pub relative_change: Vec<f64>,
+    /// Parameters updated in this iteration (subset selection, bounds).
+    pub active: Vec<bool>,
+    /// Frequency lines (or modes) used for the equations.
+    pub lines_used: usize,
+    /// Mean `χ_s` over all measured lines (NaN where the method has no FRFs).
+    pub mean_chi_s: f64,
+    /// Mean `χ_a` over all measured lines.
+    pub mean_chi_a: f64,
+    /// Norm of the residual vector the step was solved from.
+    pub residual_norm: f64,
+    /// `κ_mn` of the subset selection (NaN when not used).
+    pub condition_limit: f64,
+    /// SVD of the (weighted) sensitivity matrix over all parameters.
+    pub diagnostics: Diagnostics,
+}
+
+impl IterationRecord {
+    /// `(χ_s + χ_a)/2` averaged over all lines: the P-C stop figure (4.23).
+    pub fn mean_chi(&self) -> f64 {
+        0.5 * (self.mean_chi_s + self.mean_chi_a)
+    }
+}
+
+/// Why the iterations ended.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum StopReason {
+    /// The stop rule was met (P-C: mean correlation; others: changes below tolerance).
+    Converged,
+    /// No equation was left to solve (every line already well correlated).
+    NothingToUpdate,
+    /// The step vanished (every parameter frozen or at a bound).
+    Stalled,
+    /// The maximum number of iterations was reached first.
+    MaxIterations,
+}
+
+/// The outcome of one call of a method.
+#[derive(Clone, Debug)]
+pub struct Step {
+    /// The record (values, correlation, diagnostics, the change applied).
+    pub record: IterationRecord,
+    /// Why to stop now, if so (no change was applied then).
+    pub stop: Option<StopReason>,
+}
+
+/// An updating method: one iteration per call, from given parameter values.
+pub trait UpdateMethod {
+    /// Analyses the model at `values`, decides whether to stop, otherwise computes the step.
+    fn iterate(
+        &self,
+        model: &dyn ParametricModel,
+        values: &[f64],
+        iteration: usize,
+    ) -> Result<Step, UpdatingError>;
+    /// Whether a step this small means convergence (methods without a correlation stop rule).
+    fn converged_by_step(&self, _relative_change: &[f64]) -> bool {
+        false
+    }
+    /// A figure that a good step raises (none: every step is taken as computed).
+    fn merit(&self, _record: &IterationRecord) -> Option<f64> {
+        None
+    }
+}
+
+/// The history of a run.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct UpdateHistory {
+    /// The parameters.
+    pub parameters: Vec<UpdatingParameter>,
+    /// One record per iteration; the last one is the final model's.
+    pub iterations: Vec<IterationRecord>,
+    /// Final values.
+    pub final_values: Vec<f64>,
+    /// Why it stopped.
+    pub stop: StopReason,
+}
+
+/// Applies a relative step with the bounds: `φ (1 + Δ)` clamped to `[lower, upper]`; returns the
+/// new values and the relative change actually applied.
+pub fn apply_step(
+    params: &[UpdatingParameter],
+    values: &[f64],
+    delta: &[f64],
+) -> (Vec<f64>, Vec<f64>) {
+    let mut next = Vec::with_capacity(values.len());
+    let mut applied = Vec::with_capacity(values.len());
+    for ((p, &v), &d) in params.iter().zip(values).zip(delta) {
+        let n = (v * (1.0 + d)).clamp(p.lower, p.upper);
+        applied.push(if v != 0.0 { n / v - 1.0 } else { 0.0 });
+        next.push(n);
+    }
+    (next, applied)
+}
+
+/// Most halvings of a step that made the method's merit worse.
+pub const MAX_HALVINGS: usize = 6;
+
+/// Iterates `method` from the model's initial values: at most `max_iterations` steps, then one
+/// last analysis of the final model. A step after which the method's merit (the P-C's mean
+/// correlation) is lower than before is halved until it is not, at most [`MAX_HALVINGS`]
+/// times: the linearised step of an ill-conditioned iteration can overshoot far, and the
+/// analysis at the candidate is the next iteration's anyway, so a good step costs nothing.
+pub fn run(
+    method: &dyn UpdateMethod,
+    model: &dyn ParametricModel,
+    max_iterations: usize,
+) -> Result<UpdateHistory, UpdatingError> {
+    let params = model.parameters().to_vec();
+    for p in &params {
+        if !(p.initial.is_finite() && p.initial != 0.0) {
+            return Err(UpdatingError::Settings(format!(
+                "parameter `{}` starts at {}: unity-based updating needs a finite non-zero value",
+                p.name, p.initial
+            )));
+        }
+        if !(p.lower <= p.initial && p.initial <= p.upper) {
+            return Err(UpdatingError::Settings(format!(
+                "parameter `{}` starts at {:e}, outside its bounds [{:e}, {:e}]",
+                p.name, p.initial, p.lower, p.upper
+            )));
+        }
+    }
+    let n = params.len();
+    let mut values = model.initial_values();
+    let mut iterations = Vec::new();
+    let mut current = method.iterate(model, &values, 0)?;
+    let finish = |mut record: IterationRecord,
+                  mut iterations: Vec<IterationRecord>,
+                  values: Vec<f64>,
+                  stop: StopReason| {
+        record.relative_change = vec![0.0; n];
+        record.active = vec![false; n];
+        iterations.push(record);
+        Ok(UpdateHistory {
+            parameters: params.clone(),
+            iterations,
+            final_values: values,
+            stop,
+        })
+    };
+    for it in 0..max_iterations {
+        if let Some(stop) = current.stop {
+            return finish(current.record, iterations, values, stop);
+        }
+        let mut delta = current.record.relative_change.clone();
+        let (mut next_values, mut applied) = apply_step(&params, &values, &delta);
+        let mut next = method.iterate(model, &next_values, it + 1)?;
+        if let (Some(before), Some(_)) = (method.merit(&current.record), method.merit(&next.record))
+        {
+            let mut halvings = 0;
+            while halvings < MAX_HALVINGS
+                && method
+                    .merit(&next.record)
+                    .is_some_and(|after| after < before)
+            {
+                delta.iter_mut().for_each(|d| *d *= 0.5);
+                (next_values, applied) = apply_step(&params, &values, &delta);
+                next = method.iterate(model, &next_values, it + 1)?;
+                halvings += 1;
+            }
+        }
+        let converged = method.converged_by_step(&applied);
+        let stalled = applied.iter().all(|d| d.abs() < 1e-12);
+        let mut record = current.record;
+        record.relative_change = applied;
+        iterations.push(record);
+        values = next_values;
+        current = next;
+        if converged || stalled {
+            let stop = current.stop.unwrap_or(if converged {
+                StopReason::Converged
+            } else {
+                StopReason::Stalled
+            });
+            return finish(current.record, iterations, values, stop);
+        }
+    }
+    let stop = current.stop.unwrap_or(StopReason::MaxIterations);
+    finish(current.record, iterations, values, stop)
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,320 @@
+//! Models whose matrices depend on updating parameters (THEORY §2).
+//!
+//! [`ParametricModel`] is what every updating method needs: the matrices at given parameter
+//! values and their derivatives `∂K/∂φ`, `∂M/∂φ` there. Two kinds exist:
+//! [`FeModel`] rebuilds a finite-element model from its elements (exact for every parameter,
+//! thickness and section sizes included) and [`LinearModel`] holds `K(φ) = K₀ + Σ (φ_i − φ_i⁰)
+//! ∂K/∂φ_i` (exact for parameters that enter linearly: lumped masses and springs, `E`, `ρ`).
+
+use crate::core::DofId;
+use crate::eigen::{ModeSelection, Modes, SparseEigenParams, lowest_modes};
+use crate::fe::SystemMatrices;
+use crate::fe::element::MassKind;
+use crate::fe::model_assembly::{assemble_model, parameter_derivative};
+use crate::fe::system::SparseMatrix;
+use crate::model::{Model, Parameter};
+use crate::sensitivity::ProjectedDerivative;
+use faer::Mat;
+use rayon::prelude::*;
+use std::collections::HashMap;
+
+/// An updating parameter as the methods see it: name, initial value and bounds (SI).
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct UpdatingParameter {
+    /// Name.
+    pub name: String,
+    /// Value in the initial model.
+    pub initial: f64,
+    /// Lowest allowed value.
+    pub lower: f64,
+    /// Highest allowed value.
+    pub upper: f64,
+}
+
+/// Why a model could not be evaluated or updated.
+#[derive(Debug, thiserror::Error)]
+pub enum UpdatingError {
+    /// The model could not be rebuilt at some parameter values.
+    #[error("the model at the current parameter values: {0}")]
+    Model(String),
+    /// The eigen solution failed.
+    #[error("modal analysis: {0}")]
+    Eigen(#[from] crate::eigen::EigenError),
+    /// An FRF could not be formed.
+    #[error(transparent)]
+    Modal(#[from] crate::frf::ModalError),
+    /// A direct solution failed.
+    #[error(transparent)]
+    Direct(#[from] crate::frf::DirectError),
+    /// The measured data do not fit the model or the method.
+    #[error("{0}")]
+    Data(String),
+    /// The method's settings are inconsistent.
+    #[error("{0}")]
+    Settings(String),
+}
+
+/// A model evaluated at parameter values.
+#[derive(Clone, Debug)]
+pub struct Evaluated {
+    /// `K`, `M` (and `C`, `D`) over the free DOFs.
+    pub system: SystemMatrices,
+    /// `(∂K/∂φ_i, ∂M/∂φ_i)` per parameter (absolute, not yet scaled by `φ_i`).
+    pub derivatives: Vec<(SparseMatrix, SparseMatrix)>,
+}
+
+/// A model whose matrices depend on named parameters.
+pub trait ParametricModel: Sync {
+    /// The parameters, in the order of every value vector.
+    fn parameters(&self) -> &[UpdatingParameter];
+    /// Matrices and derivatives at `values`.
+    fn evaluate(&self, values: &[f64]) -> Result<Evaluated, UpdatingError>;
+    /// Initial values.
+    fn initial_values(&self) -> Vec<f64> {
+        self.parameters().iter().map(|p| p.initial).collect()
+    }
+}
+
+/// A finite-element model rebuilt from its elements at each evaluation.
+#[derive(Clone, Debug)]
+pub struct FeModel {
+    model: Model,
+    parameters: Vec<Parameter>,
+    info: Vec<UpdatingParameter>,
+    mass: MassKind,
+}
+
+impl FeModel {
+    /// The model's updating parameters (all, or those named in `names`), their initial values
+    /// read from the model.
+    pub fn new(model: Model, names: &[String], mass: MassKind) -> Result<Self, UpdatingError> {
+        let parameters: Vec<Parameter> = if names.is_empty() {
+            model.parameters.clone()
+        } else {
+            names
+                .iter()
+                .map(|n| {
+                    model
+                        .parameters
+                        .iter()
+                        .find(|p| &p.name == n)
+                        .cloned()
+                        .ok_or_else(|| {
+                            UpdatingError::Settings(format!(
+                                "parameter `{n}` is not a parameter of the model (it has: {})",
+                                model
+                                    .parameters
+                                    .iter()
+                                    .map(|p| p.name.as_str())
+                                    .collect::<Vec<_>>()
+                                    .join(", ")
+                            ))
+                        })
+                })
+                .collect::<Result<_, _>>()?
+        };
+        if parameters.is_empty() {
+            return Err(UpdatingError::Settings(
+                "the model declares no updating parameter; declare them with a `mesh.parameters` stage"
+                    .into(),
+            ));
+        }
+        let info = parameters
+            .iter()
+            .map(|p| {
+                Ok(UpdatingParameter {
+                    name: p.name.clone(),
+                    initial: model
+                        .parameter_value(p)
+                        .map_err(|e| UpdatingError::Model(e.to_string()))?,
+                    lower: p.lower,
+                    upper: p.upper,
+                })
+            })
+            .collect::<Result<_, UpdatingError>>()?;
+        Ok(FeModel {
+            model,
+            parameters,
+            info,
+            mass,
+        })
+    }
+
+    /// The model with `values` written into it.
+    pub fn model_at(&self, values: &[f64]) -> Result<Model, UpdatingError> {
+        let mut model = self.model.clone();
+        for (p, &v) in self.parameters.iter().zip(values) {
+            model
+                .set_parameter_value(p, v)
+                .map_err(|e| UpdatingError::Model(e.to_string()))?;
+        }
+        Ok(model)
+    }
+}
+
+impl ParametricModel for FeModel {
+    fn parameters(&self) -> &[UpdatingParameter] {
+        &self.info
+    }
+
+    fn evaluate(&self, values: &[f64]) -> Result<Evaluated, UpdatingError> {
+        let model = self.model_at(values)?;
+        let (system, _) =
+            assemble_model(&model, self.mass).map_err(|e| UpdatingError::Model(e.to_string()))?;
+        let derivatives = self
+            .parameters
+            .par_iter()
+            .map(|p| {
+                parameter_derivative(&model, p, &system.dofs, self.mass)
+                    .map_err(|e| UpdatingError::Model(e.to_string()))
+            })
+            .collect::<Result<_, _>>()?;
+        Ok(Evaluated {
+            system,
+            derivatives,
+        })
+    }
+}
+
+/// Matrices linear in the parameters: `K(φ) = K₀ + Σ (φ_i − φ_i⁰) ∂K/∂φ_i`, likewise `M`.
+#[derive(Clone, Debug)]
+pub struct LinearModel {
+    base: SystemMatrices,
+    info: Vec<UpdatingParameter>,
+    derivatives: Vec<(SparseMatrix, SparseMatrix)>,
+}
+
+impl LinearModel {
+    /// From the initial matrices and each parameter with its constant derivatives.
+    pub fn new(
+        base: SystemMatrices,
+        parameters: Vec<(UpdatingParameter, SparseMatrix, SparseMatrix)>,
+    ) -> Result<Self, UpdatingError> {
+        let n = base.n();
+        let mut info = Vec::new();
+        let mut derivatives = Vec::new();
+        for (p, dk, dm) in parameters {
+            if dk.nrows() != n || dm.nrows() != n {
+                return Err(UpdatingError::Model(format!(
+                    "the derivatives of `{}` are {}×{} and {}×{}, the model has {n} DOFs",
+                    p.name,
+                    dk.nrows(),
+                    dk.ncols(),
+                    dm.nrows(),
+                    dm.ncols()
+                )));
+            }
+            info.push(p);
+            derivatives.push((dk, dm));
+        }
+        Ok(LinearModel {
+            base,
+            info,
+            derivatives,
+        })
+    }
+}
+
+/// `a + s b` for sparse matrices of one size.
+fn add_scaled(a: &SparseMatrix, b: &SparseMatrix, s: f64) -> SparseMatrix {
+    let mut t = crate::fe::system::sparse_triplets(a);
+    t.extend(
+        crate::fe::system::sparse_triplets(b)
+            .into_iter()
+            .map(|(i, j, v)| (i, j, s * v)),
+    );
+    // Same size and finite values: building cannot fail.
+    crate::fe::system::sparse_from_triplets("sum", a.nrows(), &t).unwrap_or_else(|_| a.clone())
+}
+
+impl ParametricModel for LinearModel {
+    fn parameters(&self) -> &[UpdatingParameter] {
+        &self.info
+    }
+
+    fn evaluate(&self, values: &[f64]) -> Result<Evaluated, UpdatingError> {
+        let mut system = self.base.clone();
+        for ((p, (dk, dm)), &v) in self.info.iter().zip(&self.derivatives).zip(values) {
+            let delta = v - p.initial;
+            if delta != 0.0 {
+                system.k = add_scaled(&system.k, dk, delta);
+                system.m = add_scaled(&system.m, dm, delta);
+            }
+        }
+        Ok(Evaluated {
+            system,
+            derivatives: self.derivatives.clone(),
+        })
+    }
+}
+
+/// Modes of an evaluated model with their shapes at chosen DOFs and each parameter's projected,
+/// unity-scaled derivative `φ_i Φᵀ(∂K/∂φ_i)Φ`, `φ_i Φᵀ(∂M/∂φ_i)Φ` (2.16).
+#[derive(Clone, Debug)]
+pub struct ModalState {
+    /// All modes over all DOFs.
+    pub modes: Modes,
+    /// DOF labels of the rows of `modes.shapes`.
+    pub dofs: Vec<DofId>,
+    /// Projected derivatives, one per parameter, scaled by the parameter value.
+    pub projected: Vec<ProjectedDerivative>,
+}
+
+impl ModalState {
+    /// Solves for the modes and projects the derivatives.
+    pub fn new(
+        evaluated: &Evaluated,
+        values: &[f64],
+        selection: ModeSelection,
+    ) -> Result<Self, UpdatingError> {
+        let sys = &evaluated.system;
+        let (modes, _) = lowest_modes(
+            &sys.k,
+            &sys.m,
+            &sys.dofs,
+            selection,
+            &SparseEigenParams::default(),
+        )?;
+        if modes.is_empty() {
+            return Err(UpdatingError::Settings(
+                "the modal basis is empty: raise the number of modes or their frequency limit"
+                    .into(),
+            ));
+        }
+        let projected = evaluated
+            .derivatives
+            .par_iter()
+            .zip(values.par_iter())
+            .map(|((dk, dm), &v)| ProjectedDerivative::new(dk, dm, modes.shapes.as_ref()).scaled(v))
+            .collect();
+        Ok(ModalState {
+            modes,
+            dofs: sys.dofs.clone(),
+            projected,
+        })
+    }
+
+    /// Row index of every DOF.
+    pub fn index(&self) -> HashMap<DofId, usize> {
+        self.dofs.iter().enumerate().map(|(i, d)| (*d, i)).collect()
+    }
+
+    /// Mode shapes restricted to `dofs` (rows in that order), or the first DOF not in the model.
+    pub fn shapes_at(&self, dofs: &[DofId]) -> Result<Mat<f64>, UpdatingError> {
+        let index = self.index();
+        let rows: Vec<usize> = dofs
+            .iter()
+            .map(|d| {
+                index.get(d).copied().ok_or_else(|| {
+                    UpdatingError::Data(format!(
+                        "DOF {d} is not a free DOF of the model ({} DOFs)",
+                        self.dofs.len()
+                    ))
+                })
+            })
+            .collect::<Result<_, _>>()?;
+        Ok(Mat::from_fn(rows.len(), self.modes.len(), |i, r| {
+            self.modes.shapes[(rows[i], r)]
+        }))
+    }
+}

@@ -1,0 +1,268 @@
+//! The predictor-corrector (P-C) method (THEORY §5; thesis 4.16–4.23, 5.13–5.14).
+//!
+//! At each updating line `ω_k`: `[1 − χ_s(ω_k); 1 − χ_a(ω_k)] = [∂χ_s/∂φ; ∂χ_a/∂φ] Δφ`, stacked into
+//! `ε = S Δφ` (`2N_fu × N_φ`, real, unity-based). The lines are all measured lines except those
+//! already well correlated, `(χ_s + χ_a)/2 > κ_f` (4.20), and those within `resonance_lines` line
+//! spacings of a predicted natural frequency; they change every iteration. Rows are weighted by
+//! `W_f = diag(χ_s, χ_a)` (4.21); the step minimises `εᵀW_fε + Δφᵀ W_φ Δφ` (4.18, 4.19) over the
+//! parameters chosen by QR subset selection (5.13, 5.14). Stop (4.23) when the mean over all
+//! lines of `(χ_s + χ_a)/2` reaches `stop_chi`. With a single FRF `χ_s ≡ 1` carries no
+//! information, so only the `χ_a` rows are kept.
+
+use super::model::{ModalState, ParametricModel, UpdatingError};
+use super::solve::{
+    ParameterWeighting, diagnostics, select_subset, subset_condition_limit, weighted_step,
+};
+use super::{IterationRecord, Step, StopReason, UpdateMethod};
+use crate::core::DofId;
+use crate::correlation::frf::{amplitude_correlation, shape_correlation};
+use crate::eigen::ModeSelection;
+use crate::frf::{FrfSet, ModalDamping, modal_receptance};
+use crate::sensitivity::{ModalFrfModel, chi_sensitivity, frf_sensitivities};
+use faer::{Mat, c64};
+
+/// Settings of the P-C.
+#[derive(Clone, Debug)]
+pub struct PcSettings {
+    /// Lines with `(χ_s + χ_a)/2 > κ_f` are left out (4.20).
+    pub kappa_f: f64,
+    /// Lines within this many line spacings of a predicted natural frequency are left out.
+    pub resonance_lines: f64,
+    /// Stop when the mean of `(χ_s + χ_a)/2` over all lines reaches this (4.23).
+    pub stop_chi: f64,
+    /// `κ` of the subset selection `κ_mn = 1 + κ(n/m)²`; `None` updates every parameter.
+    pub subset_kappa: Option<f64>,
+    /// `W_φ`.
+    pub weighting: ParameterWeighting,
+    /// Largest relative change of one parameter in one step (the step is scaled down to it).
+    pub max_step: f64,
+    /// Modes of the basis (the thesis: twice the band).
+    pub modes: ModeSelection,
+    /// Modal damping of the predictions.
+    pub damping: ModalDamping,
+}
+
+impl Default for PcSettings {
+    fn default() -> Self {
+        PcSettings {
+            kappa_f: 0.95,
+            resonance_lines: 1.0,
+            stop_chi: 0.99,
+            subset_kappa: None,
+            weighting: ParameterWeighting::None,
+            max_step: 1.0,
+            modes: ModeSelection::All,
+            damping: ModalDamping::None,
+        }
+    }
+}
+
+/// The P-C against one measured FRF set.
+pub struct PredictorCorrector<'a> {
+    /// Measured FRFs.
+    pub measured: &'a FrfSet,
+    /// Settings.
+    pub settings: PcSettings,
+}
+
+/// Correlation of the prediction with the measurement, per line.
+struct Lines {
+    chi_s: Vec<f64>,
+    chi_a: Vec<f64>,
+}
+
+impl PredictorCorrector<'_> {
+    /// DOFs the measured pairs touch, first appearance order.
+    fn dofs(&self) -> Vec<DofId> {
+        let mut out: Vec<DofId> = Vec::new();
+        for p in &self.measured.pairs {
+            for d in [p.response, p.excitation] {
+                if !out.contains(&d) {
+                    out.push(d);
+                }
+            }
+        }
+        out
+    }
+
+    fn correlate(&self, predicted: &FrfSet) -> Lines {
+        let (nf, nq) = (self.measured.freqs_hz.len(), self.measured.pairs.len());
+        let mut chi_s = Vec::with_capacity(nf);
+        let mut chi_a = Vec::with_capacity(nf);
+        for k in 0..nf {
+            let x: Vec<c64> = (0..nq).map(|q| self.measured.values[(k, q)]).collect();
+            let a: Vec<c64> = (0..nq).map(|q| predicted.values[(k, q)]).collect();
+            chi_s.push(shape_correlation(&x, &a));
+            chi_a.push(amplitude_correlation(&x, &a));
+        }
+        Lines { chi_s, chi_a }
+    }
+
+    /// Lines for the equations (4.20): not well correlated, not next to a predicted resonance.
+    fn select_lines(&self, lines: &Lines, natural_hz: &[f64]) -> Vec<usize> {
+        let f = &self.measured.freqs_hz;
+        let spacing = |k: usize| {
+            let prev = if k > 0 { f[k] - f[k - 1] } else { 0.0 };
+            let next = if k + 1 < f.len() {
+                f[k + 1] - f[k]
+            } else {
+                0.0
+            };
+            prev.max(next)
+        };
+        (0..f.len())
+            .filter(|&k| 0.5 * (lines.chi_s[k] + lines.chi_a[k]) <= self.settings.kappa_f)
+            .filter(|&k| {
+                let band = self.settings.resonance_lines * spacing(k);
+                natural_hz
+                    .iter()
+                    .all(|&fr| fr == 0.0 || (f[k] - fr).abs() > band)
+            })
+            .collect()
+    }
+}
+
+fn mean(v: &[f64]) -> f64 {
+    if v.is_empty() {
+        f64::NAN
+    } else {
+        v.iter().sum::<f64>() / v.len() as f64
+    }
+}
+
+/// Predicted FRFs at the measured pairs and lines from a modal state.
+pub fn predict(
+    state: &ModalState,
+    measured: &FrfSet,
+    damping: &ModalDamping,
+) -> Result<FrfSet, UpdatingError> {
+    Ok(modal_receptance(
+        &state.modes,
+        &state.dofs,
+        damping,
+        &measured.pairs,
+        &measured.freqs_hz,
+        measured.quantity,
+    )?)
+}
+
+impl UpdateMethod for PredictorCorrector<'_> {
+    fn iterate(
+        &self,
+        model: &dyn ParametricModel,
+        values: &[f64],
+        iteration: usize,
+    ) -> Result<Step, UpdatingError> {
+        let s = &self.settings;
+        let n = values.len();
+        let evaluated = model.evaluate(values)?;
+        let state = ModalState::new(&evaluated, values, s.modes)?;
+        let predicted = predict(&state, self.measured, &s.damping)?;
+        let lines = self.correlate(&predicted);
+        let mut record = IterationRecord {
+            iteration,
+            values: values.to_vec(),
+            relative_change: vec![0.0; n],
+            active: vec![false; n],
+            lines_used: 0,
+            mean_chi_s: mean(&lines.chi_s),
+            mean_chi_a: mean(&lines.chi_a),
+            residual_norm: 0.0,
+            condition_limit: f64::NAN,
+            diagnostics: Default::default(),
+        };
+        if record.mean_chi() >= s.stop_chi {
+            return Ok(Step {
+                record,
+                stop: Some(StopReason::Converged),
+            });
+        }
+        let chosen = self.select_lines(&lines, &state.modes.frequencies_hz());
+        record.lines_used = chosen.len();
+        if chosen.is_empty() {
+            return Ok(Step {
+                record,
+                stop: Some(StopReason::NothingToUpdate),
+            });
+        }
+
+        // Sensitivities at the chosen lines, on the DOFs the pairs need.
+        let dofs = self.dofs();
+        let shapes = state.shapes_at(&dofs)?;
+        let modal = ModalFrfModel {
+            eigenvalues: &state.modes.eigenvalues,
+            shapes: shapes.as_ref(),
+            dofs: &dofs,
+            damping: &s.damping,
+        };
+        let freqs: Vec<f64> = chosen.iter().map(|&k| self.measured.freqs_hz[k]).collect();
+        let sens = frf_sensitivities(
+            &modal,
+            &self.measured.pairs,
+            &freqs,
+            self.measured.quantity,
+            &state.projected,
+        )?;
+
+        // S and ε, rows weighted by W_f^{1/2} (4.21).
+        let nq = self.measured.pairs.len();
+        let with_shape = nq > 1;
+        let rows_per_line = if with_shape { 2 } else { 1 };
+        let m = rows_per_line * chosen.len();
+        let mut sw = Mat::<f64>::zeros(m, n);
+        let mut ew = vec![0.0; m];
+        for (row, &k) in chosen.iter().enumerate() {
+            let x: Vec<c64> = (0..nq).map(|q| self.measured.values[(k, q)]).collect();
+            let a: Vec<c64> = (0..nq).map(|q| predicted.values[(k, q)]).collect();
+            let cols: Vec<Vec<c64>> = sens
+                .iter()
+                .map(|sp| (0..nq).map(|q| sp[(row, q)]).collect())
+                .collect();
+            let refs: Vec<&[c64]> = cols.iter().map(|c| c.as_slice()).collect();
+            let c = chi_sensitivity(&x, &a, &refs);
+            let base = rows_per_line * row;
+            let (wa, ra) = if with_shape {
+                let ws = c.chi_s.max(0.0).sqrt();
+                ew[base] = ws * (1.0 - c.chi_s);
+                for p in 0..n {
+                    sw[(base, p)] = ws * c.d_chi_s[p];
+                }
+                (c.chi_a.max(0.0).sqrt(), base + 1)
+            } else {
+                (c.chi_a.max(0.0).sqrt(), base)
+            };
+            ew[ra] = wa * (1.0 - c.chi_a);
+            for p in 0..n {
+                sw[(ra, p)] = wa * c.d_chi_a[p];
+            }
+        }
+        record.residual_norm = ew.iter().map(|e| e * e).sum::<f64>().sqrt();
+        record.diagnostics = diagnostics(sw.as_ref());
+
+        let active: Vec<usize> = match s.subset_kappa {
+            Some(kappa) => {
+                let limit = subset_condition_limit(kappa, m, n);
+                record.condition_limit = limit;
+                select_subset(sw.as_ref(), limit)
+            }
+            None => (0..n)
+                .filter(|&p| (0..m).any(|i| sw[(i, p)] != 0.0))
+                .collect(),
+        };
+        let mut delta = weighted_step(sw.as_ref(), &ew, &active, s.weighting);
+        let biggest = delta.iter().fold(0.0_f64, |a, d| a.max(d.abs()));
+        if biggest > s.max_step {
+            let f = s.max_step / biggest;
+            delta.iter_mut().for_each(|d| *d *= f);
+        }
+        for &a in &active {
+            record.active[a] = true;
+        }
+        record.relative_change = delta;
+        Ok(Step { record, stop: None })
+    }
+
+    fn merit(&self, record: &IterationRecord) -> Option<f64> {
+        Some(record.mean_chi())
+    }
+}
