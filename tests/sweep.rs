@@ -535,3 +535,18 @@ fn shipped_sweeps_are_valid() {
         }
     }
 }
+
+/// The sweep file shown in the README is valid.
+#[test]
+fn the_readme_sweep_is_valid() {
+    let readme = std::fs::read_to_string(common::root().join("README.md")).unwrap();
+    let section = &readme[readme
+        .find("## Parameter sweeps")
+        .expect("README has a sweeps section")..];
+    let start = section.find("```yaml\n").expect("a YAML block") + 8;
+    let end = start + section[start..].find("```").unwrap();
+    let text = section[start..end].replace("../pipelines/four-dof.yaml", &four_dof());
+    let s = parse_sweep(Path::new("README.md"), &text).unwrap_or_else(|e| panic!("{e}"));
+    let r = resolve(&s).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(r.expansion.points.len(), 4 * 25 * 2 - 2);
+}
