@@ -276,7 +276,7 @@ fn check_plot(
     let is_param = |c: &str| params.iter().any(|q| q.text == c || q.short() == c);
     for (field, value) in [("column", Some(&p.column)), ("split", p.split.as_ref())] {
         let Some(v) = value else { continue };
-        if !known(v) && !(field == "split" && is_param(v)) {
+        if !(known(v) || (field == "split" && is_param(v))) {
             diags.push(
                 sweep
                     .at_value(
