@@ -333,6 +333,7 @@ fn run(a: RunArgs) -> Result<u8, Failure> {
                 SweepReport::default()
             } else {
                 let _lock = state.lock().map_err(fail)?;
+                slurm::ensure_idle(&state).map_err(fail)?;
                 let jobs = slurm::submit(&sub, &state).map_err(fail)?;
                 println!(
                     "submitted {} points in {} array tasks: job {}",
@@ -430,22 +431,14 @@ fn print_collect(
 
 fn status(file: &Path, all: bool, w: &Where) -> Result<u8, Failure> {
     let (resolved, _cache, state) = open(file, w)?;
-    // Jobs of running points, asked of squeue when it is there.
-    let jobs: Vec<String> = resolved
-        .unique
-        .iter()
-        .filter_map(|u| state.status(&u.point.name))
-        .filter(|s| s.state == crate::sweep::PointState::Running)
-        .filter_map(|s| {
-            s.slurm_job
-                .map(|j| j.split('_').next().unwrap_or("").to_string())
-        })
-        .collect::<std::collections::BTreeSet<_>>()
-        .into_iter()
-        .collect();
+    // The sweep's Slurm jobs still queued, asked of squeue when there are any.
+    let jobs = slurm::submitted_jobs(&state);
     let active = slurm::queued(&jobs).unwrap_or_default();
     let rows = status_summary(&resolved, &state, &active);
     let count = |f: fn(&Standing) -> bool| rows.iter().filter(|r| f(&r.1)).count();
+    if !active.is_empty() {
+        println!("slurm jobs queued or running: {}", active.join(", "));
+    }
     println!(
         "sweep {} ({}): {} unique points: {} done, {} running, {} failed, {} pending",
         resolved.sweep.name(),

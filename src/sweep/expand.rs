@@ -392,7 +392,10 @@ fn range_values(
                 .field(field)
                 .help(help));
         }
-        let n = ((b - a) / s) as usize + 1;
+        let n = b
+            .checked_sub(a)
+            .map_or(usize::MAX, |d| (d / s) as usize)
+            .saturating_add(1);
         if n > MAX_RANGE {
             return Err(sweep
                 .at_value(
@@ -801,7 +804,7 @@ pub fn point_name(params: &[ParamPath], values: &[Value]) -> String {
     let mut segs: Vec<(String, String)> = params
         .iter()
         .zip(values)
-        .map(|(p, v)| (p.short(), value_label(v)))
+        .map(|(p, v)| (p.short().replace(['/', '\\'], "_"), value_label(v)))
         .collect();
     segs.sort();
     let name = segs

@@ -212,7 +212,50 @@ pub fn submit(sub: &Submission, state: &StateDir) -> Result<Vec<String>, SweepEr
     }
     let id = parse_job_id(&run_tool(cmd.arg(&path), "sbatch")?)?;
     ids.push(id);
+    let record = dir.join("jobs.txt");
+    let mut f = std::fs::OpenOptions::new()
+        .create(true)
+        .append(true)
+        .open(&record)
+        .map_err(|source| SweepError::Io {
+            path: record.clone(),
+            source,
+        })?;
+    use std::io::Write;
+    writeln!(f, "{} {}", sub.batch, ids.join(" ")).map_err(|source| SweepError::Io {
+        path: record,
+        source,
+    })?;
     Ok(ids)
+}
+
+/// Every job id this sweep has submitted.
+pub fn submitted_jobs(state: &StateDir) -> Vec<String> {
+    std::fs::read_to_string(state.root().join("slurm").join("jobs.txt"))
+        .unwrap_or_default()
+        .lines()
+        .flat_map(|l| {
+            l.split_whitespace()
+                .skip(1)
+                .map(str::to_string)
+                .collect::<Vec<_>>()
+        })
+        .collect()
+}
+
+/// Refuses to submit while jobs of an earlier submission are still queued: their points would
+/// run twice.
+pub fn ensure_idle(state: &StateDir) -> Result<(), SweepError> {
+    let jobs = submitted_jobs(state);
+    let active = queued(&jobs)?;
+    if active.is_empty() {
+        Ok(())
+    } else {
+        Err(SweepError::Slurm(format!(
+            "jobs {} of an earlier submission are still queued; follow them with `femu sweep status`, or cancel them (scancel) before submitting again",
+            active.join(", ")
+        )))
+    }
 }
 
 /// The job id of `sbatch --parsable` output (`ID` or `ID;CLUSTER`).
