@@ -550,3 +550,112 @@ fn the_readme_sweep_is_valid() {
     let r = resolve(&s).unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(r.expansion.points.len(), 4 * 25 * 2 - 2);
 }
+
+/// Stand-ins for `sbatch`, `squeue` and `sacct` that run the submitted scripts at once, skipping
+/// the array task `$FAKE_SKIP_TASK` as if Slurm had killed it at its time limit.
+fn fake_slurm(dir: &Path) -> String {
+    let bin = dir.join("fake-bin");
+    std::fs::create_dir_all(&bin).unwrap();
+    let sbatch = r#"#!/bin/bash
+for last; do :; done
+dir=$(dirname "$0")
+id=$(( $(cat "$dir/next" 2>/dev/null || echo 100) + 1 )); echo "$id" > "$dir/next"
+n=$(sed -n 's/^#SBATCH --array=0-\([0-9]*\).*/\1/p' "$last")
+if [ -n "$n" ]; then
+  for i in $(seq 0 "$n"); do
+    if [ "$i" = "${FAKE_SKIP_TASK:-x}" ]; then echo "${id}_$i|TIMEOUT|0:15" >> "$dir/sacct.txt"; continue; fi
+    SLURM_ARRAY_JOB_ID=$id SLURM_ARRAY_TASK_ID=$i bash "$last" > /dev/null 2>&1
+    echo "${id}_$i|COMPLETED|0:0" >> "$dir/sacct.txt"
+  done
+else
+  SLURM_JOB_ID=$id bash "$last" > /dev/null 2>&1
+fi
+echo "$id"
+"#;
+    let tools = [
+        ("sbatch", sbatch.to_string()),
+        ("squeue", "#!/bin/sh\nexit 0\n".to_string()),
+        (
+            "sacct",
+            "#!/bin/sh\ncat \"$(dirname \"$0\")/sacct.txt\" 2>/dev/null\n".to_string(),
+        ),
+    ];
+    for (name, text) in tools {
+        let p = bin.join(name);
+        std::fs::write(&p, text).unwrap();
+        use std::os::unix::fs::PermissionsExt;
+        std::fs::set_permissions(&p, std::fs::Permissions::from_mode(0o755)).unwrap();
+    }
+    format!(
+        "{}:{}",
+        bin.display(),
+        std::env::var("PATH").unwrap_or_default()
+    )
+}
+
+#[test]
+fn slurm_backend_records_tasks_slurm_killed_and_resubmits_only_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let body = format!("{SMALL}slurm:\n  points_per_task: 5\n");
+    let file = write_sweep(dir.path(), &body);
+    let path = fake_slurm(dir.path());
+    let sweep = |skip: &str| {
+        common::femu()
+            .args([
+                "sweep",
+                "--backend",
+                "slurm",
+                "--quiet",
+                "--poll",
+                "0.05",
+                "--cache-dir",
+            ])
+            .arg(dir.path().join("cache"))
+            .arg(&file)
+            .env("PATH", &path)
+            .env("FAKE_SKIP_TASK", skip)
+            .output()
+            .unwrap()
+    };
+    // 12 points in tasks of 5: task 1 (points 5..10) is "killed".
+    let first = sweep("1");
+    let text = String::from_utf8_lossy(&first.stdout);
+    assert_eq!(first.status.code(), Some(1), "{text}");
+    assert!(text.contains("7 points run, 5 failed"), "{text}");
+    assert!(
+        text.contains("Slurm ended task 1 as TIMEOUT (exit 0:15)"),
+        "{text}"
+    );
+    assert!(text.contains("collected 7 points"), "{text}");
+    let status = common::femu()
+        .args(["sweep", "status", "--cache-dir"])
+        .arg(dir.path().join("cache"))
+        .arg(&file)
+        .env("PATH", &path)
+        .output()
+        .unwrap();
+    let st = String::from_utf8_lossy(&status.stdout);
+    assert!(
+        st.contains("7 done, 0 running, 5 failed, 0 pending"),
+        "{st}"
+    );
+    // The rerun submits the five failed points only, in one task.
+    let second = sweep("none");
+    let text = String::from_utf8_lossy(&second.stdout);
+    assert_eq!(second.status.code(), Some(0), "{text}");
+    assert!(
+        text.contains("submitted 5 points in 1 array tasks"),
+        "{text}"
+    );
+    assert!(text.contains("collected 12 points"), "{text}");
+    // The same table as the local backend's.
+    let local_dir = tempfile::tempdir().unwrap();
+    let (r, _, cache, state) = run_sweep(local_dir.path(), &body, 2);
+    let local = collect(&r, &state, &cache, &local_dir.path().join("out")).unwrap();
+    let slurm = std::fs::read(
+        dir.path()
+            .join("cache/sweeps/sweep/collected/collected.parquet"),
+    )
+    .unwrap();
+    assert_eq!(std::fs::read(&local.path).unwrap(), slurm);
+}

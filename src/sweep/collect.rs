@@ -606,6 +606,13 @@ pub fn collect(
             append(&mut cols[slot].1, c, &name)?;
         }
     }
+    if points == 0 {
+        return Err(SweepError::Collect(format!(
+            "no point of {} is finished yet; run `femu sweep {}` first",
+            sweep.name(),
+            sweep.file
+        )));
+    }
     let total_rows = point_col.len();
     let mut table = Table::new().with("point", Column::Str(point_col));
     for (p, vals) in resolved.expansion.params.iter().zip(&param_vals) {

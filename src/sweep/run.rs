@@ -265,6 +265,7 @@ pub fn run_local(
             source,
         })?;
     let bar = progress_bar(opts.progress, todo.len());
+    let step = todo.len().div_ceil(10).max(1);
     let mut queue = todo.iter();
     let mut running: Vec<(Child, &super::PlannedPoint)> = Vec::new();
     loop {
@@ -309,8 +310,17 @@ pub fn run_local(
                         }
                         report.failed.push((p.point.name.clone(), msg));
                     }
-                    if let Some(b) = &bar {
-                        b.inc(1);
+                    let finished = report.ran + report.failed.len();
+                    match &bar {
+                        Some(b) => b.inc(1),
+                        // Plain lines at every tenth of the way, for logs.
+                        None if opts.progress && finished % step == 0 => eprintln!(
+                            "[femu] {finished}/{} points ({} failed), {:.1} s",
+                            todo.len(),
+                            report.failed.len(),
+                            t0.elapsed().as_secs_f64()
+                        ),
+                        None => {}
                     }
                 }
             }
