@@ -83,7 +83,7 @@ pub fn run_point(
         Ok(report) => {
             // The point's lock file keeps its entries through `femu cache gc`.
             let lock = LockFile::from_run(&planned.plan, &report);
-            let lock_name = format!("{}@{}", planned.plan.name, point_file_name(point));
+            let lock_name = format!("{}@{}", sweep.name(), point_file_name(point));
             if let Err(e) = lock.write(&cache.lock_path(&lock_name)) {
                 status.message = Some(format!("warning: lock file not written: {e}"));
             }
