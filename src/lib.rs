@@ -21,6 +21,7 @@ pub mod fe;
 pub mod frf;
 pub mod model;
 pub mod pipeline;
+pub mod reduction;
 pub mod report;
 pub mod sensitivity;
 pub mod stages;

@@ -83,6 +83,11 @@ fn four_dof_matches_its_golden_artefacts() {
 }
 
 #[test]
+fn four_dof_rfm_matches_its_golden_artefacts() {
+    check_pipeline("four-dof-rfm");
+}
+
+#[test]
 fn structures_modes_match_their_golden_artefacts() {
     check_pipeline("structures-modes");
 }

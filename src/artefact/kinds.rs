@@ -97,31 +97,7 @@ pub fn matrices_from_artefact(a: &Artefact) -> Result<SystemMatrices, ArtefactEr
     expect_kind(a, kind)?;
     let dofs = parse_dofs(kind, "dofs", a.table("dofs")?.strs("dofs", "dof")?)?;
     let n = dofs.len();
-    let read = |name: &'static str| -> Result<Option<_>, ArtefactError> {
-        let Some((t, _)) = a.tables.get(name) else {
-            return Ok(None);
-        };
-        let (r, c, v) = (
-            t.i64s(name, "row")?,
-            t.i64s(name, "col")?,
-            t.f64s(name, "value")?,
-        );
-        let trip: Vec<(usize, usize, f64)> = r
-            .iter()
-            .zip(c)
-            .zip(v)
-            .map(|((r, c), v)| {
-                (
-                    usize::try_from(*r).unwrap_or(usize::MAX),
-                    usize::try_from(*c).unwrap_or(usize::MAX),
-                    *v,
-                )
-            })
-            .collect();
-        sparse_from_triplets(name, n, &trip)
-            .map(Some)
-            .map_err(|e| ArtefactError::schema(kind, e.to_string()))
-    };
+    let read = |name: &str| read_matrix(a, name, n);
     let sys = SystemMatrices {
         k: read("K")?.ok_or_else(|| ArtefactError::schema(kind, "no stiffness table `K`"))?,
         m: read("M")?.ok_or_else(|| ArtefactError::schema(kind, "no mass table `M`"))?,
@@ -132,6 +108,104 @@ pub fn matrices_from_artefact(a: &Artefact) -> Result<SystemMatrices, ArtefactEr
     sys.validate()
         .map_err(|e| ArtefactError::schema(kind, e.to_string()))?;
     Ok(sys)
+}
+
+/// The matrix table `name` of a matrices artefact with `n` DOFs, if present.
+fn read_matrix(
+    a: &Artefact,
+    name: &str,
+    n: usize,
+) -> Result<Option<crate::fe::system::SparseMatrix>, ArtefactError> {
+    let Some((t, _)) = a.tables.get(name) else {
+        return Ok(None);
+    };
+    let (r, c, v) = (
+        t.i64s(name, "row")?,
+        t.i64s(name, "col")?,
+        t.f64s(name, "value")?,
+    );
+    let trip: Vec<(usize, usize, f64)> = r
+        .iter()
+        .zip(c)
+        .zip(v)
+        .map(|((r, c), v)| {
+            (
+                usize::try_from(*r).unwrap_or(usize::MAX),
+                usize::try_from(*c).unwrap_or(usize::MAX),
+                *v,
+            )
+        })
+        .collect();
+    sparse_from_triplets("matrix", n, &trip)
+        .map(Some)
+        .map_err(|e| ArtefactError::schema(ArtefactKind::Matrices, format!("table `{name}`: {e}")))
+}
+
+/// Parameters that enter a matrices artefact linearly (meta `parameters` with `linear: true`,
+/// as `model.lumped` writes them) with their `dK__<name>`, `dM__<name>` tables.
+#[allow(clippy::type_complexity)]
+pub fn linear_parameters_from_matrices(
+    a: &Artefact,
+    n: usize,
+) -> Result<
+    Vec<(
+        crate::updating::UpdatingParameter,
+        crate::fe::system::SparseMatrix,
+        crate::fe::system::SparseMatrix,
+    )>,
+    ArtefactError,
+> {
+    let kind = ArtefactKind::Matrices;
+    let Some(list) = a.meta.get("parameters") else {
+        return Ok(Vec::new());
+    };
+    let list: Vec<serde_json::Value> = serde_json::from_value(list.clone())
+        .map_err(|e| ArtefactError::schema(kind, format!("meta `parameters`: {e}")))?;
+    let mut out = Vec::new();
+    for v in list {
+        #[derive(serde::Deserialize)]
+        struct Entry {
+            name: String,
+            value: f64,
+            lower: f64,
+            upper: f64,
+            linear: bool,
+        }
+        let e: Entry = serde_json::from_value(v)
+            .map_err(|e| ArtefactError::schema(kind, format!("meta `parameters`: {e}")))?;
+        if !e.linear {
+            return Err(ArtefactError::schema(
+                kind,
+                format!(
+                    "parameter `{}` does not enter the matrices linearly: update the model it came from (the mesh) instead",
+                    e.name
+                ),
+            ));
+        }
+        let zero = || {
+            sparse_from_triplets("zero", n, &[])
+                .map_err(|x| ArtefactError::schema(kind, x.to_string()))
+        };
+        let dk = match read_matrix(a, &format!("dK__{}", e.name), n)? {
+            Some(m) => m,
+            None => zero()?,
+        };
+        let dm = match read_matrix(a, &format!("dM__{}", e.name), n)? {
+            Some(m) => m,
+            None => zero()?,
+        };
+        out.push((
+            crate::updating::UpdatingParameter {
+                name: e.name,
+                initial: e.value,
+                lower: e.lower,
+                upper: e.upper,
+            },
+            dk,
+            dm,
+        ));
+    }
+    Ok(out)
 }
 
 /// Modes with their DOF labels.
@@ -456,7 +530,7 @@ pub struct TableLayout {
     pub columns: Vec<ColumnLayout>,
 }
 
-const fn col(
+pub(crate) const fn col(
     name: &'static str,
     dtype: &'static str,
     unit: &'static str,
@@ -595,6 +669,7 @@ pub fn layout(kind: ArtefactKind) -> Vec<TableLayout> {
             ),
         ],
         ArtefactKind::Plot => vec![],
+        ArtefactKind::Partition | ArtefactKind::ReducedModel => super::reduced::layout(kind),
         ArtefactKind::Mesh => vec![
             t(
                 "nodes",
@@ -651,6 +726,100 @@ pub fn layout(kind: ArtefactKind) -> Vec<TableLayout> {
                 vec![
                     col("set", "string", "", "set name"),
                     col("element", "int64", "", "element id"),
+                ],
+            ),
+        ],
+        ArtefactKind::UpdateResult => vec![
+            t(
+                "parameters",
+                "parquet",
+                true,
+                vec![
+                    col("parameter", "string", "", "parameter name"),
+                    col("initial", "float64", "SI", "value in the initial model"),
+                    col("final", "float64", "SI", "updated value"),
+                    col("relative_change", "float64", "", "final/initial - 1"),
+                    col("lower", "float64", "SI", "lower bound"),
+                    col("upper", "float64", "SI", "upper bound"),
+                ],
+            ),
+            t(
+                "iterations",
+                "parquet",
+                true,
+                vec![
+                    col("iteration", "int64", "", "0 = initial model"),
+                    col("lines_used", "int64", "", "updating lines (or modes) used"),
+                    col(
+                        "mean_chi_s",
+                        "float64",
+                        "",
+                        "mean shape correlation, all lines",
+                    ),
+                    col("mean_chi_a", "float64", "", "mean amplitude correlation"),
+                    col("mean_chi", "float64", "", "mean (chi_s + chi_a)/2 (4.23)"),
+                    col(
+                        "residual_norm",
+                        "float64",
+                        "",
+                        "norm of the weighted residual",
+                    ),
+                    col("condition", "float64", "", "condition number of S"),
+                    col(
+                        "condition_limit",
+                        "float64",
+                        "",
+                        "kappa_mn of subset selection",
+                    ),
+                    col("active_count", "int64", "", "parameters updated"),
+                ],
+            ),
+            t(
+                "history",
+                "parquet",
+                true,
+                vec![
+                    col("iteration", "int64", "", "iteration"),
+                    col("parameter", "string", "", "parameter name"),
+                    col(
+                        "value",
+                        "float64",
+                        "SI",
+                        "value at the start of the iteration",
+                    ),
+                    col("relative_change", "float64", "", "relative change applied"),
+                    col("active", "int64", "", "1 when updated in this iteration"),
+                ],
+            ),
+            t(
+                "singular_values",
+                "parquet",
+                true,
+                vec![
+                    col("iteration", "int64", "", "iteration"),
+                    col("index", "int64", "", "from 1, descending values"),
+                    col("value", "float64", "", "singular value of weighted S"),
+                ],
+            ),
+            t(
+                "directions",
+                "parquet",
+                true,
+                vec![
+                    col("iteration", "int64", "", "iteration"),
+                    col(
+                        "direction",
+                        "string",
+                        "",
+                        "weakest_0, or null_k for the null space",
+                    ),
+                    col("parameter", "string", "", "parameter name"),
+                    col(
+                        "component",
+                        "float64",
+                        "",
+                        "component of the unit direction",
+                    ),
                 ],
             ),
         ],

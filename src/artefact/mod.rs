@@ -14,7 +14,9 @@ pub mod digest;
 mod hdf5_codec;
 pub mod kinds;
 pub mod mesh;
+pub mod reduced;
 mod table;
+pub mod update;
 
 pub use table::{Column, Storage, Table, TableError};
 
@@ -36,17 +38,26 @@ pub enum ArtefactKind {
     Plot,
     /// A finite-element model: nodes, elements, properties, constraints, sets, parameters.
     Mesh,
+    /// An updating run: parameter history, correlation, diagnostics of `S`, final values.
+    UpdateResult,
+    /// Substructures of a model: their elements, junction and internal DOFs, boundaries.
+    Partition,
+    /// A component-mode-synthesis model: reduced `K`, `M`, transformations, derivatives.
+    ReducedModel,
 }
 
 impl ArtefactKind {
     /// All kinds.
-    pub const ALL: [ArtefactKind; 6] = [
+    pub const ALL: [ArtefactKind; 9] = [
         ArtefactKind::Matrices,
         ArtefactKind::Modes,
         ArtefactKind::Frf,
         ArtefactKind::Correlation,
         ArtefactKind::Plot,
         ArtefactKind::Mesh,
+        ArtefactKind::UpdateResult,
+        ArtefactKind::Partition,
+        ArtefactKind::ReducedModel,
     ];
 
     /// The name used in files and port declarations.
@@ -58,6 +69,9 @@ impl ArtefactKind {
             ArtefactKind::Correlation => "correlation",
             ArtefactKind::Plot => "plot",
             ArtefactKind::Mesh => "mesh",
+            ArtefactKind::UpdateResult => "update_result",
+            ArtefactKind::Partition => "partition",
+            ArtefactKind::ReducedModel => "reduced_model",
         }
     }
 

@@ -220,6 +220,85 @@ pub fn assemble_model(
     })
 }
 
+/// The DOFs to which element `e` gives stiffness or mass (non-zero diagonal), unconstrained or
+/// not: exactly the DOFs it adds to an assembly's free set.
+pub fn element_dofs(
+    model: &Model,
+    id: u64,
+    e: &Element,
+    mass: MassKind,
+) -> Result<Vec<crate::core::DofId>, ModelAssemblyError> {
+    let m = element_matrices(model, e, mass).map_err(|source| ModelAssemblyError::Element {
+        element: id,
+        kind: e.type_name(),
+        source,
+    })?;
+    let mut out = Vec::new();
+    for (b, node) in block_nodes(e).into_iter().enumerate() {
+        for (c, comp) in crate::core::Component::ALL.into_iter().enumerate() {
+            let i = 6 * b + c;
+            if i < m.k.nrows() && (m.k[(i, i)] != 0.0 || m.m[(i, i)] != 0.0) {
+                out.push(crate::core::DofId::new(node, comp));
+            }
+        }
+    }
+    Ok(out)
+}
+
+/// Assembles `K` and `M` of only the elements `ids` of `model` over the DOFs of their nodes
+/// (a substructure, THEORY §9): constraints of the model apply, DOFs without stiffness and mass
+/// in these elements are dropped. Element ids absent from the model are an error.
+pub fn assemble_elements(
+    model: &Model,
+    ids: &[u64],
+    mass: MassKind,
+) -> Result<(SystemMatrices, AssemblyInfo), ModelAssemblyError> {
+    model.validate()?;
+    if ids.is_empty() {
+        return Err(ModelAssemblyError::Empty);
+    }
+    let mut elements: Vec<(u64, &Element)> = Vec::with_capacity(ids.len());
+    for id in ids {
+        let e = model.elements.get(id).ok_or_else(|| {
+            ModelAssemblyError::Model(ModelError::MissingSetElement {
+                set: "substructure".into(),
+                element: *id,
+            })
+        })?;
+        elements.push((*id, e));
+    }
+    let node_ids: Vec<u64> = elements
+        .iter()
+        .flat_map(|(_, e)| e.nodes())
+        .collect::<BTreeSet<u64>>()
+        .into_iter()
+        .collect();
+    let index = node_index(&node_ids);
+    let lists: Vec<Vec<usize>> = elements
+        .iter()
+        .map(|(_, e)| block_nodes(e).iter().map(|n| index[n]).collect())
+        .collect();
+    let constraints: BTreeSet<_> = model
+        .constraints
+        .iter()
+        .filter(|d| index.contains_key(&d.node))
+        .copied()
+        .collect();
+    assemble(&node_ids, &lists, &constraints, |i| {
+        let (id, e) = elements[i];
+        let matrices =
+            element_matrices(model, e, mass).map_err(|source| ModelAssemblyError::Element {
+                element: id,
+                kind: e.type_name(),
+                source,
+            })?;
+        Ok(Contribution {
+            nodes: lists[i].clone(),
+            matrices,
+        })
+    })
+}
+
 /// `∂K/∂φ` and `∂M/∂φ` of one updating parameter over the free DOFs `dofs` of an assembled
 /// system (THEORY §2, 2.13–2.16): only the elements of the parameter's set are evaluated, each by
 /// its kernel's exact derivative, so no part of the model is assembled again. For a CONM2 mass a
@@ -230,13 +309,6 @@ pub fn parameter_derivative(
     dofs: &[crate::core::DofId],
     mass: MassKind,
 ) -> Result<(super::system::SparseMatrix, super::system::SparseMatrix), ModelAssemblyError> {
-    use super::beam::{BeamParameter, beam2_derivative};
-    use super::lumped_elements::{MassParameter, conm2_derivative, spring6_derivative};
-    use super::shell::{ShellParameter, quad4_derivative, tria3_derivative};
-    use crate::core::Component;
-    use crate::model::ParameterKind as P;
-    let index: std::collections::HashMap<crate::core::DofId, usize> =
-        dofs.iter().enumerate().map(|(i, d)| (*d, i)).collect();
     let ids = model.sets.get(&parameter.set).ok_or_else(|| {
         ModelAssemblyError::Model(ModelError::MissingSet {
             parameter: parameter.name.clone(),
@@ -244,6 +316,25 @@ pub fn parameter_derivative(
             known: model.sets.keys().cloned().collect::<Vec<_>>().join(", "),
         })
     })?;
+    elements_parameter_derivative(model, parameter, ids, dofs, mass)
+}
+
+/// [`parameter_derivative`] restricted to the elements `ids` of the parameter's set (for a
+/// substructure: the set's elements that lie in it), over the DOFs `dofs`.
+pub fn elements_parameter_derivative(
+    model: &Model,
+    parameter: &crate::model::Parameter,
+    ids: &[u64],
+    dofs: &[crate::core::DofId],
+    mass: MassKind,
+) -> Result<(super::system::SparseMatrix, super::system::SparseMatrix), ModelAssemblyError> {
+    use super::beam::{BeamParameter, beam2_derivative};
+    use super::lumped_elements::{MassParameter, conm2_derivative, spring6_derivative};
+    use super::shell::{ShellParameter, quad4_derivative, tria3_derivative};
+    use crate::core::Component;
+    use crate::model::ParameterKind as P;
+    let index: std::collections::HashMap<crate::core::DofId, usize> =
+        dofs.iter().enumerate().map(|(i, d)| (*d, i)).collect();
     let (mut kt, mut mt) = (Vec::new(), Vec::new());
     for id in ids {
         let Some(e) = model.elements.get(id) else {

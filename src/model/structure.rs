@@ -184,7 +184,7 @@ impl Element {
 }
 
 /// What an updating parameter changes (THEORY §2).
-#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize, schemars::JsonSchema)]
 #[serde(rename_all = "snake_case")]
 pub enum ParameterKind {
     /// Shell thickness of the set's shell elements.

@@ -96,12 +96,18 @@ impl ModalFrfModel<'_> {
 
 /// `∂H/∂φ` per parameter (`N_f × N_pairs` each, in `quantity`) of the modal FRF, from each
 /// parameter's projected derivative (scale it by `φ` first for unity-based sensitivities).
+///
+/// `shape_corrections`, one `rows × m` matrix per parameter over the rows of
+/// `model.shapes`, adds the truncated modes' share of each mode-shape derivative
+/// (`∂φ_r += ρ_r`, see [`static_shape_correction`]); without it the derivatives are those of
+/// the truncated expansion alone (the thesis's form).
 pub fn frf_sensitivities(
     model: &ModalFrfModel<'_>,
     pairs: &[FrfPair],
     freqs_hz: &[f64],
     quantity: Quantity,
     derivatives: &[ProjectedDerivative],
+    shape_corrections: Option<&[Mat<f64>]>,
 ) -> Result<Vec<Mat<c64>>, ModalError> {
     let m = model.eigenvalues.len();
     model.damping.check(m)?;
@@ -114,7 +120,9 @@ pub fn frf_sensitivities(
     // Frequency-independent coefficients [g | f], one row per (parameter, pair).
     let blocks: Vec<Mat<f64>> = derivatives
         .par_iter()
-        .map(|d| {
+        .enumerate()
+        .map(|(p, d)| {
+            let rho = shape_corrections.and_then(|c| c.get(p));
             let dl = eigenvalue_sensitivity(lambda, d);
             // c_sr with s the row, r the column; zero inside a cluster (off the diagonal).
             let c = Mat::from_fn(m, m, |s, r| {
@@ -136,6 +144,9 @@ pub fn frf_sensitivities(
                         uj += c[(s, r)] * phi[(j, s)];
                     }
                     coef[(q, r)] = ui * phi[(j, r)] + phi[(i, r)] * uj;
+                    if let Some(rho) = rho {
+                        coef[(q, r)] += rho[(i, r)] * phi[(j, r)] + phi[(i, r)] * rho[(j, r)];
+                    }
                     coef[(q, m + r)] = phi[(i, r)] * phi[(j, r)] * dl[r];
                 }
             }
@@ -199,6 +210,33 @@ pub fn frf_sensitivities(
         })
         .collect();
     Ok(out)
+}
+
+/// The truncated modes' share of each mode-shape derivative at chosen DOFs (Wang's static
+/// correction of the modal method): for mode `r`,
+/// `ρ_r = −[(K − σM)⁻¹ − Σ_s φ_s φ_sᵀ/(λ_s − σ)] (∂K − λ_r ∂M) φ_r`, the sum over the kept
+/// modes, since `Σ_{s not kept} φ_s c_sr ≈ −Σ_{s not kept} φ_s φ_sᵀ(∂K − λ_r∂M)φ_r / λ_s` for
+/// `λ_s ≫ λ_r`. At DOF row `i`, with `x_i = (K − σM)⁻¹ e_i`:
+/// `ρ_ir = −x_iᵀ(∂K − λ_r ∂M)φ_r + Σ_s φ_is (P^K_sr − λ_r P^M_sr)/(λ_s − σ)`.
+/// `cross_k`, `cross_m` are `Xᵀ ∂K Φ`, `Xᵀ ∂M Φ` (`rows × m`), `shapes` the kept modes at the
+/// same rows; all derivatives scaled alike.
+pub fn static_shape_correction(
+    eigenvalues: &[f64],
+    shift: f64,
+    shapes: MatRef<'_, f64>,
+    cross_k: MatRef<'_, f64>,
+    cross_m: MatRef<'_, f64>,
+    d: &ProjectedDerivative,
+) -> Mat<f64> {
+    let m = eigenvalues.len();
+    Mat::from_fn(shapes.nrows(), m, |i, r| {
+        let lr = eigenvalues[r];
+        let mut v = -(cross_k[(i, r)] - lr * cross_m[(i, r)]);
+        for s in 0..m {
+            v += shapes[(i, s)] * (d.k[(s, r)] - lr * d.m[(s, r)]) / (eigenvalues[s] - shift);
+        }
+        v
+    })
 }
 
 /// Exact damping sensitivities per mode (6.8, 6.11), `N_f × N_pairs` each, in `quantity`:
@@ -355,7 +393,8 @@ mod tests {
                         dofs: &n_dofs,
                         damping,
                     };
-                    let s = frf_sensitivities(&model, &pairs, &freqs, quantity, &[d]).unwrap();
+                    let s =
+                        frf_sensitivities(&model, &pairs, &freqs, quantity, &[d], None).unwrap();
                     let h = 1e-3;
                     let eval = |sign: f64| {
                         let (mut ms, mut ks) = (masses, springs);
@@ -416,6 +455,7 @@ mod tests {
             &freqs,
             Quantity::Receptance,
             std::slice::from_ref(&d),
+            None,
         )
         .unwrap();
         for (kk, &f) in freqs.iter().enumerate() {

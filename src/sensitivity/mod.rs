@@ -8,4 +8,4 @@ pub mod projection;
 
 pub use correlation::{ChiSensitivity, chi_sensitivity};
 pub use frf::{ModalFrfModel, damping_sensitivities, frf_sensitivities, log_magnitude_sensitivity};
-pub use projection::{ProjectedDerivative, eigenvalue_sensitivity, project};
+pub use projection::{ProjectedDerivative, eigenvalue_sensitivity, project, project_between};

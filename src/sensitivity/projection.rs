@@ -97,6 +97,49 @@ pub fn project(a: &SparseMatrix, phi: MatRef<'_, f64>) -> Mat<f64> {
     out
 }
 
+/// `Lᵀ A R` for a sparse `A` (`N × N`) and dense `L` (`N × n`), `R` (`N × m`), over the support
+/// of `A` only (the cross projection of the static shape-derivative correction).
+pub fn project_between(
+    a: &SparseMatrix,
+    left: MatRef<'_, f64>,
+    right: MatRef<'_, f64>,
+) -> Mat<f64> {
+    let (n, m) = (left.ncols(), right.ncols());
+    let col_ptr = a.symbolic().col_ptr();
+    let row_idx = a.symbolic().row_idx();
+    let values = a.val();
+    let mut out = Mat::<f64>::zeros(n, m);
+    // (A R) row by row of the support, accumulated column by column of A, then Lᵀ on the left.
+    let mut slot = vec![usize::MAX; a.nrows()];
+    let mut rows = Vec::new();
+    for j in 0..a.ncols() {
+        for &i in &row_idx[col_ptr[j]..col_ptr[j + 1]] {
+            if slot[i] == usize::MAX {
+                slot[i] = rows.len();
+                rows.push(i);
+            }
+        }
+    }
+    if rows.is_empty() {
+        return out;
+    }
+    let mut ar = Mat::<f64>::zeros(rows.len(), m);
+    for j in 0..a.ncols() {
+        for c in 0..m {
+            let rj = right[(j, c)];
+            if rj == 0.0 {
+                continue;
+            }
+            for k in col_ptr[j]..col_ptr[j + 1] {
+                ar[(slot[row_idx[k]], c)] += values[k] * rj;
+            }
+        }
+    }
+    let l = Mat::from_fn(rows.len(), n, |r, c| left[(rows[r], c)]);
+    out += l.transpose() * &ar;
+    out
+}
+
 /// `∂λ_r/∂φ = [Φᵀ ∂K Φ]_rr − λ_r [Φᵀ ∂M Φ]_rr` for every mode (5.3).
 pub fn eigenvalue_sensitivity(eigenvalues: &[f64], d: &ProjectedDerivative) -> Vec<f64> {
     eigenvalues

@@ -69,6 +69,32 @@ pub enum Damping {
     },
 }
 
+impl Damping {
+    /// The modal damping it describes (Rayleigh, a direct-only model, gives none).
+    pub fn modal(&self) -> ModalDamping {
+        match self {
+            Damping::None | Damping::Rayleigh { .. } => ModalDamping::None,
+            Damping::Structural(v) => ModalDamping::Structural(v.values()),
+            Damping::Viscous(v) => ModalDamping::Viscous(v.values()),
+        }
+    }
+
+    /// The damping added to a direct solution (a per-mode or viscous value is modal-only).
+    pub fn direct(&self) -> DirectDamping {
+        match self {
+            Damping::Structural(v) => DirectDamping {
+                structural_eta: v.values().first().copied().unwrap_or(0.0),
+                rayleigh: None,
+            },
+            Damping::Rayleigh { alpha, beta } => DirectDamping {
+                structural_eta: 0.0,
+                rayleigh: Some((*alpha, *beta)),
+            },
+            _ => DirectDamping::default(),
+        }
+    }
+}
+
 /// Parameters of `frf.synthesise`.
 #[derive(Clone, Debug, serde::Deserialize, serde::Serialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
@@ -263,28 +289,19 @@ impl TypedStage for FrfSynthesise {
                     modes.residuals.truncate(c);
                     modes.shapes = modes.shapes.subcols(0, c).to_owned();
                 }
-                let damping = match &p.damping {
-                    Damping::None | Damping::Rayleigh { .. } => ModalDamping::None,
-                    Damping::Structural(v) => ModalDamping::Structural(v.values()),
-                    Damping::Viscous(v) => ModalDamping::Viscous(v.values()),
-                };
-                modal_receptance(&modes, &m.dofs, &damping, &pairs, &lines, p.quantity)
-                    .map_err(StageError::failed)?
+                modal_receptance(
+                    &modes,
+                    &m.dofs,
+                    &p.damping.modal(),
+                    &pairs,
+                    &lines,
+                    p.quantity,
+                )
+                .map_err(StageError::failed)?
             }
             _ => {
                 let sys = matrices_from_artefact(inputs.require("model")?)?;
-                let damping = match &p.damping {
-                    Damping::Structural(v) => DirectDamping {
-                        structural_eta: v.values()[0],
-                        rayleigh: None,
-                    },
-                    Damping::Rayleigh { alpha, beta } => DirectDamping {
-                        structural_eta: 0.0,
-                        rayleigh: Some((*alpha, *beta)),
-                    },
-                    _ => DirectDamping::default(),
-                };
-                direct_receptance(&sys, &damping, &pairs, &lines, p.quantity)
+                direct_receptance(&sys, &p.damping.direct(), &pairs, &lines, p.quantity)
                     .map_err(StageError::failed)?
             }
         };

@@ -7,10 +7,17 @@ pub mod frf_import;
 pub mod frf_synthesise;
 pub mod mesh_generate;
 pub mod mesh_import;
+pub mod mesh_parameters;
 pub mod model_lumped;
+pub mod model_partition;
 pub mod modes;
 pub mod noise_add;
 pub mod plot_frf;
+pub mod update;
+pub mod reduce_common;
+pub mod reduce_craig_bampton;
+pub mod reduce_force_coupling;
+pub mod reduce_free_interface;
 
 use crate::pipeline::{Registry, Stage, Typed};
 
@@ -23,13 +30,20 @@ static FRF_SYNTHESISE: Typed<frf_synthesise::FrfSynthesise> = Typed::new();
 static NOISE_ADD: Typed<noise_add::NoiseAdd> = Typed::new();
 static CORRELATE_FRF: Typed<correlate_frf::CorrelateFrf> = Typed::new();
 static MESH_GENERATE: Typed<mesh_generate::MeshGenerate> = Typed::new();
+static MESH_PARAMETERS: Typed<mesh_parameters::MeshParameters> = Typed::new();
 static PLOT_FRF: Typed<plot_frf::PlotFrf> = Typed::new();
+static UPDATE: Typed<update::Update> = Typed::new();
+static MODEL_PARTITION: Typed<model_partition::ModelPartition> = Typed::new();
+static REDUCE_CB: Typed<reduce_craig_bampton::ReduceCraigBampton> = Typed::new();
+static REDUCE_FI: Typed<reduce_free_interface::ReduceFreeInterface> = Typed::new();
+static REDUCE_FC: Typed<reduce_force_coupling::ReduceForceCoupling> = Typed::new();
 
 /// Every stage kind femu knows.
 pub fn registry() -> Registry {
     let all: Vec<&'static dyn Stage> = vec![
         &MESH_GENERATE,
         &MESH_IMPORT,
+        &MESH_PARAMETERS,
         &MODEL_LUMPED,
         &ASSEMBLE,
         &MODES,
@@ -38,6 +52,11 @@ pub fn registry() -> Registry {
         &NOISE_ADD,
         &CORRELATE_FRF,
         &PLOT_FRF,
+        &UPDATE,
+        &MODEL_PARTITION,
+        &REDUCE_CB,
+        &REDUCE_FI,
+        &REDUCE_FC,
     ];
     Registry::new(all)
 }

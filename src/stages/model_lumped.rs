@@ -2,9 +2,10 @@
 //! the YAML itself, assembled into system matrices.
 
 use crate::artefact::ArtefactKind;
-use crate::artefact::kinds::matrices_to_artefact;
+use crate::artefact::Storage;
+use crate::artefact::kinds::{matrices_to_artefact, triplet_table};
 use crate::core::DofId;
-use crate::fe::lumped::assemble_lumped;
+use crate::fe::lumped::{LumpedTarget, assemble_lumped, lumped_derivative};
 use crate::model::{LumpedMass, LumpedModel, LumpedSpring};
 use crate::pipeline::{
     CheckContext, ParamIssue, PortSpec, StageError, StageInputs, StageOutputs, TypedStage,
@@ -43,6 +44,26 @@ pub struct SpringSpec {
     pub d: f64,
 }
 
+/// An updating parameter of a lumped model: the value of one mass or one spring's stiffness.
+#[derive(Clone, Debug, serde::Deserialize, serde::Serialize, schemars::JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct ParameterSpec {
+    /// Name (letters, digits, `_`, `-`), unique.
+    pub name: String,
+    /// The mass at this DOF.
+    #[serde(default)]
+    pub mass: Option<DofId>,
+    /// The spring at this position in `springs` (from 1).
+    #[serde(default)]
+    pub spring: Option<usize>,
+    /// Lowest allowed value (default: a thousandth of the initial value).
+    #[serde(default)]
+    pub lower: Option<f64>,
+    /// Highest allowed value (default: a thousand times the initial value).
+    #[serde(default)]
+    pub upper: Option<f64>,
+}
+
 /// Parameters of `model.lumped`.
 #[derive(Clone, Debug, serde::Deserialize, serde::Serialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
@@ -52,6 +73,25 @@ pub struct Params {
     /// Springs between DOFs or to ground.
     #[serde(default)]
     pub springs: Vec<SpringSpec>,
+    /// Updating parameters; each writes its `dK__<name>`, `dM__<name>` (they enter linearly).
+    #[serde(default)]
+    pub parameters: Vec<ParameterSpec>,
+}
+
+impl ParameterSpec {
+    fn target(&self, p: &Params) -> Option<(LumpedTarget, f64)> {
+        match (self.mass, self.spring) {
+            (Some(d), None) => p
+                .masses
+                .iter()
+                .position(|m| m.dof == d)
+                .map(|i| (LumpedTarget::Mass(i), p.masses[i].m)),
+            (None, Some(s)) if s >= 1 && s <= p.springs.len() => {
+                Some((LumpedTarget::Spring(s - 1), p.springs[s - 1].k))
+            }
+            _ => None,
+        }
+    }
 }
 
 impl Params {
@@ -99,7 +139,7 @@ impl TypedStage for ModelLumped {
     const KIND: &'static str = "model.lumped";
     const SUMMARY: &'static str =
         "Lumped masses and springs (with optional dampers) assembled into K, M, C, D";
-    const IMPL_VERSION: u32 = 1;
+    const IMPL_VERSION: u32 = 2;
 
     fn inputs() -> Vec<PortSpec> {
         vec![]
@@ -139,6 +179,65 @@ impl TypedStage for ModelLumped {
                 ));
             }
         }
+        let mut names = BTreeSet::new();
+        for (i, q) in p.parameters.iter().enumerate() {
+            if q.name.is_empty()
+                || !q
+                    .name
+                    .chars()
+                    .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
+            {
+                issues.push(ParamIssue::at(
+                    &format!("parameters.{i}.name"),
+                    format!("`{}`: use letters, digits, `_` and `-`", q.name),
+                ));
+            }
+            if !names.insert(q.name.clone()) {
+                issues.push(ParamIssue::at(
+                    &format!("parameters.{i}.name"),
+                    format!("`{}` is used twice", q.name),
+                ));
+            }
+            match (q.mass, q.spring) {
+                (Some(_), Some(_)) | (None, None) => issues.push(ParamIssue::at(
+                    &format!("parameters.{i}"),
+                    "give `mass: <dof>` or `spring: <position from 1>`, one of them",
+                )),
+                _ => match q.target(p) {
+                    None if q.mass.is_some() => issues.push(ParamIssue::at(
+                        &format!("parameters.{i}.mass"),
+                        format!(
+                            "no mass at {}; masses are at {}",
+                            q.mass.map(|d| d.to_string()).unwrap_or_default(),
+                            p.masses
+                                .iter()
+                                .map(|m| m.dof.to_string())
+                                .collect::<Vec<_>>()
+                                .join(", ")
+                        ),
+                    )),
+                    None => issues.push(ParamIssue::at(
+                        &format!("parameters.{i}.spring"),
+                        format!(
+                            "{} is not a spring position: 1 to {}",
+                            q.spring.unwrap_or(0),
+                            p.springs.len()
+                        ),
+                    )),
+                    Some((_, v)) => {
+                        let (lo, hi) = (q.lower.unwrap_or(v * 1e-3), q.upper.unwrap_or(v * 1e3));
+                        if !(v > 0.0 && lo > 0.0 && lo <= v && v <= hi && hi.is_finite()) {
+                            issues.push(ParamIssue::at(
+                                &format!("parameters.{i}"),
+                                format!(
+                                    "the value {v} must be positive and lie within 0 < lower {lo} <= value <= upper {hi}"
+                                ),
+                            ));
+                        }
+                    }
+                },
+            }
+        }
         for (i, s) in p.springs.iter().enumerate() {
             check(&mut issues, format!("springs.{i}.k"), s.k);
             check(&mut issues, format!("springs.{i}.c"), s.c);
@@ -157,11 +256,33 @@ impl TypedStage for ModelLumped {
     }
 
     fn run(p: &Params, _: &StageInputs) -> Result<StageOutputs, StageError> {
-        let sys = assemble_lumped(&p.model()).map_err(StageError::failed)?;
-        Ok(StageOutputs::from([(
-            "model".to_string(),
-            matrices_to_artefact(&sys),
-        )]))
+        let model = p.model();
+        let sys = assemble_lumped(&model).map_err(StageError::failed)?;
+        let mut a = matrices_to_artefact(&sys);
+        let mut meta = Vec::new();
+        for q in &p.parameters {
+            let Some((target, value)) = q.target(p) else {
+                return Err(StageError::Failed(format!(
+                    "parameter `{}` names no mass or spring",
+                    q.name
+                )));
+            };
+            let (dk, dm) = lumped_derivative(&model, target).map_err(StageError::failed)?;
+            a = a
+                .with_table(&format!("dK__{}", q.name), triplet_table(&dk), Storage::Ipc)
+                .with_table(&format!("dM__{}", q.name), triplet_table(&dm), Storage::Ipc);
+            meta.push(serde_json::json!({
+                "name": q.name,
+                "value": value,
+                "lower": q.lower.unwrap_or(value * 1e-3),
+                "upper": q.upper.unwrap_or(value * 1e3),
+                "linear": true,
+            }));
+        }
+        if !meta.is_empty() {
+            a = a.with_meta("parameters", meta.into());
+        }
+        Ok(StageOutputs::from([("model".to_string(), a)]))
     }
 }
 

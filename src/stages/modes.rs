@@ -45,11 +45,14 @@ impl TypedStage for ModesStage {
     const IMPL_VERSION: u32 = 1;
 
     fn inputs() -> Vec<PortSpec> {
-        vec![PortSpec::required(
-            "model",
-            ArtefactKind::Matrices,
-            "system matrices K and M",
-        )]
+        vec![
+            PortSpec::optional("model", ArtefactKind::Matrices, "system matrices K and M"),
+            PortSpec::optional(
+                "reduced",
+                ArtefactKind::ReducedModel,
+                "a reduced (CMS) model instead of `model`: its modes are expanded to every physical DOF",
+            ),
+        ]
     }
 
     fn outputs() -> Vec<PortSpec> {
@@ -60,7 +63,7 @@ impl TypedStage for ModesStage {
         )]
     }
 
-    fn validate(p: &mut Params, _: &CheckContext) -> Vec<ParamIssue> {
+    fn validate(p: &mut Params, ctx: &CheckContext) -> Vec<ParamIssue> {
         let mut issues = Vec::new();
         if p.count.is_some() && p.max_freq_hz.is_some() {
             issues.push(ParamIssue::at(
@@ -85,10 +88,19 @@ impl TypedStage for ModesStage {
                 ));
             }
         }
+        if ctx.is_connected("model") == ctx.is_connected("reduced") {
+            issues.push(ParamIssue {
+                path: vec![],
+                message: "connect exactly one of the inputs `model` (matrices) and `reduced` (a reduced model)".into(),
+            });
+        }
         issues
     }
 
     fn run(p: &Params, inputs: &StageInputs) -> Result<StageOutputs, StageError> {
+        if let Some(r) = inputs.get("reduced") {
+            return run_reduced(p, r);
+        }
         let sys = matrices_from_artefact(inputs.require("model")?)?;
         if sys.n() > DENSE_LIMIT && p.count.is_none() && p.max_freq_hz.is_none() {
             return Err(StageError::Failed(format!(
@@ -120,6 +132,25 @@ impl TypedStage for ModesStage {
             modes_to_artefact(&sys.dofs, &modes),
         )]))
     }
+}
+
+/// Modes of a reduced model (dense, or sparse beyond 2000 coordinates), expanded to every
+/// physical DOF of the full model (`x = T_k q`), so downstream stages see full-model modes.
+fn run_reduced(p: &Params, a: &crate::artefact::Artefact) -> Result<StageOutputs, StageError> {
+    let r = crate::artefact::reduced::reduced_from_artefact(a)?;
+    let selection = match (p.count, p.max_freq_hz) {
+        (Some(c), _) => ModeSelection::Count(c),
+        (_, Some(f)) => ModeSelection::BelowHz(f),
+        _ => ModeSelection::All,
+    };
+    let modes = r.modes(selection).map_err(StageError::failed)?;
+    let (dofs, expanded) = r.expand_modes(&modes).map_err(StageError::failed)?;
+    let (phys, modal) = r.size();
+    let a = modes_to_artefact(&dofs, &expanded)
+        .with_meta("reduced_coords", r.n().into())
+        .with_meta("reduced_physical", phys.into())
+        .with_meta("reduced_modal", modal.into());
+    Ok(StageOutputs::from([("modes".to_string(), a)]))
 }
 
 #[cfg(test)]

@@ -317,4 +317,75 @@ impl ModalState {
             self.modes.shapes[(rows[i], r)]
         }))
     }
+
+    /// The static correction `ρ` of every mode-shape derivative at `dofs`, per parameter
+    /// (see [`crate::sensitivity::frf::static_shape_correction`]): one sparse Cholesky of
+    /// `K − σM` (`σ` a hundredth of the first elastic eigenvalue below zero, so free-free
+    /// models factor too) and one solve per DOF.
+    pub fn shape_corrections(
+        &self,
+        evaluated: &Evaluated,
+        values: &[f64],
+        dofs: &[DofId],
+    ) -> Result<Vec<Mat<f64>>, UpdatingError> {
+        use faer::Side;
+        use faer::linalg::solvers::Solve;
+        let sys = &evaluated.system;
+        let n = sys.n();
+        let first_elastic = self
+            .modes
+            .eigenvalues
+            .iter()
+            .copied()
+            .find(|l| *l > 0.0)
+            .unwrap_or(1.0);
+        let shift = -1e-2 * first_elastic;
+        let mut trip = Vec::new();
+        for (mat, f) in [(&sys.k, 1.0), (&sys.m, -shift)] {
+            for j in 0..n {
+                for (&i, &v) in mat.row_idx_of_col_raw(j).iter().zip(mat.val_of_col(j)) {
+                    if i >= j {
+                        trip.push(faer::sparse::Triplet::new(i, j, f * v));
+                    }
+                }
+            }
+        }
+        let a = SparseMatrix::try_new_from_triplets(n, n, &trip)
+            .map_err(|e| UpdatingError::Model(format!("K - sigma M: {e:?}")))?;
+        let llt = a.sp_cholesky(Side::Lower).map_err(|_| {
+            UpdatingError::Model(
+                "K - sigma M is not positive definite: the static correction needs a model without mechanisms"
+                    .into(),
+            )
+        })?;
+        let index = self.index();
+        let mut rhs = Mat::<f64>::zeros(n, dofs.len());
+        for (c, d) in dofs.iter().enumerate() {
+            let r = index.get(d).copied().ok_or_else(|| {
+                UpdatingError::Data(format!("DOF {d} is not a free DOF of the model"))
+            })?;
+            rhs[(r, c)] = 1.0;
+        }
+        let x = llt.solve(&rhs);
+        let shapes = self.shapes_at(dofs)?;
+        let phi = self.modes.shapes.as_ref();
+        Ok(evaluated
+            .derivatives
+            .par_iter()
+            .zip(values.par_iter())
+            .zip(self.projected.par_iter())
+            .map(|(((dk, dm), &v), d)| {
+                let ck = crate::sensitivity::project_between(dk, x.as_ref(), phi) * faer::Scale(v);
+                let cm = crate::sensitivity::project_between(dm, x.as_ref(), phi) * faer::Scale(v);
+                crate::sensitivity::frf::static_shape_correction(
+                    &self.modes.eigenvalues,
+                    shift,
+                    shapes.as_ref(),
+                    ck.as_ref(),
+                    cm.as_ref(),
+                    d,
+                )
+            })
+            .collect())
+    }
 }

@@ -40,6 +40,9 @@ pub struct PcSettings {
     pub modes: ModeSelection,
     /// Modal damping of the predictions.
     pub damping: ModalDamping,
+    /// Add the truncated modes' static share to the mode-shape derivatives (see
+    /// `sensitivity::frf::static_shape_correction`); off: the thesis's truncated form.
+    pub static_correction: bool,
 }
 
 impl Default for PcSettings {
@@ -53,6 +56,7 @@ impl Default for PcSettings {
             max_step: 1.0,
             modes: ModeSelection::All,
             damping: ModalDamping::None,
+            static_correction: true,
         }
     }
 }
@@ -196,12 +200,18 @@ impl UpdateMethod for PredictorCorrector<'_> {
             damping: &s.damping,
         };
         let freqs: Vec<f64> = chosen.iter().map(|&k| self.measured.freqs_hz[k]).collect();
+        let corrections = if s.static_correction {
+            Some(state.shape_corrections(&evaluated, values, &dofs)?)
+        } else {
+            None
+        };
         let sens = frf_sensitivities(
             &modal,
             &self.measured.pairs,
             &freqs,
             self.measured.quantity,
             &state.projected,
+            corrections.as_deref(),
         )?;
 
         // S and ε, rows weighted by W_f^{1/2} (4.21).

@@ -1,0 +1,174 @@
+//! The `update_result` artefact: an updating run as tables a user can plot without femu —
+//! per iteration and parameter the value and relative change and whether it was updated, per
+//! iteration the correlation and the conditioning of `S`, its singular values and null-space
+//! directions (THEORY §11), and per parameter the initial and final values.
+
+use super::{Artefact, ArtefactError, ArtefactKind, Column, Storage, Table};
+use crate::updating::UpdateHistory;
+
+const K: ArtefactKind = ArtefactKind::UpdateResult;
+
+/// An update history as an artefact; `method` names the method.
+pub fn update_result_to_artefact(h: &UpdateHistory, method: &str) -> Artefact {
+    let names: Vec<&str> = h.parameters.iter().map(|p| p.name.as_str()).collect();
+    let mut history = (Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    let mut sv = (Vec::new(), Vec::new(), Vec::new());
+    let mut null = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    for r in &h.iterations {
+        for (p, name) in names.iter().enumerate() {
+            history.0.push(r.iteration as i64);
+            history.1.push(name.to_string());
+            history.2.push(r.values[p]);
+            history.3.push(r.relative_change[p]);
+            history.4.push(r.active[p] as i64);
+        }
+        for (i, v) in r.diagnostics.singular_values.iter().enumerate() {
+            sv.0.push(r.iteration as i64);
+            sv.1.push(i as i64 + 1);
+            sv.2.push(*v);
+        }
+        let weakest = std::iter::once(("weakest", &r.diagnostics.weakest_direction));
+        let nulls = r.diagnostics.null_space.iter().map(|d| ("null", d));
+        for (k, (what, dir)) in weakest.chain(nulls).enumerate() {
+            for (p, v) in dir.iter().enumerate() {
+                null.0.push(r.iteration as i64);
+                null.1.push(format!("{what}_{k}"));
+                null.2.push(names.get(p).unwrap_or(&"").to_string());
+                null.3.push(*v);
+            }
+        }
+    }
+    let iterations = Table::new()
+        .with(
+            "iteration",
+            Column::I64(h.iterations.iter().map(|r| r.iteration as i64).collect()),
+        )
+        .with(
+            "lines_used",
+            Column::I64(h.iterations.iter().map(|r| r.lines_used as i64).collect()),
+        )
+        .with(
+            "mean_chi_s",
+            Column::F64(h.iterations.iter().map(|r| r.mean_chi_s).collect()),
+        )
+        .with(
+            "mean_chi_a",
+            Column::F64(h.iterations.iter().map(|r| r.mean_chi_a).collect()),
+        )
+        .with(
+            "mean_chi",
+            Column::F64(h.iterations.iter().map(|r| r.mean_chi()).collect()),
+        )
+        .with(
+            "residual_norm",
+            Column::F64(h.iterations.iter().map(|r| r.residual_norm).collect()),
+        )
+        .with(
+            "condition",
+            Column::F64(
+                h.iterations
+                    .iter()
+                    .map(|r| r.diagnostics.condition)
+                    .collect(),
+            ),
+        )
+        .with(
+            "condition_limit",
+            Column::F64(h.iterations.iter().map(|r| r.condition_limit).collect()),
+        )
+        .with(
+            "active_count",
+            Column::I64(
+                h.iterations
+                    .iter()
+                    .map(|r| r.active.iter().filter(|a| **a).count() as i64)
+                    .collect(),
+            ),
+        );
+    let parameters = Table::new()
+        .with(
+            "parameter",
+            Column::Str(names.iter().map(|s| s.to_string()).collect()),
+        )
+        .with(
+            "initial",
+            Column::F64(h.parameters.iter().map(|p| p.initial).collect()),
+        )
+        .with("final", Column::F64(h.final_values.clone()))
+        .with(
+            "relative_change",
+            Column::F64(
+                h.parameters
+                    .iter()
+                    .zip(&h.final_values)
+                    .map(|(p, v)| v / p.initial - 1.0)
+                    .collect(),
+            ),
+        )
+        .with(
+            "lower",
+            Column::F64(h.parameters.iter().map(|p| p.lower).collect()),
+        )
+        .with(
+            "upper",
+            Column::F64(h.parameters.iter().map(|p| p.upper).collect()),
+        );
+    let last = h.iterations.last();
+    Artefact::new(K)
+        .with_meta("method", method.into())
+        .with_meta(
+            "stop",
+            serde_json::to_value(h.stop).unwrap_or(serde_json::Value::Null),
+        )
+        .with_meta("iterations", (h.iterations.len().saturating_sub(1)).into())
+        .with_meta(
+            "final_mean_chi",
+            last.map(|r| r.mean_chi())
+                .filter(|v| v.is_finite())
+                .map(serde_json::Value::from)
+                .unwrap_or(serde_json::Value::Null),
+        )
+        .with_table("parameters", parameters, Storage::Parquet)
+        .with_table("iterations", iterations, Storage::Parquet)
+        .with_table(
+            "history",
+            Table::new()
+                .with("iteration", Column::I64(history.0))
+                .with("parameter", Column::Str(history.1))
+                .with("value", Column::F64(history.2))
+                .with("relative_change", Column::F64(history.3))
+                .with("active", Column::I64(history.4)),
+            Storage::Parquet,
+        )
+        .with_table(
+            "singular_values",
+            Table::new()
+                .with("iteration", Column::I64(sv.0))
+                .with("index", Column::I64(sv.1))
+                .with("value", Column::F64(sv.2)),
+            Storage::Parquet,
+        )
+        .with_table(
+            "directions",
+            Table::new()
+                .with("iteration", Column::I64(null.0))
+                .with("direction", Column::Str(null.1))
+                .with("parameter", Column::Str(null.2))
+                .with("component", Column::F64(null.3)),
+            Storage::Parquet,
+        )
+}
+
+/// Final value of each parameter, by name, from an `update_result`.
+pub fn final_values(a: &Artefact) -> Result<Vec<(String, f64)>, ArtefactError> {
+    if a.kind != K {
+        return Err(ArtefactError::schema(
+            a.kind,
+            format!("expected an `{}` artefact", K.name()),
+        ));
+    }
+    let t = a.table("parameters")?;
+    let names = t.strs("parameters", "parameter")?;
+    let values = t.f64s("parameters", "final")?;
+    Ok(names.iter().cloned().zip(values.iter().copied()).collect())
+}

@@ -1,0 +1,277 @@
+//! Free-interface component modes with residual flexibility, MacNeal (1971) / Rubin (1975)
+//! (thesis §3.5, 3.15–3.39, Appendix A.1).
+//!
+//! Free modes `Φ` of `(K, M)` of the whole substructure (3.32, 3.33), rigid-body modes `Φ_r`
+//! included. Attachment modes are columns of the flexibility `G = K⁻¹` (3.17); for a floating
+//! substructure `K` is singular and the elastic flexibility is used instead (3.22–3.25):
+//! hold `r` DOFs temporarily (`r` = rigid-body modes), invert the rest (`G` with zero rows and
+//! columns at the held DOFs), and filter with the inertia-relief projector
+//! `P = I − M Φ_r Φ_rᵀ`:  `G_e = Pᵀ G P`. `P` removes the rigid-body resultant of a load,
+//! `Pᵀ` the rigid-body part of a displacement, so `G_e = Σ_elastic φ φᵀ/λ` whatever DOFs were
+//! held (the Appendix A demonstration; tested). The held DOFs are chosen by pivoted
+//! Gram–Schmidt on the rows of `Φ_r`, so `Φ_r` restricted to them is well conditioned and the
+//! remaining stiffness is non-singular.
+//!
+//! Residual flexibility (3.29–3.31): `R = G_e − Φ_el Λ_el⁻¹ Φ_elᵀ` (kept elastic modes); only
+//! its junction columns `R_{:,j}` are formed (a sparse solve per junction DOF). Eliminating the
+//! junction forces with the junction rows (3.36) gives the transformation (3.37–3.39)
+//! `x_j = x_j`, `x_i = R_ij R_jj⁻¹ x_j + (Φ_i − R_ij R_jj⁻¹ Φ_j) q`.
+//!
+//! Complete limit: `R_jj` must stay non-singular, so at most `N_k − n_j` modes can be kept; with
+//! exactly that many, `[Φ, R_{:,j}]` spans the whole space (generically), `T` is square and the
+//! reduced model reproduces the full one (tested).
+
+use super::craig_bampton::split;
+use super::linalg::{SparseSpd, project, sparse_times_dense, sub_block, symmetrise};
+use super::{ComponentReduction, Coordinate, ReductionError, ReductionInfo};
+use crate::core::DofId;
+use crate::eigen::{ModeSelection, Modes, SparseEigenParams, lowest_modes};
+use crate::fe::SystemMatrices;
+use faer::{Mat, MatRef, Side};
+
+/// Free modes of a substructure, checked to hold some elastic mode.
+pub fn free_modes(
+    name: &str,
+    sys: &SystemMatrices,
+    modes: ModeSelection,
+    eigen: &SparseEigenParams,
+) -> Result<Modes, ReductionError> {
+    let (m, _) = lowest_modes(&sys.k, &sys.m, &sys.dofs, modes, eigen).map_err(|source| {
+        ReductionError::Eigen {
+            substructure: name.to_string(),
+            source,
+        }
+    })?;
+    let rigid = m.eigenvalues.iter().filter(|l| **l == 0.0).count();
+    if rigid == m.len() && m.len() < sys.n() {
+        return Err(ReductionError::OnlyRigidModes {
+            substructure: name.to_string(),
+            kept: m.len(),
+        });
+    }
+    Ok(m)
+}
+
+/// `r` row indices of `Φ_r` (`N × r`) chosen among `candidates` by pivoted Gram–Schmidt: each
+/// step takes the row with the largest part orthogonal to the rows already taken (ties: lowest
+/// index), so `Φ_r[held, :]` is as well conditioned as the candidates allow.
+pub fn choose_held_dofs(phi_r: MatRef<'_, f64>, candidates: &[usize]) -> Vec<usize> {
+    let r = phi_r.ncols();
+    let mut w: Vec<Vec<f64>> = candidates
+        .iter()
+        .map(|&i| (0..r).map(|c| phi_r[(i, c)]).collect())
+        .collect();
+    let mut held = Vec::with_capacity(r);
+    for _ in 0..r {
+        let (mut best, mut best_norm) = (usize::MAX, 0.0f64);
+        for (a, row) in w.iter().enumerate() {
+            let nrm: f64 = row.iter().map(|v| v * v).sum();
+            if nrm > best_norm * (1.0 + 1e-12) {
+                best = a;
+                best_norm = nrm;
+            }
+        }
+        if best == usize::MAX || best_norm == 0.0 {
+            break;
+        }
+        held.push(candidates[best]);
+        let v: Vec<f64> = w[best].iter().map(|x| x / best_norm.sqrt()).collect();
+        for row in w.iter_mut() {
+            let d: f64 = row.iter().zip(&v).map(|(a, b)| a * b).sum();
+            for (x, vv) in row.iter_mut().zip(&v) {
+                *x -= d * vv;
+            }
+        }
+    }
+    held.sort_unstable();
+    held
+}
+
+/// `G_e B = Pᵀ G P B` (3.22–3.24) for a block of loads `B` (`N × p`): `Φ_r` the mass-normalised
+/// rigid-body modes (`N × r`, possibly `r = 0`, then `G = K⁻¹`), `held` the temporarily held
+/// DOFs (`r` of them). Errors when the stiffness with `held` removed is singular.
+pub fn elastic_flexibility(
+    k: &crate::fe::system::SparseMatrix,
+    m: &crate::fe::system::SparseMatrix,
+    phi_r: MatRef<'_, f64>,
+    held: &[usize],
+    b: MatRef<'_, f64>,
+) -> Result<Mat<f64>, String> {
+    let n = k.nrows();
+    let r = phi_r.ncols();
+    // P B = B − M Φ_r (Φ_rᵀ B).
+    let mut y = b.to_owned();
+    if r > 0 {
+        let c = phi_r.transpose() * b;
+        let mc = sparse_times_dense(m, (phi_r * &c).as_ref());
+        y -= &mc;
+    }
+    // G (P B): solve on the DOFs not held, zero at the held ones.
+    let mut keep_mask = vec![true; n];
+    for &h in held {
+        keep_mask[h] = false;
+    }
+    let free: Vec<usize> = (0..n).filter(|i| keep_mask[*i]).collect();
+    let kf = sub_block(k, &free, &free);
+    let f = SparseSpd::factor(&kf).ok_or_else(|| {
+        format!(
+            "the stiffness with {} DOFs held is not positive definite",
+            held.len()
+        )
+    })?;
+    let yf = Mat::from_fn(free.len(), y.ncols(), |i, j| y[(free[i], j)]);
+    let zf = f.solve(yf.as_ref());
+    let mut z = Mat::zeros(n, y.ncols());
+    for (a, &i) in free.iter().enumerate() {
+        for j in 0..y.ncols() {
+            z[(i, j)] = zf[(a, j)];
+        }
+    }
+    // Pᵀ Z = Z − Φ_r (Φ_rᵀ M Z).
+    if r > 0 {
+        let mz = sparse_times_dense(m, z.as_ref());
+        let c = phi_r.transpose() * &mz;
+        z -= phi_r * &c;
+    }
+    Ok(z)
+}
+
+/// Columns `cols` of the residual flexibility `R = G_e − Φ_el Λ_el⁻¹ Φ_elᵀ` (3.29–3.31) of a
+/// substructure whose kept free modes are `modes` (all rigid-body modes among them).
+pub fn residual_flexibility(
+    name: &str,
+    sys: &SystemMatrices,
+    modes: &Modes,
+    cols: &[usize],
+) -> Result<Mat<f64>, ReductionError> {
+    let n = sys.n();
+    let rigid: Vec<usize> = (0..modes.len())
+        .filter(|r| modes.eigenvalues[*r] == 0.0)
+        .collect();
+    let elastic: Vec<usize> = (0..modes.len())
+        .filter(|r| modes.eigenvalues[*r] != 0.0)
+        .collect();
+    let phi_r = Mat::from_fn(n, rigid.len(), |i, c| modes.shapes[(i, rigid[c])]);
+    let held = choose_held_dofs(phi_r.as_ref(), &(0..n).collect::<Vec<_>>());
+    let mut e = Mat::zeros(n, cols.len());
+    for (c, &i) in cols.iter().enumerate() {
+        e[(i, c)] = 1.0;
+    }
+    let mut rr = elastic_flexibility(&sys.k, &sys.m, phi_r.as_ref(), &held, e.as_ref()).map_err(
+        |reason| ReductionError::Mechanism {
+            substructure: name.to_string(),
+            held: held.len(),
+            reason,
+        },
+    )?;
+    for &r in &elastic {
+        let inv = 1.0 / modes.eigenvalues[r];
+        for (c, &col) in cols.iter().enumerate() {
+            let w = modes.shapes[(col, r)] * inv;
+            for i in 0..n {
+                rr[(i, c)] -= modes.shapes[(i, r)] * w;
+            }
+        }
+    }
+    Ok(rr)
+}
+
+/// Inverse of the symmetric junction block `R_jj` of the residual flexibility, rejecting it when
+/// its smallest eigenvalue is below `1e-11` of the largest (round-off of `G_e − ΦΛ⁻¹Φᵀ`).
+pub(super) fn residual_inverse(
+    name: &str,
+    rjj: &Mat<f64>,
+    internal: usize,
+) -> Result<Mat<f64>, ReductionError> {
+    let nj = rjj.nrows();
+    let sym = symmetrise(rjj);
+    let bad = |detail: String| ReductionError::SingularResidual {
+        substructure: name.to_string(),
+        junction: nj,
+        internal,
+        detail,
+    };
+    let evd = sym
+        .self_adjoint_eigen(Side::Lower)
+        .map_err(|_| bad("its eigen decomposition failed".into()))?;
+    let s = evd.S();
+    let (mut smin, mut smax) = (f64::INFINITY, 0.0f64);
+    for i in 0..nj {
+        smin = smin.min(s[i]);
+        smax = smax.max(s[i].abs());
+    }
+    if !(smin > 1e-11 * smax) {
+        return Err(bad(format!("eigenvalues from {smin:e} to {smax:e} m/N")));
+    }
+    let u = evd.U();
+    Ok(Mat::from_fn(nj, nj, |a, b| {
+        (0..nj).map(|c| u[(a, c)] * u[(b, c)] / s[c]).sum()
+    }))
+}
+
+/// MacNeal/Rubin free-interface reduction of substructure `name` (3.32–3.39).
+pub fn free_interface(
+    name: &str,
+    sys: &SystemMatrices,
+    junction: &[DofId],
+    modes: ModeSelection,
+    eigen: &SparseEigenParams,
+) -> Result<ComponentReduction, ReductionError> {
+    let (j_idx, i_idx) = split(sys, junction)?;
+    let (n, nj) = (sys.n(), j_idx.len());
+    let free = free_modes(name, sys, modes, eigen)?;
+    let m = free.len();
+    let rigid = free.eigenvalues.iter().filter(|l| **l == 0.0).count();
+    let mut t = Mat::zeros(n, nj + m);
+    if nj > 0 {
+        let rj = residual_flexibility(name, sys, &free, &j_idx)?; // R_{:,j}, N × n_j
+        let rjj = Mat::from_fn(nj, nj, |a, b| rj[(j_idx[a], b)]);
+        let rjj_inv = residual_inverse(name, &rjj, i_idx.len())?;
+        let a = &rj * &rjj_inv; // R_{:j} R_jj⁻¹
+        let phij = Mat::from_fn(nj, m, |a, q| free.shapes[(j_idx[a], q)]);
+        let b = &free.shapes - &a * &phij; // Φ − R_{:j} R_jj⁻¹ Φ_j
+        for i in 0..n {
+            for c in 0..nj {
+                t[(i, c)] = a[(i, c)];
+            }
+            for q in 0..m {
+                t[(i, nj + q)] = b[(i, q)];
+            }
+        }
+        // Junction rows are [I, 0] by construction; set them exactly.
+        for (a_, &r) in j_idx.iter().enumerate() {
+            for c in 0..nj + m {
+                t[(r, c)] = if c == a_ { 1.0 } else { 0.0 };
+            }
+        }
+    } else {
+        for i in 0..n {
+            for q in 0..m {
+                t[(i, q)] = free.shapes[(i, q)];
+            }
+        }
+    }
+    let mut coords: Vec<Coordinate> = j_idx
+        .iter()
+        .map(|&r| Coordinate::Dof(sys.dofs[r]))
+        .collect();
+    coords.extend((1..=m).map(|mode| Coordinate::Modal {
+        substructure: name.to_string(),
+        mode,
+    }));
+    Ok(ComponentReduction {
+        substructure: name.to_string(),
+        dofs: sys.dofs.clone(),
+        junction: junction.to_vec(),
+        k: project(&sys.k, t.as_ref()),
+        m: project(&sys.m, t.as_ref()),
+        t,
+        coords,
+        mode_frequencies_hz: free.frequencies_hz(),
+        flexibility: None,
+        info: ReductionInfo {
+            rigid_body_modes: rigid,
+            ..Default::default()
+        },
+    })
+}

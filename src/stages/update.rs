@@ -1,0 +1,503 @@
+//! `update`: updates a model's parameters from measured data (THEORY §5, §6): the
+//! predictor-corrector on `χ_s`, `χ_a` (`pc`), Lin and Ewins's response function method
+//! (`rfm`), or inverse eigensensitivity from measured modes (`eigensensitivity`). The model is a
+//! mesh (rebuilt from its elements at every iteration: exact for every parameter kind) or a
+//! matrices artefact whose parameters enter linearly (`model.lumped`). Writes the history, the
+//! diagnostics of `S` and the final values (`result`), and the updated system (`model`); the
+//! updated mesh comes from `mesh.parameters` with the result connected.
+
+use super::frf_synthesise::{Damping, PerMode};
+use crate::artefact::ArtefactKind;
+use crate::artefact::kinds::{
+    frf_from_artefact, linear_parameters_from_matrices, matrices_from_artefact,
+    matrices_to_artefact, modes_from_artefact,
+};
+use crate::artefact::mesh::mesh_from_artefact;
+use crate::artefact::update::update_result_to_artefact;
+use crate::core::DofId;
+use crate::eigen::ModeSelection;
+use crate::fe::element::MassKind;
+use crate::frf::ModalDamping;
+use crate::pipeline::{
+    CheckContext, ParamIssue, PortSpec, StageError, StageInputs, StageOutputs, TypedStage,
+};
+use crate::updating::eigensensitivity::{EigenSettings, InverseEigensensitivity, MeasuredModes};
+use crate::updating::pc::{PcSettings, PredictorCorrector};
+use crate::updating::rfm::{ResponseFunctionMethod, RfmSettings};
+use crate::updating::{
+    FeModel, LinearModel, ParameterWeighting, ParametricModel, UpdateMethod, run,
+};
+
+/// The stage.
+pub struct Update;
+
+/// The updating method.
+#[derive(
+    Clone, Copy, Debug, PartialEq, serde::Deserialize, serde::Serialize, schemars::JsonSchema,
+)]
+#[serde(rename_all = "snake_case")]
+pub enum Method {
+    /// Predictor-corrector on the FRF correlation coefficients (thesis ch. 4).
+    Pc,
+    /// Response function method (Lin and Ewins), at chosen lines.
+    Rfm,
+    /// Inverse eigensensitivity from measured natural frequencies (and shapes).
+    Eigensensitivity,
+}
+
+/// Settings of the P-C (THEORY §5).
+#[derive(Clone, Debug, serde::Deserialize, serde::Serialize, schemars::JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct PcParams {
+    /// Lines with `(χ_s + χ_a)/2` above this are not used (4.20); 0.9 < κ_f < 1.
+    #[serde(default = "kappa_f")]
+    pub kappa_f: f64,
+    /// Lines within this many line spacings of a predicted natural frequency are not used.
+    #[serde(default = "one")]
+    pub resonance_lines: f64,
+    /// Stop when the mean of `(χ_s + χ_a)/2` over all lines reaches this (4.23).
+    #[serde(default = "stop_chi")]
+    pub stop_chi: f64,
+    /// `κ` of the subset selection, `κ_mn = 1 + κ(n/m)²` (5.14); omitted: every parameter.
+    #[serde(default)]
+    pub subset_kappa: Option<f64>,
+    /// `γ` of the parameter weighting `W_φ` (see `ParameterWeighting::Variance`); omitted or 0:
+    /// plain weighted least squares.
+    #[serde(default)]
+    pub weighting_gamma: Option<f64>,
+    /// Largest relative change of a parameter in one step.
+    #[serde(default = "one")]
+    pub max_step: f64,
+    /// Add the truncated modes' static share to the mode-shape derivatives (Wang's correction:
+    /// one sparse Cholesky of K per iteration); `false`: the thesis's truncated sensitivities.
+    #[serde(default = "yes")]
+    pub static_correction: bool,
+}
+
+impl Default for PcParams {
+    fn default() -> Self {
+        PcParams {
+            kappa_f: kappa_f(),
+            resonance_lines: 1.0,
+            stop_chi: stop_chi(),
+            subset_kappa: None,
+            weighting_gamma: None,
+            max_step: 1.0,
+            static_correction: true,
+        }
+    }
+}
+
+fn kappa_f() -> f64 {
+    0.95
+}
+fn stop_chi() -> f64 {
+    0.99
+}
+fn one() -> f64 {
+    1.0
+}
+fn yes() -> bool {
+    true
+}
+fn ten() -> usize {
+    10
+}
+fn tolerance() -> f64 {
+    1e-8
+}
+fn min_mac() -> f64 {
+    0.6
+}
+
+/// Parameters of `update`.
+#[derive(Clone, Debug, serde::Deserialize, serde::Serialize, schemars::JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct Params {
+    /// `pc`, `rfm` or `eigensensitivity`.
+    pub method: Method,
+    /// Names of the parameters to update (default: all the model declares).
+    #[serde(default)]
+    pub parameters: Vec<String>,
+    /// Most iterations.
+    #[serde(default = "ten")]
+    pub max_iterations: usize,
+    /// Mass matrix of a mesh model.
+    #[serde(default)]
+    pub mass: MassKind,
+    /// Damping of the predictions: modal (`pc`), uniform structural (`rfm`).
+    #[serde(default)]
+    pub damping: Damping,
+    /// Modes of the modal basis (`pc`, `eigensensitivity`): a count …
+    #[serde(default)]
+    pub mode_count: Option<usize>,
+    /// … or every mode up to this frequency (default: twice the highest measured line, the
+    /// thesis's `2m` modes; for `eigensensitivity`, three times the measured modes' count).
+    #[serde(default)]
+    pub modes_max_hz: Option<f64>,
+    /// P-C settings.
+    #[serde(default)]
+    pub pc: PcParams,
+    /// RFM: the lines in Hz at which the equations are written (measured lines).
+    #[serde(default)]
+    pub lines_hz: Vec<f64>,
+    /// RFM and eigensensitivity: stop when every relative change is below this.
+    #[serde(default = "tolerance")]
+    pub tolerance: f64,
+    /// Eigensensitivity: DOFs of the measured shapes used to pair modes by MAC (default: pair
+    /// in order of frequency).
+    #[serde(default)]
+    pub measured_dofs: Vec<DofId>,
+    /// Eigensensitivity: how many of the measured (elastic) modes to use (default: all).
+    #[serde(default)]
+    pub measured_modes: Option<usize>,
+    /// Eigensensitivity: smallest MAC of a pair.
+    #[serde(default = "min_mac")]
+    pub min_mac: f64,
+}
+
+impl TypedStage for Update {
+    type Params = Params;
+    const KIND: &'static str = "update";
+    const SUMMARY: &'static str =
+        "Update model parameters from measured FRFs (P-C, RFM) or modes (inverse eigensensitivity)";
+    const IMPL_VERSION: u32 = 1;
+
+    fn inputs() -> Vec<PortSpec> {
+        vec![
+            PortSpec::optional(
+                "mesh",
+                ArtefactKind::Mesh,
+                "a finite-element model with declared parameters",
+            ),
+            PortSpec::optional(
+                "model",
+                ArtefactKind::Matrices,
+                "matrices with linear parameters (model.lumped)",
+            ),
+            PortSpec::optional("measured", ArtefactKind::Frf, "measured FRFs (pc, rfm)"),
+            PortSpec::optional(
+                "measured_modes",
+                ArtefactKind::Modes,
+                "measured modes (eigensensitivity)",
+            ),
+        ]
+    }
+
+    fn outputs() -> Vec<PortSpec> {
+        vec![
+            PortSpec::required(
+                "result",
+                ArtefactKind::UpdateResult,
+                "history, diagnostics and final parameter values",
+            ),
+            PortSpec::required(
+                "model",
+                ArtefactKind::Matrices,
+                "K and M of the updated model",
+            ),
+        ]
+    }
+
+    fn validate(p: &mut Params, ctx: &CheckContext) -> Vec<ParamIssue> {
+        let mut issues = Vec::new();
+        let (mesh, model) = (ctx.is_connected("mesh"), ctx.is_connected("model"));
+        if mesh == model && !ctx.connected.is_empty() {
+            issues.push(ParamIssue::at(
+                "",
+                "connect exactly one of the inputs `mesh` (a finite-element model) and `model` (matrices from model.lumped)",
+            ));
+        }
+        let data_port = match p.method {
+            Method::Pc | Method::Rfm => "measured",
+            Method::Eigensensitivity => "measured_modes",
+        };
+        if !ctx.connected.is_empty() && !ctx.is_connected(data_port) {
+            issues.push(ParamIssue::at(
+                "method",
+                format!("method {:?} needs the input `{data_port}`", p.method).to_lowercase(),
+            ));
+        }
+        if p.method == Method::Rfm && p.lines_hz.is_empty() {
+            issues.push(ParamIssue::at(
+                "lines_hz",
+                "the RFM needs the lines (Hz) at which to write its equations, e.g. [9.0, 18.0]",
+            ));
+        }
+        if p.method == Method::Rfm
+            && !matches!(
+                p.damping,
+                Damping::None | Damping::Structural(PerMode::Uniform(_))
+            )
+        {
+            issues.push(ParamIssue::at(
+                "damping",
+                "the RFM takes no damping or a uniform structural loss factor `{structural: 0.01}`",
+            ));
+        }
+        if p.method == Method::Pc && matches!(p.damping, Damping::Rayleigh { .. }) {
+            issues.push(ParamIssue::at(
+                "damping",
+                "the P-C predicts by modal summation: give `structural` or `viscous` modal damping",
+            ));
+        }
+        let pc = &p.pc;
+        if !(pc.kappa_f > 0.0 && pc.kappa_f <= 1.0) {
+            issues.push(ParamIssue::at(
+                "pc.kappa_f",
+                format!(
+                    "{} must lie in (0, 1]; the thesis uses 0.9 to 1",
+                    pc.kappa_f
+                ),
+            ));
+        }
+        if !(pc.stop_chi > 0.0 && pc.stop_chi <= 1.0) {
+            issues.push(ParamIssue::at(
+                "pc.stop_chi",
+                format!("{} must lie in (0, 1]", pc.stop_chi),
+            ));
+        }
+        if let Some(k) = pc.subset_kappa {
+            if !(k.is_finite() && k >= 1.0) {
+                issues.push(ParamIssue::at(
+                    "pc.subset_kappa",
+                    format!("{k} must be at least 1 (the thesis uses 1e7 to 1e10)"),
+                ));
+            }
+        }
+        if let Some(g) = pc.weighting_gamma {
+            if !(g.is_finite() && g >= 0.0) {
+                issues.push(ParamIssue::at(
+                    "pc.weighting_gamma",
+                    format!("{g} must be >= 0"),
+                ));
+            }
+        }
+        if !(pc.max_step > 0.0 && pc.max_step.is_finite()) {
+            issues.push(ParamIssue::at(
+                "pc.max_step",
+                format!("{} must be positive", pc.max_step),
+            ));
+        }
+        if !(pc.resonance_lines >= 0.0 && pc.resonance_lines.is_finite()) {
+            issues.push(ParamIssue::at(
+                "pc.resonance_lines",
+                format!("{} must be >= 0", pc.resonance_lines),
+            ));
+        }
+        if p.mode_count.is_some() && p.modes_max_hz.is_some() {
+            issues.push(ParamIssue::at(
+                "mode_count",
+                "give `mode_count` or `modes_max_hz`, not both",
+            ));
+        }
+        if p.mode_count == Some(0) {
+            issues.push(ParamIssue::at("mode_count", "must be at least 1"));
+        }
+        if !(p.tolerance > 0.0 && p.tolerance < 1.0) {
+            issues.push(ParamIssue::at(
+                "tolerance",
+                format!("{} must lie in (0, 1)", p.tolerance),
+            ));
+        }
+        issues
+    }
+
+    fn run(p: &Params, inputs: &StageInputs) -> Result<StageOutputs, StageError> {
+        let model: Box<dyn ParametricModel> = match (inputs.get("mesh"), inputs.get("model")) {
+            (Some(mesh), None) => Box::new(
+                FeModel::new(mesh_from_artefact(mesh)?, &p.parameters, p.mass)
+                    .map_err(StageError::failed)?,
+            ),
+            (None, Some(m)) => {
+                let sys = matrices_from_artefact(m)?;
+                let mut params = linear_parameters_from_matrices(m, sys.n())?;
+                if params.is_empty() {
+                    return Err(StageError::Failed(
+                        "the `model` input declares no parameters: add `parameters:` to its model.lumped stage".into(),
+                    ));
+                }
+                if !p.parameters.is_empty() {
+                    let known: Vec<String> = params.iter().map(|q| q.0.name.clone()).collect();
+                    for name in &p.parameters {
+                        if !known.contains(name) {
+                            return Err(StageError::Failed(format!(
+                                "parameter `{name}` is not a parameter of the model (it has: {})",
+                                known.join(", ")
+                            )));
+                        }
+                    }
+                    params.retain(|q| p.parameters.contains(&q.0.name));
+                }
+                Box::new(LinearModel::new(sys, params).map_err(StageError::failed)?)
+            }
+            _ => {
+                return Err(StageError::Failed(
+                    "connect exactly one of `mesh` and `model`".into(),
+                ));
+            }
+        };
+        let weighting = match p.pc.weighting_gamma {
+            Some(g) if g > 0.0 => ParameterWeighting::Variance { gamma: g },
+            _ => ParameterWeighting::None,
+        };
+        let modes = |default_hz: f64| match (p.mode_count, p.modes_max_hz) {
+            (Some(c), _) => ModeSelection::Count(c),
+            (_, Some(f)) => ModeSelection::BelowHz(f),
+            _ => ModeSelection::BelowHz(default_hz),
+        };
+        let measured = inputs.get("measured").map(frf_from_artefact).transpose()?;
+        let measured_modes = match inputs.get("measured_modes") {
+            Some(a) => {
+                let m = modes_from_artefact(a)?;
+                let elastic: Vec<usize> = (0..m.modes.len())
+                    .filter(|&r| m.modes.eigenvalues[r] > 0.0)
+                    .take(p.measured_modes.unwrap_or(usize::MAX))
+                    .collect();
+                let shapes = if p.measured_dofs.is_empty() {
+                    None
+                } else {
+                    let index: std::collections::HashMap<DofId, usize> =
+                        m.dofs.iter().enumerate().map(|(i, d)| (*d, i)).collect();
+                    let rows: Vec<usize> = p
+                        .measured_dofs
+                        .iter()
+                        .map(|d| {
+                            index.get(d).copied().ok_or_else(|| {
+                                StageError::Failed(format!(
+                                    "measured_dofs: {d} is not a DOF of the measured modes"
+                                ))
+                            })
+                        })
+                        .collect::<Result<_, _>>()?;
+                    Some((
+                        p.measured_dofs.clone(),
+                        faer::Mat::from_fn(rows.len(), elastic.len(), |i, j| {
+                            m.modes.shapes[(rows[i], elastic[j])]
+                        }),
+                    ))
+                };
+                Some(MeasuredModes {
+                    eigenvalues: elastic.iter().map(|&r| m.modes.eigenvalues[r]).collect(),
+                    shapes,
+                })
+            }
+            None => None,
+        };
+        let missing = |port: &str| StageError::Failed(format!("input `{port}` is not connected"));
+        let top_hz = measured
+            .as_ref()
+            .and_then(|m| m.freqs_hz.last().copied())
+            .unwrap_or(0.0);
+        let method: Box<dyn UpdateMethod + '_> = match p.method {
+            Method::Pc => Box::new(PredictorCorrector {
+                measured: measured.as_ref().ok_or_else(|| missing("measured"))?,
+                settings: PcSettings {
+                    kappa_f: p.pc.kappa_f,
+                    resonance_lines: p.pc.resonance_lines,
+                    stop_chi: p.pc.stop_chi,
+                    subset_kappa: p.pc.subset_kappa,
+                    weighting,
+                    max_step: p.pc.max_step,
+                    modes: modes(2.0 * top_hz),
+                    damping: p.damping.modal(),
+                    static_correction: p.pc.static_correction,
+                },
+            }),
+            Method::Rfm => Box::new(ResponseFunctionMethod {
+                measured: measured.as_ref().ok_or_else(|| missing("measured"))?,
+                settings: RfmSettings {
+                    lines_hz: p.lines_hz.clone(),
+                    eta: p.damping.direct().structural_eta,
+                    tolerance: p.tolerance,
+                    rcond: 1e-12,
+                },
+            }),
+            Method::Eigensensitivity => {
+                let mm = measured_modes
+                    .as_ref()
+                    .ok_or_else(|| missing("measured_modes"))?;
+                let count = 3 * mm.eigenvalues.len() + 6;
+                Box::new(InverseEigensensitivity {
+                    measured: mm,
+                    settings: EigenSettings {
+                        modes: match (p.mode_count, p.modes_max_hz) {
+                            (Some(c), _) => ModeSelection::Count(c),
+                            (_, Some(f)) => ModeSelection::BelowHz(f),
+                            _ => ModeSelection::Count(count),
+                        },
+                        min_mac: p.min_mac,
+                        tolerance: p.tolerance,
+                        subset_kappa: p.pc.subset_kappa,
+                        weighting,
+                    },
+                })
+            }
+        };
+        if let (Method::Pc, ModalDamping::None) = (p.method, p.damping.modal()) {
+            tracing::info!("P-C with undamped predictions: lines at resonances are excluded");
+        }
+        let history =
+            run(method.as_ref(), model.as_ref(), p.max_iterations).map_err(StageError::failed)?;
+        let updated = model
+            .evaluate(&history.final_values)
+            .map_err(StageError::failed)?;
+        let name = match p.method {
+            Method::Pc => "pc",
+            Method::Rfm => "rfm",
+            Method::Eigensensitivity => "eigensensitivity",
+        };
+        Ok(StageOutputs::from([
+            (
+                "result".to_string(),
+                update_result_to_artefact(&history, name),
+            ),
+            ("model".to_string(), matrices_to_artefact(&updated.system)),
+        ]))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::pipeline::{Stage, Typed};
+
+    fn check(
+        with: serde_json::Value,
+        ports: &[&str],
+    ) -> Result<serde_json::Value, Vec<ParamIssue>> {
+        Typed::<Update>::new().check(&with, &CheckContext::with_ports(ports))
+    }
+
+    #[test]
+    fn rfm_needs_lines_and_one_model() {
+        let e = check(
+            serde_json::json!({"method": "rfm"}),
+            &["mesh", "model", "measured"],
+        )
+        .unwrap_err();
+        assert!(e.iter().any(|i| i.message.contains("exactly one")));
+        assert!(e.iter().any(|i| i.path == vec!["lines_hz"]));
+    }
+
+    #[test]
+    fn eigensensitivity_needs_measured_modes() {
+        let e = check(
+            serde_json::json!({"method": "eigensensitivity"}),
+            &["mesh", "measured"],
+        )
+        .unwrap_err();
+        assert!(e[0].message.contains("measured_modes"), "{}", e[0].message);
+    }
+
+    #[test]
+    fn out_of_range_settings_are_named() {
+        let e = check(
+            serde_json::json!({"method": "pc", "pc": {"kappa_f": 1.5, "subset_kappa": 0.5}}),
+            &["mesh", "measured"],
+        )
+        .unwrap_err();
+        assert_eq!(e[0].path, vec!["pc", "kappa_f"]);
+        assert_eq!(e[1].path, vec!["pc", "subset_kappa"]);
+    }
+}
