@@ -131,7 +131,7 @@ enum Command {
         muffler: bool,
     },
     /// Run a parameter sweep over a pipeline locally or on Slurm; `status`, `collect`.
-    Sweep(sweep::SweepArgs),
+    Sweep(Box<sweep::SweepArgs>),
     /// Write the JSON Schemas of pipelines, sweeps and artefacts.
     Schema {
         /// Output directory.
@@ -419,7 +419,7 @@ fn dispatch(cli: Cli) -> Result<u8, Failure> {
             }
             Ok(0)
         }
-        Command::Sweep(args) => sweep::dispatch(args),
+        Command::Sweep(args) => sweep::dispatch(*args),
         Command::Schema { out } => {
             write_schemas(&out)?;
             println!("schemas written to {}", out.display());

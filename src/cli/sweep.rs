@@ -30,6 +30,16 @@ struct Where {
     /// The sweep's state directory (default: CACHE_DIR/sweeps/NAME).
     #[arg(long, value_name = "DIR")]
     out: Option<PathBuf>,
+    /// New values for a swept parameter, or a fixed one: STAGE.with.PARAM=VALUE (YAML);
+    /// repeatable. Give the same to `status` and `collect`.
+    #[arg(long = "set", value_name = "STAGE.with.PARAM=VALUE")]
+    sets: Vec<String>,
+}
+
+fn load(file: &Path, w: &Where) -> Result<crate::sweep::SourcedSweep, Failure> {
+    let mut sweep = read_sweep(file).map_err(|d| fail(d.into()))?;
+    sweep.apply_overrides(&w.sets).map_err(|d| fail(d.into()))?;
+    Ok(sweep)
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -140,7 +150,7 @@ fn fail(e: SweepError) -> Failure {
 }
 
 fn open(file: &Path, w: &Where) -> Result<(Resolved, Cache, StateDir), Failure> {
-    let sweep = read_sweep(file).map_err(|d| fail(d.into()))?;
+    let sweep = load(file, w)?;
     let resolved = resolve(&sweep).map_err(|d| fail(d.into()))?;
     let cache_dir = w.c.dir();
     let cache = Cache::open(&cache_dir)?;
@@ -173,7 +183,7 @@ pub(super) fn dispatch(args: SweepArgs) -> Result<u8, Failure> {
             batch,
             w,
         }) => {
-            let sweep = read_sweep(&file).map_err(|d| fail(d.into()))?;
+            let sweep = load(&file, &w)?;
             let cache_dir = w.c.dir();
             let cache = Cache::open(&cache_dir)?;
             let out = w

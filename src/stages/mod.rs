@@ -13,11 +13,11 @@ pub mod model_partition;
 pub mod modes;
 pub mod noise_add;
 pub mod plot_frf;
-pub mod update;
 pub mod reduce_common;
 pub mod reduce_craig_bampton;
 pub mod reduce_force_coupling;
 pub mod reduce_free_interface;
+pub mod update;
 
 use crate::pipeline::{Registry, Stage, Typed};
 

@@ -271,7 +271,15 @@ pub fn run_local(
     loop {
         while running.len() < jobs {
             let Some(p) = queue.next() else { break };
-            let child = spawn_worker(&opts.exe, &sweep_file, p, cache.root(), state, &threads)?;
+            let child = spawn_worker(
+                &opts.exe,
+                &sweep_file,
+                p,
+                cache.root(),
+                state,
+                &threads,
+                &resolved.sweep.overrides,
+            )?;
             running.push((child, p));
         }
         if running.is_empty() {
@@ -364,6 +372,7 @@ fn spawn_worker(
     cache_dir: &Path,
     state: &StateDir,
     threads: &str,
+    sets: &[String],
 ) -> Result<Child, SweepError> {
     let dir = state.point_dir(&p.point.name);
     std::fs::create_dir_all(&dir).map_err(|source| SweepError::Io {
@@ -383,6 +392,7 @@ fn spawn_worker(
         .arg(&p.point.name)
         .arg("--plan-hash")
         .arg(&p.plan_hash)
+        .args(sets.iter().flat_map(|s| ["--set", s.as_str()]))
         .arg("--cache-dir")
         .arg(cache_dir)
         .arg("--out")

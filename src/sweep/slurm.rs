@@ -119,12 +119,15 @@ pub fn prepare(
         s.push_str(body);
         s
     };
-    let args = format!(
+    let mut args = format!(
         "{} --cache-dir {} --out {}",
         sh_quote(&sweep_file.display().to_string()),
         sh_quote(&cache_dir.display().to_string()),
         sh_quote(&root.display().to_string()),
     );
+    for s in &resolved.sweep.overrides {
+        args.push_str(&format!(" --set {}", sh_quote(s)));
+    }
     let limit = sl.array_limit.map(|l| format!("%{l}")).unwrap_or_default();
     let array_header = format!(
         "# femu sweep `{name}`: {} point(s) in {tasks} array task(s) of {per_task}, batch {batch}\n\

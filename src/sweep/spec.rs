@@ -207,9 +207,51 @@ pub struct SourcedSweep {
     pub spec: SweepSpec,
     /// Node positions.
     pub locator: Locator,
+    /// `--set` overrides applied to the file, passed on to every worker.
+    pub overrides: Vec<String>,
 }
 
 impl SourcedSweep {
+    /// Applies `--set stage.with.param=VALUE` overrides (`VALUE` is YAML): a swept parameter gets
+    /// new values (a list or a range, in the matrix or its zip group), any other becomes a fixed
+    /// override like `set:`. Names depend on values only, so points shared by the file and the
+    /// overridden sweep are the same points, finished once.
+    pub fn apply_overrides(&mut self, sets: &[String]) -> Result<(), Diagnostics> {
+        let mut diags = Vec::new();
+        for s in sets {
+            let d = |m: String| {
+                Diagnostic::new("--set", m).help(
+                    "write --set STAGE.with.PARAM=VALUE, e.g. --set 'measured.with.seed={range: [1, 100]}'",
+                )
+            };
+            let Some((key, text)) = s.split_once('=') else {
+                diags.push(d(format!("`{s}` has no `=`")));
+                continue;
+            };
+            let key = key.trim().to_string();
+            let value: serde_json::Value = match serde_yaml::from_str(text) {
+                Ok(v) => v,
+                Err(e) => {
+                    diags.push(d(format!("value `{text}` is not valid YAML: {e}")));
+                    continue;
+                }
+            };
+            if let Some(v) = self.spec.matrix.get_mut(&key) {
+                *v = value;
+            } else if let Some(group) = self.spec.zip.iter_mut().find(|g| g.contains_key(&key)) {
+                group.insert(key, value);
+            } else {
+                self.spec.set.insert(key, value);
+            }
+            self.overrides.push(s.clone());
+        }
+        if diags.is_empty() {
+            Ok(())
+        } else {
+            Err(Diagnostics(diags))
+        }
+    }
+
     /// The sweep's name: `name:` or the file stem.
     pub fn name(&self) -> String {
         self.spec.name.clone().unwrap_or_else(|| {
@@ -299,6 +341,7 @@ pub fn parse_sweep(path: &Path, text: &str) -> Result<SourcedSweep, Diagnostics>
         path: path.to_path_buf(),
         spec,
         locator,
+        overrides: Vec::new(),
     };
     let diags = check_slurm(&sweep);
     if diags.is_empty() {
