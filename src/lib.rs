@@ -25,4 +25,5 @@ pub mod reduction;
 pub mod report;
 pub mod sensitivity;
 pub mod stages;
+pub mod sweep;
 pub mod updating;

@@ -14,6 +14,7 @@ fn committed_schemas_match_the_code() {
     }
     for rel in [
         "pipeline.schema.json",
+        "sweep.schema.json",
         "artefacts/matrices.schema.json",
         "artefacts/modes.schema.json",
         "artefacts/frf.schema.json",

@@ -16,6 +16,8 @@ use clap::{Parser, Subcommand};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
+mod sweep;
+
 /// femu: finite-element model updating from measured FRFs, as cached pipelines.
 #[derive(Parser, Debug)]
 #[command(name = "femu", version, about, long_about = None)]
@@ -128,7 +130,9 @@ enum Command {
         #[arg(long)]
         muffler: bool,
     },
-    /// Write the JSON Schemas of pipelines and artefacts.
+    /// Run a parameter sweep over a pipeline locally or on Slurm; `status`, `collect`.
+    Sweep(Box<sweep::SweepArgs>),
+    /// Write the JSON Schemas of pipelines, sweeps and artefacts.
     Schema {
         /// Output directory.
         #[arg(long, default_value = "schemas")]
@@ -415,6 +419,7 @@ fn dispatch(cli: Cli) -> Result<u8, Failure> {
             }
             Ok(0)
         }
+        Command::Sweep(args) => sweep::dispatch(*args),
         Command::Schema { out } => {
             write_schemas(&out)?;
             println!("schemas written to {}", out.display());
@@ -423,11 +428,13 @@ fn dispatch(cli: Cli) -> Result<u8, Failure> {
     }
 }
 
-/// Writes `pipeline.schema.json` and `artefacts/<kind>.schema.json` under `out`.
+/// Writes `pipeline.schema.json`, `sweep.schema.json` and `artefacts/<kind>.schema.json` under `out`.
 pub fn write_schemas(out: &Path) -> anyhow::Result<()> {
     std::fs::create_dir_all(out.join("artefacts"))?;
     let text = serde_json::to_string_pretty(&pipeline_schema(&registry()))? + "\n";
     std::fs::write(out.join("pipeline.schema.json"), text)?;
+    let text = serde_json::to_string_pretty(&crate::sweep::schema::sweep_schema())? + "\n";
+    std::fs::write(out.join("sweep.schema.json"), text)?;
     for kind in ArtefactKind::ALL {
         let text = serde_json::to_string_pretty(&artefact_schema(kind))? + "\n";
         std::fs::write(

@@ -249,7 +249,7 @@ static FONT_INIT: Once = Once::new();
 static FONT_OK: AtomicBool = AtomicBool::new(false);
 
 /// Registers DejaVu Sans (regular, bold, oblique) as plotters' `sans-serif`, once per process.
-fn register_fonts() -> Result<(), PlotError> {
+pub(crate) fn register_fonts() -> Result<(), PlotError> {
     FONT_INIT.call_once(|| {
         let ok = register_font("sans-serif", FontStyle::Normal, dejavu::sans::regular()).is_ok()
             && register_font("sans-serif", FontStyle::Bold, dejavu::sans::bold()).is_ok()
@@ -264,7 +264,7 @@ fn register_fonts() -> Result<(), PlotError> {
     }
 }
 
-fn encode_png(rgb: &[u8], w: u32, h: u32) -> Result<Vec<u8>, PlotError> {
+pub(crate) fn encode_png(rgb: &[u8], w: u32, h: u32) -> Result<Vec<u8>, PlotError> {
     use image::ImageEncoder;
     if rgb.len() != w as usize * h as usize * 3 {
         return Err(PlotError::Encode(format!(

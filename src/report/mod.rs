@@ -3,4 +3,5 @@
 //! Rendering needs no system fonts: the DejaVu Sans faces embedded in the binary are used, so
 //! figures come out the same on any machine, byte for byte.
 
+pub mod box_plot;
 pub mod frf_plot;
