@@ -25,7 +25,7 @@ use crate::updating::eigensensitivity::{EigenSettings, InverseEigensensitivity, 
 use crate::updating::pc::{PcSettings, PredictorCorrector};
 use crate::updating::rfm::{ResponseFunctionMethod, RfmSettings};
 use crate::updating::{
-    FeModel, LinearModel, ParameterWeighting, ParametricModel, UpdateMethod, run,
+    FeModel, LinearModel, ParameterWeighting, ParametricModel, ReducedFeModel, UpdateMethod, run,
 };
 
 /// The stage.
@@ -154,6 +154,50 @@ pub struct Params {
     /// Eigensensitivity: smallest MAC of a pair.
     #[serde(default = "min_mac")]
     pub min_mac: f64,
+    /// With `partition` connected: the component mode synthesis the mesh is analysed by; only
+    /// substructures holding a changed parameter are reduced again at each iteration.
+    #[serde(default)]
+    pub reduction: Reduction,
+}
+
+/// Reduction method of the analysis when a partition is connected.
+#[derive(Clone, Debug, serde::Deserialize, serde::Serialize, schemars::JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct Reduction {
+    /// `craig_bampton` or `free_interface`.
+    #[serde(default = "craig_bampton")]
+    pub method: ReductionMethod,
+    /// Component modes kept per substructure up to this frequency, Hz (thesis: twice the band).
+    #[serde(default = "component_hz")]
+    pub component_modes_hz: f64,
+}
+
+impl Default for Reduction {
+    fn default() -> Self {
+        Reduction {
+            method: ReductionMethod::CraigBampton,
+            component_modes_hz: component_hz(),
+        }
+    }
+}
+
+/// The reductions an update can re-run substructure by substructure.
+#[derive(
+    Clone, Copy, Debug, PartialEq, serde::Deserialize, serde::Serialize, schemars::JsonSchema,
+)]
+#[serde(rename_all = "snake_case")]
+pub enum ReductionMethod {
+    /// Craig-Bampton (3.5–3.13).
+    CraigBampton,
+    /// Free interface, MacNeal/Rubin (3.26–3.39).
+    FreeInterface,
+}
+
+fn craig_bampton() -> ReductionMethod {
+    ReductionMethod::CraigBampton
+}
+fn component_hz() -> f64 {
+    200.0
 }
 
 impl TypedStage for Update {
@@ -176,6 +220,11 @@ impl TypedStage for Update {
                 "matrices with linear parameters (model.lumped)",
             ),
             PortSpec::optional("measured", ArtefactKind::Frf, "measured FRFs (pc, rfm)"),
+            PortSpec::optional(
+                "partition",
+                ArtefactKind::Partition,
+                "substructures: analyse the mesh through `reduction` (pc, eigensensitivity)",
+            ),
             PortSpec::optional(
                 "measured_modes",
                 ArtefactKind::Modes,
@@ -216,6 +265,27 @@ impl TypedStage for Update {
             issues.push(ParamIssue::at(
                 "method",
                 format!("method {:?} needs the input `{data_port}`", p.method).to_lowercase(),
+            ));
+        }
+        if ctx.is_connected("partition") && !mesh {
+            issues.push(ParamIssue::at(
+                "reduction",
+                "a partition reduces a mesh: connect `mesh` (not `model`) with it",
+            ));
+        }
+        if ctx.is_connected("partition") && p.method == Method::Rfm {
+            issues.push(ParamIssue::at(
+                "method",
+                "the RFM works on the full model's receptances: disconnect `partition`",
+            ));
+        }
+        if !(p.reduction.component_modes_hz.is_finite() && p.reduction.component_modes_hz > 0.0) {
+            issues.push(ParamIssue::at(
+                "reduction.component_modes_hz",
+                format!(
+                    "{} must be a positive frequency in Hz",
+                    p.reduction.component_modes_hz
+                ),
             ));
         }
         if p.method == Method::Rfm && p.lines_hz.is_empty() {
@@ -305,10 +375,26 @@ impl TypedStage for Update {
 
     fn run(p: &Params, inputs: &StageInputs) -> Result<StageOutputs, StageError> {
         let model: Box<dyn ParametricModel> = match (inputs.get("mesh"), inputs.get("model")) {
-            (Some(mesh), None) => Box::new(
-                FeModel::new(mesh_from_artefact(mesh)?, &p.parameters, p.mass)
-                    .map_err(StageError::failed)?,
-            ),
+            (Some(mesh), None) => {
+                let fe = FeModel::new(mesh_from_artefact(mesh)?, &p.parameters, p.mass)
+                    .map_err(StageError::failed)?;
+                match inputs.get("partition") {
+                    Some(part) => {
+                        let partition = crate::artefact::reduced::partition_from_artefact(part)?;
+                        let modes = ModeSelection::BelowHz(p.reduction.component_modes_hz);
+                        let method = match p.reduction.method {
+                            ReductionMethod::CraigBampton => {
+                                crate::reduction::Method::CraigBampton { modes }
+                            }
+                            ReductionMethod::FreeInterface => {
+                                crate::reduction::Method::FreeInterface { modes }
+                            }
+                        };
+                        Box::new(ReducedFeModel::new(fe, partition, method))
+                    }
+                    None => Box::new(fe),
+                }
+            }
             (None, Some(m)) => {
                 let sys = matrices_from_artefact(m)?;
                 let mut params = linear_parameters_from_matrices(m, sys.n())?;

@@ -116,8 +116,7 @@ impl UpdateMethod for InverseEigensensitivity<'_> {
         iteration: usize,
     ) -> Result<Step, UpdatingError> {
         let n = values.len();
-        let ev = model.evaluate(values)?;
-        let state = ModalState::new(&ev, values, self.settings.modes)?;
+        let (state, _) = model.modal_state(values, self.settings.modes)?;
         let pairs = self.pairs(&state)?;
         let used: Vec<(usize, usize)> = pairs
             .iter()

@@ -12,7 +12,8 @@ pub mod rfm;
 pub mod solve;
 
 pub use model::{
-    Evaluated, FeModel, LinearModel, ModalState, ParametricModel, UpdatingError, UpdatingParameter,
+    Evaluated, FeModel, LinearModel, ModalState, ParametricModel, ReducedFeModel, UpdatingError,
+    UpdatingParameter,
 };
 pub use solve::{Diagnostics, ParameterWeighting};
 

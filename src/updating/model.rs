@@ -13,6 +13,7 @@ use crate::fe::element::MassKind;
 use crate::fe::model_assembly::{assemble_model, parameter_derivative};
 use crate::fe::system::SparseMatrix;
 use crate::model::{Model, Parameter};
+use crate::reduction::{Method, Partition, ReducedModel};
 use crate::sensitivity::ProjectedDerivative;
 use faer::Mat;
 use rayon::prelude::*;
@@ -72,6 +73,17 @@ pub trait ParametricModel: Sync {
     /// Initial values.
     fn initial_values(&self) -> Vec<f64> {
         self.parameters().iter().map(|p| p.initial).collect()
+    }
+    /// Modes at `values` with the projected, unity-scaled derivatives; with the physical
+    /// matrices when the model has them (a reduced model answers from its reduced coordinates).
+    fn modal_state(
+        &self,
+        values: &[f64],
+        selection: ModeSelection,
+    ) -> Result<(ModalState, Option<Evaluated>), UpdatingError> {
+        let evaluated = self.evaluate(values)?;
+        let state = ModalState::new(&evaluated, values, selection)?;
+        Ok((state, Some(evaluated)))
     }
 }
 
@@ -258,6 +270,9 @@ pub struct ModalState {
     pub dofs: Vec<DofId>,
     /// Projected derivatives, one per parameter, scaled by the parameter value.
     pub projected: Vec<ProjectedDerivative>,
+    /// The reduced model the modes live on (their rows are its coordinates then, and shapes
+    /// at physical DOFs come from its expansion).
+    pub reduced: Option<std::sync::Arc<ReducedModel>>,
 }
 
 impl ModalState {
@@ -291,6 +306,7 @@ impl ModalState {
             modes,
             dofs: sys.dofs.clone(),
             projected,
+            reduced: None,
         })
     }
 
@@ -301,6 +317,11 @@ impl ModalState {
 
     /// Mode shapes restricted to `dofs` (rows in that order), or the first DOF not in the model.
     pub fn shapes_at(&self, dofs: &[DofId]) -> Result<Mat<f64>, UpdatingError> {
+        if let Some(r) = &self.reduced {
+            return r
+                .expand(self.modes.shapes.as_ref(), dofs)
+                .map_err(|e| UpdatingError::Data(e.to_string()));
+        }
         let index = self.index();
         let rows: Vec<usize> = dofs
             .iter()
@@ -387,5 +408,169 @@ impl ModalState {
                 )
             })
             .collect())
+    }
+}
+
+/// Reduced models up to this size are analysed on their complete modal basis.
+pub const COMPLETE_REDUCED_BASIS: usize = 2000;
+
+/// A finite-element model analysed through component mode synthesis (thesis ch. 3, 3.59): the
+/// modes come from the reduced model, the derivatives are `T_kᵀ(∂K_k/∂φ)T_k` with the
+/// transformations held, and after a parameter change only the substructures holding that
+/// parameter's elements are reduced again; the others are reused from the last analysis.
+pub struct ReducedFeModel {
+    fe: FeModel,
+    partition: Partition,
+    method: Method,
+    last: std::sync::Mutex<Option<(Vec<f64>, std::sync::Arc<ReducedModel>)>>,
+    reductions: std::sync::atomic::AtomicUsize,
+}
+
+impl ReducedFeModel {
+    /// The reduced view of `fe` over `partition` by `method`.
+    pub fn new(fe: FeModel, partition: Partition, method: Method) -> Self {
+        ReducedFeModel {
+            fe,
+            partition,
+            method,
+            last: std::sync::Mutex::new(None),
+            reductions: std::sync::atomic::AtomicUsize::new(0),
+        }
+    }
+
+    /// How many substructure reductions were computed so far.
+    pub fn reductions(&self) -> usize {
+        self.reductions.load(std::sync::atomic::Ordering::Relaxed)
+    }
+
+    /// Substructures holding elements of parameter `i`.
+    fn substructures_of(&self, i: usize) -> Vec<usize> {
+        let set = &self.fe.parameters[i].set;
+        let ids = self.fe.model.sets.get(set).cloned().unwrap_or_default();
+        self.partition.substructures_of(&ids)
+    }
+
+    fn reduced_at(
+        &self,
+        model: &Model,
+        values: &[f64],
+    ) -> Result<std::sync::Arc<ReducedModel>, UpdatingError> {
+        use std::sync::atomic::Ordering;
+        let err = |e: crate::reduction::ReductionError| UpdatingError::Model(e.to_string());
+        let previous = self
+            .last
+            .lock()
+            .map_err(|_| UpdatingError::Model("a reduction panicked".into()))?
+            .clone();
+        let reduced = match previous {
+            Some((old, reduced)) if old.len() == values.len() => {
+                let mut changed: Vec<usize> = (0..values.len())
+                    .filter(|&i| old[i] != values[i])
+                    .flat_map(|i| self.substructures_of(i))
+                    .collect();
+                changed.sort_unstable();
+                changed.dedup();
+                if changed.is_empty() {
+                    reduced
+                } else {
+                    let comps: Vec<_> = changed
+                        .par_iter()
+                        .map(|&k| {
+                            crate::reduction::reduce_substructure(
+                                model,
+                                &self.partition,
+                                k,
+                                &self.method,
+                                self.fe.mass,
+                            )
+                        })
+                        .collect::<Result<_, _>>()
+                        .map_err(err)?;
+                    self.reductions.fetch_add(comps.len(), Ordering::Relaxed);
+                    let mut r = (*reduced).clone();
+                    for c in comps {
+                        r.replace(c).map_err(err)?;
+                    }
+                    std::sync::Arc::new(r)
+                }
+            }
+            _ => {
+                let r =
+                    crate::reduction::reduce(model, &self.partition, &self.method, self.fe.mass)
+                        .map_err(err)?;
+                self.reductions
+                    .fetch_add(self.partition.substructures.len(), Ordering::Relaxed);
+                std::sync::Arc::new(r)
+            }
+        };
+        if let Ok(mut last) = self.last.lock() {
+            *last = Some((values.to_vec(), reduced.clone()));
+        }
+        Ok(reduced)
+    }
+}
+
+impl ParametricModel for ReducedFeModel {
+    fn parameters(&self) -> &[UpdatingParameter] {
+        self.fe.parameters()
+    }
+
+    /// The full model (for methods that need physical matrices, and for the updated output).
+    fn evaluate(&self, values: &[f64]) -> Result<Evaluated, UpdatingError> {
+        self.fe.evaluate(values)
+    }
+
+    fn modal_state(
+        &self,
+        values: &[f64],
+        selection: ModeSelection,
+    ) -> Result<(ModalState, Option<Evaluated>), UpdatingError> {
+        let model = self.fe.model_at(values)?;
+        let reduced = self.reduced_at(&model, values)?;
+        // A small reduced model uses its complete modal basis: cheap, and then the mode-shape
+        // derivatives within the reduced space are exact (no truncation, no static correction).
+        let selection = if reduced.n() <= COMPLETE_REDUCED_BASIS {
+            ModeSelection::All
+        } else {
+            selection
+        };
+        let modes = reduced
+            .modes(selection)
+            .map_err(|e| UpdatingError::Model(e.to_string()))?;
+        if modes.is_empty() {
+            return Err(UpdatingError::Settings(
+                "the reduced model has no mode in the basis: raise the mode count or limit".into(),
+            ));
+        }
+        let projected = self
+            .fe
+            .parameters
+            .par_iter()
+            .zip(values.par_iter())
+            .map(|(p, &v)| {
+                let (dk, dm) = crate::reduction::reduced_parameter_derivative(
+                    &model,
+                    &self.partition,
+                    &reduced,
+                    p,
+                    self.fe.mass,
+                )
+                .map_err(|e| UpdatingError::Model(e.to_string()))?;
+                let phi = modes.shapes.as_ref();
+                let pk = phi.transpose() * &dk * phi;
+                let pm = phi.transpose() * &dm * phi;
+                Ok(ProjectedDerivative { k: pk, m: pm }.scaled(v))
+            })
+            .collect::<Result<_, UpdatingError>>()?;
+        let dofs = vec![DofId::new(0, crate::core::Component::Ux); reduced.n()];
+        Ok((
+            ModalState {
+                modes,
+                dofs,
+                projected,
+                reduced: Some(reduced),
+            },
+            None,
+        ))
     }
 }

@@ -140,9 +140,24 @@ pub fn predict(
     measured: &FrfSet,
     damping: &ModalDamping,
 ) -> Result<FrfSet, UpdatingError> {
+    let mut dofs: Vec<crate::core::DofId> = Vec::new();
+    for p in &measured.pairs {
+        for d in [p.response, p.excitation] {
+            if !dofs.contains(&d) {
+                dofs.push(d);
+            }
+        }
+    }
+    let modes = crate::eigen::Modes {
+        eigenvalues: state.modes.eigenvalues.clone(),
+        shapes: state.shapes_at(&dofs)?,
+        residuals: Vec::new(),
+        orthogonality_error: state.modes.orthogonality_error,
+        rigid_body_modes: state.modes.rigid_body_modes,
+    };
     Ok(modal_receptance(
-        &state.modes,
-        &state.dofs,
+        &modes,
+        &dofs,
         damping,
         &measured.pairs,
         &measured.freqs_hz,
@@ -159,8 +174,7 @@ impl UpdateMethod for PredictorCorrector<'_> {
     ) -> Result<Step, UpdatingError> {
         let s = &self.settings;
         let n = values.len();
-        let evaluated = model.evaluate(values)?;
-        let state = ModalState::new(&evaluated, values, s.modes)?;
+        let (state, evaluated) = model.modal_state(values, s.modes)?;
         let predicted = predict(&state, self.measured, &s.damping)?;
         let lines = self.correlate(&predicted);
         let mut record = IterationRecord {
@@ -194,10 +208,10 @@ impl UpdateMethod for PredictorCorrector<'_> {
             damping: &s.damping,
         };
         let freqs: Vec<f64> = chosen.iter().map(|&k| self.measured.freqs_hz[k]).collect();
-        let corrections = if s.static_correction {
-            Some(state.shape_corrections(&evaluated, values, &dofs)?)
-        } else {
-            None
+        // A reduced model's constraint/residual modes already hold the static share.
+        let corrections = match (&evaluated, s.static_correction) {
+            (Some(ev), true) => Some(state.shape_corrections(ev, values, &dofs)?),
+            _ => None,
         };
         let sens = frf_sensitivities(
             &modal,

@@ -305,3 +305,94 @@ fn chi_sensitivities_of_an_fe_model_match_central_differences() {
         }
     }
 }
+
+/// Updating through Craig-Bampton (two plates and the bar of C2, component modes to 200 Hz):
+/// a parameter change re-reduces only the substructures holding the parameter's elements, and
+/// the FRF sensitivities of the reduced model (on its complete modal basis, transformations
+/// held, 3.59) agree with central differences of the re-reduced model's FRFs to 10 % of each
+/// parameter's largest value below 90 Hz. The difference (8 % seen for a strip of plate 1) is
+/// the fixed-interface modes' own dependence on the thickness, which 3.59 drops by design.
+#[test]
+fn reduced_model_reanalyses_only_changed_substructures() {
+    use crate::fe::element::MassKind;
+    use crate::model::generate::{BentPlate, bent_plate};
+    use crate::model::{Parameter, ParameterKind};
+    use crate::reduction::{Method, Partition};
+    use crate::sensitivity::{ModalFrfModel, frf_sensitivities};
+    let mut model = bent_plate(&BentPlate::default());
+    for s in [6, 10] {
+        model.parameters.push(Parameter {
+            name: format!("t{s}"),
+            kind: ParameterKind::ShellThickness,
+            set: format!("strip_{s}"),
+            lower: 1e-4,
+            upper: 1e-2,
+        });
+    }
+    let names: Vec<String> = ["plate_1", "plate_2", "bar"].map(String::from).to_vec();
+    let partition = Partition::from_sets(&model, &names, MassKind::Consistent).unwrap();
+    let fe = FeModel::new(model, &[], MassKind::Consistent).unwrap();
+    let reduced = super::ReducedFeModel::new(
+        fe,
+        partition,
+        Method::CraigBampton {
+            modes: ModeSelection::BelowHz(200.0),
+        },
+    );
+    let values = reduced.initial_values();
+    let selection = ModeSelection::BelowHz(200.0);
+    let (state, physical) = reduced.modal_state(&values, selection).unwrap();
+    assert!(physical.is_none());
+    assert_eq!(reduced.reductions(), 3);
+    // t6 lies in plate 1 only: one reduction more.
+    let mut moved = values.clone();
+    moved[0] *= 1.01;
+    reduced.modal_state(&moved, selection).unwrap();
+    assert_eq!(reduced.reductions(), 4);
+
+    let dofs: Vec<crate::core::DofId> = ["120:uz", "56:uz", "1:uz"]
+        .iter()
+        .map(|s| s.parse().unwrap())
+        .collect();
+    let pairs = FrfSet::all_pairs(&dofs, &dofs[..1]);
+    let freqs: Vec<f64> = (1..=18).map(|k| 5.0 * k as f64 - 2.5).collect();
+    let damping = ModalDamping::Structural(vec![0.02]);
+    let data = FrfSet {
+        quantity: Quantity::Receptance,
+        freqs_hz: freqs.clone(),
+        pairs: pairs.clone(),
+        values: faer::Mat::zeros(freqs.len(), pairs.len()),
+    };
+    let shapes = state.shapes_at(&dofs).unwrap();
+    let modal = ModalFrfModel {
+        eigenvalues: &state.modes.eigenvalues,
+        shapes: shapes.as_ref(),
+        dofs: &dofs,
+        damping: &damping,
+    };
+    let sens = frf_sensitivities(
+        &modal,
+        &pairs,
+        &freqs,
+        Quantity::Receptance,
+        &state.projected,
+        None,
+    )
+    .unwrap();
+    for p in 0..2 {
+        let h = 1e-4;
+        let at = |sign: f64| {
+            let mut v = values.clone();
+            v[p] *= 1.0 + sign * h;
+            let (st, _) = reduced.modal_state(&v, selection).unwrap();
+            super::pc::predict(&st, &data, &damping).unwrap().values
+        };
+        let fd = (at(1.0) - at(-1.0)) * faer::Scale(faer::c64::new(0.5 / h, 0.0));
+        let err = (&sens[p] - &fd).norm_max();
+        assert!(
+            err <= 0.1 * fd.norm_max(),
+            "t{p}: {err:e} of {:e}",
+            fd.norm_max()
+        );
+    }
+}
