@@ -172,3 +172,52 @@ pub fn final_values(a: &Artefact) -> Result<Vec<(String, f64)>, ArtefactError> {
     let values = t.f64s("parameters", "final")?;
     Ok(names.iter().cloned().zip(values.iter().copied()).collect())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::updating::{Diagnostics, IterationRecord, StopReason, UpdatingParameter};
+
+    /// Written and read back, the artefact keeps its digest — NaN and infinite entries (no
+    /// subset limit, a singular `S`) included, and a metadata float whose last digit JSON
+    /// parsing used to lose (`serde_json`'s `float_roundtrip` keeps it).
+    #[test]
+    fn round_trip_keeps_the_digest() {
+        let record = |i: usize| IterationRecord {
+            iteration: i,
+            values: vec![1.0, 2.0],
+            relative_change: vec![0.1, -0.0],
+            active: vec![true, false],
+            lines_used: 3,
+            mean_chi_s: 0.9,
+            mean_chi_a: if i == 0 { f64::NAN } else { 0.9816106067610754 },
+            residual_norm: 0.5,
+            condition_limit: f64::NAN,
+            diagnostics: Diagnostics {
+                singular_values: vec![2.0, 0.0],
+                condition: f64::INFINITY,
+                null_space: vec![vec![0.0, 1.0]],
+                weakest_direction: vec![0.0, 1.0],
+            },
+        };
+        let h = UpdateHistory {
+            parameters: ["a", "b"]
+                .map(|n| UpdatingParameter {
+                    name: n.into(),
+                    initial: 1.0,
+                    lower: 0.1,
+                    upper: 10.0,
+                })
+                .to_vec(),
+            iterations: vec![record(0), record(1)],
+            final_values: vec![1.1, 2.0],
+            stop: StopReason::MaxIterations,
+        };
+        let a = update_result_to_artefact(&h, "pc");
+        let dir = tempfile::tempdir().unwrap();
+        crate::artefact::codec::write_dir(&a, dir.path(), crate::artefact::Format::Arrow, None)
+            .unwrap();
+        let b = crate::artefact::codec::read_dir(dir.path()).unwrap();
+        assert_eq!(a.digest(), b.digest());
+    }
+}
