@@ -198,7 +198,7 @@ pub fn run(
                     let (v, a) = apply_step(&params, &values, f);
                     let candidate = method.iterate(model, &v, it + 1)?;
                     if method.merit(&candidate.record) > method.merit(&next.record) {
-                        (delta, next_values, applied, next) = (f.clone(), v, a, candidate);
+                        (next_values, applied, next) = (v, a, candidate);
                     }
                 }
             } else {
@@ -215,7 +215,6 @@ pub fn run(
                 }
             }
         }
-        let _ = &delta;
         let converged = method.converged_by_step(&applied);
         let stalled = applied.iter().all(|d| d.abs() < 1e-12);
         let mut record = current.record;
