@@ -106,7 +106,12 @@ pub struct Params {
     #[serde(default = "receptance")]
     pub quantity: Quantity,
     /// Response DOFs.
+    #[serde(default)]
     pub responses: Vec<DofId>,
+    /// Every free DOF of the model with one of these components is a response too (e.g.
+    /// `[ux, uy, uz, rx, ry, rz]` for complete data, `[ux]` for x-direction DOFs only).
+    #[serde(default)]
+    pub response_components: Vec<crate::core::Component>,
     /// Excitation DOFs; every response/excitation pair is synthesised.
     pub excitations: Vec<DofId>,
     /// Band `[start, stop]` in Hz, with `step_hz`.
@@ -187,10 +192,10 @@ impl TypedStage for FrfSynthesise {
             )),
             _ => {}
         }
-        if p.responses.is_empty() {
+        if p.responses.is_empty() && p.response_components.is_empty() {
             issues.push(ParamIssue::at(
                 "responses",
-                "give at least one response DOF, e.g. [\"1:ux\"]",
+                "give at least one response DOF, e.g. [\"1:ux\"], or `response_components`",
             ));
         }
         if p.excitations.is_empty() {
@@ -272,11 +277,22 @@ impl TypedStage for FrfSynthesise {
     }
 
     fn run(p: &Params, inputs: &StageInputs) -> Result<StageOutputs, StageError> {
-        let pairs = FrfSet::all_pairs(&p.responses, &p.excitations);
         let lines = p.lines();
+        // Responses: the listed DOFs, then every model DOF of the listed components.
+        let with_components = |dofs: &[DofId]| {
+            let mut out = p.responses.clone();
+            let mut seen: std::collections::HashSet<DofId> = out.iter().copied().collect();
+            for d in dofs {
+                if p.response_components.contains(&d.comp) && seen.insert(*d) {
+                    out.push(*d);
+                }
+            }
+            out
+        };
         let set = match p.method {
             Some(Method::Modal) => {
                 let m = modes_from_artefact(inputs.require("modes")?)?;
+                let pairs = FrfSet::all_pairs(&with_components(&m.dofs), &p.excitations);
                 let mut modes = m.modes;
                 if let Some(c) = p.mode_count {
                     if c > modes.len() {
@@ -301,6 +317,7 @@ impl TypedStage for FrfSynthesise {
             }
             _ => {
                 let sys = matrices_from_artefact(inputs.require("model")?)?;
+                let pairs = FrfSet::all_pairs(&with_components(&sys.dofs), &p.excitations);
                 direct_receptance(&sys, &p.damping.direct(), &pairs, &lines, p.quantity)
                     .map_err(StageError::failed)?
             }
