@@ -12,6 +12,7 @@ use super::solve::{
 };
 use super::{IterationRecord, Step, UpdateMethod};
 use crate::core::DofId;
+use crate::correlation::mac;
 use crate::eigen::ModeSelection;
 use crate::sensitivity::eigenvalue_sensitivity;
 use faer::Mat;
@@ -46,18 +47,6 @@ pub struct InverseEigensensitivity<'a> {
     pub measured: &'a MeasuredModes,
     /// Settings.
     pub settings: EigenSettings,
-}
-
-/// `MAC(a, b) = (aᵀb)² / (aᵀa bᵀb)` (1.18).
-pub fn mac(a: &[f64], b: &[f64]) -> f64 {
-    let ab: f64 = a.iter().zip(b).map(|(x, y)| x * y).sum();
-    let aa: f64 = a.iter().map(|x| x * x).sum();
-    let bb: f64 = b.iter().map(|x| x * x).sum();
-    if aa * bb > 0.0 {
-        ab * ab / (aa * bb)
-    } else {
-        0.0
-    }
 }
 
 impl InverseEigensensitivity<'_> {
