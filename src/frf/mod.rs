@@ -93,6 +93,19 @@ impl FrfSet {
         self.pairs.iter().position(|p| p == pair)
     }
 
+    /// The DOFs the pairs touch, in order of first appearance.
+    pub fn dofs(&self) -> Vec<DofId> {
+        let mut out: Vec<DofId> = Vec::new();
+        for p in &self.pairs {
+            for d in [p.response, p.excitation] {
+                if !out.contains(&d) {
+                    out.push(d);
+                }
+            }
+        }
+        out
+    }
+
     /// All pairs `(r, e)` for each excitation `e`, then each response `r`.
     pub fn all_pairs(responses: &[DofId], excitations: &[DofId]) -> Vec<FrfPair> {
         excitations

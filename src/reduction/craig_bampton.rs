@@ -11,8 +11,8 @@
 //! With every fixed-interface mode kept, `T` is square and invertible and the reduced model
 //! reproduces the full one exactly (a change of basis).
 
-use super::linalg::{SparseSpd, project, sub_block};
-use super::{ComponentReduction, Coordinate, ReductionError, ReductionInfo};
+use super::linalg::{SparseSpd, sub_block};
+use super::{ComponentReduction, ReductionError, ReductionInfo};
 use crate::core::DofId;
 use crate::eigen::{ModeSelection, SparseEigenParams, lowest_modes};
 use crate::fe::SystemMatrices;
@@ -76,26 +76,15 @@ pub fn craig_bampton(
             t[(r, nj + q)] = fixed.shapes[(a, q)];
         }
     }
-    let mut coords: Vec<Coordinate> = j_idx
-        .iter()
-        .map(|&r| Coordinate::Dof(sys.dofs[r]))
-        .collect();
-    coords.extend((1..=m).map(|mode| Coordinate::Modal {
-        substructure: name.to_string(),
-        mode,
-    }));
-    Ok(ComponentReduction {
-        substructure: name.to_string(),
-        dofs: sys.dofs.clone(),
-        junction: junction.to_vec(),
-        k: project(&sys.k, t.as_ref()),
-        m: project(&sys.m, t.as_ref()),
+    Ok(ComponentReduction::from_transformation(
+        name,
+        sys,
+        junction,
+        &j_idx,
         t,
-        coords,
-        mode_frequencies_hz: fixed.frequencies_hz(),
-        flexibility: None,
-        info: ReductionInfo::default(),
-    })
+        fixed.frequencies_hz(),
+        ReductionInfo::default(),
+    ))
 }
 
 /// Row indices of the junction DOFs (in `junction` order) and of the internal DOFs (ascending).

@@ -22,8 +22,8 @@
 //! reduced model reproduces the full one (tested).
 
 use super::craig_bampton::split;
-use super::linalg::{SparseSpd, project, sparse_times_dense, sub_block, symmetrise};
-use super::{ComponentReduction, Coordinate, ReductionError, ReductionInfo};
+use super::linalg::{SparseSpd, sparse_times_dense, sub_block, symmetrise};
+use super::{ComponentReduction, ReductionError, ReductionInfo};
 use crate::core::DofId;
 use crate::eigen::{ModeSelection, Modes, SparseEigenParams, lowest_modes};
 use crate::fe::SystemMatrices;
@@ -251,27 +251,16 @@ pub fn free_interface(
             }
         }
     }
-    let mut coords: Vec<Coordinate> = j_idx
-        .iter()
-        .map(|&r| Coordinate::Dof(sys.dofs[r]))
-        .collect();
-    coords.extend((1..=m).map(|mode| Coordinate::Modal {
-        substructure: name.to_string(),
-        mode,
-    }));
-    Ok(ComponentReduction {
-        substructure: name.to_string(),
-        dofs: sys.dofs.clone(),
-        junction: junction.to_vec(),
-        k: project(&sys.k, t.as_ref()),
-        m: project(&sys.m, t.as_ref()),
+    Ok(ComponentReduction::from_transformation(
+        name,
+        sys,
+        junction,
+        &j_idx,
         t,
-        coords,
-        mode_frequencies_hz: free.frequencies_hz(),
-        flexibility: None,
-        info: ReductionInfo {
+        free.frequencies_hz(),
+        ReductionInfo {
             rigid_body_modes: rigid,
             ..Default::default()
         },
-    })
+    ))
 }

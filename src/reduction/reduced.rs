@@ -197,6 +197,42 @@ impl Coupling {
     }
 }
 
+impl ComponentReduction {
+    /// A component reduced by `t` (columns: the junction DOFs at rows `j_idx` of `sys`, then the
+    /// component modes): `Tᵀ K T`, `Tᵀ M T` and the coordinate labels.
+    pub(crate) fn from_transformation(
+        name: &str,
+        sys: &crate::fe::SystemMatrices,
+        junction: &[DofId],
+        j_idx: &[usize],
+        t: Mat<f64>,
+        mode_frequencies_hz: Vec<f64>,
+        info: ReductionInfo,
+    ) -> ComponentReduction {
+        let mut coords: Vec<Coordinate> = j_idx
+            .iter()
+            .map(|&r| Coordinate::Dof(sys.dofs[r]))
+            .collect();
+        let m = t.ncols() - j_idx.len();
+        coords.extend((1..=m).map(|mode| Coordinate::Modal {
+            substructure: name.to_string(),
+            mode,
+        }));
+        ComponentReduction {
+            substructure: name.to_string(),
+            dofs: sys.dofs.clone(),
+            junction: junction.to_vec(),
+            k: super::linalg::project(&sys.k, t.as_ref()),
+            m: super::linalg::project(&sys.m, t.as_ref()),
+            t,
+            coords,
+            mode_frequencies_hz,
+            flexibility: None,
+            info,
+        }
+    }
+}
+
 /// A reduced model: `K_c`, `M_c` over its coordinates, and everything needed to re-analyse one
 /// substructure, project derivatives and expand solutions.
 #[derive(Clone, Debug, PartialEq)]

@@ -39,54 +39,11 @@ impl ProjectedDerivative {
     }
 }
 
-/// `Φᵀ A Φ` for a sparse `A` (`N × N`) and dense `Φ` (`N × m`), over the support of `A` only.
+/// `Φᵀ A Φ` for a sparse `A` (`N × N`) and dense `Φ` (`N × m`), over the support of `A` only,
+/// symmetrised to remove the round-off of the two-sided product.
 pub fn project(a: &SparseMatrix, phi: MatRef<'_, f64>) -> Mat<f64> {
-    let m = phi.ncols();
-    let n = a.nrows();
-    let col_ptr = a.symbolic().col_ptr();
-    let row_idx = a.symbolic().row_idx();
-    let values = a.val();
-    // Rows and columns that carry an entry.
-    let mut slot = vec![usize::MAX; n];
-    let mut support = Vec::new();
-    for j in 0..a.ncols() {
-        let (lo, hi) = (col_ptr[j], col_ptr[j + 1]);
-        for &i in &row_idx[lo..hi] {
-            if slot[i] == usize::MAX {
-                slot[i] = support.len();
-                support.push(i);
-            }
-        }
-        if lo < hi && slot[j] == usize::MAX {
-            slot[j] = support.len();
-            support.push(j);
-        }
-    }
-    let s = support.len();
-    if s == 0 {
-        return Mat::zeros(m, m);
-    }
-    // Φ_S (s × m) and Y_S = (A Φ)_S accumulated column by column of A.
-    let phi_s = Mat::from_fn(s, m, |r, c| phi[(support[r], c)]);
-    let mut y = Mat::<f64>::zeros(s, m);
-    for j in 0..a.ncols() {
-        let (lo, hi) = (col_ptr[j], col_ptr[j + 1]);
-        if lo == hi {
-            continue;
-        }
-        let sj = slot[j];
-        for c in 0..m {
-            let pj = phi_s[(sj, c)];
-            if pj == 0.0 {
-                continue;
-            }
-            for k in lo..hi {
-                y[(slot[row_idx[k]], c)] += values[k] * pj;
-            }
-        }
-    }
-    let mut out = phi_s.transpose() * &y;
-    // Symmetrise away the round-off of the two-sided product.
+    let mut out = project_between(a, phi, phi);
+    let m = out.nrows();
     for r in 0..m {
         for c in 0..r {
             let v = 0.5 * (out[(r, c)] + out[(c, r)]);

@@ -56,6 +56,33 @@ impl ComponentModes {
     }
 }
 
+/// Parameters of the reductions that need only component modes and the mass kind
+/// (`reduce.craig_bampton`, `reduce.free_interface`).
+#[derive(Clone, Debug, serde::Deserialize, serde::Serialize, schemars::JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct ModalReductionParams {
+    /// Keep component modes up to this frequency, Hz (default 200 Hz when `count` is absent;
+    /// the thesis kept twice the top of the band).
+    #[serde(default)]
+    pub max_freq_hz: Option<f64>,
+    /// Keep this many component modes per substructure.
+    #[serde(default)]
+    pub count: Option<usize>,
+    /// Mass matrix kind.
+    #[serde(default)]
+    pub mass: MassKind,
+}
+
+impl ModalReductionParams {
+    /// The component-mode choice.
+    pub fn modes(&self) -> ComponentModes {
+        ComponentModes {
+            max_freq_hz: self.max_freq_hz,
+            count: self.count,
+        }
+    }
+}
+
 /// Input ports of every `reduce.*` stage.
 pub fn inputs() -> Vec<PortSpec> {
     vec![

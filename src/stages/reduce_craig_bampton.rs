@@ -1,8 +1,7 @@
 //! `reduce.craig_bampton`: Craig-Bampton: constraint modes `−K_ii⁻¹K_ij` (sparse Cholesky) and fixed-interface normal modes up to a cut-off
 //! (thesis 3.5–3.13), per substructure in parallel, assembled at the junction DOFs (3.14).
 
-use super::reduce_common::{self, ComponentModes};
-use crate::fe::element::MassKind;
+use super::reduce_common::{self, ModalReductionParams};
 use crate::pipeline::{
     CheckContext, ParamIssue, PortSpec, StageError, StageInputs, StageOutputs, TypedStage,
 };
@@ -11,21 +10,8 @@ use crate::reduction::Method;
 /// The stage.
 pub struct ReduceCraigBampton;
 
-/// Parameters.
-#[derive(Clone, Debug, serde::Deserialize, serde::Serialize, schemars::JsonSchema)]
-#[serde(deny_unknown_fields)]
-pub struct Params {
-    /// Keep component modes up to this frequency, Hz (default 200 Hz when `count` is absent;
-    /// the thesis kept twice the top of the band).
-    #[serde(default)]
-    pub max_freq_hz: Option<f64>,
-    /// Keep this many component modes per substructure.
-    #[serde(default)]
-    pub count: Option<usize>,
-    /// Mass matrix kind.
-    #[serde(default)]
-    pub mass: MassKind,
-}
+/// Parameters: the component modes and the mass kind.
+pub type Params = ModalReductionParams;
 
 impl TypedStage for ReduceCraigBampton {
     type Params = Params;
@@ -42,23 +28,16 @@ impl TypedStage for ReduceCraigBampton {
     }
 
     fn validate(p: &mut Params, _: &CheckContext) -> Vec<ParamIssue> {
-        modes(p).issues()
+        p.modes().issues()
     }
 
     fn run(p: &Params, inputs: &StageInputs) -> Result<StageOutputs, StageError> {
         reduce_common::run(
             Method::CraigBampton {
-                modes: modes(p).selection(),
+                modes: p.modes().selection(),
             },
             p.mass,
             inputs,
         )
-    }
-}
-
-fn modes(p: &Params) -> ComponentModes {
-    ComponentModes {
-        max_freq_hz: p.max_freq_hz,
-        count: p.count,
     }
 }

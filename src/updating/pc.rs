@@ -14,7 +14,6 @@ use super::solve::{
     ParameterWeighting, damped_step, diagnostics, select_subset, subset_condition_limit,
 };
 use super::{IterationRecord, Step, StopReason, UpdateMethod};
-use crate::core::DofId;
 use crate::correlation::frf::{amplitude_correlation, shape_correlation};
 use crate::eigen::ModeSelection;
 use crate::frf::{FrfSet, ModalDamping, modal_receptance};
@@ -76,19 +75,6 @@ struct Lines {
 }
 
 impl PredictorCorrector<'_> {
-    /// DOFs the measured pairs touch, first appearance order.
-    fn dofs(&self) -> Vec<DofId> {
-        let mut out: Vec<DofId> = Vec::new();
-        for p in &self.measured.pairs {
-            for d in [p.response, p.excitation] {
-                if !out.contains(&d) {
-                    out.push(d);
-                }
-            }
-        }
-        out
-    }
-
     fn correlate(&self, predicted: &FrfSet) -> Lines {
         let (nf, nq) = (self.measured.freqs_hz.len(), self.measured.pairs.len());
         let mut chi_s = Vec::with_capacity(nf);
@@ -140,14 +126,7 @@ pub fn predict(
     measured: &FrfSet,
     damping: &ModalDamping,
 ) -> Result<FrfSet, UpdatingError> {
-    let mut dofs: Vec<crate::core::DofId> = Vec::new();
-    for p in &measured.pairs {
-        for d in [p.response, p.excitation] {
-            if !dofs.contains(&d) {
-                dofs.push(d);
-            }
-        }
-    }
+    let dofs = measured.dofs();
     let modes = crate::eigen::Modes {
         eigenvalues: state.modes.eigenvalues.clone(),
         shapes: state.shapes_at(&dofs)?,
@@ -199,7 +178,7 @@ impl UpdateMethod for PredictorCorrector<'_> {
         }
 
         // Sensitivities at the chosen lines, on the DOFs the pairs need.
-        let dofs = self.dofs();
+        let dofs = self.measured.dofs();
         let shapes = state.shapes_at(&dofs)?;
         let modal = ModalFrfModel {
             eigenvalues: &state.modes.eigenvalues,
