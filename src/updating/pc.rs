@@ -68,48 +68,114 @@ pub struct PredictorCorrector<'a> {
     pub settings: PcSettings,
 }
 
-/// Correlation of the prediction with the measurement, per line.
-struct Lines {
-    chi_s: Vec<f64>,
-    chi_a: Vec<f64>,
+/// `χ_s(ω_k)`, `χ_a(ω_k)` of a prediction against the measurement at every measured line (4.8, 4.9).
+#[derive(Clone, Debug)]
+pub struct LineCorrelation {
+    /// `χ_s` per line.
+    pub chi_s: Vec<f64>,
+    /// `χ_a` per line.
+    pub chi_a: Vec<f64>,
 }
 
-impl PredictorCorrector<'_> {
-    fn correlate(&self, predicted: &FrfSet) -> Lines {
-        let (nf, nq) = (self.measured.freqs_hz.len(), self.measured.pairs.len());
+impl LineCorrelation {
+    /// Correlates `predicted` with `measured` line by line (same pairs and lines).
+    pub fn new(measured: &FrfSet, predicted: &FrfSet) -> Self {
+        let (nf, nq) = (measured.freqs_hz.len(), measured.pairs.len());
         let mut chi_s = Vec::with_capacity(nf);
         let mut chi_a = Vec::with_capacity(nf);
         for k in 0..nf {
-            let x: Vec<c64> = (0..nq).map(|q| self.measured.values[(k, q)]).collect();
+            let x: Vec<c64> = (0..nq).map(|q| measured.values[(k, q)]).collect();
             let a: Vec<c64> = (0..nq).map(|q| predicted.values[(k, q)]).collect();
             chi_s.push(shape_correlation(&x, &a));
             chi_a.push(amplitude_correlation(&x, &a));
         }
-        Lines { chi_s, chi_a }
+        LineCorrelation { chi_s, chi_a }
     }
 
-    /// Lines for the equations (4.20): not well correlated, not next to a predicted resonance.
-    fn select_lines(&self, lines: &Lines, natural_hz: &[f64]) -> Vec<usize> {
-        let f = &self.measured.freqs_hz;
-        let spacing = |k: usize| {
-            let prev = if k > 0 { f[k] - f[k - 1] } else { 0.0 };
-            let next = if k + 1 < f.len() {
-                f[k + 1] - f[k]
-            } else {
-                0.0
-            };
-            prev.max(next)
-        };
-        (0..f.len())
-            .filter(|&k| 0.5 * (lines.chi_s[k] + lines.chi_a[k]) <= self.settings.kappa_f)
-            .filter(|&k| {
-                let band = self.settings.resonance_lines * spacing(k);
-                natural_hz
-                    .iter()
-                    .all(|&fr| fr == 0.0 || (f[k] - fr).abs() > band)
-            })
-            .collect()
+    /// Mean of `(χ_s + χ_a)/2` over all lines: the stop figure (4.23).
+    pub fn mean_chi(&self) -> f64 {
+        0.5 * (mean(&self.chi_s) + mean(&self.chi_a))
     }
+}
+
+/// The updating lines (4.20): lines with `(χ_s + χ_a)/2 ≤ κ_f` that lie more than
+/// `resonance_lines` line spacings from every predicted (elastic) natural frequency.
+pub fn select_lines(
+    freqs_hz: &[f64],
+    lines: &LineCorrelation,
+    natural_hz: &[f64],
+    kappa_f: f64,
+    resonance_lines: f64,
+) -> Vec<usize> {
+    let f = freqs_hz;
+    let spacing = |k: usize| {
+        let prev = if k > 0 { f[k] - f[k - 1] } else { 0.0 };
+        let next = if k + 1 < f.len() {
+            f[k + 1] - f[k]
+        } else {
+            0.0
+        };
+        prev.max(next)
+    };
+    (0..f.len())
+        .filter(|&k| 0.5 * (lines.chi_s[k] + lines.chi_a[k]) <= kappa_f)
+        .filter(|&k| {
+            let band = resonance_lines * spacing(k);
+            natural_hz
+                .iter()
+                .all(|&fr| fr == 0.0 || (f[k] - fr).abs() > band)
+        })
+        .collect()
+}
+
+/// The P-C's linear equations `ε = S Δφ` (4.16) at the updating lines `chosen`.
+///
+/// `sensitivities[p]` is `∂H/∂φ_p` (already unity-scaled where the method wants it), `N_fu ×
+/// N_pairs`, its row `i` at line `chosen[i]`. Per line the rows are `1 − χ_s` and `1 − χ_a` with
+/// their gradients; with one FRF only the `χ_a` row (`χ_s ≡ 1`). With `weighted` every row is
+/// multiplied by `√χ` of its own coefficient, so that least squares minimises `εᵀW_fε` (4.21).
+pub fn correlation_equations(
+    measured: &FrfSet,
+    predicted: &FrfSet,
+    chosen: &[usize],
+    sensitivities: &[Mat<c64>],
+    weighted: bool,
+) -> (Mat<f64>, Vec<f64>) {
+    let n = sensitivities.len();
+    let nq = measured.pairs.len();
+    let with_shape = nq > 1;
+    let rows_per_line = if with_shape { 2 } else { 1 };
+    let m = rows_per_line * chosen.len();
+    let mut s = Mat::<f64>::zeros(m, n);
+    let mut eps = vec![0.0; m];
+    let weight = |chi: f64| if weighted { chi.max(0.0).sqrt() } else { 1.0 };
+    for (row, &k) in chosen.iter().enumerate() {
+        let x: Vec<c64> = (0..nq).map(|q| measured.values[(k, q)]).collect();
+        let a: Vec<c64> = (0..nq).map(|q| predicted.values[(k, q)]).collect();
+        let cols: Vec<Vec<c64>> = sensitivities
+            .iter()
+            .map(|sp| (0..nq).map(|q| sp[(row, q)]).collect())
+            .collect();
+        let refs: Vec<&[c64]> = cols.iter().map(|c| c.as_slice()).collect();
+        let c = chi_sensitivity(&x, &a, &refs);
+        let base = rows_per_line * row;
+        let ra = if with_shape {
+            let ws = weight(c.chi_s);
+            eps[base] = ws * (1.0 - c.chi_s);
+            for p in 0..n {
+                s[(base, p)] = ws * c.d_chi_s[p];
+            }
+            base + 1
+        } else {
+            base
+        };
+        let wa = weight(c.chi_a);
+        eps[ra] = wa * (1.0 - c.chi_a);
+        for p in 0..n {
+            s[(ra, p)] = wa * c.d_chi_a[p];
+        }
+    }
+    (s, eps)
 }
 
 fn mean(v: &[f64]) -> f64 {
@@ -155,7 +221,7 @@ impl UpdateMethod for PredictorCorrector<'_> {
         let n = values.len();
         let (state, evaluated) = model.modal_state(values, s.modes)?;
         let predicted = predict(&state, self.measured, &s.damping)?;
-        let lines = self.correlate(&predicted);
+        let lines = LineCorrelation::new(self.measured, &predicted);
         let mut record = IterationRecord {
             iteration,
             values: values.to_vec(),
@@ -171,7 +237,13 @@ impl UpdateMethod for PredictorCorrector<'_> {
         if record.mean_chi() >= s.stop_chi {
             return Ok(Step::new(record, Some(StopReason::Converged)));
         }
-        let chosen = self.select_lines(&lines, &state.modes.frequencies_hz());
+        let chosen = select_lines(
+            &self.measured.freqs_hz,
+            &lines,
+            &state.modes.frequencies_hz(),
+            s.kappa_f,
+            s.resonance_lines,
+        );
         record.lines_used = chosen.len();
         if chosen.is_empty() {
             return Ok(Step::new(record, Some(StopReason::NothingToUpdate)));
@@ -202,37 +274,8 @@ impl UpdateMethod for PredictorCorrector<'_> {
         )?;
 
         // S and ε, rows weighted by W_f^{1/2} (4.21).
-        let nq = self.measured.pairs.len();
-        let with_shape = nq > 1;
-        let rows_per_line = if with_shape { 2 } else { 1 };
-        let m = rows_per_line * chosen.len();
-        let mut sw = Mat::<f64>::zeros(m, n);
-        let mut ew = vec![0.0; m];
-        for (row, &k) in chosen.iter().enumerate() {
-            let x: Vec<c64> = (0..nq).map(|q| self.measured.values[(k, q)]).collect();
-            let a: Vec<c64> = (0..nq).map(|q| predicted.values[(k, q)]).collect();
-            let cols: Vec<Vec<c64>> = sens
-                .iter()
-                .map(|sp| (0..nq).map(|q| sp[(row, q)]).collect())
-                .collect();
-            let refs: Vec<&[c64]> = cols.iter().map(|c| c.as_slice()).collect();
-            let c = chi_sensitivity(&x, &a, &refs);
-            let base = rows_per_line * row;
-            let (wa, ra) = if with_shape {
-                let ws = c.chi_s.max(0.0).sqrt();
-                ew[base] = ws * (1.0 - c.chi_s);
-                for p in 0..n {
-                    sw[(base, p)] = ws * c.d_chi_s[p];
-                }
-                (c.chi_a.max(0.0).sqrt(), base + 1)
-            } else {
-                (c.chi_a.max(0.0).sqrt(), base)
-            };
-            ew[ra] = wa * (1.0 - c.chi_a);
-            for p in 0..n {
-                sw[(ra, p)] = wa * c.d_chi_a[p];
-            }
-        }
+        let (sw, ew) = correlation_equations(self.measured, &predicted, &chosen, &sens, true);
+        let m = sw.nrows();
         record.residual_norm = ew.iter().map(|e| e * e).sum::<f64>().sqrt();
         record.diagnostics = diagnostics(sw.as_ref());
 
