@@ -19,6 +19,7 @@ pub mod correlation;
 pub mod eigen;
 pub mod fe;
 pub mod frf;
+pub mod localisation;
 pub mod model;
 pub mod pipeline;
 pub mod reduction;

@@ -670,6 +670,9 @@ pub fn layout(kind: ArtefactKind) -> Vec<TableLayout> {
         ],
         ArtefactKind::Plot => vec![],
         ArtefactKind::Partition | ArtefactKind::ReducedModel => super::reduced::layout(kind),
+        ArtefactKind::Leverage | ArtefactKind::EigenvalueSensitivity => {
+            super::leverage::layout(kind)
+        }
         ArtefactKind::Mesh => vec![
             t(
                 "nodes",

@@ -13,6 +13,7 @@ pub mod digest;
 #[cfg(feature = "hdf5")]
 mod hdf5_codec;
 pub mod kinds;
+pub mod leverage;
 pub mod mesh;
 pub mod reduced;
 mod table;
@@ -44,11 +45,15 @@ pub enum ArtefactKind {
     Partition,
     /// A component-mode-synthesis model: reduced `K`, `M`, transformations, derivatives.
     ReducedModel,
+    /// Error localisation: the leverage (5.9) of every candidate parameter.
+    Leverage,
+    /// Eigenvalue sensitivities (5.3) of candidate parameters for chosen modes.
+    EigenvalueSensitivity,
 }
 
 impl ArtefactKind {
     /// All kinds.
-    pub const ALL: [ArtefactKind; 9] = [
+    pub const ALL: [ArtefactKind; 11] = [
         ArtefactKind::Matrices,
         ArtefactKind::Modes,
         ArtefactKind::Frf,
@@ -58,6 +63,8 @@ impl ArtefactKind {
         ArtefactKind::UpdateResult,
         ArtefactKind::Partition,
         ArtefactKind::ReducedModel,
+        ArtefactKind::Leverage,
+        ArtefactKind::EigenvalueSensitivity,
     ];
 
     /// The name used in files and port declarations.
@@ -72,6 +79,8 @@ impl ArtefactKind {
             ArtefactKind::UpdateResult => "update_result",
             ArtefactKind::Partition => "partition",
             ArtefactKind::ReducedModel => "reduced_model",
+            ArtefactKind::Leverage => "leverage",
+            ArtefactKind::EigenvalueSensitivity => "eigenvalue_sensitivity",
         }
     }
 

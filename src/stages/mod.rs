@@ -5,6 +5,8 @@ pub mod assemble;
 pub mod correlate_frf;
 pub mod frf_import;
 pub mod frf_synthesise;
+pub mod localise_eigensensitivity;
+pub mod localise_leverage;
 pub mod mesh_generate;
 pub mod mesh_import;
 pub mod mesh_parameters;
@@ -37,6 +39,8 @@ static MODEL_PARTITION: Typed<model_partition::ModelPartition> = Typed::new();
 static REDUCE_CB: Typed<reduce_craig_bampton::ReduceCraigBampton> = Typed::new();
 static REDUCE_FI: Typed<reduce_free_interface::ReduceFreeInterface> = Typed::new();
 static REDUCE_FC: Typed<reduce_force_coupling::ReduceForceCoupling> = Typed::new();
+static LOCALISE_LEVERAGE: Typed<localise_leverage::LocaliseLeverage> = Typed::new();
+static LOCALISE_EIGEN: Typed<localise_eigensensitivity::LocaliseEigensensitivity> = Typed::new();
 
 /// Every stage kind femu knows.
 pub fn registry() -> Registry {
@@ -57,6 +61,8 @@ pub fn registry() -> Registry {
         &REDUCE_CB,
         &REDUCE_FI,
         &REDUCE_FC,
+        &LOCALISE_LEVERAGE,
+        &LOCALISE_EIGEN,
     ];
     Registry::new(all)
 }

@@ -1,0 +1,429 @@
+//! A shell-and-beam mesh coloured by a value per element (an error-localisation map, thesis
+//! figs. 5.3–5.7), in one or more panels sharing a colour bar, as PNG and SVG.
+//!
+//! The 3D mesh is projected orthographically along a fixed view (azimuth about `z`, elevation
+//! above the `xy` plane). Faces and beams are drawn far to near (painter's algorithm by mean
+//! depth, ties broken by element id), filled by a colour map of the value — a viridis-like ramp
+//! for values in `[0, 1]`, a blue-white-red ramp when some are negative (`[−1, 1]`) — with dark
+//! edges; elements without a value are light grey; highlighted elements get thick red edges.
+//! Equal inputs give byte-identical files.
+
+use std::collections::{BTreeMap, BTreeSet};
+
+use plotters::backend::{BitMapBackend, RGBPixel, SVGBackend};
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
+
+use super::frf_plot::{Figure, PlotError, encode_png, register_fonts};
+use crate::model::{Element, Model};
+
+/// Viewing direction: the camera looks at the mesh from this azimuth and elevation.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct View {
+    /// Rotation about `z` from `+x` toward `+y`, degrees.
+    pub azimuth_deg: f64,
+    /// Angle above the `xy` plane, degrees.
+    pub elevation_deg: f64,
+}
+
+impl Default for View {
+    fn default() -> Self {
+        View {
+            azimuth_deg: -60.0,
+            elevation_deg: 30.0,
+        }
+    }
+}
+
+/// One panel: a title and a value per element id (elements without one are grey).
+#[derive(Clone, Debug, PartialEq)]
+pub struct MeshPanel {
+    /// Panel title.
+    pub title: String,
+    /// Value per element, on the scale of the colour bar.
+    pub values: BTreeMap<u64, f64>,
+}
+
+/// What to draw.
+#[derive(Clone, Debug)]
+pub struct MeshPlot<'a> {
+    /// Figure title.
+    pub title: String,
+    /// The mesh.
+    pub model: &'a Model,
+    /// Panels, laid out row by row.
+    pub panels: Vec<MeshPanel>,
+    /// Panels per row.
+    pub columns: usize,
+    /// Viewing direction.
+    pub view: View,
+    /// Elements drawn with thick red edges (e.g. the known error).
+    pub highlight: BTreeSet<u64>,
+    /// Label of the colour bar.
+    pub colour_label: String,
+}
+
+const INK: RGBColor = RGBColor(33, 33, 33);
+const EDGE: RGBColor = RGBColor(60, 60, 60);
+const NO_VALUE: RGBColor = RGBColor(215, 215, 215);
+const MARK: RGBColor = RGBColor(220, 20, 30);
+/// Panel size in pixels.
+const PANEL: (u32, u32) = (560, 430);
+const TITLE_H: u32 = 44;
+const BAR_W: u32 = 110;
+
+/// Viridis-like ramp: control points at 0, 1/8, …, 1.
+const SEQUENTIAL: [(u8, u8, u8); 9] = [
+    (68, 1, 84),
+    (71, 44, 122),
+    (59, 81, 139),
+    (44, 113, 142),
+    (33, 144, 141),
+    (39, 173, 129),
+    (92, 200, 99),
+    (170, 220, 50),
+    (253, 231, 37),
+];
+/// Blue-white-red ramp for `[−1, 1]`.
+const DIVERGING: [(u8, u8, u8); 5] = [
+    (33, 102, 172),
+    (146, 197, 222),
+    (247, 247, 247),
+    (244, 165, 130),
+    (178, 24, 43),
+];
+
+fn ramp(points: &[(u8, u8, u8)], t: f64) -> RGBColor {
+    let t = if t.is_finite() {
+        t.clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    let x = t * (points.len() - 1) as f64;
+    let i = (x.floor() as usize).min(points.len() - 2);
+    let f = x - i as f64;
+    let mix = |a: u8, b: u8| (a as f64 + f * (b as f64 - a as f64)).round() as u8;
+    let (a, b) = (points[i], points[i + 1]);
+    RGBColor(mix(a.0, b.0), mix(a.1, b.1), mix(a.2, b.2))
+}
+
+/// The colour scale: `[0, 1]` sequential, or `[−1, 1]` diverging.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Scale {
+    Sequential,
+    Diverging,
+}
+
+impl Scale {
+    fn of(panels: &[MeshPanel]) -> Self {
+        if panels
+            .iter()
+            .flat_map(|p| p.values.values())
+            .any(|v| *v < 0.0)
+        {
+            Scale::Diverging
+        } else {
+            Scale::Sequential
+        }
+    }
+    fn range(self) -> (f64, f64) {
+        match self {
+            Scale::Sequential => (0.0, 1.0),
+            Scale::Diverging => (-1.0, 1.0),
+        }
+    }
+    fn colour(self, v: f64) -> RGBColor {
+        match self {
+            Scale::Sequential => ramp(&SEQUENTIAL, v),
+            Scale::Diverging => ramp(&DIVERGING, 0.5 * (v + 1.0)),
+        }
+    }
+}
+
+/// One drawable: a face (3 or 4 corners) or a beam (2 ends), projected.
+struct Item {
+    id: u64,
+    depth: f64,
+    points: Vec<(f64, f64)>,
+    face: bool,
+}
+
+/// Orthographic projection: screen right, screen up, toward the camera.
+fn axes(view: View) -> ([f64; 3], [f64; 3], [f64; 3]) {
+    let (a, e) = (
+        view.azimuth_deg.to_radians(),
+        view.elevation_deg.to_radians(),
+    );
+    let toward = [e.cos() * a.cos(), e.cos() * a.sin(), e.sin()];
+    let right = [-a.sin(), a.cos(), 0.0];
+    let up = [-e.sin() * a.cos(), -e.sin() * a.sin(), e.cos()];
+    (right, up, toward)
+}
+
+fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+/// Projected faces and beams, far to near.
+fn items(model: &Model, view: View) -> Vec<Item> {
+    let (right, up, toward) = axes(view);
+    let mut out = Vec::new();
+    for (&id, e) in &model.elements {
+        let (nodes, face): (Vec<u64>, bool) = match e {
+            Element::Quad4 { nodes, .. } => (nodes.to_vec(), true),
+            Element::Tria3 { nodes, .. } => (nodes.to_vec(), true),
+            Element::Beam { nodes, .. } => (nodes.to_vec(), false),
+            _ => continue,
+        };
+        let xyz: Vec<[f64; 3]> = nodes
+            .iter()
+            .filter_map(|n| model.nodes.get(n).copied())
+            .collect();
+        if xyz.len() != nodes.len() {
+            continue;
+        }
+        let depth = xyz.iter().map(|p| dot(*p, toward)).sum::<f64>() / xyz.len() as f64;
+        out.push(Item {
+            id,
+            depth,
+            points: xyz.iter().map(|p| (dot(*p, right), dot(*p, up))).collect(),
+            face,
+        });
+    }
+    out.sort_by(|a, b| a.depth.total_cmp(&b.depth).then(a.id.cmp(&b.id)));
+    out
+}
+
+/// Renders the panels as PNG and SVG.
+pub fn mesh_plot(plot: &MeshPlot<'_>) -> Result<Figure, PlotError> {
+    register_fonts()?;
+    let columns = plot.columns.clamp(1, plot.panels.len().max(1));
+    let rows = plot.panels.len().max(1).div_ceil(columns);
+    let w = PANEL.0 * columns as u32 + BAR_W;
+    let h = TITLE_H + PANEL.1 * rows as u32;
+    let items = items(plot.model, plot.view);
+    let mut rgb = vec![255u8; w as usize * h as usize * 3];
+    {
+        let backend = BitMapBackend::<RGBPixel>::with_buffer_and_format(&mut rgb, (w, h))
+            .map_err(|e| PlotError::Backend(e.to_string()))?;
+        let root = backend.into_drawing_area();
+        draw(&root, plot, &items, columns)?;
+        root.present()
+            .map_err(|e| PlotError::Backend(e.to_string()))?;
+    }
+    let png = encode_png(&rgb, w, h)?;
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (w, h)).into_drawing_area();
+        draw(&root, plot, &items, columns)?;
+        root.present()
+            .map_err(|e| PlotError::Backend(e.to_string()))?;
+    }
+    Ok(Figure { png, svg })
+}
+
+fn text<'a>(size: f64, bold: bool, pos: Pos) -> TextStyle<'a> {
+    let style = if bold {
+        FontStyle::Bold
+    } else {
+        FontStyle::Normal
+    };
+    TextStyle {
+        font: ("sans-serif", size, style).into_font(),
+        color: INK.to_backend_color(),
+        pos,
+    }
+}
+
+fn draw<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    plot: &MeshPlot<'_>,
+    items: &[Item],
+    columns: usize,
+) -> Result<(), PlotError> {
+    let be = |e: DrawingAreaErrorKind<DB::ErrorType>| PlotError::Backend(e.to_string());
+    root.fill(&WHITE).map_err(be)?;
+    let (w, _) = root.dim_in_pixel();
+    let centre = Pos::new(HPos::Center, VPos::Center);
+    root.draw(&Text::new(
+        plot.title.clone(),
+        ((w - BAR_W) as i32 / 2, TITLE_H as i32 / 2),
+        text(20.0, true, centre),
+    ))
+    .map_err(be)?;
+    // One fit for every panel: the projected bounding box.
+    let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
+    for p in items.iter().flat_map(|i| &i.points) {
+        x0 = x0.min(p.0);
+        x1 = x1.max(p.0);
+        y0 = y0.min(p.1);
+        y1 = y1.max(p.1);
+    }
+    if !(x1 > x0) {
+        (x0, x1) = (-1.0, 1.0);
+    }
+    if !(y1 > y0) {
+        (y0, y1) = (-1.0, 1.0);
+    }
+    let (pw, ph) = (PANEL.0 as f64, PANEL.1 as f64);
+    let (margin, caption) = (24.0, 34.0);
+    let s = ((pw - 2.0 * margin) / (x1 - x0)).min((ph - 2.0 * margin - caption) / (y1 - y0));
+    let scale = Scale::of(&plot.panels);
+    for (k, panel) in plot.panels.iter().enumerate() {
+        let (c, r) = ((k % columns) as f64, (k / columns) as f64);
+        let left = c * pw;
+        let top = TITLE_H as f64 + r * ph;
+        root.draw(&Text::new(
+            panel.title.clone(),
+            ((left + pw / 2.0) as i32, (top + caption / 2.0 + 4.0) as i32),
+            text(16.0, false, centre),
+        ))
+        .map_err(be)?;
+        let ox = left + pw / 2.0 - s * (x0 + x1) / 2.0;
+        let oy = top + caption + (ph - caption) / 2.0 + s * (y0 + y1) / 2.0;
+        let px = |p: &(f64, f64)| ((ox + s * p.0).round() as i32, (oy - s * p.1).round() as i32);
+        for item in items {
+            let value = panel.values.get(&item.id).copied();
+            let fill = value.map_or(NO_VALUE, |v| scale.colour(v));
+            let pts: Vec<(i32, i32)> = item.points.iter().map(px).collect();
+            let marked = plot.highlight.contains(&item.id);
+            if item.face {
+                root.draw(&Polygon::new(pts.clone(), fill.filled()))
+                    .map_err(be)?;
+                let mut ring = pts.clone();
+                ring.push(pts[0]);
+                let edge = if marked {
+                    MARK.stroke_width(3)
+                } else {
+                    EDGE.stroke_width(1)
+                };
+                root.draw(&PathElement::new(ring, edge)).map_err(be)?;
+            } else {
+                let colour = if value.is_some() { fill } else { EDGE };
+                if marked {
+                    root.draw(&PathElement::new(pts.clone(), MARK.stroke_width(6)))
+                        .map_err(be)?;
+                }
+                root.draw(&PathElement::new(pts, colour.stroke_width(3)))
+                    .map_err(be)?;
+            }
+        }
+    }
+    // Colour bar.
+    let (lo, hi) = scale.range();
+    let bx = (w - BAR_W) as i32 + 18;
+    let (by0, by1) = (TITLE_H as i32 + 50, TITLE_H as i32 + PANEL.1 as i32 - 90);
+    let steps = 120;
+    for i in 0..steps {
+        let t0 = i as f64 / steps as f64;
+        let t1 = (i + 1) as f64 / steps as f64;
+        let ya = by1 - ((by1 - by0) as f64 * t1).round() as i32;
+        let yb = by1 - ((by1 - by0) as f64 * t0).round() as i32;
+        let v = lo + (hi - lo) * (t0 + t1) / 2.0;
+        root.draw(&Rectangle::new(
+            [(bx, ya), (bx + 22, yb)],
+            scale.colour(v).filled(),
+        ))
+        .map_err(be)?;
+    }
+    root.draw(&Rectangle::new(
+        [(bx, by0), (bx + 22, by1)],
+        INK.stroke_width(1),
+    ))
+    .map_err(be)?;
+    let ticks = 4;
+    for i in 0..=ticks {
+        let t = i as f64 / ticks as f64;
+        let y = by1 - ((by1 - by0) as f64 * t).round() as i32;
+        root.draw(&PathElement::new(
+            vec![(bx + 22, y), (bx + 27, y)],
+            INK.stroke_width(1),
+        ))
+        .map_err(be)?;
+        let v = lo + (hi - lo) * t;
+        root.draw(&Text::new(
+            format!("{v:.2}"),
+            (bx + 30, y),
+            text(12.0, false, Pos::new(HPos::Left, VPos::Center)),
+        ))
+        .map_err(be)?;
+    }
+    root.draw(&Text::new(
+        plot.colour_label.clone(),
+        (bx + 11, by0 - 20),
+        text(12.0, false, centre),
+    ))
+    .map_err(be)?;
+    let legend_y = by1 + 22;
+    root.draw(&Rectangle::new(
+        [(bx, legend_y - 6), (bx + 12, legend_y + 6)],
+        NO_VALUE.filled(),
+    ))
+    .map_err(be)?;
+    root.draw(&Text::new(
+        "no value".to_string(),
+        (bx + 16, legend_y),
+        text(12.0, false, Pos::new(HPos::Left, VPos::Center)),
+    ))
+    .map_err(be)?;
+    if !plot.highlight.is_empty() {
+        root.draw(&Rectangle::new(
+            [(bx, legend_y + 16), (bx + 12, legend_y + 28)],
+            MARK.stroke_width(3),
+        ))
+        .map_err(be)?;
+        root.draw(&Text::new(
+            "marked".to_string(),
+            (bx + 16, legend_y + 22),
+            text(12.0, false, Pos::new(HPos::Left, VPos::Center)),
+        ))
+        .map_err(be)?;
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::generate::{BentPlate, bent_plate};
+
+    #[test]
+    fn ramps_hit_their_ends() {
+        assert_eq!(ramp(&SEQUENTIAL, 0.0), RGBColor(68, 1, 84));
+        assert_eq!(ramp(&SEQUENTIAL, 1.0), RGBColor(253, 231, 37));
+        assert_eq!(ramp(&SEQUENTIAL, f64::NAN), RGBColor(68, 1, 84));
+        assert_eq!(Scale::Diverging.colour(0.0), RGBColor(247, 247, 247));
+    }
+
+    /// Far faces come first; equal inputs give equal bytes.
+    #[test]
+    fn painter_order_and_determinism() {
+        let model = bent_plate(&BentPlate::default());
+        let it = items(&model, View::default());
+        assert_eq!(it.len(), 123);
+        assert!(it.windows(2).all(|w| w[0].depth <= w[1].depth));
+        let values: BTreeMap<u64, f64> = (1..=98).map(|e| (e, e as f64 / 98.0)).collect();
+        let plot = MeshPlot {
+            title: "t".into(),
+            model: &model,
+            panels: vec![
+                MeshPanel {
+                    title: "a".into(),
+                    values: values.clone(),
+                },
+                MeshPanel {
+                    title: "b".into(),
+                    values: values.iter().map(|(k, v)| (*k, -v)).collect(),
+                },
+            ],
+            columns: 2,
+            view: View::default(),
+            highlight: [7, 14].into_iter().collect(),
+            colour_label: "L / max".into(),
+        };
+        let a = mesh_plot(&plot).unwrap();
+        assert_eq!(a, mesh_plot(&plot).unwrap());
+        assert!(a.png.starts_with(b"\x89PNG") && a.svg.contains("<svg"));
+    }
+}
