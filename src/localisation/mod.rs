@@ -2,13 +2,16 @@
 //! discrepancy between measured and predicted FRFs.
 //!
 //! - [`leverage_map`]: the correlation-based leverage `L_i = (S_iᵀε)²/(S_iᵀS_i)` (5.9) of every
-//!   candidate over the P-C's updating lines (4.16, 4.20), `S` and `ε` as in the P-C with the
-//!   thesis's unweighted equations (5.4) by default; candidates are processed in chunks, so
-//!   every element of a large model can be one.
+//!   candidate over the updating lines (4.20; by default every line but those at predicted
+//!   resonances), `S` and `ε` as in the P-C (4.16) with the thesis's unweighted equations
+//!   (5.4) by default; candidates are processed in chunks, so every element of a large model
+//!   can be one.
 //! - [`eigenvalue_map`]: the classical eigenvalue sensitivity `φ_i ∂λ_r/∂φ_i` (5.3) of chosen
 //!   modes, normalised per mode.
 //!
-//! The analysis is of the full finite-element model at its current parameter values.
+//! The analysis is of the full finite-element model at its current parameter values, on its
+//! modes to twice the band plus the static share of the higher modes ([`residual`]), which
+//! stands in for the constraint modes of the thesis's Craig-Bampton model.
 
 pub mod candidates;
 pub mod eigen_maps;
@@ -57,7 +60,7 @@ pub enum LocalisationError {
 pub struct LeverageSettings {
     /// Only measured lines in `[lo, hi]` Hz are candidates for the updating lines.
     pub band_hz: Option<[f64; 2]>,
-    /// Lines with `(χ_s + χ_a)/2 > κ_f` are left out (4.20).
+    /// Lines with `(χ_s + χ_a)/2 > κ_f` are left out (4.20); 1 keeps every line.
     pub kappa_f: f64,
     /// Lines within this many line spacings of a predicted natural frequency are left out.
     pub resonance_lines: f64,
@@ -67,7 +70,7 @@ pub struct LeverageSettings {
     pub damping: ModalDamping,
     /// Mass matrix.
     pub mass: MassKind,
-    /// Wang's static correction of the truncated mode-shape derivatives.
+    /// The static share of the truncated modes in the prediction and its derivatives.
     pub static_correction: bool,
     /// Rows weighted by `√χ` (4.21); the thesis's leverage (5.4) is unweighted.
     pub weighted: bool,

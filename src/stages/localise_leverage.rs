@@ -363,8 +363,9 @@ pub struct Params {
     /// Mass matrix.
     #[serde(default)]
     pub mass: MassKind,
-    /// Add the truncated modes' static share to the mode-shape derivatives (Wang's correction,
-    /// as in the P-C); `false`: the thesis's truncated sensitivities.
+    /// Add the truncated modes' static share: their residual flexibility to the prediction and
+    /// its derivative, and Wang's correction to the mode-shape derivatives (see
+    /// `localisation::residual`); `false`: the truncated modal sums alone.
     #[serde(default = "yes")]
     pub static_correction: bool,
     /// Weight the equations by `√χ` (4.21); the thesis's leverage (5.4) is unweighted.
