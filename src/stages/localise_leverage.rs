@@ -4,7 +4,7 @@
 //! Candidates are the model's declared parameters or every element on its own (processed in
 //! chunks). Writes the table, a mesh coloured by the normalised leverage and a bar chart.
 
-use super::frf_synthesise::{Damping, PerMode};
+use super::frf_synthesise::Damping;
 use crate::artefact::kinds::frf_from_artefact;
 use crate::artefact::leverage::{leverage_to_artefact, ranks};
 use crate::artefact::mesh::mesh_from_artefact;
@@ -310,20 +310,15 @@ pub fn plot_artefact(name: &str, title: &str, fig: crate::report::frf_plot::Figu
 
 /// Problems with a damping given for a modal prediction.
 pub fn damping_issues(d: &Damping) -> Vec<ParamIssue> {
-    let values = match d {
-        Damping::None => return Vec::new(),
-        Damping::Structural(v) | Damping::Viscous(v) => match v {
-            PerMode::Uniform(x) => vec![*x],
-            PerMode::PerMode(v) => v.clone(),
-        },
-        Damping::Rayleigh { .. } => {
-            return vec![ParamIssue::at(
-                "damping",
-                "the prediction is a modal sum: give `structural` or `viscous` modal damping, e.g. {structural: 0.01}",
-            )];
-        }
-    };
-    if values.is_empty() || values.iter().any(|v| !(v.is_finite() && *v >= 0.0)) {
+    if matches!(d, Damping::Rayleigh { .. }) {
+        return vec![ParamIssue::at(
+            "damping",
+            "the prediction is a modal sum: give `structural` or `viscous` modal damping, e.g. {structural: 0.01}",
+        )];
+    }
+    let modal = d.modal();
+    let given = !matches!(d, Damping::None);
+    if given && (modal.is_empty() || modal.check(modal.len()).is_err()) {
         vec![ParamIssue::at(
             "damping",
             "give finite damping values >= 0 (one, or one per mode of the basis)",
@@ -611,6 +606,10 @@ mod tests {
         assert!(e[0].message.contains("unknown variant"), "{}", e[0].message);
         let e = check(serde_json::json!({"mode_count": 10, "modes_max_hz": 100})).unwrap_err();
         assert_eq!(e[0].path, vec!["mode_count"]);
+        for bad in [serde_json::json!(-0.01), serde_json::json!([])] {
+            let e = check(serde_json::json!({"damping": {"structural": bad}})).unwrap_err();
+            assert_eq!(e[0].path, vec!["damping"], "{bad}");
+        }
     }
 
     fn inputs(with_params: bool) -> StageInputs {
