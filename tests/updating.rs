@@ -119,3 +119,59 @@ fn bent_plate_rfm_reproduces_c2() {
     let e7 = results(&out, "rfm_e_three_dofs")["e7"];
     assert!(e7 / 210e9 - 1.0 > 0.1, "e7 = {e7}");
 }
+
+/// C2 §6.5: damping identification on the free-free bent plate (Craig-Bampton predictions, 15 %
+/// zero-mean noise). From six FRFs the perturbed loss factors of the first four elastic modes
+/// (0.03 … 0.015, truth 0.01) come back within 10 % and the unperturbed ones stay within 10 %,
+/// converged in at most 5 iterations; rigid-body modes are never parameters. From α_11 alone
+/// the estimates scatter more (measured: within 19 %). A viscous model fitted to the
+/// structurally damped data gives `2ζ_r` within 10 % of `η_r`. Noise read on `[0, 1]` biases
+/// every amplitude up and so every loss factor down.
+#[test]
+fn bent_plate_damping_reproduces_c2() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("out");
+    let (_, report, cache) = run(
+        &pipeline("bent-plate-damping"),
+        &tmp.path().join("cache"),
+        &[],
+    );
+    femu::pipeline::materialise(&report, &cache, &out).unwrap();
+    let identified = |stage: &str| -> Vec<(i64, f64)> {
+        let a = read_dir(&out.join(stage).join("result")).unwrap();
+        let t = a.table("modal_damping").unwrap();
+        let modes = t.i64s("modal_damping", "mode").unwrap();
+        let eq = t.f64s("modal_damping", "equivalent_loss_factor").unwrap();
+        modes.iter().copied().zip(eq.iter().copied()).collect()
+    };
+    let worst = |stage: &str| {
+        identified(stage)
+            .iter()
+            .map(|(_, v)| (v / 0.01 - 1.0).abs())
+            .fold(0.0, f64::max)
+    };
+    let six = identified("eta_six_frfs");
+    assert_eq!(
+        six.first().map(|m| m.0),
+        Some(7),
+        "mode 7 is the first elastic mode"
+    );
+    assert_eq!(six.len(), 7, "the elastic modes in 0-100 Hz");
+    assert!(worst("eta_six_frfs") < 0.10, "{six:?}");
+    for stage in ["eta_six_frfs", "eta_one_frf", "zeta_from_structural"] {
+        assert_eq!(meta(&out, stage, "stop"), "converged", "{stage}");
+        assert!(meta(&out, stage, "iterations").as_u64().unwrap() <= 5);
+    }
+    assert!(
+        worst("eta_one_frf") < 0.20,
+        "{:?}",
+        identified("eta_one_frf")
+    );
+    assert!(worst("zeta_from_structural") < 0.10);
+    assert_eq!(
+        meta(&out, "zeta_from_structural", "damping_model"),
+        "viscous"
+    );
+    let biased = identified("eta_six_frfs_biased");
+    assert!(biased.iter().all(|(_, v)| *v < 0.0099), "{biased:?}");
+}

@@ -5,6 +5,7 @@
 //! Changes are unity-based (2.13–2.16): every method solves for the relative changes
 //! `Δφ_i/φ_i` with sensitivities `φ_i ∂(·)/∂φ_i`, and new values are clamped to the bounds.
 
+pub mod damping;
 pub mod eigensensitivity;
 pub mod model;
 pub mod pc;
@@ -97,6 +98,11 @@ pub trait UpdateMethod {
     ) -> Result<Step, UpdatingError>;
     /// Whether a step this small means convergence (methods without a correlation stop rule).
     fn converged_by_step(&self, _relative_change: &[f64]) -> bool {
+        false
+    }
+    /// Whether the merit moved so little from `before` to `after` that iterating on is pointless
+    /// (for methods whose data cannot be matched exactly, so the step never vanishes).
+    fn converged_by_merit(&self, _before: &IterationRecord, _after: &IterationRecord) -> bool {
         false
     }
     /// A figure that a good step raises (none: every step is taken as computed).
@@ -215,7 +221,8 @@ pub fn run(
                 }
             }
         }
-        let converged = method.converged_by_step(&applied);
+        let converged = method.converged_by_step(&applied)
+            || method.converged_by_merit(&current.record, &next.record);
         let stalled = applied.iter().all(|d| d.abs() < 1e-12);
         let mut record = current.record;
         record.relative_change = applied;
