@@ -93,6 +93,9 @@ enum Command {
     Show {
         /// Artefact directory (holding meta.json).
         artefact: PathBuf,
+        /// Rows of each table to print.
+        #[arg(long, default_value_t = 8)]
+        rows: usize,
     },
     /// Compare two artefacts, or two directories of artefacts (e.g. two --out trees).
     Diff {
@@ -286,8 +289,8 @@ fn dispatch(cli: Cli) -> Result<u8, Failure> {
             Ok(0)
         }
         Command::List { kind } => list(kind.as_deref()),
-        Command::Show { artefact } => {
-            show(&artefact)?;
+        Command::Show { artefact, rows } => {
+            show(&artefact, rows)?;
             Ok(0)
         }
         Command::Diff {
@@ -536,7 +539,7 @@ fn list(kind: Option<&str>) -> Result<u8, Failure> {
     }
 }
 
-fn show(dir: &Path) -> anyhow::Result<()> {
+fn show(dir: &Path, rows: usize) -> anyhow::Result<()> {
     let meta = read_meta(dir)?;
     let a = read_dir(dir)?;
     let digest = a.digest();
@@ -574,7 +577,7 @@ fn show(dir: &Path) -> anyhow::Result<()> {
                 .unwrap_or_default();
             println!("  {c}: {}{unit}", col.type_name());
         }
-        print!("{t}");
+        print!("{}", t.preview(rows));
     }
     for (name, bytes) in &a.blobs {
         println!("\nfile `{name}` ({} bytes)", bytes.len());

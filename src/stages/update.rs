@@ -27,8 +27,10 @@ use crate::updating::damping::{
 use crate::updating::eigensensitivity::{EigenSettings, InverseEigensensitivity, MeasuredModes};
 use crate::updating::pc::{PcSettings, PredictorCorrector};
 use crate::updating::rfm::{ResponseFunctionMethod, RfmSettings};
+use crate::updating::sensitive_start::sensitive_start;
 use crate::updating::{
     FeModel, LinearModel, ParameterWeighting, ParametricModel, ReducedFeModel, UpdateMethod, run,
+    run_from,
 };
 
 /// The stage.
@@ -161,6 +163,10 @@ pub struct Params {
     /// modes (default: every elastic mode inside the measured band).
     #[serde(default)]
     pub damping_modes: Vec<usize>,
+    /// Before updating, move these parameters' starting values into their sensitive regions
+    /// (thesis §5.4): lumped springs and masses whose initial estimates no eigenvalue feels.
+    #[serde(default)]
+    pub sensitive_start: Option<SensitiveStartParams>,
     /// With `partition` connected: the component mode synthesis the mesh is analysed by; only
     /// substructures holding a changed parameter are reduced again at each iteration.
     #[serde(default)]
@@ -198,6 +204,24 @@ impl Params {
         let d = if self.damping_method() { 1e-2 } else { 1e-8 };
         self.tolerance.unwrap_or(d)
     }
+}
+
+/// The sensitive-region search (thesis §5.4, 5.12).
+#[derive(Clone, Debug, serde::Deserialize, serde::Serialize, schemars::JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct SensitiveStartParams {
+    /// Parameters to move (springs, masses: they enter K and M linearly), one after another.
+    pub parameters: Vec<String>,
+    /// 1-based numbers of the (elastic) modes whose summed unity eigenvalue sensitivity is
+    /// maximised, e.g. the dominant modes of the band.
+    pub modes: Vec<usize>,
+    /// Scan density between the bounds before the root refinement.
+    #[serde(default = "four")]
+    pub points_per_decade: usize,
+}
+
+fn four() -> usize {
+    4
 }
 
 /// Reduction method of the analysis when a partition is connected.
@@ -427,6 +451,32 @@ impl TypedStage for Update {
                 format!("{resonance_lines} must be >= 0"),
             ));
         }
+        if let Some(ss) = &p.sensitive_start {
+            if p.method == Method::Damping {
+                issues.push(ParamIssue::at(
+                    "sensitive_start",
+                    "the method `damping` changes no spatial parameter: remove `sensitive_start`",
+                ));
+            }
+            if ss.parameters.is_empty() {
+                issues.push(ParamIssue::at(
+                    "sensitive_start.parameters",
+                    "name at least one parameter to move",
+                ));
+            }
+            if ss.modes.is_empty() || ss.modes.contains(&0) {
+                issues.push(ParamIssue::at(
+                    "sensitive_start.modes",
+                    "give 1-based mode numbers, e.g. [1, 2]",
+                ));
+            }
+            if ss.points_per_decade == 0 {
+                issues.push(ParamIssue::at(
+                    "sensitive_start.points_per_decade",
+                    "must be at least 1",
+                ));
+            }
+        }
         if p.mode_count.is_some() && p.modes_max_hz.is_some() {
             issues.push(ParamIssue::at(
                 "mode_count",
@@ -607,8 +657,12 @@ impl TypedStage for Update {
         if let (Method::Pc, ModalDamping::None) = (p.method, p.damping.modal()) {
             tracing::info!("P-C with undamped predictions: lines at resonances are excluded");
         }
-        let history =
-            run(method.as_ref(), model.as_ref(), p.max_iterations).map_err(StageError::failed)?;
+        let (start, moved) = match &p.sensitive_start {
+            Some(ss) => move_to_sensitive_regions(model.as_ref(), ss)?,
+            None => (model.initial_values(), Vec::new()),
+        };
+        let history = run_from(method.as_ref(), model.as_ref(), &start, p.max_iterations)
+            .map_err(StageError::failed)?;
         let updated = model
             .evaluate(&history.final_values)
             .map_err(StageError::failed)?;
@@ -621,11 +675,51 @@ impl TypedStage for Update {
         Ok(StageOutputs::from([
             (
                 "result".to_string(),
-                update_result_to_artefact(&history, name),
+                update_result_to_artefact(&history, name)
+                    .with_meta("sensitive_start", serde_json::Value::Array(moved)),
             ),
             ("model".to_string(), matrices_to_artefact(&updated.system)),
         ]))
     }
+}
+
+/// Moves the named parameters into their sensitive regions one after another (each search
+/// with the others at their current starts); returns the start values and, per parameter, a
+/// record of the move.
+fn move_to_sensitive_regions(
+    model: &dyn ParametricModel,
+    ss: &SensitiveStartParams,
+) -> Result<(Vec<f64>, Vec<serde_json::Value>), StageError> {
+    let names: Vec<&str> = model.parameters().iter().map(|q| q.name.as_str()).collect();
+    let modes: Vec<usize> = ss.modes.iter().map(|m| m - 1).collect();
+    let mut start = model.initial_values();
+    let mut moved = Vec::new();
+    for name in &ss.parameters {
+        let i = names.iter().position(|n| n == name).ok_or_else(|| {
+            StageError::Failed(format!(
+                "sensitive_start.parameters: `{name}` is not an updated parameter (they are: {})",
+                names.join(", ")
+            ))
+        })?;
+        let found = sensitive_start(model, &start, i, &modes, ss.points_per_decade)
+            .map_err(StageError::failed)?;
+        tracing::info!(
+            "sensitive start: {name} {:e} -> {:e} (unity sensitivity {:.3e} -> {:.3e})",
+            found.before,
+            found.value,
+            found.sensitivity_before,
+            found.sensitivity
+        );
+        start[i] = found.value;
+        moved.push(serde_json::json!({
+            "parameter": name,
+            "before": found.before,
+            "start": found.value,
+            "sensitivity_before": found.sensitivity_before,
+            "sensitivity": found.sensitivity,
+        }));
+    }
+    Ok((start, moved))
 }
 
 /// The damping identification: one modal analysis of the fixed model, then the P-C on the modal

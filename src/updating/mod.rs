@@ -10,6 +10,7 @@ pub mod eigensensitivity;
 pub mod model;
 pub mod pc;
 pub mod rfm;
+pub mod sensitive_start;
 pub mod solve;
 
 pub use model::{
@@ -156,23 +157,41 @@ pub fn run(
     model: &dyn ParametricModel,
     max_iterations: usize,
 ) -> Result<UpdateHistory, UpdatingError> {
+    run_from(method, model, &model.initial_values(), max_iterations)
+}
+
+/// [`run`] from `start` instead of the model's initial values (e.g. after
+/// [`sensitive_start::sensitive_start`]); each start value must lie within its bounds.
+pub fn run_from(
+    method: &dyn UpdateMethod,
+    model: &dyn ParametricModel,
+    start: &[f64],
+    max_iterations: usize,
+) -> Result<UpdateHistory, UpdatingError> {
     let params = model.parameters().to_vec();
-    for p in &params {
-        if !(p.initial.is_finite() && p.initial != 0.0) {
+    if start.len() != params.len() {
+        return Err(UpdatingError::Settings(format!(
+            "{} start values for {} parameters",
+            start.len(),
+            params.len()
+        )));
+    }
+    for (p, &v) in params.iter().zip(start) {
+        if !(v.is_finite() && v != 0.0) {
             return Err(UpdatingError::Settings(format!(
-                "parameter `{}` starts at {}: unity-based updating needs a finite non-zero value",
-                p.name, p.initial
+                "parameter `{}` starts at {v}: unity-based updating needs a finite non-zero value",
+                p.name
             )));
         }
-        if !(p.lower <= p.initial && p.initial <= p.upper) {
+        if !(p.lower <= v && v <= p.upper) {
             return Err(UpdatingError::Settings(format!(
-                "parameter `{}` starts at {:e}, outside its bounds [{:e}, {:e}]",
-                p.name, p.initial, p.lower, p.upper
+                "parameter `{}` starts at {v:e}, outside its bounds [{:e}, {:e}]",
+                p.name, p.lower, p.upper
             )));
         }
     }
     let n = params.len();
-    let mut values = model.initial_values();
+    let mut values = start.to_vec();
     let mut iterations = Vec::new();
     let mut current = method.iterate(model, &values, 0)?;
     let finish = |mut record: IterationRecord,
