@@ -132,6 +132,10 @@ enum Command {
         /// Benchmark the muffler-like box (CASES.md C5) instead of the plate.
         #[arg(long)]
         muffler: bool,
+        /// Time one P-C iteration on the muffler instead (50 thickness parameters, 10 FRFs,
+        /// 1000 lines, a basis of the first `--modes` modes, default 100).
+        #[arg(long)]
+        pc_iteration: bool,
     },
     /// Run a parameter sweep over a pipeline locally or on Slurm; `status`, `collect`.
     Sweep(Box<sweep::SweepArgs>),
@@ -357,7 +361,46 @@ fn dispatch(cli: Cli) -> Result<u8, Failure> {
             dofs,
             modes,
             json,
+            muffler: _,
+            pc_iteration: true,
+        } => {
+            let dofs = if dofs.is_empty() { vec![100_000] } else { dofs };
+            let basis = modes.first().copied().unwrap_or(100);
+            let mut all = Vec::new();
+            for n in dofs {
+                let b = crate::bench::pc_iteration_bench(n, 50, 10, 1000, basis)
+                    .map_err(|e| anyhow::anyhow!(e))?;
+                println!(
+                    "P-C iteration, muffler {} DOFs, {} parameters, {} FRFs, {} lines, {} modes:\n  assembly + derivatives {:.2} s, eigen {:.2} s, projections {:.2} s, static correction {:.2} s,\n  prediction {:.3} s, sensitivity sweep {:.3} s ({:.0} GFLOP/s direct-sum equivalent), solve {:.3} s;\n  iteration {:.2} s, peak memory {:.0} MiB",
+                    b.dofs,
+                    b.parameters,
+                    b.frfs,
+                    b.lines,
+                    b.modes,
+                    b.assembly_seconds,
+                    b.eigen_seconds,
+                    b.projection_seconds,
+                    b.static_correction_seconds,
+                    b.prediction_seconds,
+                    b.sweep_seconds,
+                    b.sweep_gflops,
+                    b.solve_seconds,
+                    b.iteration_seconds,
+                    b.peak_rss_mib.unwrap_or(f64::NAN)
+                );
+                all.push(b);
+            }
+            if let Some(path) = json {
+                std::fs::write(&path, serde_json::to_string_pretty(&all)?)?;
+            }
+            Ok(0)
+        }
+        Command::Bench {
+            dofs,
+            modes,
+            json,
             muffler,
+            pc_iteration: false,
         } => {
             let which = if muffler {
                 crate::bench::BenchModel::Muffler
