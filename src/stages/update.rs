@@ -675,8 +675,12 @@ impl TypedStage for Update {
         Ok(StageOutputs::from([
             (
                 "result".to_string(),
-                update_result_to_artefact(&history, name)
-                    .with_meta("sensitive_start", serde_json::Value::Array(moved)),
+                if moved.is_empty() {
+                    update_result_to_artefact(&history, name)
+                } else {
+                    update_result_to_artefact(&history, name)
+                        .with_meta("sensitive_start", serde_json::Value::Array(moved))
+                },
             ),
             ("model".to_string(), matrices_to_artefact(&updated.system)),
         ]))
