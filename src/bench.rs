@@ -127,3 +127,228 @@ pub fn model_bench(
         peak_rss_mib: peak_rss_mib(),
     })
 }
+
+/// Figures of one predictor-corrector iteration on a large model (issue 5's speed goal).
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct PcIterationBench {
+    /// Free DOFs.
+    pub dofs: usize,
+    /// Updating parameters (shell thicknesses of element groups).
+    pub parameters: usize,
+    /// Measured FRFs.
+    pub frfs: usize,
+    /// Frequency lines (all used: the synthetic "measurement" differs at every line).
+    pub lines: usize,
+    /// Modes of the basis.
+    pub modes: usize,
+    /// Rebuilding the model at the parameter values, assembling `K`, `M` and every `∂K/∂φ`,
+    /// `∂M/∂φ`, s.
+    pub assembly_seconds: f64,
+    /// The lowest modes, s.
+    pub eigen_seconds: f64,
+    /// `Φᵀ ∂K/∂φ Φ`, `Φᵀ ∂M/∂φ Φ` of every parameter, s.
+    pub projection_seconds: f64,
+    /// Static correction of the truncated mode-shape derivatives (one sparse Cholesky, one
+    /// solve per measured DOF), s.
+    pub static_correction_seconds: f64,
+    /// Predicted FRFs and their correlation, s.
+    pub prediction_seconds: f64,
+    /// FRF sensitivities of every parameter at every line (the sweep), s.
+    pub sweep_seconds: f64,
+    /// Its rate counted as the direct double sum over modes the projection form replaces
+    /// (`8 m²` flops per line, pair and parameter): the "direct-sum equivalent", GFLOP/s.
+    pub sweep_gflops: f64,
+    /// `χ` sensitivities, `S`, its SVD, subset selection and the step, s.
+    pub solve_seconds: f64,
+    /// Everything above, s.
+    pub iteration_seconds: f64,
+    /// Peak resident memory of the process so far, MiB.
+    pub peak_rss_mib: Option<f64>,
+}
+
+/// One P-C iteration on the muffler-like box of about `target_dofs` DOFs with `parameters`
+/// thickness parameters (contiguous groups of shells), `frfs` FRFs (one excitation), `lines`
+/// lines and a basis of `modes` modes, timed part by part as `PredictorCorrector::iterate`
+/// runs them.
+pub fn pc_iteration_bench(
+    target_dofs: usize,
+    parameters: usize,
+    frfs: usize,
+    lines: usize,
+    modes: usize,
+) -> Result<PcIterationBench, String> {
+    use crate::core::{Component, DofId};
+    use crate::frf::{FrfPair, FrfSet, ModalDamping};
+    use crate::model::{Element, Parameter, ParameterKind};
+    use crate::sensitivity::{ModalFrfModel, frf_sensitivities};
+    use crate::updating::model::{FeModel, ModalState};
+    use crate::updating::pc::{LineCorrelation, correlation_equations, predict, select_lines};
+    use crate::updating::solve::{
+        ParameterWeighting, damped_step, diagnostics, select_subset, subset_condition_limit,
+    };
+    use crate::updating::{ParametricModel, UpdatingError};
+
+    let mut model = muffler(muffler_element_size(target_dofs, 2), 2);
+    // Shells by property (a parameter must hold one thickness), split into contiguous groups
+    // in proportion to each property's share.
+    let mut by_property: std::collections::BTreeMap<u64, Vec<u64>> = Default::default();
+    for (&id, e) in &model.elements {
+        if let Element::Quad4 { property, .. } | Element::Tria3 { property, .. } = e {
+            by_property.entry(*property).or_default().push(id);
+        }
+    }
+    let total: usize = by_property.values().map(Vec::len).sum();
+    let mut groups = 0;
+    for ids in by_property.values() {
+        let share = ((parameters * ids.len()) as f64 / total.max(1) as f64).round() as usize;
+        let k = share.clamp(1, ids.len());
+        for g in 0..k {
+            groups += 1;
+            let set = format!("bench_group_{groups}");
+            model.sets.insert(
+                set.clone(),
+                ids[g * ids.len() / k..(g + 1) * ids.len() / k].to_vec(),
+            );
+            model.parameters.push(Parameter {
+                name: format!("t{groups}"),
+                kind: ParameterKind::ShellThickness,
+                set,
+                lower: 1e-4,
+                upper: 1e-2,
+            });
+        }
+    }
+    let nodes: Vec<u64> = model.nodes.keys().copied().collect();
+    let fe = FeModel::new(model, &[], MassKind::Consistent).map_err(|e| e.to_string())?;
+    let values = fe.initial_values();
+    let err = |e: UpdatingError| e.to_string();
+
+    let t = Instant::now();
+    let evaluated = fe.evaluate(&values).map_err(err)?;
+    let assembly_seconds = t.elapsed().as_secs_f64();
+    let t = Instant::now();
+    let (found, _) = lowest_modes(
+        &evaluated.system.k,
+        &evaluated.system.m,
+        &evaluated.system.dofs,
+        ModeSelection::Count(modes),
+        &SparseEigenParams::default(),
+    )
+    .map_err(|e| e.to_string())?;
+    let eigen_seconds = t.elapsed().as_secs_f64();
+    let t = Instant::now();
+    let projected = evaluated
+        .derivatives
+        .iter()
+        .zip(&values)
+        .map(|((dk, dm), &v)| {
+            crate::sensitivity::ProjectedDerivative::new(dk, dm, found.shapes.as_ref()).scaled(v)
+        })
+        .collect();
+    let projection_seconds = t.elapsed().as_secs_f64();
+    let state = ModalState {
+        modes: found,
+        dofs: evaluated.system.dofs.clone(),
+        projected,
+        reduced: None,
+    };
+
+    // The measurement: the prediction with a smooth, line-dependent 10 % distortion, so that
+    // every line stays below κ_f and enters the equations.
+    let free: std::collections::HashSet<DofId> = state.dofs.iter().copied().collect();
+    let picks: Vec<DofId> = (0..nodes.len())
+        .step_by((nodes.len() / (4 * frfs.max(1))).max(1))
+        .map(|i| DofId::new(nodes[i], Component::Uz))
+        .filter(|d| free.contains(d))
+        .take(frfs.max(1))
+        .collect();
+    let pairs: Vec<FrfPair> = picks
+        .iter()
+        .map(|&response| FrfPair {
+            response,
+            excitation: picks[0],
+        })
+        .collect();
+    let f = state.modes.frequencies_hz();
+    let elastic: Vec<f64> = f.iter().copied().filter(|&x| x > 1e-3).collect();
+    let top = elastic.get(elastic.len() / 2).copied().unwrap_or(100.0);
+    let step = top / lines.max(1) as f64;
+    let freqs: Vec<f64> = (1..=lines).map(|k| k as f64 * step).collect();
+    let damping = ModalDamping::Structural(vec![0.01]);
+    let mut measured = FrfSet {
+        quantity: crate::frf::Quantity::Receptance,
+        freqs_hz: freqs.clone(),
+        pairs: pairs.clone(),
+        values: faer::Mat::zeros(freqs.len(), pairs.len()),
+    };
+    let clean = predict(&state, &measured, &damping).map_err(err)?;
+    measured.values = faer::Mat::from_fn(freqs.len(), pairs.len(), |k, q| {
+        clean.values[(k, q)] * (1.0 + 0.1 * (0.37 * k as f64 + q as f64).cos())
+    });
+
+    let t = Instant::now();
+    let dofs = measured.dofs();
+    let corrections = state
+        .shape_corrections(&evaluated, &values, &dofs)
+        .map_err(err)?;
+    let static_correction_seconds = t.elapsed().as_secs_f64();
+    let t = Instant::now();
+    let predicted = predict(&state, &measured, &damping).map_err(err)?;
+    let correlation = LineCorrelation::new(&measured, &predicted);
+    // κ_f = 1: every line enters, as the speed goal asks ("all parameters at all lines").
+    let chosen = select_lines(&measured.freqs_hz, &correlation, &f, 1.0, 1.0);
+    let prediction_seconds = t.elapsed().as_secs_f64();
+    let shapes = state.shapes_at(&dofs).map_err(err)?;
+    let modal = ModalFrfModel {
+        eigenvalues: &state.modes.eigenvalues,
+        shapes: shapes.as_ref(),
+        dofs: &dofs,
+        damping: &damping,
+    };
+    let chosen_hz: Vec<f64> = chosen.iter().map(|&k| freqs[k]).collect();
+    let t = Instant::now();
+    let sens = frf_sensitivities(
+        &modal,
+        &pairs,
+        &chosen_hz,
+        measured.quantity,
+        &state.projected,
+        Some(&corrections),
+    )
+    .map_err(|e| e.to_string())?;
+    let sweep_seconds = t.elapsed().as_secs_f64();
+    let t = Instant::now();
+    let (s, eps) = correlation_equations(&measured, &predicted, &chosen, &sens, true);
+    let _ = diagnostics(s.as_ref());
+    let active = select_subset(
+        s.as_ref(),
+        subset_condition_limit(1e7, s.nrows(), s.ncols()),
+    );
+    let _ = damped_step(s.as_ref(), &eps, &active, ParameterWeighting::None, 0.0);
+    let solve_seconds = t.elapsed().as_secs_f64();
+    let m = state.modes.len() as f64;
+    let flops = 8.0 * m * m * chosen.len() as f64 * pairs.len() as f64 * groups as f64;
+    Ok(PcIterationBench {
+        dofs: state.dofs.len(),
+        parameters: groups,
+        frfs: pairs.len(),
+        lines: chosen.len(),
+        modes: state.modes.len(),
+        assembly_seconds,
+        eigen_seconds,
+        projection_seconds,
+        static_correction_seconds,
+        prediction_seconds,
+        sweep_seconds,
+        sweep_gflops: flops / sweep_seconds.max(1e-12) / 1e9,
+        solve_seconds,
+        iteration_seconds: assembly_seconds
+            + eigen_seconds
+            + projection_seconds
+            + static_correction_seconds
+            + prediction_seconds
+            + sweep_seconds
+            + solve_seconds,
+        peak_rss_mib: peak_rss_mib(),
+    })
+}

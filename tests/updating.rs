@@ -119,3 +119,93 @@ fn bent_plate_rfm_reproduces_c2() {
     let e7 = results(&out, "rfm_e_three_dofs")["e7"];
     assert!(e7 / 210e9 - 1.0 > 0.1, "e7 = {e7}");
 }
+
+/// C2 §6.5: damping identification on the free-free bent plate (Craig-Bampton predictions, 15 %
+/// zero-mean noise). From six FRFs the perturbed loss factors of the first four elastic modes
+/// (0.03 … 0.015, truth 0.01) come back within 10 % and the unperturbed ones stay within 10 %,
+/// converged in at most 5 iterations; rigid-body modes are never parameters. From α_11 alone
+/// the estimates scatter more (measured: within 19 %). A viscous model fitted to the
+/// structurally damped data gives `2ζ_r` within 10 % of `η_r`. Noise read on `[0, 1]` biases
+/// every amplitude up and so every loss factor down.
+#[test]
+fn bent_plate_damping_reproduces_c2() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("out");
+    let (_, report, cache) = run(
+        &pipeline("bent-plate-damping"),
+        &tmp.path().join("cache"),
+        &[],
+    );
+    femu::pipeline::materialise(&report, &cache, &out).unwrap();
+    let identified = |stage: &str| -> Vec<(i64, f64)> {
+        let a = read_dir(&out.join(stage).join("result")).unwrap();
+        let t = a.table("modal_damping").unwrap();
+        let modes = t.i64s("modal_damping", "mode").unwrap();
+        let eq = t.f64s("modal_damping", "equivalent_loss_factor").unwrap();
+        modes.iter().copied().zip(eq.iter().copied()).collect()
+    };
+    let worst = |stage: &str| {
+        identified(stage)
+            .iter()
+            .map(|(_, v)| (v / 0.01 - 1.0).abs())
+            .fold(0.0, f64::max)
+    };
+    let six = identified("eta_six_frfs");
+    assert_eq!(
+        six.first().map(|m| m.0),
+        Some(7),
+        "mode 7 is the first elastic mode"
+    );
+    assert_eq!(six.len(), 7, "the elastic modes in 0-100 Hz");
+    assert!(worst("eta_six_frfs") < 0.10, "{six:?}");
+    for stage in ["eta_six_frfs", "eta_one_frf", "zeta_from_structural"] {
+        assert_eq!(meta(&out, stage, "stop"), "converged", "{stage}");
+        assert!(meta(&out, stage, "iterations").as_u64().unwrap() <= 5);
+    }
+    assert!(
+        worst("eta_one_frf") < 0.20,
+        "{:?}",
+        identified("eta_one_frf")
+    );
+    assert!(worst("zeta_from_structural") < 0.10);
+    assert_eq!(
+        meta(&out, "zeta_from_structural", "damping_model"),
+        "viscous"
+    );
+    let biased = identified("eta_six_frfs_biased");
+    assert!(biased.iter().all(|(_, v)| *v < 0.0099), "{biased:?}");
+}
+
+/// C4 (thesis §7.1): on the two-substructure Craig-Bampton model with subset selection
+/// (κ = 5e7) the P-C raises the correlation above 0.95; the out-of-plane clamp stiffnesses,
+/// which in-plane measurements cannot see, are never selected; the clamps' y stiffness of
+/// beams 1 and 2 falls from 1e7 toward the true 3e6 N/m. The sensitive-region search records
+/// a move for each named spring. (The joint and the masses drift: see the pipeline.)
+#[test]
+fn three_beam_reproduces_c4() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("out");
+    let (_, report, cache) = run(&pipeline("three-beam"), &tmp.path().join("cache"), &[]);
+    femu::pipeline::materialise(&report, &cache, &out).unwrap();
+    let a = read_dir(&out.join("pc").join("result")).unwrap();
+    let chi = a.table("iterations").unwrap();
+    let chi = chi.f64s("iterations", "mean_chi").unwrap();
+    assert!(chi[0] < 0.85 && *chi.last().unwrap() > 0.95, "{chi:?}");
+    let v = results(&out, "pc");
+    assert_eq!(v.len(), 30);
+    for c in 1..=3 {
+        for dir in ["kz", "krx", "kry"] {
+            let name = format!("c{c}_{dir}");
+            let initial = if dir == "kz" { 1e7 } else { 1e5 };
+            assert_eq!(v[&name], initial, "{name}");
+        }
+    }
+    for name in ["c1_ky", "c2_ky"] {
+        assert!(v[name] < 5e6 && v[name] > 1e6, "{name} = {}", v[name]);
+    }
+    let moves = meta(&out, "sensitive_regions", "sensitive_start");
+    assert_eq!(moves.as_array().map(|m| m.len()), Some(6), "{moves}");
+    let damping = read_dir(&out.join("damping").join("result")).unwrap();
+    let t = damping.table("modal_damping").unwrap();
+    assert_eq!(t.i64s("modal_damping", "mode").unwrap(), &[1, 2]);
+}

@@ -158,19 +158,29 @@ impl Table {
     }
 }
 
-impl fmt::Display for Table {
-    /// A preview: header and the first rows.
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+impl Table {
+    /// Header and the first `rows` rows as tab-separated text, with a count of the rest.
+    pub fn preview(&self, rows: usize) -> String {
+        let mut out = String::new();
         let names: Vec<&str> = self.columns.iter().map(|c| c.0.as_str()).collect();
-        writeln!(f, "{}", names.join("\t"))?;
-        let n = self.rows().min(8);
+        out.push_str(&names.join("\t"));
+        out.push('\n');
+        let n = self.rows().min(rows);
         for r in 0..n {
             let row: Vec<String> = self.columns.iter().map(|c| c.1.cell(r)).collect();
-            writeln!(f, "{}", row.join("\t"))?;
+            out.push_str(&row.join("\t"));
+            out.push('\n');
         }
         if self.rows() > n {
-            writeln!(f, "… {} more rows", self.rows() - n)?;
+            out.push_str(&format!("… {} more rows\n", self.rows() - n));
         }
-        Ok(())
+        out
+    }
+}
+
+impl fmt::Display for Table {
+    /// A preview: header and the first 8 rows.
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(&self.preview(8))
     }
 }

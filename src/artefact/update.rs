@@ -159,6 +159,49 @@ pub fn update_result_to_artefact(h: &UpdateHistory, method: &str) -> Artefact {
         )
 }
 
+/// One identified mode of a damping identification.
+#[derive(Clone, Debug)]
+pub struct IdentifiedDamping {
+    /// 1-based mode number.
+    pub mode: usize,
+    /// Natural frequency, Hz.
+    pub natural_hz: f64,
+    /// `η` or `ζ` before.
+    pub initial: f64,
+    /// `η` or `ζ` identified.
+    pub identified: f64,
+    /// The structural loss factor it is equivalent to at resonance (`η`, or `2ζ`).
+    pub equivalent_loss_factor: f64,
+}
+
+/// Adds the table `modal_damping` (mode, natural frequency, initial and identified damping, the
+/// equivalent loss factor) to an update result; `kind` is `structural` or `viscous`.
+pub fn with_modal_damping(a: Artefact, kind: &str, modes: &[IdentifiedDamping]) -> Artefact {
+    let table = Table::new()
+        .with(
+            "mode",
+            Column::I64(modes.iter().map(|m| m.mode as i64).collect()),
+        )
+        .with(
+            "natural_hz",
+            Column::F64(modes.iter().map(|m| m.natural_hz).collect()),
+        )
+        .with(
+            "initial",
+            Column::F64(modes.iter().map(|m| m.initial).collect()),
+        )
+        .with(
+            "identified",
+            Column::F64(modes.iter().map(|m| m.identified).collect()),
+        )
+        .with(
+            "equivalent_loss_factor",
+            Column::F64(modes.iter().map(|m| m.equivalent_loss_factor).collect()),
+        );
+    a.with_meta("damping_model", kind.into())
+        .with_table("modal_damping", table, Storage::Parquet)
+}
+
 /// Final value of each parameter, by name, from an `update_result`.
 pub fn final_values(a: &Artefact) -> Result<Vec<(String, f64)>, ArtefactError> {
     if a.kind != K {

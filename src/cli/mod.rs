@@ -93,6 +93,9 @@ enum Command {
     Show {
         /// Artefact directory (holding meta.json).
         artefact: PathBuf,
+        /// Rows of each table to print.
+        #[arg(long, default_value_t = 8)]
+        rows: usize,
     },
     /// Compare two artefacts, or two directories of artefacts (e.g. two --out trees).
     Diff {
@@ -129,6 +132,10 @@ enum Command {
         /// Benchmark the muffler-like box (CASES.md C5) instead of the plate.
         #[arg(long)]
         muffler: bool,
+        /// Time one P-C iteration on the muffler instead (50 thickness parameters, 10 FRFs,
+        /// 1000 lines, a basis of the first `--modes` modes, default 100).
+        #[arg(long)]
+        pc_iteration: bool,
     },
     /// Run a parameter sweep over a pipeline locally or on Slurm; `status`, `collect`.
     Sweep(Box<sweep::SweepArgs>),
@@ -286,8 +293,8 @@ fn dispatch(cli: Cli) -> Result<u8, Failure> {
             Ok(0)
         }
         Command::List { kind } => list(kind.as_deref()),
-        Command::Show { artefact } => {
-            show(&artefact)?;
+        Command::Show { artefact, rows } => {
+            show(&artefact, rows)?;
             Ok(0)
         }
         Command::Diff {
@@ -354,7 +361,46 @@ fn dispatch(cli: Cli) -> Result<u8, Failure> {
             dofs,
             modes,
             json,
+            muffler: _,
+            pc_iteration: true,
+        } => {
+            let dofs = if dofs.is_empty() { vec![100_000] } else { dofs };
+            let basis = modes.first().copied().unwrap_or(100);
+            let mut all = Vec::new();
+            for n in dofs {
+                let b = crate::bench::pc_iteration_bench(n, 50, 10, 1000, basis)
+                    .map_err(|e| anyhow::anyhow!(e))?;
+                println!(
+                    "P-C iteration, muffler {} DOFs, {} parameters, {} FRFs, {} lines, {} modes:\n  assembly + derivatives {:.2} s, eigen {:.2} s, projections {:.2} s, static correction {:.2} s,\n  prediction {:.3} s, sensitivity sweep {:.3} s ({:.0} GFLOP/s direct-sum equivalent), solve {:.3} s;\n  iteration {:.2} s, peak memory {:.0} MiB",
+                    b.dofs,
+                    b.parameters,
+                    b.frfs,
+                    b.lines,
+                    b.modes,
+                    b.assembly_seconds,
+                    b.eigen_seconds,
+                    b.projection_seconds,
+                    b.static_correction_seconds,
+                    b.prediction_seconds,
+                    b.sweep_seconds,
+                    b.sweep_gflops,
+                    b.solve_seconds,
+                    b.iteration_seconds,
+                    b.peak_rss_mib.unwrap_or(f64::NAN)
+                );
+                all.push(b);
+            }
+            if let Some(path) = json {
+                std::fs::write(&path, serde_json::to_string_pretty(&all)?)?;
+            }
+            Ok(0)
+        }
+        Command::Bench {
+            dofs,
+            modes,
+            json,
             muffler,
+            pc_iteration: false,
         } => {
             let which = if muffler {
                 crate::bench::BenchModel::Muffler
@@ -536,7 +582,7 @@ fn list(kind: Option<&str>) -> Result<u8, Failure> {
     }
 }
 
-fn show(dir: &Path) -> anyhow::Result<()> {
+fn show(dir: &Path, rows: usize) -> anyhow::Result<()> {
     let meta = read_meta(dir)?;
     let a = read_dir(dir)?;
     let digest = a.digest();
@@ -574,7 +620,7 @@ fn show(dir: &Path) -> anyhow::Result<()> {
                 .unwrap_or_default();
             println!("  {c}: {}{unit}", col.type_name());
         }
-        print!("{t}");
+        print!("{}", t.preview(rows));
     }
     for (name, bytes) in &a.blobs {
         println!("\nfile `{name}` ({} bytes)", bytes.len());

@@ -213,16 +213,30 @@ impl Partition {
         sets: &[String],
         mass: MassKind,
     ) -> Result<Partition, ReductionError> {
-        let mut groups = Vec::with_capacity(sets.len());
-        for s in sets {
-            let ids = model
-                .sets
-                .get(s)
-                .ok_or_else(|| ReductionError::UnknownSet {
-                    set: s.clone(),
-                    known: model.sets.keys().cloned().collect::<Vec<_>>().join(", "),
-                })?;
-            groups.push((s.clone(), ids.clone()));
+        let groups: Vec<Vec<String>> = sets.iter().map(|s| vec![s.clone()]).collect();
+        Self::from_set_unions(model, &groups, mass)
+    }
+
+    /// One substructure per union of named element sets (named by its sets joined with `+`).
+    pub fn from_set_unions(
+        model: &Model,
+        unions: &[Vec<String>],
+        mass: MassKind,
+    ) -> Result<Partition, ReductionError> {
+        let mut groups = Vec::with_capacity(unions.len());
+        for union in unions {
+            let mut ids = Vec::new();
+            for s in union {
+                let set = model
+                    .sets
+                    .get(s)
+                    .ok_or_else(|| ReductionError::UnknownSet {
+                        set: s.clone(),
+                        known: model.sets.keys().cloned().collect::<Vec<_>>().join(", "),
+                    })?;
+                ids.extend_from_slice(set);
+            }
+            groups.push((union.join("+"), ids));
         }
         Self::from_groups(model, groups, mass)
     }

@@ -36,13 +36,63 @@ pub enum PerMode {
     Uniform(f64),
     /// One value per mode, in mode order.
     PerMode(Vec<f64>),
+    /// One value for every mode except those listed by 1-based mode number (rigid-body
+    /// modes counted), e.g. `{all: 0.01, modes: {7: 0.03, 8: 0.025}}`.
+    Modes {
+        /// The value of every mode not listed.
+        all: f64,
+        /// Values by 1-based mode number (keys are numbers: YAML `7:` or JSON `"7"`).
+        modes: std::collections::BTreeMap<String, f64>,
+    },
 }
 
 impl PerMode {
+    /// The values: one (uniform) or one per mode; listed modes set over a uniform value.
     fn values(&self) -> Vec<f64> {
         match self {
             PerMode::Uniform(v) => vec![*v],
             PerMode::PerMode(v) => v.clone(),
+            PerMode::Modes { all, modes } => {
+                let listed: Vec<(usize, f64)> = modes
+                    .iter()
+                    .filter_map(|(r, &x)| r.parse::<usize>().ok().map(|r| (r, x)))
+                    .collect();
+                let n = listed.iter().map(|l| l.0).max().unwrap_or(1).max(1);
+                let mut v = vec![*all; n];
+                for (r, x) in listed {
+                    if r >= 1 {
+                        v[r - 1] = x;
+                    }
+                }
+                v
+            }
+        }
+    }
+
+    /// One value per mode for a basis of `m` modes, or what is wrong.
+    pub fn values_for(&self, m: usize) -> Result<Vec<f64>, String> {
+        match self {
+            PerMode::Uniform(v) => Ok(vec![*v; m]),
+            PerMode::PerMode(v) if v.len() == m => Ok(v.clone()),
+            PerMode::PerMode(v) => Err(format!(
+                "{} per-mode values for {m} modes: give one value per mode, or `{{all: …, modes: {{…}}}}`",
+                v.len()
+            )),
+            PerMode::Modes { all, modes } => {
+                let mut v = vec![*all; m];
+                for (key, &x) in modes {
+                    let r: usize = key.parse().map_err(|_| {
+                        format!("`{key}` is not a mode number: keys are 1-based mode numbers")
+                    })?;
+                    if r == 0 || r > m {
+                        return Err(format!(
+                            "mode {r} is not among the {m} modes (numbers count from 1)"
+                        ));
+                    }
+                    v[r - 1] = x;
+                }
+                Ok(v)
+            }
         }
     }
 }
@@ -77,6 +127,24 @@ impl Damping {
             Damping::Structural(v) => ModalDamping::Structural(v.values()),
             Damping::Viscous(v) => ModalDamping::Viscous(v.values()),
         }
+    }
+
+    /// The modal damping of a basis of `m` modes, per-mode lists checked against `m`.
+    pub fn modal_for(&self, m: usize) -> Result<ModalDamping, String> {
+        Ok(match self {
+            Damping::None | Damping::Rayleigh { .. } => ModalDamping::None,
+            Damping::Structural(v) => ModalDamping::Structural(v.values_for(m)?),
+            Damping::Viscous(v) => ModalDamping::Viscous(v.values_for(m)?),
+        })
+    }
+
+    /// Whether values are given per mode (a list or by mode number).
+    pub fn is_per_mode(&self) -> bool {
+        matches!(
+            self,
+            Damping::Structural(PerMode::PerMode(_) | PerMode::Modes { .. })
+                | Damping::Viscous(PerMode::PerMode(_) | PerMode::Modes { .. })
+        )
     }
 
     /// The damping added to a direct solution (a per-mode or viscous value is modal-only).
@@ -260,7 +328,7 @@ impl TypedStage for FrfSynthesise {
         }
         match (method, &p.damping) {
             (Method::Direct, Damping::Viscous(_)) => issues.push(ParamIssue::at("damping", "modal viscous ratios need `method: modal`; for `direct` use `rayleigh: {alpha, beta}` or the model's own C")),
-            (Method::Direct, Damping::Structural(PerMode::PerMode(_))) => issues.push(ParamIssue::at("damping", "per-mode loss factors need `method: modal`; `direct` takes one uniform value")),
+            (Method::Direct, d) if d.is_per_mode() => issues.push(ParamIssue::at("damping", "per-mode loss factors need `method: modal`; `direct` takes one uniform value")),
             (Method::Modal, Damping::Rayleigh { .. }) => issues.push(ParamIssue::at("damping", "Rayleigh damping needs `method: direct`; for `modal` give `viscous` ratios per mode")),
             _ => {}
         }
@@ -305,15 +373,12 @@ impl TypedStage for FrfSynthesise {
                     modes.residuals.truncate(c);
                     modes.shapes = modes.shapes.subcols(0, c).to_owned();
                 }
-                modal_receptance(
-                    &modes,
-                    &m.dofs,
-                    &p.damping.modal(),
-                    &pairs,
-                    &lines,
-                    p.quantity,
-                )
-                .map_err(StageError::failed)?
+                let damping = p
+                    .damping
+                    .modal_for(modes.len())
+                    .map_err(|e| StageError::Failed(format!("damping: {e}")))?;
+                modal_receptance(&modes, &m.dofs, &damping, &pairs, &lines, p.quantity)
+                    .map_err(StageError::failed)?
             }
             _ => {
                 let sys = matrices_from_artefact(inputs.require("model")?)?;

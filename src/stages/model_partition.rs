@@ -18,9 +18,11 @@ pub struct ModelPartition;
 #[derive(Clone, Debug, Default, serde::Deserialize, serde::Serialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct Params {
-    /// One substructure per named element set (every element in exactly one).
+    /// One substructure per named element set, or per list of sets (their union), e.g.
+    /// `[plate_1, plate_2, bar]` or `[[beam_1, beam_3, joint_1], [beam_2]]`; every element in
+    /// exactly one.
     #[serde(default)]
-    pub sets: Option<Vec<String>>,
+    pub sets: Option<Vec<SetUnion>>,
     /// One substructure per property id (`pid<N>`).
     #[serde(default)]
     pub by_property: bool,
@@ -30,6 +32,25 @@ pub struct Params {
     /// Mass matrix kind the reduction will assemble (decides which DOFs hold mass).
     #[serde(default)]
     pub mass: MassKind,
+}
+
+/// One element set, or the union of several.
+#[derive(Clone, Debug, serde::Deserialize, serde::Serialize, schemars::JsonSchema)]
+#[serde(untagged)]
+pub enum SetUnion {
+    /// One set.
+    One(String),
+    /// The union of these sets.
+    Union(Vec<String>),
+}
+
+impl SetUnion {
+    fn names(&self) -> Vec<String> {
+        match self {
+            SetUnion::One(s) => vec![s.clone()],
+            SetUnion::Union(v) => v.clone(),
+        }
+    }
 }
 
 impl TypedStage for ModelPartition {
@@ -62,6 +83,15 @@ impl TypedStage for ModelPartition {
         if p.parts == Some(0) {
             issues.push(ParamIssue::at("parts", "must be at least 1"));
         }
+        if p.sets
+            .as_ref()
+            .is_some_and(|s| s.iter().any(|u| u.names().is_empty()))
+        {
+            issues.push(ParamIssue::at(
+                "sets",
+                "a substructure given as a list names at least one set",
+            ));
+        }
         if p.sets.as_ref().is_some_and(|s| s.is_empty()) {
             issues.push(ParamIssue::at("sets", "name at least one element set"));
         }
@@ -71,7 +101,10 @@ impl TypedStage for ModelPartition {
     fn run(p: &Params, inputs: &StageInputs) -> Result<StageOutputs, StageError> {
         let model = mesh_from_artefact(inputs.require("mesh")?)?;
         let part = match (&p.sets, p.parts) {
-            (Some(sets), _) => Partition::from_sets(&model, sets, p.mass),
+            (Some(sets), _) => {
+                let unions: Vec<Vec<String>> = sets.iter().map(SetUnion::names).collect();
+                Partition::from_set_unions(&model, &unions, p.mass)
+            }
             (_, Some(k)) => Partition::automatic(&model, k, p.mass),
             _ => Partition::from_properties(&model, p.mass),
         }

@@ -13,7 +13,7 @@ use crate::artefact::kinds::{
     matrices_to_artefact, modes_from_artefact,
 };
 use crate::artefact::mesh::mesh_from_artefact;
-use crate::artefact::update::update_result_to_artefact;
+use crate::artefact::update::{IdentifiedDamping, update_result_to_artefact, with_modal_damping};
 use crate::core::DofId;
 use crate::eigen::ModeSelection;
 use crate::fe::element::MassKind;
@@ -21,11 +21,16 @@ use crate::frf::ModalDamping;
 use crate::pipeline::{
     CheckContext, ParamIssue, PortSpec, StageError, StageInputs, StageOutputs, TypedStage,
 };
+use crate::updating::damping::{
+    DampingIdentification, DampingKind, DampingParameters, DampingSettings, equivalent_loss_factor,
+};
 use crate::updating::eigensensitivity::{EigenSettings, InverseEigensensitivity, MeasuredModes};
 use crate::updating::pc::{PcSettings, PredictorCorrector};
 use crate::updating::rfm::{ResponseFunctionMethod, RfmSettings};
+use crate::updating::sensitive_start::sensitive_start;
 use crate::updating::{
     FeModel, LinearModel, ParameterWeighting, ParametricModel, ReducedFeModel, UpdateMethod, run,
+    run_from,
 };
 
 /// The stage.
@@ -43,22 +48,29 @@ pub enum Method {
     Rfm,
     /// Inverse eigensensitivity from measured natural frequencies (and shapes).
     Eigensensitivity,
+    /// Modal damping identification (thesis ch. 6): the `η_r` (structural) or `ζ_r` (viscous)
+    /// of chosen elastic modes by the P-C, the spatial model fixed.
+    Damping,
 }
 
 /// Settings of the P-C (THEORY §5).
 #[derive(Clone, Debug, serde::Deserialize, serde::Serialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct PcParams {
-    /// Lines with `(χ_s + χ_a)/2` above this are not used (4.20); 0.9 < κ_f < 1.
-    #[serde(default = "kappa_f")]
-    pub kappa_f: f64,
-    /// Lines within this many line spacings of a predicted natural frequency are not used.
-    #[serde(default = "one")]
-    pub resonance_lines: f64,
-    /// Stop when the mean of `(χ_s + χ_a)/2` over all lines reaches this (4.23).
-    #[serde(default = "stop_chi")]
-    pub stop_chi: f64,
-    /// `κ` of the subset selection, `κ_mn = 1 + κ(n/m)²` (5.14); omitted: every parameter.
+    /// Lines with `(χ_s + χ_a)/2` above this are not used (4.20); 0.9 < κ_f < 1 (default 0.95;
+    /// `damping`: 1, every line, since damping acts only near the resonances).
+    #[serde(default)]
+    pub kappa_f: Option<f64>,
+    /// Lines within this many line spacings of a predicted natural frequency are not used
+    /// (default 1; `damping`: 0, the resonances carry the damping).
+    #[serde(default)]
+    pub resonance_lines: Option<f64>,
+    /// Stop when the mean of `(χ_s + χ_a)/2` over all lines reaches this (4.23) (default 0.99;
+    /// `damping`: 1, so the step tolerance decides: damping moves few lines).
+    #[serde(default)]
+    pub stop_chi: Option<f64>,
+    /// `κ` of the subset selection, `κ_mn = 1 + κ(n/m)²` (5.14); omitted: every parameter
+    /// (`damping`: 1e7, which leaves alone the modes the measurements cannot see).
     #[serde(default)]
     pub subset_kappa: Option<f64>,
     /// `γ` of the parameter weighting `W_φ` (see `ParameterWeighting::Variance`); omitted or 0:
@@ -77,9 +89,9 @@ pub struct PcParams {
 impl Default for PcParams {
     fn default() -> Self {
         PcParams {
-            kappa_f: kappa_f(),
-            resonance_lines: 1.0,
-            stop_chi: stop_chi(),
+            kappa_f: None,
+            resonance_lines: None,
+            stop_chi: None,
             subset_kappa: None,
             weighting_gamma: None,
             max_step: 1.0,
@@ -88,12 +100,6 @@ impl Default for PcParams {
     }
 }
 
-fn kappa_f() -> f64 {
-    0.95
-}
-fn stop_chi() -> f64 {
-    0.99
-}
 fn one() -> f64 {
     1.0
 }
@@ -102,9 +108,6 @@ fn yes() -> bool {
 }
 fn ten() -> usize {
     10
-}
-fn tolerance() -> f64 {
-    1e-8
 }
 fn min_mac() -> f64 {
     0.6
@@ -141,9 +144,11 @@ pub struct Params {
     /// RFM: the lines in Hz at which the equations are written (measured lines).
     #[serde(default)]
     pub lines_hz: Vec<f64>,
-    /// RFM and eigensensitivity: stop when every relative change is below this.
-    #[serde(default = "tolerance")]
-    pub tolerance: f64,
+    /// RFM, eigensensitivity and damping: stop when every relative change is below this
+    /// (default 1e-8; `damping`: 1e-2 — a 1 % change of a loss factor is below what noisy
+    /// FRFs resolve).
+    #[serde(default)]
+    pub tolerance: Option<f64>,
     /// Eigensensitivity: DOFs of the measured shapes used to pair modes by MAC (default: pair
     /// in order of frequency).
     #[serde(default)]
@@ -154,10 +159,69 @@ pub struct Params {
     /// Eigensensitivity: smallest MAC of a pair.
     #[serde(default = "min_mac")]
     pub min_mac: f64,
+    /// Damping: 1-based numbers of the modes whose damping is identified, counting rigid-body
+    /// modes (default: every elastic mode inside the measured band).
+    #[serde(default)]
+    pub damping_modes: Vec<usize>,
+    /// Before updating, move these parameters' starting values into their sensitive regions
+    /// (thesis §5.4): lumped springs and masses whose initial estimates no eigenvalue feels.
+    #[serde(default)]
+    pub sensitive_start: Option<SensitiveStartParams>,
     /// With `partition` connected: the component mode synthesis the mesh is analysed by; only
     /// substructures holding a changed parameter are reduced again at each iteration.
     #[serde(default)]
     pub reduction: Reduction,
+}
+
+impl Params {
+    fn damping_method(&self) -> bool {
+        self.method == Method::Damping
+    }
+    /// `κ_f`, resolved.
+    pub fn kappa_f(&self) -> f64 {
+        let d = if self.damping_method() { 1.0 } else { 0.95 };
+        self.pc.kappa_f.unwrap_or(d)
+    }
+    /// Resonance exclusion in line spacings, resolved.
+    pub fn resonance_lines(&self) -> f64 {
+        let d = if self.damping_method() { 0.0 } else { 1.0 };
+        self.pc.resonance_lines.unwrap_or(d)
+    }
+    /// The stop figure, resolved.
+    pub fn stop_chi(&self) -> f64 {
+        let d = if self.damping_method() { 1.0 } else { 0.99 };
+        self.pc.stop_chi.unwrap_or(d)
+    }
+    /// `κ` of the subset selection, resolved.
+    pub fn subset_kappa(&self) -> Option<f64> {
+        match (self.pc.subset_kappa, self.damping_method()) {
+            (None, true) => Some(1e7),
+            (k, _) => k,
+        }
+    }
+    /// The step tolerance, resolved.
+    pub fn tolerance(&self) -> f64 {
+        let d = if self.damping_method() { 1e-2 } else { 1e-8 };
+        self.tolerance.unwrap_or(d)
+    }
+}
+
+/// The sensitive-region search (thesis §5.4, 5.12).
+#[derive(Clone, Debug, serde::Deserialize, serde::Serialize, schemars::JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct SensitiveStartParams {
+    /// Parameters to move (springs, masses: they enter K and M linearly), one after another.
+    pub parameters: Vec<String>,
+    /// 1-based numbers of the (elastic) modes whose summed unity eigenvalue sensitivity is
+    /// maximised, e.g. the dominant modes of the band.
+    pub modes: Vec<usize>,
+    /// Scan density between the bounds before the root refinement.
+    #[serde(default = "four")]
+    pub points_per_decade: usize,
+}
+
+fn four() -> usize {
+    4
 }
 
 /// Reduction method of the analysis when a partition is connected.
@@ -205,7 +269,7 @@ impl TypedStage for Update {
     const KIND: &'static str = "update";
     const SUMMARY: &'static str =
         "Update model parameters from measured FRFs (P-C, RFM) or modes (inverse eigensensitivity)";
-    const IMPL_VERSION: u32 = 2;
+    const IMPL_VERSION: u32 = 3;
 
     fn inputs() -> Vec<PortSpec> {
         vec![
@@ -250,6 +314,13 @@ impl TypedStage for Update {
 
     fn validate(p: &mut Params, ctx: &CheckContext) -> Vec<ParamIssue> {
         let mut issues = Vec::new();
+        // Method-specific defaults, resolved here so that `femu explain` and the cache key show
+        // the values used.
+        p.pc.kappa_f = Some(p.kappa_f());
+        p.pc.resonance_lines = Some(p.resonance_lines());
+        p.pc.stop_chi = Some(p.stop_chi());
+        p.tolerance = Some(p.tolerance());
+        p.pc.subset_kappa = p.subset_kappa();
         let (mesh, model) = (ctx.is_connected("mesh"), ctx.is_connected("model"));
         if mesh == model && !ctx.connected.is_empty() {
             issues.push(ParamIssue::at(
@@ -258,7 +329,7 @@ impl TypedStage for Update {
             ));
         }
         let data_port = match p.method {
-            Method::Pc | Method::Rfm => "measured",
+            Method::Pc | Method::Rfm | Method::Damping => "measured",
             Method::Eigensensitivity => "measured_modes",
         };
         if !ctx.connected.is_empty() && !ctx.is_connected(data_port) {
@@ -305,6 +376,32 @@ impl TypedStage for Update {
                 "the RFM takes no damping or a uniform structural loss factor `{structural: 0.01}`",
             ));
         }
+        if p.method == Method::Damping
+            && !matches!(p.damping, Damping::Structural(_) | Damping::Viscous(_))
+        {
+            issues.push(ParamIssue::at(
+                "damping",
+                "damping identification starts from modal damping: give `{structural: 0.01}` (identifies η_r) or `{viscous: 0.005}` (identifies ζ_r)",
+            ));
+        }
+        if p.method != Method::Damping && p.damping.is_per_mode() {
+            issues.push(ParamIssue::at(
+                "damping",
+                "per-mode damping needs a fixed modal basis: only the method `damping` takes it; give one uniform value",
+            ));
+        }
+        if p.method != Method::Damping && !p.damping_modes.is_empty() {
+            issues.push(ParamIssue::at(
+                "damping_modes",
+                "only the method `damping` identifies modal damping: remove `damping_modes`",
+            ));
+        }
+        if p.damping_modes.contains(&0) {
+            issues.push(ParamIssue::at(
+                "damping_modes",
+                "mode numbers count from 1 (rigid-body modes included)",
+            ));
+        }
         if p.method == Method::Pc && matches!(p.damping, Damping::Rayleigh { .. }) {
             issues.push(ParamIssue::at(
                 "damping",
@@ -312,19 +409,17 @@ impl TypedStage for Update {
             ));
         }
         let pc = &p.pc;
-        if !(pc.kappa_f > 0.0 && pc.kappa_f <= 1.0) {
+        let (kappa_f, stop_chi) = (p.kappa_f(), p.stop_chi());
+        if !(kappa_f > 0.0 && kappa_f <= 1.0) {
             issues.push(ParamIssue::at(
                 "pc.kappa_f",
-                format!(
-                    "{} must lie in (0, 1]; the thesis uses 0.9 to 1",
-                    pc.kappa_f
-                ),
+                format!("{} must lie in (0, 1]; the thesis uses 0.9 to 1", kappa_f),
             ));
         }
-        if !(pc.stop_chi > 0.0 && pc.stop_chi <= 1.0) {
+        if !(stop_chi > 0.0 && stop_chi <= 1.0) {
             issues.push(ParamIssue::at(
                 "pc.stop_chi",
-                format!("{} must lie in (0, 1]", pc.stop_chi),
+                format!("{stop_chi} must lie in (0, 1]"),
             ));
         }
         if let Some(k) = pc.subset_kappa {
@@ -349,11 +444,38 @@ impl TypedStage for Update {
                 format!("{} must be positive", pc.max_step),
             ));
         }
-        if !(pc.resonance_lines >= 0.0 && pc.resonance_lines.is_finite()) {
+        let resonance_lines = p.resonance_lines();
+        if !(resonance_lines >= 0.0 && resonance_lines.is_finite()) {
             issues.push(ParamIssue::at(
                 "pc.resonance_lines",
-                format!("{} must be >= 0", pc.resonance_lines),
+                format!("{resonance_lines} must be >= 0"),
             ));
+        }
+        if let Some(ss) = &p.sensitive_start {
+            if p.method == Method::Damping {
+                issues.push(ParamIssue::at(
+                    "sensitive_start",
+                    "the method `damping` changes no spatial parameter: remove `sensitive_start`",
+                ));
+            }
+            if ss.parameters.is_empty() {
+                issues.push(ParamIssue::at(
+                    "sensitive_start.parameters",
+                    "name at least one parameter to move",
+                ));
+            }
+            if ss.modes.is_empty() || ss.modes.contains(&0) {
+                issues.push(ParamIssue::at(
+                    "sensitive_start.modes",
+                    "give 1-based mode numbers, e.g. [1, 2]",
+                ));
+            }
+            if ss.points_per_decade == 0 {
+                issues.push(ParamIssue::at(
+                    "sensitive_start.points_per_decade",
+                    "must be at least 1",
+                ));
+            }
         }
         if p.mode_count.is_some() && p.modes_max_hz.is_some() {
             issues.push(ParamIssue::at(
@@ -364,20 +486,26 @@ impl TypedStage for Update {
         if p.mode_count == Some(0) {
             issues.push(ParamIssue::at("mode_count", "must be at least 1"));
         }
-        if !(p.tolerance > 0.0 && p.tolerance < 1.0) {
+        let tolerance = p.tolerance();
+        if !(tolerance > 0.0 && tolerance < 1.0) {
             issues.push(ParamIssue::at(
                 "tolerance",
-                format!("{} must lie in (0, 1)", p.tolerance),
+                format!("{tolerance} must lie in (0, 1)"),
             ));
         }
         issues
     }
 
     fn run(p: &Params, inputs: &StageInputs) -> Result<StageOutputs, StageError> {
+        let fixed = p.method == Method::Damping;
         let model: Box<dyn ParametricModel> = match (inputs.get("mesh"), inputs.get("model")) {
             (Some(mesh), None) => {
-                let fe = FeModel::new(mesh_from_artefact(mesh)?, &p.parameters, p.mass)
-                    .map_err(StageError::failed)?;
+                let mesh = mesh_from_artefact(mesh)?;
+                let fe = if fixed {
+                    FeModel::without_parameters(mesh, p.mass)
+                } else {
+                    FeModel::new(mesh, &p.parameters, p.mass).map_err(StageError::failed)?
+                };
                 match inputs.get("partition") {
                     Some(part) => {
                         let partition = crate::artefact::reduced::partition_from_artefact(part)?;
@@ -398,7 +526,9 @@ impl TypedStage for Update {
             (None, Some(m)) => {
                 let sys = matrices_from_artefact(m)?;
                 let mut params = linear_parameters_from_matrices(m, sys.n())?;
-                if params.is_empty() {
+                if fixed {
+                    params.clear();
+                } else if params.is_empty() {
                     return Err(StageError::Failed(
                         "the `model` input declares no parameters: add `parameters:` to its model.lumped stage".into(),
                     ));
@@ -479,9 +609,9 @@ impl TypedStage for Update {
             Method::Pc => Box::new(PredictorCorrector {
                 measured: measured.as_ref().ok_or_else(|| missing("measured"))?,
                 settings: PcSettings {
-                    kappa_f: p.pc.kappa_f,
-                    resonance_lines: p.pc.resonance_lines,
-                    stop_chi: p.pc.stop_chi,
+                    kappa_f: p.kappa_f(),
+                    resonance_lines: p.resonance_lines(),
+                    stop_chi: p.stop_chi(),
                     subset_kappa: p.pc.subset_kappa,
                     weighting,
                     max_step: p.pc.max_step,
@@ -495,10 +625,14 @@ impl TypedStage for Update {
                 settings: RfmSettings {
                     lines_hz: p.lines_hz.clone(),
                     eta: p.damping.direct().structural_eta,
-                    tolerance: p.tolerance,
+                    tolerance: p.tolerance(),
                     rcond: 1e-12,
                 },
             }),
+            Method::Damping => {
+                let measured = measured.as_ref().ok_or_else(|| missing("measured"))?;
+                return identify_damping(p, model.as_ref(), measured, modes(2.0 * top_hz));
+            }
             Method::Eigensensitivity => {
                 let mm = measured_modes
                     .as_ref()
@@ -513,7 +647,7 @@ impl TypedStage for Update {
                             _ => ModeSelection::Count(count),
                         },
                         min_mac: p.min_mac,
-                        tolerance: p.tolerance,
+                        tolerance: p.tolerance(),
                         subset_kappa: p.pc.subset_kappa,
                         weighting,
                     },
@@ -523,8 +657,12 @@ impl TypedStage for Update {
         if let (Method::Pc, ModalDamping::None) = (p.method, p.damping.modal()) {
             tracing::info!("P-C with undamped predictions: lines at resonances are excluded");
         }
-        let history =
-            run(method.as_ref(), model.as_ref(), p.max_iterations).map_err(StageError::failed)?;
+        let (start, moved) = match &p.sensitive_start {
+            Some(ss) => move_to_sensitive_regions(model.as_ref(), ss)?,
+            None => (model.initial_values(), Vec::new()),
+        };
+        let history = run_from(method.as_ref(), model.as_ref(), &start, p.max_iterations)
+            .map_err(StageError::failed)?;
         let updated = model
             .evaluate(&history.final_values)
             .map_err(StageError::failed)?;
@@ -532,15 +670,158 @@ impl TypedStage for Update {
             Method::Pc => "pc",
             Method::Rfm => "rfm",
             Method::Eigensensitivity => "eigensensitivity",
+            Method::Damping => "damping",
         };
         Ok(StageOutputs::from([
             (
                 "result".to_string(),
-                update_result_to_artefact(&history, name),
+                if moved.is_empty() {
+                    update_result_to_artefact(&history, name)
+                } else {
+                    update_result_to_artefact(&history, name)
+                        .with_meta("sensitive_start", serde_json::Value::Array(moved))
+                },
             ),
             ("model".to_string(), matrices_to_artefact(&updated.system)),
         ]))
     }
+}
+
+/// Moves the named parameters into their sensitive regions one after another (each search
+/// with the others at their current starts); returns the start values and, per parameter, a
+/// record of the move.
+fn move_to_sensitive_regions(
+    model: &dyn ParametricModel,
+    ss: &SensitiveStartParams,
+) -> Result<(Vec<f64>, Vec<serde_json::Value>), StageError> {
+    let names: Vec<&str> = model.parameters().iter().map(|q| q.name.as_str()).collect();
+    let modes: Vec<usize> = ss.modes.iter().map(|m| m - 1).collect();
+    let mut start = model.initial_values();
+    let mut moved = Vec::new();
+    for name in &ss.parameters {
+        let i = names.iter().position(|n| n == name).ok_or_else(|| {
+            StageError::Failed(format!(
+                "sensitive_start.parameters: `{name}` is not an updated parameter (they are: {})",
+                names.join(", ")
+            ))
+        })?;
+        let found = sensitive_start(model, &start, i, &modes, ss.points_per_decade)
+            .map_err(StageError::failed)?;
+        tracing::info!(
+            "sensitive start: {name} {:e} -> {:e} (unity sensitivity {:.3e} -> {:.3e})",
+            found.before,
+            found.value,
+            found.sensitivity_before,
+            found.sensitivity
+        );
+        start[i] = found.value;
+        moved.push(serde_json::json!({
+            "parameter": name,
+            "before": found.before,
+            "start": found.value,
+            "sensitivity_before": found.sensitivity_before,
+            "sensitivity": found.sensitivity,
+        }));
+    }
+    Ok((start, moved))
+}
+
+/// The damping identification: one modal analysis of the fixed model, then the P-C on the modal
+/// damping of the chosen elastic modes; the result gains the table `modal_damping`.
+fn identify_damping(
+    p: &Params,
+    model: &dyn ParametricModel,
+    measured: &crate::frf::FrfSet,
+    basis: ModeSelection,
+) -> Result<StageOutputs, StageError> {
+    let (state, evaluated) = model
+        .modal_state(&model.initial_values(), basis)
+        .map_err(StageError::failed)?;
+    let m = state.modes.len();
+    let (kind, initial) = match p.damping.modal_for(m) {
+        Ok(ModalDamping::Structural(v)) => (DampingKind::Structural, v),
+        Ok(ModalDamping::Viscous(v)) => (DampingKind::Viscous, v),
+        Ok(ModalDamping::None) => {
+            return Err(StageError::Failed(
+                "damping identification needs a starting modal damping in `damping`".into(),
+            ));
+        }
+        Err(e) => {
+            return Err(StageError::Failed(format!(
+                "damping (a modal basis of {m} modes): {e}"
+            )));
+        }
+    };
+    let natural = state.modes.frequencies_hz();
+    let (lo, hi) = match (measured.freqs_hz.first(), measured.freqs_hz.last()) {
+        (Some(&lo), Some(&hi)) => (lo, hi),
+        _ => return Err(StageError::Failed("the measured FRFs have no lines".into())),
+    };
+    let modes: Vec<usize> = if p.damping_modes.is_empty() {
+        (0..m)
+            .filter(|&r| state.modes.eigenvalues[r] > 0.0 && natural[r] >= lo && natural[r] <= hi)
+            .collect()
+    } else {
+        p.damping_modes.iter().map(|&r| r - 1).collect()
+    };
+    let method = DampingIdentification::new(
+        measured,
+        &state,
+        DampingSettings {
+            kind,
+            initial,
+            modes: modes.clone(),
+            kappa_f: p.kappa_f(),
+            resonance_lines: p.resonance_lines(),
+            stop_chi: p.stop_chi(),
+            tolerance: p.tolerance(),
+            max_step: p.pc.max_step,
+            subset_kappa: p.subset_kappa(),
+        },
+    )
+    .map_err(|e| StageError::Failed(format!("damping_modes: {e}")))?;
+    let system = match evaluated {
+        Some(ev) => ev.system,
+        None => {
+            model
+                .evaluate(&model.initial_values())
+                .map_err(StageError::failed)?
+                .system
+        }
+    };
+    let parameters = DampingParameters::new(&method, system);
+    let history = run(&method, &parameters, p.max_iterations).map_err(StageError::failed)?;
+    let identified: Vec<IdentifiedDamping> = modes
+        .iter()
+        .zip(history.parameters.iter().zip(&history.final_values))
+        .map(|(&r, (q, &v))| IdentifiedDamping {
+            mode: r + 1,
+            natural_hz: natural[r],
+            initial: q.initial,
+            identified: v,
+            equivalent_loss_factor: match kind {
+                DampingKind::Structural => v,
+                DampingKind::Viscous => equivalent_loss_factor(v),
+            },
+        })
+        .collect();
+    let kind_name = match kind {
+        DampingKind::Structural => "structural",
+        DampingKind::Viscous => "viscous",
+    };
+    let result = with_modal_damping(
+        update_result_to_artefact(&history, "damping"),
+        kind_name,
+        &identified,
+    );
+    let system = parameters
+        .evaluate(&history.final_values)
+        .map_err(StageError::failed)?
+        .system;
+    Ok(StageOutputs::from([
+        ("result".to_string(), result),
+        ("model".to_string(), matrices_to_artefact(&system)),
+    ]))
 }
 
 #[cfg(test)]

@@ -5,10 +5,12 @@
 //! Changes are unity-based (2.13–2.16): every method solves for the relative changes
 //! `Δφ_i/φ_i` with sensitivities `φ_i ∂(·)/∂φ_i`, and new values are clamped to the bounds.
 
+pub mod damping;
 pub mod eigensensitivity;
 pub mod model;
 pub mod pc;
 pub mod rfm;
+pub mod sensitive_start;
 pub mod solve;
 
 pub use model::{
@@ -99,6 +101,11 @@ pub trait UpdateMethod {
     fn converged_by_step(&self, _relative_change: &[f64]) -> bool {
         false
     }
+    /// Whether the merit moved so little from `before` to `after` that iterating on is pointless
+    /// (for methods whose data cannot be matched exactly, so the step never vanishes).
+    fn converged_by_merit(&self, _before: &IterationRecord, _after: &IterationRecord) -> bool {
+        false
+    }
     /// A figure that a good step raises (none: every step is taken as computed).
     fn merit(&self, _record: &IterationRecord) -> Option<f64> {
         None
@@ -150,23 +157,41 @@ pub fn run(
     model: &dyn ParametricModel,
     max_iterations: usize,
 ) -> Result<UpdateHistory, UpdatingError> {
+    run_from(method, model, &model.initial_values(), max_iterations)
+}
+
+/// [`run`] from `start` instead of the model's initial values (e.g. after
+/// [`sensitive_start::sensitive_start`]); each start value must lie within its bounds.
+pub fn run_from(
+    method: &dyn UpdateMethod,
+    model: &dyn ParametricModel,
+    start: &[f64],
+    max_iterations: usize,
+) -> Result<UpdateHistory, UpdatingError> {
     let params = model.parameters().to_vec();
-    for p in &params {
-        if !(p.initial.is_finite() && p.initial != 0.0) {
+    if start.len() != params.len() {
+        return Err(UpdatingError::Settings(format!(
+            "{} start values for {} parameters",
+            start.len(),
+            params.len()
+        )));
+    }
+    for (p, &v) in params.iter().zip(start) {
+        if !(v.is_finite() && v != 0.0) {
             return Err(UpdatingError::Settings(format!(
-                "parameter `{}` starts at {}: unity-based updating needs a finite non-zero value",
-                p.name, p.initial
+                "parameter `{}` starts at {v}: unity-based updating needs a finite non-zero value",
+                p.name
             )));
         }
-        if !(p.lower <= p.initial && p.initial <= p.upper) {
+        if !(p.lower <= v && v <= p.upper) {
             return Err(UpdatingError::Settings(format!(
-                "parameter `{}` starts at {:e}, outside its bounds [{:e}, {:e}]",
-                p.name, p.initial, p.lower, p.upper
+                "parameter `{}` starts at {v:e}, outside its bounds [{:e}, {:e}]",
+                p.name, p.lower, p.upper
             )));
         }
     }
     let n = params.len();
-    let mut values = model.initial_values();
+    let mut values = start.to_vec();
     let mut iterations = Vec::new();
     let mut current = method.iterate(model, &values, 0)?;
     let finish = |mut record: IterationRecord,
@@ -215,7 +240,8 @@ pub fn run(
                 }
             }
         }
-        let converged = method.converged_by_step(&applied);
+        let converged = method.converged_by_step(&applied)
+            || method.converged_by_merit(&current.record, &next.record);
         let stalled = applied.iter().all(|d| d.abs() < 1e-12);
         let mut record = current.record;
         record.relative_change = applied;

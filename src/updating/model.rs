@@ -152,6 +152,17 @@ impl FeModel {
         })
     }
 
+    /// The model as it is, with no updating parameter (for analyses that change no property,
+    /// such as damping identification).
+    pub fn without_parameters(model: Model, mass: MassKind) -> Self {
+        FeModel {
+            model,
+            parameters: Vec::new(),
+            info: Vec::new(),
+            mass,
+        }
+    }
+
     /// The model with `values` written into it.
     pub fn model_at(&self, values: &[f64]) -> Result<Model, UpdatingError> {
         let mut model = self.model.clone();

@@ -178,6 +178,25 @@ pub fn correlation_equations(
     (s, eps)
 }
 
+/// The candidates beside the Gauss-Newton step `delta` that [`super::run`] analyses, keeping the
+/// one with the highest mean correlation: the doubled step, then Levenberg-Marquardt steps with
+/// `μ = 10⁻², …, 10²` (`damped(μ)`), each capped by `cap`.
+///
+/// Why the doubled step: a perfect match is a maximum of `χ`, so near it `1 − χ` is quadratic
+/// in the parameter error `e` (`½ eᵀHe`) and its gradient linear (`He`). The equations
+/// `S Δ = 1 − χ` (4.16) are then Newton's method on a double root, whose least-squares step is
+/// `Δ = −e/2`: the error halves per iteration. `2Δ` restores the full step there; far from the
+/// solution, or with noisy data whose best `χ` stays below 1, the merit decides.
+pub fn candidate_steps(
+    delta: &[f64],
+    cap: impl Fn(Vec<f64>) -> Vec<f64>,
+    damped: impl Fn(f64) -> Vec<f64>,
+) -> Vec<Vec<f64>> {
+    std::iter::once(cap(delta.iter().map(|d| 2.0 * d).collect()))
+        .chain((-2..=2).map(|e| damped(10f64.powi(e))))
+        .collect()
+}
+
 fn mean(v: &[f64]) -> f64 {
     if v.is_empty() {
         f64::NAN
@@ -297,19 +316,9 @@ impl UpdateMethod for PredictorCorrector<'_> {
             }
             d
         };
-        let delta = cap(damped_step(sw.as_ref(), &ew, &active, s.weighting, 0.0));
-        // Fallbacks: Levenberg-Marquardt damped steps, μ = 10⁻², 10⁻¹, …, 10².
-        let fallbacks = (-2..=2)
-            .map(|e| {
-                cap(damped_step(
-                    sw.as_ref(),
-                    &ew,
-                    &active,
-                    s.weighting,
-                    10f64.powi(e),
-                ))
-            })
-            .collect();
+        let step = |mu: f64| cap(damped_step(sw.as_ref(), &ew, &active, s.weighting, mu));
+        let delta = step(0.0);
+        let fallbacks = candidate_steps(&delta, cap, step);
         for &a in &active {
             record.active[a] = true;
         }

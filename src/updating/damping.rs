@@ -1,0 +1,325 @@
+//! Modal damping identification (THEORY §8; thesis ch. 6).
+//!
+//! The spatial model is fixed; the parameters are the modal loss factors `η_r` (structural) or
+//! damping ratios `ζ_r` (viscous) of chosen elastic modes. The equations are the P-C's
+//! (4.16–4.21) with the exact damping sensitivities (6.8, 6.11) as the columns of `S`, unity
+//! based: `η_r ∂H/∂η_r`. Each `η_r` acts near its own resonance, so the columns are nearly
+//! orthogonal and every parameter is updated (no subset selection). Rigid-body modes have no
+//! damping and are never parameters.
+//!
+//! A viscous model fitted to structurally damped measurements matches them only near each
+//! resonance, where `η_r ≈ 2ζ_r` ([`equivalent_loss_factor`]).
+
+use super::model::{Evaluated, ModalState, ParametricModel, UpdatingError, UpdatingParameter};
+use super::pc::{LineCorrelation, correlation_equations, predict, select_lines};
+use super::solve::{
+    ParameterWeighting, damped_step, diagnostics, select_subset, subset_condition_limit,
+};
+use super::{IterationRecord, Step, StopReason, UpdateMethod};
+use crate::fe::SystemMatrices;
+use crate::frf::{FrfSet, ModalDamping};
+use crate::sensitivity::{ModalFrfModel, damping_sensitivities};
+use faer::Mat;
+
+/// Which modal damping model is identified.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DampingKind {
+    /// Structural loss factors `η_r`.
+    Structural,
+    /// Viscous damping ratios `ζ_r`.
+    Viscous,
+}
+
+impl DampingKind {
+    /// Parameter name of 1-based mode number `mode`: `eta_7`, `zeta_7`.
+    pub fn parameter_name(self, mode: usize) -> String {
+        match self {
+            DampingKind::Structural => format!("eta_{mode}"),
+            DampingKind::Viscous => format!("zeta_{mode}"),
+        }
+    }
+}
+
+/// The structural loss factor a viscous ratio is equivalent to at resonance: `η = 2ζ`.
+pub fn equivalent_loss_factor(zeta: f64) -> f64 {
+    2.0 * zeta
+}
+
+/// Settings of the damping identification.
+#[derive(Clone, Debug)]
+pub struct DampingSettings {
+    /// The damping model identified.
+    pub kind: DampingKind,
+    /// Damping of every mode of the basis at the start (`η_r` or `ζ_r`, one per mode).
+    pub initial: Vec<f64>,
+    /// Indices (0-based, into the basis) of the modes whose damping is identified.
+    pub modes: Vec<usize>,
+    /// Lines with `(χ_s + χ_a)/2 > κ_f` are left out (4.20).
+    pub kappa_f: f64,
+    /// Lines within this many line spacings of a predicted natural frequency are left out.
+    pub resonance_lines: f64,
+    /// Stop when the mean of `(χ_s + χ_a)/2` over all lines reaches this (4.23).
+    pub stop_chi: f64,
+    /// Stop when every relative change is below this, or the objective improves by less than a
+    /// tenth of it.
+    pub tolerance: f64,
+    /// Largest relative change of one parameter in one step.
+    pub max_step: f64,
+    /// `κ` of the subset selection `κ_mn = 1 + κ(n/m)²` (5.14); `None` updates every mode.
+    /// Modes whose damping the measurements barely see (outside the band, or at a node of
+    /// every measured DOF) give near-zero columns that least squares would fill with noise;
+    /// the selection leaves them alone.
+    pub subset_kappa: Option<f64>,
+}
+
+/// The damping identification against one measured FRF set, on a fixed modal state.
+pub struct DampingIdentification<'a> {
+    measured: &'a FrfSet,
+    state: &'a ModalState,
+    /// Mode shapes at the measured DOFs.
+    shapes: Mat<f64>,
+    settings: DampingSettings,
+}
+
+impl<'a> DampingIdentification<'a> {
+    /// Checks the settings against the modal state: one initial value per mode, identified
+    /// modes inside the basis, elastic, and listed once.
+    pub fn new(
+        measured: &'a FrfSet,
+        state: &'a ModalState,
+        settings: DampingSettings,
+    ) -> Result<Self, UpdatingError> {
+        let m = state.modes.len();
+        if settings.initial.len() != m {
+            return Err(UpdatingError::Settings(format!(
+                "{} initial damping values for {m} modes",
+                settings.initial.len()
+            )));
+        }
+        let mut seen = vec![false; m];
+        for &r in &settings.modes {
+            if r >= m {
+                return Err(UpdatingError::Settings(format!(
+                    "mode {} is not in the modal basis (modes 1 to {m})",
+                    r + 1
+                )));
+            }
+            if state.modes.eigenvalues[r] == 0.0 {
+                return Err(UpdatingError::Settings(format!(
+                    "mode {} is a rigid-body mode: it has no damping to identify",
+                    r + 1
+                )));
+            }
+            if std::mem::replace(&mut seen[r], true) {
+                return Err(UpdatingError::Settings(format!(
+                    "mode {} is listed twice",
+                    r + 1
+                )));
+            }
+            if !(settings.initial[r] > 0.0 && settings.initial[r].is_finite()) {
+                return Err(UpdatingError::Settings(format!(
+                    "mode {} starts with damping {}: identification needs a positive value",
+                    r + 1,
+                    settings.initial[r]
+                )));
+            }
+        }
+        if settings.modes.is_empty() {
+            return Err(UpdatingError::Settings(
+                "no elastic mode to identify the damping of".into(),
+            ));
+        }
+        let shapes = state.shapes_at(&measured.dofs())?;
+        Ok(DampingIdentification {
+            measured,
+            state,
+            shapes,
+            settings,
+        })
+    }
+
+    /// The parameters: one per identified mode, named by its 1-based number, between
+    /// `10⁻⁶` times and `100` times the initial value (and below 1 for `ζ`).
+    pub fn parameters(&self) -> Vec<UpdatingParameter> {
+        let s = &self.settings;
+        s.modes
+            .iter()
+            .map(|&r| {
+                let v = s.initial[r];
+                let cap = match s.kind {
+                    DampingKind::Structural => 100.0 * v,
+                    DampingKind::Viscous => (100.0 * v).min(1.0),
+                };
+                UpdatingParameter {
+                    name: s.kind.parameter_name(r + 1),
+                    initial: v,
+                    lower: 1e-6 * v,
+                    upper: cap.max(v),
+                }
+            })
+            .collect()
+    }
+
+    /// The modal damping of every mode of the basis at `values`.
+    pub fn damping(&self, values: &[f64]) -> ModalDamping {
+        let mut all = self.settings.initial.clone();
+        for (&r, &v) in self.settings.modes.iter().zip(values) {
+            all[r] = v;
+        }
+        match self.settings.kind {
+            DampingKind::Structural => ModalDamping::Structural(all),
+            DampingKind::Viscous => ModalDamping::Viscous(all),
+        }
+    }
+}
+
+impl UpdateMethod for DampingIdentification<'_> {
+    fn iterate(
+        &self,
+        _model: &dyn ParametricModel,
+        values: &[f64],
+        iteration: usize,
+    ) -> Result<Step, UpdatingError> {
+        let s = &self.settings;
+        let n = values.len();
+        let damping = self.damping(values);
+        let predicted = predict(self.state, self.measured, &damping)?;
+        let lines = LineCorrelation::new(self.measured, &predicted);
+        let mut record = IterationRecord {
+            iteration,
+            values: values.to_vec(),
+            relative_change: vec![0.0; n],
+            active: vec![false; n],
+            lines_used: 0,
+            mean_chi_s: lines.chi_s.iter().sum::<f64>() / lines.chi_s.len().max(1) as f64,
+            mean_chi_a: lines.chi_a.iter().sum::<f64>() / lines.chi_a.len().max(1) as f64,
+            residual_norm: 0.0,
+            condition_limit: f64::NAN,
+            diagnostics: Default::default(),
+        };
+        if record.mean_chi() >= s.stop_chi {
+            return Ok(Step::new(record, Some(StopReason::Converged)));
+        }
+        let chosen = select_lines(
+            &self.measured.freqs_hz,
+            &lines,
+            &self.state.modes.frequencies_hz(),
+            s.kappa_f,
+            s.resonance_lines,
+        );
+        record.lines_used = chosen.len();
+        if chosen.is_empty() {
+            return Ok(Step::new(record, Some(StopReason::NothingToUpdate)));
+        }
+        let dofs = self.measured.dofs();
+        let modal = ModalFrfModel {
+            eigenvalues: &self.state.modes.eigenvalues,
+            shapes: self.shapes.as_ref(),
+            dofs: &dofs,
+            damping: &damping,
+        };
+        let freqs: Vec<f64> = chosen.iter().map(|&k| self.measured.freqs_hz[k]).collect();
+        let per_mode =
+            damping_sensitivities(&modal, &self.measured.pairs, &freqs, self.measured.quantity)?;
+        // Unity-based columns `v_r ∂H/∂v_r` of the identified modes only.
+        let columns: Vec<_> = s
+            .modes
+            .iter()
+            .zip(values)
+            .map(|(&r, &v)| {
+                let d = &per_mode[r];
+                Mat::from_fn(d.nrows(), d.ncols(), |i, j| d[(i, j)] * v)
+            })
+            .collect();
+        let (sw, ew) = correlation_equations(self.measured, &predicted, &chosen, &columns, true);
+        record.residual_norm = ew.iter().map(|e| e * e).sum::<f64>().sqrt();
+        record.diagnostics = diagnostics(sw.as_ref());
+        let active: Vec<usize> = match s.subset_kappa {
+            Some(kappa) => {
+                let limit = subset_condition_limit(kappa, sw.nrows(), n);
+                record.condition_limit = limit;
+                select_subset(sw.as_ref(), limit)
+            }
+            None => (0..n)
+                .filter(|&p| (0..sw.nrows()).any(|i| sw[(i, p)] != 0.0))
+                .collect(),
+        };
+        let cap = |mut d: Vec<f64>| {
+            let biggest = d.iter().fold(0.0_f64, |a, x| a.max(x.abs()));
+            if biggest > s.max_step {
+                let f = s.max_step / biggest;
+                d.iter_mut().for_each(|x| *x *= f);
+            }
+            d
+        };
+        let step = |mu: f64| {
+            cap(damped_step(
+                sw.as_ref(),
+                &ew,
+                &active,
+                ParameterWeighting::None,
+                mu,
+            ))
+        };
+        for &a in &active {
+            record.active[a] = true;
+        }
+        let delta = step(0.0);
+        let fallbacks = super::pc::candidate_steps(&delta, cap, step);
+        record.relative_change = delta;
+        Ok(Step {
+            record,
+            stop: None,
+            fallbacks,
+        })
+    }
+
+    fn converged_by_step(&self, applied: &[f64]) -> bool {
+        applied.iter().all(|d| d.abs() < self.settings.tolerance)
+    }
+
+    /// Also converged when the objective `‖W_f^{1/2} ε‖` improved by less than a tenth of the
+    /// tolerance, relatively: with noisy data the optimum has a residual, and weakly seen modes
+    /// can creep on long after the fit stopped improving.
+    fn converged_by_merit(&self, before: &IterationRecord, after: &IterationRecord) -> bool {
+        let (b, a) = (before.residual_norm, after.residual_norm);
+        b > 0.0 && (b - a) / b < 0.1 * self.settings.tolerance
+    }
+
+    /// The least-squares objective itself, `−‖W_f^{1/2} ε‖` (over every line with the default
+    /// `κ_f = 1`): with noisy data the best `χ` stays below 1, and a merit other than the
+    /// objective the steps minimise (such as the mean `χ`) would keep the candidate search
+    /// hopping between the two optima instead of converging.
+    fn merit(&self, record: &IterationRecord) -> Option<f64> {
+        Some(-record.residual_norm)
+    }
+}
+
+/// The damping parameters as a model for [`super::run`]: the spatial system does not change.
+pub struct DampingParameters {
+    parameters: Vec<UpdatingParameter>,
+    system: SystemMatrices,
+}
+
+impl DampingParameters {
+    /// The parameters of `method` on the fixed `system`.
+    pub fn new(method: &DampingIdentification<'_>, system: SystemMatrices) -> Self {
+        DampingParameters {
+            parameters: method.parameters(),
+            system,
+        }
+    }
+}
+
+impl ParametricModel for DampingParameters {
+    fn parameters(&self) -> &[UpdatingParameter] {
+        &self.parameters
+    }
+
+    fn evaluate(&self, _values: &[f64]) -> Result<Evaluated, UpdatingError> {
+        Ok(Evaluated {
+            system: self.system.clone(),
+            derivatives: Vec::new(),
+        })
+    }
+}
