@@ -11,11 +11,11 @@
 //! resonance, where `η_r ≈ 2ζ_r` ([`equivalent_loss_factor`]).
 
 use super::model::{Evaluated, ModalState, ParametricModel, UpdatingError, UpdatingParameter};
-use super::pc::{LineCorrelation, correlation_equations, predict, select_lines};
+use super::pc::{correlation_equations, open_iteration, predict};
 use super::solve::{
     ParameterWeighting, damped_step, diagnostics, select_subset, subset_condition_limit,
 };
-use super::{IterationRecord, Step, StopReason, UpdateMethod};
+use super::{IterationRecord, Step, UpdateMethod};
 use crate::fe::SystemMatrices;
 use crate::frf::{FrfSet, ModalDamping};
 use crate::sensitivity::{ModalFrfModel, damping_sensitivities};
@@ -184,32 +184,18 @@ impl UpdateMethod for DampingIdentification<'_> {
         let n = values.len();
         let damping = self.damping(values);
         let predicted = predict(self.state, self.measured, &damping)?;
-        let lines = LineCorrelation::new(self.measured, &predicted);
-        let mut record = IterationRecord {
-            iteration,
-            values: values.to_vec(),
-            relative_change: vec![0.0; n],
-            active: vec![false; n],
-            lines_used: 0,
-            mean_chi_s: lines.chi_s.iter().sum::<f64>() / lines.chi_s.len().max(1) as f64,
-            mean_chi_a: lines.chi_a.iter().sum::<f64>() / lines.chi_a.len().max(1) as f64,
-            residual_norm: 0.0,
-            condition_limit: f64::NAN,
-            diagnostics: Default::default(),
-        };
-        if record.mean_chi() >= s.stop_chi {
-            return Ok(Step::new(record, Some(StopReason::Converged)));
-        }
-        let chosen = select_lines(
-            &self.measured.freqs_hz,
-            &lines,
+        let (mut record, stop, chosen) = open_iteration(
+            self.measured,
+            &predicted,
             &self.state.modes.frequencies_hz(),
+            values,
+            iteration,
             s.kappa_f,
             s.resonance_lines,
+            s.stop_chi,
         );
-        record.lines_used = chosen.len();
-        if chosen.is_empty() {
-            return Ok(Step::new(record, Some(StopReason::NothingToUpdate)));
+        if stop.is_some() {
+            return Ok(Step::new(record, stop));
         }
         let dofs = self.measured.dofs();
         let modal = ModalFrfModel {

@@ -178,6 +178,49 @@ pub fn correlation_equations(
     (s, eps)
 }
 
+/// The opening every correlation-based iteration shares: the record of the prediction's
+/// correlation, then a stop by the rule (4.23) or for want of lines, or the updating lines
+/// (4.20).
+#[allow(clippy::too_many_arguments)]
+pub(super) fn open_iteration(
+    measured: &FrfSet,
+    predicted: &FrfSet,
+    natural_hz: &[f64],
+    values: &[f64],
+    iteration: usize,
+    kappa_f: f64,
+    resonance_lines: f64,
+    stop_chi: f64,
+) -> (IterationRecord, Option<StopReason>, Vec<usize>) {
+    let n = values.len();
+    let lines = LineCorrelation::new(measured, predicted);
+    let mut record = IterationRecord {
+        iteration,
+        values: values.to_vec(),
+        relative_change: vec![0.0; n],
+        active: vec![false; n],
+        lines_used: 0,
+        mean_chi_s: mean(&lines.chi_s),
+        mean_chi_a: mean(&lines.chi_a),
+        residual_norm: 0.0,
+        condition_limit: f64::NAN,
+        diagnostics: Default::default(),
+    };
+    if record.mean_chi() >= stop_chi {
+        return (record, Some(StopReason::Converged), Vec::new());
+    }
+    let chosen = select_lines(
+        &measured.freqs_hz,
+        &lines,
+        natural_hz,
+        kappa_f,
+        resonance_lines,
+    );
+    record.lines_used = chosen.len();
+    let stop = chosen.is_empty().then_some(StopReason::NothingToUpdate);
+    (record, stop, chosen)
+}
+
 /// The candidates beside the Gauss-Newton step `delta` that [`super::run`] analyses, keeping the
 /// one with the highest mean correlation: the doubled step, then Levenberg-Marquardt steps with
 /// `μ = 10⁻², …, 10²` (`damped(μ)`), each capped by `cap`.
@@ -240,32 +283,18 @@ impl UpdateMethod for PredictorCorrector<'_> {
         let n = values.len();
         let (state, evaluated) = model.modal_state(values, s.modes)?;
         let predicted = predict(&state, self.measured, &s.damping)?;
-        let lines = LineCorrelation::new(self.measured, &predicted);
-        let mut record = IterationRecord {
-            iteration,
-            values: values.to_vec(),
-            relative_change: vec![0.0; n],
-            active: vec![false; n],
-            lines_used: 0,
-            mean_chi_s: mean(&lines.chi_s),
-            mean_chi_a: mean(&lines.chi_a),
-            residual_norm: 0.0,
-            condition_limit: f64::NAN,
-            diagnostics: Default::default(),
-        };
-        if record.mean_chi() >= s.stop_chi {
-            return Ok(Step::new(record, Some(StopReason::Converged)));
-        }
-        let chosen = select_lines(
-            &self.measured.freqs_hz,
-            &lines,
+        let (mut record, stop, chosen) = open_iteration(
+            self.measured,
+            &predicted,
             &state.modes.frequencies_hz(),
+            values,
+            iteration,
             s.kappa_f,
             s.resonance_lines,
+            s.stop_chi,
         );
-        record.lines_used = chosen.len();
-        if chosen.is_empty() {
-            return Ok(Step::new(record, Some(StopReason::NothingToUpdate)));
+        if stop.is_some() {
+            return Ok(Step::new(record, stop));
         }
 
         // Sensitivities at the chosen lines, on the DOFs the pairs need.
