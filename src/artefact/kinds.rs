@@ -881,3 +881,11 @@ pub fn check_layout(a: &Artefact) -> Result<(), ArtefactError> {
     }
     Ok(())
 }
+
+/// A plot artefact holding `<name>.png` and `<name>.svg`.
+pub fn plot_artefact(name: &str, title: &str, fig: crate::report::frf_plot::Figure) -> Artefact {
+    let mut a = Artefact::new(ArtefactKind::Plot).with_meta("title", title.into());
+    a.blobs.insert(format!("{name}.png"), fig.png);
+    a.blobs.insert(format!("{name}.svg"), fig.svg.into_bytes());
+    a
+}

@@ -10,6 +10,7 @@
 use super::LocalisationError;
 use crate::core::DofId;
 use crate::frf::FrfSet;
+use crate::sensitivity::frf::pair_rows;
 use crate::sensitivity::{ModalFrfModel, ProjectedDerivative, frf_sensitivities};
 use crate::updating::pc::correlation_equations;
 use faer::{Mat, MatRef};
@@ -103,7 +104,7 @@ impl Equations<'_> {
             terms.shape_corrections.as_deref(),
         )?;
         if let Some(flex) = &terms.flexibility {
-            let rows = pair_rows(self.modal.dofs, self.measured)?;
+            let rows = pair_rows(self.modal.dofs, &self.measured.pairs)?;
             for (s, dr) in sens.iter_mut().zip(flex) {
                 for (k, &f) in freqs.iter().enumerate() {
                     let factor = self
@@ -127,19 +128,6 @@ impl Equations<'_> {
     }
 }
 
-/// The row in `dofs` of the response and excitation of every measured pair.
-pub fn pair_rows(dofs: &[DofId], set: &FrfSet) -> Result<Vec<(usize, usize)>, LocalisationError> {
-    let row = |d: &DofId| {
-        dofs.iter().position(|x| x == d).ok_or_else(|| {
-            LocalisationError::Settings(format!("measured DOF {d} has no mode shape row"))
-        })
-    };
-    set.pairs
-        .iter()
-        .map(|p| Ok((row(&p.response)?, row(&p.excitation)?)))
-        .collect()
-}
-
 /// Adds a frequency-independent receptance `r` (rows and columns over `dofs`) to every FRF of
 /// `set`, converted to its quantity.
 pub fn add_receptance(
@@ -147,7 +135,7 @@ pub fn add_receptance(
     r: MatRef<'_, f64>,
     dofs: &[DofId],
 ) -> Result<(), LocalisationError> {
-    let rows = pair_rows(dofs, set)?;
+    let rows = pair_rows(dofs, &set.pairs)?;
     for (k, &f) in set.freqs_hz.iter().enumerate() {
         let factor = set.quantity.factor(2.0 * std::f64::consts::PI * f);
         for (q, &(i, j)) in rows.iter().enumerate() {

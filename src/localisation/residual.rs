@@ -16,7 +16,9 @@ use crate::core::DofId;
 use crate::eigen::Modes;
 use crate::fe::SystemMatrices;
 use crate::sensitivity::ProjectedDerivative;
-use crate::sensitivity::frf::{CLUSTER_TOLERANCE, static_shape_correction};
+use crate::sensitivity::frf::{
+    CLUSTER_TOLERANCE, ShiftedStaticError, shifted_static_solutions, static_shape_correction,
+};
 use crate::sensitivity::project_between;
 use faer::{Mat, MatRef};
 
@@ -51,48 +53,27 @@ impl StaticShare {
         modes: &Modes,
         at: &[DofId],
     ) -> Result<Self, LocalisationError> {
-        use faer::Side;
-        use faer::linalg::solvers::Solve;
-        let n = sys.n();
-        let first = modes
-            .eigenvalues
-            .iter()
-            .copied()
-            .find(|l| *l > 0.0)
-            .unwrap_or(1.0);
-        let shift = -1e-2 * first;
-        let mut trip = Vec::new();
-        for (mat, f) in [(&sys.k, 1.0), (&sys.m, -shift)] {
-            for j in 0..n {
-                for (&i, &v) in mat.row_idx_of_col_raw(j).iter().zip(mat.val_of_col(j)) {
-                    if i >= j {
-                        trip.push(faer::sparse::Triplet::new(i, j, f * v));
-                    }
-                }
-            }
-        }
-        let a = crate::fe::system::SparseMatrix::try_new_from_triplets(n, n, &trip)
-            .map_err(|e| LocalisationError::Model(format!("K - sigma M: {e:?}")))?;
-        let llt = a.sp_cholesky(Side::Lower).map_err(|_| {
-            LocalisationError::Model(
-                "K - sigma M is not positive definite; the static correction needs a model without mechanisms (set `static_correction: false`)".into(),
-            )
-        })?;
         let index = sys.dof_index();
-        let mut rhs = Mat::<f64>::zeros(n, at.len());
-        let mut rows = Vec::with_capacity(at.len());
-        for (c, d) in at.iter().enumerate() {
-            let r = index.get(d).copied().ok_or_else(|| {
-                LocalisationError::Settings(format!(
-                    "measured DOF {d} is not a free DOF of the model"
-                ))
+        let rows: Vec<usize> = at
+            .iter()
+            .map(|d| {
+                index.get(d).copied().ok_or_else(|| {
+                    LocalisationError::Settings(format!(
+                        "measured DOF {d} is not a free DOF of the model"
+                    ))
+                })
+            })
+            .collect::<Result<_, _>>()?;
+        let solved = shifted_static_solutions(&sys.k, &sys.m, &modes.eigenvalues, &rows)
+            .map_err(|e| match e {
+                ShiftedStaticError::NotPositiveDefinite => LocalisationError::Model(
+                    "K - sigma M is not positive definite; the static correction needs a model without mechanisms (set `static_correction: false`)".into(),
+                ),
+                e => LocalisationError::Model(e.to_string()),
             })?;
-            rhs[(r, c)] = 1.0;
-            rows.push(r);
-        }
         Ok(StaticShare {
-            x: llt.solve(&rhs),
-            shift,
+            x: solved.x,
+            shift: solved.shift,
             rows,
         })
     }

@@ -26,6 +26,22 @@ use rayon::prelude::*;
 use std::collections::HashMap;
 use std::f64::consts::PI;
 
+/// The rows in `dofs` of the response and excitation of every pair.
+pub fn pair_rows(dofs: &[DofId], pairs: &[FrfPair]) -> Result<Vec<(usize, usize)>, ModalError> {
+    let index: HashMap<DofId, usize> = dofs.iter().enumerate().map(|(i, d)| (*d, i)).collect();
+    let describe = || format!("{} DOFs with shapes", dofs.len());
+    let row = |d: &DofId| {
+        index
+            .get(d)
+            .copied()
+            .ok_or_else(|| ModalError::UnknownDof(*d, describe()))
+    };
+    pairs
+        .iter()
+        .map(|p| Ok((row(&p.response)?, row(&p.excitation)?)))
+        .collect()
+}
+
 /// Relative gap below which two eigenvalues count as one cluster.
 pub const CLUSTER_TOLERANCE: f64 = 1e-6;
 
@@ -44,19 +60,7 @@ pub struct ModalFrfModel<'a> {
 
 impl ModalFrfModel<'_> {
     fn rows(&self, pairs: &[FrfPair]) -> Result<Vec<(usize, usize)>, ModalError> {
-        let index: HashMap<DofId, usize> =
-            self.dofs.iter().enumerate().map(|(i, d)| (*d, i)).collect();
-        let describe = || format!("{} DOFs with shapes", self.dofs.len());
-        let row = |d: &DofId| {
-            index
-                .get(d)
-                .copied()
-                .ok_or_else(|| ModalError::UnknownDof(*d, describe()))
-        };
-        pairs
-            .iter()
-            .map(|p| Ok((row(&p.response)?, row(&p.excitation)?)))
-            .collect()
+        pair_rows(self.dofs, pairs)
     }
 
     /// `1/d_r(ω)` for every mode at one line, or the mode that is singular there.
@@ -210,6 +214,69 @@ pub fn frf_sensitivities(
         })
         .collect();
     Ok(out)
+}
+
+/// Static solutions `x_j = (K − σM)⁻¹ e_j` for chosen rows, the input of Wang's static
+/// correction and of the residual flexibility: one sparse Cholesky, one solve per row.
+#[derive(Clone, Debug)]
+pub struct ShiftedStatic {
+    /// `x_j` for each chosen row (`N × rows`).
+    pub x: Mat<f64>,
+    /// `σ`: a hundredth of the first elastic eigenvalue below zero, so free-free models factor.
+    pub shift: f64,
+}
+
+/// Why `K − σM` could not be factored.
+#[derive(Debug, thiserror::Error)]
+pub enum ShiftedStaticError {
+    /// The triplets did not form a matrix.
+    #[error("K - sigma M: {0}")]
+    Pattern(String),
+    /// A mechanism (or an indefinite matrix) remains after the shift.
+    #[error("K - sigma M is not positive definite")]
+    NotPositiveDefinite,
+}
+
+/// Factors `K − σM` (`σ` from the first positive of `eigenvalues`) and solves for unit loads at
+/// `rows`.
+pub fn shifted_static_solutions(
+    k: &crate::fe::system::SparseMatrix,
+    m: &crate::fe::system::SparseMatrix,
+    eigenvalues: &[f64],
+    rows: &[usize],
+) -> Result<ShiftedStatic, ShiftedStaticError> {
+    use faer::Side;
+    use faer::linalg::solvers::Solve;
+    let n = k.nrows();
+    let first_elastic = eigenvalues
+        .iter()
+        .copied()
+        .find(|l| *l > 0.0)
+        .unwrap_or(1.0);
+    let shift = -1e-2 * first_elastic;
+    let mut trip = Vec::new();
+    for (mat, f) in [(k, 1.0), (m, -shift)] {
+        for j in 0..n {
+            for (&i, &v) in mat.row_idx_of_col_raw(j).iter().zip(mat.val_of_col(j)) {
+                if i >= j {
+                    trip.push(faer::sparse::Triplet::new(i, j, f * v));
+                }
+            }
+        }
+    }
+    let a = crate::fe::system::SparseMatrix::try_new_from_triplets(n, n, &trip)
+        .map_err(|e| ShiftedStaticError::Pattern(format!("{e:?}")))?;
+    let llt = a
+        .sp_cholesky(Side::Lower)
+        .map_err(|_| ShiftedStaticError::NotPositiveDefinite)?;
+    let mut rhs = Mat::<f64>::zeros(n, rows.len());
+    for (c, &r) in rows.iter().enumerate() {
+        rhs[(r, c)] = 1.0;
+    }
+    Ok(ShiftedStatic {
+        x: llt.solve(&rhs),
+        shift,
+    })
 }
 
 /// The truncated modes' share of each mode-shape derivative at chosen DOFs (Wang's static

@@ -4,8 +4,9 @@
 //! measurements, which is the thesis's argument for the leverage. Writes the table, a mesh
 //! panel per mode and a bar panel per mode.
 
-use super::localise_leverage::{Candidates, PlotParams, element_values, plot_artefact};
+use super::localise_leverage::{Candidates, PlotParams, element_values};
 use crate::artefact::ArtefactKind;
+use crate::artefact::kinds::plot_artefact;
 use crate::artefact::leverage::eigen_map_to_artefact;
 use crate::artefact::mesh::mesh_from_artefact;
 use crate::fe::element::MassKind;

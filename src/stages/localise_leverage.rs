@@ -5,10 +5,10 @@
 //! chunks). Writes the table, a mesh coloured by the normalised leverage and a bar chart.
 
 use super::frf_synthesise::Damping;
-use crate::artefact::kinds::frf_from_artefact;
+use crate::artefact::ArtefactKind;
+use crate::artefact::kinds::{frf_from_artefact, plot_artefact};
 use crate::artefact::leverage::{leverage_to_artefact, ranks};
 use crate::artefact::mesh::mesh_from_artefact;
-use crate::artefact::{Artefact, ArtefactKind};
 use crate::eigen::ModeSelection;
 use crate::fe::element::MassKind;
 use crate::localisation::{
@@ -298,14 +298,6 @@ pub fn element_values(candidates: &[Candidate], values: &[f64]) -> BTreeMap<u64,
         }
     }
     out
-}
-
-/// A plot artefact holding `<name>.png` and `<name>.svg`.
-pub fn plot_artefact(name: &str, title: &str, fig: crate::report::frf_plot::Figure) -> Artefact {
-    let mut a = Artefact::new(ArtefactKind::Plot).with_meta("title", title.into());
-    a.blobs.insert(format!("{name}.png"), fig.png);
-    a.blobs.insert(format!("{name}.svg"), fig.svg.into_bytes());
-    a
 }
 
 /// Problems with a damping given for a modal prediction.

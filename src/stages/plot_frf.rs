@@ -1,8 +1,8 @@
 //! `plot.frf`: FRF overlays (amplitude in dB and phase) of measured and predicted FRFs with the
 //! `χ_s`/`χ_a` curves, as PNG and SVG.
 
-use crate::artefact::kinds::{correlation_from_artefact, frf_from_artefact};
-use crate::artefact::{Artefact, ArtefactKind};
+use crate::artefact::ArtefactKind;
+use crate::artefact::kinds::{correlation_from_artefact, frf_from_artefact, plot_artefact};
 use crate::core::DofId;
 use crate::frf::FrfPair;
 use crate::pipeline::{
@@ -151,9 +151,9 @@ impl TypedStage for PlotFrf {
         };
         let fig = frf_overlay(&measured, predicted.as_ref(), correlation.as_ref(), &opts)
             .map_err(StageError::failed)?;
-        let mut a = Artefact::new(ArtefactKind::Plot).with_meta("title", p.title.clone().into());
-        a.blobs.insert("frf.png".into(), fig.png);
-        a.blobs.insert("frf.svg".into(), fig.svg.into_bytes());
-        Ok(StageOutputs::from([("plot".to_string(), a)]))
+        Ok(StageOutputs::from([(
+            "plot".to_string(),
+            plot_artefact("frf", &p.title, fig),
+        )]))
     }
 }

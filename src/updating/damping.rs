@@ -11,10 +11,8 @@
 //! resonance, where `η_r ≈ 2ζ_r` ([`equivalent_loss_factor`]).
 
 use super::model::{Evaluated, ModalState, ParametricModel, UpdatingError, UpdatingParameter};
-use super::pc::{correlation_equations, open_iteration, predict};
-use super::solve::{
-    ParameterWeighting, damped_step, diagnostics, select_subset, subset_condition_limit,
-};
+use super::pc::{close_iteration, correlation_equations, open_iteration, predict};
+use super::solve::ParameterWeighting;
 use super::{IterationRecord, Step, UpdateMethod};
 use crate::fe::SystemMatrices;
 use crate::frf::{FrfSet, ModalDamping};
@@ -181,10 +179,9 @@ impl UpdateMethod for DampingIdentification<'_> {
         iteration: usize,
     ) -> Result<Step, UpdatingError> {
         let s = &self.settings;
-        let n = values.len();
         let damping = self.damping(values);
         let predicted = predict(self.state, self.measured, &damping)?;
-        let (mut record, stop, chosen) = open_iteration(
+        let (record, stop, chosen) = open_iteration(
             self.measured,
             &predicted,
             &self.state.modes.frequencies_hz(),
@@ -218,46 +215,14 @@ impl UpdateMethod for DampingIdentification<'_> {
             })
             .collect();
         let (sw, ew) = correlation_equations(self.measured, &predicted, &chosen, &columns, true);
-        record.residual_norm = ew.iter().map(|e| e * e).sum::<f64>().sqrt();
-        record.diagnostics = diagnostics(sw.as_ref());
-        let active: Vec<usize> = match s.subset_kappa {
-            Some(kappa) => {
-                let limit = subset_condition_limit(kappa, sw.nrows(), n);
-                record.condition_limit = limit;
-                select_subset(sw.as_ref(), limit)
-            }
-            None => (0..n)
-                .filter(|&p| (0..sw.nrows()).any(|i| sw[(i, p)] != 0.0))
-                .collect(),
-        };
-        let cap = |mut d: Vec<f64>| {
-            let biggest = d.iter().fold(0.0_f64, |a, x| a.max(x.abs()));
-            if biggest > s.max_step {
-                let f = s.max_step / biggest;
-                d.iter_mut().for_each(|x| *x *= f);
-            }
-            d
-        };
-        let step = |mu: f64| {
-            cap(damped_step(
-                sw.as_ref(),
-                &ew,
-                &active,
-                ParameterWeighting::None,
-                mu,
-            ))
-        };
-        for &a in &active {
-            record.active[a] = true;
-        }
-        let delta = step(0.0);
-        let fallbacks = super::pc::candidate_steps(&delta, cap, step);
-        record.relative_change = delta;
-        Ok(Step {
+        Ok(close_iteration(
             record,
-            stop: None,
-            fallbacks,
-        })
+            sw.as_ref(),
+            &ew,
+            s.subset_kappa,
+            ParameterWeighting::None,
+            s.max_step,
+        ))
     }
 
     fn converged_by_step(&self, applied: &[f64]) -> bool {

@@ -360,45 +360,26 @@ impl ModalState {
         values: &[f64],
         dofs: &[DofId],
     ) -> Result<Vec<Mat<f64>>, UpdatingError> {
-        use faer::Side;
-        use faer::linalg::solvers::Solve;
+        use crate::sensitivity::frf::{ShiftedStaticError, shifted_static_solutions};
         let sys = &evaluated.system;
-        let n = sys.n();
-        let first_elastic = self
-            .modes
-            .eigenvalues
-            .iter()
-            .copied()
-            .find(|l| *l > 0.0)
-            .unwrap_or(1.0);
-        let shift = -1e-2 * first_elastic;
-        let mut trip = Vec::new();
-        for (mat, f) in [(&sys.k, 1.0), (&sys.m, -shift)] {
-            for j in 0..n {
-                for (&i, &v) in mat.row_idx_of_col_raw(j).iter().zip(mat.val_of_col(j)) {
-                    if i >= j {
-                        trip.push(faer::sparse::Triplet::new(i, j, f * v));
-                    }
-                }
-            }
-        }
-        let a = SparseMatrix::try_new_from_triplets(n, n, &trip)
-            .map_err(|e| UpdatingError::Model(format!("K - sigma M: {e:?}")))?;
-        let llt = a.sp_cholesky(Side::Lower).map_err(|_| {
-            UpdatingError::Model(
-                "K - sigma M is not positive definite: the static correction needs a model without mechanisms"
-                    .into(),
-            )
-        })?;
         let index = self.index();
-        let mut rhs = Mat::<f64>::zeros(n, dofs.len());
-        for (c, d) in dofs.iter().enumerate() {
-            let r = index.get(d).copied().ok_or_else(|| {
-                UpdatingError::Data(format!("DOF {d} is not a free DOF of the model"))
+        let rows: Vec<usize> = dofs
+            .iter()
+            .map(|d| {
+                index.get(d).copied().ok_or_else(|| {
+                    UpdatingError::Data(format!("DOF {d} is not a free DOF of the model"))
+                })
+            })
+            .collect::<Result<_, _>>()?;
+        let solved = shifted_static_solutions(&sys.k, &sys.m, &self.modes.eigenvalues, &rows)
+            .map_err(|e| match e {
+                ShiftedStaticError::NotPositiveDefinite => UpdatingError::Model(
+                    "K - sigma M is not positive definite: the static correction needs a model without mechanisms"
+                        .into(),
+                ),
+                e => UpdatingError::Model(e.to_string()),
             })?;
-            rhs[(r, c)] = 1.0;
-        }
-        let x = llt.solve(&rhs);
+        let (x, shift) = (solved.x, solved.shift);
         let shapes = self.shapes_at(dofs)?;
         let phi = self.modes.shapes.as_ref();
         Ok(evaluated

@@ -18,7 +18,7 @@ use crate::correlation::frf::{amplitude_correlation, shape_correlation};
 use crate::eigen::ModeSelection;
 use crate::frf::{FrfSet, ModalDamping, modal_receptance};
 use crate::sensitivity::{ModalFrfModel, chi_sensitivity, frf_sensitivities};
-use faer::{Mat, c64};
+use faer::{Mat, MatRef, c64};
 
 /// Settings of the P-C.
 #[derive(Clone, Debug)]
@@ -221,6 +221,54 @@ pub(super) fn open_iteration(
     (record, stop, chosen)
 }
 
+/// The closing every correlation-based iteration shares, from the weighted `S` and `ε`: the
+/// residual and the diagnostics of `S`, the active parameters (QR subset selection with
+/// `κ_mn`, 5.13–5.14, or every parameter `S` sees), and the Gauss-Newton step with its
+/// candidates ([`candidate_steps`]), each scaled down to a largest relative change of
+/// `max_step`.
+pub(super) fn close_iteration(
+    mut record: IterationRecord,
+    sw: MatRef<'_, f64>,
+    ew: &[f64],
+    subset_kappa: Option<f64>,
+    weighting: ParameterWeighting,
+    max_step: f64,
+) -> Step {
+    let (m, n) = (sw.nrows(), sw.ncols());
+    record.residual_norm = ew.iter().map(|e| e * e).sum::<f64>().sqrt();
+    record.diagnostics = diagnostics(sw);
+    let active: Vec<usize> = match subset_kappa {
+        Some(kappa) => {
+            let limit = subset_condition_limit(kappa, m, n);
+            record.condition_limit = limit;
+            select_subset(sw, limit)
+        }
+        None => (0..n)
+            .filter(|&p| (0..m).any(|i| sw[(i, p)] != 0.0))
+            .collect(),
+    };
+    let cap = |mut d: Vec<f64>| {
+        let biggest = d.iter().fold(0.0_f64, |a, x| a.max(x.abs()));
+        if biggest > max_step {
+            let f = max_step / biggest;
+            d.iter_mut().for_each(|x| *x *= f);
+        }
+        d
+    };
+    let step = |mu: f64| cap(damped_step(sw, ew, &active, weighting, mu));
+    let delta = step(0.0);
+    let fallbacks = candidate_steps(&delta, cap, step);
+    for &a in &active {
+        record.active[a] = true;
+    }
+    record.relative_change = delta;
+    Step {
+        record,
+        stop: None,
+        fallbacks,
+    }
+}
+
 /// The candidates beside the Gauss-Newton step `delta` that [`super::run`] analyses, keeping the
 /// one with the highest mean correlation: the doubled step, then Levenberg-Marquardt steps with
 /// `μ = 10⁻², …, 10²` (`damped(μ)`), each capped by `cap`.
@@ -230,7 +278,7 @@ pub(super) fn open_iteration(
 /// `S Δ = 1 − χ` (4.16) are then Newton's method on a double root, whose least-squares step is
 /// `Δ = −e/2`: the error halves per iteration. `2Δ` restores the full step there; far from the
 /// solution, or with noisy data whose best `χ` stays below 1, the merit decides.
-pub fn candidate_steps(
+fn candidate_steps(
     delta: &[f64],
     cap: impl Fn(Vec<f64>) -> Vec<f64>,
     damped: impl Fn(f64) -> Vec<f64>,
@@ -280,10 +328,9 @@ impl UpdateMethod for PredictorCorrector<'_> {
         iteration: usize,
     ) -> Result<Step, UpdatingError> {
         let s = &self.settings;
-        let n = values.len();
         let (state, evaluated) = model.modal_state(values, s.modes)?;
         let predicted = predict(&state, self.measured, &s.damping)?;
-        let (mut record, stop, chosen) = open_iteration(
+        let (record, stop, chosen) = open_iteration(
             self.measured,
             &predicted,
             &state.modes.frequencies_hz(),
@@ -323,40 +370,14 @@ impl UpdateMethod for PredictorCorrector<'_> {
 
         // S and ε, rows weighted by W_f^{1/2} (4.21).
         let (sw, ew) = correlation_equations(self.measured, &predicted, &chosen, &sens, true);
-        let m = sw.nrows();
-        record.residual_norm = ew.iter().map(|e| e * e).sum::<f64>().sqrt();
-        record.diagnostics = diagnostics(sw.as_ref());
-
-        let active: Vec<usize> = match s.subset_kappa {
-            Some(kappa) => {
-                let limit = subset_condition_limit(kappa, m, n);
-                record.condition_limit = limit;
-                select_subset(sw.as_ref(), limit)
-            }
-            None => (0..n)
-                .filter(|&p| (0..m).any(|i| sw[(i, p)] != 0.0))
-                .collect(),
-        };
-        let cap = |mut d: Vec<f64>| {
-            let biggest = d.iter().fold(0.0_f64, |a, x| a.max(x.abs()));
-            if biggest > s.max_step {
-                let f = s.max_step / biggest;
-                d.iter_mut().for_each(|x| *x *= f);
-            }
-            d
-        };
-        let step = |mu: f64| cap(damped_step(sw.as_ref(), &ew, &active, s.weighting, mu));
-        let delta = step(0.0);
-        let fallbacks = candidate_steps(&delta, cap, step);
-        for &a in &active {
-            record.active[a] = true;
-        }
-        record.relative_change = delta;
-        Ok(Step {
+        Ok(close_iteration(
             record,
-            stop: None,
-            fallbacks,
-        })
+            sw.as_ref(),
+            &ew,
+            s.subset_kappa,
+            s.weighting,
+            s.max_step,
+        ))
     }
 
     fn merit(&self, record: &IterationRecord) -> Option<f64> {
