@@ -46,3 +46,89 @@ fn cms_validation_reproduces_c3() {
     let (_, again, _) = run(&pipeline("cms-validation"), &cache_dir, &[]);
     assert_eq!(executed(&again), Vec::<String>::new());
 }
+
+/// Each substructure's reduction is a cache entry of its own: after a thickness change in
+/// `plate_2` only that plate is reduced again, the result equals a reduction from scratch, a
+/// corrupt component is recomputed, and lock files keep the components alive in `cache gc`.
+#[test]
+fn a_change_in_one_substructure_reuses_the_others() {
+    let tmp = tempfile::tempdir().unwrap();
+    let pipeline = |t2: f64| {
+        let text = format!(
+            "name: cms-parts
+stages:
+  plates: {{kind: mesh.generate, with: {{geometry: bent_plate, with_bar: false}}}}
+  thickness:
+    kind: mesh.parameters
+    inputs: {{mesh: plates}}
+    with: {{declare: [{{name: t2, kind: shell_thickness, set: plate_2}}], values: {{t2: {t2}}}}}
+  partition: {{kind: model.partition, inputs: {{mesh: thickness}}, with: {{sets: [plate_1, plate_2]}}}}
+  cb: {{kind: reduce.craig_bampton, inputs: {{mesh: thickness, partition: partition}}, with: {{count: 8}}}}
+"
+        );
+        let path = tmp.path().join(format!("cms-parts-{t2}.yaml"));
+        std::fs::write(&path, text).unwrap();
+        path
+    };
+    let cache_dir = tmp.path().join("cache");
+    let cb = |report: &femu::pipeline::RunReport| {
+        report
+            .stages
+            .iter()
+            .find(|s| s.name == "cb")
+            .cloned()
+            .unwrap()
+    };
+    let (_, first, _) = run(&pipeline(1.4e-3), &cache_dir, &[]);
+    let first = cb(&first);
+    assert_eq!((first.parts.reused, first.parts.computed), (0, 2));
+    assert_eq!(first.parts.keys.len(), 2);
+
+    let (plan, second, cache) = run(&pipeline(1.6e-3), &cache_dir, &[]);
+    let lock = femu::pipeline::lock::LockFile::from_run(&plan, &second);
+    let second = cb(&second);
+    assert_eq!(second.status, femu::pipeline::Status::Ran);
+    assert_eq!((second.parts.reused, second.parts.computed), (1, 1));
+    let kept: Vec<&String> = second
+        .parts
+        .keys
+        .iter()
+        .filter(|k| first.parts.keys.contains(k))
+        .collect();
+    assert_eq!(kept.len(), 1, "plate_1's component is the one reused");
+
+    // Reusing plate_1 gives exactly what a reduction from scratch gives.
+    let (_, fresh, _) = run(&pipeline(1.6e-3), &tmp.path().join("fresh"), &[]);
+    assert_eq!(cb(&fresh).outputs, second.outputs);
+
+    // A stage served from the cache still reports its parts, and the lock file lists them.
+    let (_, third, _) = run(&pipeline(1.6e-3), &cache_dir, &[]);
+    assert_eq!(cb(&third).status, femu::pipeline::Status::Cached);
+    assert_eq!(cb(&third).parts.keys, second.parts.keys);
+    assert_eq!(lock.stages["cb"].parts, second.parts.keys);
+    lock.write(&cache.lock_path("cms-parts")).unwrap();
+    let locked = cache.locked_keys();
+    assert!(second.parts.keys.iter().all(|k| locked.contains(k)));
+    cache.gc(&locked).unwrap();
+    for k in &second.parts.keys {
+        assert!(
+            matches!(cache.lookup(k), femu::cache::Lookup::Hit(_)),
+            "{k} kept by gc"
+        );
+    }
+
+    // A corrupt component is evicted and computed again, not read.
+    let reused = kept[0];
+    let dir = cache.artefact_dir(reused, "part");
+    let file = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .find(|p| p.is_file())
+        .unwrap();
+    std::fs::write(&file, b"not an artefact").unwrap();
+    let (_, fourth, _) = run(&pipeline(1.7e-3), &cache_dir, &[]);
+    assert_eq!(
+        (cb(&fourth).parts.reused, cb(&fourth).parts.computed),
+        (0, 2)
+    );
+}

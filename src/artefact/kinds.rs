@@ -669,7 +669,9 @@ pub fn layout(kind: ArtefactKind) -> Vec<TableLayout> {
             ),
         ],
         ArtefactKind::Plot => vec![],
-        ArtefactKind::Partition | ArtefactKind::ReducedModel => super::reduced::layout(kind),
+        ArtefactKind::Partition | ArtefactKind::ReducedModel | ArtefactKind::ReducedComponent => {
+            super::reduced::layout(kind)
+        }
         ArtefactKind::Leverage | ArtefactKind::EigenvalueSensitivity => {
             super::leverage::layout(kind)
         }

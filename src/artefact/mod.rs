@@ -45,6 +45,8 @@ pub enum ArtefactKind {
     Partition,
     /// A component-mode-synthesis model: reduced `K`, `M`, transformations, derivatives.
     ReducedModel,
+    /// One substructure's reduction: its basis `T`, `TᵀKT`, `TᵀMT` and coordinates.
+    ReducedComponent,
     /// Error localisation: the leverage (5.9) of every candidate parameter.
     Leverage,
     /// Eigenvalue sensitivities (5.3) of candidate parameters for chosen modes.
@@ -53,7 +55,7 @@ pub enum ArtefactKind {
 
 impl ArtefactKind {
     /// All kinds.
-    pub const ALL: [ArtefactKind; 11] = [
+    pub const ALL: [ArtefactKind; 12] = [
         ArtefactKind::Matrices,
         ArtefactKind::Modes,
         ArtefactKind::Frf,
@@ -63,6 +65,7 @@ impl ArtefactKind {
         ArtefactKind::UpdateResult,
         ArtefactKind::Partition,
         ArtefactKind::ReducedModel,
+        ArtefactKind::ReducedComponent,
         ArtefactKind::Leverage,
         ArtefactKind::EigenvalueSensitivity,
     ];
@@ -79,6 +82,7 @@ impl ArtefactKind {
             ArtefactKind::UpdateResult => "update_result",
             ArtefactKind::Partition => "partition",
             ArtefactKind::ReducedModel => "reduced_model",
+            ArtefactKind::ReducedComponent => "reduced_component",
             ArtefactKind::Leverage => "leverage",
             ArtefactKind::EigenvalueSensitivity => "eigenvalue_sensitivity",
         }

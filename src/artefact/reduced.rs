@@ -268,7 +268,8 @@ fn selection_from(v: &serde_json::Value) -> ModeSelection {
     }
 }
 
-fn method_json(m: &Method) -> serde_json::Value {
+/// The method as JSON (reduced-model metadata, and part of a cached component's key).
+pub fn method_json(m: &Method) -> serde_json::Value {
     match m {
         Method::CraigBampton { modes } | Method::FreeInterface { modes } => {
             serde_json::json!({"name": m.name(), "modes": selection_json(modes)})
@@ -475,6 +476,124 @@ pub fn reduced_to_artefact(
     a
 }
 
+/// One substructure's reduction as its own artefact (`reduced_component`): the unit the
+/// `reduce.*` stages cache, so that a change in one substructure reuses the others. Round-trips
+/// exactly, except the timing in `info.seconds`, which is not content.
+pub fn component_to_artefact(c: &ComponentReduction) -> Artefact {
+    let mut a = Artefact::new(ArtefactKind::ReducedComponent)
+        .with_meta("substructure", c.substructure.clone().into())
+        .with_meta("rigid_body_modes", c.info.rigid_body_modes.into())
+        .with_meta("masters", c.info.masters.into())
+        .with_meta("master_condition", c.info.master_condition.into())
+        .with_table(
+            "dofs",
+            Table::new().with("dof", strs(c.dofs.iter().map(|d| d.to_string()))),
+            Storage::Parquet,
+        )
+        .with_table(
+            "junction",
+            Table::new().with("dof", strs(c.junction.iter().map(|d| d.to_string()))),
+            Storage::Parquet,
+        )
+        .with_table(
+            "coords",
+            Table::new().with("coord", strs(c.coords.iter().map(|d| d.to_string()))),
+            Storage::Parquet,
+        )
+        .with_table(
+            "component_modes",
+            Table::new()
+                .with(
+                    "mode",
+                    Column::I64((1..=c.mode_frequencies_hz.len() as i64).collect()),
+                )
+                .with("frequency_hz", Column::F64(c.mode_frequencies_hz.clone())),
+            Storage::Parquet,
+        )
+        .with_table("T", dense_triplet_table(&c.t), Storage::Ipc)
+        .with_table("K", dense_triplet_table(&c.k), Storage::Ipc)
+        .with_table("M", dense_triplet_table(&c.m), Storage::Ipc);
+    if let Some(f) = &c.flexibility {
+        a = a
+            .with_table("A", dense_triplet_table(&f.a), Storage::Ipc)
+            .with_table("B", dense_triplet_table(&f.b), Storage::Ipc);
+    }
+    a
+}
+
+/// A substructure's reduction from its artefact.
+pub fn component_from_artefact(a: &Artefact) -> Result<ComponentReduction, ArtefactError> {
+    let kind = ArtefactKind::ReducedComponent;
+    if a.kind != kind {
+        return Err(ArtefactError::schema(
+            kind,
+            format!("got a `{}` artefact", a.kind),
+        ));
+    }
+    let dofs_of = |table: &str| -> Result<Vec<DofId>, ArtefactError> {
+        a.table(table)?
+            .strs(table, "dof")?
+            .iter()
+            .enumerate()
+            .map(|(row, s)| dof(kind, table, row, s))
+            .collect()
+    };
+    let coords = a
+        .table("coords")?
+        .strs("coords", "coord")?
+        .iter()
+        .enumerate()
+        .map(|(row, s)| {
+            s.parse::<Coordinate>()
+                .map_err(|e| ArtefactError::schema(kind, format!("table `coords` row {row}: {e}")))
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    let meta_usize = |key: &str| a.meta.get(key).and_then(|v| v.as_u64()).unwrap_or(0) as usize;
+    let dofs = dofs_of("dofs")?;
+    let (n, r) = (dofs.len(), coords.len());
+    let flexibility = if a.tables.contains_key("A") {
+        let forces = coords
+            .iter()
+            .filter(|c| matches!(c, Coordinate::Force(_)))
+            .count();
+        Some(JunctionFlexibility {
+            a: dense_from(a, "A", forces, r - forces)?,
+            b: dense_from(a, "B", forces, forces)?,
+        })
+    } else {
+        None
+    };
+    Ok(ComponentReduction {
+        substructure: a
+            .meta
+            .get("substructure")
+            .and_then(|v| v.as_str())
+            .unwrap_or_default()
+            .to_string(),
+        junction: dofs_of("junction")?,
+        t: dense_from(a, "T", n, r)?,
+        k: dense_from(a, "K", r, r)?,
+        m: dense_from(a, "M", r, r)?,
+        mode_frequencies_hz: a
+            .table("component_modes")?
+            .f64s("component_modes", "frequency_hz")?
+            .to_vec(),
+        dofs,
+        coords,
+        flexibility,
+        info: ReductionInfo {
+            rigid_body_modes: meta_usize("rigid_body_modes"),
+            masters: meta_usize("masters"),
+            master_condition: a
+                .meta
+                .get("master_condition")
+                .and_then(|v| v.as_f64())
+                .unwrap_or(0.0),
+            seconds: 0.0,
+        },
+    })
+}
+
 /// A reduced model from an artefact.
 pub fn reduced_from_artefact(a: &Artefact) -> Result<ReducedModel, ArtefactError> {
     let kind = ArtefactKind::ReducedModel;
@@ -578,7 +697,7 @@ pub fn reduced_from_artefact(a: &Artefact) -> Result<ReducedModel, ArtefactError
     })
 }
 
-/// Published layouts of `partition` and `reduced_model`.
+/// Published layouts of `partition`, `reduced_model` and `reduced_component`.
 pub fn layout(kind: ArtefactKind) -> Vec<TableLayout> {
     let t = |name, storage, columns: Vec<ColumnLayout>| TableLayout {
         name,
@@ -678,6 +797,44 @@ pub fn layout(kind: ArtefactKind) -> Vec<TableLayout> {
             triplets("K", "N/m"),
             triplets("M", "kg"),
         ],
+        ArtefactKind::ReducedComponent => vec![
+            t(
+                "dofs",
+                "parquet",
+                vec![col(
+                    "dof",
+                    "string",
+                    "",
+                    "the substructure's DOFs (rows of T)",
+                )],
+            ),
+            t(
+                "junction",
+                "parquet",
+                vec![col("dof", "string", "", "its junction DOFs")],
+            ),
+            t(
+                "coords",
+                "parquet",
+                vec![col(
+                    "coord",
+                    "string",
+                    "",
+                    "local coordinates (columns of T): node:comp, <substructure>:q<n> or a junction force",
+                )],
+            ),
+            t(
+                "component_modes",
+                "parquet",
+                vec![
+                    col("mode", "int64", "", "component mode number"),
+                    col("frequency_hz", "float64", "Hz", "its natural frequency"),
+                ],
+            ),
+            triplets("T", ""),
+            triplets("K", "N/m"),
+            triplets("M", "kg"),
+        ],
         _ => vec![],
     }
 }
@@ -725,6 +882,17 @@ mod tests {
             assert_eq!(back.method, r.method);
             for k in 0..r.components.len() {
                 assert_eq!(back.transformation(k), r.transformation(k));
+                let ca = component_to_artefact(&r.components[k]);
+                super::super::kinds::check_layout(&ca).unwrap();
+                let c = component_from_artefact(&ca).unwrap();
+                let want = ComponentReduction {
+                    info: ReductionInfo {
+                        seconds: 0.0,
+                        ..r.components[k].info.clone()
+                    },
+                    ..r.components[k].clone()
+                };
+                assert_eq!(c, want, "{} component {k}", method.name());
             }
         }
     }

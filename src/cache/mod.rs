@@ -76,6 +76,9 @@ pub struct Manifest {
     pub outputs: BTreeMap<String, OutputRecord>,
     /// blake3 of every file, by path relative to the entry.
     pub files: BTreeMap<String, String>,
+    /// Keys of the entry's parts, cached as entries of their own (see `pipeline::memo`).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub parts: Vec<String>,
 }
 
 /// Result of a lookup.
@@ -235,9 +238,23 @@ impl Cache {
         outputs: &BTreeMap<String, Artefact>,
         format: Format,
     ) -> Result<Manifest, CacheError> {
+        self.commit_with_parts(key, stage_kind, impl_version, outputs, format, &[])
+    }
+
+    /// [`Cache::commit`] for a stage whose parts are entries of their own (their keys are
+    /// recorded in the manifest).
+    pub fn commit_with_parts(
+        &self,
+        key: &str,
+        stage_kind: &str,
+        impl_version: u32,
+        outputs: &BTreeMap<String, Artefact>,
+        format: Format,
+        parts: &[String],
+    ) -> Result<Manifest, CacheError> {
         let tmp = self.tmp_path(key);
         std::fs::create_dir_all(&tmp).map_err(io(&tmp))?;
-        let result = self.write_entry(&tmp, key, stage_kind, impl_version, outputs, format);
+        let result = self.write_entry(&tmp, key, stage_kind, impl_version, outputs, format, parts);
         let manifest = match result {
             Ok(m) => m,
             Err(e) => {
@@ -281,11 +298,13 @@ impl Cache {
         impl_version: u32,
         outputs: &BTreeMap<String, Artefact>,
         format: Format,
+        parts: &[String],
     ) -> Result<Manifest, CacheError> {
         self.evict(key)?;
-        self.commit(key, stage_kind, impl_version, outputs, format)
+        self.commit_with_parts(key, stage_kind, impl_version, outputs, format, parts)
     }
 
+    #[allow(clippy::too_many_arguments)]
     fn write_entry(
         &self,
         tmp: &Path,
@@ -294,6 +313,7 @@ impl Cache {
         impl_version: u32,
         outputs: &BTreeMap<String, Artefact>,
         format: Format,
+        parts: &[String],
     ) -> Result<Manifest, CacheError> {
         let mut records = BTreeMap::new();
         for (port, a) in outputs {
@@ -317,6 +337,7 @@ impl Cache {
             impl_version,
             outputs: records,
             files,
+            parts: parts.to_vec(),
         };
         let path = tmp.join("manifest.json");
         let text = serde_json::to_string_pretty(&manifest).map_err(|e| CacheError::Corrupt {
@@ -381,6 +402,13 @@ impl Cache {
                     if let Some(k) = s.get("key").and_then(|k| k.as_str()) {
                         keys.insert(k.to_string());
                     }
+                    let parts = s.get("parts").and_then(|p| p.as_array());
+                    keys.extend(
+                        parts
+                            .into_iter()
+                            .flatten()
+                            .filter_map(|k| k.as_str().map(String::from)),
+                    );
                 }
             }
         }

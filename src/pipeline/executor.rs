@@ -3,6 +3,7 @@
 //! keys hold input digests, not input keys, a re-run stage that reproduces its outputs exactly
 //! leaves everything downstream cached (early cutoff).
 
+use super::memo::{PartCache, PartCounts};
 use super::plan::Plan;
 use super::stage::{StageError, StageInputs};
 use crate::artefact::{Artefact, ArtefactKind};
@@ -75,6 +76,9 @@ pub struct StageReport {
     pub outputs: BTreeMap<String, OutputRecord>,
     /// A warning to show (e.g. why an entry was recomputed).
     pub note: Option<String>,
+    /// Parts cached on their own: how many were reused and computed in this run, and their keys
+    /// (for a cached stage, the keys its entry records).
+    pub parts: PartCounts,
 }
 
 /// The outcome of a run, in plan order.
@@ -164,13 +168,19 @@ impl Progress {
     }
 
     fn finish(&self, r: &StageReport) {
-        let line = format!(
+        let mut line = format!(
             "{} ({}): {} in {:.3} s",
             r.name,
             r.kind,
             r.status.label(),
             r.elapsed.as_secs_f64()
         );
+        if r.parts.reused + r.parts.computed > 0 {
+            line += &format!(
+                " (parts: {} from the cache, {} computed)",
+                r.parts.reused, r.parts.computed
+            );
+        }
         match self {
             Progress::Bars(mp, bars) => {
                 let pb = bars.lock().ok().and_then(|mut b| b.remove(&r.name));
@@ -307,6 +317,10 @@ fn run_node(
                     key,
                     status: Status::Cached,
                     elapsed: t0.elapsed(),
+                    parts: PartCounts {
+                        keys: m.parts.clone(),
+                        ..Default::default()
+                    },
                     outputs: m.outputs,
                     note: None,
                 };
@@ -322,8 +336,10 @@ fn run_node(
         }
     }
     progress.start(&node.name, kind);
+    let parts = Arc::new(PartCache::new(cache.clone(), node.format, force));
     let mut inputs = StageInputs {
         base_dir: plan.base_dir.clone(),
+        parts: Some(parts.clone()),
         ..Default::default()
     };
     for (port, r) in &node.inputs {
@@ -372,10 +388,12 @@ fn run_node(
             });
         }
     }
+    let parts = parts.counts();
+    let version = node.stage.impl_version();
     let manifest = if force {
-        cache.recommit(&key, kind, node.stage.impl_version(), &outputs, node.format)
+        cache.recommit(&key, kind, version, &outputs, node.format, &parts.keys)
     } else {
-        cache.commit(&key, kind, node.stage.impl_version(), &outputs, node.format)
+        cache.commit_with_parts(&key, kind, version, &outputs, node.format, &parts.keys)
     }
     .map_err(cache_err)?;
     if let Ok(mut m) = produced.lock() {
@@ -396,6 +414,7 @@ fn run_node(
         elapsed: t0.elapsed(),
         outputs: manifest.outputs,
         note,
+        parts,
     };
     progress.finish(&r);
     Ok(r)

@@ -23,6 +23,9 @@ pub struct LockStage {
     pub inputs: BTreeMap<String, String>,
     /// Outputs.
     pub outputs: BTreeMap<String, OutputRecord>,
+    /// Keys of the stage's parts cached on their own (substructure reductions).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub parts: Vec<String>,
 }
 
 /// A lock file.
@@ -59,6 +62,7 @@ impl LockFile {
                             })
                             .collect(),
                         outputs: r.outputs.clone(),
+                        parts: r.parts.keys.clone(),
                     },
                 ))
             })

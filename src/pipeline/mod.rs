@@ -5,6 +5,7 @@ pub mod diagnostic;
 pub mod executor;
 pub mod locate;
 pub mod lock;
+pub mod memo;
 pub mod plan;
 pub mod schema;
 pub mod spec;

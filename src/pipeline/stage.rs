@@ -112,12 +112,30 @@ pub struct StageInputs {
     pub artefacts: BTreeMap<String, std::sync::Arc<Artefact>>,
     /// Directory of the pipeline file.
     pub base_dir: PathBuf,
+    /// The cache for parts of the stage kept on their own (none outside a pipeline run).
+    pub parts: Option<std::sync::Arc<super::memo::PartCache>>,
 }
 
 impl StageInputs {
     /// An optional input.
     pub fn get(&self, port: &str) -> Option<&Artefact> {
         self.artefacts.get(port).map(|a| a.as_ref())
+    }
+
+    /// A part of the run cached on its own: read from the run's cache or computed and committed
+    /// (see [`super::memo::PartCache::get_or_compute`]); computed directly outside a pipeline run.
+    pub fn part(
+        &self,
+        part_kind: &str,
+        impl_version: u32,
+        key: &serde_json::Value,
+        kind: crate::artefact::ArtefactKind,
+        compute: impl FnOnce() -> Result<Artefact, StageError>,
+    ) -> Result<Artefact, StageError> {
+        match &self.parts {
+            Some(p) => p.get_or_compute(part_kind, impl_version, key, kind, compute),
+            None => compute(),
+        }
     }
 
     /// A required input (connection is checked when planning, so absence is an engine bug

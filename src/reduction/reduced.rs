@@ -569,24 +569,30 @@ pub fn reduce_substructure(
     let t0 = std::time::Instant::now();
     let sub = &partition.substructures[k];
     let sys = substructure_matrices(model, sub, mass)?;
+    let mut c = reduce_assembled(sub, &sys, method)?;
+    c.info.seconds = t0.elapsed().as_secs_f64();
+    Ok(c)
+}
+
+/// Reduces one substructure from its assembled matrices `sys` (from [`substructure_matrices`]):
+/// the component depends on nothing else, which is what lets a caller cache it by the content
+/// of `sys`, the junction and the method.
+pub fn reduce_assembled(
+    sub: &Substructure,
+    sys: &SystemMatrices,
+    method: &Method,
+) -> Result<ComponentReduction, ReductionError> {
+    let t0 = std::time::Instant::now();
     let mut c = match method {
-        Method::CraigBampton { modes } => craig_bampton(
-            &sub.name,
-            &sys,
-            &sub.junction,
-            *modes,
-            &eigen_params(*modes),
-        ),
-        Method::FreeInterface { modes } => free_interface(
-            &sub.name,
-            &sys,
-            &sub.junction,
-            *modes,
-            &eigen_params(*modes),
-        ),
+        Method::CraigBampton { modes } => {
+            craig_bampton(&sub.name, sys, &sub.junction, *modes, &eigen_params(*modes))
+        }
+        Method::FreeInterface { modes } => {
+            free_interface(&sub.name, sys, &sub.junction, *modes, &eigen_params(*modes))
+        }
         Method::ForceCoupling { modes, masters, .. } => force_coupling(
             &sub.name,
-            &sys,
+            sys,
             &sub.junction,
             &sub.internal,
             *modes,
@@ -598,14 +604,8 @@ pub fn reduce_substructure(
     Ok(c)
 }
 
-/// Reduces every substructure in parallel (results in partition order: deterministic) and
-/// synthesises the reduced model.
-pub fn reduce(
-    model: &Model,
-    partition: &Partition,
-    method: &Method,
-    mass: MassKind,
-) -> Result<ReducedModel, ReductionError> {
+/// Checks that the DOFs a method names (force coupling's masters) are DOFs of the partition.
+pub fn check_method(partition: &Partition, method: &Method) -> Result<(), ReductionError> {
     if let Method::ForceCoupling { masters, .. } = method {
         let all: BTreeSet<DofId> = partition.dofs().into_iter().collect();
         for d in masters
@@ -618,14 +618,22 @@ pub fn reduce(
             }
         }
     }
-    let comps: Vec<Result<ComponentReduction, ReductionError>> = (0..partition.substructures.len())
+    Ok(())
+}
+
+/// Reduces every substructure in parallel (results in partition order: deterministic) and
+/// synthesises the reduced model.
+pub fn reduce(
+    model: &Model,
+    partition: &Partition,
+    method: &Method,
+    mass: MassKind,
+) -> Result<ReducedModel, ReductionError> {
+    check_method(partition, method)?;
+    let components = (0..partition.substructures.len())
         .into_par_iter()
         .map(|k| reduce_substructure(model, partition, k, method, mass))
-        .collect();
-    let mut components = Vec::with_capacity(comps.len());
-    for c in comps {
-        components.push(c?);
-    }
+        .collect::<Result<Vec<_>, _>>()?;
     ReducedModel::synthesise(method.clone(), partition.junction.clone(), components)
 }
 

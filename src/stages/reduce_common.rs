@@ -2,12 +2,20 @@
 //! mesh and partition, reducing, and the reduced derivatives of every model parameter.
 
 use crate::artefact::mesh::mesh_from_artefact;
-use crate::artefact::reduced::{partition_from_artefact, reduced_to_artefact};
+use crate::artefact::reduced::{
+    component_from_artefact, component_to_artefact, method_json, partition_from_artefact,
+    reduced_to_artefact,
+};
 use crate::artefact::{Artefact, ArtefactKind};
 use crate::eigen::ModeSelection;
+use crate::fe::SystemMatrices;
 use crate::fe::element::MassKind;
 use crate::pipeline::{ParamIssue, PortSpec, StageError, StageInputs, StageOutputs};
-use crate::reduction::{Method, reduce, reduced_parameter_derivative};
+use crate::reduction::{
+    Method, ReducedModel, check_method, reduce_assembled, reduced_parameter_derivative,
+    substructure_matrices,
+};
+use rayon::prelude::*;
 
 /// Component modes kept per substructure: `max_freq_hz` (default 200 Hz, the thesis's C3
 /// cut-off) or `count`.
@@ -100,7 +108,14 @@ pub fn outputs() -> Vec<PortSpec> {
     )]
 }
 
-/// Reduces and writes the artefact with the reduced derivatives of every model parameter.
+/// Producer name and version of a cached substructure reduction; the version changes whenever
+/// what a component holds or how it is computed changes.
+const COMPONENT_PART: &str = "reduce/component";
+const COMPONENT_VERSION: u32 = 1;
+
+/// Reduces and writes the artefact with the reduced derivatives of every model parameter. Each
+/// substructure's reduction is a cached part keyed by the content of its assembled `K`, `M`,
+/// its junction and the method: when one substructure changes, the others are read back.
 pub fn run(
     method: Method,
     mass: MassKind,
@@ -108,7 +123,34 @@ pub fn run(
 ) -> Result<StageOutputs, StageError> {
     let model = mesh_from_artefact(inputs.require("mesh")?)?;
     let part = partition_from_artefact(inputs.require("partition")?)?;
-    let r = reduce(&model, &part, &method, mass).map_err(StageError::failed)?;
+    check_method(&part, &method).map_err(StageError::failed)?;
+    let components = part
+        .substructures
+        .par_iter()
+        .map(|sub| {
+            let sys = substructure_matrices(&model, sub, mass).map_err(StageError::failed)?;
+            let key = serde_json::json!({
+                "method": method_json(&method),
+                "substructure": sub.name,
+                "junction": sub.junction.iter().map(|d| d.to_string()).collect::<Vec<_>>(),
+                "matrices": matrices_digest(&sys),
+            });
+            let a = inputs.part(
+                COMPONENT_PART,
+                COMPONENT_VERSION,
+                &key,
+                ArtefactKind::ReducedComponent,
+                || {
+                    reduce_assembled(sub, &sys, &method)
+                        .map(|c| component_to_artefact(&c))
+                        .map_err(StageError::failed)
+                },
+            )?;
+            Ok(component_from_artefact(&a)?)
+        })
+        .collect::<Result<Vec<_>, StageError>>()?;
+    let r = ReducedModel::synthesise(method, part.junction.clone(), components)
+        .map_err(StageError::failed)?;
     let mut derivs = Vec::new();
     for param in &model.parameters {
         let (dk, dm) = reduced_parameter_derivative(&model, &part, &r, param, mass)
@@ -117,4 +159,27 @@ pub fn run(
     }
     let a: Artefact = reduced_to_artefact(&r, &derivs);
     Ok(StageOutputs::from([("reduced".to_string(), a)]))
+}
+
+/// blake3 of a substructure's DOF labels and the exact bits of its sparse `K` and `M`.
+fn matrices_digest(sys: &SystemMatrices) -> String {
+    let mut h = blake3::Hasher::new();
+    for d in &sys.dofs {
+        h.update(d.to_string().as_bytes());
+        h.update(b";");
+    }
+    for a in [&sys.k, &sys.m] {
+        let s = a.symbolic();
+        h.update(&(s.nrows() as u64).to_le_bytes());
+        for &p in s.col_ptr() {
+            h.update(&(p as u64).to_le_bytes());
+        }
+        for &i in s.row_idx() {
+            h.update(&(i as u64).to_le_bytes());
+        }
+        for v in a.val() {
+            h.update(&v.to_bits().to_le_bytes());
+        }
+    }
+    h.finalize().to_hex().to_string()
 }
