@@ -672,6 +672,7 @@ pub fn layout(kind: ArtefactKind) -> Vec<TableLayout> {
         ArtefactKind::Partition | ArtefactKind::ReducedModel | ArtefactKind::ReducedComponent => {
             super::reduced::layout(kind)
         }
+        ArtefactKind::ModalCorrelation => super::modal_correlation::layout(),
         ArtefactKind::Leverage | ArtefactKind::EigenvalueSensitivity => {
             super::leverage::layout(kind)
         }

@@ -15,6 +15,7 @@ mod hdf5_codec;
 pub mod kinds;
 pub mod leverage;
 pub mod mesh;
+pub mod modal_correlation;
 pub mod reduced;
 mod table;
 pub mod update;
@@ -47,6 +48,8 @@ pub enum ArtefactKind {
     ReducedModel,
     /// One substructure's reduction: its basis `T`, `TᵀKT`, `TᵀMT` and coordinates.
     ReducedComponent,
+    /// Two sets of modes compared: pairs by MAC, relative eigenvalue errors (3.54), COMAC.
+    ModalCorrelation,
     /// Error localisation: the leverage (5.9) of every candidate parameter.
     Leverage,
     /// Eigenvalue sensitivities (5.3) of candidate parameters for chosen modes.
@@ -55,7 +58,7 @@ pub enum ArtefactKind {
 
 impl ArtefactKind {
     /// All kinds.
-    pub const ALL: [ArtefactKind; 12] = [
+    pub const ALL: [ArtefactKind; 13] = [
         ArtefactKind::Matrices,
         ArtefactKind::Modes,
         ArtefactKind::Frf,
@@ -66,6 +69,7 @@ impl ArtefactKind {
         ArtefactKind::Partition,
         ArtefactKind::ReducedModel,
         ArtefactKind::ReducedComponent,
+        ArtefactKind::ModalCorrelation,
         ArtefactKind::Leverage,
         ArtefactKind::EigenvalueSensitivity,
     ];
@@ -83,6 +87,7 @@ impl ArtefactKind {
             ArtefactKind::Partition => "partition",
             ArtefactKind::ReducedModel => "reduced_model",
             ArtefactKind::ReducedComponent => "reduced_component",
+            ArtefactKind::ModalCorrelation => "modal_correlation",
             ArtefactKind::Leverage => "leverage",
             ArtefactKind::EigenvalueSensitivity => "eigenvalue_sensitivity",
         }

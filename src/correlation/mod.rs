@@ -9,4 +9,7 @@ pub use frf::{
     CorrelationError, FrfCorrelation, amplitude_correlation, correlate, frac, match_pairs,
     shape_correlation,
 };
-pub use modal::{comac, eigenvalue_error, fdac, mac, mac_matrix, pair_by_mac};
+pub use modal::{
+    ModeCorrelation, ModePair, Pairing, comac, correlate_modes, eigenvalue_error, fdac, mac,
+    mac_matrix, pair_by_mac,
+};

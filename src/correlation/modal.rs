@@ -83,6 +83,96 @@ pub fn eigenvalue_error(reference: f64, lambda: f64) -> f64 {
     }
 }
 
+/// How each reference mode finds its partner among the predicted modes.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Pairing {
+    /// Highest MAC not yet taken, in the reference's order; unpaired below `min_mac`.
+    Mac {
+        /// Lowest MAC accepted as a pair.
+        min_mac: f64,
+    },
+    /// The `i`-th elastic mode with the `i`-th elastic mode.
+    Order,
+}
+
+/// One reference mode and its partner. Mode indices are 0-based over all modes, rigid-body
+/// modes included.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ModePair {
+    /// Reference mode.
+    pub reference: usize,
+    /// Predicted mode.
+    pub predicted: usize,
+    /// Their MAC (1.18).
+    pub mac: f64,
+    /// `(λ − λ_ref)/λ_ref` (3.54).
+    pub eigenvalue_error: f64,
+    /// `(f − f_ref)/f_ref = sqrt(1 + ε_λ) − 1`.
+    pub frequency_error: f64,
+}
+
+/// The elastic modes of two sets compared: pairs, the reference modes left unpaired, the MAC
+/// matrix (elastic reference × elastic predicted) and the COMAC per row over the pairs.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ModeCorrelation {
+    /// Pairs, in the reference's order.
+    pub pairs: Vec<ModePair>,
+    /// Reference modes without a partner (0-based over all modes).
+    pub unpaired: Vec<usize>,
+    /// MAC of elastic reference mode `i` (row) with elastic predicted mode `j` (column).
+    pub mac: Mat<f64>,
+    /// COMAC per shape row over the pairs.
+    pub comac: Vec<f64>,
+}
+
+/// Compares the elastic modes of `reference` and `predicted` (eigenvalues and shapes over the
+/// same rows; the first `*_rigid` modes of each are rigid-body modes and are left out: their
+/// eigenvalue error means nothing). This is the thesis's check of a reduced model against the
+/// full one (3.54), with the MAC to make sure each error is taken against the right mode.
+pub fn correlate_modes(
+    reference: (&[f64], MatRef<'_, f64>, usize),
+    predicted: (&[f64], MatRef<'_, f64>, usize),
+    pairing: Pairing,
+) -> ModeCorrelation {
+    let (ref_lambda, ref_shapes, ref_rigid) = reference;
+    let (pred_lambda, pred_shapes, pred_rigid) = predicted;
+    let ref_rigid = ref_rigid.min(ref_lambda.len());
+    let pred_rigid = pred_rigid.min(pred_lambda.len());
+    let a = ref_shapes.subcols(ref_rigid, ref_lambda.len() - ref_rigid);
+    let b = pred_shapes.subcols(pred_rigid, pred_lambda.len() - pred_rigid);
+    let mac = mac_matrix(a, b);
+    let partners: Vec<Option<(usize, f64)>> = match pairing {
+        Pairing::Mac { min_mac } => pair_by_mac(a, b, min_mac),
+        Pairing::Order => (0..a.ncols())
+            .map(|i| (i < b.ncols()).then(|| (i, mac[(i, i)])))
+            .collect(),
+    };
+    let (mut pairs, mut unpaired, mut local) = (Vec::new(), Vec::new(), Vec::new());
+    for (i, p) in partners.into_iter().enumerate() {
+        let r = i + ref_rigid;
+        match p {
+            Some((j, m)) => {
+                let e = eigenvalue_error(ref_lambda[r], pred_lambda[j + pred_rigid]);
+                pairs.push(ModePair {
+                    reference: r,
+                    predicted: j + pred_rigid,
+                    mac: m,
+                    eigenvalue_error: e,
+                    frequency_error: (1.0 + e).sqrt() - 1.0,
+                });
+                local.push((i, j));
+            }
+            None => unpaired.push(r),
+        }
+    }
+    ModeCorrelation {
+        comac: comac(a, b, &local),
+        pairs,
+        unpaired,
+        mac,
+    }
+}
+
 /// FDAC between the lines of two FRF sets (rows: lines, columns: the same pairs):
 /// `FDAC(k, l) = |x_kᴴ a_l|² / (x_kᴴx_k · a_lᴴa_l)`; its diagonal is `χ_s(ω_k)`.
 pub fn fdac(x: MatRef<'_, c64>, a: MatRef<'_, c64>) -> Mat<f64> {
@@ -96,6 +186,52 @@ pub fn fdac(x: MatRef<'_, c64>, a: MatRef<'_, c64>) -> Mat<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Two modes swapped in order, one shape with flipped sign, eigenvalues 1 % high:
+    /// MAC pairing finds the swap and the 1 % (3.54); order pairing pairs the wrong shapes.
+    #[test]
+    fn correlate_modes_pairs_by_mac_and_skips_rigid_modes() {
+        // Reference: one rigid mode and three elastic modes over four rows.
+        let ref_shapes = Mat::from_fn(4, 4, |i, j| if i == j { 1.0 } else { 0.1 * (i + j) as f64 });
+        let ref_lambda = [0.0, 100.0, 400.0, 900.0];
+        // Predicted: rigid mode, then elastic modes 2 and 1 swapped, mode 3 with its sign flipped
+        // (COMAC, unlike MAC, assumes consistently scaled shapes).
+        let order = [0usize, 2, 1, 3];
+        let pred_shapes = Mat::from_fn(4, 4, |i, j| {
+            let s = if j == 3 { -1.0 } else { 1.0 };
+            s * ref_shapes[(i, order[j])]
+        });
+        let pred_lambda = [0.0, 404.0, 101.0, 909.0];
+        let c = correlate_modes(
+            (&ref_lambda, ref_shapes.as_ref(), 1),
+            (&pred_lambda, pred_shapes.as_ref(), 1),
+            Pairing::Mac { min_mac: 0.9 },
+        );
+        assert!(c.unpaired.is_empty());
+        let got: Vec<(usize, usize)> = c.pairs.iter().map(|p| (p.reference, p.predicted)).collect();
+        assert_eq!(got, vec![(1, 2), (2, 1), (3, 3)]);
+        for p in &c.pairs {
+            assert!((p.eigenvalue_error - 0.01).abs() < 1e-12, "{p:?}");
+            assert!((p.frequency_error - (1.01f64.sqrt() - 1.0)).abs() < 1e-12);
+            assert!((p.mac - 1.0).abs() < 1e-12);
+        }
+        assert!(c.comac.iter().all(|v| (v - 1.0).abs() < 1e-12));
+        let by_order = correlate_modes(
+            (&ref_lambda, ref_shapes.as_ref(), 1),
+            (&pred_lambda, pred_shapes.as_ref(), 1),
+            Pairing::Order,
+        );
+        assert_eq!(by_order.pairs[0].predicted, 1);
+        assert!(by_order.pairs[0].mac < 0.9);
+        assert!((by_order.pairs[0].eigenvalue_error - 3.04).abs() < 1e-12);
+        // A stricter threshold leaves modes unpaired rather than pairing them badly.
+        let strict = correlate_modes(
+            (&ref_lambda, ref_shapes.as_ref(), 1),
+            (&pred_lambda[..3], pred_shapes.as_ref().subcols(0, 3), 1),
+            Pairing::Mac { min_mac: 0.9 },
+        );
+        assert_eq!(strict.unpaired, vec![3]);
+    }
 
     #[test]
     fn mac_is_one_for_scaled_copies_and_pairs_swapped_modes() {

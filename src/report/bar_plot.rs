@@ -19,6 +19,8 @@ pub struct BarPanel {
     pub values: Vec<f64>,
     /// Bars drawn in the marking colour.
     pub marked: Vec<bool>,
+    /// Draw `|value|` on a logarithmic axis (zero and non-finite values get no bar).
+    pub log: bool,
 }
 
 /// What to draw.
@@ -89,17 +91,44 @@ fn draw<DB: DrawingBackend>(
     for (panel, cell) in plot.panels.iter().zip(cells.iter()) {
         let n = panel.values.len();
         let finite = |v: &f64| if v.is_finite() { *v } else { 0.0 };
-        let lo = panel.values.iter().map(finite).fold(0.0_f64, f64::min);
-        let hi = panel.values.iter().map(finite).fold(0.0_f64, f64::max);
-        let (lo, hi) = if hi > lo { (lo, hi) } else { (0.0, 1.0) };
-        let pad = 0.05 * (hi - lo);
-        let y_lo = if lo < 0.0 { lo - pad } else { 0.0 };
+        // Heights on the drawn axis, and the base the bars rise from.
+        let (heights, y_lo, y_hi, base) = if panel.log {
+            let h: Vec<f64> = panel
+                .values
+                .iter()
+                .map(|v| {
+                    if v.is_finite() && *v != 0.0 {
+                        v.abs().log10()
+                    } else {
+                        f64::NAN
+                    }
+                })
+                .collect();
+            let shown = h.iter().copied().filter(|v| v.is_finite());
+            let lo = shown.clone().fold(f64::INFINITY, f64::min).floor();
+            let hi = shown.fold(f64::NEG_INFINITY, f64::max).ceil();
+            let (lo, hi) = if lo.is_finite() && hi > lo {
+                (lo, hi)
+            } else if lo.is_finite() {
+                (lo, lo + 1.0)
+            } else {
+                (0.0, 1.0)
+            };
+            (h, lo, hi, lo)
+        } else {
+            let lo = panel.values.iter().map(finite).fold(0.0_f64, f64::min);
+            let hi = panel.values.iter().map(finite).fold(0.0_f64, f64::max);
+            let (lo, hi) = if hi > lo { (lo, hi) } else { (0.0, 1.0) };
+            let pad = 0.05 * (hi - lo);
+            let y_lo = if lo < 0.0 { lo - pad } else { 0.0 };
+            (panel.values.clone(), y_lo, hi + pad, 0.0)
+        };
         let mut chart = ChartBuilder::on(cell)
             .caption(&panel.title, ("sans-serif", 16).into_font().color(&INK))
             .margin(12)
             .x_label_area_size(40)
             .y_label_area_size(56)
-            .build_cartesian_2d(-0.5..(n.max(1) as f64 - 0.5), y_lo..hi + pad)
+            .build_cartesian_2d(-0.5..(n.max(1) as f64 - 0.5), y_lo..y_hi)
             .map_err(be)?;
         let step = n.div_ceil(MAX_LABELS).max(1);
         let labels = panel.labels.clone();
@@ -111,7 +140,17 @@ fn draw<DB: DrawingBackend>(
                 String::new()
             }
         };
-        let y_fmt = |v: &f64| {
+        let log = panel.log;
+        let y_fmt = move |v: &f64| {
+            if log {
+                // Decades only: 10^k at integer k.
+                let k = v.round();
+                return if (v - k).abs() < 1e-9 {
+                    format!("1e{k:.0}")
+                } else {
+                    String::new()
+                };
+            }
             let s = format!("{v:.2}");
             if s == "-0.00" { "0.00".into() } else { s }
         };
@@ -130,7 +169,10 @@ fn draw<DB: DrawingBackend>(
             .draw()
             .map_err(be)?;
         let area = chart.plotting_area();
-        for (i, v) in panel.values.iter().enumerate() {
+        for (i, v) in heights.iter().enumerate() {
+            if panel.log && !v.is_finite() {
+                continue;
+            }
             let colour = if panel.marked.get(i).copied().unwrap_or(false) {
                 MARK
             } else {
@@ -138,14 +180,14 @@ fn draw<DB: DrawingBackend>(
             };
             let x = i as f64;
             area.draw(&Rectangle::new(
-                [(x - 0.38, 0.0), (x + 0.38, finite(v))],
+                [(x - 0.38, base), (x + 0.38, finite(v))],
                 colour.filled(),
             ))
             .map_err(be)?;
         }
         if !plot.marked_label.is_empty() && panel.marked.iter().any(|m| *m) {
             let (pw, _) = cell.dim_in_pixel();
-            let x = pw as i32 - 170;
+            let x = pw as i32 - 30 - 7 * plot.marked_label.chars().count() as i32;
             cell.draw(&Rectangle::new([(x, 30), (x + 12, 42)], MARK.filled()))
                 .map_err(be)?;
             cell.draw(&Text::new(
@@ -170,6 +212,7 @@ mod tests {
             labels: (1..=40).map(|i| format!("e{i}")).collect(),
             values: (1..=40).map(|i| sign * i as f64 / 40.0).collect(),
             marked: (1..=40).map(|i| i == 7).collect(),
+            log: sign > 0.0,
         };
         let plot = BarPlot {
             title: "t".into(),

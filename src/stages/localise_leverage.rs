@@ -282,6 +282,7 @@ impl PlotParams {
                 .iter()
                 .map(|&i| candidates[i].elements.iter().any(|e| highlight.contains(e)))
                 .collect(),
+            log: false,
         }
     }
 }

@@ -3,6 +3,7 @@
 
 pub mod assemble;
 pub mod correlate_frf;
+pub mod correlate_modes;
 pub mod frf_import;
 pub mod frf_synthesise;
 pub mod localise_eigensensitivity;
@@ -31,6 +32,7 @@ static MODES: Typed<modes::ModesStage> = Typed::new();
 static FRF_SYNTHESISE: Typed<frf_synthesise::FrfSynthesise> = Typed::new();
 static NOISE_ADD: Typed<noise_add::NoiseAdd> = Typed::new();
 static CORRELATE_FRF: Typed<correlate_frf::CorrelateFrf> = Typed::new();
+static CORRELATE_MODES: Typed<correlate_modes::CorrelateModes> = Typed::new();
 static MESH_GENERATE: Typed<mesh_generate::MeshGenerate> = Typed::new();
 static MESH_PARAMETERS: Typed<mesh_parameters::MeshParameters> = Typed::new();
 static PLOT_FRF: Typed<plot_frf::PlotFrf> = Typed::new();
@@ -55,6 +57,7 @@ pub fn registry() -> Registry {
         &FRF_IMPORT,
         &NOISE_ADD,
         &CORRELATE_FRF,
+        &CORRELATE_MODES,
         &PLOT_FRF,
         &UPDATE,
         &MODEL_PARTITION,
