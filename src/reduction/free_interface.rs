@@ -17,9 +17,12 @@
 //! junction forces with the junction rows (3.36) gives the transformation (3.37–3.39)
 //! `x_j = x_j`, `x_i = R_ij R_jj⁻¹ x_j + (Φ_i − R_ij R_jj⁻¹ Φ_j) q`.
 //!
-//! Complete limit: `R_jj` must stay non-singular, so at most `N_k − n_j` modes can be kept; with
-//! exactly that many, `[Φ, R_{:,j}]` spans the whole space (generically), `T` is square and the
-//! reduced model reproduces the full one (tested).
+//! Complete limit: with every free mode kept the residual flexibility is zero and `R_jj⁻¹`
+//! does not exist; compatibility is then imposed on the modes themselves (`n_j` carrier modes
+//! replaced by the junction displacements, see `complete_free_interface`), `T` is square and the
+//! reduced model reproduces the full one (tested). Between the two, MacNeal's `T` needs `R_jj`
+//! invertible; with close to `N_k − n_j` modes kept it can be singular to working precision, and
+//! the reduction says so (`SingularResidual`).
 
 use super::craig_bampton::split;
 use super::linalg::{SparseSpd, sparse_times_dense, sub_block, symmetrise};
@@ -222,6 +225,9 @@ pub fn free_interface(
     let free = free_modes(name, sys, modes, eigen)?;
     let m = free.len();
     let rigid = free.eigenvalues.iter().filter(|l| **l == 0.0).count();
+    if nj > 0 && m == n {
+        return complete_free_interface(name, sys, junction, &j_idx, &free, rigid);
+    }
     let mut t = Mat::zeros(n, nj + m);
     if nj > 0 {
         let rj = residual_flexibility(name, sys, &free, &j_idx)?; // R_{:,j}, N × n_j
@@ -258,6 +264,77 @@ pub fn free_interface(
         &j_idx,
         t,
         free.frequencies_hz(),
+        ReductionInfo {
+            rigid_body_modes: rigid,
+            ..Default::default()
+        },
+    ))
+}
+
+/// The complete limit: every free mode kept, so the residual flexibility is zero and MacNeal's
+/// `R_jj⁻¹` does not exist. Compatibility is then imposed on the modes themselves: `n_j` carrier
+/// modes `a` (chosen by pivoted Gram–Schmidt on the junction rows, so `Φ_ja` is as well
+/// conditioned as the modes allow) give way to the junction displacements,
+/// `q_a = Φ_ja⁻¹ (x_j − Φ_jb q_b)`, so `x = Φ_a Φ_ja⁻¹ x_j + (Φ_b − Φ_a Φ_ja⁻¹ Φ_jb) q_b`. This is
+/// MacNeal's transformation (3.37–3.39) with exactly the carriers omitted (then
+/// `R_ij R_jj⁻¹ = Φ_ia Φ_ja⁻¹`); `T` is square and invertible, so the synthesis is exact.
+fn complete_free_interface(
+    name: &str,
+    sys: &SystemMatrices,
+    junction: &[DofId],
+    j_idx: &[usize],
+    free: &Modes,
+    rigid: usize,
+) -> Result<ComponentReduction, ReductionError> {
+    let (n, nj) = (sys.n(), j_idx.len());
+    let phi = &free.shapes;
+    // Modes as rows, junction DOFs as columns: choose the carrier rows.
+    let phi_jt = Mat::from_fn(n, nj, |q, a| phi[(j_idx[a], q)]);
+    let carriers = choose_held_dofs(phi_jt.as_ref(), &(0..n).rev().collect::<Vec<_>>());
+    let singular = |detail: String| ReductionError::SingularResidual {
+        substructure: name.to_string(),
+        junction: nj,
+        internal: n - nj,
+        detail,
+    };
+    if carriers.len() < nj {
+        return Err(singular(format!(
+            "with every mode kept, the junction rows of the modes have rank {} < {nj}",
+            carriers.len()
+        )));
+    }
+    let is_carrier: std::collections::BTreeSet<usize> = carriers.iter().copied().collect();
+    let kept: Vec<usize> = (0..n).filter(|q| !is_carrier.contains(q)).collect();
+    let phi_ja = Mat::from_fn(nj, nj, |a, c| phi[(j_idx[a], carriers[c])]);
+    let inv = super::linalg::inverse(&phi_ja)
+        .ok_or_else(|| singular("the carrier modes' junction block is singular".into()))?;
+    let phi_a = Mat::from_fn(n, nj, |i, c| phi[(i, carriers[c])]);
+    let phi_b = Mat::from_fn(n, kept.len(), |i, c| phi[(i, kept[c])]);
+    let phi_jb = Mat::from_fn(nj, kept.len(), |a, c| phi[(j_idx[a], kept[c])]);
+    let a = &phi_a * &inv;
+    let b = &phi_b - &a * &phi_jb;
+    let mut t = Mat::zeros(n, n);
+    for i in 0..n {
+        for c in 0..nj {
+            t[(i, c)] = a[(i, c)];
+        }
+        for q in 0..kept.len() {
+            t[(i, nj + q)] = b[(i, q)];
+        }
+    }
+    for (a_, &r) in j_idx.iter().enumerate() {
+        for c in 0..n {
+            t[(r, c)] = if c == a_ { 1.0 } else { 0.0 };
+        }
+    }
+    let hz = free.frequencies_hz();
+    Ok(ComponentReduction::from_transformation(
+        name,
+        sys,
+        junction,
+        j_idx,
+        t,
+        kept.iter().map(|q| hz[*q]).collect(),
         ReductionInfo {
             rigid_body_modes: rigid,
             ..Default::default()
