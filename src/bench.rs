@@ -352,3 +352,181 @@ pub fn pc_iteration_bench(
         peak_rss_mib: peak_rss_mib(),
     })
 }
+
+/// Figures of one split of the muffler into substructures (issue 4's re-analysis goal).
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct CmsSplitBench {
+    /// Substructures.
+    pub parts: usize,
+    /// Junction DOFs of the partition.
+    pub junction_dofs: usize,
+    /// Largest substructure, DOFs.
+    pub largest_part_dofs: usize,
+    /// Reduced coordinates (physical, modal).
+    pub reduced_size: (usize, usize),
+    /// Seconds to partition.
+    pub partition_seconds: f64,
+    /// Seconds to reduce every substructure and synthesise.
+    pub reduce_seconds: f64,
+    /// Seconds for the reduced model's lowest modes.
+    pub reduced_modes_seconds: f64,
+    /// Largest relative eigenvalue error (3.54) of the reduced model's elastic modes against
+    /// the direct solution, over the modes asked for.
+    pub max_eigenvalue_error: f64,
+    /// Seconds to re-analyse after a thickness change in one substructure: its reduction, the
+    /// synthesis and the reduced model's modes.
+    pub reanalysis_seconds: f64,
+    /// Of which the one substructure's reduction.
+    pub reanalysis_reduce_seconds: f64,
+    /// Direct full solve time over re-analysis time.
+    pub speed_up: f64,
+    /// Peak resident memory of the process so far, MiB.
+    pub peak_rss_mib: Option<f64>,
+}
+
+/// Figures of the CMS benchmark: the direct solve and each split.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct CmsBench {
+    /// Free DOFs of the full model.
+    pub dofs: usize,
+    /// Modes asked for.
+    pub modes: usize,
+    /// Component modes kept up to this frequency (twice the highest mode asked for), Hz.
+    pub component_cut_off_hz: f64,
+    /// Seconds to assemble the full model.
+    pub assembly_seconds: f64,
+    /// Seconds for the direct sparse eigen solve of the full model.
+    pub direct_seconds: f64,
+    /// Peak memory after the direct solve, MiB.
+    pub direct_peak_rss_mib: Option<f64>,
+    /// Per split.
+    pub splits: Vec<CmsSplitBench>,
+}
+
+/// Benchmarks component mode synthesis on the muffler-like box at about `target_dofs` DOFs:
+/// the direct lowest `modes` modes; then, per entry of `parts`, an automatic partition,
+/// Craig-Bampton with component modes to twice the top of the band (the thesis's rule), the
+/// reduced model's modes against the direct ones, and the re-analysis after one substructure's
+/// shell thickness changes by 5 % (only that substructure is reduced again).
+pub fn cms_bench(target_dofs: usize, parts: &[usize], modes: usize) -> Result<CmsBench, String> {
+    use crate::model::{Element, Parameter, ParameterKind};
+    use crate::reduction::{Method, Partition, reduce, reduce_substructure};
+    use crate::updating::ParametricModel;
+    use crate::updating::model::FeModel;
+
+    let model = muffler(muffler_element_size(target_dofs, 2), 2);
+    let t = Instant::now();
+    let (sys, _) = assemble_model(&model, MassKind::Consistent).map_err(|e| e.to_string())?;
+    let assembly_seconds = t.elapsed().as_secs_f64();
+    let t = Instant::now();
+    let params = SparseEigenParams {
+        tolerance: 1e-8,
+        ..Default::default()
+    };
+    let (direct, _) = lowest_modes(
+        &sys.k,
+        &sys.m,
+        &sys.dofs,
+        ModeSelection::Count(modes),
+        &params,
+    )
+    .map_err(|e| e.to_string())?;
+    let direct_seconds = t.elapsed().as_secs_f64();
+    let dofs = sys.n();
+    drop(sys);
+    let direct_peak_rss_mib = peak_rss_mib();
+    let top_hz = direct.frequencies_hz().last().copied().unwrap_or(0.0);
+    let cut_off = 2.0 * top_hz;
+    let method = Method::CraigBampton {
+        modes: ModeSelection::BelowHz(cut_off),
+    };
+    let error = |reduced: &crate::eigen::Modes| {
+        let mut worst = 0.0f64;
+        for (k, l) in direct.eigenvalues.iter().enumerate() {
+            if *l > 0.0 {
+                let lc = reduced.eigenvalues.get(k).copied().unwrap_or(f64::INFINITY);
+                worst = worst.max(((lc - l) / l).abs());
+            }
+        }
+        worst
+    };
+    let mut splits = Vec::new();
+    for &k in parts {
+        let t = Instant::now();
+        let partition =
+            Partition::automatic(&model, k, MassKind::Consistent).map_err(|e| e.to_string())?;
+        let partition_seconds = t.elapsed().as_secs_f64();
+        let t = Instant::now();
+        let mut reduced =
+            reduce(&model, &partition, &method, MassKind::Consistent).map_err(|e| e.to_string())?;
+        let reduce_seconds = t.elapsed().as_secs_f64();
+        let t = Instant::now();
+        let red_modes = reduced
+            .modes(ModeSelection::Count(modes))
+            .map_err(|e| e.to_string())?;
+        let reduced_modes_seconds = t.elapsed().as_secs_f64();
+        // One substructure's shells of one property (one thickness) 5 % thicker.
+        let mut changed = model.clone();
+        let shell_property = |e: &u64| match changed.elements.get(e) {
+            Some(Element::Quad4 { property, .. } | Element::Tria3 { property, .. }) => {
+                Some(*property)
+            }
+            _ => None,
+        };
+        let members = &partition.substructures[0].elements;
+        let property = members.iter().find_map(shell_property);
+        let shells: Vec<u64> = members
+            .iter()
+            .copied()
+            .filter(|e| property.is_some() && shell_property(e) == property)
+            .collect();
+        changed.sets.insert("bench_part".into(), shells);
+        changed.parameters = vec![Parameter {
+            name: "t_part".into(),
+            kind: ParameterKind::ShellThickness,
+            set: "bench_part".into(),
+            lower: 1e-5,
+            upper: 1.0,
+        }];
+        let fe = FeModel::new(changed, &[], MassKind::Consistent).map_err(|e| e.to_string())?;
+        let values: Vec<f64> = fe.initial_values().iter().map(|v| 1.05 * v).collect();
+        let changed = fe.model_at(&values).map_err(|e| e.to_string())?;
+        let t = Instant::now();
+        let component = reduce_substructure(&changed, &partition, 0, &method, MassKind::Consistent)
+            .map_err(|e| e.to_string())?;
+        let reanalysis_reduce_seconds = t.elapsed().as_secs_f64();
+        reduced.replace(component).map_err(|e| e.to_string())?;
+        reduced
+            .modes(ModeSelection::Count(modes))
+            .map_err(|e| e.to_string())?;
+        let reanalysis_seconds = t.elapsed().as_secs_f64();
+        splits.push(CmsSplitBench {
+            parts: k,
+            junction_dofs: partition.junction.len(),
+            largest_part_dofs: partition
+                .substructures
+                .iter()
+                .map(|s| s.dofs.len())
+                .max()
+                .unwrap_or(0),
+            reduced_size: reduced.size(),
+            partition_seconds,
+            reduce_seconds,
+            reduced_modes_seconds,
+            max_eigenvalue_error: error(&red_modes),
+            reanalysis_seconds,
+            reanalysis_reduce_seconds,
+            speed_up: direct_seconds / reanalysis_seconds,
+            peak_rss_mib: peak_rss_mib(),
+        });
+    }
+    Ok(CmsBench {
+        dofs,
+        modes,
+        component_cut_off_hz: cut_off,
+        assembly_seconds,
+        direct_seconds,
+        direct_peak_rss_mib,
+        splits,
+    })
+}

@@ -136,6 +136,15 @@ enum Command {
         /// 1000 lines, a basis of the first `--modes` modes, default 100).
         #[arg(long)]
         pc_iteration: bool,
+        /// Benchmark component mode synthesis on the muffler instead: the direct solve of the
+        /// lowest `--modes` modes (default 50), then per `--parts` (default 8 and 64) the
+        /// Craig-Bampton reduction, the reduced modes and the re-analysis after one
+        /// substructure changed.
+        #[arg(long)]
+        cms: bool,
+        /// Substructure counts for `--cms` (repeatable).
+        #[arg(long = "parts", value_name = "K")]
+        parts: Vec<usize>,
     },
     /// Run a parameter sweep over a pipeline locally or on Slurm; `status`, `collect`.
     Sweep(Box<sweep::SweepArgs>),
@@ -361,8 +370,69 @@ fn dispatch(cli: Cli) -> Result<u8, Failure> {
             dofs,
             modes,
             json,
-            muffler: _,
+            cms: true,
+            parts,
+            ..
+        } => {
+            let dofs = if dofs.is_empty() { vec![100_000] } else { dofs };
+            let parts = if parts.is_empty() { vec![8, 64] } else { parts };
+            let count = modes.first().copied().unwrap_or(50);
+            let mut all = Vec::new();
+            for n in dofs {
+                let b =
+                    crate::bench::cms_bench(n, &parts, count).map_err(|e| anyhow::anyhow!(e))?;
+                println!(
+                    "muffler {} DOFs, lowest {} modes: assembly {:.2} s, direct eigen {:.2} s (peak {:.0} MiB); Craig-Bampton, component modes to {:.0} Hz",
+                    b.dofs,
+                    b.modes,
+                    b.assembly_seconds,
+                    b.direct_seconds,
+                    b.direct_peak_rss_mib.unwrap_or(f64::NAN),
+                    b.component_cut_off_hz
+                );
+                println!(
+                    "{:>6} {:>9} {:>10} {:>12} {:>9} {:>9} {:>9} {:>10} {:>11} {:>8} {:>9}",
+                    "parts",
+                    "junction",
+                    "max part",
+                    "reduced",
+                    "partition",
+                    "reduce",
+                    "modes",
+                    "max err",
+                    "re-analyse",
+                    "speed-up",
+                    "peak MiB"
+                );
+                for s in &b.splits {
+                    println!(
+                        "{:>6} {:>9} {:>10} {:>12} {:>9.2} {:>9.2} {:>9.2} {:>10.1e} {:>11.2} {:>7.1}x {:>9.0}",
+                        s.parts,
+                        s.junction_dofs,
+                        s.largest_part_dofs,
+                        format!("{}+{}", s.reduced_size.0, s.reduced_size.1),
+                        s.partition_seconds,
+                        s.reduce_seconds,
+                        s.reduced_modes_seconds,
+                        s.max_eigenvalue_error,
+                        s.reanalysis_seconds,
+                        s.speed_up,
+                        s.peak_rss_mib.unwrap_or(f64::NAN)
+                    );
+                }
+                all.push(b);
+            }
+            if let Some(path) = json {
+                std::fs::write(&path, serde_json::to_string_pretty(&all)?)?;
+            }
+            Ok(0)
+        }
+        Command::Bench {
+            dofs,
+            modes,
+            json,
             pc_iteration: true,
+            ..
         } => {
             let dofs = if dofs.is_empty() { vec![100_000] } else { dofs };
             let basis = modes.first().copied().unwrap_or(100);
@@ -400,7 +470,7 @@ fn dispatch(cli: Cli) -> Result<u8, Failure> {
             modes,
             json,
             muffler,
-            pc_iteration: false,
+            ..
         } => {
             let which = if muffler {
                 crate::bench::BenchModel::Muffler

@@ -1,6 +1,9 @@
 //! Helpers shared by the integration tests.
 #![allow(dead_code)]
 
+use femu::artefact::codec::read_dir;
+use femu::artefact::compare::{Tolerances, compare};
+use femu::artefact::kinds::check_layout;
 use femu::cache::Cache;
 use femu::pipeline::{Plan, ProgressMode, RunOptions, RunReport, execute, plan, read_pipeline};
 use std::path::{Path, PathBuf};
@@ -48,4 +51,75 @@ pub fn executed(report: &RunReport) -> Vec<String> {
 /// The femu binary.
 pub fn femu() -> std::process::Command {
     std::process::Command::new(env!("CARGO_BIN_EXE_femu"))
+}
+
+/// `stage/port` directories under `root`, sorted.
+fn artefact_dirs(root: &Path) -> Vec<PathBuf> {
+    let mut out = Vec::new();
+    let dirs = |p: &Path| -> Vec<PathBuf> {
+        std::fs::read_dir(p)
+            .map(|r| {
+                r.flatten()
+                    .map(|e| e.path())
+                    .filter(|p| p.is_dir())
+                    .collect()
+            })
+            .unwrap_or_default()
+    };
+    for stage in dirs(root) {
+        for port in dirs(&stage) {
+            out.push(port.strip_prefix(root).unwrap().to_path_buf());
+        }
+    }
+    out.sort();
+    out
+}
+
+/// Diffs the artefacts a run materialised in `out` against `fixtures/golden/<name>/`, with the
+/// per-column tolerances of its `tolerances.yaml`: every artefact when `stages` is empty, else
+/// only those of the named stages. `FEMU_BLESS=1` rewrites the golden set on purpose.
+pub fn check_golden(name: &str, out: &Path, stages: &[&str]) {
+    let golden = root().join("fixtures/golden").join(name);
+    let tolerances: Tolerances = serde_yaml::from_str(
+        &std::fs::read_to_string(golden.join("tolerances.yaml"))
+            .expect("tolerances.yaml beside the golden artefacts"),
+    )
+    .unwrap();
+    let chosen = |rel: &PathBuf| stages.is_empty() || stages.iter().any(|s| rel.starts_with(s));
+    let got: Vec<PathBuf> = artefact_dirs(out).into_iter().filter(chosen).collect();
+    if std::env::var_os("FEMU_BLESS").is_some() {
+        for rel in artefact_dirs(&golden) {
+            std::fs::remove_dir_all(golden.join(&rel)).unwrap();
+        }
+        for rel in &got {
+            let (src, dst) = (out.join(rel), golden.join(rel));
+            std::fs::create_dir_all(&dst).unwrap();
+            for f in std::fs::read_dir(&src).unwrap().flatten() {
+                std::fs::copy(f.path(), dst.join(f.file_name())).unwrap();
+            }
+        }
+        eprintln!("blessed {}", golden.display());
+        return;
+    }
+    let want = artefact_dirs(&golden);
+    assert_eq!(
+        got, want,
+        "the pipeline's artefacts differ from the golden set; bless on purpose with FEMU_BLESS=1"
+    );
+    let mut failures = Vec::new();
+    for rel in &got {
+        let a = read_dir(&out.join(rel)).unwrap();
+        check_layout(&a).unwrap_or_else(|e| panic!("{}: {e}", rel.display()));
+        let b = read_dir(&golden.join(rel)).unwrap();
+        let c = compare(&a, &b, &tolerances);
+        if !c.same() {
+            failures.push(format!(
+                "{}: {} values differ, e.g. {:?}",
+                rel.display(),
+                c.count,
+                c.differences.first()
+            ));
+        }
+    }
+    assert!(failures.is_empty(), "{name}:\n{}", failures.join("\n"));
 }
