@@ -355,6 +355,7 @@ pub fn reduced_to_artefact(
                     Coordinate::Dof(_) => "dof",
                     Coordinate::Modal { .. } => "modal",
                     Coordinate::Force(_) => "force",
+                    Coordinate::InterfaceMode(_) => "interface",
                 }
                 .to_string()
             })),
@@ -459,6 +460,9 @@ pub fn reduced_to_artefact(
                 .with_table(&format!("{p}A"), dense_triplet_table(&f.a), Storage::Ipc)
                 .with_table(&format!("{p}B"), dense_triplet_table(&f.b), Storage::Ipc);
         }
+    }
+    if let Some(psi) = &r.interface {
+        a = a.with_table("interface", dense_triplet_table(psi), Storage::Ipc);
     }
     for (name, dk, dm) in derivatives {
         a = a
@@ -686,7 +690,17 @@ pub fn reduced_from_artefact(a: &Artefact) -> Result<ReducedModel, ArtefactError
             },
         });
     }
+    let interface_modes = coords
+        .iter()
+        .filter(|c| matches!(c, Coordinate::InterfaceMode(_)))
+        .count();
+    let interface = if a.tables.contains_key("interface") {
+        Some(dense_from(a, "interface", junction.len(), interface_modes)?)
+    } else {
+        None
+    };
     Ok(ReducedModel {
+        interface,
         method,
         k: dense_from(a, "K", n, n)?,
         m: dense_from(a, "M", n, n)?,
@@ -762,7 +776,12 @@ pub fn layout(kind: ArtefactKind) -> Vec<TableLayout> {
                         "",
                         "node:comp, or <substructure>:q<n> for a modal coordinate",
                     ),
-                    col("kind", "string", "", "dof or modal"),
+                    col(
+                        "kind",
+                        "string",
+                        "",
+                        "dof, modal or interface (an interface mode)",
+                    ),
                 ],
             ),
             t(

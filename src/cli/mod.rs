@@ -382,7 +382,7 @@ fn dispatch(cli: Cli) -> Result<u8, Failure> {
                 let b =
                     crate::bench::cms_bench(n, &parts, count).map_err(|e| anyhow::anyhow!(e))?;
                 println!(
-                    "muffler {} DOFs, lowest {} modes: assembly {:.2} s, direct eigen {:.2} s (peak {:.0} MiB); Craig-Bampton, component modes to {:.0} Hz",
+                    "muffler {} DOFs, lowest {} modes: assembly {:.2} s, direct eigen {:.2} s (peak {:.0} MiB); Craig-Bampton, component and interface modes to {:.0} Hz",
                     b.dofs,
                     b.modes,
                     b.assembly_seconds,
@@ -391,13 +391,14 @@ fn dispatch(cli: Cli) -> Result<u8, Failure> {
                     b.component_cut_off_hz
                 );
                 println!(
-                    "{:>6} {:>9} {:>10} {:>12} {:>9} {:>9} {:>9} {:>10} {:>11} {:>8} {:>9}",
+                    "{:>6} {:>9} {:>10} {:>12} {:>9} {:>9} {:>9} {:>9} {:>10} {:>11} {:>8} {:>9}",
                     "parts",
                     "junction",
                     "max part",
-                    "reduced",
+                    "iface+modal",
                     "partition",
                     "reduce",
+                    "interface",
                     "modes",
                     "max err",
                     "re-analyse",
@@ -406,13 +407,18 @@ fn dispatch(cli: Cli) -> Result<u8, Failure> {
                 );
                 for s in &b.splits {
                     println!(
-                        "{:>6} {:>9} {:>10} {:>12} {:>9.2} {:>9.2} {:>9.2} {:>10.1e} {:>11.2} {:>7.1}x {:>9.0}",
+                        "{:>6} {:>9} {:>10} {:>12} {:>9.2} {:>9.2} {:>9.2} {:>9.2} {:>10.1e} {:>11.2} {:>7.1}x {:>9.0}",
                         s.parts,
                         s.junction_dofs,
                         s.largest_part_dofs,
-                        format!("{}+{}", s.reduced_size.0, s.reduced_size.1),
+                        format!(
+                            "{}+{}",
+                            s.interface_modes,
+                            s.reduced_size.1 - s.interface_modes
+                        ),
                         s.partition_seconds,
                         s.reduce_seconds,
+                        s.interface_seconds,
                         s.reduced_modes_seconds,
                         s.max_eigenvalue_error,
                         s.reanalysis_seconds,

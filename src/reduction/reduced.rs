@@ -30,6 +30,9 @@ pub enum Coordinate {
     },
     /// The junction force at a DOF (force coupling, local to a component before coupling).
     Force(DofId),
+    /// Interface mode `n` (from 1): a mode of the junction's Guyan model, replacing the junction
+    /// DOFs after an interface reduction.
+    InterfaceMode(usize),
 }
 
 impl std::fmt::Display for Coordinate {
@@ -38,6 +41,7 @@ impl std::fmt::Display for Coordinate {
             Coordinate::Dof(d) => write!(f, "{d}"),
             Coordinate::Modal { substructure, mode } => write!(f, "{substructure}:q{mode}"),
             Coordinate::Force(d) => write!(f, "F:{d}"),
+            Coordinate::InterfaceMode(n) => write!(f, "interface:m{n}"),
         }
     }
 }
@@ -51,6 +55,9 @@ impl std::str::FromStr for Coordinate {
                 .map(Coordinate::Force)
                 .map_err(|e| e.to_string());
         }
+        if let Some(n) = s.strip_prefix("interface:m").and_then(|n| n.parse().ok()) {
+            return Ok(Coordinate::InterfaceMode(n));
+        }
         if let Some((sub, q)) = s.rsplit_once(":q") {
             if let Ok(mode) = q.parse::<usize>() {
                 return Ok(Coordinate::Modal {
@@ -60,7 +67,7 @@ impl std::str::FromStr for Coordinate {
             }
         }
         s.parse::<DofId>().map(Coordinate::Dof).map_err(|e| {
-            format!("`{s}` is neither a DOF (node:comp), a modal coordinate (<substructure>:q<n>) nor a force (F:node:comp): {e}")
+            format!("`{s}` is neither a DOF (node:comp), a modal coordinate (<substructure>:q<n>), an interface mode (interface:m<n>) nor a force (F:node:comp): {e}")
         })
     }
 }
@@ -251,6 +258,9 @@ pub struct ReducedModel {
     pub k: Mat<f64>,
     /// Reduced mass.
     pub m: Mat<f64>,
+    /// Interface reduction: the junction DOFs expressed in these interface modes
+    /// (`n_J × n_c`), held fixed when a component is replaced.
+    pub interface: Option<Mat<f64>>,
 }
 
 impl ReducedModel {
@@ -260,11 +270,30 @@ impl ReducedModel {
         junction: Vec<DofId>,
         components: Vec<ComponentReduction>,
     ) -> Result<ReducedModel, ReductionError> {
-        let (coords, couplings) = match &method {
-            Method::CraigBampton { .. } | Method::FreeInterface { .. } => {
+        Self::synthesise_with_interface(method, junction, components, None)
+    }
+
+    /// [`ReducedModel::synthesise`] with the junction DOFs replaced by interface modes `psi`
+    /// (`x_J = Ψ η`; Craig-Bampton and free interface, whose junction DOFs are coordinates).
+    pub fn synthesise_with_interface(
+        method: Method,
+        junction: Vec<DofId>,
+        components: Vec<ComponentReduction>,
+        interface: Option<Mat<f64>>,
+    ) -> Result<ReducedModel, ReductionError> {
+        let (coords, couplings) = match (&method, &interface) {
+            (Method::CraigBampton { .. } | Method::FreeInterface { .. }, None) => {
                 boolean_coupling(&junction, &components)?
             }
-            Method::ForceCoupling { .. } => couple(&junction, &components)?,
+            (Method::CraigBampton { .. } | Method::FreeInterface { .. }, Some(psi)) => {
+                interface_coupling(&junction, &components, psi.as_ref())?
+            }
+            (Method::ForceCoupling { .. }, None) => couple(&junction, &components)?,
+            (Method::ForceCoupling { .. }, Some(_)) => {
+                return Err(ReductionError::Replace(
+                    "force coupling has no junction DOFs to reduce: interface modes apply to Craig-Bampton and free interface".into(),
+                ));
+            }
         };
         let n = coords.len();
         let (mut k, mut m) = (Mat::zeros(n, n), Mat::zeros(n, n));
@@ -280,6 +309,7 @@ impl ReducedModel {
             junction,
             k: super::linalg::symmetrise(&k),
             m: super::linalg::symmetrise(&m),
+            interface,
         };
         if let Method::ForceCoupling {
             second_level: Some(sl),
@@ -320,8 +350,86 @@ impl ReducedModel {
         }
         let mut components = std::mem::take(&mut self.components);
         components[at] = component;
-        *self = ReducedModel::synthesise(self.method.clone(), self.junction.clone(), components)?;
+        *self = ReducedModel::synthesise_with_interface(
+            self.method.clone(),
+            self.junction.clone(),
+            components,
+            self.interface.take(),
+        )?;
         Ok(())
+    }
+
+    /// Interface reduction (characteristic constraint modes, Castanier et al. 2001): the
+    /// junction DOFs of a Craig-Bampton or free-interface model are replaced by the lowest modes
+    /// of its junction block `(K_JJ, M_JJ)` — for Craig-Bampton the Guyan model of the
+    /// interfaces. With `n_J` junction DOFs in the tens of thousands, this is what keeps the
+    /// reduced model small; the basis is held when a component is replaced, as the
+    /// transformations are (3.59). With every interface mode kept it is a change of basis.
+    pub fn with_interface_modes(
+        self,
+        selection: ModeSelection,
+    ) -> Result<ReducedModel, ReductionError> {
+        if self.interface.is_some() {
+            return Err(ReductionError::Replace(
+                "the junction is already expressed in interface modes".into(),
+            ));
+        }
+        let nj = self.junction.len();
+        if nj == 0 {
+            return Ok(self);
+        }
+        let index: HashMap<DofId, usize> = self
+            .junction
+            .iter()
+            .enumerate()
+            .map(|(i, d)| (*d, i))
+            .collect();
+        // Sparse junction blocks: each component adds a dense block over its junction DOFs.
+        let (mut tk, mut tm) = (Vec::new(), Vec::new());
+        for c in &self.components {
+            let local: Vec<(usize, usize)> = c
+                .coords
+                .iter()
+                .enumerate()
+                .filter_map(|(l, coord)| match coord {
+                    Coordinate::Dof(d) => index.get(d).map(|g| (l, *g)),
+                    _ => None,
+                })
+                .collect();
+            for &(a, ga) in &local {
+                for &(b, gb) in &local {
+                    tk.push((ga, gb, c.k[(a, b)]));
+                    tm.push((ga, gb, c.m[(a, b)]));
+                }
+            }
+        }
+        let sparse = |name: &'static str, mut t: Vec<(usize, usize, f64)>| {
+            t.sort_by_key(|e| (e.1, e.0));
+            let mut summed: Vec<(usize, usize, f64)> = Vec::with_capacity(t.len());
+            for (i, j, v) in t {
+                match summed.last_mut() {
+                    Some(last) if last.0 == i && last.1 == j => last.2 += v,
+                    _ => summed.push((i, j, v)),
+                }
+            }
+            crate::fe::system::sparse_from_triplets(name, nj, &summed)
+                .map_err(|e| ReductionError::Replace(e.to_string()))
+        };
+        let (kjj, mjj) = (sparse("K_JJ", tk)?, sparse("M_JJ", tm)?);
+        let (modes, _) = lowest_modes(
+            &kjj,
+            &mjj,
+            &self.junction,
+            selection,
+            &SparseEigenParams::default(),
+        )
+        .map_err(ReductionError::ReducedEigen)?;
+        ReducedModel::synthesise_with_interface(
+            self.method,
+            self.junction,
+            self.components,
+            Some(modes.shapes),
+        )
     }
 
     /// Number of reduced coordinates.
@@ -429,7 +537,9 @@ impl ReducedModel {
             .iter()
             .map(|c| match c {
                 Coordinate::Dof(d) | Coordinate::Force(d) => *d,
-                Coordinate::Modal { .. } => DofId::new(0, Component::Ux),
+                Coordinate::Modal { .. } | Coordinate::InterfaceMode(_) => {
+                    DofId::new(0, Component::Ux)
+                }
             })
             .collect();
         let n = self.n();
@@ -523,6 +633,46 @@ fn boolean_coupling(
         }
         couplings.push(Coupling::Boolean(map));
     }
+    Ok((coords, couplings))
+}
+
+/// Global coordinates after an interface reduction: the interface modes, then each component's
+/// modal coordinates; a component's junction DOFs map to the rows of `Ψ` (`x_J = Ψ η`).
+fn interface_coupling(
+    junction: &[DofId],
+    components: &[ComponentReduction],
+    psi: MatRef<'_, f64>,
+) -> Result<(Vec<Coordinate>, Vec<Coupling>), ReductionError> {
+    let (boolean_coords, boolean) = boolean_coupling(junction, components)?;
+    let (nj, nc) = (junction.len(), psi.ncols());
+    if psi.nrows() != nj {
+        return Err(ReductionError::Replace(format!(
+            "the interface basis has {} rows for {nj} junction DOFs",
+            psi.nrows()
+        )));
+    }
+    let mut coords: Vec<Coordinate> = (1..=nc).map(Coordinate::InterfaceMode).collect();
+    coords.extend(boolean_coords.into_iter().skip(nj));
+    let n = coords.len();
+    let couplings = boolean
+        .into_iter()
+        .map(|cp| match cp {
+            Coupling::Boolean(map) => {
+                let mut c = Mat::zeros(map.len(), n);
+                for (l, &g) in map.iter().enumerate() {
+                    if g < nj {
+                        for q in 0..nc {
+                            c[(l, q)] = psi[(g, q)];
+                        }
+                    } else {
+                        c[(l, g - nj + nc)] = 1.0;
+                    }
+                }
+                Coupling::Dense(c)
+            }
+            dense => dense,
+        })
+        .collect();
     Ok((coords, couplings))
 }
 

@@ -79,9 +79,37 @@ pub struct ModalReductionParams {
     /// Mass matrix kind.
     #[serde(default)]
     pub mass: MassKind,
+    /// Interface reduction: replace the junction DOFs by the lowest modes of the junction's
+    /// Guyan model, `{max_freq_hz: F}` or `{count: N}` (characteristic constraint modes; keeps
+    /// the reduced model small when the interfaces have thousands of DOFs). Default: none.
+    #[serde(default)]
+    pub interface: Option<ComponentModes>,
 }
 
 impl ModalReductionParams {
+    /// Problems with the parameters.
+    pub fn issues(&self) -> Vec<ParamIssue> {
+        let mut v = self.modes().issues();
+        if let Some(i) = &self.interface {
+            v.extend(i.issues().into_iter().map(|mut issue| {
+                issue.path.insert(0, "interface".into());
+                issue
+            }));
+            if i.max_freq_hz.is_none() && i.count.is_none() {
+                v.push(ParamIssue::at(
+                    "interface",
+                    "give `max_freq_hz` or `count` of the interface modes to keep",
+                ));
+            }
+        }
+        v
+    }
+
+    /// The interface-mode choice, if any.
+    pub fn interface_selection(&self) -> Option<ModeSelection> {
+        self.interface.as_ref().map(ComponentModes::selection)
+    }
+
     /// The component-mode choice.
     pub fn modes(&self) -> ComponentModes {
         ComponentModes {
@@ -119,6 +147,7 @@ const COMPONENT_VERSION: u32 = 1;
 pub fn run(
     method: Method,
     mass: MassKind,
+    interface: Option<ModeSelection>,
     inputs: &StageInputs,
 ) -> Result<StageOutputs, StageError> {
     let model = mesh_from_artefact(inputs.require("mesh")?)?;
@@ -149,8 +178,13 @@ pub fn run(
             Ok(component_from_artefact(&a)?)
         })
         .collect::<Result<Vec<_>, StageError>>()?;
-    let r = ReducedModel::synthesise(method, part.junction.clone(), components)
+    let mut r = ReducedModel::synthesise(method, part.junction.clone(), components)
         .map_err(StageError::failed)?;
+    if let Some(selection) = interface {
+        r = r
+            .with_interface_modes(selection)
+            .map_err(|e| StageError::Failed(format!("interface modes: {e}")))?;
+    }
     let mut derivs = Vec::new();
     for param in &model.parameters {
         let (dk, dm) = reduced_parameter_derivative(&model, &part, &r, param, mass)

@@ -109,7 +109,7 @@ impl TypedStage for ReduceForceCoupling {
                 required: p.required.clone(),
             }),
         };
-        reduce_common::run(method, p.mass, inputs)
+        reduce_common::run(method, p.mass, None, inputs)
     }
 }
 

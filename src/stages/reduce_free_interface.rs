@@ -28,7 +28,7 @@ impl TypedStage for ReduceFreeInterface {
     }
 
     fn validate(p: &mut Params, _: &CheckContext) -> Vec<ParamIssue> {
-        p.modes().issues()
+        p.issues()
     }
 
     fn run(p: &Params, inputs: &StageInputs) -> Result<StageOutputs, StageError> {
@@ -37,6 +37,7 @@ impl TypedStage for ReduceFreeInterface {
                 modes: p.modes().selection(),
             },
             p.mass,
+            p.interface_selection(),
             inputs,
         )
     }
