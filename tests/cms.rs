@@ -3,7 +3,7 @@
 //! reported, and an unchanged re-run executes nothing.
 
 mod common;
-use common::{executed, pipeline, run};
+use common::{check_golden, executed, pipeline, run};
 use femu::artefact::codec::read_dir;
 use femu::artefact::kinds::modes_from_artefact;
 
@@ -80,6 +80,16 @@ fn cms_validation_reproduces_c3() {
     // C2: the bent plate with its bar by Craig-Bampton over two plates + bar (thesis: ~77 DOFs).
     let cb = read_dir(&out.join("bent_plate_cb").join("reduced")).unwrap();
     assert_eq!(cb.meta["n_coords"], 74);
+    check_golden(
+        "cms-validation",
+        &out,
+        &[
+            "craig_bampton_errors/correlation",
+            "craig_bampton_interface_errors/correlation",
+            "free_interface_errors/correlation",
+            "force_coupling_errors/correlation",
+        ],
+    );
     let (_, again, _) = run(&pipeline("cms-validation"), &cache_dir, &[]);
     assert_eq!(executed(&again), Vec::<String>::new());
 }

@@ -113,4 +113,16 @@ fn bent_plate_localise_reproduces_c2_section_5_6() {
         let bytes = std::fs::read(out.join(stage).join(port).join(file)).unwrap();
         assert!(bytes.starts_with(b"\x89PNG"), "{stage}/{port}/{file}");
     }
+    check_golden(
+        "bent-plate-localise",
+        &out,
+        &[
+            "case1_leverage/leverage",
+            "case1_leverage_small/leverage",
+            "case2_leverage/leverage",
+            "case2_leverage_small/leverage",
+            "case1_eigen/sensitivity",
+            "case2_eigen/sensitivity",
+        ],
+    );
 }

@@ -174,6 +174,16 @@ fn bent_plate_damping_reproduces_c2() {
     );
     let biased = identified("eta_six_frfs_biased");
     assert!(biased.iter().all(|(_, v)| *v < 0.0099), "{biased:?}");
+    check_golden(
+        "bent-plate-damping",
+        &out,
+        &[
+            "eta_six_frfs/result",
+            "eta_one_frf/result",
+            "zeta_from_structural/result",
+            "eta_six_frfs_biased/result",
+        ],
+    );
 }
 
 /// C4 (thesis §7.1): on the two-substructure Craig-Bampton model with subset selection
