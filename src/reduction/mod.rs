@@ -34,8 +34,9 @@ mod reduced;
 pub use partition::{Boundary, Partition, Substructure};
 pub use reduced::{
     ComponentReduction, Coordinate, Coupling, JunctionFlexibility, Method, ReducedModel,
-    ReductionInfo, SecondLevel, check_method, reduce, reduce_assembled, reduce_substructure,
-    reduced_parameter_derivative, substructure_matrices,
+    ReductionInfo, SecondLevel, check_method, interface_basis, reduce, reduce_assembled,
+    reduce_substructure, reduce_with_interface, reduced_parameter_derivative,
+    substructure_matrices,
 };
 
 use crate::core::DofId;

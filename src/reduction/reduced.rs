@@ -374,62 +374,8 @@ impl ReducedModel {
                 "the junction is already expressed in interface modes".into(),
             ));
         }
-        let nj = self.junction.len();
-        if nj == 0 {
-            return Ok(self);
-        }
-        let index: HashMap<DofId, usize> = self
-            .junction
-            .iter()
-            .enumerate()
-            .map(|(i, d)| (*d, i))
-            .collect();
-        // Sparse junction blocks: each component adds a dense block over its junction DOFs.
-        let (mut tk, mut tm) = (Vec::new(), Vec::new());
-        for c in &self.components {
-            let local: Vec<(usize, usize)> = c
-                .coords
-                .iter()
-                .enumerate()
-                .filter_map(|(l, coord)| match coord {
-                    Coordinate::Dof(d) => index.get(d).map(|g| (l, *g)),
-                    _ => None,
-                })
-                .collect();
-            for &(a, ga) in &local {
-                for &(b, gb) in &local {
-                    tk.push((ga, gb, c.k[(a, b)]));
-                    tm.push((ga, gb, c.m[(a, b)]));
-                }
-            }
-        }
-        let sparse = |name: &'static str, mut t: Vec<(usize, usize, f64)>| {
-            t.sort_by_key(|e| (e.1, e.0));
-            let mut summed: Vec<(usize, usize, f64)> = Vec::with_capacity(t.len());
-            for (i, j, v) in t {
-                match summed.last_mut() {
-                    Some(last) if last.0 == i && last.1 == j => last.2 += v,
-                    _ => summed.push((i, j, v)),
-                }
-            }
-            crate::fe::system::sparse_from_triplets(name, nj, &summed)
-                .map_err(|e| ReductionError::Replace(e.to_string()))
-        };
-        let (kjj, mjj) = (sparse("K_JJ", tk)?, sparse("M_JJ", tm)?);
-        let (modes, _) = lowest_modes(
-            &kjj,
-            &mjj,
-            &self.junction,
-            selection,
-            &SparseEigenParams::default(),
-        )
-        .map_err(ReductionError::ReducedEigen)?;
-        ReducedModel::synthesise_with_interface(
-            self.method,
-            self.junction,
-            self.components,
-            Some(modes.shapes),
-        )
+        let psi = interface_basis(&self.junction, &self.components, selection)?;
+        ReducedModel::synthesise_with_interface(self.method, self.junction, self.components, psi)
     }
 
     /// Number of reduced coordinates.
@@ -636,6 +582,63 @@ fn boolean_coupling(
     Ok((coords, couplings))
 }
 
+/// The interface modes of a classical (Craig-Bampton or free-interface) set of components: the
+/// lowest modes of the junction block `(K_JJ, M_JJ)`, assembled sparse from each component's
+/// junction rows (a dense block per component), so that the plain reduced matrices (`n_J²`
+/// each) are never formed. `None` when there is no junction.
+pub fn interface_basis(
+    junction: &[DofId],
+    components: &[ComponentReduction],
+    selection: ModeSelection,
+) -> Result<Option<Mat<f64>>, ReductionError> {
+    let nj = junction.len();
+    if nj == 0 {
+        return Ok(None);
+    }
+    let index: HashMap<DofId, usize> = junction.iter().enumerate().map(|(i, d)| (*d, i)).collect();
+    let (mut tk, mut tm) = (Vec::new(), Vec::new());
+    for c in components {
+        let local: Vec<(usize, usize)> = c
+            .coords
+            .iter()
+            .enumerate()
+            .filter_map(|(l, coord)| match coord {
+                Coordinate::Dof(d) => index.get(d).map(|g| (l, *g)),
+                _ => None,
+            })
+            .collect();
+        for &(a, ga) in &local {
+            for &(b, gb) in &local {
+                tk.push((ga, gb, c.k[(a, b)]));
+                tm.push((ga, gb, c.m[(a, b)]));
+            }
+        }
+    }
+    let sparse = |name: &'static str, mut t: Vec<(usize, usize, f64)>| {
+        t.sort_unstable_by_key(|e| (e.1, e.0));
+        let mut summed: Vec<(usize, usize, f64)> = Vec::with_capacity(t.len());
+        for (i, j, v) in t {
+            match summed.last_mut() {
+                Some(last) if last.0 == i && last.1 == j => last.2 += v,
+                _ => summed.push((i, j, v)),
+            }
+        }
+        crate::fe::system::sparse_from_triplets(name, nj, &summed)
+            .map_err(|e| ReductionError::Replace(e.to_string()))
+    };
+    let kjj = sparse("K_JJ", tk)?;
+    let mjj = sparse("M_JJ", tm)?;
+    let (modes, _) = lowest_modes(
+        &kjj,
+        &mjj,
+        junction,
+        selection,
+        &SparseEigenParams::default(),
+    )
+    .map_err(ReductionError::ReducedEigen)?;
+    Ok(Some(modes.shapes))
+}
+
 /// Global coordinates after an interface reduction: the interface modes, then each component's
 /// modal coordinates; a component's junction DOFs map to the rows of `Ψ` (`x_J = Ψ η`).
 fn interface_coupling(
@@ -779,12 +782,33 @@ pub fn reduce(
     method: &Method,
     mass: MassKind,
 ) -> Result<ReducedModel, ReductionError> {
+    reduce_with_interface(model, partition, method, mass, None)
+}
+
+/// [`reduce`], with the junction expressed in the interface modes of `interface` when given
+/// (the plain reduced matrices, `n_J²` each, are never formed).
+pub fn reduce_with_interface(
+    model: &Model,
+    partition: &Partition,
+    method: &Method,
+    mass: MassKind,
+    interface: Option<ModeSelection>,
+) -> Result<ReducedModel, ReductionError> {
     check_method(partition, method)?;
     let components = (0..partition.substructures.len())
         .into_par_iter()
         .map(|k| reduce_substructure(model, partition, k, method, mass))
         .collect::<Result<Vec<_>, _>>()?;
-    ReducedModel::synthesise(method.clone(), partition.junction.clone(), components)
+    let psi = match interface {
+        Some(selection) => interface_basis(&partition.junction, &components, selection)?,
+        None => None,
+    };
+    ReducedModel::synthesise_with_interface(
+        method.clone(),
+        partition.junction.clone(),
+        components,
+        psi,
+    )
 }
 
 /// A pair of matrices (`∂K`, `∂M`).

@@ -12,8 +12,8 @@ use crate::fe::SystemMatrices;
 use crate::fe::element::MassKind;
 use crate::pipeline::{ParamIssue, PortSpec, StageError, StageInputs, StageOutputs};
 use crate::reduction::{
-    Method, ReducedModel, check_method, reduce_assembled, reduced_parameter_derivative,
-    substructure_matrices,
+    Method, ReducedModel, check_method, interface_basis, reduce_assembled,
+    reduced_parameter_derivative, substructure_matrices,
 };
 use rayon::prelude::*;
 
@@ -178,13 +178,13 @@ pub fn run(
             Ok(component_from_artefact(&a)?)
         })
         .collect::<Result<Vec<_>, StageError>>()?;
-    let mut r = ReducedModel::synthesise(method, part.junction.clone(), components)
+    let psi = match interface {
+        Some(selection) => interface_basis(&part.junction, &components, selection)
+            .map_err(|e| StageError::Failed(format!("interface modes: {e}")))?,
+        None => None,
+    };
+    let r = ReducedModel::synthesise_with_interface(method, part.junction.clone(), components, psi)
         .map_err(StageError::failed)?;
-    if let Some(selection) = interface {
-        r = r
-            .with_interface_modes(selection)
-            .map_err(|e| StageError::Failed(format!("interface modes: {e}")))?;
-    }
     let mut derivs = Vec::new();
     for param in &model.parameters {
         let (dk, dm) = reduced_parameter_derivative(&model, &part, &r, param, mass)

@@ -234,6 +234,10 @@ pub struct Reduction {
     /// Component modes kept per substructure up to this frequency, Hz (thesis: twice the band).
     #[serde(default = "component_hz")]
     pub component_modes_hz: f64,
+    /// Replace the junction DOFs by the interface modes up to this frequency, Hz (chosen at the
+    /// start and held, like the component transformations). Default: keep the junction DOFs.
+    #[serde(default)]
+    pub interface_modes_hz: Option<f64>,
 }
 
 impl Default for Reduction {
@@ -241,6 +245,7 @@ impl Default for Reduction {
         Reduction {
             method: ReductionMethod::CraigBampton,
             component_modes_hz: component_hz(),
+            interface_modes_hz: None,
         }
     }
 }
@@ -349,6 +354,14 @@ impl TypedStage for Update {
                 "method",
                 "the RFM works on the full model's receptances: disconnect `partition`",
             ));
+        }
+        if let Some(f) = p.reduction.interface_modes_hz {
+            if !(f.is_finite() && f > 0.0) {
+                issues.push(ParamIssue::at(
+                    "reduction.interface_modes_hz",
+                    format!("{f} must be a positive frequency in Hz"),
+                ));
+            }
         }
         if !(p.reduction.component_modes_hz.is_finite() && p.reduction.component_modes_hz > 0.0) {
             issues.push(ParamIssue::at(
@@ -518,7 +531,13 @@ impl TypedStage for Update {
                                 crate::reduction::Method::FreeInterface { modes }
                             }
                         };
-                        Box::new(ReducedFeModel::new(fe, partition, method))
+                        let reduced = ReducedFeModel::new(fe, partition, method);
+                        match p.reduction.interface_modes_hz {
+                            Some(f) => {
+                                Box::new(reduced.with_interface_modes(ModeSelection::BelowHz(f)))
+                            }
+                            None => Box::new(reduced),
+                        }
                     }
                     None => Box::new(fe),
                 }

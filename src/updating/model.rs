@@ -414,6 +414,7 @@ pub struct ReducedFeModel {
     fe: FeModel,
     partition: Partition,
     method: Method,
+    interface: Option<ModeSelection>,
     last: std::sync::Mutex<Option<(Vec<f64>, std::sync::Arc<ReducedModel>)>>,
     reductions: std::sync::atomic::AtomicUsize,
 }
@@ -425,9 +426,17 @@ impl ReducedFeModel {
             fe,
             partition,
             method,
+            interface: None,
             last: std::sync::Mutex::new(None),
             reductions: std::sync::atomic::AtomicUsize::new(0),
         }
+    }
+
+    /// With the junction expressed in interface modes (chosen at the first analysis and held
+    /// afterwards, like the transformations): see [`ReducedModel::with_interface_modes`].
+    pub fn with_interface_modes(mut self, selection: ModeSelection) -> Self {
+        self.interface = Some(selection);
+        self
     }
 
     /// How many substructure reductions were computed so far.
@@ -487,9 +496,14 @@ impl ReducedFeModel {
                 }
             }
             _ => {
-                let r =
-                    crate::reduction::reduce(model, &self.partition, &self.method, self.fe.mass)
-                        .map_err(err)?;
+                let r = crate::reduction::reduce_with_interface(
+                    model,
+                    &self.partition,
+                    &self.method,
+                    self.fe.mass,
+                    self.interface,
+                )
+                .map_err(err)?;
                 self.reductions
                     .fetch_add(self.partition.substructures.len(), Ordering::Relaxed);
                 std::sync::Arc::new(r)
