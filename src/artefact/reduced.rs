@@ -107,6 +107,105 @@ fn dof(kind: ArtefactKind, table: &str, row: usize, s: &str) -> Result<DofId, Ar
         .map_err(|e| ArtefactError::schema(kind, format!("table `{table}` row {row}: {e}")))
 }
 
+/// Checks an artefact's kind before reading it as `kind`.
+fn expect_kind(a: &Artefact, kind: ArtefactKind) -> Result<(), ArtefactError> {
+    if a.kind == kind {
+        Ok(())
+    } else {
+        Err(ArtefactError::schema(
+            kind,
+            format!("got a `{}` artefact", a.kind),
+        ))
+    }
+}
+
+/// The `dof` column of table `table`.
+fn dofs_table(a: &Artefact, table: &str) -> Result<Vec<DofId>, ArtefactError> {
+    a.table(table)?
+        .strs(table, "dof")?
+        .iter()
+        .enumerate()
+        .map(|(row, s)| dof(a.kind, table, row, s))
+        .collect()
+}
+
+/// The `coord` column of table `table`.
+fn coords_table(a: &Artefact, table: &str) -> Result<Vec<Coordinate>, ArtefactError> {
+    a.table(table)?
+        .strs(table, "coord")?
+        .iter()
+        .enumerate()
+        .map(|(row, s)| {
+            s.parse::<Coordinate>().map_err(|e| {
+                ArtefactError::schema(a.kind, format!("table `{table}` row {row}: {e}"))
+            })
+        })
+        .collect()
+}
+
+/// A component's own tables (`{prefix}dofs`, `coords`, `T`, `K`, `M` and, for force coupling,
+/// `A`, `B`), shared by the `reduced_component` and `reduced_model` layouts.
+fn with_component_tables(mut a: Artefact, prefix: &str, c: &ComponentReduction) -> Artefact {
+    let p = prefix;
+    a = a
+        .with_table(
+            &format!("{p}dofs"),
+            Table::new().with("dof", strs(c.dofs.iter().map(|d| d.to_string()))),
+            Storage::Parquet,
+        )
+        .with_table(
+            &format!("{p}coords"),
+            Table::new().with("coord", strs(c.coords.iter().map(|d| d.to_string()))),
+            Storage::Parquet,
+        )
+        .with_table(&format!("{p}T"), dense_triplet_table(&c.t), Storage::Ipc)
+        .with_table(&format!("{p}K"), dense_triplet_table(&c.k), Storage::Ipc)
+        .with_table(&format!("{p}M"), dense_triplet_table(&c.m), Storage::Ipc);
+    if let Some(f) = &c.flexibility {
+        a = a
+            .with_table(&format!("{p}A"), dense_triplet_table(&f.a), Storage::Ipc)
+            .with_table(&format!("{p}B"), dense_triplet_table(&f.b), Storage::Ipc);
+    }
+    a
+}
+
+/// What [`with_component_tables`] wrote: DOFs, coordinates, `T`, `K`, `M`, flexibility.
+type ComponentTables = (
+    Vec<DofId>,
+    Vec<Coordinate>,
+    Mat<f64>,
+    Mat<f64>,
+    Mat<f64>,
+    Option<JunctionFlexibility>,
+);
+
+fn component_tables(a: &Artefact, prefix: &str) -> Result<ComponentTables, ArtefactError> {
+    let p = prefix;
+    let dofs = dofs_table(a, &format!("{p}dofs"))?;
+    let coords = coords_table(a, &format!("{p}coords"))?;
+    let (n, r) = (dofs.len(), coords.len());
+    let flexibility = if a.tables.contains_key(&format!("{p}A")) {
+        let forces = coords
+            .iter()
+            .filter(|c| matches!(c, Coordinate::Force(_)))
+            .count();
+        Some(JunctionFlexibility {
+            a: dense_from(a, &format!("{p}A"), forces, r - forces)?,
+            b: dense_from(a, &format!("{p}B"), forces, forces)?,
+        })
+    } else {
+        None
+    };
+    Ok((
+        dofs,
+        coords,
+        dense_from(a, &format!("{p}T"), n, r)?,
+        dense_from(a, &format!("{p}K"), r, r)?,
+        dense_from(a, &format!("{p}M"), r, r)?,
+        flexibility,
+    ))
+}
+
 /// A partition from an artefact.
 pub fn partition_from_artefact(a: &Artefact) -> Result<Partition, ArtefactError> {
     let kind = ArtefactKind::Partition;
@@ -430,20 +529,7 @@ pub fn reduced_to_artefact(
         .with_table("M", dense_triplet_table(&r.m), Storage::Ipc);
     for (i, (c, cp)) in r.components.iter().zip(&r.couplings).enumerate() {
         let p = format!("c{i}_");
-        a = a
-            .with_table(
-                &format!("{p}dofs"),
-                Table::new().with("dof", strs(c.dofs.iter().map(|d| d.to_string()))),
-                Storage::Parquet,
-            )
-            .with_table(
-                &format!("{p}coords"),
-                Table::new().with("coord", strs(c.coords.iter().map(|d| d.to_string()))),
-                Storage::Parquet,
-            )
-            .with_table(&format!("{p}T"), dense_triplet_table(&c.t), Storage::Ipc)
-            .with_table(&format!("{p}K"), dense_triplet_table(&c.k), Storage::Ipc)
-            .with_table(&format!("{p}M"), dense_triplet_table(&c.m), Storage::Ipc);
+        a = with_component_tables(a, &p, c);
         let cm = match cp {
             Coupling::Boolean(map) => {
                 let mut m = Mat::zeros(map.len(), r.n());
@@ -455,11 +541,6 @@ pub fn reduced_to_artefact(
             Coupling::Dense(m) => m.clone(),
         };
         a = a.with_table(&format!("{p}C"), dense_triplet_table(&cm), Storage::Ipc);
-        if let Some(f) = &c.flexibility {
-            a = a
-                .with_table(&format!("{p}A"), dense_triplet_table(&f.a), Storage::Ipc)
-                .with_table(&format!("{p}B"), dense_triplet_table(&f.b), Storage::Ipc);
-        }
     }
     if let Some(psi) = &r.interface {
         a = a.with_table("interface", dense_triplet_table(psi), Storage::Ipc);
@@ -484,24 +565,14 @@ pub fn reduced_to_artefact(
 /// `reduce.*` stages cache, so that a change in one substructure reuses the others. Round-trips
 /// exactly, except the timing in `info.seconds`, which is not content.
 pub fn component_to_artefact(c: &ComponentReduction) -> Artefact {
-    let mut a = Artefact::new(ArtefactKind::ReducedComponent)
+    let a = Artefact::new(ArtefactKind::ReducedComponent)
         .with_meta("substructure", c.substructure.clone().into())
         .with_meta("rigid_body_modes", c.info.rigid_body_modes.into())
         .with_meta("masters", c.info.masters.into())
         .with_meta("master_condition", c.info.master_condition.into())
         .with_table(
-            "dofs",
-            Table::new().with("dof", strs(c.dofs.iter().map(|d| d.to_string()))),
-            Storage::Parquet,
-        )
-        .with_table(
             "junction",
             Table::new().with("dof", strs(c.junction.iter().map(|d| d.to_string()))),
-            Storage::Parquet,
-        )
-        .with_table(
-            "coords",
-            Table::new().with("coord", strs(c.coords.iter().map(|d| d.to_string()))),
             Storage::Parquet,
         )
         .with_table(
@@ -513,60 +584,15 @@ pub fn component_to_artefact(c: &ComponentReduction) -> Artefact {
                 )
                 .with("frequency_hz", Column::F64(c.mode_frequencies_hz.clone())),
             Storage::Parquet,
-        )
-        .with_table("T", dense_triplet_table(&c.t), Storage::Ipc)
-        .with_table("K", dense_triplet_table(&c.k), Storage::Ipc)
-        .with_table("M", dense_triplet_table(&c.m), Storage::Ipc);
-    if let Some(f) = &c.flexibility {
-        a = a
-            .with_table("A", dense_triplet_table(&f.a), Storage::Ipc)
-            .with_table("B", dense_triplet_table(&f.b), Storage::Ipc);
-    }
-    a
+        );
+    with_component_tables(a, "", c)
 }
 
 /// A substructure's reduction from its artefact.
 pub fn component_from_artefact(a: &Artefact) -> Result<ComponentReduction, ArtefactError> {
-    let kind = ArtefactKind::ReducedComponent;
-    if a.kind != kind {
-        return Err(ArtefactError::schema(
-            kind,
-            format!("got a `{}` artefact", a.kind),
-        ));
-    }
-    let dofs_of = |table: &str| -> Result<Vec<DofId>, ArtefactError> {
-        a.table(table)?
-            .strs(table, "dof")?
-            .iter()
-            .enumerate()
-            .map(|(row, s)| dof(kind, table, row, s))
-            .collect()
-    };
-    let coords = a
-        .table("coords")?
-        .strs("coords", "coord")?
-        .iter()
-        .enumerate()
-        .map(|(row, s)| {
-            s.parse::<Coordinate>()
-                .map_err(|e| ArtefactError::schema(kind, format!("table `coords` row {row}: {e}")))
-        })
-        .collect::<Result<Vec<_>, _>>()?;
+    expect_kind(a, ArtefactKind::ReducedComponent)?;
     let meta_usize = |key: &str| a.meta.get(key).and_then(|v| v.as_u64()).unwrap_or(0) as usize;
-    let dofs = dofs_of("dofs")?;
-    let (n, r) = (dofs.len(), coords.len());
-    let flexibility = if a.tables.contains_key("A") {
-        let forces = coords
-            .iter()
-            .filter(|c| matches!(c, Coordinate::Force(_)))
-            .count();
-        Some(JunctionFlexibility {
-            a: dense_from(a, "A", forces, r - forces)?,
-            b: dense_from(a, "B", forces, forces)?,
-        })
-    } else {
-        None
-    };
+    let (dofs, coords, t, k, m, flexibility) = component_tables(a, "")?;
     Ok(ComponentReduction {
         substructure: a
             .meta
@@ -574,10 +600,10 @@ pub fn component_from_artefact(a: &Artefact) -> Result<ComponentReduction, Artef
             .and_then(|v| v.as_str())
             .unwrap_or_default()
             .to_string(),
-        junction: dofs_of("junction")?,
-        t: dense_from(a, "T", n, r)?,
-        k: dense_from(a, "K", r, r)?,
-        m: dense_from(a, "M", r, r)?,
+        junction: dofs_table(a, "junction")?,
+        t,
+        k,
+        m,
         mode_frequencies_hz: a
             .table("component_modes")?
             .f64s("component_modes", "frequency_hz")?
@@ -600,37 +626,11 @@ pub fn component_from_artefact(a: &Artefact) -> Result<ComponentReduction, Artef
 
 /// A reduced model from an artefact.
 pub fn reduced_from_artefact(a: &Artefact) -> Result<ReducedModel, ArtefactError> {
-    let kind = ArtefactKind::ReducedModel;
-    if a.kind != kind {
-        return Err(ArtefactError::schema(
-            kind,
-            format!("got a `{}` artefact", a.kind),
-        ));
-    }
-    let parse_coords = |table: &str| -> Result<Vec<Coordinate>, ArtefactError> {
-        a.table(table)?
-            .strs(table, "coord")?
-            .iter()
-            .enumerate()
-            .map(|(row, s)| {
-                s.parse::<Coordinate>().map_err(|e| {
-                    ArtefactError::schema(kind, format!("table `{table}` row {row}: {e}"))
-                })
-            })
-            .collect()
-    };
-    let parse_dofs = |table: &str| -> Result<Vec<DofId>, ArtefactError> {
-        a.table(table)?
-            .strs(table, "dof")?
-            .iter()
-            .enumerate()
-            .map(|(row, s)| dof(kind, table, row, s))
-            .collect()
-    };
+    expect_kind(a, ArtefactKind::ReducedModel)?;
     let method = method_from(a.meta.get("method").unwrap_or(&serde_json::Value::Null))?;
-    let coords = parse_coords("coords")?;
+    let coords = coords_table(a, "coords")?;
     let n = coords.len();
-    let junction = parse_dofs("junction")?;
+    let junction = dofs_table(a, "junction")?;
     let ct = a.table("components")?;
     let names = ct.strs("components", "substructure")?;
     let rigid = ct.i64s("components", "rigid_body_modes")?;
@@ -639,9 +639,8 @@ pub fn reduced_from_artefact(a: &Artefact) -> Result<ReducedModel, ArtefactError
     let mut couplings = Vec::with_capacity(names.len());
     for (i, name) in names.iter().enumerate() {
         let p = format!("c{i}_");
-        let dofs = parse_dofs(&format!("{p}dofs"))?;
-        let local = parse_coords(&format!("{p}coords"))?;
-        let (nk, rk) = (dofs.len(), local.len());
+        let (dofs, local, t, k, m, flexibility) = component_tables(a, &p)?;
+        let rk = local.len();
         let cm = dense_from(a, &format!("{p}C"), rk, n)?;
         let boolean = (0..rk).all(|l| {
             let nz: Vec<usize> = (0..n).filter(|g| cm[(l, *g)] != 0.0).collect();
@@ -656,18 +655,6 @@ pub fn reduced_from_artefact(a: &Artefact) -> Result<ReducedModel, ArtefactError
         } else {
             Coupling::Dense(cm)
         });
-        let flexibility = if a.tables.contains_key(&format!("{p}A")) {
-            let forces = local
-                .iter()
-                .filter(|c| matches!(c, Coordinate::Force(_)))
-                .count();
-            Some(JunctionFlexibility {
-                a: dense_from(a, &format!("{p}A"), forces, rk - forces)?,
-                b: dense_from(a, &format!("{p}B"), forces, forces)?,
-            })
-        } else {
-            None
-        };
         let junction_k: Vec<DofId> = dofs
             .iter()
             .copied()
@@ -675,9 +662,9 @@ pub fn reduced_from_artefact(a: &Artefact) -> Result<ReducedModel, ArtefactError
             .collect();
         components.push(ComponentReduction {
             substructure: name.clone(),
-            t: dense_from(a, &format!("{p}T"), nk, rk)?,
-            k: dense_from(a, &format!("{p}K"), rk, rk)?,
-            m: dense_from(a, &format!("{p}M"), rk, rk)?,
+            t,
+            k,
+            m,
             dofs,
             junction: junction_k,
             coords: local,
