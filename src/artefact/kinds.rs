@@ -828,6 +828,28 @@ pub fn layout(kind: ArtefactKind) -> Vec<TableLayout> {
                     ),
                 ],
             ),
+            t(
+                "modal_damping",
+                "parquet",
+                false,
+                vec![
+                    col("mode", "int64", "", "mode number, 1-based over all modes"),
+                    col("natural_hz", "float64", "Hz", "its natural frequency"),
+                    col(
+                        "initial",
+                        "float64",
+                        "",
+                        "initial eta (structural) or zeta (viscous)",
+                    ),
+                    col("identified", "float64", "", "identified eta or zeta"),
+                    col(
+                        "equivalent_loss_factor",
+                        "float64",
+                        "",
+                        "the structural loss factor it equals at resonance (eta, or 2 zeta)",
+                    ),
+                ],
+            ),
         ],
     }
 }
