@@ -7,7 +7,7 @@
 use super::stage::StageError;
 use crate::artefact::{Artefact, ArtefactKind, Format};
 use crate::cache::{Cache, Lookup, cache_key};
-use std::collections::{BTreeMap, BTreeSet};
+use std::collections::BTreeMap;
 use std::sync::Mutex;
 
 /// The name of the single output of a part's cache entry.
@@ -30,7 +30,7 @@ pub struct PartCache {
     cache: Cache,
     format: Format,
     force: bool,
-    record: Mutex<(usize, usize, BTreeSet<String>)>,
+    record: Mutex<PartCounts>,
 }
 
 impl PartCache {
@@ -40,7 +40,7 @@ impl PartCache {
             cache,
             format,
             force,
-            record: Mutex::new((0, 0, BTreeSet::new())),
+            record: Mutex::new(PartCounts::default()),
         }
     }
 
@@ -91,23 +91,19 @@ impl PartCache {
     fn note(&self, key: &str, reused: bool) {
         if let Ok(mut r) = self.record.lock() {
             if reused {
-                r.0 += 1;
+                r.reused += 1;
             } else {
-                r.1 += 1;
+                r.computed += 1;
             }
-            r.2.insert(key.to_string());
+            r.keys.push(key.to_string());
         }
     }
 
-    /// What happened so far.
+    /// What happened so far (keys sorted, each once).
     pub fn counts(&self) -> PartCounts {
-        match self.record.lock() {
-            Ok(r) => PartCounts {
-                reused: r.0,
-                computed: r.1,
-                keys: r.2.iter().cloned().collect(),
-            },
-            Err(_) => PartCounts::default(),
-        }
+        let mut c = self.record.lock().map(|r| r.clone()).unwrap_or_default();
+        c.keys.sort();
+        c.keys.dedup();
+        c
     }
 }

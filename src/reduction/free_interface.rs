@@ -236,20 +236,7 @@ pub fn free_interface(
         let a = &rj * &rjj_inv; // R_{:j} R_jj⁻¹
         let phij = Mat::from_fn(nj, m, |a, q| free.shapes[(j_idx[a], q)]);
         let b = &free.shapes - &a * &phij; // Φ − R_{:j} R_jj⁻¹ Φ_j
-        for i in 0..n {
-            for c in 0..nj {
-                t[(i, c)] = a[(i, c)];
-            }
-            for q in 0..m {
-                t[(i, nj + q)] = b[(i, q)];
-            }
-        }
-        // Junction rows are [I, 0] by construction; set them exactly.
-        for (a_, &r) in j_idx.iter().enumerate() {
-            for c in 0..nj + m {
-                t[(r, c)] = if c == a_ { 1.0 } else { 0.0 };
-            }
-        }
+        t = junction_transformation(a.as_ref(), b.as_ref(), &j_idx);
     } else {
         for i in 0..n {
             for q in 0..m {
@@ -313,20 +300,7 @@ fn complete_free_interface(
     let phi_jb = Mat::from_fn(nj, kept.len(), |a, c| phi[(j_idx[a], kept[c])]);
     let a = &phi_a * &inv;
     let b = &phi_b - &a * &phi_jb;
-    let mut t = Mat::zeros(n, n);
-    for i in 0..n {
-        for c in 0..nj {
-            t[(i, c)] = a[(i, c)];
-        }
-        for q in 0..kept.len() {
-            t[(i, nj + q)] = b[(i, q)];
-        }
-    }
-    for (a_, &r) in j_idx.iter().enumerate() {
-        for c in 0..n {
-            t[(r, c)] = if c == a_ { 1.0 } else { 0.0 };
-        }
-    }
+    let t = junction_transformation(a.as_ref(), b.as_ref(), j_idx);
     let hz = free.frequencies_hz();
     Ok(ComponentReduction::from_transformation(
         name,
@@ -340,4 +314,19 @@ fn complete_free_interface(
             ..Default::default()
         },
     ))
+}
+
+/// `T = [A, B]` (junction columns, then modal columns) with the junction rows set exactly to
+/// `[I, 0]`, which they are by construction (3.37–3.39).
+fn junction_transformation(a: MatRef<'_, f64>, b: MatRef<'_, f64>, j_idx: &[usize]) -> Mat<f64> {
+    let nj = a.ncols();
+    let mut t = Mat::from_fn(a.nrows(), nj + b.ncols(), |i, c| {
+        if c < nj { a[(i, c)] } else { b[(i, c - nj)] }
+    });
+    for (a_, &r) in j_idx.iter().enumerate() {
+        for c in 0..t.ncols() {
+            t[(r, c)] = if c == a_ { 1.0 } else { 0.0 };
+        }
+    }
+    t
 }

@@ -614,20 +614,13 @@ pub fn interface_basis(
             }
         }
     }
-    let sparse = |name: &'static str, mut t: Vec<(usize, usize, f64)>| {
-        t.sort_unstable_by_key(|e| (e.1, e.0));
-        let mut summed: Vec<(usize, usize, f64)> = Vec::with_capacity(t.len());
-        for (i, j, v) in t {
-            match summed.last_mut() {
-                Some(last) if last.0 == i && last.1 == j => last.2 += v,
-                _ => summed.push((i, j, v)),
-            }
-        }
-        crate::fe::system::sparse_from_triplets(name, nj, &summed)
+    // Blocks of components sharing junction DOFs overlap; the triplet constructor sums them.
+    let sparse = |name: &'static str, t: &[(usize, usize, f64)]| {
+        crate::fe::system::sparse_from_triplets(name, nj, t)
             .map_err(|e| ReductionError::Replace(e.to_string()))
     };
-    let kjj = sparse("K_JJ", tk)?;
-    let mjj = sparse("M_JJ", tm)?;
+    let kjj = sparse("K_JJ", &tk)?;
+    let mjj = sparse("M_JJ", &tm)?;
     let (modes, _) = lowest_modes(
         &kjj,
         &mjj,

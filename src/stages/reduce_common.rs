@@ -164,18 +164,25 @@ pub fn run(
                 "junction": sub.junction.iter().map(|d| d.to_string()).collect::<Vec<_>>(),
                 "matrices": matrices_digest(&sys),
             });
+            // A component computed here is used as it is; only one read from the cache is
+            // decoded (the round trip is exact, tested in `artefact::reduced`).
+            let mut computed = None;
             let a = inputs.part(
                 COMPONENT_PART,
                 COMPONENT_VERSION,
                 &key,
                 ArtefactKind::ReducedComponent,
                 || {
-                    reduce_assembled(sub, &sys, &method)
-                        .map(|c| component_to_artefact(&c))
-                        .map_err(StageError::failed)
+                    let c = reduce_assembled(sub, &sys, &method).map_err(StageError::failed)?;
+                    let a = component_to_artefact(&c);
+                    computed = Some(c);
+                    Ok(a)
                 },
             )?;
-            Ok(component_from_artefact(&a)?)
+            match computed {
+                Some(c) => Ok(c),
+                None => Ok(component_from_artefact(&a)?),
+            }
         })
         .collect::<Result<Vec<_>, StageError>>()?;
     let psi = match interface {
