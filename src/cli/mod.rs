@@ -503,7 +503,7 @@ fn dispatch(cli: Cli) -> Result<u8, Failure> {
                 }
             );
             println!(
-                "{:>9} {:>11} {:>9} {:>6} {:>8} {:>8} {:>8} {:>8} {:>8} {:>10}",
+                "{:>9} {:>11} {:>9} {:>6} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>12} {:>10}",
                 "dofs",
                 "nnz(K)",
                 "assemble",
@@ -513,6 +513,8 @@ fn dispatch(cli: Cli) -> Result<u8, Failure> {
                 "solves",
                 "orthog",
                 "M*x",
+                "refine",
+                "nnz(L)",
                 "peak MiB"
             );
             let mut all = Vec::new();
@@ -521,7 +523,7 @@ fn dispatch(cli: Cli) -> Result<u8, Failure> {
                     crate::bench::model_bench(which, n, &modes).map_err(|e| anyhow::anyhow!(e))?;
                 for m in &b.modes {
                     println!(
-                        "{:>9} {:>11} {:>9.2} {:>6} {:>8.2} {:>8.2} {:>8.2} {:>8.2} {:>8.2} {:>10.0}",
+                        "{:>9} {:>11} {:>9.2} {:>6} {:>8.2} {:>8.2} {:>8.2} {:>8.2} {:>8.2} {:>8.2} {:>12} {:>10.0}",
                         b.dofs,
                         b.nnz,
                         b.assembly_seconds,
@@ -531,6 +533,8 @@ fn dispatch(cli: Cli) -> Result<u8, Failure> {
                         m.info.solve_seconds,
                         m.info.orthogonalisation_seconds,
                         m.info.mass_product_seconds,
+                        m.info.refinement_seconds,
+                        m.info.factor.factor_entries,
                         b.peak_rss_mib.unwrap_or(f64::NAN)
                     );
                 }

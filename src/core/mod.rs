@@ -1,5 +1,6 @@
 //! Identifiers shared by every layer: degrees of freedom and their labels.
 
 mod dof;
+pub mod memory;
 
 pub use dof::{Component, DofId, DofParseError};

@@ -117,6 +117,14 @@ pub enum EigenError {
         /// The shift.
         shift: f64,
     },
+    /// The factor of `K − σM` did not fit in memory.
+    #[error(
+        "the Cholesky factor of K - sigma M ({n} DOFs) does not fit in memory; reduce the model (CMS) or use a machine with more memory"
+    )]
+    FactorTooLarge {
+        /// DOF count.
+        n: usize,
+    },
     /// Not every wanted mode converged.
     #[error(
         "only {converged} of {wanted} modes converged after {restarts} restarts; loosen the tolerance, ask for fewer modes, or give a shift near the wanted frequencies"

@@ -1,7 +1,9 @@
-//! Eigensolvers for `K φ = λ M φ`.
+//! Eigensolvers for `K φ = λ M φ`, and the sparse Cholesky factors they shift and invert.
 
 pub mod dense;
+pub mod factor;
 pub mod sparse;
 
 pub use dense::{EigenError, ModeSelection, Modes, dense_generalized};
+pub use factor::{FactorError, FactorInfo, SpdFactor};
 pub use sparse::{SparseEigenInfo, SparseEigenParams, lowest_modes};

@@ -1,7 +1,8 @@
 //! Lowest modes of large sparse models by shift-invert Lanczos (THEORY §1, 1.7–1.12).
 //!
 //! With a shift `σ` below the wanted eigenvalues, `A = K − σM` is factored once by sparse
-//! Cholesky (faer, AMD ordering, supernodal). The operator `A⁻¹M` is symmetric in the
+//! Cholesky ([`SpdFactor`]: faer, AMD ordering, supernodal; columns of a block solved in
+//! parallel). The operator `A⁻¹M` is symmetric in the
 //! `M`-inner product and its largest eigenvalues `ν = 1/(λ − σ)` belong to the lowest `λ`.
 //! A thick-restart Lanczos process builds an `M`-orthonormal basis `V` with full
 //! re-orthogonalisation done as two block Gram–Schmidt passes (parallel dense products), and
@@ -17,11 +18,11 @@
 //! f" enlarges the request until a mode above `f` is found.
 
 use super::dense::{EigenError, ModeSelection, Modes, dense_generalized, fix_sign, median_ratio};
+use super::factor::{FactorError, FactorInfo, SpdFactor};
 use crate::core::DofId;
-use crate::fe::system::{SparseMatrix, sparse_to_dense};
-use faer::linalg::solvers::SolveCore;
+use crate::fe::system::{SparseMatrix, lower_combination, sparse_to_dense};
 use faer::linalg::triangular_solve::solve_lower_triangular_in_place;
-use faer::{Conj, Mat, MatMut, MatRef, Par, Side};
+use faer::{Mat, MatMut, MatRef, Par, Side};
 use rand::{Rng, SeedableRng};
 use rayon::prelude::*;
 use std::time::Instant;
@@ -60,37 +61,71 @@ pub struct SparseEigenInfo {
     pub shift: f64,
     /// Whether the dense path was taken.
     pub dense: bool,
-    /// Seconds in the Cholesky factorisation (symbolic and numeric).
+    /// Seconds in the Cholesky factorisation (forming `K − σM`, symbolic and numeric).
     pub factor_seconds: f64,
+    /// The factorisation's own breakdown and size.
+    pub factor: FactorInfo,
     /// Seconds in triangular solves.
     pub solve_seconds: f64,
     /// Seconds in re-orthogonalisation and restarts (dense products).
     pub orthogonalisation_seconds: f64,
-    /// Seconds in `M` products.
+    /// Seconds in `M` products and the `M`-orthonormalisation of new blocks.
     pub mass_product_seconds: f64,
+    /// Seconds in the final inverse-iteration and Rayleigh–Ritz step, residuals included.
+    pub refinement_seconds: f64,
     /// Operator applications.
     pub solves: usize,
     /// Lanczos restarts.
     pub restarts: usize,
 }
 
-/// `Y = A X` for a sparse symmetric `A` stored in full, parallel over output rows, column by
-/// column (row `j` of `A` is its column `j`, read contiguously).
+/// `Y = A X` for a sparse symmetric `A` stored in full, parallel over output rows (row `j` of
+/// `A` is its column `j`, read contiguously). The block is handled all at once: `X` is copied
+/// row-major, so every stored entry of `A` is read once and serves all columns.
 pub fn sym_matvec(a: &SparseMatrix, x: MatRef<'_, f64>, mut y: MatMut<'_, f64>) {
-    let n = a.ncols();
-    for c in 0..x.ncols() {
-        let xc: Vec<f64> = (0..n).map(|i| x[(i, c)]).collect();
-        let out: Vec<f64> = (0..n)
-            .into_par_iter()
-            .with_min_len(4096)
-            .map(|j| {
-                let rows = a.row_idx_of_col_raw(j);
-                let vals = a.val_of_col(j);
-                rows.iter().zip(vals).map(|(&i, &v)| v * xc[i]).sum()
-            })
-            .collect();
-        for (j, v) in out.into_iter().enumerate() {
-            y[(j, c)] = v;
+    let (n, b) = (a.ncols(), x.ncols());
+    if b == 0 || n == 0 {
+        return;
+    }
+    let mut xt = vec![0.0; n * b];
+    for c in 0..b {
+        let col = x.col(c);
+        for (i, row) in xt.chunks_exact_mut(b).enumerate() {
+            row[c] = col[i];
+        }
+    }
+    let mut yt = vec![0.0; n * b];
+    yt.par_chunks_exact_mut(b)
+        .with_min_len(1024)
+        .enumerate()
+        .for_each(|(j, out)| {
+            let (rows, vals) = (a.row_idx_of_col_raw(j), a.val_of_col(j));
+            // Groups of eight columns in registers; the rest one by one.
+            let groups = b / 8;
+            for g in 0..groups {
+                let mut acc = [0.0f64; 8];
+                for (&i, &v) in rows.iter().zip(vals) {
+                    let xi: &[f64; 8] = xt[i * b + 8 * g..i * b + 8 * g + 8]
+                        .try_into()
+                        .expect("a group is eight wide");
+                    for k in 0..8 {
+                        acc[k] += v * xi[k];
+                    }
+                }
+                out[8 * g..8 * g + 8].copy_from_slice(&acc);
+            }
+            for c in 8 * groups..b {
+                out[c] = rows
+                    .iter()
+                    .zip(vals)
+                    .map(|(&i, &v)| v * xt[i * b + c])
+                    .sum();
+            }
+        });
+    for c in 0..b {
+        let mut col = y.as_mut().col_mut(c);
+        for (j, row) in yt.chunks_exact(b).enumerate() {
+            col[j] = row[c];
         }
     }
 }
@@ -164,23 +199,14 @@ pub fn lowest_modes(
         ..Default::default()
     };
     let t0 = Instant::now();
-    // A = K − σM over the union pattern.
-    let mut trip = Vec::with_capacity(k.compute_nnz() + m.compute_nnz());
-    for (mat, f) in [(k, 1.0), (m, -shift)] {
-        for j in 0..n {
-            for (&i, &v) in mat.row_idx_of_col_raw(j).iter().zip(mat.val_of_col(j)) {
-                if i >= j {
-                    trip.push(faer::sparse::Triplet::new(i, j, f * v));
-                }
-            }
-        }
-    }
-    let a =
-        SparseMatrix::try_new_from_triplets(n, n, &trip).map_err(|_| EigenError::NoConvergence)?;
-    drop(trip);
-    let llt = a
-        .sp_cholesky(Side::Lower)
-        .map_err(|_| EigenError::NotPositiveDefinite { shift })?;
+    // A = K − σM over the union pattern, lower triangle.
+    let a = lower_combination(1.0, k, -shift, m);
+    let llt = SpdFactor::new(&a).map_err(|e| match e {
+        FactorError::NotPositiveDefinite => EigenError::NotPositiveDefinite { shift },
+        FactorError::OutOfMemory => EigenError::FactorTooLarge { n },
+    })?;
+    drop(a);
+    info.factor = llt.info;
     info.factor_seconds = t0.elapsed().as_secs_f64();
 
     let (mut lambdas, mut vecs, counted) = match selection {
@@ -205,13 +231,13 @@ pub fn lowest_modes(
     lambdas.truncate(counted);
     vecs = vecs.subcols(0, counted).to_owned();
     let (mut kphi, mut mphi) = (Mat::zeros(n, 0), Mat::zeros(n, 0));
+    let t = Instant::now();
     if counted > 0 {
-        let t = Instant::now();
         (lambdas, vecs, kphi, mphi) = refine(&llt, k, m, vecs)?;
-        info.solve_seconds += t.elapsed().as_secs_f64();
         info.solves += counted;
     }
     let modes = finish(k, lambdas, vecs, kphi, mphi, shift)?;
+    info.refinement_seconds = t.elapsed().as_secs_f64();
     Ok((modes, info))
 }
 
@@ -223,7 +249,7 @@ type RefinedModes = (Vec<f64>, Mat<f64>, Mat<f64>, Mat<f64>);
 /// metric, where the stiff modes weigh little; this step divides their share by `ν_high/ν_low`,
 /// so the residuals `‖Kφ − λMφ‖ / ‖Kφ‖` reach round-off level.
 fn refine(
-    llt: &faer::sparse::linalg::solvers::Llt<usize, f64>,
+    llt: &SpdFactor,
     k: &SparseMatrix,
     m: &SparseMatrix,
     v: Mat<f64>,
@@ -231,7 +257,7 @@ fn refine(
     let (n, c) = (v.nrows(), v.ncols());
     let mut x = Mat::<f64>::zeros(n, c);
     sym_matvec(m, v.as_ref(), x.as_mut());
-    llt.solve_in_place_with_conj(Conj::No, x.as_mut());
+    llt.solve_in_place(x.as_mut());
     let (mut kx, mut mx) = (Mat::<f64>::zeros(n, c), Mat::<f64>::zeros(n, c));
     sym_matvec(k, x.as_ref(), kx.as_mut());
     sym_matvec(m, x.as_ref(), mx.as_mut());
@@ -388,18 +414,17 @@ fn m_orthonormalise(m: &SparseMatrix, w: &Mat<f64>) -> Option<(Mat<f64>, Mat<f64
         let g = Mat::from_fn(b, b, |i, j| 0.5 * (g[(i, j)] + g[(j, i)]));
         let llt = g.llt(Side::Lower).ok()?;
         let l = llt.L();
-        // R = Lᵀ; q ← q R⁻¹ (solve q_newᵀ: L q_newᵀ = qᵀ).
-        let mut qt = q.transpose().to_owned();
-        solve_lower_triangular_in_place(l, qt.as_mut(), Par::Seq);
-        q = qt.transpose().to_owned();
-        let mut mqt = mq.transpose().to_owned();
-        solve_lower_triangular_in_place(l, mqt.as_mut(), Par::Seq);
-        mq = mqt.transpose().to_owned();
         let diag_min = (0..b).map(|i| l[(i, i)]).fold(f64::INFINITY, f64::min);
         let diag_max = (0..b).map(|i| l[(i, i)]).fold(0.0f64, f64::max);
         if !(diag_min > 1e-10 * diag_max) {
             return None;
         }
+        // R = Lᵀ; q ← q R⁻¹ = q L⁻ᵀ, as one product with the small inverse (no transposes of
+        // the tall blocks).
+        let mut l_inv = Mat::<f64>::identity(b, b);
+        solve_lower_triangular_in_place(l, l_inv.as_mut(), Par::Seq);
+        q = &q * l_inv.transpose();
+        mq = &mq * l_inv.transpose();
         r_total = l.transpose() * &r_total;
     }
     Some((q, mq, r_total))
@@ -410,7 +435,7 @@ fn m_orthonormalise(m: &SparseMatrix, w: &Mat<f64>) -> Option<(Mat<f64>, Mat<f64
 /// are memory-bound). Returns the `nev` lowest `λ` (ascending) and their `M`-orthonormal
 /// vectors.
 fn lanczos(
-    llt: &faer::sparse::linalg::solvers::Llt<usize, f64>,
+    llt: &SpdFactor,
     m: &SparseMatrix,
     n: usize,
     nev: usize,
@@ -434,7 +459,7 @@ fn lanczos(
         let x: Mat<f64> = Mat::from_fn(n, b, |_, _| rng.random::<f64>() - 0.5);
         let mut y = Mat::zeros(n, b);
         sym_matvec(m, x.as_ref(), y.as_mut());
-        llt.solve_in_place_with_conj(Conj::No, y.as_mut());
+        llt.solve_in_place(y.as_mut());
         y
     };
     let start = random_block(&mut rng);
@@ -451,7 +476,7 @@ fn lanczos(
         while s0 < p {
             let t = Instant::now();
             let mut w = mv.as_ref().subcols(s0, b).to_owned();
-            llt.solve_in_place_with_conj(Conj::No, w.as_mut());
+            llt.solve_in_place(w.as_mut());
             info.solve_seconds += t.elapsed().as_secs_f64();
             info.solves += b;
             let t = Instant::now();
@@ -544,11 +569,13 @@ fn lanczos(
             return Ok((lambdas, vk));
         }
         // Thick restart: kept Ritz vectors, then the residual block; blocks must tile up to p.
+        let t = Instant::now();
         let keep = p - (p - keep).div_ceil(b) * b;
         let keep = keep.max(1);
         let yk = Mat::from_fn(p, keep, |i, c| y[(i, order[c])]);
         let vk = &v * &yk;
         let mvk = &mv * &yk;
+        info.orthogonalisation_seconds += t.elapsed().as_secs_f64();
         h.fill(0.0);
         v.as_mut().subcols_mut(0, keep).copy_from(&vk);
         mv.as_mut().subcols_mut(0, keep).copy_from(&mvk);
