@@ -1,10 +1,11 @@
 //! Small sparse/dense helpers shared by the reduction methods: sub-blocks of a sparse matrix,
 //! sparse × dense products, sparse Cholesky solves and a rank-checked pseudo-inverse.
 
+use crate::eigen::SpdFactor;
 use crate::fe::system::SparseMatrix;
-use faer::linalg::solvers::{DenseSolveCore, SolveCore};
+use faer::linalg::solvers::DenseSolveCore;
 use faer::sparse::Triplet;
-use faer::{Conj, Mat, MatRef, Side};
+use faer::{Mat, MatRef};
 use rayon::prelude::*;
 
 /// The block `A[rows, cols]` of a sparse matrix (`rows`, `cols` index lists into `A`).
@@ -61,29 +62,19 @@ pub fn symmetrise(a: &Mat<f64>) -> Mat<f64> {
 }
 
 /// A sparse Cholesky factor of a symmetric positive definite matrix.
-pub struct SparseSpd(faer::sparse::linalg::solvers::Llt<usize, f64>);
+pub struct SparseSpd(SpdFactor);
 
 impl SparseSpd {
     /// Factors `A` (full symmetric storage; only the lower triangle is read). `None` when `A`
     /// is not positive definite.
     pub fn factor(a: &SparseMatrix) -> Option<Self> {
-        let n = a.nrows();
-        let mut trip = Vec::with_capacity(a.compute_nnz() / 2 + n);
-        for j in 0..n {
-            for (&i, &v) in a.row_idx_of_col_raw(j).iter().zip(a.val_of_col(j)) {
-                if i >= j {
-                    trip.push(Triplet::new(i, j, v));
-                }
-            }
-        }
-        let lower = SparseMatrix::try_new_from_triplets(n, n, &trip).ok()?;
-        lower.sp_cholesky(Side::Lower).ok().map(SparseSpd)
+        SpdFactor::new(a).ok().map(SparseSpd)
     }
 
     /// `A⁻¹ B`.
     pub fn solve(&self, b: MatRef<'_, f64>) -> Mat<f64> {
         let mut x = b.to_owned();
-        self.0.solve_in_place_with_conj(Conj::No, x.as_mut());
+        self.0.solve_in_place(x.as_mut());
         x
     }
 }

@@ -229,9 +229,12 @@ pub struct ShiftedStatic {
 /// Why `K − σM` could not be factored.
 #[derive(Debug, thiserror::Error)]
 pub enum ShiftedStaticError {
-    /// The triplets did not form a matrix.
-    #[error("K - sigma M: {0}")]
-    Pattern(String),
+    /// The factor did not fit in memory.
+    #[error("the Cholesky factor of K - sigma M ({n} DOFs) does not fit in memory")]
+    OutOfMemory {
+        /// DOF count.
+        n: usize,
+    },
     /// A mechanism (or an indefinite matrix) remains after the shift.
     #[error("K - sigma M is not positive definite")]
     NotPositiveDefinite,
@@ -245,8 +248,6 @@ pub fn shifted_static_solutions(
     eigenvalues: &[f64],
     rows: &[usize],
 ) -> Result<ShiftedStatic, ShiftedStaticError> {
-    use faer::Side;
-    use faer::linalg::solvers::Solve;
     let n = k.nrows();
     let first_elastic = eigenvalues
         .iter()
@@ -254,27 +255,19 @@ pub fn shifted_static_solutions(
         .find(|l| *l > 0.0)
         .unwrap_or(1.0);
     let shift = -1e-2 * first_elastic;
-    let mut trip = Vec::new();
-    for (mat, f) in [(k, 1.0), (m, -shift)] {
-        for j in 0..n {
-            for (&i, &v) in mat.row_idx_of_col_raw(j).iter().zip(mat.val_of_col(j)) {
-                if i >= j {
-                    trip.push(faer::sparse::Triplet::new(i, j, f * v));
-                }
-            }
-        }
-    }
-    let a = crate::fe::system::SparseMatrix::try_new_from_triplets(n, n, &trip)
-        .map_err(|e| ShiftedStaticError::Pattern(format!("{e:?}")))?;
-    let llt = a
-        .sp_cholesky(Side::Lower)
-        .map_err(|_| ShiftedStaticError::NotPositiveDefinite)?;
+    let a = crate::fe::system::lower_combination(1.0, k, -shift, m);
+    let llt = crate::eigen::SpdFactor::new(&a).map_err(|e| match e {
+        crate::eigen::FactorError::NotPositiveDefinite => ShiftedStaticError::NotPositiveDefinite,
+        crate::eigen::FactorError::OutOfMemory => ShiftedStaticError::OutOfMemory { n },
+    })?;
+    drop(a);
     let mut rhs = Mat::<f64>::zeros(n, rows.len());
     for (c, &r) in rows.iter().enumerate() {
         rhs[(r, c)] = 1.0;
     }
+    llt.solve_in_place(rhs.as_mut());
     Ok(ShiftedStatic {
-        x: llt.solve(&rhs),
+        x: rhs,
         shift,
     })
 }
