@@ -266,10 +266,7 @@ pub fn shifted_static_solutions(
         rhs[(r, c)] = 1.0;
     }
     llt.solve_in_place(rhs.as_mut());
-    Ok(ShiftedStatic {
-        x: rhs,
-        shift,
-    })
+    Ok(ShiftedStatic { x: rhs, shift })
 }
 
 /// The truncated modes' share of each mode-shape derivative at chosen DOFs (Wang's static
