@@ -98,7 +98,40 @@ fn bent_plate_pc_improves_the_correlation() {
         assert_eq!(results(&out, stage).len(), 9);
         let sv = a.table("singular_values").unwrap();
         assert_eq!(sv.f64s("singular_values", "value").unwrap().len() % 9, 0);
+        // Its convergence figure is drawn.
+        let plot = read_dir(&out.join(format!("{stage}_convergence")).join("plot")).unwrap();
+        assert!(plot.blobs["convergence.png"].starts_with(b"\x89PNG"));
+        assert!(plot.blobs.contains_key("convergence.svg"));
     }
+    // Before and after, correlated over every line of the three FRFs (not only the P-C's
+    // selected lines), by a direct solution of the updated mesh: the update raised mean χ.
+    let mean_chi = |stage: &str| {
+        let a = read_dir(&out.join(stage).join("correlation")).unwrap();
+        a.meta["summary"]["mean_chi"].as_f64().unwrap()
+    };
+    let (before, after) = (
+        mean_chi("initial_correlation"),
+        mean_chi("updated_correlation"),
+    );
+    assert!(after > before + 0.04, "mean chi {before} -> {after}");
+    for stage in ["initial_plot", "updated_plot"] {
+        let plot = read_dir(&out.join(stage).join("plot")).unwrap();
+        assert!(plot.blobs["frf.png"].starts_with(b"\x89PNG"));
+    }
+    // A parameter the result does not hold is named, with the ones it does.
+    let run = femu()
+        .args(["run", pipeline("bent-plate-pc").to_str().unwrap()])
+        .args(["--set", "pc_one_frf_convergence.parameters=[t5, t10]"])
+        .env("FEMU_CACHE_DIR", tmp.path().join("cache"))
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(!run.status.success());
+    assert!(
+        stderr.contains("`parameters` names `t10`, which the result does not hold")
+            && stderr.contains("t1, t2, t3, t4, t5, t6, t7, t8, t9"),
+        "{stderr}"
+    );
 }
 
 /// C2 §2.5.4: the RFM on the bent plate with complete data identifies the stiff strip's E in one

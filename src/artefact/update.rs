@@ -216,6 +216,77 @@ pub fn final_values(a: &Artefact) -> Result<Vec<(String, f64)>, ArtefactError> {
     Ok(names.iter().cloned().zip(values.iter().copied()).collect())
 }
 
+/// An updating run's history as read back for plotting: per parameter its initial value and its
+/// value at each recorded iteration, and the mean correlation per iteration.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Convergence {
+    /// The method that ran.
+    pub method: String,
+    /// Parameter names, in the result's order.
+    pub parameters: Vec<String>,
+    /// Initial values.
+    pub initial: Vec<f64>,
+    /// `values[p][k]`: parameter `p` at the `k`-th recorded iteration (NaN when not recorded).
+    pub values: Vec<Vec<f64>>,
+    /// Mean `χ_s` per recorded iteration.
+    pub mean_chi_s: Vec<f64>,
+    /// Mean `χ_a` per recorded iteration.
+    pub mean_chi_a: Vec<f64>,
+}
+
+/// Reads the history of an `update_result` (tables `parameters`, `iterations`, `history`).
+pub fn convergence_from_artefact(a: &Artefact) -> Result<Convergence, ArtefactError> {
+    if a.kind != K {
+        return Err(ArtefactError::schema(
+            a.kind,
+            format!("expected an `{}` artefact", K.name()),
+        ));
+    }
+    let params = a.table("parameters")?;
+    let parameters = params.strs("parameters", "parameter")?.to_vec();
+    let initial = params.f64s("parameters", "initial")?.to_vec();
+    let iters = a.table("iterations")?;
+    let steps = iters.i64s("iterations", "iteration")?;
+    let position: std::collections::HashMap<i64, usize> =
+        steps.iter().enumerate().map(|(k, &i)| (i, k)).collect();
+    let history = a.table("history")?;
+    let (h_iter, h_name, h_value) = (
+        history.i64s("history", "iteration")?,
+        history.strs("history", "parameter")?,
+        history.f64s("history", "value")?,
+    );
+    let index: std::collections::HashMap<&str, usize> = parameters
+        .iter()
+        .enumerate()
+        .map(|(p, n)| (n.as_str(), p))
+        .collect();
+    let mut values = vec![vec![f64::NAN; steps.len()]; parameters.len()];
+    for ((i, name), v) in h_iter.iter().zip(h_name).zip(h_value) {
+        let (Some(&k), Some(&p)) = (position.get(i), index.get(name.as_str())) else {
+            return Err(ArtefactError::schema(
+                a.kind,
+                format!(
+                    "history row ({i}, {name}) names an iteration or parameter the `iterations` and `parameters` tables do not hold"
+                ),
+            ));
+        };
+        values[p][k] = *v;
+    }
+    Ok(Convergence {
+        method: a
+            .meta
+            .get("method")
+            .and_then(|m| m.as_str())
+            .unwrap_or("")
+            .to_string(),
+        parameters,
+        initial,
+        values,
+        mean_chi_s: iters.f64s("iterations", "mean_chi_s")?.to_vec(),
+        mean_chi_a: iters.f64s("iterations", "mean_chi_a")?.to_vec(),
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -262,5 +333,13 @@ mod tests {
             .unwrap();
         let b = crate::artefact::codec::read_dir(dir.path()).unwrap();
         assert_eq!(a.digest(), b.digest());
+        // The convergence reader gives back what was recorded, per parameter and iteration.
+        let c = convergence_from_artefact(&b).unwrap();
+        assert_eq!(c.method, "pc");
+        assert_eq!(c.parameters, ["a", "b"]);
+        assert_eq!(c.initial, [1.0, 1.0]);
+        assert_eq!(c.values, [vec![1.0, 1.0], vec![2.0, 2.0]]);
+        assert_eq!(c.mean_chi_s, [0.9, 0.9]);
+        assert!(c.mean_chi_a[0].is_nan() && c.mean_chi_a[1] == 0.9816106067610754);
     }
 }

@@ -6,4 +6,5 @@
 pub mod bar_plot;
 pub mod box_plot;
 pub mod frf_plot;
+pub mod line_plot;
 pub mod mesh_plot;

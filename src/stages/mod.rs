@@ -15,6 +15,7 @@ pub mod model_lumped;
 pub mod model_partition;
 pub mod modes;
 pub mod noise_add;
+pub mod plot_convergence;
 pub mod plot_frf;
 pub mod reduce_common;
 pub mod reduce_craig_bampton;
@@ -36,6 +37,7 @@ static CORRELATE_MODES: Typed<correlate_modes::CorrelateModes> = Typed::new();
 static MESH_GENERATE: Typed<mesh_generate::MeshGenerate> = Typed::new();
 static MESH_PARAMETERS: Typed<mesh_parameters::MeshParameters> = Typed::new();
 static PLOT_FRF: Typed<plot_frf::PlotFrf> = Typed::new();
+static PLOT_CONVERGENCE: Typed<plot_convergence::PlotConvergence> = Typed::new();
 static UPDATE: Typed<update::Update> = Typed::new();
 static MODEL_PARTITION: Typed<model_partition::ModelPartition> = Typed::new();
 static REDUCE_CB: Typed<reduce_craig_bampton::ReduceCraigBampton> = Typed::new();
@@ -59,6 +61,7 @@ pub fn registry() -> Registry {
         &CORRELATE_FRF,
         &CORRELATE_MODES,
         &PLOT_FRF,
+        &PLOT_CONVERGENCE,
         &UPDATE,
         &MODEL_PARTITION,
         &REDUCE_CB,
