@@ -67,9 +67,16 @@ pub fn project_between(
     let values = a.val();
     let mut out = Mat::<f64>::zeros(n, m);
     // (A R) row by row of the support, accumulated column by column of A, then Lᵀ on the left.
+    // Only the stored columns are visited: a parameter's derivative touches a few elements of a
+    // model of up to millions of DOFs, and reading a row of `R` costs a cache miss per column.
     let mut slot = vec![usize::MAX; a.nrows()];
     let mut rows = Vec::new();
+    let mut columns = Vec::new();
     for j in 0..a.ncols() {
+        if col_ptr[j] == col_ptr[j + 1] {
+            continue;
+        }
+        columns.push(j);
         for &i in &row_idx[col_ptr[j]..col_ptr[j + 1]] {
             if slot[i] == usize::MAX {
                 slot[i] = rows.len();
@@ -81,14 +88,16 @@ pub fn project_between(
         return out;
     }
     let mut ar = Mat::<f64>::zeros(rows.len(), m);
-    for j in 0..a.ncols() {
-        for c in 0..m {
-            let rj = right[(j, c)];
+    for c in 0..m {
+        let rc = right.col(c);
+        let mut arc = ar.as_mut().col_mut(c);
+        for &j in &columns {
+            let rj = rc[j];
             if rj == 0.0 {
                 continue;
             }
             for k in col_ptr[j]..col_ptr[j + 1] {
-                ar[(slot[row_idx[k]], c)] += values[k] * rj;
+                arc[slot[row_idx[k]]] += values[k] * rj;
             }
         }
     }
