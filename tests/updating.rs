@@ -132,6 +132,12 @@ fn bent_plate_pc_improves_the_correlation() {
             && stderr.contains("t1, t2, t3, t4, t5, t6, t7, t8, t9"),
         "{stderr}"
     );
+    // Said once: the stage error's text is not repeated as its cause.
+    assert_eq!(
+        stderr.matches("which the result does not hold").count(),
+        1,
+        "{stderr}"
+    );
 }
 
 /// C2 §2.5.4: the RFM on the bent plate with complete data identifies the stiff strip's E in one

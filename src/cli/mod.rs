@@ -191,6 +191,20 @@ impl<E: Into<anyhow::Error>> From<E> for Failure {
     }
 }
 
+/// An error and its causes joined by `: `, leaving out a cause whose text the message already
+/// holds (errors that print their source themselves would otherwise say it twice).
+fn error_chain(error: &anyhow::Error) -> String {
+    let mut message = error.to_string();
+    for cause in error.chain().skip(1) {
+        let text = cause.to_string();
+        if !message.contains(&text) {
+            message.push_str(": ");
+            message.push_str(&text);
+        }
+    }
+    message
+}
+
 /// Entry point of the binary.
 pub fn main() -> ExitCode {
     let filter = tracing_subscriber::EnvFilter::try_from_env("FEMU_LOG")
@@ -206,7 +220,7 @@ pub fn main() -> ExitCode {
             if f.error.downcast_ref::<Diagnostics>().is_some() {
                 eprintln!("{}", f.error);
             } else {
-                eprintln!("error: {:#}", f.error);
+                eprintln!("error: {}", error_chain(&f.error));
             }
             ExitCode::from(f.code)
         }

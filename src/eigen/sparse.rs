@@ -236,7 +236,7 @@ pub fn lowest_modes(
         (lambdas, vecs, kphi, mphi) = refine(&llt, k, m, vecs)?;
         info.solves += counted;
     }
-    let modes = finish(k, lambdas, vecs, kphi, mphi, shift)?;
+    let modes = finish(k, lambdas, vecs, kphi, mphi, shift, scale)?;
     info.refinement_seconds = t.elapsed().as_secs_f64();
     Ok((modes, info))
 }
@@ -297,6 +297,7 @@ fn finish(
     mut kphi: Mat<f64>,
     mut mphi: Mat<f64>,
     shift: f64,
+    scale: f64,
 ) -> Result<Modes, EigenError> {
     let (n, c) = (shapes.nrows(), shapes.ncols());
     let largest = lambdas.iter().fold(0.0f64, |s, l| s.max(l.abs()));
@@ -310,11 +311,13 @@ fn finish(
             pmp += shapes[(i, r)] * mphi[(i, r)];
         }
         let mut lam = pkp / pmp;
-        // Rigid-body modes carry round-off of the stiff modes, ~ε·λ_max; 10⁻⁶|σ| = 10⁻¹²
-        // of the model's eigenvalue scale bounds it (as in the dense path).
+        // Rigid-body modes carry round-off of the stiff modes, ~ε·λ_max: 10⁻¹² of the model's
+        // eigenvalue scale (the median `K_jj/M_jj`) bounds it, as in the dense path, whatever
+        // the shift (a frequency limit under the first elastic mode gives a tiny one).
         if lam.abs()
             <= (1e-10 * largest)
                 .max(1e-6 * shift.abs())
+                .max(1e-12 * scale)
                 .max(f64::MIN_POSITIVE)
         {
             lam = 0.0;
@@ -719,6 +722,49 @@ mod tests {
                     < 1e-9
             );
         }
+    }
+
+    /// A frequency limit below the first elastic mode of a free structure returns its rigid-body
+    /// modes only (no "indefinite stiffness" from their round-off).
+    #[test]
+    fn a_limit_below_the_first_elastic_mode_gives_the_rigid_modes() {
+        let (kk, mm, dofs) = free_chain(2000, 2e5, 1.0);
+        let first_elastic_hz = {
+            let s = (std::f64::consts::PI / 4000.0).sin();
+            (4.0 * 2e5 * s * s).sqrt() / (2.0 * std::f64::consts::PI)
+        };
+        let (modes, _) = lowest_modes(
+            &kk,
+            &mm,
+            &dofs,
+            ModeSelection::BelowHz(0.5 * first_elastic_hz),
+            &SparseEigenParams::default(),
+        )
+        .unwrap();
+        assert_eq!(modes.len(), 1);
+        assert_eq!(modes.rigid_body_modes, 1);
+        assert_eq!(modes.eigenvalues[0], 0.0);
+    }
+
+    /// The same on the free-free bent plate of shells and beams, whose rigid-body Rayleigh
+    /// quotients carry shell round-off (~1e-5 rad²/s²) far above the tiny shift of a 0.5 Hz
+    /// limit: six rigid modes, no "indefinite stiffness".
+    #[test]
+    fn a_low_limit_on_a_free_shell_model_gives_its_six_rigid_modes() {
+        use crate::fe::element::MassKind;
+        use crate::fe::model_assembly::assemble_model;
+        use crate::model::generate::{BentPlate, bent_plate};
+        let (sys, _) =
+            assemble_model(&bent_plate(&BentPlate::default()), MassKind::Consistent).unwrap();
+        let (modes, _) = lowest_modes(
+            &sys.k,
+            &sys.m,
+            &sys.dofs,
+            ModeSelection::BelowHz(0.5),
+            &SparseEigenParams::default(),
+        )
+        .unwrap();
+        assert_eq!((modes.len(), modes.rigid_body_modes), (6, 6));
     }
 
     #[test]
