@@ -2,11 +2,10 @@
 //! candidate and mode), one panel per series, as PNG and SVG. Marked bars (e.g. the known error)
 //! are drawn in a second colour. Equal inputs give byte-identical files.
 
-use plotters::backend::{BitMapBackend, RGBPixel, SVGBackend};
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
-use super::frf_plot::{Figure, PlotError, encode_png, register_fonts};
+use super::frf_plot::{Figure, PlotError, render};
 
 /// One panel.
 #[derive(Clone, Debug, PartialEq)]
@@ -48,28 +47,12 @@ const MAX_LABELS: usize = 28;
 
 /// Renders the chart as PNG and SVG.
 pub fn bar_plot(plot: &BarPlot) -> Result<Figure, PlotError> {
-    register_fonts()?;
     let columns = plot.columns.clamp(1, plot.panels.len().max(1));
     let rows = plot.panels.len().max(1).div_ceil(columns);
     let (w, h) = (PANEL.0 * columns as u32, TITLE_H + PANEL.1 * rows as u32);
-    let mut rgb = vec![255u8; w as usize * h as usize * 3];
-    {
-        let backend = BitMapBackend::<RGBPixel>::with_buffer_and_format(&mut rgb, (w, h))
-            .map_err(|e| PlotError::Backend(e.to_string()))?;
-        let root = backend.into_drawing_area();
-        draw(&root, plot, columns)?;
-        root.present()
-            .map_err(|e| PlotError::Backend(e.to_string()))?;
-    }
-    let png = encode_png(&rgb, w, h)?;
-    let mut svg = String::new();
-    {
-        let root = SVGBackend::with_string(&mut svg, (w, h)).into_drawing_area();
-        draw(&root, plot, columns)?;
-        root.present()
-            .map_err(|e| PlotError::Backend(e.to_string()))?;
-    }
-    Ok(Figure { png, svg })
+    render(w, h, &|root| draw(root, plot, columns), &|root| {
+        draw(root, plot, columns)
+    })
 }
 
 fn draw<DB: DrawingBackend>(

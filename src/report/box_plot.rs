@@ -7,14 +7,13 @@
 //! points beyond are drawn one by one. Rendering uses the embedded DejaVu Sans faces, so equal
 //! data give byte-identical files on any machine.
 
-use plotters::backend::{BitMapBackend, RGBPixel, SVGBackend};
 use plotters::coord::Shift;
 use plotters::coord::ranged1d::{DefaultFormatting, KeyPointHint, Ranged};
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 use std::ops::Range;
 
-use super::frf_plot::{Figure, PlotError, encode_png, register_fonts};
+use super::frf_plot::{Figure, PlotError, render};
 
 /// What to draw.
 #[derive(Clone, Debug, PartialEq)]
@@ -215,26 +214,8 @@ fn tick_label(v: f64) -> String {
 
 /// Renders the box plot as PNG and SVG.
 pub fn box_plot(data: &BoxPlotData) -> Result<Figure, PlotError> {
-    register_fonts()?;
     let (w, h) = SIZE;
-    let mut rgb = vec![0u8; w as usize * h as usize * 3];
-    {
-        let backend = BitMapBackend::<RGBPixel>::with_buffer_and_format(&mut rgb, (w, h))
-            .map_err(|e| PlotError::Backend(e.to_string()))?;
-        let root = backend.into_drawing_area();
-        draw(&root, data)?;
-        root.present()
-            .map_err(|e| PlotError::Backend(e.to_string()))?;
-    }
-    let png = encode_png(&rgb, w, h)?;
-    let mut svg = String::new();
-    {
-        let root = SVGBackend::with_string(&mut svg, (w, h)).into_drawing_area();
-        draw(&root, data)?;
-        root.present()
-            .map_err(|e| PlotError::Backend(e.to_string()))?;
-    }
-    Ok(Figure { png, svg })
+    render(w, h, &|root| draw(root, data), &|root| draw(root, data))
 }
 
 fn draw<DB: DrawingBackend>(

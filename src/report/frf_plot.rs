@@ -220,26 +220,47 @@ pub fn frf_overlay(
     opts: &FrfPlotOptions,
 ) -> Result<Figure, PlotError> {
     let plan = Plan::new(measured, predicted, correlation, opts)?;
-    register_fonts()?;
-    let (w, h) = (opts.width_px, opts.height_px);
+    render(
+        opts.width_px,
+        opts.height_px,
+        &|root| draw(root, &plan),
+        &|root| draw(root, &plan),
+    )
+}
 
+/// Draws one figure on the bitmap backend (see [`render`]).
+pub(crate) type BitmapDrawing<'a> = dyn for<'b, 'c> Fn(&'c DrawingArea<BitMapBackend<'b, RGBPixel>, Shift>) -> Result<(), PlotError>
+    + 'a;
+/// Draws one figure on the SVG backend (see [`render`]).
+pub(crate) type SvgDrawing<'a> =
+    dyn for<'b, 'c> Fn(&'c DrawingArea<SVGBackend<'b>, Shift>) -> Result<(), PlotError> + 'a;
+
+/// Renders a figure of `w × h` pixels as PNG and SVG: `bitmap` and `svg` are the same drawing
+/// (a generic function instantiated for each backend). Every drawing fills its background, so
+/// equal inputs give byte-identical files.
+pub(crate) fn render(
+    w: u32,
+    h: u32,
+    bitmap: &BitmapDrawing<'_>,
+    svg: &SvgDrawing<'_>,
+) -> Result<Figure, PlotError> {
+    register_fonts()?;
     let mut rgb = vec![255u8; w as usize * h as usize * 3];
     {
         let backend = BitMapBackend::<RGBPixel>::with_buffer_and_format(&mut rgb, (w, h))
             .map_err(|e| PlotError::Backend(e.to_string()))?;
         let root = backend.into_drawing_area();
-        draw(&root, &plan)?;
+        bitmap(&root)?;
         root.present().map_err(backend_error)?;
     }
     let png = encode_png(&rgb, w, h)?;
-
-    let mut svg = String::new();
+    let mut text = String::new();
     {
-        let root = SVGBackend::with_string(&mut svg, (w, h)).into_drawing_area();
-        draw(&root, &plan)?;
+        let root = SVGBackend::with_string(&mut text, (w, h)).into_drawing_area();
+        svg(&root)?;
         root.present().map_err(backend_error)?;
     }
-    Ok(Figure { png, svg })
+    Ok(Figure { png, svg: text })
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -3,11 +3,10 @@
 //! reference value (the known truth), drawn as a dashed line in the series' colour. Equal inputs
 //! give byte-identical files.
 
-use plotters::backend::{BitMapBackend, RGBPixel, SVGBackend};
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
-use super::frf_plot::{Figure, PlotError, encode_png, register_fonts};
+use super::frf_plot::{Figure, PlotError, render};
 
 /// One line.
 #[derive(Clone, Debug, PartialEq)]
@@ -64,27 +63,9 @@ const LEGEND_W: u32 = 150;
 
 /// Renders the chart as PNG and SVG.
 pub fn line_plot(plot: &LinePlot) -> Result<Figure, PlotError> {
-    register_fonts()?;
     let rows = plot.panels.len().max(1) as u32;
     let (w, h) = (PANEL.0 + LEGEND_W, TITLE_H + PANEL.1 * rows);
-    let mut rgb = vec![255u8; w as usize * h as usize * 3];
-    {
-        let backend = BitMapBackend::<RGBPixel>::with_buffer_and_format(&mut rgb, (w, h))
-            .map_err(|e| PlotError::Backend(e.to_string()))?;
-        let root = backend.into_drawing_area();
-        draw(&root, plot)?;
-        root.present()
-            .map_err(|e| PlotError::Backend(e.to_string()))?;
-    }
-    let png = encode_png(&rgb, w, h)?;
-    let mut svg = String::new();
-    {
-        let root = SVGBackend::with_string(&mut svg, (w, h)).into_drawing_area();
-        draw(&root, plot)?;
-        root.present()
-            .map_err(|e| PlotError::Backend(e.to_string()))?;
-    }
-    Ok(Figure { png, svg })
+    render(w, h, &|root| draw(root, plot), &|root| draw(root, plot))
 }
 
 /// The value range of a panel (values and references), padded by 5 %.

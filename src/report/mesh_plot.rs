@@ -10,12 +10,11 @@
 
 use std::collections::{BTreeMap, BTreeSet};
 
-use plotters::backend::{BitMapBackend, RGBPixel, SVGBackend};
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 
-use super::frf_plot::{Figure, PlotError, encode_png, register_fonts};
+use super::frf_plot::{Figure, PlotError, render};
 use crate::model::{Element, Model};
 
 /// Viewing direction: the camera looks at the mesh from this azimuth and elevation.
@@ -197,30 +196,14 @@ fn items(model: &Model, view: View) -> Vec<Item> {
 
 /// Renders the panels as PNG and SVG.
 pub fn mesh_plot(plot: &MeshPlot<'_>) -> Result<Figure, PlotError> {
-    register_fonts()?;
     let columns = plot.columns.clamp(1, plot.panels.len().max(1));
     let rows = plot.panels.len().max(1).div_ceil(columns);
     let w = PANEL.0 * columns as u32 + BAR_W;
     let h = TITLE_H + PANEL.1 * rows as u32;
     let items = items(plot.model, plot.view);
-    let mut rgb = vec![255u8; w as usize * h as usize * 3];
-    {
-        let backend = BitMapBackend::<RGBPixel>::with_buffer_and_format(&mut rgb, (w, h))
-            .map_err(|e| PlotError::Backend(e.to_string()))?;
-        let root = backend.into_drawing_area();
-        draw(&root, plot, &items, columns)?;
-        root.present()
-            .map_err(|e| PlotError::Backend(e.to_string()))?;
-    }
-    let png = encode_png(&rgb, w, h)?;
-    let mut svg = String::new();
-    {
-        let root = SVGBackend::with_string(&mut svg, (w, h)).into_drawing_area();
-        draw(&root, plot, &items, columns)?;
-        root.present()
-            .map_err(|e| PlotError::Backend(e.to_string()))?;
-    }
-    Ok(Figure { png, svg })
+    render(w, h, &|root| draw(root, plot, &items, columns), &|root| {
+        draw(root, plot, &items, columns)
+    })
 }
 
 fn text<'a>(size: f64, bold: bool, pos: Pos) -> TextStyle<'a> {
