@@ -55,7 +55,8 @@ fn parse_dofs(
         .collect()
 }
 
-fn expect_kind(a: &Artefact, kind: ArtefactKind) -> Result<(), ArtefactError> {
+/// Checks an artefact's kind before reading it as `kind`.
+pub(crate) fn expect_kind(a: &Artefact, kind: ArtefactKind) -> Result<(), ArtefactError> {
     if a.kind == kind {
         Ok(())
     } else {

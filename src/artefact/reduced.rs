@@ -12,7 +12,7 @@
 //! full transformation is `T_k = T_loc C_k`. `dK__<p>`, `dM__<p>` are the reduced derivatives
 //! `Σ T_kᵀ ∂K_k/∂φ T_k` of every model parameter `p` (3.59).
 
-use super::kinds::{ColumnLayout, TableLayout, col};
+use super::kinds::{ColumnLayout, TableLayout, col, expect_kind};
 use super::{Artefact, ArtefactError, ArtefactKind, Column, Storage, Table};
 use crate::core::DofId;
 use crate::eigen::ModeSelection;
@@ -105,18 +105,6 @@ pub fn partition_to_artefact(p: &Partition) -> Artefact {
 fn dof(kind: ArtefactKind, table: &str, row: usize, s: &str) -> Result<DofId, ArtefactError> {
     s.parse()
         .map_err(|e| ArtefactError::schema(kind, format!("table `{table}` row {row}: {e}")))
-}
-
-/// Checks an artefact's kind before reading it as `kind`.
-fn expect_kind(a: &Artefact, kind: ArtefactKind) -> Result<(), ArtefactError> {
-    if a.kind == kind {
-        Ok(())
-    } else {
-        Err(ArtefactError::schema(
-            kind,
-            format!("got a `{}` artefact", a.kind),
-        ))
-    }
 }
 
 /// The `dof` column of table `table`.

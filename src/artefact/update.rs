@@ -202,14 +202,21 @@ pub fn with_modal_damping(a: Artefact, kind: &str, modes: &[IdentifiedDamping]) 
         .with_table("modal_damping", table, Storage::Parquet)
 }
 
-/// Final value of each parameter, by name, from an `update_result`.
-pub fn final_values(a: &Artefact) -> Result<Vec<(String, f64)>, ArtefactError> {
-    if a.kind != K {
-        return Err(ArtefactError::schema(
+/// Refuses an artefact of another kind than `update_result`.
+fn expect_update_result(a: &Artefact) -> Result<(), ArtefactError> {
+    if a.kind == K {
+        Ok(())
+    } else {
+        Err(ArtefactError::schema(
             a.kind,
             format!("expected an `{}` artefact", K.name()),
-        ));
+        ))
     }
+}
+
+/// Final value of each parameter, by name, from an `update_result`.
+pub fn final_values(a: &Artefact) -> Result<Vec<(String, f64)>, ArtefactError> {
+    expect_update_result(a)?;
     let t = a.table("parameters")?;
     let names = t.strs("parameters", "parameter")?;
     let values = t.f64s("parameters", "final")?;
@@ -236,12 +243,7 @@ pub struct Convergence {
 
 /// Reads the history of an `update_result` (tables `parameters`, `iterations`, `history`).
 pub fn convergence_from_artefact(a: &Artefact) -> Result<Convergence, ArtefactError> {
-    if a.kind != K {
-        return Err(ArtefactError::schema(
-            a.kind,
-            format!("expected an `{}` artefact", K.name()),
-        ));
-    }
+    expect_update_result(a)?;
     let params = a.table("parameters")?;
     let parameters = params.strs("parameters", "parameter")?.to_vec();
     let initial = params.f64s("parameters", "initial")?.to_vec();

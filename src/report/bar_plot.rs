@@ -5,7 +5,7 @@
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
-use super::frf_plot::{Figure, PlotError, render};
+use super::frf_plot::{Figure, PlotError, render, titled_figure};
 
 /// One panel.
 #[derive(Clone, Debug, PartialEq)]
@@ -61,14 +61,7 @@ fn draw<DB: DrawingBackend>(
     columns: usize,
 ) -> Result<(), PlotError> {
     let be = |e: DrawingAreaErrorKind<DB::ErrorType>| PlotError::Backend(e.to_string());
-    root.fill(&WHITE).map_err(be)?;
-    let (title, body) = root.split_vertically(TITLE_H);
-    title
-        .titled(
-            &plot.title,
-            ("sans-serif", 20, FontStyle::Bold).into_font().color(&INK),
-        )
-        .map_err(be)?;
+    let body = titled_figure(root, &plot.title, TITLE_H, &INK)?;
     let rows = plot.panels.len().max(1).div_ceil(columns);
     let cells = body.split_evenly((rows, columns));
     for (panel, cell) in plot.panels.iter().zip(cells.iter()) {

@@ -228,6 +228,24 @@ pub fn frf_overlay(
     )
 }
 
+/// Clears `root` to white and writes a bold figure title in a band `height` pixels high;
+/// returns the area under it.
+pub(crate) fn titled_figure<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    title: &str,
+    height: u32,
+    ink: &RGBColor,
+) -> Result<DrawingArea<DB, Shift>, PlotError> {
+    root.fill(&WHITE).map_err(backend_error)?;
+    let (band, body) = root.split_vertically(height);
+    band.titled(
+        title,
+        ("sans-serif", 20, FontStyle::Bold).into_font().color(ink),
+    )
+    .map_err(backend_error)?;
+    Ok(body)
+}
+
 /// Draws one figure on the bitmap backend (see [`render`]).
 pub(crate) type BitmapDrawing<'a> = dyn for<'b, 'c> Fn(&'c DrawingArea<BitMapBackend<'b, RGBPixel>, Shift>) -> Result<(), PlotError>
     + 'a;

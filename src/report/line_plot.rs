@@ -6,7 +6,7 @@
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
-use super::frf_plot::{Figure, PlotError, render};
+use super::frf_plot::{Figure, PlotError, render, titled_figure};
 
 /// One line.
 #[derive(Clone, Debug, PartialEq)]
@@ -94,14 +94,7 @@ fn draw<DB: DrawingBackend>(
     plot: &LinePlot,
 ) -> Result<(), PlotError> {
     let be = |e: DrawingAreaErrorKind<DB::ErrorType>| PlotError::Backend(e.to_string());
-    root.fill(&WHITE).map_err(be)?;
-    let (title, body) = root.split_vertically(TITLE_H);
-    title
-        .titled(
-            &plot.title,
-            ("sans-serif", 20, FontStyle::Bold).into_font().color(&INK),
-        )
-        .map_err(be)?;
+    let body = titled_figure(root, &plot.title, TITLE_H, &INK)?;
     let cells = body.split_evenly((plot.panels.len().max(1), 1));
     for (panel, cell) in plot.panels.iter().zip(cells.iter()) {
         let (chart_area, legend) = cell.split_horizontally(PANEL.0);
