@@ -74,13 +74,14 @@ fn four_dof_rfm_reproduces_c1() {
     assert!(chi.last().unwrap() > &chi[0], "{chi:?}");
 }
 
-/// C2 §4.6 as far as it goes today: the P-C from three noisy FRFs (on the Craig-Bampton model
-/// and on the full model) and from α_11 alone raises the mean correlation by several points
-/// within ten iterations; with one FRF `χ_s ≡ 1`; each
-/// result reports its nine thicknesses and the diagnostics of `S`. (The thesis's recovery of the
-/// thin strip to 1.36 mm is not reached: neighbouring strips compensate; see the pipeline.)
+/// C2 §4.6: the P-C with two smoothing phases (added loss factors 0.1, 0.03) and the merit's
+/// steps, from three noisy FRFs on the Craig-Bampton and on the full model, meets the stop rule
+/// within ten iterations and moves the thin strip (t5, 0.8 mm) toward the true 1.4 mm: above
+/// 1.2 mm, with the two strips beside the bend (t5 + t6) within 3 % of their true 2.8 mm. From
+/// α_11 alone (`χ_s ≡ 1`) t5 passes 1 mm. The phases are recorded in order, the last
+/// unsmoothed. (Without the continuation t5 went the wrong way, to 0.72 mm: see the pipeline.)
 #[test]
-fn bent_plate_pc_improves_the_correlation() {
+fn bent_plate_pc_recovers_the_thin_strip() {
     let tmp = tempfile::tempdir().unwrap();
     let out = tmp.path().join("out");
     let (_, report, cache) = run(&pipeline("bent-plate-pc"), &tmp.path().join("cache"), &[]);
@@ -90,12 +91,33 @@ fn bent_plate_pc_improves_the_correlation() {
         let it = a.table("iterations").unwrap();
         let chi = it.f64s("iterations", "mean_chi").unwrap();
         assert!(chi.len() <= 11, "{stage}: {} records", chi.len());
-        assert!(chi.last().unwrap() - chi[0] > 0.04, "{stage}: {chi:?}");
+        assert!(chi.last().unwrap() - chi[0] > 0.06, "{stage}: {chi:?}");
         let chi_s = it.f64s("iterations", "mean_chi_s").unwrap();
         if stage == "pc_one_frf" {
             assert!(chi_s.iter().all(|c| (c - 1.0).abs() < 1e-12), "{chi_s:?}");
         }
-        assert_eq!(results(&out, stage).len(), 9);
+        let phases = it.f64s("iterations", "smoothing").unwrap();
+        // (A phase whose smoothed correlation already meets the stop rule takes no step.)
+        assert!(phases[0] > 0.0, "{stage}: {phases:?}");
+        assert!(phases.windows(2).all(|w| w[1] <= w[0]), "{phases:?}");
+        assert_eq!(*phases.last().unwrap(), 0.0, "{stage}: {phases:?}");
+        let v = results(&out, stage);
+        assert_eq!(v.len(), 9);
+        if stage == "pc_one_frf" {
+            assert!(v["t5"] > 1.0e-3, "{stage}: t5 = {}", v["t5"]);
+        } else {
+            assert_eq!(meta(&out, stage, "stop"), "converged", "{stage}");
+            assert!(
+                v["t5"] > 1.2e-3 && v["t5"] < 1.45e-3,
+                "{stage}: t5 = {}",
+                v["t5"]
+            );
+            let pair = v["t5"] + v["t6"];
+            assert!(
+                (pair / 2.8e-3 - 1.0).abs() < 0.03,
+                "{stage}: t5 + t6 = {pair}"
+            );
+        }
         let sv = a.table("singular_values").unwrap();
         assert_eq!(sv.f64s("singular_values", "value").unwrap().len() % 9, 0);
         // Its convergence figure is drawn.
@@ -113,7 +135,7 @@ fn bent_plate_pc_improves_the_correlation() {
         mean_chi("initial_correlation"),
         mean_chi("updated_correlation"),
     );
-    assert!(after > before + 0.04, "mean chi {before} -> {after}");
+    assert!(before < 0.9 && after > 0.99, "mean chi {before} -> {after}");
     for stage in ["initial_plot", "updated_plot"] {
         let plot = read_dir(&out.join(stage).join("plot")).unwrap();
         assert!(plot.blobs["frf.png"].starts_with(b"\x89PNG"));

@@ -766,6 +766,18 @@ pub fn layout(kind: ArtefactKind) -> Vec<TableLayout> {
                     col("mean_chi_a", "float64", "", "mean amplitude correlation"),
                     col("mean_chi", "float64", "", "mean (chi_s + chi_a)/2 (4.23)"),
                     col(
+                        "smoothing",
+                        "float64",
+                        "",
+                        "added loss factor of the P-C's frequency smoothing, 0 = none",
+                    ),
+                    col(
+                        "smoothed_mean_chi",
+                        "float64",
+                        "",
+                        "mean (chi_s + chi_a)/2 of the smoothed FRFs (the merit), NaN = none",
+                    ),
+                    col(
                         "residual_norm",
                         "float64",
                         "",

@@ -60,6 +60,14 @@ pub fn update_result_to_artefact(h: &UpdateHistory, method: &str) -> Artefact {
             Column::F64(h.iterations.iter().map(|r| r.mean_chi()).collect()),
         )
         .with(
+            "smoothing",
+            Column::F64(h.iterations.iter().map(|r| r.smoothing).collect()),
+        )
+        .with(
+            "smoothed_mean_chi",
+            Column::F64(h.iterations.iter().map(|r| r.smoothed_mean_chi).collect()),
+        )
+        .with(
             "residual_norm",
             Column::F64(h.iterations.iter().map(|r| r.residual_norm).collect()),
         )
@@ -309,6 +317,8 @@ mod tests {
             mean_chi_a: if i == 0 { f64::NAN } else { 0.9816106067610754 },
             residual_norm: 0.5,
             condition_limit: f64::NAN,
+            smoothing: if i == 0 { 0.1 } else { 0.0 },
+            smoothed_mean_chi: if i == 0 { 0.95 } else { f64::NAN },
             diagnostics: Diagnostics {
                 singular_values: vec![2.0, 0.0],
                 condition: f64::INFINITY,

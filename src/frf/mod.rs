@@ -4,6 +4,7 @@
 pub mod direct;
 pub mod modal;
 pub mod noise;
+pub mod smoothing;
 
 use crate::core::DofId;
 use faer::{Mat, c64};
@@ -11,6 +12,7 @@ use faer::{Mat, c64};
 pub use direct::{DirectDamping, DirectError, direct_receptance};
 pub use modal::{ModalDamping, ModalError, modal_receptance};
 pub use noise::{NoiseModel, add_noise};
+pub use smoothing::FrequencySmoothing;
 
 /// Which response quantity an FRF holds (1.4).
 #[derive(

@@ -30,7 +30,7 @@ use crate::updating::rfm::{ResponseFunctionMethod, RfmSettings};
 use crate::updating::sensitive_start::sensitive_start;
 use crate::updating::{
     FeModel, LinearModel, ParameterWeighting, ParametricModel, ReducedFeModel, UpdateMethod, run,
-    run_from,
+    run_phases,
 };
 
 /// The stage.
@@ -84,6 +84,21 @@ pub struct PcParams {
     /// one sparse Cholesky of K per iteration); `false`: the thesis's truncated sensitivities.
     #[serde(default = "yes")]
     pub static_correction: bool,
+    /// Continuation phases before the P-C proper, e.g. `[0.1, 0.03]`: each an added loss
+    /// factor `g` by which measured and predicted FRFs are smoothed over frequency (a Poisson
+    /// kernel of half-width `g f / 2`: every mode seen with that much more damping). Broadened
+    /// peaks overlap when the initial model's resonances lie many half-power bandwidths from the
+    /// measured ones, where the unsmoothed correlation no longer tells which way to go. Each
+    /// phase runs until its smoothed mean correlation reaches the stop rule or gains less than
+    /// 1e-3 per iteration; the phases share `max_iterations` with the final, unsmoothed P-C.
+    #[serde(default)]
+    pub smoothing: Vec<f64>,
+    /// Also try, at every iteration, the Gauss-Newton steps on the stop figure (the mean
+    /// correlation) itself: the P-C's equations with weights `1/(1 − χ)` over every line. The
+    /// thesis's line choice (4.20) and weights (4.21) can stall where the mean correlation
+    /// still rises toward the solution; these steps do not. Off: the thesis's steps alone.
+    #[serde(default)]
+    pub merit_steps: bool,
 }
 
 impl Default for PcParams {
@@ -96,6 +111,8 @@ impl Default for PcParams {
             weighting_gamma: None,
             max_step: 1.0,
             static_correction: true,
+            smoothing: Vec::new(),
+            merit_steps: false,
         }
     }
 }
@@ -274,7 +291,7 @@ impl TypedStage for Update {
     const KIND: &'static str = "update";
     const SUMMARY: &'static str =
         "Update model parameters from measured FRFs (P-C, RFM) or modes (inverse eigensensitivity)";
-    const IMPL_VERSION: u32 = 3;
+    const IMPL_VERSION: u32 = 4;
 
     fn inputs() -> Vec<PortSpec> {
         vec![
@@ -353,6 +370,20 @@ impl TypedStage for Update {
             issues.push(ParamIssue::at(
                 "method",
                 "the RFM works on the full model's receptances: disconnect `partition`",
+            ));
+        }
+        for (i, &g) in p.pc.smoothing.iter().enumerate() {
+            if !(g.is_finite() && g > 0.0 && g <= 1.0) {
+                issues.push(ParamIssue::at(
+                    "pc.smoothing",
+                    format!("entry {i}, {g}, must be an added loss factor in (0, 1], e.g. 0.1"),
+                ));
+            }
+        }
+        if p.method != Method::Pc && !p.pc.smoothing.is_empty() {
+            issues.push(ParamIssue::at(
+                "pc.smoothing",
+                "only the method `pc` has smoothing phases: remove `pc.smoothing`",
             ));
         }
         if let Some(f) = p.reduction.interface_modes_hz {
@@ -624,10 +655,12 @@ impl TypedStage for Update {
             .as_ref()
             .and_then(|m| m.freqs_hz.last().copied())
             .unwrap_or(0.0);
+        // The P-C's smoothing phases (continuation), each its own method.
+        let mut phases: Vec<Box<dyn UpdateMethod + '_>> = Vec::new();
         let method: Box<dyn UpdateMethod + '_> = match p.method {
-            Method::Pc => Box::new(PredictorCorrector {
-                measured: measured.as_ref().ok_or_else(|| missing("measured"))?,
-                settings: PcSettings {
+            Method::Pc => {
+                let measured = measured.as_ref().ok_or_else(|| missing("measured"))?;
+                let settings = |smoothing: f64| PcSettings {
                     kappa_f: p.kappa_f(),
                     resonance_lines: p.resonance_lines(),
                     stop_chi: p.stop_chi(),
@@ -637,8 +670,14 @@ impl TypedStage for Update {
                     modes: modes(2.0 * top_hz),
                     damping: p.damping.modal(),
                     static_correction: p.pc.static_correction,
-                },
-            }),
+                    smoothing,
+                    merit_steps: p.pc.merit_steps,
+                };
+                for &g in &p.pc.smoothing {
+                    phases.push(Box::new(PredictorCorrector::new(measured, settings(g))));
+                }
+                Box::new(PredictorCorrector::new(measured, settings(0.0)))
+            }
             Method::Rfm => Box::new(ResponseFunctionMethod {
                 measured: measured.as_ref().ok_or_else(|| missing("measured"))?,
                 settings: RfmSettings {
@@ -680,7 +719,9 @@ impl TypedStage for Update {
             Some(ss) => move_to_sensitive_regions(model.as_ref(), ss)?,
             None => (model.initial_values(), Vec::new()),
         };
-        let history = run_from(method.as_ref(), model.as_ref(), &start, p.max_iterations)
+        phases.push(method);
+        let phases: Vec<&dyn UpdateMethod> = phases.iter().map(|m| m.as_ref()).collect();
+        let history = run_phases(&phases, model.as_ref(), &start, p.max_iterations)
             .map_err(StageError::failed)?;
         let updated = model
             .evaluate(&history.final_values)

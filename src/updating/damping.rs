@@ -222,6 +222,7 @@ impl UpdateMethod for DampingIdentification<'_> {
             s.subset_kappa,
             ParameterWeighting::None,
             s.max_step,
+            None,
         ))
     }
 

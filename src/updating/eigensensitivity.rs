@@ -145,6 +145,8 @@ impl UpdateMethod for InverseEigensensitivity<'_> {
             mean_chi_a: f64::NAN,
             residual_norm: eps.iter().map(|e| e * e).sum::<f64>().sqrt(),
             condition_limit: f64::NAN,
+            smoothing: 0.0,
+            smoothed_mean_chi: f64::NAN,
             diagnostics: diagnostics(s.as_ref()),
         };
         let active: Vec<usize> = match self.settings.subset_kappa {

@@ -40,6 +40,12 @@ pub struct IterationRecord {
     pub residual_norm: f64,
     /// `κ_mn` of the subset selection (NaN when not used).
     pub condition_limit: f64,
+    /// Added loss factor `g` of the frequency smoothing this iteration's equations were
+    /// written with (0: none; see `frf::smoothing`).
+    pub smoothing: f64,
+    /// Mean `(χ_s + χ_a)/2` of the smoothed FRFs, the merit of a smoothed iteration (NaN when
+    /// not smoothed); `mean_chi_s` and `mean_chi_a` are always those of the FRFs themselves.
+    pub smoothed_mean_chi: f64,
     /// SVD of the (weighted) sensitivity matrix over all parameters.
     pub diagnostics: Diagnostics,
 }
@@ -75,6 +81,9 @@ pub struct Step {
     /// Safer steps to try, in order, when the step in `record` lowers the merit (e.g.
     /// increasingly damped ones); when empty the step is halved instead.
     pub fallbacks: Vec<Vec<f64>>,
+    /// Steps of another kind, tried only when neither the step nor a fallback raises the merit
+    /// (the P-C's Gauss-Newton steps on its stop figure, which rescue a stalled iteration).
+    pub rescues: Vec<Vec<f64>>,
 }
 
 impl Step {
@@ -84,6 +93,7 @@ impl Step {
             record,
             stop,
             fallbacks: Vec::new(),
+            rescues: Vec::new(),
         }
     }
 }
@@ -160,6 +170,44 @@ pub fn run(
     run_from(method, model, &model.initial_values(), max_iterations)
 }
 
+/// Runs `phases` one after another, each from where the last ended (a continuation, e.g. the
+/// P-C's smoothing phases before the P-C proper), sharing `max_iterations`: a phase that ends
+/// early leaves its iterations to the next. The history holds every phase's iterations,
+/// numbered on; a phase's closing analysis gives way to the next phase's opening one at the
+/// same values. The stop reason is the last phase's.
+pub fn run_phases(
+    phases: &[&dyn UpdateMethod],
+    model: &dyn ParametricModel,
+    start: &[f64],
+    max_iterations: usize,
+) -> Result<UpdateHistory, UpdatingError> {
+    let Some((last, first)) = phases.split_last() else {
+        return Err(UpdatingError::Settings("no updating method to run".into()));
+    };
+    let mut done: Vec<IterationRecord> = Vec::new();
+    let mut values = start.to_vec();
+    let mut remaining = max_iterations;
+    for phase in first {
+        let mut h = run_from(*phase, model, &values, remaining)?;
+        h.iterations.pop();
+        remaining -= h.iterations.len();
+        renumber(&mut h.iterations, done.len());
+        done.append(&mut h.iterations);
+        values = h.final_values;
+    }
+    let mut h = run_from(*last, model, &values, remaining)?;
+    renumber(&mut h.iterations, done.len());
+    done.append(&mut h.iterations);
+    h.iterations = done;
+    Ok(h)
+}
+
+fn renumber(records: &mut [IterationRecord], offset: usize) {
+    for r in records {
+        r.iteration += offset;
+    }
+}
+
 /// [`run`] from `start` instead of the model's initial values (e.g. after
 /// [`sensitive_start::sensitive_start`]); each start value must lie within its bounds.
 pub fn run_from(
@@ -224,6 +272,15 @@ pub fn run_from(
                     let candidate = method.iterate(model, &v, it + 1)?;
                     if method.merit(&candidate.record) > method.merit(&next.record) {
                         (next_values, applied, next) = (v, a, candidate);
+                    }
+                }
+                if method.merit(&next.record) <= Some(before) {
+                    for f in &current.rescues {
+                        let (v, a) = apply_step(&params, &values, f);
+                        let candidate = method.iterate(model, &v, it + 1)?;
+                        if method.merit(&candidate.record) > method.merit(&next.record) {
+                            (next_values, applied, next) = (v, a, candidate);
+                        }
                     }
                 }
             } else {

@@ -16,7 +16,7 @@ use super::solve::{
 use super::{IterationRecord, Step, StopReason, UpdateMethod};
 use crate::correlation::frf::{amplitude_correlation, shape_correlation};
 use crate::eigen::ModeSelection;
-use crate::frf::{FrfSet, ModalDamping, modal_receptance};
+use crate::frf::{FrequencySmoothing, FrfSet, ModalDamping, modal_receptance};
 use crate::sensitivity::{ModalFrfModel, chi_sensitivity, frf_sensitivities};
 use faer::{Mat, MatRef, c64};
 
@@ -42,7 +42,20 @@ pub struct PcSettings {
     /// Add the truncated modes' static share to the mode-shape derivatives (see
     /// `sensitivity::frf::static_shape_correction`); off: the thesis's truncated form.
     pub static_correction: bool,
+    /// Added loss factor `g` of a frequency smoothing of measured and predicted FRFs and of
+    /// the sensitivities (`frf::smoothing`), 0 for none. With smoothing the equations use every
+    /// line (the smoothed responses are defined at resonances too), the merit and the stop rule
+    /// are the smoothed mean correlation, and the run ends when an iteration gains less than
+    /// [`SMOOTHED_MERIT_GAIN`]: a continuation phase, not the final answer.
+    pub smoothing: f64,
+    /// Offer the Gauss-Newton steps on the stop figure itself ([`merit_equations`]) beside the
+    /// P-C's own: the candidate with the highest mean correlation wins. Off: the thesis's
+    /// steps alone.
+    pub merit_steps: bool,
 }
+
+/// A smoothed P-C phase ends when an iteration raises the smoothed mean correlation by less.
+pub const SMOOTHED_MERIT_GAIN: f64 = 1e-3;
 
 impl Default for PcSettings {
     fn default() -> Self {
@@ -56,16 +69,46 @@ impl Default for PcSettings {
             modes: ModeSelection::All,
             damping: ModalDamping::None,
             static_correction: true,
+            smoothing: 0.0,
+            merit_steps: false,
         }
     }
 }
 
 /// The P-C against one measured FRF set.
 pub struct PredictorCorrector<'a> {
-    /// Measured FRFs.
-    pub measured: &'a FrfSet,
-    /// Settings.
-    pub settings: PcSettings,
+    measured: &'a FrfSet,
+    settings: PcSettings,
+    /// With `settings.smoothing > 0`: the operator and the smoothed measurement.
+    smoothed: Option<(FrequencySmoothing, FrfSet)>,
+}
+
+impl<'a> PredictorCorrector<'a> {
+    /// The P-C against `measured` (smoothed once here when `settings.smoothing > 0`).
+    pub fn new(measured: &'a FrfSet, settings: PcSettings) -> Self {
+        let smoothed = (settings.smoothing > 0.0).then(|| {
+            let op = FrequencySmoothing::new(&measured.freqs_hz, settings.smoothing);
+            let m = smooth_set(&op, measured);
+            (op, m)
+        });
+        PredictorCorrector {
+            measured,
+            settings,
+            smoothed,
+        }
+    }
+
+    /// The settings.
+    pub fn settings(&self) -> &PcSettings {
+        &self.settings
+    }
+}
+
+fn smooth_set(op: &FrequencySmoothing, set: &FrfSet) -> FrfSet {
+    FrfSet {
+        values: op.apply(set.values.as_ref()),
+        ..set.clone()
+    }
 }
 
 /// `χ_s(ω_k)`, `χ_a(ω_k)` of a prediction against the measurement at every measured line (4.8, 4.9).
@@ -178,6 +221,30 @@ pub fn correlation_equations(
     (s, eps)
 }
 
+/// The equations of the Gauss-Newton step on the stop figure itself (4.23), from the
+/// unweighted P-C equations `(S, ε)` (`ε = 1 − χ` per row) at every line that is not next to a
+/// resonance.
+///
+/// Maximising the mean of `(χ_s + χ_a)/2` over the lines is minimising `Σ r²` with residuals
+/// `r = √(1 − χ)`, whose Jacobian rows are `−∂χ/(2r)`. Their Gauss-Newton equations are the P-C's
+/// rows scaled by `1/r` with right-hand side `2r`: the P-C's equations with `W_f = 1/(1 − χ)`
+/// instead of `χ` (4.21), every line instead of the poorly correlated ones (4.20), and a
+/// doubled right-hand side. Its fixed points are stationary points of the stop figure, which
+/// the P-C's are not: with (4.20) and (4.21) the step can vanish where the mean correlation
+/// still rises toward the solution (the bent plate of CASES C2 §4.6 stalls at 0.94 that way).
+/// Near a perfect match `χ ≈ 1 − c e²`, so `r ≈ √c |e|` is linear in the error and the step
+/// goes the whole way, where the P-C's goes half of it. `r` is floored at 10⁻⁶ so that a
+/// perfectly matched line stays finite.
+pub fn merit_equations(s: &mut Mat<f64>, eps: &mut [f64]) {
+    for (i, e) in eps.iter_mut().enumerate() {
+        let r = e.max(0.0).sqrt().max(1e-6);
+        for p in 0..s.ncols() {
+            s[(i, p)] /= r;
+        }
+        *e = 2.0 * r;
+    }
+}
+
 /// The opening every correlation-based iteration shares: the record of the prediction's
 /// correlation, then a stop by the rule (4.23) or for want of lines, or the updating lines
 /// (4.20).
@@ -204,6 +271,8 @@ pub(super) fn open_iteration(
         mean_chi_a: mean(&lines.chi_a),
         residual_norm: 0.0,
         condition_limit: f64::NAN,
+        smoothing: 0.0,
+        smoothed_mean_chi: f64::NAN,
         diagnostics: Default::default(),
     };
     if record.mean_chi() >= stop_chi {
@@ -233,6 +302,7 @@ pub(super) fn close_iteration(
     subset_kappa: Option<f64>,
     weighting: ParameterWeighting,
     max_step: f64,
+    merit: Option<(MatRef<'_, f64>, &[f64])>,
 ) -> Step {
     let (m, n) = (sw.nrows(), sw.ncols());
     record.residual_norm = ew.iter().map(|e| e * e).sum::<f64>().sqrt();
@@ -257,7 +327,16 @@ pub(super) fn close_iteration(
     };
     let step = |mu: f64| cap(damped_step(sw, ew, &active, weighting, mu));
     let delta = step(0.0);
-    let fallbacks = candidate_steps(&delta, cap, step);
+    let mut fallbacks = candidate_steps(&delta, &cap, step);
+    // The merit's Gauss-Newton step and its Levenberg-Marquardt relatives (μ = 10⁻¹ … 10²).
+    if let Some((sm, em)) = merit {
+        let merit_step = |mu: f64| cap(damped_step(sm, em, &active, weighting, mu));
+        fallbacks.extend(
+            std::iter::once(0.0)
+                .chain((-1..=2).map(|e| 10f64.powi(e)))
+                .map(merit_step),
+        );
+    }
     for &a in &active {
         record.active[a] = true;
     }
@@ -266,6 +345,7 @@ pub(super) fn close_iteration(
         record,
         stop: None,
         fallbacks,
+        rescues: Vec::new(),
     }
 }
 
@@ -280,7 +360,7 @@ pub(super) fn close_iteration(
 /// solution, or with noisy data whose best `χ` stays below 1, the merit decides.
 fn candidate_steps(
     delta: &[f64],
-    cap: impl Fn(Vec<f64>) -> Vec<f64>,
+    cap: &impl Fn(Vec<f64>) -> Vec<f64>,
     damped: impl Fn(f64) -> Vec<f64>,
 ) -> Vec<Vec<f64>> {
     std::iter::once(cap(delta.iter().map(|d| 2.0 * d).collect()))
@@ -329,22 +409,48 @@ impl UpdateMethod for PredictorCorrector<'_> {
     ) -> Result<Step, UpdatingError> {
         let s = &self.settings;
         let (state, evaluated) = model.modal_state(values, s.modes)?;
-        let predicted = predict(&state, self.measured, &s.damping)?;
-        let (record, stop, chosen) = open_iteration(
-            self.measured,
+        let raw = predict(&state, self.measured, &s.damping)?;
+        let natural_hz = state.modes.frequencies_hz();
+        // Smoothed responses are defined at resonances: no line is left out for being next to
+        // one.
+        let (measured, predicted, resonances) = match &self.smoothed {
+            Some((op, m)) => (m, smooth_set(op, &raw), &[][..]),
+            None => (self.measured, raw.clone(), &natural_hz[..]),
+        };
+        let (mut record, stop, chosen) = open_iteration(
+            measured,
             &predicted,
-            &state.modes.frequencies_hz(),
+            resonances,
             values,
             iteration,
             s.kappa_f,
             s.resonance_lines,
             s.stop_chi,
         );
+        if self.smoothed.is_some() {
+            record.smoothing = s.smoothing;
+            record.smoothed_mean_chi = record.mean_chi();
+            let own = LineCorrelation::new(self.measured, &raw);
+            record.mean_chi_s = mean(&own.chi_s);
+            record.mean_chi_a = mean(&own.chi_a);
+        }
         if stop.is_some() {
             return Ok(Step::new(record, stop));
         }
 
-        // Sensitivities at the chosen lines, on the DOFs the pairs need.
+        // Sensitivities at every line off the resonances (the merit equations'; every line
+        // when smoothing, which mixes them), on the DOFs the pairs need; the P-C's chosen
+        // lines are among them.
+        let all_lines = match &self.smoothed {
+            Some(_) => (0..measured.freqs_hz.len()).collect(),
+            None => select_lines(
+                &measured.freqs_hz,
+                &LineCorrelation::new(measured, &predicted),
+                resonances,
+                f64::INFINITY,
+                s.resonance_lines,
+            ),
+        };
         let dofs = self.measured.dofs();
         let shapes = state.shapes_at(&dofs)?;
         let modal = ModalFrfModel {
@@ -353,23 +459,36 @@ impl UpdateMethod for PredictorCorrector<'_> {
             dofs: &dofs,
             damping: &s.damping,
         };
-        let freqs: Vec<f64> = chosen.iter().map(|&k| self.measured.freqs_hz[k]).collect();
+        let freqs: Vec<f64> = all_lines.iter().map(|&k| measured.freqs_hz[k]).collect();
         // A reduced model's constraint/residual modes already hold the static share.
         let corrections = match (&evaluated, s.static_correction) {
             (Some(ev), true) => Some(state.shape_corrections(ev, values, &dofs)?),
             _ => None,
         };
-        let sens = frf_sensitivities(
+        let mut sens = frf_sensitivities(
             &modal,
-            &self.measured.pairs,
+            &measured.pairs,
             &freqs,
-            self.measured.quantity,
+            measured.quantity,
             &state.projected,
             corrections.as_deref(),
         )?;
+        if let Some((op, _)) = &self.smoothed {
+            sens = sens.iter().map(|d| op.apply(d.as_ref())).collect();
+        }
 
-        // S and ε, rows weighted by W_f^{1/2} (4.21).
-        let (sw, ew) = correlation_equations(self.measured, &predicted, &chosen, &sens, true);
+        // S and ε at the chosen lines, rows weighted by W_f^{1/2} (4.21); and the merit's
+        // Gauss-Newton equations at all of them.
+        let row_of: std::collections::HashMap<usize, usize> =
+            all_lines.iter().enumerate().map(|(i, &k)| (k, i)).collect();
+        let chosen_sens: Vec<Mat<c64>> = sens
+            .iter()
+            .map(|d| Mat::from_fn(chosen.len(), d.ncols(), |i, q| d[(row_of[&chosen[i]], q)]))
+            .collect();
+        let (sw, ew) = correlation_equations(measured, &predicted, &chosen, &chosen_sens, true);
+        let (mut sm, mut em) =
+            correlation_equations(measured, &predicted, &all_lines, &sens, false);
+        merit_equations(&mut sm, &mut em);
         Ok(close_iteration(
             record,
             sw.as_ref(),
@@ -377,10 +496,20 @@ impl UpdateMethod for PredictorCorrector<'_> {
             s.subset_kappa,
             s.weighting,
             s.max_step,
+            s.merit_steps.then_some((sm.as_ref(), &em[..])),
         ))
     }
 
+    /// A smoothed phase ends when the smoothed merit stops rising.
+    fn converged_by_merit(&self, before: &IterationRecord, after: &IterationRecord) -> bool {
+        self.smoothed.is_some()
+            && after.smoothed_mean_chi - before.smoothed_mean_chi < SMOOTHED_MERIT_GAIN
+    }
+
     fn merit(&self, record: &IterationRecord) -> Option<f64> {
-        Some(record.mean_chi())
+        Some(match self.smoothed {
+            Some(_) => record.smoothed_mean_chi,
+            None => record.mean_chi(),
+        })
     }
 }

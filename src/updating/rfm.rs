@@ -237,6 +237,8 @@ impl UpdateMethod for ResponseFunctionMethod<'_> {
             mean_chi_a: mean(&ca),
             residual_norm: b.iter().map(|v| v * v).sum::<f64>().sqrt(),
             condition_limit: f64::NAN,
+            smoothing: 0.0,
+            smoothed_mean_chi: f64::NAN,
             diagnostics: diagnostics(a.as_ref()),
         };
         Ok(Step::new(record, None))
