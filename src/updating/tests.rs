@@ -630,3 +630,39 @@ fn merit_equations_follow_the_gradient_of_the_mean_correlation() {
         2.0 * fd
     );
 }
+
+/// A continuation ([`run_phases`]): a smoothed P-C phase, then the P-C proper, share the
+/// iteration budget, number their iterations on, record their smoothing in order, and end
+/// where the unsmoothed phase's stop rule does — from a 30 % mass error on the four-DOF chain.
+#[test]
+fn phases_share_the_budget_and_number_their_iterations_on() {
+    let freqs = frequency_lines(0.5, 40.0, 0.1);
+    let data = measured(0.01, &freqs);
+    let settings = |smoothing: f64| PcSettings {
+        damping: ModalDamping::Structural(vec![0.01]),
+        smoothing,
+        merit_steps: true,
+        ..Default::default()
+    };
+    let smoothed = PredictorCorrector::new(&data, settings(0.05));
+    let proper = PredictorCorrector::new(&data, settings(0.0));
+    let model = chain_model(&[1.0, 1.3, 1.0, 1.0]);
+    let h = run_phases(&[&smoothed, &proper], &model, &model.initial_values(), 12).unwrap();
+    assert_eq!(h.stop, StopReason::Converged);
+    let numbers: Vec<usize> = h.iterations.iter().map(|r| r.iteration).collect();
+    assert_eq!(numbers, (0..h.iterations.len()).collect::<Vec<_>>());
+    assert!(h.iterations.len() <= 13);
+    let phases: Vec<f64> = h.iterations.iter().map(|r| r.smoothing).collect();
+    assert_eq!(phases[0], 0.05, "{phases:?}");
+    assert_eq!(*phases.last().unwrap(), 0.0, "{phases:?}");
+    assert!(phases.windows(2).all(|w| w[1] <= w[0]), "{phases:?}");
+    // The smoothed merit is recorded where it was used, the FRFs' own correlation everywhere.
+    for r in &h.iterations {
+        assert_eq!(r.smoothed_mean_chi.is_nan(), r.smoothing == 0.0);
+        assert!(r.mean_chi() > 0.0 && r.mean_chi() <= 1.0);
+    }
+    assert!(h.iterations.last().unwrap().mean_chi() >= 0.99);
+    for (i, v) in h.final_values.iter().enumerate() {
+        assert!((v - 1.0).abs() < 0.05, "m{} = {v}", i + 1);
+    }
+}
