@@ -153,6 +153,8 @@ pub struct Params {
     pub mode_count: Option<usize>,
     /// … or every mode up to this frequency (default: twice the highest measured line, the
     /// thesis's `2m` modes; for `eigensensitivity`, three times the measured modes' count).
+    /// A reduced model (`partition` connected) of up to 2000 DOFs is analysed on its complete
+    /// modal basis whatever these say: its component modes already chose the band.
     #[serde(default)]
     pub modes_max_hz: Option<f64>,
     /// P-C settings.
@@ -562,6 +564,12 @@ impl TypedStage for Update {
                                 crate::reduction::Method::FreeInterface { modes }
                             }
                         };
+                        if p.mode_count.is_some() || p.modes_max_hz.is_some() {
+                            tracing::info!(
+                                "mode_count/modes_max_hz apply to reduced models above {} DOFs; smaller ones use their complete modal basis",
+                                crate::updating::model::COMPLETE_REDUCED_BASIS
+                            );
+                        }
                         let reduced = ReducedFeModel::new(fe, partition, method);
                         match p.reduction.interface_modes_hz {
                             Some(f) => {
