@@ -438,11 +438,12 @@ impl UpdateMethod for PredictorCorrector<'_> {
             return Ok(Step::new(record, stop));
         }
 
-        // Sensitivities at every line off the resonances (the merit equations'; every line
-        // when smoothing, which mixes them), on the DOFs the pairs need; the P-C's chosen
-        // lines are among them.
+        // Sensitivities on the DOFs the pairs need: at every line when smoothing (which mixes
+        // them), at every line off the resonances for the merit's steps, else at the P-C's
+        // chosen lines (always among them).
         let all_lines = match &self.smoothed {
             Some(_) => (0..measured.freqs_hz.len()).collect(),
+            None if !s.merit_steps => chosen.clone(),
             None => select_lines(
                 &measured.freqs_hz,
                 &LineCorrelation::new(measured, &predicted),
@@ -486,9 +487,12 @@ impl UpdateMethod for PredictorCorrector<'_> {
             .map(|d| Mat::from_fn(chosen.len(), d.ncols(), |i, q| d[(row_of[&chosen[i]], q)]))
             .collect();
         let (sw, ew) = correlation_equations(measured, &predicted, &chosen, &chosen_sens, true);
-        let (mut sm, mut em) =
-            correlation_equations(measured, &predicted, &all_lines, &sens, false);
-        merit_equations(&mut sm, &mut em);
+        let merit = s.merit_steps.then(|| {
+            let (mut sm, mut em) =
+                correlation_equations(measured, &predicted, &all_lines, &sens, false);
+            merit_equations(&mut sm, &mut em);
+            (sm, em)
+        });
         Ok(close_iteration(
             record,
             sw.as_ref(),
@@ -496,7 +500,7 @@ impl UpdateMethod for PredictorCorrector<'_> {
             s.subset_kappa,
             s.weighting,
             s.max_step,
-            s.merit_steps.then_some((sm.as_ref(), &em[..])),
+            merit.as_ref().map(|(sm, em)| (sm.as_ref(), &em[..])),
         ))
     }
 
