@@ -129,6 +129,12 @@ fn bent_plate_pc_recovers_the_thin_strip() {
     }
     // Without noise, to a tight stop rule, the thesis's figures: t5 within 5 % of 1.4 mm.
     let v = results(&out, "pc_three_frfs_noise_free");
+    let plot = read_dir(
+        &out.join("pc_three_frfs_noise_free_convergence")
+            .join("plot"),
+    )
+    .unwrap();
+    assert!(plot.blobs["convergence.png"].starts_with(b"\x89PNG"));
     for t in ["t5", "t6"] {
         assert!((v[t] / 1.4e-3 - 1.0).abs() < 0.05, "{t} = {}", v[t]);
     }

@@ -46,7 +46,7 @@ impl TypedStage for PlotConvergence {
     type Params = Params;
     const KIND: &'static str = "plot.convergence";
     const SUMMARY: &'static str = "Convergence history of an update: parameters and mean chi_s, chi_a per iteration (PNG, SVG)";
-    const IMPL_VERSION: u32 = 1;
+    const IMPL_VERSION: u32 = 2;
 
     fn inputs() -> Vec<PortSpec> {
         vec![PortSpec::required(
@@ -162,7 +162,7 @@ impl TypedStage for PlotConvergence {
             .collect();
         if !correlation.is_empty() {
             panels.push(LinePanel {
-                title: "Correlation over the updating lines".into(),
+                title: "Mean correlation over every measured line".into(),
                 y_label: "mean".into(),
                 series: correlation,
             });
