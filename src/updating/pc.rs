@@ -97,11 +97,6 @@ impl<'a> PredictorCorrector<'a> {
             smoothed,
         }
     }
-
-    /// The settings.
-    pub fn settings(&self) -> &PcSettings {
-        &self.settings
-    }
 }
 
 fn smooth_set(op: &FrequencySmoothing, set: &FrfSet) -> FrfSet {
@@ -141,13 +136,26 @@ impl LineCorrelation {
     }
 }
 
-/// The updating lines (4.20): lines with `(χ_s + χ_a)/2 ≤ κ_f` that lie more than
-/// `resonance_lines` line spacings from every predicted (elastic) natural frequency.
+/// The updating lines (4.20): lines with `(χ_s + χ_a)/2 ≤ κ_f` among the
+/// [`off_resonance_lines`].
 pub fn select_lines(
     freqs_hz: &[f64],
     lines: &LineCorrelation,
     natural_hz: &[f64],
     kappa_f: f64,
+    resonance_lines: f64,
+) -> Vec<usize> {
+    off_resonance_lines(freqs_hz, natural_hz, resonance_lines)
+        .into_iter()
+        .filter(|&k| 0.5 * (lines.chi_s[k] + lines.chi_a[k]) <= kappa_f)
+        .collect()
+}
+
+/// The lines that lie more than `resonance_lines` line spacings from every predicted (elastic)
+/// natural frequency.
+pub fn off_resonance_lines(
+    freqs_hz: &[f64],
+    natural_hz: &[f64],
     resonance_lines: f64,
 ) -> Vec<usize> {
     let f = freqs_hz;
@@ -161,7 +169,6 @@ pub fn select_lines(
         prev.max(next)
     };
     (0..f.len())
-        .filter(|&k| 0.5 * (lines.chi_s[k] + lines.chi_a[k]) <= kappa_f)
         .filter(|&k| {
             let band = resonance_lines * spacing(k);
             natural_hz
@@ -413,9 +420,13 @@ impl UpdateMethod for PredictorCorrector<'_> {
         let natural_hz = state.modes.frequencies_hz();
         // Smoothed responses are defined at resonances: no line is left out for being next to
         // one.
+        let own = self
+            .smoothed
+            .as_ref()
+            .map(|_| LineCorrelation::new(self.measured, &raw));
         let (measured, predicted, resonances) = match &self.smoothed {
             Some((op, m)) => (m, smooth_set(op, &raw), &[][..]),
-            None => (self.measured, raw.clone(), &natural_hz[..]),
+            None => (self.measured, raw, &natural_hz[..]),
         };
         let (mut record, stop, chosen) = open_iteration(
             measured,
@@ -427,10 +438,9 @@ impl UpdateMethod for PredictorCorrector<'_> {
             s.resonance_lines,
             s.stop_chi,
         );
-        if self.smoothed.is_some() {
+        if let Some(own) = own {
             record.smoothing = s.smoothing;
             record.smoothed_mean_chi = record.mean_chi();
-            let own = LineCorrelation::new(self.measured, &raw);
             record.mean_chi_s = mean(&own.chi_s);
             record.mean_chi_a = mean(&own.chi_a);
         }
@@ -444,13 +454,7 @@ impl UpdateMethod for PredictorCorrector<'_> {
         let all_lines = match &self.smoothed {
             Some(_) => (0..measured.freqs_hz.len()).collect(),
             None if !s.merit_steps => chosen.clone(),
-            None => select_lines(
-                &measured.freqs_hz,
-                &LineCorrelation::new(measured, &predicted),
-                resonances,
-                f64::INFINITY,
-                s.resonance_lines,
-            ),
+            None => off_resonance_lines(&measured.freqs_hz, resonances, s.resonance_lines),
         };
         let dofs = self.measured.dofs();
         let shapes = state.shapes_at(&dofs)?;
@@ -480,13 +484,22 @@ impl UpdateMethod for PredictorCorrector<'_> {
 
         // S and ε at the chosen lines, rows weighted by W_f^{1/2} (4.21); and the merit's
         // Gauss-Newton equations at all of them.
-        let row_of: std::collections::HashMap<usize, usize> =
-            all_lines.iter().enumerate().map(|(i, &k)| (k, i)).collect();
-        let chosen_sens: Vec<Mat<c64>> = sens
-            .iter()
-            .map(|d| Mat::from_fn(chosen.len(), d.ncols(), |i, q| d[(row_of[&chosen[i]], q)]))
-            .collect();
-        let (sw, ew) = correlation_equations(measured, &predicted, &chosen, &chosen_sens, true);
+        let picked;
+        let chosen_sens = if all_lines == chosen {
+            &sens
+        } else {
+            // Both ascending, `chosen` within `all_lines`.
+            let rows: Vec<usize> = chosen
+                .iter()
+                .map(|k| all_lines.binary_search(k).unwrap_or_default())
+                .collect();
+            picked = sens
+                .iter()
+                .map(|d| Mat::from_fn(rows.len(), d.ncols(), |i, q| d[(rows[i], q)]))
+                .collect::<Vec<Mat<c64>>>();
+            &picked
+        };
+        let (sw, ew) = correlation_equations(measured, &predicted, &chosen, chosen_sens, true);
         let merit = s.merit_steps.then(|| {
             let (mut sm, mut em) =
                 correlation_equations(measured, &predicted, &all_lines, &sens, false);
