@@ -405,14 +405,15 @@ fn dispatch(cli: Cli) -> Result<u8, Failure> {
                     b.component_cut_off_hz
                 );
                 println!(
-                    "{:>6} {:>9} {:>10} {:>12} {:>9} {:>9} {:>9} {:>9} {:>10} {:>11} {:>8} {:>9}",
+                    "{:>6} {:>9} {:>10} {:>12} {:>9} {:>9} {:>9} {:>9} {:>9} {:>10} {:>11} {:>8} {:>9}",
                     "parts",
                     "junction",
                     "max part",
                     "iface+modal",
                     "partition",
-                    "reduce",
+                    "condense",
                     "interface",
+                    "reduce",
                     "modes",
                     "max err",
                     "re-analyse",
@@ -421,7 +422,7 @@ fn dispatch(cli: Cli) -> Result<u8, Failure> {
                 );
                 for s in &b.splits {
                     println!(
-                        "{:>6} {:>9} {:>10} {:>12} {:>9.2} {:>9.2} {:>9.2} {:>9.2} {:>10.1e} {:>11.2} {:>7.1}x {:>9.0}",
+                        "{:>6} {:>9} {:>10} {:>12} {:>9.2} {:>9.2} {:>9.2} {:>9.2} {:>9.2} {:>10.1e} {:>11.2} {:>7.1}x {:>9.0}",
                         s.parts,
                         s.junction_dofs,
                         s.largest_part_dofs,
@@ -431,8 +432,9 @@ fn dispatch(cli: Cli) -> Result<u8, Failure> {
                             s.reduced_size.1 - s.interface_modes
                         ),
                         s.partition_seconds,
-                        s.reduce_seconds,
+                        s.condensation_seconds,
                         s.interface_seconds,
+                        s.reduce_seconds,
                         s.reduced_modes_seconds,
                         s.max_eigenvalue_error,
                         s.reanalysis_seconds,

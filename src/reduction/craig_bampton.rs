@@ -8,15 +8,22 @@
 //! - `x = T [x_j; q]`, `T = [[I, 0], [Φ_c,i, Φ_n,i]]` (3.11–3.13), and the projected `TᵀKT`,
 //!   `TᵀMT` that enter the assembly at common junction DOFs (3.14).
 //!
+//! - [`junction_condensation`] and [`craig_bampton_on_interface`]: the same reduction for
+//!   junctions of thousands of DOFs — the junction's Guyan model first (to choose interface
+//!   modes), then constraint modes for the interface modes only.
+//!
 //! With every fixed-interface mode kept, `T` is square and invertible and the reduced model
 //! reproduces the full one exactly (a change of basis).
 
-use super::linalg::{SparseSpd, sub_block};
-use super::{ComponentReduction, ReductionError, ReductionInfo};
+use super::linalg::{
+    SparseSpd, dense_columns, sparse_times_dense, sparse_transpose_times_dense, sub_block,
+    symmetrise,
+};
+use super::{ComponentReduction, Coordinate, ReductionError, ReductionInfo};
 use crate::core::DofId;
 use crate::eigen::{ModeSelection, SparseEigenParams, lowest_modes};
 use crate::fe::SystemMatrices;
-use faer::Mat;
+use faer::{Mat, MatRef};
 use std::collections::HashSet;
 
 /// Craig-Bampton reduction of substructure `name` with matrices `sys` and junction DOFs
@@ -28,23 +35,65 @@ pub fn craig_bampton(
     modes: ModeSelection,
     eigen: &SparseEigenParams,
 ) -> Result<ComponentReduction, ReductionError> {
+    constrained_reduction(name, sys, junction, None, modes, eigen)
+}
+
+/// Craig-Bampton reduction with the junction moving only in the interface modes `basis`
+/// (`n_j × n_c`, rows in `junction` order; characteristic constraint modes, Castanier et al.
+/// 2001): `T = [[V, 0], [Ψ V, Φ]]` with `Ψ V = −K_ii⁻¹ K_ij V`, so `n_c` solves and an
+/// `N_k × (n_c + m)` basis instead of `n_j` solves and `N_k × (n_j + m)`. The component's
+/// leading coordinates are the interface modes; it is [`craig_bampton`] followed by the
+/// interface coupling, without the junction-sized intermediate.
+pub fn craig_bampton_on_interface(
+    name: &str,
+    sys: &SystemMatrices,
+    junction: &[DofId],
+    basis: MatRef<'_, f64>,
+    modes: ModeSelection,
+    eigen: &SparseEigenParams,
+) -> Result<ComponentReduction, ReductionError> {
+    if basis.nrows() != junction.len() {
+        return Err(ReductionError::Replace(format!(
+            "substructure `{name}`: the interface basis has {} rows for its {} junction DOFs",
+            basis.nrows(),
+            junction.len()
+        )));
+    }
+    constrained_reduction(name, sys, junction, Some(basis), modes, eigen)
+}
+
+/// Constraint modes for the junction motions `basis` (the identity when `None`) plus the
+/// fixed-interface normal modes (3.5–3.13).
+fn constrained_reduction(
+    name: &str,
+    sys: &SystemMatrices,
+    junction: &[DofId],
+    basis: Option<MatRef<'_, f64>>,
+    modes: ModeSelection,
+    eigen: &SparseEigenParams,
+) -> Result<ComponentReduction, ReductionError> {
     let (j_idx, i_idx) = split(sys, junction)?;
     let (nj, ni) = (j_idx.len(), i_idx.len());
+    let nc = basis.map_or(nj, |b| b.ncols());
     let internal_dofs: Vec<DofId> = i_idx.iter().map(|&i| sys.dofs[i]).collect();
-    // Constraint modes Ψ = −K_ii⁻¹ K_ij (3.6).
+    // Constraint modes Ψ = −K_ii⁻¹ K_ij (3.6), applied to the junction motions.
     let kii = sub_block(&sys.k, &i_idx, &i_idx);
     let mii = sub_block(&sys.m, &i_idx, &i_idx);
-    let psi = if nj > 0 && ni > 0 {
+    let psi = if nc > 0 && ni > 0 {
         let kij = sub_block(&sys.k, &i_idx, &j_idx);
         let f = SparseSpd::factor(&kii).ok_or_else(|| ReductionError::NotRestrained {
             substructure: name.to_string(),
             junction: nj,
         })?;
-        let mut x = f.solve(crate::fe::system::sparse_to_dense(&kij).as_ref());
+        let rhs = match basis {
+            None => crate::fe::system::sparse_to_dense(&kij),
+            Some(v) => sparse_times_dense(&kij, v),
+        };
+        let mut x = f.solve(rhs.as_ref());
         x *= faer::Scale(-1.0);
         x
     } else {
-        Mat::zeros(ni, nj)
+        Mat::zeros(ni, nc)
     };
     // Fixed-interface modes (3.8).
     let fixed = if ni > 0 {
@@ -64,27 +113,112 @@ pub fn craig_bampton(
         }
     };
     let m = fixed.len();
-    let mut t = Mat::zeros(sys.n(), nj + m);
-    for (c, &r) in j_idx.iter().enumerate() {
-        t[(r, c)] = 1.0;
+    let mut t = Mat::zeros(sys.n(), nc + m);
+    for (a, &r) in j_idx.iter().enumerate() {
+        match basis {
+            None => t[(r, a)] = 1.0,
+            Some(v) => {
+                for c in 0..nc {
+                    t[(r, c)] = v[(a, c)];
+                }
+            }
+        }
     }
     for (a, &r) in i_idx.iter().enumerate() {
-        for c in 0..nj {
+        for c in 0..nc {
             t[(r, c)] = psi[(a, c)];
         }
         for q in 0..m {
-            t[(r, nj + q)] = fixed.shapes[(a, q)];
+            t[(r, nc + q)] = fixed.shapes[(a, q)];
         }
     }
-    Ok(ComponentReduction::from_transformation(
-        name,
-        sys,
-        junction,
-        &j_idx,
-        t,
-        fixed.frequencies_hz(),
-        ReductionInfo::default(),
-    ))
+    let info = ReductionInfo::default();
+    Ok(match basis {
+        None => ComponentReduction::from_transformation(
+            name,
+            sys,
+            junction,
+            &j_idx,
+            t,
+            fixed.frequencies_hz(),
+            info,
+        ),
+        Some(_) => ComponentReduction::with_leading_coordinates(
+            name,
+            sys,
+            junction,
+            (1..=nc).map(Coordinate::InterfaceMode).collect(),
+            t,
+            fixed.frequencies_hz(),
+            info,
+        ),
+    })
+}
+
+/// The junction block of a Craig-Bampton component: its static condensation onto the junction
+/// (the substructure's Guyan model, 3.5–3.7 with 3.14),
+/// `K_G = K_jj + K_ji Ψ = K_jj − K_ji K_ii⁻¹ K_ij` and `M_G = [I; Ψ]ᵀ M [I; Ψ]`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct JunctionCondensation {
+    /// The junction DOFs (rows and columns of `k` and `m`).
+    pub junction: Vec<DofId>,
+    /// `K_G`, `n_j × n_j`.
+    pub k: Mat<f64>,
+    /// `M_G`, `n_j × n_j`.
+    pub m: Mat<f64>,
+}
+
+/// Junction columns solved per block in [`junction_condensation`]: the memory for `Ψ` is this
+/// many columns of the substructure, never all `n_j`.
+const CONDENSATION_BLOCK: usize = 128;
+
+/// [`JunctionCondensation`] of one substructure, computed in blocks of junction columns without
+/// holding `Ψ` (`N_k × n_j`, the memory that made whole-model reductions of million-DOF models
+/// fail): with `Y = M_ij + M_ii Ψ`, the term `Ψᵀ Y = −K_ji (K_ii⁻¹ Y)` costs a second solve,
+/// so memory is `O(n_j² + b N_k)` for two solves per junction DOF. It equals the junction block
+/// of [`craig_bampton`]'s `TᵀKT`, `TᵀMT` (tested).
+pub fn junction_condensation(
+    name: &str,
+    sys: &SystemMatrices,
+    junction: &[DofId],
+) -> Result<JunctionCondensation, ReductionError> {
+    let (j_idx, i_idx) = split(sys, junction)?;
+    let (nj, ni) = (j_idx.len(), i_idx.len());
+    let dense = crate::fe::system::sparse_to_dense;
+    let mut kg = dense(&sub_block(&sys.k, &j_idx, &j_idx));
+    let mut mg = dense(&sub_block(&sys.m, &j_idx, &j_idx));
+    if nj > 0 && ni > 0 {
+        let kii = sub_block(&sys.k, &i_idx, &i_idx);
+        let mii = sub_block(&sys.m, &i_idx, &i_idx);
+        let kij = sub_block(&sys.k, &i_idx, &j_idx);
+        let mij = sub_block(&sys.m, &i_idx, &j_idx);
+        let f = SparseSpd::factor(&kii).ok_or_else(|| ReductionError::NotRestrained {
+            substructure: name.to_string(),
+            junction: nj,
+        })?;
+        for start in (0..nj).step_by(CONDENSATION_BLOCK) {
+            let cols = start..(start + CONDENSATION_BLOCK).min(nj);
+            let mut psi = f.solve(dense_columns(&kij, cols.clone()).as_ref());
+            psi *= faer::Scale(-1.0);
+            let k_cols = sparse_transpose_times_dense(&kij, psi.as_ref());
+            let mut y = sparse_times_dense(&mii, psi.as_ref());
+            y += dense_columns(&mij, cols.clone());
+            let z = f.solve(y.as_ref());
+            let m_cols = sparse_transpose_times_dense(&mij, psi.as_ref())
+                - sparse_transpose_times_dense(&kij, z.as_ref());
+            for (c, j) in cols.enumerate() {
+                for i in 0..nj {
+                    kg[(i, j)] += k_cols[(i, c)];
+                    mg[(i, j)] += m_cols[(i, c)];
+                }
+            }
+        }
+    }
+    Ok(JunctionCondensation {
+        junction: junction.to_vec(),
+        k: symmetrise(&kg),
+        m: symmetrise(&mg),
+    })
 }
 
 /// Row indices of the junction DOFs (in `junction` order) and of the internal DOFs (ascending).

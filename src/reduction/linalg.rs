@@ -49,6 +49,85 @@ pub fn sparse_times_dense(a: &SparseMatrix, x: MatRef<'_, f64>) -> Mat<f64> {
     Mat::from_fn(n, c, |i, j| cols[j][i])
 }
 
+/// `Y = Aᵀ X` for a sparse `A` (`r × c`) and a dense `X` (`r × p`): each entry is one stored
+/// column of `A` dotted with a column of `X`, in storage order (deterministic).
+pub fn sparse_transpose_times_dense(a: &SparseMatrix, x: MatRef<'_, f64>) -> Mat<f64> {
+    let cols: Vec<Vec<f64>> = (0..x.ncols())
+        .into_par_iter()
+        .map(|col| {
+            (0..a.ncols())
+                .map(|j| {
+                    let mut s = 0.0;
+                    for (&i, &v) in a.row_idx_of_col_raw(j).iter().zip(a.val_of_col(j)) {
+                        s += v * x[(i, col)];
+                    }
+                    s
+                })
+                .collect()
+        })
+        .collect();
+    Mat::from_fn(a.ncols(), x.ncols(), |i, j| cols[j][i])
+}
+
+/// Columns `cols` of a sparse matrix as a dense block.
+pub fn dense_columns(a: &SparseMatrix, cols: std::ops::Range<usize>) -> Mat<f64> {
+    let mut d = Mat::zeros(a.nrows(), cols.len());
+    for (c, j) in cols.enumerate() {
+        for (&i, &v) in a.row_idx_of_col_raw(j).iter().zip(a.val_of_col(j)) {
+            d[(i, c)] += v;
+        }
+    }
+    d
+}
+
+/// Sums dense symmetric blocks into one sparse `n × n` matrix pair: block `b` adds `K_b`, `M_b`
+/// at the global indices `rows_b` (3.14's assembly at shared coordinates). Built column by
+/// column straight into compressed storage, so memory is the result's non-zeros plus one
+/// column (no triplet list, which would be three times the size of the blocks).
+pub fn assemble_dense_blocks(
+    n: usize,
+    blocks: &[(&[usize], MatRef<'_, f64>, MatRef<'_, f64>)],
+) -> (SparseMatrix, SparseMatrix) {
+    // Which blocks hold each global column, and at which local index.
+    let mut holders: Vec<Vec<(usize, usize)>> = vec![Vec::new(); n];
+    for (b, (rows, _, _)) in blocks.iter().enumerate() {
+        for (l, &g) in rows.iter().enumerate() {
+            holders[g].push((b, l));
+        }
+    }
+    let mut col_ptr = Vec::with_capacity(n + 1);
+    let (mut row_idx, mut kv, mut mv) = (Vec::new(), Vec::new(), Vec::new());
+    let mut column: Vec<(usize, f64, f64)> = Vec::new();
+    col_ptr.push(0);
+    for held in &holders {
+        column.clear();
+        for &(b, l) in held {
+            let (rows, k, m) = &blocks[b];
+            for (r, &g) in rows.iter().enumerate() {
+                column.push((g, k[(r, l)], m[(r, l)]));
+            }
+        }
+        column.sort_unstable_by_key(|e| e.0);
+        let start = row_idx.len();
+        for &(g, k, m) in &column {
+            if row_idx.len() > start && row_idx.last() == Some(&g) {
+                *kv.last_mut().expect("a row was pushed with its value") += k;
+                *mv.last_mut().expect("a row was pushed with its value") += m;
+            } else {
+                row_idx.push(g);
+                kv.push(k);
+                mv.push(m);
+            }
+        }
+        col_ptr.push(row_idx.len());
+    }
+    let symbolic = faer::sparse::SymbolicSparseColMat::new_checked(n, n, col_ptr, None, row_idx);
+    (
+        SparseMatrix::new(symbolic.clone(), kv),
+        SparseMatrix::new(symbolic, mv),
+    )
+}
+
 /// `Tᵀ A T` for a sparse symmetric `A` and dense `T`, symmetrised.
 pub fn project(a: &SparseMatrix, t: MatRef<'_, f64>) -> Mat<f64> {
     let at = sparse_times_dense(a, t);

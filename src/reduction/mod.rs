@@ -31,11 +31,13 @@ pub mod linalg;
 pub mod partition;
 mod reduced;
 
+pub use craig_bampton::JunctionCondensation;
 pub use partition::{Boundary, Partition, Substructure};
 pub use reduced::{
     ComponentReduction, Coordinate, Coupling, JunctionFlexibility, Method, ReducedModel,
-    ReductionInfo, SecondLevel, check_method, interface_basis, reduce, reduce_assembled,
-    reduce_substructure, reduce_with_interface, reduced_parameter_derivative,
+    ReductionInfo, SecondLevel, check_method, interface_basis, interface_basis_from_condensations,
+    interface_rows, reduce, reduce_assembled, reduce_assembled_on_interface, reduce_substructure,
+    reduce_substructure_on_interface, reduce_with_interface, reduced_parameter_derivative,
     substructure_matrices,
 };
 

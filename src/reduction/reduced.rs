@@ -1,10 +1,13 @@
 //! The reduced model: component reductions, their coupling, synthesis (3.14, 3.51), re-analysis
 //! of single substructures, reduced derivatives (3.59) and expansion to physical DOFs.
 
+use super::craig_bampton::{
+    JunctionCondensation, craig_bampton, craig_bampton_on_interface, junction_condensation,
+};
 use super::force_coupling::{MasterSelection, couple, force_coupling, second_level};
 use super::linalg::project;
 use super::partition::{Partition, Substructure};
-use super::{ReductionError, craig_bampton::craig_bampton, free_interface::free_interface};
+use super::{ReductionError, free_interface::free_interface};
 use crate::core::{Component, DofId};
 use crate::eigen::{ModeSelection, Modes, SparseEigenParams, dense_generalized, lowest_modes};
 use crate::fe::SystemMatrices;
@@ -216,11 +219,25 @@ impl ComponentReduction {
         mode_frequencies_hz: Vec<f64>,
         info: ReductionInfo,
     ) -> ComponentReduction {
-        let mut coords: Vec<Coordinate> = j_idx
+        let leading = j_idx
             .iter()
             .map(|&r| Coordinate::Dof(sys.dofs[r]))
             .collect();
-        let m = t.ncols() - j_idx.len();
+        Self::with_leading_coordinates(name, sys, junction, leading, t, mode_frequencies_hz, info)
+    }
+
+    /// A component reduced by `t` whose first columns are the coordinates `leading` (junction
+    /// DOFs, or interface modes) and the rest its component modes.
+    pub(crate) fn with_leading_coordinates(
+        name: &str,
+        sys: &crate::fe::SystemMatrices,
+        junction: &[DofId],
+        mut coords: Vec<Coordinate>,
+        t: Mat<f64>,
+        mode_frequencies_hz: Vec<f64>,
+        info: ReductionInfo,
+    ) -> ComponentReduction {
+        let m = t.ncols() - coords.len();
         coords.extend((1..=m).map(|mode| Coordinate::Modal {
             substructure: name.to_string(),
             mode,
@@ -591,36 +608,71 @@ pub fn interface_basis(
     components: &[ComponentReduction],
     selection: ModeSelection,
 ) -> Result<Option<Mat<f64>>, ReductionError> {
+    let index: HashMap<DofId, usize> = junction.iter().enumerate().map(|(i, d)| (*d, i)).collect();
+    let blocks: Vec<(Vec<usize>, Mat<f64>, Mat<f64>)> = components
+        .iter()
+        .map(|c| {
+            let (local, global): (Vec<usize>, Vec<usize>) = c
+                .coords
+                .iter()
+                .enumerate()
+                .filter_map(|(l, coord)| match coord {
+                    Coordinate::Dof(d) => index.get(d).map(|g| (l, *g)),
+                    _ => None,
+                })
+                .unzip();
+            let block = |a: &Mat<f64>| {
+                Mat::from_fn(local.len(), local.len(), |i, j| a[(local[i], local[j])])
+            };
+            (global, block(&c.k), block(&c.m))
+        })
+        .collect();
+    interface_modes(junction, &blocks, selection)
+}
+
+/// [`interface_basis`] from the junction condensations of Craig-Bampton substructures
+/// ([`junction_condensation`]): the same modes, without any component's junction-sized basis.
+pub fn interface_basis_from_condensations(
+    junction: &[DofId],
+    condensations: &[JunctionCondensation],
+    selection: ModeSelection,
+) -> Result<Option<Mat<f64>>, ReductionError> {
+    let index: HashMap<DofId, usize> = junction.iter().enumerate().map(|(i, d)| (*d, i)).collect();
+    let blocks = condensations
+        .iter()
+        .map(|c| {
+            let global = c
+                .junction
+                .iter()
+                .map(|d| {
+                    index
+                        .get(d)
+                        .copied()
+                        .ok_or(ReductionError::UnknownDof { dof: *d })
+                })
+                .collect::<Result<Vec<usize>, _>>()?;
+            Ok((global, c.k.clone(), c.m.clone()))
+        })
+        .collect::<Result<Vec<_>, ReductionError>>()?;
+    interface_modes(junction, &blocks, selection)
+}
+
+/// The lowest modes of the junction pencil summed from dense blocks at global junction indices
+/// (blocks of components sharing junction DOFs overlap and add, 3.14).
+fn interface_modes(
+    junction: &[DofId],
+    blocks: &[(Vec<usize>, Mat<f64>, Mat<f64>)],
+    selection: ModeSelection,
+) -> Result<Option<Mat<f64>>, ReductionError> {
     let nj = junction.len();
     if nj == 0 {
         return Ok(None);
     }
-    let index: HashMap<DofId, usize> = junction.iter().enumerate().map(|(i, d)| (*d, i)).collect();
-    let (mut tk, mut tm) = (Vec::new(), Vec::new());
-    for c in components {
-        let local: Vec<(usize, usize)> = c
-            .coords
-            .iter()
-            .enumerate()
-            .filter_map(|(l, coord)| match coord {
-                Coordinate::Dof(d) => index.get(d).map(|g| (l, *g)),
-                _ => None,
-            })
-            .collect();
-        for &(a, ga) in &local {
-            for &(b, gb) in &local {
-                tk.push((ga, gb, c.k[(a, b)]));
-                tm.push((ga, gb, c.m[(a, b)]));
-            }
-        }
-    }
-    // Blocks of components sharing junction DOFs overlap; the triplet constructor sums them.
-    let sparse = |name: &'static str, t: &[(usize, usize, f64)]| {
-        crate::fe::system::sparse_from_triplets(name, nj, t)
-            .map_err(|e| ReductionError::Replace(e.to_string()))
-    };
-    let kjj = sparse("K_JJ", &tk)?;
-    let mjj = sparse("M_JJ", &tm)?;
+    let views: Vec<_> = blocks
+        .iter()
+        .map(|(g, k, m)| (g.as_slice(), k.as_ref(), m.as_ref()))
+        .collect();
+    let (kjj, mjj) = super::linalg::assemble_dense_blocks(nj, &views);
     let (modes, _) = lowest_modes(
         &kjj,
         &mjj,
@@ -633,13 +685,14 @@ pub fn interface_basis(
 }
 
 /// Global coordinates after an interface reduction: the interface modes, then each component's
-/// modal coordinates; a component's junction DOFs map to the rows of `Ψ` (`x_J = Ψ η`).
+/// modal coordinates. A component whose leading coordinates are junction DOFs couples densely
+/// (`x_J = Ψ η`, its rows of `Ψ`); one reduced on the interface modes already
+/// ([`craig_bampton_on_interface`]) couples by position.
 fn interface_coupling(
     junction: &[DofId],
     components: &[ComponentReduction],
     psi: MatRef<'_, f64>,
 ) -> Result<(Vec<Coordinate>, Vec<Coupling>), ReductionError> {
-    let (boolean_coords, boolean) = boolean_coupling(junction, components)?;
     let (nj, nc) = (junction.len(), psi.ncols());
     if psi.nrows() != nj {
         return Err(ReductionError::Replace(format!(
@@ -647,26 +700,54 @@ fn interface_coupling(
             psi.nrows()
         )));
     }
+    let index: HashMap<DofId, usize> = junction.iter().enumerate().map(|(i, d)| (*d, i)).collect();
     let mut coords: Vec<Coordinate> = (1..=nc).map(Coordinate::InterfaceMode).collect();
-    coords.extend(boolean_coords.into_iter().skip(nj));
+    // Per local coordinate: `Ok(global coordinate)` or `Err(junction row of Ψ)`.
+    let mut maps: Vec<Vec<Result<usize, usize>>> = Vec::with_capacity(components.len());
+    for c in components {
+        let mut map = Vec::with_capacity(c.coords.len());
+        for coord in &c.coords {
+            map.push(match coord {
+                Coordinate::Dof(d) => Err(*index.get(d).ok_or_else(|| {
+                    ReductionError::Replace(format!(
+                        "substructure `{}`: coordinate {d} is not a junction DOF of the partition",
+                        c.substructure
+                    ))
+                })?),
+                Coordinate::InterfaceMode(q) if (1..=nc).contains(q) => Ok(q - 1),
+                Coordinate::InterfaceMode(q) => {
+                    return Err(ReductionError::Replace(format!(
+                        "substructure `{}`: it was reduced on interface mode {q}, but the interface basis holds {nc}",
+                        c.substructure
+                    )));
+                }
+                _ => {
+                    coords.push(coord.clone());
+                    Ok(coords.len() - 1)
+                }
+            });
+        }
+        maps.push(map);
+    }
     let n = coords.len();
-    let couplings = boolean
+    let couplings = maps
         .into_iter()
-        .map(|cp| match cp {
-            Coupling::Boolean(map) => {
-                let mut c = Mat::zeros(map.len(), n);
-                for (l, &g) in map.iter().enumerate() {
-                    if g < nj {
+        .map(|map| {
+            if map.iter().all(|e| e.is_ok()) {
+                return Coupling::Boolean(map.into_iter().flatten().collect());
+            }
+            let mut c = Mat::zeros(map.len(), n);
+            for (l, e) in map.iter().enumerate() {
+                match *e {
+                    Ok(g) => c[(l, g)] = 1.0,
+                    Err(row) => {
                         for q in 0..nc {
-                            c[(l, q)] = psi[(g, q)];
+                            c[(l, q)] = psi[(row, q)];
                         }
-                    } else {
-                        c[(l, g - nj + nc)] = 1.0;
                     }
                 }
-                Coupling::Dense(c)
             }
-            dense => dense,
+            Coupling::Dense(c)
         })
         .collect();
     Ok((coords, couplings))
@@ -716,6 +797,73 @@ pub fn reduce_substructure(
     let sub = &partition.substructures[k];
     let sys = substructure_matrices(model, sub, mass)?;
     let mut c = reduce_assembled(sub, &sys, method)?;
+    c.info.seconds = t0.elapsed().as_secs_f64();
+    Ok(c)
+}
+
+/// Reduces substructure `k` with its junction moving in the interface modes `psi` (`n_J × n_c`
+/// over the partition's junction): Craig-Bampton by [`craig_bampton_on_interface`]; the other
+/// methods as [`reduce_substructure`], coupled to `psi` at synthesis.
+pub fn reduce_substructure_on_interface(
+    model: &Model,
+    partition: &Partition,
+    k: usize,
+    method: &Method,
+    mass: MassKind,
+    psi: MatRef<'_, f64>,
+) -> Result<ComponentReduction, ReductionError> {
+    let t0 = std::time::Instant::now();
+    let sub = &partition.substructures[k];
+    let sys = substructure_matrices(model, sub, mass)?;
+    let rows = interface_rows(&partition.junction, &sub.junction, psi)?;
+    let mut c = reduce_assembled_on_interface(sub, &sys, method, rows.as_ref())?;
+    c.info.seconds = t0.elapsed().as_secs_f64();
+    Ok(c)
+}
+
+/// The rows of the interface basis `psi` (over `junction`, the partition's) at a substructure's
+/// junction DOFs, in its order.
+pub fn interface_rows(
+    junction: &[DofId],
+    substructure_junction: &[DofId],
+    psi: MatRef<'_, f64>,
+) -> Result<Mat<f64>, ReductionError> {
+    let index: HashMap<DofId, usize> = junction.iter().enumerate().map(|(i, d)| (*d, i)).collect();
+    let rows = substructure_junction
+        .iter()
+        .map(|d| {
+            index
+                .get(d)
+                .copied()
+                .ok_or(ReductionError::UnknownDof { dof: *d })
+        })
+        .collect::<Result<Vec<usize>, _>>()?;
+    Ok(Mat::from_fn(rows.len(), psi.ncols(), |i, j| {
+        psi[(rows[i], j)]
+    }))
+}
+
+/// [`reduce_assembled`] with the junction moving in the interface modes `rows` (the
+/// substructure's rows of the basis, from [`interface_rows`]); only Craig-Bampton uses them
+/// here, the other methods couple to the basis at synthesis.
+pub fn reduce_assembled_on_interface(
+    sub: &Substructure,
+    sys: &SystemMatrices,
+    method: &Method,
+    rows: MatRef<'_, f64>,
+) -> Result<ComponentReduction, ReductionError> {
+    let Method::CraigBampton { modes } = method else {
+        return reduce_assembled(sub, sys, method);
+    };
+    let t0 = std::time::Instant::now();
+    let mut c = craig_bampton_on_interface(
+        &sub.name,
+        sys,
+        &sub.junction,
+        rows,
+        *modes,
+        &eigen_params(*modes),
+    )?;
     c.info.seconds = t0.elapsed().as_secs_f64();
     Ok(c)
 }
@@ -788,6 +936,42 @@ pub fn reduce_with_interface(
     interface: Option<ModeSelection>,
 ) -> Result<ReducedModel, ReductionError> {
     check_method(partition, method)?;
+    if let (Method::CraigBampton { .. }, Some(selection)) = (method, interface) {
+        // Junction condensations first, then constraint modes for the interface modes only:
+        // no component ever holds a junction-sized basis.
+        let condensations = partition
+            .substructures
+            .par_iter()
+            .map(|sub| {
+                let sys = substructure_matrices(model, sub, mass)?;
+                junction_condensation(&sub.name, &sys, &sub.junction)
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        let psi =
+            interface_basis_from_condensations(&partition.junction, &condensations, selection)?;
+        drop(condensations);
+        if let Some(psi) = psi {
+            let components = (0..partition.substructures.len())
+                .into_par_iter()
+                .map(|k| {
+                    reduce_substructure_on_interface(
+                        model,
+                        partition,
+                        k,
+                        method,
+                        mass,
+                        psi.as_ref(),
+                    )
+                })
+                .collect::<Result<Vec<_>, _>>()?;
+            return ReducedModel::synthesise_with_interface(
+                method.clone(),
+                partition.junction.clone(),
+                components,
+                Some(psi),
+            );
+        }
+    }
     let components = (0..partition.substructures.len())
         .into_par_iter()
         .map(|k| reduce_substructure(model, partition, k, method, mass))

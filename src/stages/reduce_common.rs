@@ -11,9 +11,11 @@ use crate::eigen::ModeSelection;
 use crate::fe::SystemMatrices;
 use crate::fe::element::MassKind;
 use crate::pipeline::{ParamIssue, PortSpec, StageError, StageInputs, StageOutputs};
+use crate::reduction::craig_bampton::junction_condensation;
 use crate::reduction::{
-    Method, ReducedModel, check_method, interface_basis, reduce_assembled,
-    reduced_parameter_derivative, substructure_matrices,
+    Method, ReducedModel, ReductionError, Substructure, check_method, interface_basis,
+    interface_basis_from_condensations, interface_rows, reduce_assembled,
+    reduce_assembled_on_interface, reduced_parameter_derivative, substructure_matrices,
 };
 use rayon::prelude::*;
 
@@ -153,17 +155,49 @@ pub fn run(
     let model = mesh_from_artefact(inputs.require("mesh")?)?;
     let part = partition_from_artefact(inputs.require("partition")?)?;
     check_method(&part, &method).map_err(StageError::failed)?;
+    let matrices = |sub: &Substructure| -> Result<SystemMatrices, StageError> {
+        substructure_matrices(&model, sub, mass).map_err(StageError::failed)
+    };
+    let interface_failed = |e: ReductionError| StageError::Failed(format!("interface modes: {e}"));
+    // Craig-Bampton on interface modes: the junction condensations choose the modes, then each
+    // component is reduced on them alone (its part key holds its rows of the basis), so no
+    // component ever holds a junction-sized basis.
+    let lean_interface = match (&method, interface) {
+        (Method::CraigBampton { .. }, Some(selection)) => {
+            let condensations = part
+                .substructures
+                .par_iter()
+                .map(|sub| {
+                    junction_condensation(&sub.name, &matrices(sub)?, &sub.junction)
+                        .map_err(StageError::failed)
+                })
+                .collect::<Result<Vec<_>, StageError>>()?;
+            interface_basis_from_condensations(&part.junction, &condensations, selection)
+                .map_err(interface_failed)?
+        }
+        _ => None,
+    };
     let components = part
         .substructures
         .par_iter()
         .map(|sub| {
-            let sys = substructure_matrices(&model, sub, mass).map_err(StageError::failed)?;
-            let key = serde_json::json!({
+            let sys = matrices(sub)?;
+            let rows = match &lean_interface {
+                Some(psi) => Some(
+                    interface_rows(&part.junction, &sub.junction, psi.as_ref())
+                        .map_err(StageError::failed)?,
+                ),
+                None => None,
+            };
+            let mut key = serde_json::json!({
                 "method": method_json(&method),
                 "substructure": sub.name,
                 "junction": sub.junction.iter().map(|d| d.to_string()).collect::<Vec<_>>(),
                 "matrices": matrices_digest(&sys),
             });
+            if let Some(rows) = &rows {
+                key["interface_rows"] = dense_digest(rows).into();
+            }
             // A component computed here is used as it is; only one read from the cache is
             // decoded (the round trip is exact, tested in `artefact::reduced`).
             let mut computed = None;
@@ -173,7 +207,13 @@ pub fn run(
                 &key,
                 ArtefactKind::ReducedComponent,
                 || {
-                    let c = reduce_assembled(sub, &sys, &method).map_err(StageError::failed)?;
+                    let c = match &rows {
+                        Some(rows) => {
+                            reduce_assembled_on_interface(sub, &sys, &method, rows.as_ref())
+                        }
+                        None => reduce_assembled(sub, &sys, &method),
+                    }
+                    .map_err(StageError::failed)?;
                     let a = component_to_artefact(&c);
                     computed = Some(c);
                     Ok(a)
@@ -185,10 +225,12 @@ pub fn run(
             }
         })
         .collect::<Result<Vec<_>, StageError>>()?;
-    let psi = match interface {
-        Some(selection) => interface_basis(&part.junction, &components, selection)
-            .map_err(|e| StageError::Failed(format!("interface modes: {e}")))?,
-        None => None,
+    let psi = match (lean_interface, interface) {
+        (Some(psi), _) => Some(psi),
+        (None, Some(selection)) => {
+            interface_basis(&part.junction, &components, selection).map_err(interface_failed)?
+        }
+        (None, None) => None,
     };
     let r = ReducedModel::synthesise_with_interface(method, part.junction.clone(), components, psi)
         .map_err(StageError::failed)?;
@@ -200,6 +242,19 @@ pub fn run(
     }
     let a: Artefact = reduced_to_artefact(&r, &derivs);
     Ok(StageOutputs::from([("reduced".to_string(), a)]))
+}
+
+/// blake3 of a dense matrix's shape and exact bits.
+fn dense_digest(a: &faer::Mat<f64>) -> String {
+    let mut h = blake3::Hasher::new();
+    h.update(&(a.nrows() as u64).to_le_bytes());
+    h.update(&(a.ncols() as u64).to_le_bytes());
+    for j in 0..a.ncols() {
+        for i in 0..a.nrows() {
+            h.update(&a[(i, j)].to_bits().to_le_bytes());
+        }
+    }
+    h.finalize().to_hex().to_string()
 }
 
 /// blake3 of a substructure's DOF labels and the exact bits of its sparse `K` and `M`.

@@ -17,7 +17,7 @@ impl TypedStage for ReduceCraigBampton {
     type Params = Params;
     const KIND: &'static str = "reduce.craig_bampton";
     const SUMMARY: &'static str = "Craig-Bampton reduction: constraint modes plus fixed-interface normal modes per substructure (3.5-3.13)";
-    const IMPL_VERSION: u32 = 1;
+    const IMPL_VERSION: u32 = 2;
 
     fn inputs() -> Vec<PortSpec> {
         reduce_common::inputs()

@@ -476,14 +476,23 @@ impl ReducedFeModel {
                 } else {
                     let comps: Vec<_> = changed
                         .par_iter()
-                        .map(|&k| {
-                            crate::reduction::reduce_substructure(
+                        .map(|&k| match &reduced.interface {
+                            // The interface basis is held, like the transformations (3.59).
+                            Some(psi) => crate::reduction::reduce_substructure_on_interface(
                                 model,
                                 &self.partition,
                                 k,
                                 &self.method,
                                 self.fe.mass,
-                            )
+                                psi.as_ref(),
+                            ),
+                            None => crate::reduction::reduce_substructure(
+                                model,
+                                &self.partition,
+                                k,
+                                &self.method,
+                                self.fe.mass,
+                            ),
                         })
                         .collect::<Result<_, _>>()
                         .map_err(err)?;
