@@ -446,6 +446,7 @@ pub fn cms_bench(target_dofs: usize, parts: &[usize], modes: usize) -> Result<Cm
     )
     .map_err(|e| e.to_string())?;
     let direct_seconds = t.elapsed().as_secs_f64();
+    tracing::info!("direct eigen solve {direct_seconds:.1} s");
     let dofs = sys.n();
     drop(sys);
     let direct_peak_rss_mib = peak_rss_mib();
@@ -483,6 +484,10 @@ pub fn cms_bench(target_dofs: usize, parts: &[usize], modes: usize) -> Result<Cm
             .collect::<Result<Vec<_>, _>>()
             .map_err(|e| e.to_string())?;
         let condensation_seconds = t.elapsed().as_secs_f64();
+        tracing::info!(
+            "{k} parts, {} junction DOFs: condensations {condensation_seconds:.1} s",
+            partition.junction.len()
+        );
         let t = Instant::now();
         let psi = interface_basis_from_condensations(
             &partition.junction,
@@ -493,6 +498,7 @@ pub fn cms_bench(target_dofs: usize, parts: &[usize], modes: usize) -> Result<Cm
         .ok_or("the partition has no junction: ask for more than one part")?;
         drop(condensations);
         let interface_seconds = t.elapsed().as_secs_f64();
+        tracing::info!("{k} parts: interface modes {interface_seconds:.1} s");
         let t = Instant::now();
         let components = (0..partition.substructures.len())
             .into_par_iter()

@@ -27,18 +27,19 @@
 pub mod craig_bampton;
 pub mod force_coupling;
 pub mod free_interface;
+pub mod interface;
 pub mod linalg;
 pub mod partition;
 mod reduced;
 
 pub use craig_bampton::JunctionCondensation;
+pub use interface::{interface_basis, interface_basis_from_condensations};
 pub use partition::{Boundary, Partition, Substructure};
 pub use reduced::{
     ComponentReduction, Coordinate, Coupling, JunctionFlexibility, Method, ReducedModel,
-    ReductionInfo, SecondLevel, check_method, interface_basis, interface_basis_from_condensations,
-    interface_rows, reduce, reduce_assembled, reduce_assembled_on_interface, reduce_substructure,
-    reduce_substructure_on_interface, reduce_with_interface, reduced_parameter_derivative,
-    substructure_matrices,
+    ReductionInfo, SecondLevel, check_method, interface_rows, reduce, reduce_assembled,
+    reduce_assembled_on_interface, reduce_substructure, reduce_substructure_on_interface,
+    reduce_with_interface, reduced_parameter_derivative, substructure_matrices,
 };
 
 use crate::core::DofId;

@@ -1,10 +1,9 @@
 //! The reduced model: component reductions, their coupling, synthesis (3.14, 3.51), re-analysis
 //! of single substructures, reduced derivatives (3.59) and expansion to physical DOFs.
 
-use super::craig_bampton::{
-    JunctionCondensation, craig_bampton, craig_bampton_on_interface, junction_condensation,
-};
+use super::craig_bampton::{craig_bampton, craig_bampton_on_interface, junction_condensation};
 use super::force_coupling::{MasterSelection, couple, force_coupling, second_level};
+use super::interface::{interface_basis, interface_basis_from_condensations};
 use super::linalg::project;
 use super::partition::{Partition, Substructure};
 use super::{ReductionError, free_interface::free_interface};
@@ -597,91 +596,6 @@ fn boolean_coupling(
         couplings.push(Coupling::Boolean(map));
     }
     Ok((coords, couplings))
-}
-
-/// The interface modes of a classical (Craig-Bampton or free-interface) set of components: the
-/// lowest modes of the junction block `(K_JJ, M_JJ)`, assembled sparse from each component's
-/// junction rows (a dense block per component), so that the plain reduced matrices (`n_J²`
-/// each) are never formed. `None` when there is no junction.
-pub fn interface_basis(
-    junction: &[DofId],
-    components: &[ComponentReduction],
-    selection: ModeSelection,
-) -> Result<Option<Mat<f64>>, ReductionError> {
-    let index: HashMap<DofId, usize> = junction.iter().enumerate().map(|(i, d)| (*d, i)).collect();
-    let blocks: Vec<(Vec<usize>, Mat<f64>, Mat<f64>)> = components
-        .iter()
-        .map(|c| {
-            let (local, global): (Vec<usize>, Vec<usize>) = c
-                .coords
-                .iter()
-                .enumerate()
-                .filter_map(|(l, coord)| match coord {
-                    Coordinate::Dof(d) => index.get(d).map(|g| (l, *g)),
-                    _ => None,
-                })
-                .unzip();
-            let block = |a: &Mat<f64>| {
-                Mat::from_fn(local.len(), local.len(), |i, j| a[(local[i], local[j])])
-            };
-            (global, block(&c.k), block(&c.m))
-        })
-        .collect();
-    interface_modes(junction, &blocks, selection)
-}
-
-/// [`interface_basis`] from the junction condensations of Craig-Bampton substructures
-/// ([`junction_condensation`]): the same modes, without any component's junction-sized basis.
-pub fn interface_basis_from_condensations(
-    junction: &[DofId],
-    condensations: &[JunctionCondensation],
-    selection: ModeSelection,
-) -> Result<Option<Mat<f64>>, ReductionError> {
-    let index: HashMap<DofId, usize> = junction.iter().enumerate().map(|(i, d)| (*d, i)).collect();
-    let blocks = condensations
-        .iter()
-        .map(|c| {
-            let global = c
-                .junction
-                .iter()
-                .map(|d| {
-                    index
-                        .get(d)
-                        .copied()
-                        .ok_or(ReductionError::UnknownDof { dof: *d })
-                })
-                .collect::<Result<Vec<usize>, _>>()?;
-            Ok((global, c.k.clone(), c.m.clone()))
-        })
-        .collect::<Result<Vec<_>, ReductionError>>()?;
-    interface_modes(junction, &blocks, selection)
-}
-
-/// The lowest modes of the junction pencil summed from dense blocks at global junction indices
-/// (blocks of components sharing junction DOFs overlap and add, 3.14).
-fn interface_modes(
-    junction: &[DofId],
-    blocks: &[(Vec<usize>, Mat<f64>, Mat<f64>)],
-    selection: ModeSelection,
-) -> Result<Option<Mat<f64>>, ReductionError> {
-    let nj = junction.len();
-    if nj == 0 {
-        return Ok(None);
-    }
-    let views: Vec<_> = blocks
-        .iter()
-        .map(|(g, k, m)| (g.as_slice(), k.as_ref(), m.as_ref()))
-        .collect();
-    let (kjj, mjj) = super::linalg::assemble_dense_blocks(nj, &views);
-    let (modes, _) = lowest_modes(
-        &kjj,
-        &mjj,
-        junction,
-        selection,
-        &SparseEigenParams::default(),
-    )
-    .map_err(ReductionError::ReducedEigen)?;
-    Ok(Some(modes.shapes))
 }
 
 /// Global coordinates after an interface reduction: the interface modes, then each component's

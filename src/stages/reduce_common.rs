@@ -83,7 +83,10 @@ pub struct ModalReductionParams {
     pub mass: MassKind,
     /// Interface reduction: replace the junction DOFs by the lowest modes of the junction's
     /// Guyan model, `{max_freq_hz: F}` or `{count: N}` (characteristic constraint modes; keeps
-    /// the reduced model small when the interfaces have thousands of DOFs). Default: none.
+    /// the reduced model small when the interfaces have thousands of DOFs). Craig-Bampton then
+    /// reduces each substructure on the interface modes alone, never holding a junction-sized
+    /// basis; junctions above 5000 DOFs get their interface modes in two levels (local modes
+    /// per boundary to 8× the cut-off, then their global combinations). Default: none.
     #[serde(default)]
     pub interface: Option<ComponentModes>,
 }
