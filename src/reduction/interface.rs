@@ -82,24 +82,30 @@ pub fn interface_basis_from_condensations(
     condensations: &[JunctionCondensation],
     selection: ModeSelection,
 ) -> Result<Option<Mat<f64>>, ReductionError> {
-    let index: HashMap<DofId, usize> = junction.iter().enumerate().map(|(i, d)| (*d, i)).collect();
     let blocks = condensations
         .iter()
         .map(|c| {
-            let global = c
-                .junction
-                .iter()
-                .map(|d| {
-                    index
-                        .get(d)
-                        .copied()
-                        .ok_or(ReductionError::UnknownDof { dof: *d })
-                })
-                .collect::<Result<Vec<usize>, _>>()?;
+            let global = junction_positions(junction, &c.junction)?;
             Ok((global, c.k.clone(), c.m.clone()))
         })
         .collect::<Result<Vec<_>, ReductionError>>()?;
     interface_modes(junction, &blocks, selection)
+}
+
+/// Positions of `dofs` in `junction` (the partition's junction DOFs, in its order).
+pub(crate) fn junction_positions(
+    junction: &[DofId],
+    dofs: &[DofId],
+) -> Result<Vec<usize>, ReductionError> {
+    let index: HashMap<DofId, usize> = junction.iter().enumerate().map(|(i, d)| (*d, i)).collect();
+    dofs.iter()
+        .map(|d| {
+            index
+                .get(d)
+                .copied()
+                .ok_or(ReductionError::UnknownDof { dof: *d })
+        })
+        .collect()
 }
 
 /// The lowest modes of the junction pencil summed from `blocks` (blocks of components sharing

@@ -742,16 +742,7 @@ pub fn interface_rows(
     substructure_junction: &[DofId],
     psi: MatRef<'_, f64>,
 ) -> Result<Mat<f64>, ReductionError> {
-    let index: HashMap<DofId, usize> = junction.iter().enumerate().map(|(i, d)| (*d, i)).collect();
-    let rows = substructure_junction
-        .iter()
-        .map(|d| {
-            index
-                .get(d)
-                .copied()
-                .ok_or(ReductionError::UnknownDof { dof: *d })
-        })
-        .collect::<Result<Vec<usize>, _>>()?;
+    let rows = super::interface::junction_positions(junction, substructure_junction)?;
     Ok(Mat::from_fn(rows.len(), psi.ncols(), |i, j| {
         psi[(rows[i], j)]
     }))
