@@ -201,8 +201,11 @@ pub fn junction_condensation(
             let mut psi = f.solve(dense_columns(&kij, cols.clone()).as_ref());
             psi *= faer::Scale(-1.0);
             let k_cols = sparse_transpose_times_dense(&kij, psi.as_ref());
-            let mut y = sparse_times_dense(&mii, psi.as_ref());
-            y += dense_columns(&mij, cols.clone());
+            // `M_ii Ψ` reading each stored entry of `M_ii` once for the whole block.
+            let mut y = dense_columns(&mij, cols.clone());
+            let mut mpsi = Mat::zeros(ni, psi.ncols());
+            crate::eigen::sparse::sym_matvec(&mii, psi.as_ref(), mpsi.as_mut());
+            y += &mpsi;
             let z = f.solve(y.as_ref());
             let m_cols = sparse_transpose_times_dense(&mij, psi.as_ref())
                 - sparse_transpose_times_dense(&kij, z.as_ref());
