@@ -51,6 +51,14 @@ pub fn peak_rss_mib() -> Option<f64> {
     Some(kb / 1024.0)
 }
 
+/// Starts a new peak: returns freed heap memory to the kernel and resets `VmHWM` (Linux
+/// `clear_refs` 5), so that [`peak_rss_mib`] measures what follows alone. A no-op where either is
+/// unavailable.
+pub fn reset_peak_rss() {
+    crate::core::memory::release_freed_memory();
+    let _ = std::fs::write("/proc/self/clear_refs", "5");
+}
+
 /// Which structure a benchmark builds.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
 pub enum BenchModel {
@@ -388,7 +396,8 @@ pub struct CmsSplitBench {
     pub reanalysis_reduce_seconds: f64,
     /// Direct full solve time over re-analysis time.
     pub speed_up: f64,
-    /// Peak resident memory of the process so far, MiB.
+    /// Peak resident memory of this split alone (from its partition to its re-analysis, the
+    /// model and the direct modes held), MiB.
     pub peak_rss_mib: Option<f64>,
 }
 
@@ -450,6 +459,7 @@ pub fn cms_bench(target_dofs: usize, parts: &[usize], modes: usize) -> Result<Cm
     let dofs = sys.n();
     drop(sys);
     let direct_peak_rss_mib = peak_rss_mib();
+    reset_peak_rss();
     let top_hz = direct.frequencies_hz().last().copied().unwrap_or(0.0);
     let cut_off = 2.0 * top_hz;
     let method = Method::CraigBampton {
@@ -467,6 +477,7 @@ pub fn cms_bench(target_dofs: usize, parts: &[usize], modes: usize) -> Result<Cm
     };
     let mut splits = Vec::new();
     for &k in parts {
+        reset_peak_rss();
         let t = Instant::now();
         let partition =
             Partition::automatic(&model, k, MassKind::Consistent).map_err(|e| e.to_string())?;
