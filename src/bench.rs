@@ -502,12 +502,11 @@ pub fn cms_bench(target_dofs: usize, parts: &[usize], modes: usize) -> Result<Cm
         let t = Instant::now();
         let psi = interface_basis_from_condensations(
             &partition.junction,
-            &condensations,
+            condensations,
             ModeSelection::BelowHz(cut_off),
         )
         .map_err(|e| e.to_string())?
         .ok_or("the partition has no junction: ask for more than one part")?;
-        drop(condensations);
         let interface_seconds = t.elapsed().as_secs_f64();
         tracing::info!("{k} parts: interface modes {interface_seconds:.1} s");
         let t = Instant::now();

@@ -76,17 +76,18 @@ pub fn interface_basis(
 
 /// [`interface_basis`] from the junction condensations of Craig-Bampton substructures
 /// ([`super::craig_bampton::junction_condensation`]): the same modes, without any component's
-/// junction-sized basis.
+/// junction-sized basis. The condensations are consumed: their blocks become the pencil's
+/// (no copy of `n_J`-sized data, gigabytes at a million DOFs).
 pub fn interface_basis_from_condensations(
     junction: &[DofId],
-    condensations: &[JunctionCondensation],
+    condensations: Vec<JunctionCondensation>,
     selection: ModeSelection,
 ) -> Result<Option<Mat<f64>>, ReductionError> {
     let blocks = condensations
-        .iter()
+        .into_iter()
         .map(|c| {
             let global = junction_positions(junction, &c.junction)?;
-            Ok((global, c.k.clone(), c.m.clone()))
+            Ok((global, c.k, c.m))
         })
         .collect::<Result<Vec<_>, ReductionError>>()?;
     interface_modes(junction, &blocks, selection)

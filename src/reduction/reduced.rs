@@ -853,8 +853,7 @@ pub fn reduce_with_interface(
             })
             .collect::<Result<Vec<_>, _>>()?;
         let psi =
-            interface_basis_from_condensations(&partition.junction, &condensations, selection)?;
-        drop(condensations);
+            interface_basis_from_condensations(&partition.junction, condensations, selection)?;
         if let Some(psi) = psi {
             let components = (0..partition.substructures.len())
                 .into_par_iter()

@@ -579,7 +579,7 @@ fn lean_interface_reduction_equals_the_coupled_one() {
     let coupled = plain.clone().with_interface_modes(selection).unwrap();
     let psi = coupled.interface.clone().unwrap();
     let from_condensations =
-        interface_basis_from_condensations(&p.junction, &condensations, selection)
+        interface_basis_from_condensations(&p.junction, condensations, selection)
             .unwrap()
             .unwrap();
     // The same elastic interface modes up to sign (the six rigid-body ones of the free-free

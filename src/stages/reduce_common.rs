@@ -175,7 +175,7 @@ pub fn run(
                         .map_err(StageError::failed)
                 })
                 .collect::<Result<Vec<_>, StageError>>()?;
-            interface_basis_from_condensations(&part.junction, &condensations, selection)
+            interface_basis_from_condensations(&part.junction, condensations, selection)
                 .map_err(interface_failed)?
         }
         _ => None,
