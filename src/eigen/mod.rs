@@ -2,6 +2,7 @@
 
 pub mod dense;
 pub mod factor;
+mod multifrontal;
 pub mod sparse;
 
 pub use dense::{EigenError, ModeSelection, Modes, dense_generalized};

@@ -1,0 +1,866 @@
+//! Numeric sparse Cholesky by the multifrontal method on faer's supernodal structure.
+//!
+//! faer's own numeric factorisation is left-looking: every supernode gathers one scattered
+//! product per descendant that updates it, with inner dimensions as narrow as a descendant's
+//! width, and walks the supernodes one after another. On shell models that reaches about a
+//! quarter of this machine's dense speed (21 GFlop/s of 85 at 300k DOFs). Here each supernode
+//! instead forms its frontal matrix once:
+//!
+//! 1. its columns of `P A Pᵀ` and its children's update matrices are added into the panel
+//!    `[L_11; L_21]` (which is the factor's own storage) and its update matrix `U`;
+//! 2. `L_11 L_11ᵀ = F_11`, `L_21 = F_21 L_11⁻ᵀ`, and `U ← U − L_21 L_21ᵀ` — one dense Cholesky, one
+//!    triangular solve and one symmetric rank-`w` update as wide as the supernode;
+//! 3. `U` is handed to the parent.
+//!
+//! Independent subtrees of the elimination tree run in parallel, and fronts large enough for it
+//! also split their dense kernels over the threads. The values land in faer's supernodal layout,
+//! so faer's symbolic structure and triangular solves serve this factor unchanged.
+
+use crate::fe::system::SparseMatrix;
+use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::linalg::cholesky::llt::factor::{cholesky_in_place, cholesky_in_place_scratch};
+use faer::linalg::matmul::triangular::{BlockStructure, matmul};
+use faer::linalg::triangular_solve::solve_lower_triangular_in_place;
+use faer::sparse::linalg::cholesky::supernodal::SymbolicSupernodalCholesky;
+use faer::{Accum, MatMut, Par};
+use rayon::prelude::*;
+
+/// Why a numeric factorisation stopped.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FrontError {
+    /// A pivot was not positive.
+    NotPositiveDefinite,
+    /// A frontal matrix could not be allocated.
+    OutOfMemory,
+}
+
+/// A subtree is split among the threads only above this many flops (about 20 ms of work).
+const PARALLEL_SUBTREE_FLOPS: f64 = 2e8;
+/// A front's dense kernels are split among the threads above this many flops.
+const PARALLEL_FRONT_FLOPS: f64 = 5e7;
+/// Tree parallelism stops this many levels down; deeper subtrees run one after another.
+const MAX_PARALLEL_DEPTH: usize = 256;
+
+/// The lower triangle of `P A Pᵀ` in compressed columns, rows sorted: the entries a supernode
+/// adds to its front.
+struct PermutedLower {
+    col_ptr: Vec<usize>,
+    row_idx: Vec<usize>,
+    values: Vec<f64>,
+}
+
+impl PermutedLower {
+    /// `inverse[old] = new`. Entries of `a` above its diagonal are not read.
+    fn new(a: &SparseMatrix, inverse: Option<&[usize]>) -> Result<Self, FrontError> {
+        let n = a.ncols();
+        let new = |i: usize| inverse.map_or(i, |p| p[i]);
+        let mut counts = vec![0usize; n + 1];
+        for oj in 0..n {
+            for &oi in a.row_idx_of_col_raw(oj) {
+                if oi >= oj {
+                    counts[new(oi).min(new(oj)) + 1] += 1;
+                }
+            }
+        }
+        for j in 0..n {
+            counts[j + 1] += counts[j];
+        }
+        let nnz = counts[n];
+        let mut row_idx = Vec::new();
+        let mut values = Vec::new();
+        row_idx
+            .try_reserve_exact(nnz)
+            .map_err(|_| FrontError::OutOfMemory)?;
+        values
+            .try_reserve_exact(nnz)
+            .map_err(|_| FrontError::OutOfMemory)?;
+        row_idx.resize(nnz, 0);
+        values.resize(nnz, 0.0);
+        let mut next = counts.clone();
+        for oj in 0..n {
+            for (&oi, &v) in a.row_idx_of_col_raw(oj).iter().zip(a.val_of_col(oj)) {
+                if oi >= oj {
+                    let (i, j) = (new(oi), new(oj));
+                    let (row, col) = (i.max(j), i.min(j));
+                    row_idx[next[col]] = row;
+                    values[next[col]] = v;
+                    next[col] += 1;
+                }
+            }
+        }
+        let mut pairs = Vec::new();
+        for j in 0..n {
+            let range = counts[j]..counts[j + 1];
+            if row_idx[range.clone()].is_sorted() {
+                continue;
+            }
+            pairs.clear();
+            pairs.extend(
+                row_idx[range.clone()]
+                    .iter()
+                    .copied()
+                    .zip(values[range.clone()].iter().copied()),
+            );
+            pairs.sort_unstable_by_key(|p| p.0);
+            for (k, (i, v)) in range.zip(&pairs) {
+                row_idx[k] = *i;
+                values[k] = *v;
+            }
+        }
+        Ok(PermutedLower {
+            col_ptr: counts,
+            row_idx,
+            values,
+        })
+    }
+}
+
+/// The supernodal elimination tree and what each subtree costs.
+pub struct Tree {
+    /// Children of supernode `s`: `child_idx[child_ptr[s]..child_ptr[s + 1]]`, ascending.
+    child_ptr: Vec<usize>,
+    child_idx: Vec<usize>,
+    /// First supernode of the subtree rooted at `s`.
+    first: Vec<usize>,
+    /// Flops of the subtree rooted at `s`.
+    subtree_flops: Vec<f64>,
+    /// Stored entries of the factor in the subtree rooted at `s` (the work of a solve).
+    subtree_entries: Vec<f64>,
+    /// Supernodes without a parent, ascending.
+    roots: Vec<usize>,
+    /// Whether every subtree is the contiguous range `first[s]..=s` (a postorder).
+    postordered: bool,
+}
+
+impl Tree {
+    /// The tree of `symbolic`'s supernodes.
+    pub fn new(symbolic: &SymbolicSupernodalCholesky<usize>) -> Self {
+        let ns = symbolic.n_supernodes();
+        let (begin, end) = (symbolic.supernode_begin(), symbolic.supernode_end());
+        let mut column_owner = vec![0usize; symbolic.nrows()];
+        for s in 0..ns {
+            column_owner[begin[s]..end[s]].fill(s);
+        }
+        // A supernode's parent owns the first row below its diagonal block.
+        let parent: Vec<Option<usize>> = (0..ns)
+            .map(|s| {
+                symbolic
+                    .supernode(s)
+                    .pattern()
+                    .first()
+                    .map(|&i| column_owner[i])
+            })
+            .collect();
+        let mut child_ptr = vec![0usize; ns + 1];
+        for p in parent.iter().flatten() {
+            child_ptr[p + 1] += 1;
+        }
+        for s in 0..ns {
+            child_ptr[s + 1] += child_ptr[s];
+        }
+        let mut child_idx = vec![0usize; child_ptr[ns]];
+        let mut next = child_ptr.clone();
+        for (s, p) in parent.iter().enumerate() {
+            if let Some(p) = *p {
+                child_idx[next[p]] = s;
+                next[p] += 1;
+            }
+        }
+        let mut first: Vec<usize> = (0..ns).collect();
+        let mut size = vec![1usize; ns];
+        let mut subtree_flops: Vec<f64> = (0..ns).map(|s| front_flops(symbolic, s)).collect();
+        let col_ptr_val = symbolic.col_ptr_for_val();
+        let mut subtree_entries: Vec<f64> = (0..ns)
+            .map(|s| (col_ptr_val[s + 1] - col_ptr_val[s]) as f64)
+            .collect();
+        // Children precede parents, so one ascending sweep completes every subtree.
+        for s in 0..ns {
+            if let Some(p) = parent[s] {
+                first[p] = first[p].min(first[s]);
+                size[p] += size[s];
+                subtree_flops[p] += subtree_flops[s];
+                subtree_entries[p] += subtree_entries[s];
+            }
+        }
+        let postordered = (0..ns).all(|s| s + 1 - first[s] == size[s]);
+        let roots = (0..ns).filter(|&s| parent[s].is_none()).collect();
+        Tree {
+            child_ptr,
+            child_idx,
+            first,
+            subtree_flops,
+            subtree_entries,
+            roots,
+            postordered,
+        }
+    }
+
+    fn children(&self, s: usize) -> &[usize] {
+        &self.child_idx[self.child_ptr[s]..self.child_ptr[s + 1]]
+    }
+
+    /// The subtrees of `s`'s children, with their shares of `items` (one per supernode of
+    /// `first[s]..s`, in order).
+    fn split_children<'s, T>(&self, s: usize, items: &'s mut [T]) -> Vec<(usize, &'s mut [T])> {
+        let mut parts = Vec::with_capacity(self.children(s).len());
+        let mut remaining = items;
+        for &c in self.children(s) {
+            let (head, tail) = remaining.split_at_mut(c + 1 - self.first[c]);
+            parts.push((c, head));
+            remaining = tail;
+        }
+        parts
+    }
+
+    /// The roots' subtrees with their shares of `items` (one per supernode, in order).
+    fn split_roots<'s, T>(&self, items: &'s mut [T]) -> Vec<(usize, &'s mut [T])> {
+        let mut parts = Vec::with_capacity(self.roots.len());
+        let mut remaining = items;
+        for &root in &self.roots {
+            let (head, tail) = remaining.split_at_mut(root + 1 - self.first[root]);
+            parts.push((root, head));
+            remaining = tail;
+        }
+        parts
+    }
+}
+
+/// Positions in the front of supernode `s` (its columns, then its pattern) of `rows`, rows of
+/// a child's pattern (both sorted, and every row present).
+fn local_positions(
+    symbolic: &SymbolicSupernodalCholesky<usize>,
+    s: usize,
+    rows: &[usize],
+    local: &mut Vec<usize>,
+) {
+    let (b, e) = (symbolic.supernode_begin()[s], symbolic.supernode_end()[s]);
+    let pattern = symbolic.supernode(s).pattern();
+    let w = e - b;
+    local.clear();
+    let mut p = 0;
+    for &i in rows {
+        local.push(if i < e {
+            i - b
+        } else {
+            while pattern[p] < i {
+                p += 1;
+            }
+            w + p
+        });
+    }
+}
+
+/// Flops of one front: Cholesky of the `w × w` block, the `r × w` triangular solve and the
+/// rank-`w` update of the `r × r` triangle.
+fn front_flops(symbolic: &SymbolicSupernodalCholesky<usize>, s: usize) -> f64 {
+    let w = (symbolic.supernode_end()[s] - symbolic.supernode_begin()[s]) as f64;
+    let r = symbolic.supernode(s).pattern().len() as f64;
+    w * w * w / 3.0 + w * w * r + w * r * r
+}
+
+/// Fills `values` (faer's supernodal layout for `symbolic`) with the Cholesky factor of
+/// `P A Pᵀ`; `inverse[old] = new` is the symbolic factor's ordering.
+pub fn factorize(
+    symbolic: &SymbolicSupernodalCholesky<usize>,
+    tree: &Tree,
+    inverse: Option<&[usize]>,
+    a: &SparseMatrix,
+    values: &mut [f64],
+) -> Result<(), FrontError> {
+    let lower = PermutedLower::new(a, inverse)?;
+    let ns = symbolic.n_supernodes();
+    let col_ptr_val = symbolic.col_ptr_for_val();
+    let mut slots: Vec<&mut [f64]> = Vec::with_capacity(ns);
+    let mut rest = values;
+    for s in 0..ns {
+        let (head, tail) = rest.split_at_mut(col_ptr_val[s + 1] - col_ptr_val[s]);
+        slots.push(head);
+        rest = tail;
+    }
+    let ctx = Context {
+        symbolic,
+        tree,
+        lower: &lower,
+    };
+    if !tree.postordered {
+        ctx.range(0, ns, &mut slots)?;
+        return Ok(());
+    }
+    tree.split_roots(&mut slots)
+        .into_par_iter()
+        .try_for_each(|(root, slots)| ctx.subtree(root, slots, 0).map(drop))
+}
+
+struct Context<'a> {
+    symbolic: &'a SymbolicSupernodalCholesky<usize>,
+    tree: &'a Tree,
+    lower: &'a PermutedLower,
+}
+
+/// The update matrix a supernode hands to its parent: `r × r`, column-major, lower triangle.
+type Update = Vec<f64>;
+
+impl Context<'_> {
+    /// Factors the subtree rooted at `s`; `slots` are the panels of `first[s]..=s`.
+    fn subtree(
+        &self,
+        s: usize,
+        slots: &mut [&mut [f64]],
+        depth: usize,
+    ) -> Result<Update, FrontError> {
+        let tree = self.tree;
+        if depth >= MAX_PARALLEL_DEPTH || tree.subtree_flops[s] < PARALLEL_SUBTREE_FLOPS {
+            return self.range(tree.first[s], s + 1, slots);
+        }
+        let (own, below) = slots.split_last_mut().expect("a subtree holds its root");
+        let parts = tree.split_children(s, below);
+        let heavy = tree
+            .children(s)
+            .iter()
+            .filter(|&&c| tree.subtree_flops[c] >= PARALLEL_SUBTREE_FLOPS)
+            .count();
+        let child = |(c, slots): (usize, &mut [&mut [f64]])| {
+            self.subtree(c, slots, depth + 1).map(|u| (c, u))
+        };
+        // Light children go straight to `range`; one heavy child continues the descent.
+        let updates: Vec<(usize, Update)> = if heavy >= 2 {
+            parts.into_par_iter().map(child).collect::<Result<_, _>>()?
+        } else {
+            parts.into_iter().map(child).collect::<Result<_, _>>()?
+        };
+        self.front(s, own, updates)
+    }
+
+    /// Factors supernodes `lo..hi` in order (children before parents); `slots` are their panels.
+    /// Returns the update matrix of the last one, the range's root.
+    fn range(&self, lo: usize, hi: usize, slots: &mut [&mut [f64]]) -> Result<Update, FrontError> {
+        let mut pending: Vec<Option<Update>> = vec![None; hi - lo];
+        for (k, s) in (lo..hi).enumerate() {
+            let updates = self
+                .tree
+                .children(s)
+                .iter()
+                .filter(|&&c| c >= lo)
+                .map(|&c| {
+                    let update = pending[c - lo].take();
+                    (
+                        c,
+                        update.expect("children are factored before their parent"),
+                    )
+                })
+                .collect();
+            pending[k] = Some(self.front(s, slots[k], updates)?);
+        }
+        Ok(pending.pop().flatten().unwrap_or_default())
+    }
+
+    /// Assembles, factors and condenses the front of supernode `s` into its panel; returns its
+    /// update matrix.
+    fn front(
+        &self,
+        s: usize,
+        panel: &mut [f64],
+        children: Vec<(usize, Update)>,
+    ) -> Result<Update, FrontError> {
+        let symbolic = self.symbolic;
+        let (b, e) = (symbolic.supernode_begin()[s], symbolic.supernode_end()[s]);
+        let pattern = symbolic.supernode(s).pattern();
+        let (w, r) = (e - b, pattern.len());
+        let nr = w + r;
+        panel.fill(0.0);
+        // Columns of P A Pᵀ: rows inside the block, then below it (both sorted).
+        let lower = self.lower;
+        for j in b..e {
+            let column = &mut panel[(j - b) * nr..(j - b + 1) * nr];
+            let mut p = 0;
+            let range = lower.col_ptr[j]..lower.col_ptr[j + 1];
+            for (&i, &v) in lower.row_idx[range.clone()]
+                .iter()
+                .zip(&lower.values[range])
+            {
+                let local = if i < e {
+                    i - b
+                } else {
+                    while pattern[p] < i {
+                        p += 1;
+                    }
+                    w + p
+                };
+                column[local] += v;
+            }
+        }
+        let mut update: Update = Vec::new();
+        update
+            .try_reserve_exact(r * r)
+            .map_err(|_| FrontError::OutOfMemory)?;
+        update.resize(r * r, 0.0);
+        let mut local = Vec::new();
+        for (c, child) in children {
+            let child_pattern = symbolic.supernode(c).pattern();
+            let rc = child_pattern.len();
+            local_positions(symbolic, s, child_pattern, &mut local);
+            for (jj, &t) in local.iter().enumerate() {
+                let source = &child[jj * rc + jj..(jj + 1) * rc];
+                if t < w {
+                    let column = &mut panel[t * nr..(t + 1) * nr];
+                    for (&li, &v) in local[jj..].iter().zip(source) {
+                        column[li] += v;
+                    }
+                } else {
+                    let column = &mut update[(t - w) * r..(t - w + 1) * r];
+                    for (&li, &v) in local[jj..].iter().zip(source) {
+                        column[li - w] += v;
+                    }
+                }
+            }
+        }
+        let flops = front_flops(symbolic, s);
+        let par = if flops >= PARALLEL_FRONT_FLOPS {
+            Par::rayon(0)
+        } else {
+            Par::Seq
+        };
+        let ls = MatMut::from_column_major_slice_mut(panel, nr, w);
+        let (mut top, mut bottom) = ls.split_at_row_mut(w);
+        let mut buffer =
+            MemBuffer::try_new(cholesky_in_place_scratch::<f64>(w, par, Default::default()))
+                .map_err(|_| FrontError::OutOfMemory)?;
+        cholesky_in_place(
+            top.as_mut(),
+            Default::default(),
+            par,
+            MemStack::new(&mut buffer),
+            Default::default(),
+        )
+        .map_err(|_| FrontError::NotPositiveDefinite)?;
+        if r > 0 {
+            solve_lower_triangular_in_place(top.as_ref(), bottom.as_mut().transpose_mut(), par);
+            let u = MatMut::from_column_major_slice_mut(&mut update, r, r);
+            matmul(
+                u,
+                BlockStructure::TriangularLower,
+                Accum::Add,
+                bottom.as_ref(),
+                BlockStructure::Rectangular,
+                bottom.as_ref().transpose(),
+                BlockStructure::Rectangular,
+                -1.0,
+                par,
+            );
+        }
+        Ok(update)
+    }
+}
+
+/// A subtree's triangular solves run on their own thread above this many factor entries
+/// (16 MB of factor, a few milliseconds of reading).
+const PARALLEL_SOLVE_ENTRIES: f64 = 2e6;
+
+/// `X ← (P L Lᵀ Pᵀ)⁻¹ X` for the factor in `values`; `forward[new] = old` is the ordering.
+///
+/// The solves are multifrontal too, so independent subtrees run on separate threads and each
+/// entry of the factor is read once per pass for all columns. Forward, a supernode solves
+/// `L_11 y = b` for its own rows and hands `−L_21 y` to its parent; backward, it receives
+/// `x` at its pattern's rows from its parent, solves `L_11ᵀ x = y − L_21ᵀ x_pattern`, and hands
+/// each child the rows of its own pattern. Columns are taken `k` at a time in a row-major
+/// work array, so a row's `k` values are contiguous for the gathers and scatters.
+pub fn solve(
+    symbolic: &SymbolicSupernodalCholesky<usize>,
+    tree: &Tree,
+    forward: Option<&[usize]>,
+    values: &[f64],
+    x: MatMut<'_, f64>,
+    k: usize,
+) {
+    let (n, ns) = (symbolic.nrows(), symbolic.n_supernodes());
+    let col_ptr_val = symbolic.col_ptr_for_val();
+    let panels: Vec<&[f64]> = (0..ns)
+        .map(|s| &values[col_ptr_val[s]..col_ptr_val[s + 1]])
+        .collect();
+    let begin = symbolic.supernode_begin();
+    let mut x = x;
+    let old = |i: usize| forward.map_or(i, |f| f[i]);
+    let mut work = Vec::new();
+    for c0 in (0..x.ncols()).step_by(k.max(1)) {
+        let kc = k.max(1).min(x.ncols() - c0);
+        work.clear();
+        work.resize(n * kc, 0.0);
+        for c in 0..kc {
+            let col = x.as_ref().col(c0 + c);
+            for (i, row) in work.chunks_exact_mut(kc).enumerate() {
+                row[c] = col[old(i)];
+            }
+        }
+        let mut rows: Vec<&mut [f64]> = Vec::with_capacity(ns);
+        let mut rest = work.as_mut_slice();
+        for s in 0..ns {
+            let w = symbolic.supernode_end()[s] - begin[s];
+            let (head, tail) = rest.split_at_mut(w * kc);
+            rows.push(head);
+            rest = tail;
+        }
+        let ctx = SolveContext {
+            symbolic,
+            tree,
+            panels: &panels,
+            k: kc,
+        };
+        if tree.postordered {
+            tree.split_roots(&mut rows)
+                .into_par_iter()
+                .for_each(|(root, rows)| {
+                    ctx.forward_subtree(root, rows, 0);
+                });
+            tree.split_roots(&mut rows)
+                .into_par_iter()
+                .for_each(|(root, rows)| {
+                    ctx.backward_subtree(root, rows, Vec::new(), 0);
+                });
+        } else {
+            ctx.forward_range(0, ns, &mut rows);
+            let roots = tree.roots.iter().map(|&r| (r, Vec::new()));
+            ctx.backward_range(0, ns, &mut rows, roots.collect());
+        }
+        drop(rows);
+        for c in 0..kc {
+            let mut col = x.as_mut().col_mut(c0 + c);
+            for (i, row) in work.chunks_exact(kc).enumerate() {
+                col[old(i)] = row[c];
+            }
+        }
+    }
+}
+
+struct SolveContext<'a> {
+    symbolic: &'a SymbolicSupernodalCholesky<usize>,
+    tree: &'a Tree,
+    panels: &'a [&'a [f64]],
+    k: usize,
+}
+
+/// What one supernode hands to another during a solve: `r × k`, row-major.
+type Rows = Vec<f64>;
+
+impl SolveContext<'_> {
+    /// `[L_11; L_21]` of supernode `s` and its width.
+    fn panel(&self, s: usize) -> (faer::MatRef<'_, f64>, faer::MatRef<'_, f64>) {
+        let w = self.symbolic.supernode_end()[s] - self.symbolic.supernode_begin()[s];
+        let r = self.symbolic.supernode(s).pattern().len();
+        faer::MatRef::from_column_major_slice(self.panels[s], w + r, w).split_at_row(w)
+    }
+
+    fn forward_subtree(&self, s: usize, rows: &mut [&mut [f64]], depth: usize) -> Rows {
+        let tree = self.tree;
+        if depth >= MAX_PARALLEL_DEPTH || tree.subtree_entries[s] < PARALLEL_SOLVE_ENTRIES {
+            return self.forward_range(tree.first[s], s + 1, rows);
+        }
+        let (own, below) = rows.split_last_mut().expect("a subtree holds its root");
+        let parts = tree.split_children(s, below);
+        let heavy = tree
+            .children(s)
+            .iter()
+            .filter(|&&c| tree.subtree_entries[c] >= PARALLEL_SOLVE_ENTRIES)
+            .count();
+        let child =
+            |(c, rows): (usize, &mut [&mut [f64]])| (c, self.forward_subtree(c, rows, depth + 1));
+        let updates: Vec<(usize, Rows)> = if heavy >= 2 {
+            parts.into_par_iter().map(child).collect()
+        } else {
+            parts.into_iter().map(child).collect()
+        };
+        self.forward_front(s, own, updates)
+    }
+
+    fn forward_range(&self, lo: usize, hi: usize, rows: &mut [&mut [f64]]) -> Rows {
+        let mut pending: Vec<Option<Rows>> = vec![None; hi - lo];
+        for (j, s) in (lo..hi).enumerate() {
+            let updates = self
+                .tree
+                .children(s)
+                .iter()
+                .map(|&c| {
+                    let update = pending[c - lo].take();
+                    (c, update.expect("children are solved before their parent"))
+                })
+                .collect();
+            pending[j] = Some(self.forward_front(s, rows[j], updates));
+        }
+        pending.pop().flatten().unwrap_or_default()
+    }
+
+    /// `y_s = L_11⁻¹ (b_s − Σ children)`; returns `−L_21 y_s` for the parent.
+    fn forward_front(&self, s: usize, own: &mut [f64], children: Vec<(usize, Rows)>) -> Rows {
+        let k = self.k;
+        let w = own.len() / k;
+        let r = self.symbolic.supernode(s).pattern().len();
+        let mut update = vec![0.0; r * k];
+        let mut local = Vec::new();
+        for (c, rows) in children {
+            local_positions(
+                self.symbolic,
+                s,
+                self.symbolic.supernode(c).pattern(),
+                &mut local,
+            );
+            for (&t, source) in local.iter().zip(rows.chunks_exact(k)) {
+                let target = if t < w {
+                    &mut own[t * k..(t + 1) * k]
+                } else {
+                    &mut update[(t - w) * k..(t - w + 1) * k]
+                };
+                for (y, v) in target.iter_mut().zip(source) {
+                    *y += v;
+                }
+            }
+        }
+        let (top, bottom) = self.panel(s);
+        let mut y = MatMut::from_row_major_slice_mut(own, w, k);
+        solve_lower_triangular_in_place(top, y.as_mut(), Par::Seq);
+        if r > 0 {
+            faer::linalg::matmul::matmul(
+                MatMut::from_row_major_slice_mut(&mut update, r, k),
+                Accum::Add,
+                bottom,
+                y.as_ref(),
+                -1.0,
+                Par::Seq,
+            );
+        }
+        update
+    }
+
+    /// Solves the subtree rooted at `s` backward; `above` is `x` at `s`'s pattern rows.
+    fn backward_subtree(&self, s: usize, rows: &mut [&mut [f64]], above: Rows, depth: usize) {
+        let tree = self.tree;
+        if depth >= MAX_PARALLEL_DEPTH || tree.subtree_entries[s] < PARALLEL_SOLVE_ENTRIES {
+            return self.backward_range(tree.first[s], s + 1, rows, vec![(s, above)]);
+        }
+        let (own, below) = rows.split_last_mut().expect("a subtree holds its root");
+        let handed = self.backward_front(s, own, &above);
+        let parts: Vec<_> = tree
+            .split_children(s, below)
+            .into_iter()
+            .zip(handed)
+            .collect();
+        let heavy = tree
+            .children(s)
+            .iter()
+            .filter(|&&c| tree.subtree_entries[c] >= PARALLEL_SOLVE_ENTRIES)
+            .count();
+        let child = |((c, rows), above): ((usize, &mut [&mut [f64]]), Rows)| {
+            self.backward_subtree(c, rows, above, depth + 1)
+        };
+        if heavy >= 2 {
+            parts.into_par_iter().for_each(child);
+        } else {
+            parts.into_iter().for_each(child);
+        }
+    }
+
+    /// Solves supernodes `hi − 1` down to `lo`; `given` holds `x` at the pattern rows of the
+    /// range's roots.
+    fn backward_range(
+        &self,
+        lo: usize,
+        hi: usize,
+        rows: &mut [&mut [f64]],
+        given: Vec<(usize, Rows)>,
+    ) {
+        let mut pending: Vec<Option<Rows>> = vec![None; hi - lo];
+        for (s, above) in given {
+            pending[s - lo] = Some(above);
+        }
+        for s in (lo..hi).rev() {
+            let above = pending[s - lo]
+                .take()
+                .expect("parents are solved before their children");
+            let handed = self.backward_front(s, rows[s - lo], &above);
+            for (&c, rows) in self.tree.children(s).iter().zip(handed) {
+                pending[c - lo] = Some(rows);
+            }
+        }
+    }
+
+    /// `x_s = L_11⁻ᵀ (y_s − L_21ᵀ x_pattern)`; returns, per child, `x` at the child's pattern.
+    fn backward_front(&self, s: usize, own: &mut [f64], above: &[f64]) -> Vec<Rows> {
+        let k = self.k;
+        let w = own.len() / k;
+        let r = self.symbolic.supernode(s).pattern().len();
+        let (top, bottom) = self.panel(s);
+        let mut x = MatMut::from_row_major_slice_mut(own, w, k);
+        if r > 0 {
+            faer::linalg::matmul::matmul(
+                x.as_mut(),
+                Accum::Add,
+                bottom.transpose(),
+                faer::MatRef::from_row_major_slice(above, r, k),
+                -1.0,
+                Par::Seq,
+            );
+        }
+        faer::linalg::triangular_solve::solve_upper_triangular_in_place(
+            top.transpose(),
+            x.as_mut(),
+            Par::Seq,
+        );
+        let mut local = Vec::new();
+        self.tree
+            .children(s)
+            .iter()
+            .map(|&c| {
+                local_positions(
+                    self.symbolic,
+                    s,
+                    self.symbolic.supernode(c).pattern(),
+                    &mut local,
+                );
+                let mut rows = Vec::with_capacity(local.len() * k);
+                for &t in &local {
+                    rows.extend_from_slice(if t < w {
+                        &own[t * k..(t + 1) * k]
+                    } else {
+                        &above[(t - w) * k..(t - w + 1) * k]
+                    });
+                }
+                rows
+            })
+            .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::fe::system::sparse_from_triplets;
+    use faer::Side;
+    use faer::dyn_stack::MemBuffer;
+    use faer::sparse::linalg::SupernodalThreshold;
+    use faer::sparse::linalg::cholesky::{
+        CholeskySymbolicParams, SymbolicCholesky, SymbolicCholeskyRaw, SymmetricOrdering,
+        factorize_symbolic_cholesky,
+    };
+
+    /// A 3-D grid Laplacian with a diagonal shift, full storage: its elimination tree has
+    /// separators wide enough for the parallel subtrees and the split dense kernels.
+    fn grid(side: usize) -> SparseMatrix {
+        let node = |i: usize, j: usize, k: usize| (i * side + j) * side + k;
+        let mut t = Vec::new();
+        for i in 0..side {
+            for j in 0..side {
+                for k in 0..side {
+                    let a = node(i, j, k);
+                    t.push((a, a, 6.5 + (a % 7) as f64 * 0.1));
+                    for (x, y, z) in [(i + 1, j, k), (i, j + 1, k), (i, j, k + 1)] {
+                        if x < side && y < side && z < side {
+                            let b = node(x, y, z);
+                            t.push((a, b, -1.0));
+                            t.push((b, a, -1.0));
+                        }
+                    }
+                }
+            }
+        }
+        sparse_from_triplets("A", side * side * side, &t).unwrap()
+    }
+
+    fn symbolic(a: &SparseMatrix) -> SymbolicCholesky<usize> {
+        factorize_symbolic_cholesky(
+            a.symbolic(),
+            Side::Lower,
+            SymmetricOrdering::Amd,
+            CholeskySymbolicParams {
+                supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SUPERNODAL,
+                ..Default::default()
+            },
+        )
+        .unwrap()
+    }
+
+    /// faer's left-looking supernodal factorisation of the same structure: an independent
+    /// computation of the same numbers, so they agree to round-off (1e-12 of the largest entry;
+    /// the two orders of summation differ by a few ulps per update).
+    #[test]
+    fn values_equal_faers_left_looking_factor() {
+        let a = grid(30);
+        let sym = symbolic(&a);
+        let mut reference = vec![0.0; sym.len_val()];
+        let par = Par::Seq;
+        let mut buffer =
+            MemBuffer::new(sym.factorize_numeric_llt_scratch::<f64>(par, Default::default()));
+        sym.factorize_numeric_llt::<f64>(
+            &mut reference,
+            a.as_ref(),
+            Side::Lower,
+            Default::default(),
+            par,
+            MemStack::new(&mut buffer),
+            Default::default(),
+        )
+        .unwrap();
+        let SymbolicCholeskyRaw::Supernodal(supernodal) = sym.raw() else {
+            panic!("forced supernodal")
+        };
+        let inverse = sym.perm().map(|p| p.arrays().1);
+        let tree = Tree::new(supernodal);
+        assert!(tree.postordered);
+        let split = (0..supernodal.n_supernodes()).any(|s| {
+            let heavy = tree.children(s).iter();
+            heavy
+                .filter(|&&c| tree.subtree_flops[c] >= PARALLEL_SUBTREE_FLOPS)
+                .count()
+                >= 2
+        });
+        assert!(split, "the test must reach the parallel subtrees");
+        let largest = reference.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let check = |values: &[f64], route: &str| {
+            let worst = values
+                .iter()
+                .zip(&reference)
+                .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
+            assert!(
+                worst <= 1e-12 * largest,
+                "{route}: {worst:e} of {largest:e}"
+            );
+        };
+        let mut values = vec![f64::NAN; sym.len_val()];
+        factorize(supernodal, &tree, inverse, &a, &mut values).unwrap();
+        check(&values, "parallel tree");
+        // The sequential route (taken when supernodes are not in postorder).
+        let lower = PermutedLower::new(&a, inverse).unwrap();
+        let ctx = Context {
+            symbolic: supernodal,
+            tree: &tree,
+            lower: &lower,
+        };
+        let mut values = vec![f64::NAN; sym.len_val()];
+        let ptr = supernodal.col_ptr_for_val();
+        let mut slots: Vec<&mut [f64]> = Vec::new();
+        let mut rest = values.as_mut_slice();
+        for s in 0..supernodal.n_supernodes() {
+            let (head, tail) = rest.split_at_mut(ptr[s + 1] - ptr[s]);
+            slots.push(head);
+            rest = tail;
+        }
+        ctx.range(0, supernodal.n_supernodes(), &mut slots).unwrap();
+        check(&values, "sequential");
+    }
+
+    #[test]
+    fn an_indefinite_matrix_stops_with_its_error() {
+        let mut a = crate::fe::system::sparse_triplets(&grid(6));
+        for t in a.iter_mut().filter(|t| t.0 == t.1 && t.0 == 100) {
+            t.2 = -50.0;
+        }
+        let a = sparse_from_triplets("A", 216, &a).unwrap();
+        let sym = symbolic(&a);
+        let SymbolicCholeskyRaw::Supernodal(supernodal) = sym.raw() else {
+            panic!("forced supernodal")
+        };
+        let mut values = vec![0.0; sym.len_val()];
+        let inverse = sym.perm().map(|p| p.arrays().1);
+        assert_eq!(
+            factorize(supernodal, &Tree::new(supernodal), inverse, &a, &mut values),
+            Err(FrontError::NotPositiveDefinite)
+        );
+    }
+}
