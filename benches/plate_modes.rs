@@ -33,7 +33,7 @@ fn main() {
                         m.info.factor_seconds,
                         m.info.solve_seconds,
                         m.info.orthogonalisation_seconds,
-                        b.peak_rss_mib.unwrap_or(f64::NAN)
+                        m.peak_rss_mib.unwrap_or(f64::NAN)
                     );
                 }
             }

@@ -24,7 +24,7 @@ pub struct PlateBench {
     pub assembly_seconds: f64,
     /// Per requested mode count: total seconds and the solver's breakdown.
     pub modes: Vec<ModesBench>,
-    /// Peak resident memory of the process so far, MiB (Linux `VmHWM`).
+    /// Peak resident memory of generation and assembly, MiB (Linux `VmHWM`).
     pub peak_rss_mib: Option<f64>,
 }
 
@@ -41,6 +41,9 @@ pub struct ModesBench {
     pub max_residual: f64,
     /// Solver breakdown.
     pub info: SparseEigenInfo,
+    /// Peak resident memory during this solve, MiB: the model's `K` and `M` and everything the
+    /// solver holds (the peak is reset just before; Linux only).
+    pub peak_rss_mib: Option<f64>,
 }
 
 /// Peak resident set size of this process, MiB.
@@ -98,8 +101,10 @@ pub fn model_bench(
     let (sys, info) = assemble_model(&model, MassKind::Consistent).map_err(|e| e.to_string())?;
     let assembly_seconds = t.elapsed().as_secs_f64();
     drop(model);
+    let assembly_peak = peak_rss_mib();
     let mut modes = Vec::new();
     for &count in mode_counts {
+        reset_peak_rss();
         let t = Instant::now();
         let params = SparseEigenParams {
             tolerance: 1e-8,
@@ -123,6 +128,7 @@ pub fn model_bench(
             ),
             max_residual: m.residuals.iter().copied().fold(0.0, f64::max),
             info,
+            peak_rss_mib: peak_rss_mib(),
         });
     }
     Ok(PlateBench {
@@ -132,7 +138,7 @@ pub fn model_bench(
         generate_seconds,
         assembly_seconds,
         modes,
-        peak_rss_mib: peak_rss_mib(),
+        peak_rss_mib: assembly_peak,
     })
 }
 

@@ -519,10 +519,11 @@ fn dispatch(cli: Cli) -> Result<u8, Failure> {
                 }
             );
             println!(
-                "{:>9} {:>11} {:>9} {:>6} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>12} {:>10}",
+                "{:>9} {:>11} {:>9} {:>9} {:>6} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>12} {:>10}",
                 "dofs",
                 "nnz(K)",
                 "assemble",
+                "peak MiB",
                 "modes",
                 "total",
                 "factor",
@@ -539,10 +540,11 @@ fn dispatch(cli: Cli) -> Result<u8, Failure> {
                     crate::bench::model_bench(which, n, &modes).map_err(|e| anyhow::anyhow!(e))?;
                 for m in &b.modes {
                     println!(
-                        "{:>9} {:>11} {:>9.2} {:>6} {:>8.2} {:>8.2} {:>8.2} {:>8.2} {:>8.2} {:>8.2} {:>12} {:>10.0}",
+                        "{:>9} {:>11} {:>9.2} {:>9.0} {:>6} {:>8.2} {:>8.2} {:>8.2} {:>8.2} {:>8.2} {:>8.2} {:>12} {:>10.0}",
                         b.dofs,
                         b.nnz,
                         b.assembly_seconds,
+                        b.peak_rss_mib.unwrap_or(f64::NAN),
                         m.count,
                         m.seconds,
                         m.info.factor_seconds,
@@ -551,7 +553,7 @@ fn dispatch(cli: Cli) -> Result<u8, Failure> {
                         m.info.mass_product_seconds,
                         m.info.refinement_seconds,
                         m.info.factor.factor_entries,
-                        b.peak_rss_mib.unwrap_or(f64::NAN)
+                        m.peak_rss_mib.unwrap_or(f64::NAN)
                     );
                 }
                 all.push(b);

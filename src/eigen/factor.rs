@@ -110,11 +110,11 @@ impl SpdFactor {
         let SymbolicCholeskyRaw::Supernodal(supernodal) = self.symbolic.raw() else {
             unreachable!("the symbolic factorisation is forced supernodal")
         };
-        let forward = self.symbolic.perm().map(|p| p.arrays().0);
+        let permutation = self.symbolic.perm().map(|p| p.arrays());
         multifrontal::solve(
             supernodal,
             &self.tree,
-            forward,
+            permutation,
             &self.values,
             x,
             SOLVE_COLUMNS,

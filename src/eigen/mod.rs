@@ -2,6 +2,7 @@
 
 pub mod dense;
 pub mod factor;
+mod layout;
 mod multifrontal;
 pub mod sparse;
 

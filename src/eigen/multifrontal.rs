@@ -16,6 +16,7 @@
 //! also split their dense kernels over the threads. The values land in faer's supernodal layout,
 //! so faer's symbolic structure and triangular solves serve this factor unchanged.
 
+use super::layout::{from_row_major, to_row_major};
 use crate::fe::system::SparseMatrix;
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::llt::factor::{cholesky_in_place, cholesky_in_place_scratch};
@@ -456,7 +457,8 @@ impl Context<'_> {
 /// (16 MB of factor, a few milliseconds of reading).
 const PARALLEL_SOLVE_ENTRIES: f64 = 2e6;
 
-/// `X ← (P L Lᵀ Pᵀ)⁻¹ X` for the factor in `values`; `forward[new] = old` is the ordering.
+/// `X ← (P L Lᵀ Pᵀ)⁻¹ X` for the factor in `values`; `permutation` is the ordering as
+/// `(forward, inverse)`, `forward[new] = old`.
 ///
 /// The solves are multifrontal too, so independent subtrees run on separate threads and each
 /// entry of the factor is read once per pass for all columns. Forward, a supernode solves
@@ -467,7 +469,7 @@ const PARALLEL_SOLVE_ENTRIES: f64 = 2e6;
 pub fn solve(
     symbolic: &SymbolicSupernodalCholesky<usize>,
     tree: &Tree,
-    forward: Option<&[usize]>,
+    permutation: Option<(&[usize], &[usize])>,
     values: &[f64],
     x: MatMut<'_, f64>,
     k: usize,
@@ -479,17 +481,22 @@ pub fn solve(
         .collect();
     let begin = symbolic.supernode_begin();
     let mut x = x;
-    let old = |i: usize| forward.map_or(i, |f| f[i]);
-    let mut work = Vec::new();
+    let (mut work, mut natural) = (Vec::new(), Vec::new());
     for c0 in (0..x.ncols()).step_by(k.max(1)) {
         let kc = k.max(1).min(x.ncols() - c0);
+        natural.clear();
+        natural.resize(n * kc, 0.0);
+        to_row_major(x.as_ref().subcols(c0, kc), &mut natural);
+        // Rows in the factor's order: row `i` of the work is row `forward[i]` of `X`.
         work.clear();
         work.resize(n * kc, 0.0);
-        for c in 0..kc {
-            let col = x.as_ref().col(c0 + c);
-            for (i, row) in work.chunks_exact_mut(kc).enumerate() {
-                row[c] = col[old(i)];
-            }
+        match permutation {
+            Some((forward, _)) => work
+                .par_chunks_exact_mut(kc)
+                .zip(forward.par_iter())
+                .with_min_len(4096)
+                .for_each(|(row, &old)| row.copy_from_slice(&natural[old * kc..(old + 1) * kc])),
+            None => work.copy_from_slice(&natural),
         }
         let mut rows: Vec<&mut [f64]> = Vec::with_capacity(ns);
         let mut rest = work.as_mut_slice();
@@ -522,12 +529,15 @@ pub fn solve(
             ctx.backward_range(0, ns, &mut rows, roots.collect());
         }
         drop(rows);
-        for c in 0..kc {
-            let mut col = x.as_mut().col_mut(c0 + c);
-            for (i, row) in work.chunks_exact(kc).enumerate() {
-                col[old(i)] = row[c];
-            }
+        match permutation {
+            Some((_, inverse)) => natural
+                .par_chunks_exact_mut(kc)
+                .zip(inverse.par_iter())
+                .with_min_len(4096)
+                .for_each(|(row, &new)| row.copy_from_slice(&work[new * kc..(new + 1) * kc])),
+            None => natural.copy_from_slice(&work),
         }
+        from_row_major(&natural, x.as_mut().subcols_mut(c0, kc));
     }
 }
 

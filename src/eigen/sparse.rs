@@ -19,6 +19,7 @@
 
 use super::dense::{EigenError, ModeSelection, Modes, dense_generalized, fix_sign, median_ratio};
 use super::factor::{FactorError, FactorInfo, SpdFactor};
+use super::layout::{from_row_major, to_row_major};
 use crate::core::DofId;
 use crate::fe::system::{SparseMatrix, lower_combination, sparse_to_dense};
 use faer::linalg::triangular_solve::solve_lower_triangular_in_place;
@@ -80,20 +81,23 @@ pub struct SparseEigenInfo {
 }
 
 /// `Y = A X` for a sparse symmetric `A` stored in full, parallel over output rows (row `j` of
-/// `A` is its column `j`, read contiguously). The block is handled all at once: `X` is copied
-/// row-major, so every stored entry of `A` is read once and serves all columns.
+/// `A` is its column `j`, read contiguously). Columns are taken [`PRODUCT_COLUMNS`] at a time,
+/// copied row-major, so every stored entry of `A` read serves all of them, and the copies stay
+/// small beside `X` itself.
 pub fn sym_matvec(a: &SparseMatrix, x: MatRef<'_, f64>, mut y: MatMut<'_, f64>) {
     let (n, b) = (a.ncols(), x.ncols());
     if b == 0 || n == 0 {
         return;
     }
-    let mut xt = vec![0.0; n * b];
-    for c in 0..b {
-        let col = x.col(c);
-        for (i, row) in xt.chunks_exact_mut(b).enumerate() {
-            row[c] = col[i];
+    if b > PRODUCT_COLUMNS {
+        for c0 in (0..b).step_by(PRODUCT_COLUMNS) {
+            let width = PRODUCT_COLUMNS.min(b - c0);
+            sym_matvec(a, x.subcols(c0, width), y.as_mut().subcols_mut(c0, width));
         }
+        return;
     }
+    let mut xt = vec![0.0; n * b];
+    to_row_major(x, &mut xt);
     let mut yt = vec![0.0; n * b];
     yt.par_chunks_exact_mut(b)
         .with_min_len(1024)
@@ -122,13 +126,11 @@ pub fn sym_matvec(a: &SparseMatrix, x: MatRef<'_, f64>, mut y: MatMut<'_, f64>) 
                     .sum();
             }
         });
-    for c in 0..b {
-        let mut col = y.as_mut().col_mut(c);
-        for (j, row) in yt.chunks_exact(b).enumerate() {
-            col[j] = row[c];
-        }
-    }
+    from_row_major(&yt, y.as_mut());
 }
+
+/// Columns per pass of [`sym_matvec`] over the matrix.
+const PRODUCT_COLUMNS: usize = 16;
 
 fn diag(a: &SparseMatrix, j: usize) -> f64 {
     let rows = a.row_idx_of_col_raw(j);
@@ -229,7 +231,7 @@ pub fn lowest_modes(
         }
     };
     lambdas.truncate(counted);
-    vecs = vecs.subcols(0, counted).to_owned();
+    vecs.truncate(n, counted);
     let (mut kphi, mut mphi) = (Mat::zeros(n, 0), Mat::zeros(n, 0));
     let t = Instant::now();
     if counted > 0 {
@@ -257,6 +259,7 @@ fn refine(
     let (n, c) = (v.nrows(), v.ncols());
     let mut x = Mat::<f64>::zeros(n, c);
     sym_matvec(m, v.as_ref(), x.as_mut());
+    drop(v);
     llt.solve_in_place(x.as_mut());
     let (mut kx, mut mx) = (Mat::<f64>::zeros(n, c), Mat::<f64>::zeros(n, c));
     sym_matvec(k, x.as_ref(), kx.as_mut());
@@ -284,8 +287,11 @@ fn refine(
         y.as_mut(),
         Par::Seq,
     );
-    // Φ = X y, and KΦ, MΦ from the products already formed.
-    Ok((lambdas, &x * &y, &kx * &y, &mx * &y))
+    // Φ = X y, and KΦ, MΦ from the products already formed, each in place.
+    for z in [&mut x, &mut kx, &mut mx] {
+        combine_in_place(z.as_mut(), y.as_ref());
+    }
+    Ok((lambdas, x, kx, mx))
 }
 
 /// Rayleigh quotients, residuals, orthogonality and sign convention for computed pairs.
@@ -353,14 +359,15 @@ fn finish(
             }
         }
     }
+    // ΦᵀMΦ − I before the re-sort, which permutes its rows and columns alike.
+    let gram = shapes.transpose() * &mphi;
+    drop(mphi);
     // Re-sort: Rayleigh quotients may swap nearly repeated pairs.
     let mut order: Vec<usize> = (0..c).collect();
     order.sort_by(|a, b| lambdas[*a].total_cmp(&lambdas[*b]));
-    let shapes = Mat::from_fn(n, c, |i, j| shapes[(i, order[j])]);
-    let mphi = Mat::from_fn(n, c, |i, j| mphi[(i, order[j])]);
+    permute_columns(&mut shapes, &order);
     let lambdas: Vec<f64> = order.iter().map(|&j| lambdas[j]).collect();
     let residuals: Vec<f64> = order.iter().map(|&j| residuals[j]).collect();
-    let gram = shapes.transpose() * &mphi;
     let mut orthogonality_error = 0.0f64;
     for i in 0..c {
         for j in 0..c {
@@ -375,6 +382,27 @@ fn finish(
         orthogonality_error,
         rigid_body_modes: rigid,
     })
+}
+
+/// Column `j` of `a` becomes its column `order[j]`, following the permutation's cycles with one
+/// column held aside (no second copy of `a`).
+fn permute_columns(a: &mut Mat<f64>, order: &[usize]) {
+    let mut placed = vec![false; order.len()];
+    for start in 0..order.len() {
+        if placed[start] || order[start] == start {
+            continue;
+        }
+        let held = a.col(start).to_owned();
+        let mut j = start;
+        while order[j] != start {
+            let source = a.col(order[j]).to_owned();
+            a.col_mut(j).copy_from(&source);
+            placed[j] = true;
+            j = order[j];
+        }
+        a.col_mut(j).copy_from(&held);
+        placed[j] = true;
+    }
 }
 
 /// `out ← out − basis · (mbasisᵀ · w)` twice (block Gram–Schmidt in the `M`-inner product);
@@ -559,8 +587,6 @@ fn lanczos(
         };
         info.orthogonalisation_seconds += t.elapsed().as_secs_f64();
         if done {
-            let yk = Mat::from_fn(p, keep, |i, c| y[(i, order[c])]);
-            let vk = &v * &yk;
             if converged < nev {
                 return Err(EigenError::NotConverged {
                     converged,
@@ -568,20 +594,22 @@ fn lanczos(
                     restarts: restart,
                 });
             }
+            drop(mv);
+            let yk = Mat::from_fn(p, keep, |i, c| y[(i, order[c])]);
+            combine_in_place(v.as_mut(), yk.as_ref());
+            v.truncate(n, keep);
             let lambdas: Vec<f64> = (0..nev).map(|c| shift + 1.0 / theta[order[c]]).collect();
-            return Ok((lambdas, vk));
+            return Ok((lambdas, v));
         }
         // Thick restart: kept Ritz vectors, then the residual block; blocks must tile up to p.
         let t = Instant::now();
         let keep = p - (p - keep).div_ceil(b) * b;
         let keep = keep.max(1);
         let yk = Mat::from_fn(p, keep, |i, c| y[(i, order[c])]);
-        let vk = &v * &yk;
-        let mvk = &mv * &yk;
+        combine_in_place(v.as_mut(), yk.as_ref());
+        combine_in_place(mv.as_mut(), yk.as_ref());
         info.orthogonalisation_seconds += t.elapsed().as_secs_f64();
         h.fill(0.0);
-        v.as_mut().subcols_mut(0, keep).copy_from(&vk);
-        mv.as_mut().subcols_mut(0, keep).copy_from(&mvk);
         for c in 0..keep {
             h[(c, c)] = theta[order[c]];
         }
@@ -597,6 +625,20 @@ fn lanczos(
 
 /// Lanczos block size: the number of right-hand sides per pass over the factor.
 const BLOCK: usize = 8;
+
+/// `V[:, ..k] ← V Y` for `Y` of `k` columns, by blocks of rows in parallel: no second basis
+/// is held (at 1M DOFs that would be another gigabyte).
+fn combine_in_place(v: MatMut<'_, f64>, y: MatRef<'_, f64>) {
+    const ROWS: usize = 2048;
+    let rows = v.nrows();
+    if rows > ROWS {
+        let (top, bottom) = v.split_at_row_mut(rows / 2);
+        rayon::join(|| combine_in_place(top, y), || combine_in_place(bottom, y));
+    } else {
+        let combined = v.as_ref() * y;
+        v.subcols_mut(0, y.ncols()).copy_from(&combined);
+    }
+}
 
 #[cfg(test)]
 mod tests {
@@ -618,6 +660,15 @@ mod tests {
             sparse_from_triplets("M", n, &mt).unwrap(),
             dofs,
         )
+    }
+
+    #[test]
+    fn columns_are_permuted_in_place_along_cycles() {
+        let a = Mat::from_fn(3, 6, |i, j| (10 * j + i) as f64);
+        let order = [2, 0, 1, 3, 5, 4];
+        let mut b = a.clone();
+        permute_columns(&mut b, &order);
+        assert_eq!(b, Mat::from_fn(3, 6, |i, j| a[(i, order[j])]));
     }
 
     #[test]

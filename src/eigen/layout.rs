@@ -1,0 +1,73 @@
+//! Row-major copies of column blocks, for kernels that want a row's values side by side.
+//!
+//! Copying a tall `n × b` block between column-major and row-major one column at a time
+//! strides through the whole row-major array `b` times (measured: half a second for 50
+//! columns at 300k rows, more than the sparse product it fed). Here rows are taken in tiles
+//! that stay in cache while all columns pass, and the tiles are shared among the threads.
+
+use faer::{MatMut, MatRef};
+use rayon::prelude::*;
+
+/// Rows per tile: a tile of 16 columns is 64 KiB.
+const TILE: usize = 512;
+
+/// `out[i·b + c] = x[(i, c)]`.
+pub fn to_row_major(x: MatRef<'_, f64>, out: &mut [f64]) {
+    let b = x.ncols();
+    if b == 0 {
+        return;
+    }
+    out.par_chunks_mut(TILE * b)
+        .enumerate()
+        .for_each(|(t, tile)| {
+            let first = t * TILE;
+            for c in 0..b {
+                let col = x.col(c);
+                for (r, row) in tile.chunks_exact_mut(b).enumerate() {
+                    row[c] = col[first + r];
+                }
+            }
+        });
+}
+
+/// `x[(i, c)] = rows[i·b + c]`.
+pub fn from_row_major(rows: &[f64], x: MatMut<'_, f64>) {
+    let (n, b) = (x.nrows(), x.ncols());
+    if b == 0 || n == 0 {
+        return;
+    }
+    if n > TILE {
+        let half = (n / 2).div_ceil(TILE) * TILE;
+        let (top, bottom) = x.split_at_row_mut(half);
+        let (rows_top, rows_bottom) = rows.split_at(half * b);
+        rayon::join(
+            || from_row_major(rows_top, top),
+            || from_row_major(rows_bottom, bottom),
+        );
+    } else {
+        let mut x = x;
+        for c in 0..b {
+            let mut col = x.as_mut().col_mut(c);
+            for (r, row) in rows.chunks_exact(b).enumerate() {
+                col[r] = row[c];
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use faer::Mat;
+
+    #[test]
+    fn round_trip_over_partial_tiles() {
+        let x = Mat::from_fn(3 * TILE + 17, 5, |i, j| (i * 10 + j) as f64);
+        let mut rows = vec![0.0; x.nrows() * 5];
+        to_row_major(x.as_ref(), &mut rows);
+        assert_eq!(rows[(2 * TILE + 3) * 5 + 4], x[(2 * TILE + 3, 4)]);
+        let mut back = Mat::zeros(x.nrows(), 5);
+        from_row_major(&rows, back.as_mut());
+        assert_eq!(back, x);
+    }
+}
