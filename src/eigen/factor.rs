@@ -197,25 +197,8 @@ mod tests {
     /// Both are backward stable on a matrix of condition ~10: they agree to 1e-13.
     #[test]
     fn tree_parallel_solves_equal_faers_solves() {
-        let side = 28;
-        let node = |i: usize, j: usize, k: usize| (i * side + j) * side + k;
-        let mut t = Vec::new();
-        for i in 0..side {
-            for j in 0..side {
-                for k in 0..side {
-                    let a = node(i, j, k);
-                    t.push((a, a, 6.3));
-                    for (x, y, z) in [(i + 1, j, k), (i, j + 1, k), (i, j, k + 1)] {
-                        if x < side && y < side && z < side {
-                            t.push((a, node(x, y, z), -1.0));
-                            t.push((node(x, y, z), a, -1.0));
-                        }
-                    }
-                }
-            }
-        }
-        let n = side * side * side;
-        let a = sparse_from_triplets("A", n, &t).unwrap();
+        let a = super::multifrontal::grid_laplacian(28);
+        let n = a.ncols();
         let f = SpdFactor::new(&a).unwrap();
         let b = Mat::from_fn(n, SOLVE_COLUMNS + 5, |i, j| {
             ((i * 7 + j * 3) % 11) as f64 - 5.0

@@ -739,6 +739,31 @@ impl SolveContext<'_> {
 }
 
 #[cfg(test)]
+/// A 3-D grid Laplacian with a diagonal shift, full storage: its elimination tree has
+/// separators wide enough for the parallel subtrees and the split dense kernels. Diagonal
+/// `6.5 + 0.1 (a mod 7)`, so its condition number is about 10.
+pub(crate) fn grid_laplacian(side: usize) -> SparseMatrix {
+    let node = |i: usize, j: usize, k: usize| (i * side + j) * side + k;
+    let mut t = Vec::new();
+    for i in 0..side {
+        for j in 0..side {
+            for k in 0..side {
+                let a = node(i, j, k);
+                t.push((a, a, 6.5 + (a % 7) as f64 * 0.1));
+                for (x, y, z) in [(i + 1, j, k), (i, j + 1, k), (i, j, k + 1)] {
+                    if x < side && y < side && z < side {
+                        let b = node(x, y, z);
+                        t.push((a, b, -1.0));
+                        t.push((b, a, -1.0));
+                    }
+                }
+            }
+        }
+    }
+    crate::fe::system::sparse_from_triplets("A", side * side * side, &t).unwrap()
+}
+
+#[cfg(test)]
 mod tests {
     use super::*;
     use crate::fe::system::sparse_from_triplets;
@@ -749,29 +774,6 @@ mod tests {
         CholeskySymbolicParams, SymbolicCholesky, SymbolicCholeskyRaw, SymmetricOrdering,
         factorize_symbolic_cholesky,
     };
-
-    /// A 3-D grid Laplacian with a diagonal shift, full storage: its elimination tree has
-    /// separators wide enough for the parallel subtrees and the split dense kernels.
-    fn grid(side: usize) -> SparseMatrix {
-        let node = |i: usize, j: usize, k: usize| (i * side + j) * side + k;
-        let mut t = Vec::new();
-        for i in 0..side {
-            for j in 0..side {
-                for k in 0..side {
-                    let a = node(i, j, k);
-                    t.push((a, a, 6.5 + (a % 7) as f64 * 0.1));
-                    for (x, y, z) in [(i + 1, j, k), (i, j + 1, k), (i, j, k + 1)] {
-                        if x < side && y < side && z < side {
-                            let b = node(x, y, z);
-                            t.push((a, b, -1.0));
-                            t.push((b, a, -1.0));
-                        }
-                    }
-                }
-            }
-        }
-        sparse_from_triplets("A", side * side * side, &t).unwrap()
-    }
 
     fn symbolic(a: &SparseMatrix) -> SymbolicCholesky<usize> {
         factorize_symbolic_cholesky(
@@ -791,7 +793,7 @@ mod tests {
     /// the two orders of summation differ by a few ulps per update).
     #[test]
     fn values_equal_faers_left_looking_factor() {
-        let a = grid(30);
+        let a = grid_laplacian(30);
         let sym = symbolic(&a);
         let mut reference = vec![0.0; sym.len_val()];
         let par = Par::Seq;
@@ -857,7 +859,7 @@ mod tests {
 
     #[test]
     fn an_indefinite_matrix_stops_with_its_error() {
-        let mut a = crate::fe::system::sparse_triplets(&grid(6));
+        let mut a = crate::fe::system::sparse_triplets(&grid_laplacian(6));
         for t in a.iter_mut().filter(|t| t.0 == t.1 && t.0 == 100) {
             t.2 = -50.0;
         }
