@@ -2,7 +2,9 @@
 //! modes of a clamped flat steel plate of four-node shells at a chosen size, with where the time
 //! goes and the peak memory. Figures go to a report; no test depends on a time.
 
-use crate::eigen::{ModeSelection, SparseEigenInfo, SparseEigenParams, lowest_modes};
+use crate::eigen::{
+    ModeSelection, SparseEigenInfo, SparseEigenParams, lowest_modes, lowest_modes_keeping_factor,
+};
 use crate::fe::element::MassKind;
 use crate::fe::model_assembly::assemble_model;
 use crate::model::generate::scale::{muffler, muffler_element_size};
@@ -195,7 +197,7 @@ pub fn pc_iteration_bench(
     use crate::frf::{FrfPair, FrfSet, ModalDamping};
     use crate::model::{Element, Parameter, ParameterKind};
     use crate::sensitivity::{ModalFrfModel, frf_sensitivities};
-    use crate::updating::model::{FeModel, ModalState};
+    use crate::updating::model::{FeModel, ModalState, project_derivatives};
     use crate::updating::pc::{LineCorrelation, correlation_equations, predict, select_lines};
     use crate::updating::solve::{
         ParameterWeighting, damped_step, diagnostics, select_subset, subset_condition_limit,
@@ -241,7 +243,7 @@ pub fn pc_iteration_bench(
     let evaluated = fe.evaluate(&values).map_err(err)?;
     let assembly_seconds = t.elapsed().as_secs_f64();
     let t = Instant::now();
-    let (found, _) = lowest_modes(
+    let (found, _, factor) = lowest_modes_keeping_factor(
         &evaluated.system.k,
         &evaluated.system.m,
         &evaluated.system.dofs,
@@ -251,20 +253,14 @@ pub fn pc_iteration_bench(
     .map_err(|e| e.to_string())?;
     let eigen_seconds = t.elapsed().as_secs_f64();
     let t = Instant::now();
-    let projected = evaluated
-        .derivatives
-        .iter()
-        .zip(&values)
-        .map(|((dk, dm), &v)| {
-            crate::sensitivity::ProjectedDerivative::new(dk, dm, found.shapes.as_ref()).scaled(v)
-        })
-        .collect();
+    let projected = project_derivatives(&evaluated.derivatives, &values, found.shapes.as_ref());
     let projection_seconds = t.elapsed().as_secs_f64();
     let state = ModalState {
         modes: found,
         dofs: evaluated.system.dofs.clone(),
         projected,
         reduced: None,
+        factor: factor.map(std::sync::Arc::new),
     };
 
     // The measurement: the prediction with a smooth, line-dependent 10 % distortion, so that

@@ -8,4 +8,6 @@ pub mod sparse;
 
 pub use dense::{EigenError, ModeSelection, Modes, dense_generalized};
 pub use factor::{FactorError, FactorInfo, SpdFactor};
-pub use sparse::{SparseEigenInfo, SparseEigenParams, lowest_modes};
+pub use sparse::{
+    ShiftedFactor, SparseEigenInfo, SparseEigenParams, lowest_modes, lowest_modes_keeping_factor,
+};

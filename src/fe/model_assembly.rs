@@ -316,7 +316,39 @@ pub fn parameter_derivative(
             known: model.sets.keys().cloned().collect::<Vec<_>>().join(", "),
         })
     })?;
-    elements_parameter_derivative(model, parameter, ids, dofs, mass)
+    let index: DofIndex = dofs.iter().enumerate().map(|(i, d)| (*d, i)).collect();
+    indexed_derivative(model, parameter, ids, &index, mass)
+}
+
+/// Row of each free DOF of an assembled system.
+pub type DofIndex = std::collections::HashMap<crate::core::DofId, usize>;
+
+/// [`parameter_derivative`] of every parameter, in parallel, over one index of the free DOFs
+/// `dofs` (at 1M DOFs, building it per parameter cost more than the derivatives of a small set).
+pub fn parameter_derivatives(
+    model: &Model,
+    parameters: &[crate::model::Parameter],
+    dofs: &[crate::core::DofId],
+    mass: MassKind,
+) -> Result<Vec<(super::system::SparseMatrix, super::system::SparseMatrix)>, ModelAssemblyError> {
+    use rayon::prelude::*;
+    let index: DofIndex = dofs.iter().enumerate().map(|(i, d)| (*d, i)).collect();
+    parameters
+        .par_iter()
+        .map(|parameter| {
+            let ids = model.sets.get(&parameter.set).ok_or_else(|| {
+                ModelAssemblyError::Model(ModelError::MissingSet {
+                    parameter: parameter.name.clone(),
+                    set: parameter.set.clone(),
+                    known: model.sets.keys().cloned().collect::<Vec<_>>().join(", "),
+                })
+            })?;
+            indexed_derivative(model, parameter, ids, &index, mass)
+        })
+        .collect::<Vec<_>>()
+        .into_iter()
+        // The first parameter's error, whichever thread met it first.
+        .collect()
 }
 
 /// [`parameter_derivative`] restricted to the elements `ids` of the parameter's set (for a
@@ -328,13 +360,23 @@ pub fn elements_parameter_derivative(
     dofs: &[crate::core::DofId],
     mass: MassKind,
 ) -> Result<(super::system::SparseMatrix, super::system::SparseMatrix), ModelAssemblyError> {
+    let index: DofIndex = dofs.iter().enumerate().map(|(i, d)| (*d, i)).collect();
+    indexed_derivative(model, parameter, ids, &index, mass)
+}
+
+/// [`elements_parameter_derivative`] over the DOFs of `index` (its rows `0..index.len()`).
+fn indexed_derivative(
+    model: &Model,
+    parameter: &crate::model::Parameter,
+    ids: &[u64],
+    index: &DofIndex,
+    mass: MassKind,
+) -> Result<(super::system::SparseMatrix, super::system::SparseMatrix), ModelAssemblyError> {
     use super::beam::{BeamParameter, beam2_derivative};
     use super::lumped_elements::{MassParameter, conm2_derivative, spring6_derivative};
     use super::shell::{ShellParameter, quad4_derivative, tria3_derivative};
     use crate::core::Component;
     use crate::model::ParameterKind as P;
-    let index: std::collections::HashMap<crate::core::DofId, usize> =
-        dofs.iter().enumerate().map(|(i, d)| (*d, i)).collect();
     let (mut kt, mut mt) = (Vec::new(), Vec::new());
     for id in ids {
         let Some(e) = model.elements.get(id) else {
@@ -478,7 +520,7 @@ pub fn elements_parameter_derivative(
             }
         }
     }
-    let n = dofs.len();
+    let n = index.len();
     let build = |name, t: &[(usize, usize, f64)]| {
         super::system::sparse_from_triplets(name, n, t).map_err(|e| ModelAssemblyError::Element {
             element: 0,

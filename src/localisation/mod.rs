@@ -183,6 +183,7 @@ pub fn leverage_map(
         dofs: sys.dofs.clone(),
         projected: Vec::new(),
         reduced: None,
+        factor: None,
     };
     let mdofs = measured.dofs();
     let shapes = state.shapes_at(&mdofs)?;

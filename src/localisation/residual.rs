@@ -64,7 +64,7 @@ impl StaticShare {
                 })
             })
             .collect::<Result<_, _>>()?;
-        let solved = shifted_static_solutions(&sys.k, &sys.m, &modes.eigenvalues, &rows)
+        let solved = shifted_static_solutions(&sys.k, &sys.m, &modes.eigenvalues, &rows, None)
             .map_err(|e| match e {
                 ShiftedStaticError::NotPositiveDefinite => LocalisationError::Model(
                     "K - sigma M is not positive definite; the static correction needs a model without mechanisms (set `static_correction: false`)".into(),

@@ -96,6 +96,7 @@ fn chunked_equals_all_at_once() {
             dofs: sys.dofs.clone(),
             projected: Vec::new(),
             reduced: None,
+            factor: None,
         };
         let mdofs = measured.dofs();
         let shapes = state.shapes_at(&mdofs).unwrap();

@@ -222,7 +222,8 @@ pub fn frf_sensitivities(
 pub struct ShiftedStatic {
     /// `x_j` for each chosen row (`N × rows`).
     pub x: Mat<f64>,
-    /// `σ`: a hundredth of the first elastic eigenvalue below zero, so free-free models factor.
+    /// `σ`, below every eigenvalue so free-free models factor: the eigensolver's own when its
+    /// factor is reused, else a hundredth of the first elastic eigenvalue below zero.
     pub shift: f64,
 }
 
@@ -240,13 +241,41 @@ pub enum ShiftedStaticError {
     NotPositiveDefinite,
 }
 
-/// Factors `K − σM` (`σ` from the first positive of `eigenvalues`) and solves for unit loads at
-/// `rows`.
+/// The eigensolver's factor of `K − σ_e M` and the modes it found (all kept, `M`-orthonormal,
+/// ascending), from which static solutions at another shift follow without a second
+/// factorisation (see [`shifted_static_solutions`]).
+#[derive(Clone, Copy)]
+pub struct EigenFactor<'a> {
+    /// The factor and `σ_e`.
+    pub factor: &'a crate::eigen::ShiftedFactor,
+    /// The kept mode shapes `Φ` (`N × m`).
+    pub shapes: MatRef<'a, f64>,
+}
+
+/// Most fixed-point steps [`shifted_static_solutions`] takes to move the eigensolver's shift to
+/// the static one; beyond, factoring `K − σM` anew is cheaper (at 1M DOFs a factorisation costs
+/// about twenty solves of the ten measured DOFs).
+pub const MAX_SHIFT_STEPS: usize = 10;
+
+/// Relative accuracy of the moved solutions in every truncated mode: far below the static
+/// correction's own approximation (`λ_r/λ_s` for a kept mode `r` and a truncated `s`).
+const SHIFT_TOLERANCE: f64 = 1e-10;
+
+/// Static solutions `x_j = (K − σM)⁻¹ e_j` for unit loads at `rows`, with `σ` a hundredth of the
+/// first positive of `eigenvalues`, below zero (free-free models factor too).
+///
+/// With the eigensolver's factor of `K − σ_e M` (`σ_e < σ`), no second factorisation is needed:
+/// the kept modes' part of `x_j` is exact, `Σ_kept φ_s φ_sᵀ e_j/(λ_s − σ)`, and the truncated
+/// part `y` solves `y = y₀ + (σ − σ_e) P A_e⁻¹ M y` (`A_e = K − σ_e M`, `y₀ = P A_e⁻¹ e_j`,
+/// `P = I − ΦΦᵀM`), a contraction of ratio `q = (σ − σ_e)/(λ_s − σ_e) ≤ (σ − σ_e)/(λ_m − σ_e)`
+/// in each truncated mode `s`: its error after `k` steps is `q^(k+1)`. The factor is used when
+/// [`MAX_SHIFT_STEPS`] steps reach `10⁻¹⁰`; otherwise `K − σM` is factored.
 pub fn shifted_static_solutions(
     k: &crate::fe::system::SparseMatrix,
     m: &crate::fe::system::SparseMatrix,
     eigenvalues: &[f64],
     rows: &[usize],
+    eigen_factor: Option<EigenFactor<'_>>,
 ) -> Result<ShiftedStatic, ShiftedStaticError> {
     let n = k.nrows();
     let first_elastic = eigenvalues
@@ -255,18 +284,96 @@ pub fn shifted_static_solutions(
         .find(|l| *l > 0.0)
         .unwrap_or(1.0);
     let shift = -1e-2 * first_elastic;
+    let mut x = Mat::<f64>::zeros(n, rows.len());
+    for (c, &r) in rows.iter().enumerate() {
+        x[(r, c)] = 1.0;
+    }
+    if let Some(ef) = eigen_factor
+        && let Some(steps) = shift_steps(ef, eigenvalues, shift, n)
+    {
+        move_shift(ef, m, eigenvalues, rows, shift, steps, x.as_mut());
+        return Ok(ShiftedStatic { x, shift });
+    }
     let a = crate::fe::system::lower_combination(1.0, k, -shift, m);
-    let llt = crate::eigen::SpdFactor::new(&a).map_err(|e| match e {
+    let llt = crate::eigen::SpdFactor::consuming(a).map_err(|e| match e {
         crate::eigen::FactorError::NotPositiveDefinite => ShiftedStaticError::NotPositiveDefinite,
         crate::eigen::FactorError::OutOfMemory => ShiftedStaticError::OutOfMemory { n },
     })?;
-    drop(a);
-    let mut rhs = Mat::<f64>::zeros(n, rows.len());
-    for (c, &r) in rows.iter().enumerate() {
-        rhs[(r, c)] = 1.0;
+    llt.solve_in_place(x.as_mut());
+    Ok(ShiftedStatic { x, shift })
+}
+
+/// Fixed-point steps for the eigensolver's factor to give solutions at `shift`, or `None` when
+/// it cannot (another size, a shift not below `shift`, or a contraction too slow).
+pub(crate) fn shift_steps(
+    ef: EigenFactor<'_>,
+    eigenvalues: &[f64],
+    shift: f64,
+    n: usize,
+) -> Option<usize> {
+    let sigma_e = ef.factor.shift;
+    let highest = eigenvalues.last().copied()?;
+    if ef.factor.factor.n() != n
+        || ef.shapes.nrows() != n
+        || ef.shapes.ncols() != eigenvalues.len()
+        || !(sigma_e <= shift)
+        || !(highest > shift)
+    {
+        return None;
     }
-    llt.solve_in_place(rhs.as_mut());
-    Ok(ShiftedStatic { x: rhs, shift })
+    let q = (shift - sigma_e) / (highest - sigma_e);
+    if q == 0.0 {
+        return Some(0);
+    }
+    // q^(k+1) ≤ tolerance.
+    let steps = (SHIFT_TOLERANCE.ln() / q.ln()).ceil() as usize;
+    (steps <= MAX_SHIFT_STEPS + 1).then(|| steps.saturating_sub(1))
+}
+
+/// `x ← (K − σM)⁻¹ x` for unit loads `x` at `rows`, by the eigensolver's factor (see
+/// [`shifted_static_solutions`]).
+fn move_shift(
+    ef: EigenFactor<'_>,
+    m: &crate::fe::system::SparseMatrix,
+    eigenvalues: &[f64],
+    rows: &[usize],
+    shift: f64,
+    steps: usize,
+    mut x: faer::MatMut<'_, f64>,
+) {
+    use crate::eigen::sparse::sym_matvec;
+    let (phi, sigma_e, factor) = (ef.shapes, ef.factor.shift, &ef.factor.factor);
+    let (n, r) = (x.nrows(), x.ncols());
+    // Φᵀ e_j: the kept modes at the loaded rows.
+    let at_rows = Mat::from_fn(eigenvalues.len(), r, |s, c| phi[(rows[c], s)]);
+    let scaled = |d: f64| {
+        Mat::from_fn(eigenvalues.len(), r, |s, c| {
+            at_rows[(s, c)] / (eigenvalues[s] - d)
+        })
+    };
+    // y₀ = P A_e⁻¹ e_j: the kept part of A_e⁻¹ e_j is Φ diag(1/(λ − σ_e)) Φᵀ e_j.
+    factor.solve_in_place(x.as_mut());
+    let mut y0 = x.to_owned();
+    y0 -= phi * scaled(sigma_e);
+    let mut y = y0.clone();
+    let mut my = Mat::<f64>::zeros(n, r);
+    for _ in 0..steps {
+        sym_matvec(m, y.as_ref(), my.as_mut());
+        // ΦᵀM A_e⁻¹ M y = diag(1/(λ − σ_e)) ΦᵀM y: the kept part, removed exactly.
+        let mut kept = phi.transpose() * &my;
+        for c in 0..r {
+            for (s, &l) in eigenvalues.iter().enumerate() {
+                kept[(s, c)] /= l - sigma_e;
+            }
+        }
+        factor.solve_in_place(my.as_mut());
+        my -= phi * kept;
+        y.copy_from(&y0);
+        y += faer::Scale(shift - sigma_e) * &my;
+    }
+    // The full solution at σ: the truncated part and the kept part at σ.
+    x.copy_from(&y);
+    x += phi * scaled(shift);
 }
 
 /// The truncated modes' share of each mode-shape derivative at chosen DOFs (Wang's static

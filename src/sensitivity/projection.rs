@@ -87,22 +87,29 @@ pub fn project_between(
     if rows.is_empty() {
         return out;
     }
-    let mut ar = Mat::<f64>::zeros(rows.len(), m);
+    // The rows of `R` at the stored columns, row-major: every stored entry of `A` is then one
+    // axpy over `m` contiguous values, its indices read once (not once per column of `R`).
+    let mut right_rows = vec![0.0; columns.len() * m];
     for c in 0..m {
         let rc = right.col(c);
-        let mut arc = ar.as_mut().col_mut(c);
-        for &j in &columns {
-            let rj = rc[j];
-            if rj == 0.0 {
-                continue;
-            }
-            for k in col_ptr[j]..col_ptr[j + 1] {
-                arc[slot[row_idx[k]]] += values[k] * rj;
+        for (jj, &j) in columns.iter().enumerate() {
+            right_rows[jj * m + c] = rc[j];
+        }
+    }
+    let mut ar = vec![0.0; rows.len() * m];
+    for (jj, &j) in columns.iter().enumerate() {
+        let rj = &right_rows[jj * m..(jj + 1) * m];
+        for k in col_ptr[j]..col_ptr[j + 1] {
+            let v = values[k];
+            let at = slot[row_idx[k]] * m;
+            for (o, r) in ar[at..at + m].iter_mut().zip(rj) {
+                *o += v * r;
             }
         }
     }
+    let ar = MatRef::from_row_major_slice(&ar, rows.len(), m);
     let l = Mat::from_fn(rows.len(), n, |r, c| left[(rows[r], c)]);
-    out += l.transpose() * &ar;
+    out += l.transpose() * ar;
     out
 }
 

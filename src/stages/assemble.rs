@@ -7,7 +7,7 @@ use crate::artefact::Storage;
 use crate::artefact::kinds::{matrices_to_artefact, triplet_table};
 use crate::artefact::mesh::mesh_from_artefact;
 use crate::fe::element::MassKind;
-use crate::fe::model_assembly::{assemble_model, parameter_derivative};
+use crate::fe::model_assembly::{assemble_model, parameter_derivatives};
 use crate::pipeline::{PortSpec, StageError, StageInputs, StageOutputs, TypedStage};
 
 /// The stage.
@@ -57,9 +57,11 @@ impl TypedStage for Assemble {
                     param.name
                 )));
             }
-            let (dk, dm) = parameter_derivative(&model, param, &sys.dofs, p.mass)
-                .map_err(StageError::failed)?;
-            for (prefix, mat) in [("dK", &dk), ("dM", &dm)] {
+        }
+        let derivatives = parameter_derivatives(&model, &model.parameters, &sys.dofs, p.mass)
+            .map_err(StageError::failed)?;
+        for (param, (dk, dm)) in model.parameters.iter().zip(&derivatives) {
+            for (prefix, mat) in [("dK", dk), ("dM", dm)] {
                 a = a.with_table(
                     &format!("{prefix}__{}", param.name),
                     triplet_table(mat),

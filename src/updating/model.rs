@@ -7,15 +7,17 @@
 //! ∂K/∂φ_i` (exact for parameters that enter linearly: lumped masses and springs, `E`, `ρ`).
 
 use crate::core::DofId;
-use crate::eigen::{ModeSelection, Modes, SparseEigenParams, lowest_modes};
+use crate::eigen::{
+    ModeSelection, Modes, ShiftedFactor, SparseEigenParams, lowest_modes_keeping_factor,
+};
 use crate::fe::SystemMatrices;
 use crate::fe::element::MassKind;
-use crate::fe::model_assembly::{assemble_model, parameter_derivative};
+use crate::fe::model_assembly::{assemble_model, parameter_derivatives};
 use crate::fe::system::SparseMatrix;
 use crate::model::{Model, Parameter};
 use crate::reduction::{Method, Partition, ReducedModel};
 use crate::sensitivity::ProjectedDerivative;
-use faer::Mat;
+use faer::{Mat, MatRef};
 use rayon::prelude::*;
 use std::collections::HashMap;
 
@@ -184,14 +186,8 @@ impl ParametricModel for FeModel {
         let model = self.model_at(values)?;
         let (system, _) =
             assemble_model(&model, self.mass).map_err(|e| UpdatingError::Model(e.to_string()))?;
-        let derivatives = self
-            .parameters
-            .par_iter()
-            .map(|p| {
-                parameter_derivative(&model, p, &system.dofs, self.mass)
-                    .map_err(|e| UpdatingError::Model(e.to_string()))
-            })
-            .collect::<Result<_, _>>()?;
+        let derivatives = parameter_derivatives(&model, &self.parameters, &system.dofs, self.mass)
+            .map_err(|e| UpdatingError::Model(e.to_string()))?;
         Ok(Evaluated {
             system,
             derivatives,
@@ -271,6 +267,20 @@ impl ParametricModel for LinearModel {
     }
 }
 
+/// Each parameter's unity-scaled projected derivatives `φ_i Φᵀ(∂K/∂φ_i)Φ`, `φ_i Φᵀ(∂M/∂φ_i)Φ`
+/// (2.16), parameters in parallel.
+pub fn project_derivatives(
+    derivatives: &[(SparseMatrix, SparseMatrix)],
+    values: &[f64],
+    shapes: MatRef<'_, f64>,
+) -> Vec<ProjectedDerivative> {
+    derivatives
+        .par_iter()
+        .zip(values.par_iter())
+        .map(|((dk, dm), &v)| ProjectedDerivative::new(dk, dm, shapes).scaled(v))
+        .collect()
+}
+
 /// Modes of an evaluated model with their shapes at chosen DOFs and each parameter's projected,
 /// unity-scaled derivative `φ_i Φᵀ(∂K/∂φ_i)Φ`, `φ_i Φᵀ(∂M/∂φ_i)Φ` (2.16).
 #[derive(Clone, Debug)]
@@ -284,6 +294,9 @@ pub struct ModalState {
     /// The reduced model the modes live on (their rows are its coordinates then, and shapes
     /// at physical DOFs come from its expansion).
     pub reduced: Option<std::sync::Arc<ReducedModel>>,
+    /// The eigensolver's factor of `K − σM`, which the static correction reuses (at 1M DOFs a
+    /// second factorisation costs 15 s); `None` on the dense path and for reduced models.
+    pub factor: Option<std::sync::Arc<ShiftedFactor>>,
 }
 
 impl ModalState {
@@ -294,7 +307,7 @@ impl ModalState {
         selection: ModeSelection,
     ) -> Result<Self, UpdatingError> {
         let sys = &evaluated.system;
-        let (modes, _) = lowest_modes(
+        let (modes, _, factor) = lowest_modes_keeping_factor(
             &sys.k,
             &sys.m,
             &sys.dofs,
@@ -307,17 +320,13 @@ impl ModalState {
                     .into(),
             ));
         }
-        let projected = evaluated
-            .derivatives
-            .par_iter()
-            .zip(values.par_iter())
-            .map(|((dk, dm), &v)| ProjectedDerivative::new(dk, dm, modes.shapes.as_ref()).scaled(v))
-            .collect();
+        let projected = project_derivatives(&evaluated.derivatives, values, modes.shapes.as_ref());
         Ok(ModalState {
             modes,
             dofs: sys.dofs.clone(),
             projected,
             reduced: None,
+            factor: factor.map(std::sync::Arc::new),
         })
     }
 
@@ -351,9 +360,10 @@ impl ModalState {
     }
 
     /// The static correction `ρ` of every mode-shape derivative at `dofs`, per parameter
-    /// (see [`crate::sensitivity::frf::static_shape_correction`]): one sparse Cholesky of
-    /// `K − σM` (`σ` a hundredth of the first elastic eigenvalue below zero, so free-free
-    /// models factor too) and one solve per DOF.
+    /// (see [`crate::sensitivity::frf::static_shape_correction`]): one solve per DOF with the
+    /// eigensolver's factor of `K − σM`, or, without one, a factorisation with `σ` a hundredth
+    /// of the first elastic eigenvalue below zero (free-free models factor too). `evaluated`
+    /// must be the model the state was computed from.
     pub fn shape_corrections(
         &self,
         evaluated: &Evaluated,
@@ -371,7 +381,18 @@ impl ModalState {
                 })
             })
             .collect::<Result<_, _>>()?;
-        let solved = shifted_static_solutions(&sys.k, &sys.m, &self.modes.eigenvalues, &rows)
+        let solved = shifted_static_solutions(
+            &sys.k,
+            &sys.m,
+            &self.modes.eigenvalues,
+            &rows,
+            self.factor
+                .as_deref()
+                .map(|factor| crate::sensitivity::frf::EigenFactor {
+                    factor,
+                    shapes: self.modes.shapes.as_ref(),
+                }),
+        )
             .map_err(|e| match e {
                 ShiftedStaticError::NotPositiveDefinite => UpdatingError::Model(
                     "K - sigma M is not positive definite: the static correction needs a model without mechanisms"
@@ -584,6 +605,7 @@ impl ParametricModel for ReducedFeModel {
                 dofs,
                 projected,
                 reduced: Some(reduced),
+                factor: None,
             },
             None,
         ))
