@@ -162,11 +162,17 @@ pub struct PcIterationBench {
     pub assembly_seconds: f64,
     /// The lowest modes, s.
     pub eigen_seconds: f64,
+    /// Where the eigen solve's time went.
+    pub eigen: SparseEigenInfo,
     /// `Φᵀ ∂K/∂φ Φ`, `Φᵀ ∂M/∂φ Φ` of every parameter, s.
     pub projection_seconds: f64,
-    /// Static correction of the truncated mode-shape derivatives (one sparse Cholesky, one
-    /// solve per measured DOF), s.
+    /// Static correction of the truncated mode-shape derivatives (solves per measured DOF with
+    /// the eigensolver's factor, its shift moved by fixed-point steps, and the cross
+    /// projections `Xᵀ ∂K/∂φ Φ`), s.
     pub static_correction_seconds: f64,
+    /// Fixed-point steps that moved the eigensolver's shift to the static one (`None`: `K − σM`
+    /// was factored again).
+    pub static_shift_steps: Option<usize>,
     /// Predicted FRFs and their correlation, s.
     pub prediction_seconds: f64,
     /// FRF sensitivities of every parameter at every line (the sweep), s.
@@ -196,6 +202,7 @@ pub fn pc_iteration_bench(
     use crate::core::{Component, DofId};
     use crate::frf::{FrfPair, FrfSet, ModalDamping};
     use crate::model::{Element, Parameter, ParameterKind};
+    use crate::sensitivity::frf::{EigenFactor, shift_steps, static_shift};
     use crate::sensitivity::{ModalFrfModel, frf_sensitivities};
     use crate::updating::model::{FeModel, ModalState, project_derivatives};
     use crate::updating::pc::{LineCorrelation, correlation_equations, predict, select_lines};
@@ -243,7 +250,7 @@ pub fn pc_iteration_bench(
     let evaluated = fe.evaluate(&values).map_err(err)?;
     let assembly_seconds = t.elapsed().as_secs_f64();
     let t = Instant::now();
-    let (found, _, factor) = lowest_modes_keeping_factor(
+    let (found, eigen, factor) = lowest_modes_keeping_factor(
         &evaluated.system.k,
         &evaluated.system.m,
         &evaluated.system.dofs,
@@ -302,6 +309,18 @@ pub fn pc_iteration_bench(
         .shape_corrections(&evaluated, &values, &dofs)
         .map_err(err)?;
     let static_correction_seconds = t.elapsed().as_secs_f64();
+    let static_shift_steps = state.factor.as_deref().and_then(|factor| {
+        let eigenvalues = &state.modes.eigenvalues;
+        shift_steps(
+            EigenFactor {
+                factor,
+                shapes: state.modes.shapes.as_ref(),
+            },
+            eigenvalues,
+            static_shift(eigenvalues),
+            state.dofs.len(),
+        )
+    });
     let t = Instant::now();
     let predicted = predict(&state, &measured, &damping).map_err(err)?;
     let correlation = LineCorrelation::new(&measured, &predicted);
@@ -346,8 +365,10 @@ pub fn pc_iteration_bench(
         modes: state.modes.len(),
         assembly_seconds,
         eigen_seconds,
+        eigen,
         projection_seconds,
         static_correction_seconds,
+        static_shift_steps,
         prediction_seconds,
         sweep_seconds,
         sweep_gflops: flops / sweep_seconds.max(1e-12) / 1e9,

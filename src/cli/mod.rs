@@ -463,7 +463,7 @@ fn dispatch(cli: Cli) -> Result<u8, Failure> {
                 let b = crate::bench::pc_iteration_bench(n, 50, 10, 1000, basis)
                     .map_err(|e| anyhow::anyhow!(e))?;
                 println!(
-                    "P-C iteration, muffler {} DOFs, {} parameters, {} FRFs, {} lines, {} modes:\n  assembly + derivatives {:.2} s, eigen {:.2} s, projections {:.2} s, static correction {:.2} s,\n  prediction {:.3} s, sensitivity sweep {:.3} s ({:.0} GFLOP/s direct-sum equivalent), solve {:.3} s;\n  iteration {:.2} s, peak memory {:.0} MiB",
+                    "P-C iteration, muffler {} DOFs, {} parameters, {} FRFs, {} lines, {} modes:\n  assembly + derivatives {:.2} s, eigen {:.2} s (factor {:.1} s, {} solves {:.1} s, orthogonalisation {:.1} s, M products {:.1} s, refinement {:.1} s),\n  projections {:.2} s, static correction {:.2} s ({}),\n  prediction {:.3} s, sensitivity sweep {:.3} s ({:.0} GFLOP/s direct-sum equivalent), solve {:.3} s;\n  iteration {:.2} s, peak memory {:.0} MiB",
                     b.dofs,
                     b.parameters,
                     b.frfs,
@@ -471,8 +471,18 @@ fn dispatch(cli: Cli) -> Result<u8, Failure> {
                     b.modes,
                     b.assembly_seconds,
                     b.eigen_seconds,
+                    b.eigen.factor_seconds,
+                    b.eigen.solves,
+                    b.eigen.solve_seconds,
+                    b.eigen.orthogonalisation_seconds,
+                    b.eigen.mass_product_seconds,
+                    b.eigen.refinement_seconds,
                     b.projection_seconds,
                     b.static_correction_seconds,
+                    match b.static_shift_steps {
+                        Some(k) => format!("the eigensolver's factor, {k} shift steps"),
+                        None => "a second factorisation".to_string(),
+                    },
                     b.prediction_seconds,
                     b.sweep_seconds,
                     b.sweep_gflops,

@@ -278,12 +278,7 @@ pub fn shifted_static_solutions(
     eigen_factor: Option<EigenFactor<'_>>,
 ) -> Result<ShiftedStatic, ShiftedStaticError> {
     let n = k.nrows();
-    let first_elastic = eigenvalues
-        .iter()
-        .copied()
-        .find(|l| *l > 0.0)
-        .unwrap_or(1.0);
-    let shift = -1e-2 * first_elastic;
+    let shift = static_shift(eigenvalues);
     let mut x = Mat::<f64>::zeros(n, rows.len());
     for (c, &r) in rows.iter().enumerate() {
         x[(r, c)] = 1.0;
@@ -303,9 +298,20 @@ pub fn shifted_static_solutions(
     Ok(ShiftedStatic { x, shift })
 }
 
+/// The static correction's shift: a hundredth of the first positive of `eigenvalues`, below
+/// zero, so free-free models factor too.
+pub fn static_shift(eigenvalues: &[f64]) -> f64 {
+    let first_elastic = eigenvalues
+        .iter()
+        .copied()
+        .find(|l| *l > 0.0)
+        .unwrap_or(1.0);
+    -1e-2 * first_elastic
+}
+
 /// Fixed-point steps for the eigensolver's factor to give solutions at `shift`, or `None` when
 /// it cannot (another size, a shift not below `shift`, or a contraction too slow).
-pub(crate) fn shift_steps(
+pub fn shift_steps(
     ef: EigenFactor<'_>,
     eigenvalues: &[f64],
     shift: f64,
