@@ -309,15 +309,32 @@ pub fn parameter_derivative(
     dofs: &[crate::core::DofId],
     mass: MassKind,
 ) -> Result<(super::system::SparseMatrix, super::system::SparseMatrix), ModelAssemblyError> {
-    let ids = model.sets.get(&parameter.set).ok_or_else(|| {
-        ModelAssemblyError::Model(ModelError::MissingSet {
-            parameter: parameter.name.clone(),
-            set: parameter.set.clone(),
-            known: model.sets.keys().cloned().collect::<Vec<_>>().join(", "),
-        })
-    })?;
     let index: DofIndex = dofs.iter().enumerate().map(|(i, d)| (*d, i)).collect();
-    indexed_derivative(model, parameter, ids, &index, mass)
+    indexed_derivative(
+        model,
+        parameter,
+        parameter_elements(model, parameter)?,
+        &index,
+        mass,
+    )
+}
+
+/// The elements of a parameter's set, or an error naming the known sets.
+fn parameter_elements<'a>(
+    model: &'a Model,
+    parameter: &crate::model::Parameter,
+) -> Result<&'a [u64], ModelAssemblyError> {
+    model
+        .sets
+        .get(&parameter.set)
+        .map(Vec::as_slice)
+        .ok_or_else(|| {
+            ModelAssemblyError::Model(ModelError::MissingSet {
+                parameter: parameter.name.clone(),
+                set: parameter.set.clone(),
+                known: model.sets.keys().cloned().collect::<Vec<_>>().join(", "),
+            })
+        })
 }
 
 /// Row of each free DOF of an assembled system.
@@ -336,18 +353,17 @@ pub fn parameter_derivatives(
     parameters
         .par_iter()
         .map(|parameter| {
-            let ids = model.sets.get(&parameter.set).ok_or_else(|| {
-                ModelAssemblyError::Model(ModelError::MissingSet {
-                    parameter: parameter.name.clone(),
-                    set: parameter.set.clone(),
-                    known: model.sets.keys().cloned().collect::<Vec<_>>().join(", "),
-                })
-            })?;
-            indexed_derivative(model, parameter, ids, &index, mass)
+            indexed_derivative(
+                model,
+                parameter,
+                parameter_elements(model, parameter)?,
+                &index,
+                mass,
+            )
         })
         .collect::<Vec<_>>()
         .into_iter()
-        // The first parameter's error, whichever thread met it first.
+        // The first failing parameter's error in declaration order, whatever the threads did.
         .collect()
 }
 

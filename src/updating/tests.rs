@@ -55,6 +55,26 @@ fn measured(eta: f64, freqs: &[f64]) -> FrfSet {
 /// C1: with complete noise-free data the RFM recovers all four masses at any non-resonant
 /// line — the equation is exact for parameters that enter linearly, so the first step lands
 /// on the truth and the second confirms it. Tolerance 1e-8 (issue 5).
+/// The C2 bent plate of `geometry` with the thicknesses of `strips` as parameters (bounds
+/// 0.1–10 mm), named `t<strip>`.
+fn bent_plate_with_strip_thicknesses(
+    geometry: crate::model::generate::BentPlate,
+    strips: &[usize],
+) -> crate::model::Model {
+    use crate::model::{Parameter, ParameterKind};
+    let mut model = crate::model::generate::bent_plate(&geometry);
+    for s in strips {
+        model.parameters.push(Parameter {
+            name: format!("t{s}"),
+            kind: ParameterKind::ShellThickness,
+            set: format!("strip_{s}"),
+            lower: 1e-4,
+            upper: 1e-2,
+        });
+    }
+    model
+}
+
 #[test]
 fn rfm_recovers_the_masses_from_complete_data_at_any_line() {
     let freqs = frequency_lines(0.0, 40.0, 0.5);
@@ -175,24 +195,17 @@ fn eigensensitivity_recovers_the_masses_from_four_frequencies() {
 fn chi_sensitivities_of_an_fe_model_match_central_differences() {
     use crate::correlation::frf::{amplitude_correlation, shape_correlation};
     use crate::fe::element::MassKind;
-    use crate::model::generate::{BentPlate, bent_plate};
-    use crate::model::{Parameter, ParameterKind};
+    use crate::model::generate::BentPlate;
     use crate::sensitivity::{ModalFrfModel, chi_sensitivity, frf_sensitivities};
     use faer::c64;
-    let mut model = bent_plate(&BentPlate {
-        clamped: true,
-        with_bar: false,
-        ..Default::default()
-    });
-    for s in [1, 4, 9] {
-        model.parameters.push(Parameter {
-            name: format!("t{s}"),
-            kind: ParameterKind::ShellThickness,
-            set: format!("strip_{s}"),
-            lower: 1e-4,
-            upper: 1e-2,
-        });
-    }
+    let model = bent_plate_with_strip_thicknesses(
+        BentPlate {
+            clamped: true,
+            with_bar: false,
+            ..Default::default()
+        },
+        &[1, 4, 9],
+    );
     let truth = FeModel::new(model.clone(), &[], MassKind::Consistent).unwrap();
     let mut wrong = model.clone();
     wrong
@@ -321,20 +334,10 @@ fn chi_sensitivities_of_an_fe_model_match_central_differences() {
 #[test]
 fn reduced_model_reanalyses_only_changed_substructures() {
     use crate::fe::element::MassKind;
-    use crate::model::generate::{BentPlate, bent_plate};
-    use crate::model::{Parameter, ParameterKind};
+    use crate::model::generate::BentPlate;
     use crate::reduction::{Method, Partition};
     use crate::sensitivity::{ModalFrfModel, frf_sensitivities};
-    let mut model = bent_plate(&BentPlate::default());
-    for s in [6, 10] {
-        model.parameters.push(Parameter {
-            name: format!("t{s}"),
-            kind: ParameterKind::ShellThickness,
-            set: format!("strip_{s}"),
-            lower: 1e-4,
-            upper: 1e-2,
-        });
-    }
+    let model = bent_plate_with_strip_thicknesses(BentPlate::default(), &[6, 10]);
     let names: Vec<String> = ["plate_1", "plate_2", "bar"].map(String::from).to_vec();
     let partition = Partition::from_sets(&model, &names, MassKind::Consistent).unwrap();
     let fe = FeModel::new(model, &[], MassKind::Consistent).unwrap();
@@ -681,20 +684,10 @@ fn phases_share_the_budget_and_number_their_iterations_on() {
 fn static_solutions_from_the_eigen_factor_match_a_second_factorisation() {
     use crate::fe::element::MassKind;
     use crate::fe::system::sparse_to_dense;
-    use crate::model::generate::{BentPlate, bent_plate};
-    use crate::model::{Parameter, ParameterKind};
+    use crate::model::generate::BentPlate;
     use crate::sensitivity::frf::{EigenFactor, shift_steps, shifted_static_solutions};
     use faer::Mat;
-    let mut model = bent_plate(&BentPlate::default());
-    for s in [5, 12] {
-        model.parameters.push(Parameter {
-            name: format!("t{s}"),
-            kind: ParameterKind::ShellThickness,
-            set: format!("strip_{s}"),
-            lower: 1e-4,
-            upper: 1e-2,
-        });
-    }
+    let model = bent_plate_with_strip_thicknesses(BentPlate::default(), &[5, 12]);
     let fe = FeModel::new(model, &[], MassKind::Consistent).unwrap();
     let values = fe.initial_values();
     let evaluated = fe.evaluate(&values).unwrap();
