@@ -199,6 +199,30 @@ impl Tree {
         }
     }
 
+    /// Whether every subtree's supernodes are numbered contiguously, ending at its root (the
+    /// parallel factorisation and solves need it).
+    pub fn is_postordered(&self) -> bool {
+        self.postordered
+    }
+
+    /// The supernodes in a postorder: each subtree contiguous, children in their order, then
+    /// the root.
+    pub fn postorder(&self) -> Vec<usize> {
+        let mut order = Vec::with_capacity(self.first.len());
+        // (supernode, children visited so far)
+        let mut stack: Vec<(usize, usize)> = self.roots.iter().rev().map(|&r| (r, 0)).collect();
+        while let Some((s, visited)) = stack.pop() {
+            let children = self.children(s);
+            if visited < children.len() {
+                stack.push((s, visited + 1));
+                stack.push((children[visited], 0));
+            } else {
+                order.push(s);
+            }
+        }
+        order
+    }
+
     fn children(&self, s: usize) -> &[usize] {
         &self.child_idx[self.child_ptr[s]..self.child_ptr[s + 1]]
     }
@@ -458,6 +482,20 @@ impl Context<'_> {
 /// (16 MB of factor, a few milliseconds of reading).
 const PARALLEL_SOLVE_ENTRIES: f64 = 2e6;
 
+/// A front with this many entries (`w (w + r)`) splits its solve kernels over the threads,
+/// when no sibling subtree holds them: 8 MB of factor, a millisecond of work per pass, far
+/// above the cost of a split.
+const PARALLEL_FRONT_SOLVE_ENTRIES: usize = 1 << 20;
+
+/// The parallelism of one front's solve kernels: `par` for a large front, else one thread.
+fn front_par(w: usize, r: usize, par: Par) -> Par {
+    if w * (w + r) >= PARALLEL_FRONT_SOLVE_ENTRIES {
+        par
+    } else {
+        Par::Seq
+    }
+}
+
 /// `X ← (P L Lᵀ Pᵀ)⁻¹ X` for the factor in `values`; `permutation` is the ordering as
 /// `(forward, inverse)`, `forward[new] = old`.
 ///
@@ -512,21 +550,28 @@ pub fn solve(
             panels: &panels,
             k: kc,
         };
+        // A lone root chain has the threads to itself: its large fronts split their dense
+        // kernels over them.
+        let par = if tree.roots.len() == 1 || !tree.postordered {
+            Par::rayon(0)
+        } else {
+            Par::Seq
+        };
         if tree.postordered {
             tree.split_roots(&mut rows)
                 .into_par_iter()
                 .for_each(|(root, rows)| {
-                    ctx.forward_subtree(root, rows, 0);
+                    ctx.forward_subtree(root, rows, 0, par);
                 });
             tree.split_roots(&mut rows)
                 .into_par_iter()
                 .for_each(|(root, rows)| {
-                    ctx.backward_subtree(root, rows, Vec::new(), 0);
+                    ctx.backward_subtree(root, rows, Vec::new(), 0, par);
                 });
         } else {
-            ctx.forward_range(0, ns, &mut rows);
+            ctx.forward_range(0, ns, &mut rows, par);
             let roots = tree.roots.iter().map(|&r| (r, Vec::new()));
-            ctx.backward_range(0, ns, &mut rows, roots.collect());
+            ctx.backward_range(0, ns, &mut rows, roots.collect(), par);
         }
         drop(rows);
         match permutation {
@@ -559,10 +604,12 @@ impl SolveContext<'_> {
         faer::MatRef::from_column_major_slice(self.panels[s], w + r, w).split_at_row(w)
     }
 
-    fn forward_subtree(&self, s: usize, rows: &mut [&mut [f64]], depth: usize) -> Rows {
+    /// Solves the subtree rooted at `s` forward; `par` is what its fronts may use (the
+    /// threads when no sibling subtree runs beside it).
+    fn forward_subtree(&self, s: usize, rows: &mut [&mut [f64]], depth: usize, par: Par) -> Rows {
         let tree = self.tree;
         if depth >= MAX_PARALLEL_DEPTH || tree.subtree_entries[s] < PARALLEL_SOLVE_ENTRIES {
-            return self.forward_range(tree.first[s], s + 1, rows);
+            return self.forward_range(tree.first[s], s + 1, rows, par);
         }
         let (own, below) = rows.split_last_mut().expect("a subtree holds its root");
         let parts = tree.split_children(s, below);
@@ -571,17 +618,20 @@ impl SolveContext<'_> {
             .iter()
             .filter(|&&c| tree.subtree_entries[c] >= PARALLEL_SOLVE_ENTRIES)
             .count();
-        let child =
-            |(c, rows): (usize, &mut [&mut [f64]])| (c, self.forward_subtree(c, rows, depth + 1));
-        let updates: Vec<(usize, Rows)> = if heavy >= 2 {
-            parts.into_par_iter().map(child).collect()
-        } else {
-            parts.into_iter().map(child).collect()
+        let child = |par| {
+            move |(c, rows): (usize, &mut [&mut [f64]])| {
+                (c, self.forward_subtree(c, rows, depth + 1, par))
+            }
         };
-        self.forward_front(s, own, updates)
+        let updates: Vec<(usize, Rows)> = if heavy >= 2 {
+            parts.into_par_iter().map(child(Par::Seq)).collect()
+        } else {
+            parts.into_iter().map(child(par)).collect()
+        };
+        self.forward_front(s, own, updates, par)
     }
 
-    fn forward_range(&self, lo: usize, hi: usize, rows: &mut [&mut [f64]]) -> Rows {
+    fn forward_range(&self, lo: usize, hi: usize, rows: &mut [&mut [f64]], par: Par) -> Rows {
         let mut pending: Vec<Option<Rows>> = vec![None; hi - lo];
         for (j, s) in (lo..hi).enumerate() {
             let updates = self
@@ -593,16 +643,23 @@ impl SolveContext<'_> {
                     (c, update.expect("children are solved before their parent"))
                 })
                 .collect();
-            pending[j] = Some(self.forward_front(s, rows[j], updates));
+            pending[j] = Some(self.forward_front(s, rows[j], updates, par));
         }
         pending.pop().flatten().unwrap_or_default()
     }
 
     /// `y_s = L_11⁻¹ (b_s − Σ children)`; returns `−L_21 y_s` for the parent.
-    fn forward_front(&self, s: usize, own: &mut [f64], children: Vec<(usize, Rows)>) -> Rows {
+    fn forward_front(
+        &self,
+        s: usize,
+        own: &mut [f64],
+        children: Vec<(usize, Rows)>,
+        par: Par,
+    ) -> Rows {
         let k = self.k;
         let w = own.len() / k;
         let r = self.symbolic.supernode(s).pattern().len();
+        let par = front_par(w, r, par);
         let mut update = vec![0.0; r * k];
         let mut local = Vec::new();
         for (c, rows) in children {
@@ -625,7 +682,7 @@ impl SolveContext<'_> {
         }
         let (top, bottom) = self.panel(s);
         let mut y = MatMut::from_row_major_slice_mut(own, w, k);
-        solve_lower_triangular_in_place(top, y.as_mut(), Par::Seq);
+        solve_lower_triangular_in_place(top, y.as_mut(), par);
         if r > 0 {
             faer::linalg::matmul::matmul(
                 MatMut::from_row_major_slice_mut(&mut update, r, k),
@@ -633,20 +690,27 @@ impl SolveContext<'_> {
                 bottom,
                 y.as_ref(),
                 -1.0,
-                Par::Seq,
+                par,
             );
         }
         update
     }
 
     /// Solves the subtree rooted at `s` backward; `above` is `x` at `s`'s pattern rows.
-    fn backward_subtree(&self, s: usize, rows: &mut [&mut [f64]], above: Rows, depth: usize) {
+    fn backward_subtree(
+        &self,
+        s: usize,
+        rows: &mut [&mut [f64]],
+        above: Rows,
+        depth: usize,
+        par: Par,
+    ) {
         let tree = self.tree;
         if depth >= MAX_PARALLEL_DEPTH || tree.subtree_entries[s] < PARALLEL_SOLVE_ENTRIES {
-            return self.backward_range(tree.first[s], s + 1, rows, vec![(s, above)]);
+            return self.backward_range(tree.first[s], s + 1, rows, vec![(s, above)], par);
         }
         let (own, below) = rows.split_last_mut().expect("a subtree holds its root");
-        let handed = self.backward_front(s, own, &above);
+        let handed = self.backward_front(s, own, &above, par);
         let parts: Vec<_> = tree
             .split_children(s, below)
             .into_iter()
@@ -657,13 +721,15 @@ impl SolveContext<'_> {
             .iter()
             .filter(|&&c| tree.subtree_entries[c] >= PARALLEL_SOLVE_ENTRIES)
             .count();
-        let child = |((c, rows), above): ((usize, &mut [&mut [f64]]), Rows)| {
-            self.backward_subtree(c, rows, above, depth + 1)
+        let child = |par| {
+            move |((c, rows), above): ((usize, &mut [&mut [f64]]), Rows)| {
+                self.backward_subtree(c, rows, above, depth + 1, par)
+            }
         };
         if heavy >= 2 {
-            parts.into_par_iter().for_each(child);
+            parts.into_par_iter().for_each(child(Par::Seq));
         } else {
-            parts.into_iter().for_each(child);
+            parts.into_iter().for_each(child(par));
         }
     }
 
@@ -675,6 +741,7 @@ impl SolveContext<'_> {
         hi: usize,
         rows: &mut [&mut [f64]],
         given: Vec<(usize, Rows)>,
+        par: Par,
     ) {
         let mut pending: Vec<Option<Rows>> = vec![None; hi - lo];
         for (s, above) in given {
@@ -684,7 +751,7 @@ impl SolveContext<'_> {
             let above = pending[s - lo]
                 .take()
                 .expect("parents are solved before their children");
-            let handed = self.backward_front(s, rows[s - lo], &above);
+            let handed = self.backward_front(s, rows[s - lo], &above, par);
             for (&c, rows) in self.tree.children(s).iter().zip(handed) {
                 pending[c - lo] = Some(rows);
             }
@@ -692,10 +759,11 @@ impl SolveContext<'_> {
     }
 
     /// `x_s = L_11⁻ᵀ (y_s − L_21ᵀ x_pattern)`; returns, per child, `x` at the child's pattern.
-    fn backward_front(&self, s: usize, own: &mut [f64], above: &[f64]) -> Vec<Rows> {
+    fn backward_front(&self, s: usize, own: &mut [f64], above: &[f64], par: Par) -> Vec<Rows> {
         let k = self.k;
         let w = own.len() / k;
         let r = self.symbolic.supernode(s).pattern().len();
+        let par = front_par(w, r, par);
         let (top, bottom) = self.panel(s);
         let mut x = MatMut::from_row_major_slice_mut(own, w, k);
         if r > 0 {
@@ -705,13 +773,13 @@ impl SolveContext<'_> {
                 bottom.transpose(),
                 faer::MatRef::from_row_major_slice(above, r, k),
                 -1.0,
-                Par::Seq,
+                par,
             );
         }
         faer::linalg::triangular_solve::solve_upper_triangular_in_place(
             top.transpose(),
             x.as_mut(),
-            Par::Seq,
+            par,
         );
         let mut local = Vec::new();
         self.tree
