@@ -1,17 +1,18 @@
-//! Sparse Cholesky factors of symmetric positive definite matrices, solved with the right-hand
-//! sides spread over the threads.
+//! Sparse Cholesky factors of symmetric positive definite matrices.
 //!
 //! faer orders (approximate minimum degree) and finds the supernodal structure; the numeric
 //! factorisation is our multifrontal one ([`super::multifrontal`]: one dense Cholesky, solve and
 //! rank update per supernode, independent subtrees in parallel; 1M-DOF plate 22 s → 11 s against
-//! faer's left-looking kernel). A nested dissection by breadth-first level structures was
-//! tried on the plate and the muffler and gave 25–50 % more fill than AMD, and METIS's multilevel
-//! one only 5 % less. The solves are ours too: a triangular solve with a few right-hand sides is
-//! bound by reading the factor, and splitting its small dense kernels over threads costs more in
-//! synchronisation than it gains. So the columns are split instead: each thread runs the whole
-//! sequential solve on its share, and every pass over the factor serves several columns
-//! (measured at 300k DOFs: 8 columns in 0.31 s against 0.57 s through faer's own solve, and 16
-//! columns for the price of 8).
+//! faer's left-looking kernel). When AMD's order leaves the supernodal tree out of postorder
+//! (the muffler's does), the columns are renumbered in a postorder of the tree and the
+//! structure found again: an equivalent ordering with the same fill in which every subtree is
+//! contiguous, as the parallel factorisation and solves need (300k muffler: solves 1.7× and
+//! the numeric factorisation 1.4× faster). A nested dissection by breadth-first level
+//! structures was tried on the plate and the muffler and gave 25–50 % more fill than AMD, and
+//! METIS's multilevel one only 5 % less. The solves are multifrontal too: a triangular solve
+//! with a few right-hand sides is bound by reading the factor, so every pass over the factor
+//! serves [`SOLVE_COLUMNS`] columns, independent subtrees run on separate threads, and only
+//! the large fronts of the top of the tree split their dense kernels.
 
 use super::multifrontal::{self, FrontError};
 use crate::fe::system::SparseMatrix;
