@@ -72,6 +72,23 @@ fn postordered_ordering(
         .collect()
 }
 
+/// The ordering and supernodal structure of the lower triangle of `a` (faer's symbolic
+/// analysis, forced supernodal, as the multifrontal factorisation needs).
+pub(crate) fn supernodal_symbolic(
+    a: &SparseMatrix,
+    ordering: SymmetricOrdering<'_, usize>,
+) -> Result<SymbolicCholesky<usize>, faer::sparse::FaerError> {
+    factorize_symbolic_cholesky(
+        a.symbolic(),
+        Side::Lower,
+        ordering,
+        CholeskySymbolicParams {
+            supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SUPERNODAL,
+            ..Default::default()
+        },
+    )
+}
+
 /// The supernodal structure of a symbolic factorisation made with
 /// [`SupernodalThreshold::FORCE_SUPERNODAL`].
 fn supernodes(
@@ -118,16 +135,7 @@ impl SpdFactor {
         let mut info = FactorInfo::default();
         let t = Instant::now();
         let analyse = |ordering| {
-            factorize_symbolic_cholesky(
-                a.borrow().symbolic(),
-                Side::Lower,
-                ordering,
-                CholeskySymbolicParams {
-                    supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SUPERNODAL,
-                    ..Default::default()
-                },
-            )
-            .map_err(|_| FactorError::OutOfMemory)
+            supernodal_symbolic(a.borrow(), ordering).map_err(|_| FactorError::OutOfMemory)
         };
         let mut symbolic = analyse(SymmetricOrdering::Amd)?;
         let mut tree = multifrontal::Tree::new(supernodes(&symbolic));
@@ -277,16 +285,7 @@ mod tests {
         let (sys, _) = assemble_model(&model, MassKind::Consistent).unwrap();
         // Free-free: shift below zero.
         let a = crate::fe::system::lower_combination(1.0, &sys.k, 1e3, &sys.m);
-        let amd = factorize_symbolic_cholesky(
-            a.symbolic(),
-            Side::Lower,
-            SymmetricOrdering::Amd,
-            CholeskySymbolicParams {
-                supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SUPERNODAL,
-                ..Default::default()
-            },
-        )
-        .unwrap();
+        let amd = supernodal_symbolic(&a, SymmetricOrdering::Amd).unwrap();
         assert!(
             !multifrontal::Tree::new(supernodes(&amd)).is_postordered(),
             "the test needs a matrix whose AMD tree is not postordered"
@@ -302,24 +301,15 @@ mod tests {
         f.solve_in_place(ours.as_mut());
         f.solve_by_faer(faers.as_mut());
         assert!((&ours - &faers).norm_max() < 1e-12 * faers.norm_max());
-        let mut ax = Mat::<f64>::zeros(n, b.ncols());
-        crate::eigen::sparse::sym_matvec(&full(&a), ours.as_ref(), ax.as_mut());
-        let residual = (&ax - &b).norm_max() / b.norm_max();
+        // A = K + 10³ M, applied through the fully stored K and M.
+        let (mut kx, mut mx) = (
+            Mat::<f64>::zeros(n, b.ncols()),
+            Mat::<f64>::zeros(n, b.ncols()),
+        );
+        crate::eigen::sparse::sym_matvec(&sys.k, ours.as_ref(), kx.as_mut());
+        crate::eigen::sparse::sym_matvec(&sys.m, ours.as_ref(), mx.as_mut());
+        let residual = (&kx + faer::Scale(1e3) * &mx - &b).norm_max() / b.norm_max();
         assert!(residual < 1e-8, "relative residual {residual:e}");
-    }
-
-    /// The full symmetric matrix of a lower-stored one.
-    fn full(a: &SparseMatrix) -> SparseMatrix {
-        let mut t = Vec::new();
-        for j in 0..a.ncols() {
-            for (&i, &v) in a.row_idx_of_col_raw(j).iter().zip(a.val_of_col(j)) {
-                t.push((i, j, v));
-                if i != j {
-                    t.push((j, i, v));
-                }
-            }
-        }
-        sparse_from_triplets("A", a.ncols(), &t).unwrap()
     }
 
     #[test]

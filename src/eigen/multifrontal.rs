@@ -837,23 +837,12 @@ mod tests {
     use crate::fe::system::sparse_from_triplets;
     use faer::Side;
     use faer::dyn_stack::MemBuffer;
-    use faer::sparse::linalg::SupernodalThreshold;
     use faer::sparse::linalg::cholesky::{
-        CholeskySymbolicParams, SymbolicCholesky, SymbolicCholeskyRaw, SymmetricOrdering,
-        factorize_symbolic_cholesky,
+        SymbolicCholesky, SymbolicCholeskyRaw, SymmetricOrdering,
     };
 
     fn symbolic(a: &SparseMatrix) -> SymbolicCholesky<usize> {
-        factorize_symbolic_cholesky(
-            a.symbolic(),
-            Side::Lower,
-            SymmetricOrdering::Amd,
-            CholeskySymbolicParams {
-                supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SUPERNODAL,
-                ..Default::default()
-            },
-        )
-        .unwrap()
+        super::super::factor::supernodal_symbolic(a, SymmetricOrdering::Amd).unwrap()
     }
 
     /// faer's left-looking supernodal factorisation of the same structure: an independent

@@ -310,31 +310,24 @@ pub fn parameter_derivative(
     mass: MassKind,
 ) -> Result<(super::system::SparseMatrix, super::system::SparseMatrix), ModelAssemblyError> {
     let index: DofIndex = dofs.iter().enumerate().map(|(i, d)| (*d, i)).collect();
-    indexed_derivative(
-        model,
-        parameter,
-        parameter_elements(model, parameter)?,
-        &index,
-        mass,
-    )
+    set_derivative(model, parameter, &index, mass)
 }
 
-/// The elements of a parameter's set, or an error naming the known sets.
-fn parameter_elements<'a>(
-    model: &'a Model,
+/// The derivative over all elements of the parameter's set, or an error naming the known sets.
+fn set_derivative(
+    model: &Model,
     parameter: &crate::model::Parameter,
-) -> Result<&'a [u64], ModelAssemblyError> {
-    model
-        .sets
-        .get(&parameter.set)
-        .map(Vec::as_slice)
-        .ok_or_else(|| {
-            ModelAssemblyError::Model(ModelError::MissingSet {
-                parameter: parameter.name.clone(),
-                set: parameter.set.clone(),
-                known: model.sets.keys().cloned().collect::<Vec<_>>().join(", "),
-            })
+    index: &DofIndex,
+    mass: MassKind,
+) -> Result<(super::system::SparseMatrix, super::system::SparseMatrix), ModelAssemblyError> {
+    let ids = model.sets.get(&parameter.set).ok_or_else(|| {
+        ModelAssemblyError::Model(ModelError::MissingSet {
+            parameter: parameter.name.clone(),
+            set: parameter.set.clone(),
+            known: model.sets.keys().cloned().collect::<Vec<_>>().join(", "),
         })
+    })?;
+    indexed_derivative(model, parameter, ids, index, mass)
 }
 
 /// Row of each free DOF of an assembled system.
@@ -352,15 +345,7 @@ pub fn parameter_derivatives(
     let index: DofIndex = dofs.iter().enumerate().map(|(i, d)| (*d, i)).collect();
     parameters
         .par_iter()
-        .map(|parameter| {
-            indexed_derivative(
-                model,
-                parameter,
-                parameter_elements(model, parameter)?,
-                &index,
-                mass,
-            )
-        })
+        .map(|parameter| set_derivative(model, parameter, &index, mass))
         .collect::<Vec<_>>()
         .into_iter()
         // The first failing parameter's error in declaration order, whatever the threads did.
