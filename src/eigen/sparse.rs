@@ -493,38 +493,93 @@ fn project_out(
     c
 }
 
-/// `M`-orthonormalises the block `w` (Cholesky QR, twice for stability): returns `(w R⁻¹, M w R⁻¹, R)`
-/// with `wᵀMw = RᵀR`, or `None` when the block is rank-deficient.
-fn m_orthonormalise(m: &SparseMatrix, w: &Mat<f64>) -> Option<(Mat<f64>, Mat<f64>, Mat<f64>)> {
+/// `M`-orthonormalises the block `w` (Cholesky QR, repeated once if needed): returns
+/// `(w R⁻¹, M w R⁻¹, R)` with `wᵀMw = RᵀR`, or `None` when the block is rank-deficient.
+fn m_orthonormalise(m: &SparseMatrix, w: Mat<f64>) -> Option<(Mat<f64>, Mat<f64>, Mat<f64>)> {
     let mut mq = Mat::<f64>::zeros(w.nrows(), w.ncols());
     sym_matvec(m, w.as_ref(), mq.as_mut());
-    cholesky_qr(w.clone(), mq)
+    cholesky_qr(w, mq)
 }
 
-/// [`m_orthonormalise`] of `q` given `M q`: one product with `M` serves both passes, the
-/// second transforming `M q` by the same triangular factor as `q`.
+/// Departure of an `M`-orthonormalised block's Gram matrix from the identity below which a
+/// second Cholesky QR pass is skipped (the second pass would leave round-off of this order).
+const GRAM_TOLERANCE: f64 = 1e-13;
+
+/// [`m_orthonormalise`] of `q` given `M q`, in place: `q ← q L⁻ᵀ` and `Mq ← Mq L⁻ᵀ` for
+/// `qᵀMq = L Lᵀ`, the Gram matrix of the result formed in the same pass over the rows. A
+/// second pass runs only when that Gram matrix is not the identity to [`GRAM_TOLERANCE`]
+/// (CholeskyQR2's reason: one pass leaves an error of order `ε κ(q)²`).
 fn cholesky_qr(mut q: Mat<f64>, mut mq: Mat<f64>) -> Option<(Mat<f64>, Mat<f64>, Mat<f64>)> {
     let b = q.ncols();
     let mut r_total = Mat::<f64>::identity(b, b);
+    let mut g = q.transpose() * &mq;
     for _ in 0..2 {
-        let g = q.transpose() * &mq;
-        let g = Mat::from_fn(b, b, |i, j| 0.5 * (g[(i, j)] + g[(j, i)]));
-        let llt = g.llt(Side::Lower).ok()?;
+        let g_sym = Mat::from_fn(b, b, |i, j| 0.5 * (g[(i, j)] + g[(j, i)]));
+        let llt = g_sym.llt(Side::Lower).ok()?;
         let l = llt.L();
         let diag_min = (0..b).map(|i| l[(i, i)]).fold(f64::INFINITY, f64::min);
         let diag_max = (0..b).map(|i| l[(i, i)]).fold(0.0f64, f64::max);
         if !(diag_min > 1e-10 * diag_max) {
             return None;
         }
-        // R = Lᵀ; q ← q R⁻¹ = q L⁻ᵀ, as one product with the small inverse (no transposes of
-        // the tall blocks).
+        // R = Lᵀ; q ← q R⁻¹ = q L⁻ᵀ, as one product with the small inverse.
         let mut l_inv = Mat::<f64>::identity(b, b);
         solve_lower_triangular_in_place(l, l_inv.as_mut(), Par::Seq);
-        q = &q * l_inv.transpose();
-        mq = &mq * l_inv.transpose();
+        g = transform_rows_with_gram(q.as_mut(), mq.as_mut(), l_inv.transpose());
         r_total = l.transpose() * &r_total;
+        if (&g - Mat::<f64>::identity(b, b)).norm_max() <= GRAM_TOLERANCE {
+            break;
+        }
     }
     Some((q, mq, r_total))
+}
+
+/// `q ← q t`, `mq ← mq t` in place for a small square `t`, returning `qᵀ mq` of the result:
+/// one parallel pass over the rows, each tile transformed while it is in cache. The tiles'
+/// Gram matrices are summed in tile order, so the result does not depend on the threads.
+fn transform_rows_with_gram(
+    q: MatMut<'_, f64>,
+    mq: MatMut<'_, f64>,
+    t: MatRef<'_, f64>,
+) -> Mat<f64> {
+    let b = q.ncols();
+    let mut grams = Vec::new();
+    tile_grams(q, mq, t, &mut grams);
+    let mut g = Mat::<f64>::zeros(b, b);
+    for tile in &grams {
+        g += tile;
+    }
+    g
+}
+
+/// The tiles of [`transform_rows_with_gram`], halved recursively at tile boundaries (a split
+/// that depends on the row count alone), their Gram matrices appended in row order.
+fn tile_grams(
+    mut q: MatMut<'_, f64>,
+    mut mq: MatMut<'_, f64>,
+    t: MatRef<'_, f64>,
+    grams: &mut Vec<Mat<f64>>,
+) {
+    const ROWS: usize = 4096;
+    let rows = q.nrows();
+    if rows > ROWS {
+        let half = (rows / 2).div_ceil(ROWS) * ROWS;
+        let (q_top, q_bottom) = q.split_at_row_mut(half);
+        let (mq_top, mq_bottom) = mq.split_at_row_mut(half);
+        let (mut top, mut bottom) = (Vec::new(), Vec::new());
+        rayon::join(
+            || tile_grams(q_top, mq_top, t, &mut top),
+            || tile_grams(q_bottom, mq_bottom, t, &mut bottom),
+        );
+        grams.append(&mut top);
+        grams.append(&mut bottom);
+    } else {
+        let qt = q.as_ref() * t;
+        let mqt = mq.as_ref() * t;
+        q.copy_from(&qt);
+        mq.copy_from(&mqt);
+        grams.push(qt.transpose() * &mqt);
+    }
 }
 
 /// One more Gram–Schmidt pass on an `M`-orthonormalised block `w = V c + Q R` whose last pass
@@ -595,7 +650,7 @@ fn lanczos(
         y
     };
     let start = random_block(&mut rng);
-    let (q, mq, _) = m_orthonormalise(m, &start).ok_or(EigenError::NoConvergence)?;
+    let (q, mq, _) = m_orthonormalise(m, start).ok_or(EigenError::NoConvergence)?;
     v.as_mut().subcols_mut(0, b).copy_from(&q);
     mv.as_mut().subcols_mut(0, b).copy_from(&mq);
     let mut kept = 0usize;
@@ -636,7 +691,7 @@ fn lanczos(
             c += &full;
             info.orthogonalisation_seconds += t.elapsed().as_secs_f64();
             let t = Instant::now();
-            let orthonormal = m_orthonormalise(m, &w);
+            let orthonormal = m_orthonormalise(m, w);
             info.mass_product_seconds += t.elapsed().as_secs_f64();
             let t = Instant::now();
             let orthonormal = orthonormal.and_then(|(q, mq, r)| {
@@ -666,8 +721,7 @@ fn lanczos(
                         fresh.as_mut(),
                         par,
                     );
-                    let (q, mq, _) =
-                        m_orthonormalise(m, &fresh).ok_or(EigenError::NoConvergence)?;
+                    let (q, mq, _) = m_orthonormalise(m, fresh).ok_or(EigenError::NoConvergence)?;
                     (q, mq, Mat::zeros(b, b))
                 }
             };
@@ -797,6 +851,41 @@ mod tests {
         )
     }
 
+    /// Cholesky QR on a block whose columns are nearly parallel (`κ ≈ 10⁴`: one pass leaves
+    /// `ε κ² ≈ 10⁻⁸`, so the second must run), over more rows than one tile: `Q R` rebuilds
+    /// the block, `QᵀMQ = I`, and the in-place `M Q` equals a fresh product.
+    #[test]
+    fn cholesky_qr_orthonormalises_an_ill_conditioned_block() {
+        let n = 10_000;
+        let mut t = Vec::new();
+        for j in 0..n {
+            t.push((j, j, 1.0 + (j % 5) as f64));
+            if j + 1 < n {
+                t.extend([(j, j + 1, 0.25), (j + 1, j, 0.25)]);
+            }
+        }
+        let m = sparse_from_triplets("M", n, &t).unwrap();
+        let base = Mat::from_fn(n, 1, |i, _| ((i * 37) % 101) as f64 / 101.0 - 0.5);
+        let w = Mat::from_fn(n, 6, |i, j| {
+            base[(i, 0)] + 1e-4 * (((i + 1) * (j + 3) * 7919) % 1009) as f64 / 1009.0
+        });
+        let (q, mq, r) = m_orthonormalise(&m, w.clone()).unwrap();
+        assert!((&q * &r - &w).norm_max() < 1e-12 * w.norm_max());
+        let mut mq_direct = Mat::<f64>::zeros(n, 6);
+        sym_matvec(&m, q.as_ref(), mq_direct.as_mut());
+        assert!((&mq - &mq_direct).norm_max() < 1e-9 * mq_direct.norm_max());
+        let gram = q.transpose() * &mq_direct;
+        let e = (gram - Mat::<f64>::identity(6, 6)).norm_max();
+        assert!(e < 1e-12);
+        // The tiled transform's Gram matrix equals the whole product's.
+        let (mut q2, mut mq2) = (w.clone(), w.clone());
+        let tr = Mat::from_fn(6, 6, |i, j| if i <= j { 1.0 + (i + j) as f64 } else { 0.0 });
+        let g = transform_rows_with_gram(q2.as_mut(), mq2.as_mut(), tr.as_ref());
+        let wt = &w * &tr;
+        assert!((&q2 - &wt).norm_max() < 1e-13 * wt.norm_max());
+        assert!((g - wt.transpose() * &wt).norm_max() < 1e-12 * (wt.transpose() * &wt).norm_max());
+    }
+
     /// The third pass keeps `w = V c + Q R` and leaves `Q` `M`-orthonormal and `M`-orthogonal
     /// to `V`, from a block that was never projected (every column mostly along `V`).
     #[test]
@@ -814,14 +903,14 @@ mod tests {
         let raw = Mat::from_fn(n, 10, |i, j| {
             ((i * 7 + j * 13) % 11) as f64 - 5.0 + 0.1 * j as f64
         });
-        let (v, mv, _) = m_orthonormalise(&m, &raw).unwrap();
+        let (v, mv, _) = m_orthonormalise(&m, raw).unwrap();
         // Mostly along V, with a small part outside.
         let x = Mat::from_fn(10, 3, |i, j| 1.0 + (i + 2 * j) as f64);
         let w = &v * &x
             + Mat::from_fn(n, 3, |i, j| {
                 1e-3 * ((i * j) % 5) as f64 + 1e-3 * (i == j) as u8 as f64
             });
-        let (q, mq, r) = m_orthonormalise(&m, &w).unwrap();
+        let (q, mq, r) = m_orthonormalise(&m, w.clone()).unwrap();
         let mut c = Mat::<f64>::zeros(10, 3);
         let (q2, mq2, r2) =
             reorthogonalise((v.as_ref(), mv.as_ref()), (q, mq, r), &mut c, Par::Seq).unwrap();
