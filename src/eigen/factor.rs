@@ -159,11 +159,8 @@ impl SpdFactor {
         let inverse = symbolic.perm().map(|p| p.arrays().1);
         let lower = multifrontal::PermutedLower::new(a.borrow(), inverse).map_err(front_error)?;
         drop(a);
-        let mut values = Vec::new();
-        values
-            .try_reserve_exact(symbolic.len_val())
-            .map_err(|_| FactorError::OutOfMemory)?;
-        values.resize(symbolic.len_val(), 0.0);
+        let mut values =
+            crate::core::memory::zeroed_f64(symbolic.len_val()).ok_or(FactorError::OutOfMemory)?;
         multifrontal::factorize(supernodal, &tree, &lower, &mut values).map_err(front_error)?;
         info.numeric_seconds = t.elapsed().as_secs_f64();
         Ok(SpdFactor {

@@ -118,16 +118,17 @@ where
     }
     let nnz = col_ptr[n];
     let mut row_idx = vec![0usize; nnz];
-    for a in 0..n_nodes {
-        for c in 0..6 {
-            let start = col_ptr[6 * a + c];
-            for (k, &b) in adj[a].iter().enumerate() {
+    split_by(&mut row_idx, &col_ptr)
+        .into_par_iter()
+        .with_min_len(1024)
+        .enumerate()
+        .for_each(|(j, rows)| {
+            for (k, &b) in adj[j / 6].iter().enumerate() {
                 for r in 0..6 {
-                    row_idx[start + 6 * k + r] = 6 * b as usize + r;
+                    rows[6 * k + r] = 6 * b as usize + r;
                 }
             }
-        }
-    }
+        });
     let mut kv = vec![0.0f64; nnz];
     let mut mv = vec![0.0f64; nnz];
     let colours = colour(elements, n_nodes);
@@ -175,31 +176,51 @@ where
             })
             .collect()
     };
-    let extract = |vals: &[f64]| -> SparseMatrix {
-        let mut ptr = vec![0usize];
-        let mut rows = Vec::new();
-        let mut out = Vec::new();
-        for j in 0..n {
-            if !keep[j] {
-                continue;
+    // The free DOFs' pattern, once for both matrices, then each matrix's values; every
+    // column is filled on its own (in parallel, the same result whatever the threads).
+    let kept_columns: Vec<usize> = (0..n).filter(|&j| keep[j]).collect();
+    let kept_rows = |j: usize| (col_ptr[j]..col_ptr[j + 1]).filter(|&p| keep[row_idx[p]]);
+    let counts: Vec<usize> = kept_columns
+        .par_iter()
+        .map(|&j| kept_rows(j).count())
+        .collect();
+    let mut ptr = Vec::with_capacity(kept_columns.len() + 1);
+    ptr.push(0usize);
+    for c in &counts {
+        ptr.push(ptr[ptr.len() - 1] + c);
+    }
+    drop(counts);
+    let mut rows = vec![0usize; ptr[ptr.len() - 1]];
+    split_by(&mut rows, &ptr)
+        .into_par_iter()
+        .zip(&kept_columns)
+        .with_min_len(1024)
+        .for_each(|(out, &j)| {
+            for (o, p) in out.iter_mut().zip(kept_rows(j)) {
+                *o = new_index[row_idx[p]];
             }
-            for p in col_ptr[j]..col_ptr[j + 1] {
-                let i = row_idx[p];
-                if keep[i] {
-                    rows.push(new_index[i]);
-                    out.push(vals[p]);
+        });
+    let extract = |vals: Vec<f64>| -> Vec<f64> {
+        let mut out = vec![0.0f64; rows.len()];
+        split_by(&mut out, &ptr)
+            .into_par_iter()
+            .zip(&kept_columns)
+            .with_min_len(1024)
+            .for_each(|(out, &j)| {
+                for (o, p) in out.iter_mut().zip(kept_rows(j)) {
+                    *o = vals[p];
                 }
-            }
-            ptr.push(rows.len());
-        }
-        let nf = ptr.len() - 1;
-        // SAFETY of structure: rows are sorted within each column and in range by construction.
-        let symbolic = SymbolicSparseColMat::new_checked(nf, nf, ptr, None, rows);
-        SparseMatrix::new(symbolic, out)
+            });
+        out
     };
-    let k = extract(&kv);
-    drop(kv);
-    let m = extract(&mv);
+    let k_values = extract(kv);
+    let m_values = extract(mv);
+    drop(row_idx);
+    let nf = kept_columns.len();
+    // Rows are sorted within each column and in range by construction.
+    let symbolic = SymbolicSparseColMat::new_checked(nf, nf, ptr, None, rows);
+    let k = SparseMatrix::new(symbolic.clone(), k_values);
+    let m = SparseMatrix::new(symbolic, m_values);
     let info = AssemblyInfo {
         total_dofs: n,
         free_dofs: dofs.len(),
@@ -249,6 +270,17 @@ fn scatter(
             }
         }
     }
+}
+
+/// `data` cut into consecutive slices, slice `j` of length `ptr[j + 1] − ptr[j]`.
+fn split_by<'a, T>(mut data: &'a mut [T], ptr: &[usize]) -> Vec<&'a mut [T]> {
+    let mut slices = Vec::with_capacity(ptr.len().saturating_sub(1));
+    for w in ptr.windows(2) {
+        let (head, tail) = std::mem::take(&mut data).split_at_mut(w[1] - w[0]);
+        slices.push(head);
+        data = tail;
+    }
+    slices
 }
 
 /// Index of every node id in a sorted list.
