@@ -252,7 +252,7 @@ pub fn lowest_modes_keeping_factor(
     info.factor = llt.info;
     info.factor_seconds = t0.elapsed().as_secs_f64();
 
-    let (mut lambdas, mut vecs, counted) = match selection {
+    let (mut lambdas, mut mass_vecs, counted) = match selection {
         ModeSelection::All => return Err(EigenError::AllModesOfLargeModel { n }),
         ModeSelection::Count(c) => {
             let (l, v) = lanczos(&llt, m, n, c.min(n / 2), shift, params, &mut info)?;
@@ -272,11 +272,11 @@ pub fn lowest_modes_keeping_factor(
         }
     };
     lambdas.truncate(counted);
-    vecs.truncate(n, counted);
-    let (mut kphi, mut mphi) = (Mat::zeros(n, 0), Mat::zeros(n, 0));
+    mass_vecs.truncate(n, counted);
+    let (mut vecs, mut kphi, mut mphi) = (Mat::zeros(n, 0), Mat::zeros(n, 0), Mat::zeros(n, 0));
     let t = Instant::now();
     if counted > 0 {
-        (lambdas, vecs, kphi, mphi) = refine(&llt, k, m, vecs)?;
+        (lambdas, vecs, kphi, mphi) = refine(&llt, k, m, mass_vecs)?;
         info.solves += counted;
     }
     let modes = finish(k, lambdas, vecs, kphi, mphi, shift, scale)?;
@@ -288,20 +288,18 @@ pub fn lowest_modes_keeping_factor(
 /// Eigenvalues, shapes `Φ`, and the products `KΦ`, `MΦ`.
 type RefinedModes = (Vec<f64>, Mat<f64>, Mat<f64>, Mat<f64>);
 
-/// One block inverse-iteration step and a Rayleigh–Ritz projection: `X = A⁻¹ M V`, then the
-/// small pencil `(XᵀKX, XᵀMX)`. The Lanczos residual bounds the error of `V` in the `A⁻¹M`
+/// One block inverse-iteration step and a Rayleigh–Ritz projection: `X = A⁻¹ M V` (from `M V`,
+/// handed over by [`lanczos`]), then the small pencil `(XᵀKX, XᵀMX)`. The Lanczos residual bounds the error of `V` in the `A⁻¹M`
 /// metric, where the stiff modes weigh little; this step divides their share by `ν_high/ν_low`,
 /// so the residuals `‖Kφ − λMφ‖ / ‖Kφ‖` reach round-off level.
 fn refine(
     llt: &SpdFactor,
     k: &SparseMatrix,
     m: &SparseMatrix,
-    v: Mat<f64>,
+    mv: Mat<f64>,
 ) -> Result<RefinedModes, EigenError> {
-    let (n, c) = (v.nrows(), v.ncols());
-    let mut x = Mat::<f64>::zeros(n, c);
-    sym_matvec(m, v.as_ref(), x.as_mut());
-    drop(v);
+    let (n, c) = (mv.nrows(), mv.ncols());
+    let mut x = mv;
     llt.solve_in_place(x.as_mut());
     let (mut kx, mut mx) = (Mat::<f64>::zeros(n, c), Mat::<f64>::zeros(n, c));
     sym_matvec(k, x.as_ref(), kx.as_mut());
@@ -404,6 +402,10 @@ fn finish(
     // ΦᵀMΦ − I before the re-sort, which permutes its rows and columns alike.
     let gram = shapes.transpose() * &mphi;
     drop(mphi);
+    drop(kphi);
+    // The shapes' storage may have been the Krylov basis's, wider than `c` columns: the modes
+    // keep a copy of their own size, made where the products just freed their memory.
+    let mut shapes = shapes.as_ref().to_owned();
     // Re-sort: Rayleigh quotients may swap nearly repeated pairs.
     let mut order: Vec<usize> = (0..c).collect();
     order.sort_by(|a, b| lambdas[*a].total_cmp(&lambdas[*b]));
@@ -619,8 +621,8 @@ fn cancellation(c: MatRef<'_, f64>, r: MatRef<'_, f64>) -> f64 {
 
 /// Block thick-restart Lanczos on `A⁻¹M` in the `M`-inner product, with blocks of `b`
 /// vectors so that every pass over the Cholesky factor serves `b` right-hand sides (the solves
-/// are memory-bound). Returns the `nev` lowest `λ` (ascending) and their `M`-orthonormal
-/// vectors.
+/// are memory-bound). Returns the `nev` lowest `λ` (ascending) and `M Φ` for their
+/// `M`-orthonormal Ritz vectors `Φ` (what [`refine`] starts from).
 fn lanczos(
     llt: &SpdFactor,
     m: &SparseMatrix,
@@ -777,12 +779,15 @@ fn lanczos(
                     restarts: restart,
                 });
             }
-            drop(mv);
+            // The refinement needs only `M V Y`: combine the stored products, not the basis.
+            // In place: the basis is freed first, and the products' storage, truncated,
+            // carries the refinement to the modes (which `finish` copies to their own size).
+            drop(v);
             let yk = Mat::from_fn(p, keep, |i, c| y[(i, order[c])]);
-            combine_in_place(v.as_mut(), yk.as_ref());
-            v.truncate(n, keep);
+            combine_in_place(mv.as_mut(), yk.as_ref());
+            mv.truncate(n, keep);
             let lambdas: Vec<f64> = (0..nev).map(|c| shift + 1.0 / theta[order[c]]).collect();
-            return Ok((lambdas, v));
+            return Ok((lambdas, mv));
         }
         // Thick restart: kept Ritz vectors, then the residual block; blocks must tile up to p.
         let t = Instant::now();
