@@ -179,6 +179,14 @@ impl SpdFactor {
     /// `X ← A⁻¹ X`: independent subtrees of the factor on separate threads, up to
     /// [`SOLVE_COLUMNS`] columns per pass over the factor.
     pub fn solve_in_place(&self, x: MatMut<'_, f64>) {
+        self.solve_in_place_in_passes(x, SOLVE_COLUMNS);
+    }
+
+    /// [`Self::solve_in_place`] with up to `columns` columns per pass. A pass's work arrays
+    /// hold `2 n` values per column; in return every column beyond [`SOLVE_COLUMNS`] costs
+    /// less than its share of a pass (the 1M-DOF plate's 50 refined modes in one pass of 50
+    /// instead of four of 13: the refinement 5.3 s → 3.9 s).
+    pub fn solve_in_place_in_passes(&self, x: MatMut<'_, f64>, columns: usize) {
         let supernodal = supernodes(&self.symbolic);
         let permutation = self.symbolic.perm().map(|p| p.arrays());
         multifrontal::solve(
@@ -187,7 +195,7 @@ impl SpdFactor {
             permutation,
             &self.values,
             x,
-            SOLVE_COLUMNS,
+            columns,
         );
     }
 

@@ -503,8 +503,9 @@ fn front_par(w: usize, r: usize, par: Par) -> Par {
 /// entry of the factor is read once per pass for all columns. Forward, a supernode solves
 /// `L_11 y = b` for its own rows and hands `−L_21 y` to its parent; backward, it receives
 /// `x` at its pattern's rows from its parent, solves `L_11ᵀ x = y − L_21ᵀ x_pattern`, and hands
-/// each child the rows of its own pattern. Columns are taken `k` at a time in a row-major
-/// work array, so a row's `k` values are contiguous for the gathers and scatters.
+/// each child the rows of its own pattern. Columns are taken at most `k` at a time, in passes
+/// of equal width (50 columns with `k = 16`: four of 13, not three of 16 and one of 2), in a
+/// row-major work array, so a row's values are contiguous for the gathers and scatters.
 pub fn solve(
     symbolic: &SymbolicSupernodalCholesky<usize>,
     tree: &Tree,
@@ -521,8 +522,10 @@ pub fn solve(
     let begin = symbolic.supernode_begin();
     let mut x = x;
     let (mut work, mut natural) = (Vec::new(), Vec::new());
-    for c0 in (0..x.ncols()).step_by(k.max(1)) {
-        let kc = k.max(1).min(x.ncols() - c0);
+    let passes = x.ncols().div_ceil(k.max(1));
+    let width = x.ncols().div_ceil(passes.max(1));
+    for c0 in (0..x.ncols()).step_by(width.max(1)) {
+        let kc = width.min(x.ncols() - c0);
         natural.clear();
         natural.resize(n * kc, 0.0);
         to_row_major(x.as_ref().subcols(c0, kc), &mut natural);

@@ -285,6 +285,12 @@ pub fn lowest_modes_keeping_factor(
     Ok((modes, info, Some(factor)))
 }
 
+/// Columns per pass of the refinement's solve: 50 modes in one pass, 100 in two (the solves
+/// are bound by reading the factor: 1M plate, 50 modes, refinement 5.3 s → 3.9 s against
+/// passes of 16). The work arrays, `2 n` values a column, stay within what the Krylov basis
+/// freed (the peak did not move).
+const REFINEMENT_SOLVE_COLUMNS: usize = 64;
+
 /// Eigenvalues, shapes `Φ`, and the products `KΦ`, `MΦ`.
 type RefinedModes = (Vec<f64>, Mat<f64>, Mat<f64>, Mat<f64>);
 
@@ -300,7 +306,7 @@ fn refine(
 ) -> Result<RefinedModes, EigenError> {
     let (n, c) = (mv.nrows(), mv.ncols());
     let mut x = mv;
-    llt.solve_in_place(x.as_mut());
+    llt.solve_in_place_in_passes(x.as_mut(), REFINEMENT_SOLVE_COLUMNS);
     let (mut kx, mut mx) = (Mat::<f64>::zeros(n, c), Mat::<f64>::zeros(n, c));
     sym_matvec(k, x.as_ref(), kx.as_mut());
     sym_matvec(m, x.as_ref(), mx.as_mut());
