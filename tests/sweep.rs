@@ -761,3 +761,56 @@ fn bent_plate_pc_sweep_grows_by_set() {
     }
     assert_eq!(names.iter().filter(|n| *n == "t5").count(), 6);
 }
+
+/// The C2 P-C over six choices of measured points, with and without noise: the thesis's stop
+/// rule is met every time with the strips beside the bend split wrongly (t5 more than 5 % under
+/// its true 1.4 mm) but their sum near the true 2.8 mm, noise-free data included. This pins the
+/// finding that the 5 % target on t5 is out of reach of the stop rule on this reconstruction
+/// (see the sweep's description); a change to the method that moved it would show here.
+#[test]
+fn bent_plate_pc_stops_on_the_bend_ridge_for_every_point_choice() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = common::femu()
+        .args(["sweep", "--quiet", "--jobs", "2", "--cache-dir"])
+        .arg(dir.path())
+        .arg(shipped("bent-plate-pc-points"))
+        .output()
+        .unwrap();
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let table = femu::artefact::codec::read_parquet(
+        &dir.path()
+            .join("sweeps/bent-plate-pc-points/collected/collected.parquet"),
+    )
+    .unwrap();
+    let points = table.strs("point", "point").unwrap();
+    let names = table.strs("t", "t.parameter").unwrap();
+    let t = table.f64s("t", "t.final").unwrap();
+    let chi = table.f64s("mean_chi", "mean_chi").unwrap();
+    let mut seen = 0;
+    for i in (0..table.rows()).filter(|&i| names[i] == "t5") {
+        let j = (0..table.rows())
+            .find(|&j| points[j] == points[i] && names[j] == "t6")
+            .unwrap();
+        assert!(chi[i] >= 0.99, "{}: mean chi {}", points[i], chi[i]);
+        assert!(
+            t[i] < 0.95 * 1.4e-3 && t[i] > 1.0e-3,
+            "{}: t5 {}",
+            points[i],
+            t[i]
+        );
+        assert!(
+            ((t[i] + t[j]) / 2.8e-3 - 1.0).abs() < 0.05,
+            "{}: t5 + t6 = {}",
+            points[i],
+            t[i] + t[j]
+        );
+        seen += 1;
+    }
+    assert_eq!(seen, 12);
+}
