@@ -354,56 +354,70 @@ fn finish(
     let (n, c) = (shapes.nrows(), shapes.ncols());
     let largest = lambdas.iter().fold(0.0f64, |s, l| s.max(l.abs()));
     let k_norm = (0..n).map(|j| diag(k, j).abs()).fold(0.0f64, f64::max);
+    // Each mode on its own (in parallel over the modes, each sum in row order as on one
+    // thread): `(λ, residual, rigid)`, or the first indefinite mode's error.
+    let per_mode: Vec<Result<(f64, f64, bool), EigenError>> = shapes
+        .as_mut()
+        .par_col_iter_mut()
+        .zip(kphi.as_mut().par_col_iter_mut())
+        .zip(mphi.as_mut().par_col_iter_mut())
+        .map(|((mut phi, mut kp), mut mp)| {
+            let (mut pkp, mut pmp) = (0.0, 0.0);
+            for i in 0..n {
+                pkp += phi[i] * kp[i];
+                pmp += phi[i] * mp[i];
+            }
+            let mut lam = pkp / pmp;
+            // Rigid-body modes carry round-off of the stiff modes, ~ε·λ_max: 10⁻¹² of the
+            // model's eigenvalue scale (the median `K_jj/M_jj`) bounds it, as in the dense
+            // path, whatever the shift (a frequency limit under the first elastic mode gives a
+            // tiny one).
+            let rigid = lam.abs()
+                <= (1e-10 * largest)
+                    .max(1e-6 * shift.abs())
+                    .max(1e-12 * scale)
+                    .max(f64::MIN_POSITIVE);
+            if rigid {
+                lam = 0.0;
+            } else if lam < 0.0 {
+                return Err(EigenError::IndefiniteStiffness {
+                    value: lam,
+                    largest,
+                });
+            }
+            let s = 1.0 / pmp.sqrt();
+            let (mut r2, mut k2, mut p2) = (0.0, 0.0, 0.0);
+            for i in 0..n {
+                phi[i] *= s;
+                let (kv, mv) = (kp[i] * s, mp[i] * s);
+                kp[i] = kv;
+                mp[i] = mv;
+                let res = kv - lam * mv;
+                r2 += res * res;
+                k2 += kv * kv;
+                p2 += phi[i] * phi[i];
+            }
+            let denom = if lam == 0.0 {
+                k_norm * p2.sqrt()
+            } else {
+                k2.sqrt()
+            };
+            let residual = if denom > 0.0 { r2.sqrt() / denom } else { 0.0 };
+            if fix_sign(phi.as_mut()) {
+                for i in 0..n {
+                    mp[i] = -mp[i];
+                }
+            }
+            Ok((lam, residual, rigid))
+        })
+        .collect();
     let mut residuals = Vec::with_capacity(c);
     let mut rigid = 0;
-    for r in 0..c {
-        let (mut pkp, mut pmp) = (0.0, 0.0);
-        for i in 0..n {
-            pkp += shapes[(i, r)] * kphi[(i, r)];
-            pmp += shapes[(i, r)] * mphi[(i, r)];
-        }
-        let mut lam = pkp / pmp;
-        // Rigid-body modes carry round-off of the stiff modes, ~ε·λ_max: 10⁻¹² of the model's
-        // eigenvalue scale (the median `K_jj/M_jj`) bounds it, as in the dense path, whatever
-        // the shift (a frequency limit under the first elastic mode gives a tiny one).
-        if lam.abs()
-            <= (1e-10 * largest)
-                .max(1e-6 * shift.abs())
-                .max(1e-12 * scale)
-                .max(f64::MIN_POSITIVE)
-        {
-            lam = 0.0;
-            rigid += 1;
-        } else if lam < 0.0 {
-            return Err(EigenError::IndefiniteStiffness {
-                value: lam,
-                largest,
-            });
-        }
+    for (r, mode) in per_mode.into_iter().enumerate() {
+        let (lam, residual, is_rigid) = mode?;
         lambdas[r] = lam;
-        let s = 1.0 / pmp.sqrt();
-        let (mut r2, mut k2, mut p2) = (0.0, 0.0, 0.0);
-        for i in 0..n {
-            shapes[(i, r)] *= s;
-            let (kp, mp) = (kphi[(i, r)] * s, mphi[(i, r)] * s);
-            kphi[(i, r)] = kp;
-            mphi[(i, r)] = mp;
-            let res = kp - lam * mp;
-            r2 += res * res;
-            k2 += kp * kp;
-            p2 += shapes[(i, r)] * shapes[(i, r)];
-        }
-        let denom = if lam == 0.0 {
-            k_norm * p2.sqrt()
-        } else {
-            k2.sqrt()
-        };
-        residuals.push(if denom > 0.0 { r2.sqrt() / denom } else { 0.0 });
-        if fix_sign(shapes.as_mut().col_mut(r)) {
-            for i in 0..n {
-                mphi[(i, r)] = -mphi[(i, r)];
-            }
-        }
+        residuals.push(residual);
+        rigid += usize::from(is_rigid);
     }
     // ΦᵀMΦ − I before the re-sort, which permutes its rows and columns alike.
     let gram = shapes.transpose() * &mphi;

@@ -255,3 +255,57 @@ pub fn max_abs(a: MatRef<'_, f64>) -> f64 {
     }
     s
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `α A + β B`'s lower triangle equals the dense sum, for columns of different patterns,
+    /// with `B` stored sorted and unsorted.
+    #[test]
+    fn lower_combination_matches_the_dense_sum() {
+        let n = 7;
+        let entry = |i: usize, j: usize, salt: usize| ((i * 3 + j * 5 + salt) % 7) as f64 - 2.5;
+        let mut ta = Vec::new();
+        let mut tb = Vec::new();
+        for j in 0..n {
+            for i in 0..n {
+                if (i + j) % 3 != 1 {
+                    ta.push((i, j, entry(i.max(j), i.min(j), 1)));
+                }
+                if (i * j) % 4 != 2 {
+                    tb.push((i, j, entry(i.max(j), i.min(j), 2)));
+                }
+            }
+        }
+        let a = sparse_from_triplets("A", n, &ta).unwrap();
+        let b = sparse_from_triplets("B", n, &tb).unwrap();
+        // B again with every column's rows reversed: unsorted storage.
+        let (mut ptr, mut rows, mut vals) = (vec![0usize], Vec::new(), Vec::new());
+        for j in 0..n {
+            let r = b.row_idx_of_col_raw(j);
+            let v = b.val_of_col(j);
+            rows.extend(r.iter().rev());
+            vals.extend(v.iter().rev());
+            ptr.push(rows.len());
+        }
+        let unsorted = SparseColMat::new(
+            faer::sparse::SymbolicSparseColMat::new_unsorted_checked(n, n, ptr, None, rows),
+            vals,
+        );
+        let (da, db) = (sparse_to_dense(&a), sparse_to_dense(&b));
+        for second in [&b, &unsorted] {
+            let c = sparse_to_dense(&lower_combination(2.0, &a, -0.5, second));
+            for j in 0..n {
+                for i in 0..n {
+                    let want = if i >= j {
+                        2.0 * da[(i, j)] - 0.5 * db[(i, j)]
+                    } else {
+                        0.0
+                    };
+                    assert_eq!(c[(i, j)], want, "({i}, {j})");
+                }
+            }
+        }
+    }
+}
