@@ -876,20 +876,25 @@ mod tests {
         )
     }
 
+    /// A tridiagonal (non-diagonal) positive definite mass matrix.
+    fn banded_mass(n: usize, diagonal: impl Fn(usize) -> f64, off: f64) -> SparseMatrix {
+        let mut t = Vec::new();
+        for j in 0..n {
+            t.push((j, j, diagonal(j)));
+            if j + 1 < n {
+                t.extend([(j, j + 1, off), (j + 1, j, off)]);
+            }
+        }
+        sparse_from_triplets("M", n, &t).unwrap()
+    }
+
     /// Cholesky QR on a block whose columns are nearly parallel (`κ ≈ 10⁴`: one pass leaves
     /// `ε κ² ≈ 10⁻⁸`, so the second must run), over more rows than one tile: `Q R` rebuilds
     /// the block, `QᵀMQ = I`, and the in-place `M Q` equals a fresh product.
     #[test]
     fn cholesky_qr_orthonormalises_an_ill_conditioned_block() {
         let n = 10_000;
-        let mut t = Vec::new();
-        for j in 0..n {
-            t.push((j, j, 1.0 + (j % 5) as f64));
-            if j + 1 < n {
-                t.extend([(j, j + 1, 0.25), (j + 1, j, 0.25)]);
-            }
-        }
-        let m = sparse_from_triplets("M", n, &t).unwrap();
+        let m = banded_mass(n, |j| 1.0 + (j % 5) as f64, 0.25);
         let base = Mat::from_fn(n, 1, |i, _| ((i * 37) % 101) as f64 / 101.0 - 0.5);
         let w = Mat::from_fn(n, 6, |i, j| {
             base[(i, 0)] + 1e-4 * (((i + 1) * (j + 3) * 7919) % 1009) as f64 / 1009.0
@@ -915,16 +920,8 @@ mod tests {
     /// to `V`, from a block that was never projected (every column mostly along `V`).
     #[test]
     fn a_third_pass_keeps_the_block_and_orthogonalises_it() {
-        // A banded, non-diagonal mass matrix.
         let n = 60;
-        let mut t = Vec::new();
-        for j in 0..n {
-            t.push((j, j, 2.0 + (j % 7) as f64));
-            if j + 1 < n {
-                t.extend([(j, j + 1, 0.5), (j + 1, j, 0.5)]);
-            }
-        }
-        let m = sparse_from_triplets("M", n, &t).unwrap();
+        let m = banded_mass(n, |j| 2.0 + (j % 7) as f64, 0.5);
         let raw = Mat::from_fn(n, 10, |i, j| {
             ((i * 7 + j * 13) % 11) as f64 - 5.0 + 0.1 * j as f64
         });

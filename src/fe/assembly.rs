@@ -190,29 +190,8 @@ where
         ptr.push(ptr[ptr.len() - 1] + c);
     }
     drop(counts);
-    let mut rows = vec![0usize; ptr[ptr.len() - 1]];
-    split_by(&mut rows, &ptr)
-        .into_par_iter()
-        .zip(&kept_columns)
-        .with_min_len(1024)
-        .for_each(|(out, &j)| {
-            for (o, p) in out.iter_mut().zip(kept_rows(j)) {
-                *o = new_index[row_idx[p]];
-            }
-        });
-    let extract = |vals: Vec<f64>| -> Vec<f64> {
-        let mut out = vec![0.0f64; rows.len()];
-        split_by(&mut out, &ptr)
-            .into_par_iter()
-            .zip(&kept_columns)
-            .with_min_len(1024)
-            .for_each(|(out, &j)| {
-                for (o, p) in out.iter_mut().zip(kept_rows(j)) {
-                    *o = vals[p];
-                }
-            });
-        out
-    };
+    let rows = gather_kept(&ptr, &kept_columns, &kept_rows, |p| new_index[row_idx[p]]);
+    let extract = |vals: Vec<f64>| gather_kept(&ptr, &kept_columns, &kept_rows, |p| vals[p]);
     let k_values = extract(kv);
     let m_values = extract(mv);
     drop(row_idx);
@@ -281,6 +260,31 @@ fn split_by<'a, T>(mut data: &'a mut [T], ptr: &[usize]) -> Vec<&'a mut [T]> {
         data = tail;
     }
     slices
+}
+
+/// `value(p)` for the stored positions `p` that `positions(j)` gives of each column `j` of
+/// `columns`, into the slices of `ptr`: column by column in parallel.
+fn gather_kept<T, P>(
+    ptr: &[usize],
+    columns: &[usize],
+    positions: &(impl Fn(usize) -> P + Sync),
+    value: impl Fn(usize) -> T + Sync,
+) -> Vec<T>
+where
+    T: Copy + Default + Send,
+    P: Iterator<Item = usize>,
+{
+    let mut out = vec![T::default(); ptr[ptr.len() - 1]];
+    split_by(&mut out, ptr)
+        .into_par_iter()
+        .zip(columns)
+        .with_min_len(1024)
+        .for_each(|(out, &j)| {
+            for (o, p) in out.iter_mut().zip(positions(j)) {
+                *o = value(p);
+            }
+        });
+    out
 }
 
 /// Index of every node id in a sorted list.
