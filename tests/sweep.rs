@@ -664,6 +664,27 @@ fn shipped(name: &str) -> PathBuf {
     common::root().join("sweeps").join(format!("{name}.yaml"))
 }
 
+/// Runs the shipped sweep `name` on two workers with the cache in `cache` and the given
+/// `--set`s; asserts success and returns what it printed.
+fn run_shipped_sweep(cache: &Path, name: &str, sets: &[&str]) -> String {
+    let mut cmd = common::femu();
+    cmd.args(["sweep", "--quiet", "--jobs", "2", "--cache-dir"])
+        .arg(cache)
+        .arg(shipped(name));
+    for s in sets {
+        cmd.args(["--set", s]);
+    }
+    let out = cmd.output().unwrap();
+    let text = String::from_utf8_lossy(&out.stdout).to_string();
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{text}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    text
+}
+
 /// The C1 non-uniqueness sweep, narrowed by `--set` to two seeds and the complete data: the RFM
 /// recovers every mass exactly from noise-free data, and noise moves the estimates.
 #[test]
@@ -714,24 +735,7 @@ fn four_dof_noise_sweep_narrowed_by_set() {
 #[test]
 fn bent_plate_pc_sweep_grows_by_set() {
     let dir = tempfile::tempdir().unwrap();
-    let run = |sets: &[&str]| {
-        let mut cmd = common::femu();
-        cmd.args(["sweep", "--quiet", "--jobs", "2", "--cache-dir"])
-            .arg(dir.path())
-            .arg(shipped("bent-plate-pc-noise"));
-        for s in sets {
-            cmd.args(["--set", s]);
-        }
-        let out = cmd.output().unwrap();
-        let text = String::from_utf8_lossy(&out.stdout).to_string();
-        assert_eq!(
-            out.status.code(),
-            Some(0),
-            "{text}{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
-        text
-    };
+    let run = |sets: &[&str]| run_shipped_sweep(dir.path(), "bent-plate-pc-noise", sets);
     let first = run(&[]);
     assert!(first.contains("4 points run, 0 failed"), "{first}");
     assert!(first.contains("collected 4 points, 36 rows"), "{first}");
@@ -770,19 +774,7 @@ fn bent_plate_pc_sweep_grows_by_set() {
 #[test]
 fn bent_plate_pc_stops_on_the_bend_ridge_for_every_point_choice() {
     let dir = tempfile::tempdir().unwrap();
-    let out = common::femu()
-        .args(["sweep", "--quiet", "--jobs", "2", "--cache-dir"])
-        .arg(dir.path())
-        .arg(shipped("bent-plate-pc-points"))
-        .output()
-        .unwrap();
-    assert_eq!(
-        out.status.code(),
-        Some(0),
-        "{}{}",
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    );
+    run_shipped_sweep(dir.path(), "bent-plate-pc-points", &[]);
     let table = femu::artefact::codec::read_parquet(
         &dir.path()
             .join("sweeps/bent-plate-pc-points/collected/collected.parquet"),

@@ -295,9 +295,10 @@ const REFINEMENT_SOLVE_COLUMNS: usize = 64;
 type RefinedModes = (Vec<f64>, Mat<f64>, Mat<f64>, Mat<f64>);
 
 /// One block inverse-iteration step and a Rayleigh–Ritz projection: `X = A⁻¹ M V` (from `M V`,
-/// handed over by [`lanczos`]), then the small pencil `(XᵀKX, XᵀMX)`. The Lanczos residual bounds the error of `V` in the `A⁻¹M`
-/// metric, where the stiff modes weigh little; this step divides their share by `ν_high/ν_low`,
-/// so the residuals `‖Kφ − λMφ‖ / ‖Kφ‖` reach round-off level.
+/// handed over by [`lanczos`]), then the small pencil `(XᵀKX, XᵀMX)`. The Lanczos residual
+/// bounds the error of `V` in the `A⁻¹M` metric, where the stiff modes weigh little; this step
+/// divides their share by `ν_high/ν_low`, so the residuals `‖Kφ − λMφ‖ / ‖Kφ‖` reach
+/// round-off level.
 fn refine(
     llt: &SpdFactor,
     k: &SparseMatrix,
@@ -905,8 +906,7 @@ mod tests {
         sym_matvec(&m, q.as_ref(), mq_direct.as_mut());
         assert!((&mq - &mq_direct).norm_max() < 1e-9 * mq_direct.norm_max());
         let gram = q.transpose() * &mq_direct;
-        let e = (gram - Mat::<f64>::identity(6, 6)).norm_max();
-        assert!(e < 1e-12);
+        assert!((gram - Mat::<f64>::identity(6, 6)).norm_max() < 1e-12);
         // The tiled transform's Gram matrix equals the whole product's.
         let (mut q2, mut mq2) = (w.clone(), w.clone());
         let tr = Mat::from_fn(6, 6, |i, j| if i <= j { 1.0 + (i + j) as f64 } else { 0.0 });
