@@ -11,35 +11,46 @@ use rayon::prelude::*;
 /// Rows per tile: a tile of 16 columns is 64 KiB.
 const TILE: usize = 512;
 
-/// `out[i·b + c] = x[(i, c)]`.
+/// `out[i·s + c] = x[(i, c)]`, rows `s ≥ b` values apart (`s = out.len() / n`; the values
+/// beyond `b` in each row are left as they are).
 pub fn to_row_major(x: MatRef<'_, f64>, out: &mut [f64]) {
-    let b = x.ncols();
-    if b == 0 {
+    let (n, b) = (x.nrows(), x.ncols());
+    if b == 0 || n == 0 {
         return;
     }
-    out.par_chunks_mut(TILE * b)
+    let stride = out.len() / n;
+    assert!(
+        stride >= b && out.len() == n * stride,
+        "rows of at least {b} values"
+    );
+    out.par_chunks_mut(TILE * stride)
         .enumerate()
         .for_each(|(t, tile)| {
             let first = t * TILE;
             for c in 0..b {
                 let col = x.col(c);
-                for (r, row) in tile.chunks_exact_mut(b).enumerate() {
+                for (r, row) in tile.chunks_exact_mut(stride).enumerate() {
                     row[c] = col[first + r];
                 }
             }
         });
 }
 
-/// `x[(i, c)] = rows[i·b + c]`.
+/// `x[(i, c)] = rows[i·s + c]`, rows `s ≥ b` values apart (`s = rows.len() / n`).
 pub fn from_row_major(rows: &[f64], x: MatMut<'_, f64>) {
     let (n, b) = (x.nrows(), x.ncols());
     if b == 0 || n == 0 {
         return;
     }
+    let stride = rows.len() / n;
+    assert!(
+        stride >= b && rows.len() == n * stride,
+        "rows of at least {b} values"
+    );
     if n > TILE {
         let half = (n / 2).div_ceil(TILE) * TILE;
         let (top, bottom) = x.split_at_row_mut(half);
-        let (rows_top, rows_bottom) = rows.split_at(half * b);
+        let (rows_top, rows_bottom) = rows.split_at(half * stride);
         rayon::join(
             || from_row_major(rows_top, top),
             || from_row_major(rows_bottom, bottom),
@@ -48,7 +59,7 @@ pub fn from_row_major(rows: &[f64], x: MatMut<'_, f64>) {
         let mut x = x;
         for c in 0..b {
             let mut col = x.as_mut().col_mut(c);
-            for (r, row) in rows.chunks_exact(b).enumerate() {
+            for (r, row) in rows.chunks_exact(stride).enumerate() {
                 col[r] = row[c];
             }
         }
@@ -68,6 +79,14 @@ mod tests {
         assert_eq!(rows[(2 * TILE + 3) * 5 + 4], x[(2 * TILE + 3, 4)]);
         let mut back = Mat::zeros(x.nrows(), 5);
         from_row_major(&rows, back.as_mut());
+        assert_eq!(back, x);
+        // Rows padded to 8 values: the padding is left alone.
+        let mut padded = vec![-1.0; x.nrows() * 8];
+        to_row_major(x.as_ref(), &mut padded);
+        assert_eq!(padded[(2 * TILE + 3) * 8 + 4], x[(2 * TILE + 3, 4)]);
+        assert_eq!(padded[(2 * TILE + 3) * 8 + 5], -1.0);
+        let mut back = Mat::zeros(x.nrows(), 5);
+        from_row_major(&padded, back.as_mut());
         assert_eq!(back, x);
     }
 }

@@ -5,6 +5,7 @@ pub mod factor;
 mod layout;
 mod multifrontal;
 pub mod sparse;
+mod thin;
 
 pub use dense::{EigenError, ModeSelection, Modes, dense_generalized};
 pub use factor::{FactorError, FactorInfo, SpdFactor};

@@ -20,6 +20,7 @@
 //! the factor is now read once per pass rather than once per thread.
 
 use super::layout::{from_row_major, to_row_major};
+use super::thin;
 use crate::fe::system::SparseMatrix;
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::llt::factor::{cholesky_in_place, cholesky_in_place_scratch};
@@ -505,7 +506,9 @@ fn front_par(w: usize, r: usize, par: Par) -> Par {
 /// `x` at its pattern's rows from its parent, solves `L_11ᵀ x = y − L_21ᵀ x_pattern`, and hands
 /// each child the rows of its own pattern. Columns are taken at most `k` at a time, in passes
 /// of equal width (50 columns with `k = 16`: four of 13, not three of 16 and one of 2), in a
-/// row-major work array, so a row's values are contiguous for the gathers and scatters.
+/// row-major work array, so a row's values are contiguous for the gathers and scatters. Up to
+/// 16 columns, the fronts use [`thin`]'s kernels, which read each panel column once, front to
+/// back (rows padded to a multiple of four); wider passes use faer's.
 pub fn solve(
     symbolic: &SymbolicSupernodalCholesky<usize>,
     tree: &Tree,
@@ -525,10 +528,18 @@ pub fn solve(
     let passes = x.ncols().div_ceil(k.max(1));
     let width = x.ncols().div_ceil(passes.max(1));
     for c0 in (0..x.ncols()).step_by(width.max(1)) {
-        let kc = width.min(x.ncols() - c0);
+        let columns = width.min(x.ncols() - c0);
+        // The thin kernels take rows of 4, 8, 12 or 16 values: the rows are padded with
+        // zero columns, which stay zero.
+        let thin = columns <= thin::MAX_COLUMNS && thin::available();
+        let kc = if thin {
+            columns.next_multiple_of(4)
+        } else {
+            columns
+        };
         natural.clear();
         natural.resize(n * kc, 0.0);
-        to_row_major(x.as_ref().subcols(c0, kc), &mut natural);
+        to_row_major(x.as_ref().subcols(c0, columns), &mut natural);
         // Rows in the factor's order: row `i` of the work is row `forward[i]` of `X`.
         work.clear();
         work.resize(n * kc, 0.0);
@@ -552,6 +563,7 @@ pub fn solve(
             tree,
             panels: &panels,
             k: kc,
+            thin,
         };
         // A lone root chain has the threads to itself: its large fronts split their dense
         // kernels over them.
@@ -585,7 +597,7 @@ pub fn solve(
                 .for_each(|(row, &new)| row.copy_from_slice(&work[new * kc..(new + 1) * kc])),
             None => natural.copy_from_slice(&work),
         }
-        from_row_major(&natural, x.as_mut().subcols_mut(c0, kc));
+        from_row_major(&natural, x.as_mut().subcols_mut(c0, columns));
     }
 }
 
@@ -594,6 +606,8 @@ struct SolveContext<'a> {
     tree: &'a Tree,
     panels: &'a [&'a [f64]],
     k: usize,
+    /// Whether the fronts use [`thin`]'s kernels (this machine has them, `k` is small enough).
+    thin: bool,
 }
 
 /// What one supernode hands to another during a solve: `r × k`, row-major.
@@ -683,6 +697,11 @@ impl SolveContext<'_> {
                 }
             }
         }
+        if self.thin {
+            let panel = thin::Panel::new(self.panels[s], w, r);
+            thin::forward(panel, own, &mut update, k, par);
+            return update;
+        }
         let (top, bottom) = self.panel(s);
         let mut y = MatMut::from_row_major_slice_mut(own, w, k);
         solve_lower_triangular_in_place(top, y.as_mut(), par);
@@ -761,12 +780,10 @@ impl SolveContext<'_> {
         }
     }
 
-    /// `x_s = L_11⁻ᵀ (y_s − L_21ᵀ x_pattern)`; returns, per child, `x` at the child's pattern.
-    fn backward_front(&self, s: usize, own: &mut [f64], above: &[f64], par: Par) -> Vec<Rows> {
+    /// The backward step of [`Self::backward_front`] with faer's kernels.
+    fn backward_front_by_faer(&self, s: usize, own: &mut [f64], above: &[f64], par: Par) {
         let k = self.k;
-        let w = own.len() / k;
-        let r = self.symbolic.supernode(s).pattern().len();
-        let par = front_par(w, r, par);
+        let (w, r) = (own.len() / k, above.len() / k);
         let (top, bottom) = self.panel(s);
         let mut x = MatMut::from_row_major_slice_mut(own, w, k);
         if r > 0 {
@@ -784,6 +801,19 @@ impl SolveContext<'_> {
             x.as_mut(),
             par,
         );
+    }
+
+    /// `x_s = L_11⁻ᵀ (y_s − L_21ᵀ x_pattern)`; returns, per child, `x` at the child's pattern.
+    fn backward_front(&self, s: usize, own: &mut [f64], above: &[f64], par: Par) -> Vec<Rows> {
+        let k = self.k;
+        let w = own.len() / k;
+        let r = self.symbolic.supernode(s).pattern().len();
+        let par = front_par(w, r, par);
+        if self.thin {
+            thin::backward(thin::Panel::new(self.panels[s], w, r), own, above, k, par);
+        } else {
+            self.backward_front_by_faer(s, own, above, par);
+        }
         let mut local = Vec::new();
         self.tree
             .children(s)
