@@ -497,8 +497,19 @@ fn front_par(w: usize, r: usize, par: Par) -> Par {
     }
 }
 
-/// `X ← (P L Lᵀ Pᵀ)⁻¹ X` for the factor in `values`; `permutation` is the ordering as
-/// `(forward, inverse)`, `forward[new] = old`.
+/// Which triangular sweeps a solve makes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Sweeps {
+    /// `X ← (P L Lᵀ Pᵀ)⁻¹ X`.
+    Both,
+    /// `X ← L⁻¹ Pᵀ X`: the result in the factor's order.
+    Forward,
+    /// `X ← P L⁻ᵀ X`: `X` given in the factor's order.
+    Backward,
+}
+
+/// `X ← (P L Lᵀ Pᵀ)⁻¹ X` for the factor in `values`, or one of its two sweeps (`sweeps`);
+/// `permutation` is the ordering as `(forward, inverse)`, `forward[new] = old`.
 ///
 /// The solves are multifrontal too, so independent subtrees run on separate threads and each
 /// entry of the factor is read once per pass for all columns. Forward, a supernode solves
@@ -516,6 +527,7 @@ pub fn solve(
     values: &[f64],
     x: MatMut<'_, f64>,
     k: usize,
+    sweeps: Sweeps,
 ) {
     let (n, ns) = (symbolic.nrows(), symbolic.n_supernodes());
     let col_ptr_val = symbolic.col_ptr_for_val();
@@ -537,19 +549,23 @@ pub fn solve(
         } else {
             columns
         };
-        natural.clear();
-        natural.resize(n * kc, 0.0);
-        to_row_major(x.as_ref().subcols(c0, columns), &mut natural);
-        // Rows in the factor's order: row `i` of the work is row `forward[i]` of `X`.
+        // Rows in the factor's order: row `i` of the work is row `forward[i]` of `X`. A
+        // second array is held only while rows are permuted.
         work.clear();
         work.resize(n * kc, 0.0);
-        match permutation {
-            Some((forward, _)) => work
-                .par_chunks_exact_mut(kc)
-                .zip(forward.par_iter())
-                .with_min_len(4096)
-                .for_each(|(row, &old)| row.copy_from_slice(&natural[old * kc..(old + 1) * kc])),
-            None => work.copy_from_slice(&natural),
+        match permutation.filter(|_| sweeps != Sweeps::Backward) {
+            Some((forward, _)) => {
+                natural.clear();
+                natural.resize(n * kc, 0.0);
+                to_row_major(x.as_ref().subcols(c0, columns), &mut natural);
+                work.par_chunks_exact_mut(kc)
+                    .zip(forward.par_iter())
+                    .with_min_len(4096)
+                    .for_each(|(row, &old)| {
+                        row.copy_from_slice(&natural[old * kc..(old + 1) * kc])
+                    });
+            }
+            None => to_row_major(x.as_ref().subcols(c0, columns), &mut work),
         }
         let mut rows: Vec<&mut [f64]> = Vec::with_capacity(ns);
         let mut rest = work.as_mut_slice();
@@ -572,32 +588,45 @@ pub fn solve(
         } else {
             Par::Seq
         };
+        let (forward, backward) = (sweeps != Sweeps::Backward, sweeps != Sweeps::Forward);
         if tree.postordered {
-            tree.split_roots(&mut rows)
-                .into_par_iter()
-                .for_each(|(root, rows)| {
-                    ctx.forward_subtree(root, rows, 0, par);
-                });
-            tree.split_roots(&mut rows)
-                .into_par_iter()
-                .for_each(|(root, rows)| {
-                    ctx.backward_subtree(root, rows, Vec::new(), 0, par);
-                });
+            if forward {
+                tree.split_roots(&mut rows)
+                    .into_par_iter()
+                    .for_each(|(root, rows)| {
+                        ctx.forward_subtree(root, rows, 0, par);
+                    });
+            }
+            if backward {
+                tree.split_roots(&mut rows)
+                    .into_par_iter()
+                    .for_each(|(root, rows)| {
+                        ctx.backward_subtree(root, rows, Vec::new(), 0, par);
+                    });
+            }
         } else {
-            ctx.forward_range(0, ns, &mut rows, par);
-            let roots = tree.roots.iter().map(|&r| (r, Vec::new()));
-            ctx.backward_range(0, ns, &mut rows, roots.collect(), par);
+            if forward {
+                ctx.forward_range(0, ns, &mut rows, par);
+            }
+            if backward {
+                let roots = tree.roots.iter().map(|&r| (r, Vec::new()));
+                ctx.backward_range(0, ns, &mut rows, roots.collect(), par);
+            }
         }
         drop(rows);
-        match permutation {
-            Some((_, inverse)) => natural
-                .par_chunks_exact_mut(kc)
-                .zip(inverse.par_iter())
-                .with_min_len(4096)
-                .for_each(|(row, &new)| row.copy_from_slice(&work[new * kc..(new + 1) * kc])),
-            None => natural.copy_from_slice(&work),
+        match permutation.filter(|_| sweeps != Sweeps::Forward) {
+            Some((_, inverse)) => {
+                natural.clear();
+                natural.resize(n * kc, 0.0);
+                natural
+                    .par_chunks_exact_mut(kc)
+                    .zip(inverse.par_iter())
+                    .with_min_len(4096)
+                    .for_each(|(row, &new)| row.copy_from_slice(&work[new * kc..(new + 1) * kc]));
+                from_row_major(&natural, x.as_mut().subcols_mut(c0, columns));
+            }
+            None => from_row_major(&work, x.as_mut().subcols_mut(c0, columns)),
         }
-        from_row_major(&natural, x.as_mut().subcols_mut(c0, columns));
     }
 }
 
