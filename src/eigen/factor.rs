@@ -1,6 +1,8 @@
 //! Sparse Cholesky factors of symmetric positive definite matrices.
 //!
-//! faer orders (approximate minimum degree) and finds the supernodal structure; the numeric
+//! faer's approximate minimum degree orders the graph of the nodes ([`super::ordering`]: the
+//! columns of each node merged into one vertex) and faer finds the supernodal structure; the
+//! numeric
 //! factorisation is our multifrontal one ([`super::multifrontal`]: one dense Cholesky, solve and
 //! rank update per supernode, independent subtrees in parallel; 1M-DOF plate 22 s → 11 s against
 //! faer's left-looking kernel). When AMD's order leaves the supernodal tree out of postorder
@@ -12,7 +14,9 @@
 //! METIS's multilevel one only 5 % less. The solves are multifrontal too: a triangular solve
 //! with a few right-hand sides is bound by reading the factor, so every pass over the factor
 //! serves [`SOLVE_COLUMNS`] columns, independent subtrees run on separate threads, and only
-//! the large fronts of the top of the tree split their dense kernels.
+//! the large fronts of the top of the tree split their dense kernels. The forward and the
+//! backward sweep are also available apart, for the symmetric shift-invert operator
+//! `L⁻¹ Pᵀ M P L⁻ᵀ` of the Lanczos process.
 
 use super::multifrontal::{self, FrontError};
 use crate::fe::system::SparseMatrix;
@@ -134,22 +138,22 @@ impl SpdFactor {
     fn factor(a: impl std::borrow::Borrow<SparseMatrix>) -> Result<Self, FactorError> {
         let mut info = FactorInfo::default();
         let t = Instant::now();
-        let analyse = |ordering| {
-            supernodal_symbolic(a.borrow(), ordering).map_err(|_| FactorError::OutOfMemory)
+        // The structure for an ordering `forward[new] = old`.
+        let analyse = |forward: &[usize]| {
+            let inverse = inverse_permutation(forward);
+            let ordering = faer::perm::PermRef::new_checked(forward, &inverse, forward.len());
+            supernodal_symbolic(a.borrow(), SymmetricOrdering::Custom(ordering))
+                .map_err(|_| FactorError::OutOfMemory)
         };
-        let mut symbolic = analyse(SymmetricOrdering::Amd)?;
+        let order = super::ordering::node_amd(a.borrow()).ok_or(FactorError::OutOfMemory)?;
+        let mut symbolic = analyse(&order)?;
+        drop(order);
         let mut tree = multifrontal::Tree::new(supernodes(&symbolic));
         if !tree.is_postordered() {
             // AMD's elimination order need not number subtrees contiguously, and then the
             // factorisation and solves run on one thread. A postorder of the supernodal tree is
             // an equivalent ordering (the same fill) in which they do.
-            let ordering = postordered_ordering(&symbolic, &tree);
-            let inverse = inverse_permutation(&ordering);
-            symbolic = analyse(SymmetricOrdering::Custom(faer::perm::PermRef::new_checked(
-                &ordering,
-                &inverse,
-                ordering.len(),
-            )))?;
+            symbolic = analyse(&postordered_ordering(&symbolic, &tree))?;
             tree = multifrontal::Tree::new(supernodes(&symbolic));
         }
         info.symbolic_seconds = t.elapsed().as_secs_f64();
@@ -307,7 +311,10 @@ mod tests {
         let (sys, _) = assemble_model(&model, MassKind::Consistent).unwrap();
         // Free-free: shift below zero.
         let a = crate::fe::system::lower_combination(1.0, &sys.k, 1e3, &sys.m);
-        let amd = supernodal_symbolic(&a, SymmetricOrdering::Amd).unwrap();
+        let order = super::super::ordering::node_amd(&a).unwrap();
+        let inverse = inverse_permutation(&order);
+        let ordering = faer::perm::PermRef::new_checked(&order, &inverse, order.len());
+        let amd = supernodal_symbolic(&a, SymmetricOrdering::Custom(ordering)).unwrap();
         assert!(
             !multifrontal::Tree::new(supernodes(&amd)).is_postordered(),
             "the test needs a matrix whose AMD tree is not postordered"

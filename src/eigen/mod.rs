@@ -4,6 +4,7 @@ pub mod dense;
 pub mod factor;
 mod layout;
 mod multifrontal;
+mod ordering;
 pub mod sparse;
 mod thin;
 
