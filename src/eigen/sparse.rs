@@ -494,12 +494,17 @@ fn project_once_into(basis: MatRef<'_, f64>, w: MatMut<'_, f64>, mut c: MatMut<'
 /// Rows per tile of the dense products with the Krylov basis.
 const PRODUCT_ROWS: usize = 4096;
 
+/// Where `rows` rows split in two at a tile boundary, or `None` for one tile: the split
+/// depends on the row count alone, so sums over the tiles in row order do not depend on the
+/// threads.
+fn tile_split(rows: usize) -> Option<usize> {
+    (rows > PRODUCT_ROWS).then(|| (rows / 2).div_ceil(PRODUCT_ROWS) * PRODUCT_ROWS)
+}
+
 /// The tiles' `basis_tᵀ w_t`, in row order; the rows halved recursively at tile boundaries
 /// (a split that depends on the row count alone).
 fn tile_inner_products(basis: MatRef<'_, f64>, w: MatRef<'_, f64>, tiles: &mut Vec<Mat<f64>>) {
-    let rows = w.nrows();
-    if rows > PRODUCT_ROWS {
-        let half = (rows / 2).div_ceil(PRODUCT_ROWS) * PRODUCT_ROWS;
+    if let Some(half) = tile_split(w.nrows()) {
         let (b_top, b_bottom) = basis.split_at_row(half);
         let (w_top, w_bottom) = w.split_at_row(half);
         let (mut above, mut below) = (Vec::new(), Vec::new());
@@ -516,9 +521,7 @@ fn tile_inner_products(basis: MatRef<'_, f64>, w: MatRef<'_, f64>, tiles: &mut V
 
 /// `w ← w − basis c`, by tiles of rows.
 fn subtract_product_by_tiles(basis: MatRef<'_, f64>, c: MatRef<'_, f64>, w: MatMut<'_, f64>) {
-    let rows = w.nrows();
-    if rows > PRODUCT_ROWS {
-        let half = (rows / 2).div_ceil(PRODUCT_ROWS) * PRODUCT_ROWS;
+    if let Some(half) = tile_split(w.nrows()) {
         let (b_top, b_bottom) = basis.split_at_row(half);
         let (w_top, w_bottom) = w.split_at_row_mut(half);
         rayon::join(
@@ -589,10 +592,7 @@ fn transform_rows_with_gram(q: MatMut<'_, f64>, t: MatRef<'_, f64>) -> Mat<f64> 
 /// The tiles of [`transform_rows_with_gram`], halved recursively at tile boundaries (a split
 /// that depends on the row count alone), their Gram matrices appended in row order.
 fn tile_grams(mut q: MatMut<'_, f64>, t: MatRef<'_, f64>, grams: &mut Vec<Mat<f64>>) {
-    const ROWS: usize = 4096;
-    let rows = q.nrows();
-    if rows > ROWS {
-        let half = (rows / 2).div_ceil(ROWS) * ROWS;
+    if let Some(half) = tile_split(q.nrows()) {
         let (top, bottom) = q.split_at_row_mut(half);
         let (mut above, mut below) = (Vec::new(), Vec::new());
         rayon::join(
