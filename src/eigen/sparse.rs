@@ -693,11 +693,13 @@ fn lanczos(
     let (q, _) = cholesky_qr(start).ok_or(EigenError::NoConvergence)?;
     v.as_mut().subcols_mut(0, b).copy_from(&q);
     let mut kept = 0usize;
-    let mut f = Mat::<f64>::zeros(n, b);
-    let mut r_last = Mat::<f64>::zeros(b, b);
+    // The block after the basis and its coupling `R`: set by every block before they are read.
+    let (mut f, mut r_last) = (Mat::<f64>::new(), Mat::<f64>::new());
     for restart in 0..=params.max_restarts {
         info.restarts = restart;
         let mut s0 = kept;
+        // Ritz pairs of a check that found the basis converged before it was full.
+        let mut early = None;
         while s0 < p {
             let mut w = apply_operator(llt, m, v.as_ref().subcols(s0, b).to_owned(), info);
             let t = Instant::now();
@@ -750,9 +752,10 @@ fn lanczos(
             // millisecond), a block's solves far more.
             if upto < p && upto >= nev + b {
                 let t = Instant::now();
-                let (_, _, converged) = ritz(h.as_ref(), upto, r_last.as_ref(), nev, params)?;
+                let pairs = ritz(h.as_ref(), upto, r_last.as_ref(), nev, params)?;
                 info.orthogonalisation_seconds += t.elapsed().as_secs_f64();
-                if converged >= nev {
+                if pairs.2 >= nev {
+                    early = Some(pairs);
                     break;
                 }
             }
@@ -760,7 +763,10 @@ fn lanczos(
         // Rayleigh–Ritz on H, as far as the basis was filled.
         let t = Instant::now();
         let filled = s0;
-        let (theta, y, converged) = ritz(h.as_ref(), filled, r_last.as_ref(), nev, params)?;
+        let (theta, y, converged) = match early {
+            Some(pairs) => pairs,
+            None => ritz(h.as_ref(), filled, r_last.as_ref(), nev, params)?,
+        };
         let done = converged >= nev || restart == params.max_restarts;
         let shrink = ((p - nev) / 2 / b).max(1) * b;
         let keep = if done {
