@@ -5,6 +5,7 @@ pub mod factor;
 mod layout;
 mod multifrontal;
 mod ordering;
+mod product;
 pub mod sparse;
 mod thin;
 

@@ -25,7 +25,8 @@
 
 use super::dense::{EigenError, ModeSelection, Modes, dense_generalized, fix_sign, median_ratio};
 use super::factor::{FactorError, FactorInfo, SOLVE_COLUMNS, SpdFactor};
-use super::layout::{from_row_major, to_row_major};
+pub use super::product::sym_matvec;
+use super::product::sym_matvec_pair;
 use crate::core::DofId;
 use crate::fe::system::{SparseMatrix, lower_combination, sparse_to_dense};
 use faer::linalg::triangular_solve::solve_lower_triangular_in_place;
@@ -87,58 +88,6 @@ pub struct SparseEigenInfo {
     /// Blocks that needed a third Gram–Schmidt pass (the second cancelled most of them).
     pub third_passes: usize,
 }
-
-/// `Y = A X` for a sparse symmetric `A` stored in full, parallel over output rows (row `j` of
-/// `A` is its column `j`, read contiguously). Columns are taken [`PRODUCT_COLUMNS`] at a time,
-/// copied row-major, so every stored entry of `A` read serves all of them, and the copies stay
-/// small beside `X` itself.
-pub fn sym_matvec(a: &SparseMatrix, x: MatRef<'_, f64>, mut y: MatMut<'_, f64>) {
-    let (n, b) = (a.ncols(), x.ncols());
-    if b == 0 || n == 0 {
-        return;
-    }
-    if b > PRODUCT_COLUMNS {
-        for c0 in (0..b).step_by(PRODUCT_COLUMNS) {
-            let width = PRODUCT_COLUMNS.min(b - c0);
-            sym_matvec(a, x.subcols(c0, width), y.as_mut().subcols_mut(c0, width));
-        }
-        return;
-    }
-    let mut xt = vec![0.0; n * b];
-    to_row_major(x, &mut xt);
-    let mut yt = vec![0.0; n * b];
-    yt.par_chunks_exact_mut(b)
-        .with_min_len(1024)
-        .enumerate()
-        .for_each(|(j, out)| {
-            let (rows, vals) = (a.row_idx_of_col_raw(j), a.val_of_col(j));
-            // Groups of eight columns in registers; the rest one by one.
-            let groups = b / 8;
-            for g in 0..groups {
-                let mut acc = [0.0f64; 8];
-                for (&i, &v) in rows.iter().zip(vals) {
-                    let xi: &[f64; 8] = xt[i * b + 8 * g..i * b + 8 * g + 8]
-                        .try_into()
-                        .expect("a group is eight wide");
-                    for k in 0..8 {
-                        acc[k] += v * xi[k];
-                    }
-                }
-                out[8 * g..8 * g + 8].copy_from_slice(&acc);
-            }
-            for c in 8 * groups..b {
-                out[c] = rows
-                    .iter()
-                    .zip(vals)
-                    .map(|(&i, &v)| v * xt[i * b + c])
-                    .sum();
-            }
-        });
-    from_row_major(&yt, y.as_mut());
-}
-
-/// Columns per pass of [`sym_matvec`] over the matrix.
-const PRODUCT_COLUMNS: usize = 16;
 
 fn diag(a: &SparseMatrix, j: usize) -> f64 {
     let rows = a.row_idx_of_col_raw(j);
@@ -309,8 +258,7 @@ fn refine(
     let mut x = cy;
     llt.solve_backward_in_place_in_passes(x.as_mut(), REFINEMENT_SOLVE_COLUMNS);
     let (mut kx, mut mx) = (Mat::<f64>::zeros(n, c), Mat::<f64>::zeros(n, c));
-    sym_matvec(k, x.as_ref(), kx.as_mut());
-    sym_matvec(m, x.as_ref(), mx.as_mut());
+    sym_matvec_pair(k, m, x.as_ref(), kx.as_mut(), mx.as_mut());
     let kr = x.transpose() * &kx;
     let mr = x.transpose() * &mx;
     let kr = Mat::from_fn(c, c, |i, j| 0.5 * (kr[(i, j)] + kr[(j, i)]));

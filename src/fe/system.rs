@@ -106,42 +106,117 @@ pub fn sparse_from_triplets(
 
 /// The lower triangle of `α A + β B` for square matrices of one size, merged column by column
 /// (no triplet sort: memory and time linear in the non-zeros). Entries of one row in one column
-/// are summed.
+/// are summed. The columns are merged on all threads: once to count each column's entries,
+/// once to write them where the counts put them (1M-DOF plate: 0.72 s on one thread before).
 pub fn lower_combination(
     alpha: f64,
     a: &SparseMatrix,
     beta: f64,
     b: &SparseMatrix,
 ) -> SparseMatrix {
+    use rayon::prelude::*;
     let n = a.ncols();
     assert!(a.nrows() == n && b.nrows() == n && b.ncols() == n);
+    let merge = |j: usize, out: &mut Vec<(usize, f64)>| {
+        merged_lower_column(
+            j,
+            [
+                (a.row_idx_of_col_raw(j), a.val_of_col(j), alpha),
+                (b.row_idx_of_col_raw(j), b.val_of_col(j), beta),
+            ],
+            out,
+        );
+    };
+    let counts: Vec<usize> = (0..n)
+        .into_par_iter()
+        .with_min_len(COMBINATION_COLUMNS_PER_TASK)
+        .map_init(Vec::new, |column, j| {
+            merge(j, column);
+            column.len()
+        })
+        .collect();
     let mut col_ptr = Vec::with_capacity(n + 1);
-    let mut rows = Vec::with_capacity((a.compute_nnz() + b.compute_nnz()) / 2 + n);
-    let mut vals = Vec::with_capacity(rows.capacity());
-    let mut column: Vec<(usize, f64)> = Vec::new();
     col_ptr.push(0);
-    for j in 0..n {
-        column.clear();
-        for (mat, f) in [(a, alpha), (b, beta)] {
-            for (&i, &v) in mat.row_idx_of_col_raw(j).iter().zip(mat.val_of_col(j)) {
-                if i >= j {
-                    column.push((i, f * v));
-                }
-            }
-        }
-        column.sort_unstable_by_key(|e| e.0);
-        for &(i, v) in &column {
-            if rows.len() > col_ptr[j] && rows.last() == Some(&i) {
-                *vals.last_mut().expect("a row was pushed with its value") += v;
-            } else {
-                rows.push(i);
-                vals.push(v);
-            }
-        }
-        col_ptr.push(rows.len());
+    for c in counts {
+        col_ptr.push(col_ptr.last().copied().unwrap_or(0) + c);
     }
+    let nnz = col_ptr[n];
+    // Storage for at most the two lower triangles, zeroed by the allocator: pages beyond
+    // `nnz` are never touched. (Sized exactly, the blocks left other holes in the heap, and the
+    // 1M plate's refinement later peaked 110 MiB higher.)
+    let bound = (a.compute_nnz() + b.compute_nnz()) / 2 + n;
+    let (mut rows, mut vals) = (vec![0usize; bound.max(nnz)], vec![0.0f64; bound.max(nnz)]);
+    rows.truncate(nnz);
+    vals.truncate(nnz);
+    // Disjoint runs of columns, each with the part of `rows` and `vals` its columns fill.
+    let mut tasks = Vec::new();
+    let (mut rows_rest, mut vals_rest) = (rows.as_mut_slice(), vals.as_mut_slice());
+    for first in (0..n).step_by(COMBINATION_COLUMNS_PER_TASK) {
+        let end = (first + COMBINATION_COLUMNS_PER_TASK).min(n);
+        let len = col_ptr[end] - col_ptr[first];
+        let (r, rr) = std::mem::take(&mut rows_rest).split_at_mut(len);
+        let (v, vr) = std::mem::take(&mut vals_rest).split_at_mut(len);
+        (rows_rest, vals_rest) = (rr, vr);
+        tasks.push((first..end, r, v));
+    }
+    tasks.into_par_iter().for_each(|(columns, rows, vals)| {
+        let mut column = Vec::new();
+        let mut at = 0;
+        for j in columns {
+            merge(j, &mut column);
+            for (k, &(i, v)) in column.iter().enumerate() {
+                rows[at + k] = i;
+                vals[at + k] = v;
+            }
+            at += column.len();
+        }
+    });
     let symbolic = faer::sparse::SymbolicSparseColMat::new_checked(n, n, col_ptr, None, rows);
     SparseColMat::new(symbolic, vals)
+}
+
+/// Columns per task of [`lower_combination`].
+const COMBINATION_COLUMNS_PER_TASK: usize = 4096;
+
+/// Column `j`'s entries on or below the diagonal of `Σ f M` over `parts` `(rows, values, f)`,
+/// sorted by row, entries of one row summed: a merge when every part's rows are sorted, else
+/// a sort.
+fn merged_lower_column(j: usize, parts: [(&[usize], &[f64], f64); 2], out: &mut Vec<(usize, f64)>) {
+    out.clear();
+    let push = |out: &mut Vec<(usize, f64)>, (i, v): (usize, f64)| match out.last_mut() {
+        Some(last) if last.0 == i => last.1 += v,
+        _ => out.push((i, v)),
+    };
+    if parts.iter().all(|(rows, _, _)| rows.is_sorted()) {
+        let [(ra, va, fa), (rb, vb, fb)] = parts;
+        let (mut p, mut q) = (
+            ra.partition_point(|&i| i < j),
+            rb.partition_point(|&i| i < j),
+        );
+        while p < ra.len() || q < rb.len() {
+            if q == rb.len() || (p < ra.len() && ra[p] <= rb[q]) {
+                push(out, (ra[p], fa * va[p]));
+                p += 1;
+            } else {
+                push(out, (rb[q], fb * vb[q]));
+                q += 1;
+            }
+        }
+        return;
+    }
+    let mut entries: Vec<(usize, f64)> = parts
+        .iter()
+        .flat_map(|&(rows, vals, f)| {
+            rows.iter()
+                .zip(vals)
+                .filter(|(i, _)| **i >= j)
+                .map(move |(&i, &v)| (i, f * v))
+        })
+        .collect();
+    entries.sort_by_key(|e| e.0);
+    for e in entries {
+        push(out, e);
+    }
 }
 
 /// The stored entries of a sparse matrix as `(row, col, value)`, column-major order.
@@ -305,6 +380,60 @@ mod tests {
                     };
                     assert_eq!(c[(i, j)], want, "({i}, {j})");
                 }
+            }
+        }
+        // Wide enough for several tasks of columns, one column unsorted.
+        let n = 2 * COMBINATION_COLUMNS_PER_TASK + 37;
+        let (mut ta, mut tb) = (Vec::new(), Vec::new());
+        for j in 0..n {
+            for d in 0..4.min(n - j) {
+                let v = entry(j + d, j, 3);
+                ta.push((j + d, j, v));
+                ta.push((j, j + d, v));
+                if d % 2 == 0 {
+                    let w = entry(j + d, j, 5) + 0.25;
+                    tb.push((j + d, j, w));
+                    tb.push((j, j + d, w));
+                }
+            }
+        }
+        let a = sparse_from_triplets("A", n, &ta).unwrap();
+        let b = sparse_from_triplets("B", n, &tb).unwrap();
+        let (mut ptr, mut rows, mut vals) = (vec![0usize], Vec::new(), Vec::new());
+        for j in 0..n {
+            let (r, v) = (b.row_idx_of_col_raw(j), b.val_of_col(j));
+            if j == COMBINATION_COLUMNS_PER_TASK + 5 {
+                rows.extend(r.iter().rev());
+                vals.extend(v.iter().rev());
+            } else {
+                rows.extend(r);
+                vals.extend(v);
+            }
+            ptr.push(rows.len());
+        }
+        let unsorted = SparseColMat::new(
+            faer::sparse::SymbolicSparseColMat::new_unsorted_checked(n, n, ptr, None, rows),
+            vals,
+        );
+        // Column by column: the stored sums, sorted.
+        for second in [&b, &unsorted] {
+            let c = lower_combination(2.0, &a, -0.5, second);
+            for j in 0..n {
+                let mut want = std::collections::BTreeMap::new();
+                for (m, f) in [(&a, 2.0), (second, -0.5)] {
+                    for (&i, &v) in m.row_idx_of_col_raw(j).iter().zip(m.val_of_col(j)) {
+                        if i >= j {
+                            *want.entry(i).or_insert(0.0) += f * v;
+                        }
+                    }
+                }
+                let got: Vec<(usize, f64)> = c
+                    .row_idx_of_col_raw(j)
+                    .iter()
+                    .copied()
+                    .zip(c.val_of_col(j).iter().copied())
+                    .collect();
+                assert_eq!(got, want.into_iter().collect::<Vec<_>>(), "column {j}");
             }
         }
     }

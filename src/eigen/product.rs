@@ -1,0 +1,351 @@
+//! Products of sparse symmetric matrices, stored in full, with blocks of vectors: `Y = A X`,
+//! and `K X`, `M X` together when the two share a pattern.
+//!
+//! Row `j` of a symmetric `A` is its column `j`, read contiguously, so the rows of `Y` are
+//! independent and shared among the threads. `X` is copied row-major first, so every stored
+//! entry gathers one contiguous row of `X` and serves all its columns. On a machine with AVX2
+//! and FMA ([`super::thin::available`]) the rows are padded to a multiple of four and each
+//! entry is a fixed sequence of fused multiply-adds into registers, in two interleaved sums
+//! (even and odd entries) so that consecutive entries do not wait on each other; elsewhere a
+//! portable loop runs. When `K` and `M` share their pattern (the assembly stores both on the
+//! union pattern), one pass reads the row indices and gathers `X` once for both products.
+
+use super::layout::to_row_major;
+use crate::fe::system::SparseMatrix;
+use faer::{MatMut, MatRef};
+
+/// Most columns per pass over the matrix: with rows padded to a multiple of four, the
+/// accumulators of two products fit in the sixteen vector registers.
+const PRODUCT_COLUMNS: usize = 16;
+
+/// Output rows per parallel task.
+const MIN_ROWS_PER_TASK: usize = 1024;
+
+/// `Y = A X` for a sparse symmetric `A` stored in full.
+pub fn sym_matvec(a: &SparseMatrix, x: MatRef<'_, f64>, y: MatMut<'_, f64>) {
+    assert_eq!(
+        (a.nrows(), a.ncols(), y.nrows(), y.ncols()),
+        (x.nrows(), x.nrows(), x.nrows(), x.ncols()),
+        "Y = A X needs a square A and X, Y of its rows and of equal width"
+    );
+    in_passes(x, [y], &|x, [y]| products(a, [a.val()], x, [y]));
+}
+
+/// `KX = K X` and `MX = M X`, in one pass over the pattern when `K` and `M` share it.
+pub fn sym_matvec_pair(
+    k: &SparseMatrix,
+    m: &SparseMatrix,
+    x: MatRef<'_, f64>,
+    mut kx: MatMut<'_, f64>,
+    mut mx: MatMut<'_, f64>,
+) {
+    if !same_pattern(k, m) || !super::thin::available() {
+        sym_matvec(k, x, kx);
+        sym_matvec(m, x, mx);
+        return;
+    }
+    assert_eq!(
+        (
+            k.nrows(),
+            k.ncols(),
+            kx.ncols(),
+            mx.ncols(),
+            kx.nrows(),
+            mx.nrows()
+        ),
+        (
+            x.nrows(),
+            x.nrows(),
+            x.ncols(),
+            x.ncols(),
+            x.nrows(),
+            x.nrows()
+        ),
+        "K X, M X need square K, M and X, KX, MX of their rows and of equal width"
+    );
+    in_passes(x, [kx.as_mut(), mx.as_mut()], &|x, ys| {
+        products(k, [k.val(), m.val()], x, ys)
+    });
+}
+
+/// Whether `a` and `b` store the same entries.
+fn same_pattern(a: &SparseMatrix, b: &SparseMatrix) -> bool {
+    let (a, b) = (a.symbolic(), b.symbolic());
+    a.nrows() == b.nrows()
+        && a.ncols() == b.ncols()
+        && a.col_ptr() == b.col_ptr()
+        && a.col_nnz() == b.col_nnz()
+        && a.row_idx() == b.row_idx()
+}
+
+/// Runs `pass` over the columns of `x` (and alike of every `y`) in passes of equal width, at
+/// most [`PRODUCT_COLUMNS`] wide (50 columns: four passes of 13 and 12, not three of 16 and
+/// one of 2).
+fn in_passes<const N: usize>(
+    x: MatRef<'_, f64>,
+    mut ys: [MatMut<'_, f64>; N],
+    pass: &dyn Fn(MatRef<'_, f64>, [MatMut<'_, f64>; N]),
+) {
+    let b = x.ncols();
+    if b == 0 || x.nrows() == 0 {
+        return;
+    }
+    let passes = b.div_ceil(PRODUCT_COLUMNS);
+    let width = b.div_ceil(passes);
+    for c0 in (0..b).step_by(width) {
+        let w = width.min(b - c0);
+        let parts = ys.each_mut().map(|y| y.as_mut().subcols_mut(c0, w));
+        pass(x.subcols(c0, w), parts);
+    }
+}
+
+/// `Y_q = A_q X` for the matrices of `pattern`'s pattern with values `values[q]`, `X` at
+/// most [`PRODUCT_COLUMNS`] wide.
+fn products<const N: usize>(
+    pattern: &SparseMatrix,
+    values: [&[f64]; N],
+    x: MatRef<'_, f64>,
+    ys: [MatMut<'_, f64>; N],
+) {
+    let (n, b) = (x.nrows(), x.ncols());
+    let fast = super::thin::available();
+    let s = if fast { b.next_multiple_of(4) } else { b };
+    let mut xt = vec![0.0; n * s];
+    to_row_major(x, &mut xt);
+    let ctx = RowProducts {
+        pattern,
+        values,
+        xt: &xt,
+        s,
+        fast,
+    };
+    ctx.rows(0, ys);
+}
+
+/// What every block of output rows of [`products`] reads.
+struct RowProducts<'a, const N: usize> {
+    pattern: &'a SparseMatrix,
+    values: [&'a [f64]; N],
+    /// `X` by rows of `s` values.
+    xt: &'a [f64],
+    s: usize,
+    /// Whether the AVX2 and FMA kernel runs.
+    fast: bool,
+}
+
+impl<const N: usize> RowProducts<'_, N> {
+    /// Rows `first..` of every `Y_q` (`ys`), halved among the threads down to blocks of
+    /// [`MIN_ROWS_PER_TASK`]; each row is written straight into the column-major results, so
+    /// no row-major result is held beside them.
+    fn rows(&self, first: usize, ys: [MatMut<'_, f64>; N]) {
+        let rows = ys[0].nrows();
+        if rows > MIN_ROWS_PER_TASK {
+            let half = rows / 2;
+            let mut top: [Option<MatMut<'_, f64>>; N] = [const { None }; N];
+            let mut bottom: [Option<MatMut<'_, f64>>; N] = [const { None }; N];
+            for (q, y) in ys.into_iter().enumerate() {
+                let (t, b) = y.split_at_row_mut(half);
+                (top[q], bottom[q]) = (Some(t), Some(b));
+            }
+            let (top, bottom) = (top.map(Option::unwrap), bottom.map(Option::unwrap));
+            rayon::join(|| self.rows(first, top), || self.rows(first + half, bottom));
+            return;
+        }
+        let s = self.s;
+        let mut ys = ys;
+        let mut out = [0.0f64; 2 * PRODUCT_COLUMNS];
+        let out = &mut out[..N * s];
+        let col_ptr = self.pattern.symbolic().col_ptr();
+        for r in 0..rows {
+            let j = first + r;
+            let indices = self.pattern.row_idx_of_col_raw(j);
+            let range = col_ptr[j]..col_ptr[j] + indices.len();
+            let vals = self.values.map(|v| &v[range.clone()]);
+            if self.fast {
+                #[cfg(target_arch = "x86_64")]
+                // SAFETY: the machine has AVX2 and FMA (`fast`); rows of `xt` and `out` are
+                // `s = 4 V` values per product, and every row index is below `n`.
+                unsafe {
+                    fma::row(indices, vals, self.xt, out, s)
+                };
+            } else {
+                for (q, v) in vals.iter().enumerate() {
+                    portable_row(indices, v, self.xt, &mut out[q * s..(q + 1) * s]);
+                }
+            }
+            for (q, y) in ys.iter_mut().enumerate() {
+                for c in 0..y.ncols() {
+                    y[(r, c)] = out[q * s + c];
+                }
+            }
+        }
+    }
+}
+
+/// One output row, `out = Σ_t v_t x_{rows_t}` over the rows of `xt` (`out.len()` wide), in
+/// groups of eight columns in registers and the rest one by one.
+fn portable_row(rows: &[usize], vals: &[f64], xt: &[f64], out: &mut [f64]) {
+    let s = out.len();
+    let groups = s / 8;
+    for g in 0..groups {
+        let mut acc = [0.0f64; 8];
+        for (&i, &v) in rows.iter().zip(vals) {
+            let xi: &[f64; 8] = xt[i * s + 8 * g..i * s + 8 * g + 8]
+                .try_into()
+                .expect("a group is eight wide");
+            for c in 0..8 {
+                acc[c] += v * xi[c];
+            }
+        }
+        out[8 * g..8 * g + 8].copy_from_slice(&acc);
+    }
+    for c in 8 * groups..s {
+        out[c] = rows
+            .iter()
+            .zip(vals)
+            .map(|(&i, &v)| v * xt[i * s + c])
+            .sum();
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+mod fma {
+    use std::arch::x86_64::*;
+
+    /// The output rows of the `N` products for one pattern row, side by side in `out`.
+    ///
+    /// # Safety
+    /// The machine must have AVX2 and FMA; `s ∈ {4, 8, 12, 16}`, `out` holds `N s` values,
+    /// `xt` rows of `s`, and every index of `rows` is a row of `xt`.
+    #[target_feature(enable = "avx2,fma")]
+    pub unsafe fn row<const N: usize>(
+        rows: &[usize],
+        vals: [&[f64]; N],
+        xt: &[f64],
+        out: &mut [f64],
+        s: usize,
+    ) {
+        // SAFETY: as the caller guarantees.
+        unsafe {
+            match s {
+                4 => row_v::<1, N>(rows, vals, xt, out),
+                8 => row_v::<2, N>(rows, vals, xt, out),
+                12 => row_v::<3, N>(rows, vals, xt, out),
+                _ => row_v::<4, N>(rows, vals, xt, out),
+            }
+        }
+    }
+
+    /// [`row`] for rows of `4 V` values: even and odd entries summed apart, then added.
+    #[inline(always)]
+    unsafe fn row_v<const V: usize, const N: usize>(
+        rows: &[usize],
+        vals: [&[f64]; N],
+        xt: &[f64],
+        out: &mut [f64],
+    ) {
+        let s = 4 * V;
+        debug_assert_eq!(out.len(), N * s);
+        // SAFETY: AVX2 is enabled by the caller's target features.
+        let zero = unsafe { _mm256_setzero_pd() };
+        let (mut even, mut odd) = ([[zero; V]; N], [[zero; V]; N]);
+        let pairs = rows.len() / 2;
+        // SAFETY (all calls below): AVX2 and FMA are enabled by the caller's target features.
+        for p in 0..pairs {
+            unsafe {
+                add_entry(&mut even, rows, vals, xt, 2 * p);
+                add_entry(&mut odd, rows, vals, xt, 2 * p + 1);
+            }
+        }
+        if rows.len() % 2 == 1 {
+            unsafe { add_entry(&mut even, rows, vals, xt, rows.len() - 1) };
+        }
+        for q in 0..N {
+            let o: &mut [f64] = &mut out[q * s..(q + 1) * s];
+            for c in 0..V {
+                // SAFETY: `o` holds `4 V` values.
+                unsafe {
+                    _mm256_storeu_pd(
+                        o.as_mut_ptr().add(4 * c),
+                        _mm256_add_pd(even[q][c], odd[q][c]),
+                    )
+                };
+            }
+        }
+    }
+
+    /// `acc_q += vals_q[t] · xt[rows[t]]` for every product `q`.
+    #[inline(always)]
+    unsafe fn add_entry<const V: usize, const N: usize>(
+        acc: &mut [[__m256d; V]; N],
+        rows: &[usize],
+        vals: [&[f64]; N],
+        xt: &[f64],
+        t: usize,
+    ) {
+        let s = 4 * V;
+        let i = rows[t];
+        let xi = &xt[i * s..i * s + s];
+        for q in 0..N {
+            // SAFETY: AVX2 and FMA are enabled by the caller; `xi` holds `4 V` values.
+            unsafe {
+                let v = _mm256_set1_pd(vals[q][t]);
+                for (c, a) in acc[q].iter_mut().enumerate() {
+                    *a = _mm256_fmadd_pd(v, _mm256_loadu_pd(xi.as_ptr().add(4 * c)), *a);
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::fe::system::{sparse_from_triplets, sparse_to_dense};
+    use faer::Mat;
+
+    /// A symmetric banded matrix stored in full, with `bands` off-diagonals and values
+    /// depending on `seed`.
+    fn banded(n: usize, bands: usize, seed: f64) -> SparseMatrix {
+        let mut t = Vec::new();
+        for j in 0..n {
+            for d in 0..=bands.min(n - 1 - j) {
+                let v = (seed + (j * 7 + d * 3) as f64).sin() + if d == 0 { 4.0 } else { 0.0 };
+                t.push((j + d, j, v));
+                if d > 0 {
+                    t.push((j, j + d, v));
+                }
+            }
+        }
+        sparse_from_triplets("A", n, &t).unwrap()
+    }
+
+    /// Both products, for every width up to three passes (1, 4, 5, 13, 16, 17, 50 columns),
+    /// against dense products: 1e-13 relative (round-off of sums of at most 13 terms).
+    #[test]
+    fn products_match_dense_algebra_for_every_width() {
+        let n = 3 * MIN_ROWS_PER_TASK + 11;
+        let (k, m) = (banded(n, 6, 0.3), banded(n, 6, 1.7));
+        let other = banded(n, 2, 0.9);
+        let (kd, md) = (sparse_to_dense(&k), sparse_to_dense(&m));
+        let od = sparse_to_dense(&other);
+        for b in [1, 4, 5, 13, 16, 17, 50] {
+            let x = Mat::from_fn(n, b, |i, c| ((i * 31 + c * 17) % 97) as f64 / 97.0 - 0.5);
+            let (mut kx, mut mx) = (Mat::zeros(n, b), Mat::zeros(n, b));
+            sym_matvec_pair(&k, &m, x.as_ref(), kx.as_mut(), mx.as_mut());
+            let close = |got: &Mat<f64>, want: Mat<f64>| {
+                let err = (got - &want).norm_max() / want.norm_max();
+                assert!(err < 1e-13, "{b} columns: {err:e}");
+            };
+            close(&kx, &kd * &x);
+            close(&mx, &md * &x);
+            // Another pattern: the products are made one after the other.
+            sym_matvec_pair(&other, &m, x.as_ref(), kx.as_mut(), mx.as_mut());
+            close(&kx, &od * &x);
+            close(&mx, &md * &x);
+            let mut y = Mat::zeros(n, b);
+            sym_matvec(&m, x.as_ref(), y.as_mut());
+            close(&y, &md * &x);
+        }
+    }
+}
