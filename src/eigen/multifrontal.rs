@@ -7,11 +7,12 @@
 //! quarter of this machine's dense speed (21 GFlop/s of 85 at 300k DOFs). Here each supernode
 //! instead forms its frontal matrix once:
 //!
-//! 1. its columns of `P A Pᵀ` and its children's update matrices are added into the panel
-//!    `[L_11; L_21]` (which is the factor's own storage) and its update matrix `U`;
-//! 2. `L_11 L_11ᵀ = F_11`, `L_21 = F_21 L_11⁻ᵀ`, and `U ← U − L_21 L_21ᵀ` — one dense Cholesky, one
-//!    triangular solve and one symmetric rank-`w` update as wide as the supernode;
-//! 3. `U` is handed to the parent.
+//! 1. its columns of `P A Pᵀ` and its children's update matrices, as far as they fall in its
+//!    columns, are added into the panel `[L_11; L_21]` (which is the factor's own storage);
+//! 2. `L_11 L_11ᵀ = F_11`, `L_21 = F_21 L_11⁻ᵀ`, and `U = −L_21 L_21ᵀ` — one dense Cholesky, one
+//!    triangular solve and one symmetric rank-`w` product as wide as the supernode;
+//! 3. the rest of the children's update matrices is added into `U`, which is handed to the
+//!    parent.
 //!
 //! Independent subtrees of the elimination tree run in parallel, and fronts large enough for it
 //! also split their dense kernels over the threads. The values land in faer's supernodal layout

@@ -28,7 +28,7 @@ pub fn sym_matvec(a: &SparseMatrix, x: MatRef<'_, f64>, y: MatMut<'_, f64>) {
         (x.nrows(), x.nrows(), x.nrows(), x.ncols()),
         "Y = A X needs a square A and X, Y of its rows and of equal width"
     );
-    in_passes(x, [y], &|x, [y]| products(a, [a.val()], x, [y]));
+    in_passes(a, [a.val()], x, [y]);
 }
 
 /// `KX = K X` and `MX = M X`, in one pass over the pattern when `K` and `M` share it.
@@ -63,9 +63,7 @@ pub fn sym_matvec_pair(
         ),
         "K X, M X need square K, M and X, KX, MX of their rows and of equal width"
     );
-    in_passes(x, [kx.as_mut(), mx.as_mut()], &|x, ys| {
-        products(k, [k.val(), m.val()], x, ys)
-    });
+    in_passes(k, [k.val(), m.val()], x, [kx.as_mut(), mx.as_mut()]);
 }
 
 /// Whether `a` and `b` store the same entries.
@@ -78,13 +76,14 @@ fn same_pattern(a: &SparseMatrix, b: &SparseMatrix) -> bool {
         && a.row_idx() == b.row_idx()
 }
 
-/// Runs `pass` over the columns of `x` (and alike of every `y`) in passes of equal width, at
+/// [`products`] over the columns of `x` (and alike of every `y`) in passes of equal width, at
 /// most [`PRODUCT_COLUMNS`] wide (50 columns: four passes of 13 and 12, not three of 16 and
 /// one of 2).
 fn in_passes<const N: usize>(
+    pattern: &SparseMatrix,
+    values: [&[f64]; N],
     x: MatRef<'_, f64>,
     mut ys: [MatMut<'_, f64>; N],
-    pass: &dyn Fn(MatRef<'_, f64>, [MatMut<'_, f64>; N]),
 ) {
     let b = x.ncols();
     if b == 0 || x.nrows() == 0 {
@@ -95,7 +94,7 @@ fn in_passes<const N: usize>(
     for c0 in (0..b).step_by(width) {
         let w = width.min(b - c0);
         let parts = ys.each_mut().map(|y| y.as_mut().subcols_mut(c0, w));
-        pass(x.subcols(c0, w), parts);
+        products(pattern, values, x.subcols(c0, w), parts);
     }
 }
 
