@@ -319,7 +319,7 @@ mod tests {
         sparse_from_triplets("A", n, &t).unwrap()
     }
 
-    /// Both products, for every width up to three passes (1, 4, 5, 13, 16, 17, 50 columns),
+    /// Both products, for widths of one to four passes (1, 4, 5, 13, 16, 17, 50 columns),
     /// against dense products: 1e-13 relative (round-off of sums of at most 13 terms).
     #[test]
     fn products_match_dense_algebra_for_every_width() {

@@ -743,11 +743,9 @@ fn lanczos(
                 coupling.as_ref(),
                 v_out.as_mut(),
             );
-            drop(v);
-            let v = v_out;
             info.orthogonalisation_seconds += t.elapsed().as_secs_f64();
             let lambdas: Vec<f64> = theta[..nev].iter().map(|nu| shift + 1.0 / nu).collect();
-            return Ok((lambdas, v));
+            return Ok((lambdas, v_out));
         }
         // Thick restart: kept Ritz vectors, then the residual block; blocks must tile up to p.
         let keep = p - (p - keep).div_ceil(b) * b;
