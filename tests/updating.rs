@@ -294,3 +294,78 @@ fn three_beam_reproduces_c4() {
     let t = damping.table("modal_damping").unwrap();
     assert_eq!(t.i64s("modal_damping", "mode").unwrap(), &[1, 2]);
 }
+
+/// A one-parameter model that the stub method below never evaluates.
+struct Untouched(Vec<femu::updating::UpdatingParameter>);
+
+impl femu::updating::ParametricModel for Untouched {
+    fn parameters(&self) -> &[femu::updating::UpdatingParameter] {
+        &self.0
+    }
+    fn evaluate(
+        &self,
+        _: &[f64],
+    ) -> Result<femu::updating::Evaluated, femu::updating::UpdatingError> {
+        Err(femu::updating::UpdatingError::Settings(
+            "the stub model is never evaluated".into(),
+        ))
+    }
+}
+
+/// A method whose every step leads away from its optimum at x = 1: the merit `1/(1 + (x−1)²)`
+/// falls at each step, even halved, as the undamped P-C's does when a measured line sits on a
+/// resonance.
+struct Diverging;
+
+impl femu::updating::UpdateMethod for Diverging {
+    fn iterate(
+        &self,
+        _: &dyn femu::updating::ParametricModel,
+        values: &[f64],
+        iteration: usize,
+    ) -> Result<femu::updating::Step, femu::updating::UpdatingError> {
+        let merit = 1.0 / (1.0 + (values[0] - 1.0).powi(2));
+        let record = femu::updating::IterationRecord {
+            iteration,
+            values: values.to_vec(),
+            relative_change: vec![0.5],
+            active: vec![true],
+            lines_used: 1,
+            mean_chi_s: merit,
+            mean_chi_a: merit,
+            residual_norm: 0.0,
+            condition_limit: f64::NAN,
+            smoothing: 0.0,
+            smoothed_mean_chi: f64::NAN,
+            diagnostics: Default::default(),
+        };
+        Ok(femu::updating::Step::new(record, None))
+    }
+    fn merit(&self, record: &femu::updating::IterationRecord) -> Option<f64> {
+        Some(record.mean_chi())
+    }
+}
+
+#[test]
+fn an_update_that_ends_worse_than_it_began_returns_its_best_iterate() {
+    let model = Untouched(vec![femu::updating::UpdatingParameter {
+        name: "x".into(),
+        initial: 1.2,
+        lower: 0.1,
+        upper: 100.0,
+    }]);
+    let h = femu::updating::run(&Diverging, &model, 4).unwrap();
+    assert_eq!(h.stop, femu::updating::StopReason::MaxIterations);
+    let last = h.iterations.last().unwrap();
+    assert!(
+        last.values[0] > 1.2,
+        "the stub must diverge: {:?}",
+        last.values
+    );
+    assert!(last.mean_chi() < h.iterations[0].mean_chi());
+    // The start was the best iterate: its values are returned, and the result says so.
+    assert_eq!(h.returned_iteration, Some(0));
+    assert_eq!(h.final_values, vec![1.2]);
+    let a = femu::artefact::update::update_result_to_artefact(&h, "pc");
+    assert_eq!(a.meta["returned_iteration"], serde_json::json!(0));
+}

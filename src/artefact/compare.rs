@@ -5,8 +5,10 @@
 use super::{Artefact, ArtefactKind, Column, Table};
 use std::collections::BTreeMap;
 
-/// Relative and absolute tolerance: `|a − b| ≤ atol + rtol · max(|a|, |b|)`.
-#[derive(Clone, Copy, Debug, PartialEq, serde::Deserialize, serde::Serialize)]
+/// Relative and absolute tolerance: `|a − b| ≤ atol + rtol · max(|a|, |b|)`; or, with `max`, an
+/// upper bound `|a|, |b| ≤ max` instead (for round-off-level figures such as residuals, which
+/// must stay small rather than equal: `rtol: 1` would accept anything of one sign).
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Deserialize, serde::Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct Tol {
     /// Relative tolerance.
@@ -15,11 +17,17 @@ pub struct Tol {
     /// Absolute tolerance.
     #[serde(default)]
     pub atol: f64,
+    /// Upper bound on both values' magnitudes, replacing the comparison.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max: Option<f64>,
 }
 
 impl Tol {
     /// Whether `a` and `b` agree.
     pub fn accepts(&self, a: f64, b: f64) -> bool {
+        if let Some(m) = self.max {
+            return a.abs() <= m && b.abs() <= m;
+        }
         if a == b || (a.is_nan() && b.is_nan()) {
             return true;
         }
@@ -42,10 +50,32 @@ pub struct Tolerances {
     pub skip_blobs: bool,
 }
 
+impl Tolerances {
+    /// Checks that every tolerance is a finite number `>= 0` (a negative or NaN tolerance would
+    /// make every comparison fail, or pass); the error names the offending entry.
+    pub fn check(&self) -> Result<(), String> {
+        let entries = std::iter::once(("default", &self.default))
+            .chain(self.columns.iter().map(|(k, t)| (k.as_str(), t)));
+        for (name, t) in entries {
+            for (what, v) in [
+                ("rtol", t.rtol),
+                ("atol", t.atol),
+                ("max", t.max.unwrap_or(0.0)),
+            ] {
+                if !(v.is_finite() && v >= 0.0) {
+                    return Err(format!("{name}: {what} = {v} must be a finite number >= 0"));
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
 fn default_tol() -> Tol {
     Tol {
         rtol: 1e-9,
         atol: 0.0,
+        max: None,
     }
 }
 
@@ -462,10 +492,18 @@ mod tests {
             default: Tol {
                 rtol: 1e-3,
                 atol: 0.0,
+                max: None,
             },
             ..Default::default()
         };
         assert!(compare(&frf(2.0 + 1e-6), &frf(2.0), &loose).same());
+        let bounded = Tol {
+            max: Some(3.0),
+            ..Default::default()
+        };
+        assert!(bounded.accepts(2.5, -1.0));
+        assert!(!bounded.accepts(3.5, 2.0));
+        assert!(!bounded.accepts(2.0, 3.5));
     }
 
     #[test]

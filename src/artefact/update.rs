@@ -122,8 +122,13 @@ pub fn update_result_to_artefact(h: &UpdateHistory, method: &str) -> Artefact {
             Column::F64(h.parameters.iter().map(|p| p.upper).collect()),
         );
     let last = h.iterations.last();
-    Artefact::new(K)
-        .with_meta("method", method.into())
+    let a = Artefact::new(K);
+    // Only when the best iterate was returned, so ordinary results keep their digests.
+    let a = match h.returned_iteration {
+        Some(i) => a.with_meta("returned_iteration", i.into()),
+        None => a,
+    };
+    a.with_meta("method", method.into())
         .with_meta(
             "stop",
             serde_json::to_value(h.stop).unwrap_or(serde_json::Value::Null),
@@ -337,6 +342,7 @@ mod tests {
                 .to_vec(),
             iterations: vec![record(0), record(1)],
             final_values: vec![1.1, 2.0],
+            returned_iteration: None,
             stop: StopReason::MaxIterations,
         };
         let a = update_result_to_artefact(&h, "pc");

@@ -5,10 +5,12 @@ use crate::artefact::codec::{read_dir, read_meta};
 use crate::artefact::compare::{Tol, Tolerances, compare};
 use crate::artefact::{Artefact, ArtefactKind};
 use crate::cache::Cache;
+use crate::pipeline::executor::RunError;
 use crate::pipeline::lock::LockFile;
 use crate::pipeline::schema::{artefact_schema, pipeline_schema};
 use crate::pipeline::{
-    Diagnostics, Plan, ProgressMode, RunOptions, Status, execute, materialise, plan, read_pipeline,
+    Diagnostic, Diagnostics, Plan, ProgressMode, RunOptions, SourcedSpec, StageError, Status,
+    execute, materialise, plan, read_pipeline,
 };
 use crate::stages::registry;
 use anyhow::Context;
@@ -182,13 +184,36 @@ struct Failure {
 impl<E: Into<anyhow::Error>> From<E> for Failure {
     fn from(e: E) -> Self {
         let error = e.into();
-        let code = if error.downcast_ref::<Diagnostics>().is_some() {
-            2
-        } else {
-            1
-        };
-        Failure { code, error }
+        Failure {
+            code: exit_code(&error),
+            error,
+        }
     }
+}
+
+impl Failure {
+    /// Bad input or usage (exit 2), whatever the error's type.
+    fn bad_input(e: impl Into<anyhow::Error>) -> Self {
+        Failure {
+            code: 2,
+            error: e.into(),
+        }
+    }
+}
+
+/// The exit code for an error: 2 when anything in its chain says the user's input is at fault
+/// (a located diagnostic, an unknown `--only` stage, a stage's bad input), 1 otherwise.
+fn exit_code(error: &anyhow::Error) -> u8 {
+    let input = error.chain().any(|cause| {
+        cause.downcast_ref::<Diagnostics>().is_some()
+            || cause
+                .downcast_ref::<StageError>()
+                .is_some_and(|e| e.is_input())
+            || cause
+                .downcast_ref::<RunError>()
+                .is_some_and(|e| e.is_input())
+    });
+    if input { 2 } else { 1 }
 }
 
 /// An error and its causes joined by `: `, leaving out a cause whose text the message already
@@ -228,9 +253,41 @@ pub fn main() -> ExitCode {
 }
 
 fn load_plan(p: &PipelineArgs) -> Result<Plan, Diagnostics> {
+    load_sourced_plan(p).map(|(_, plan)| plan)
+}
+
+/// The plan with the file it came from, to locate errors found while running.
+fn load_sourced_plan(p: &PipelineArgs) -> Result<(SourcedSpec, Plan), Diagnostics> {
     let mut src = read_pipeline(&p.pipeline)?;
     src.apply_overrides(&p.sets)?;
-    plan(&src, &registry())
+    let plan = plan(&src, &registry())?;
+    Ok((src, plan))
+}
+
+/// A stage's bad input found while running, located in the pipeline file like the errors
+/// `validate` finds (stage, field, line); other run errors unchanged.
+fn locate_run_error(src: &SourcedSpec, error: RunError) -> anyhow::Error {
+    let RunError::Stage {
+        stage,
+        source: StageError::Input { field, message, .. },
+        ..
+    } = &error
+    else {
+        return error.into();
+    };
+    let mut path = vec!["stages", stage.as_str()];
+    if !field.is_empty() {
+        path.push("with");
+        path.extend(field.split('.'));
+    }
+    let pos = src.locator.value(&path);
+    let mut d = Diagnostic::new(&src.file, message.clone())
+        .at(pos)
+        .stage(stage);
+    if !field.is_empty() {
+        d = d.field(format!("with.{field}"));
+    }
+    Diagnostics(vec![d]).into()
 }
 
 fn dispatch(cli: Cli) -> Result<u8, Failure> {
@@ -243,7 +300,7 @@ fn dispatch(cli: Cli) -> Result<u8, Failure> {
             force,
             quiet,
         } => {
-            let plan = load_plan(&p)?;
+            let (src, plan) = load_sourced_plan(&p)?;
             let cache = Cache::open(&c.dir())?;
             let opts = RunOptions {
                 force,
@@ -254,7 +311,7 @@ fn dispatch(cli: Cli) -> Result<u8, Failure> {
                     ProgressMode::Auto
                 },
             };
-            let report = execute(&plan, &cache, &opts)?;
+            let report = execute(&plan, &cache, &opts).map_err(|e| locate_run_error(&src, e))?;
             let lock = LockFile::from_run(&plan, &report);
             if opts.only.is_empty() {
                 lock.write(&cache.lock_path(&plan.name))
@@ -317,6 +374,12 @@ fn dispatch(cli: Cli) -> Result<u8, Failure> {
         }
         Command::List { kind } => list(kind.as_deref()),
         Command::Show { artefact, rows } => {
+            if !artefact.join(crate::artefact::codec::META_FILE).is_file() {
+                return Err(Failure::bad_input(anyhow::anyhow!(
+                    "{} is not a femu artefact: a directory holding meta.json (e.g. out/<stage>/<port>)",
+                    artefact.display()
+                )));
+            }
             show(&artefact, rows)?;
             Ok(0)
         }
@@ -327,20 +390,33 @@ fn dispatch(cli: Cli) -> Result<u8, Failure> {
             atol,
             tolerances,
         } => {
-            let tol = match tolerances {
+            let tol: Tolerances = match &tolerances {
                 Some(f) => {
-                    let text = std::fs::read_to_string(&f)
-                        .with_context(|| format!("reading {}", f.display()))?;
-                    serde_yaml::from_str(&text).map_err(|e| Failure {
-                        code: 2,
-                        error: anyhow::anyhow!("{}: {e}", f.display()),
-                    })?
+                    let text =
+                        crate::pipeline::spec::read_bounded_text(f, 1 << 20).map_err(|e| {
+                            Failure::bad_input(anyhow::anyhow!("reading {}: {e}", f.display()))
+                        })?;
+                    serde_yaml::from_str(&text)
+                        .map_err(|e| Failure::bad_input(anyhow::anyhow!("{}: {e}", f.display())))?
                 }
                 None => Tolerances {
-                    default: Tol { rtol, atol },
+                    default: Tol {
+                        rtol,
+                        atol,
+                        max: None,
+                    },
                     ..Default::default()
                 },
             };
+            tol.check().map_err(|e| {
+                Failure::bad_input(anyhow::anyhow!(
+                    "{}{e}",
+                    match &tolerances {
+                        Some(f) => format!("{}: ", f.display()),
+                        None => "--rtol/--atol: ".to_string(),
+                    }
+                ))
+            })?;
             diff(&a, &b, &tol)
         }
         Command::Cache { action } => {

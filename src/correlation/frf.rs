@@ -65,15 +65,16 @@ pub enum CorrelationError {
     },
     /// Frequency lines differ.
     #[error(
-        "frequency lines differ: measured line {index} is {measured} Hz, predicted {predicted} Hz ({n_measured} vs {n_predicted} lines); synthesise the prediction on the measured lines"
+        "frequency lines differ: {}; synthesise the prediction on the measured lines",
+        describe_lines(*index, *measured, *predicted, *n_measured, *n_predicted)
     )]
     Lines {
-        /// First differing index.
+        /// First differing index (0-based).
         index: usize,
-        /// Measured frequency.
-        measured: f64,
-        /// Predicted frequency.
-        predicted: f64,
+        /// Measured frequency at `index`, if the measured set has that line.
+        measured: Option<f64>,
+        /// Predicted frequency at `index`, if the predicted set has that line.
+        predicted: Option<f64>,
         /// Measured line count.
         n_measured: usize,
         /// Predicted line count.
@@ -85,6 +86,37 @@ pub enum CorrelationError {
     /// Nothing to correlate.
     #[error("the measured set holds no FRF")]
     Empty,
+}
+
+/// The first difference of two line sets, in words: a line count mismatch names the last line
+/// both share and the first one only one of them has.
+fn describe_lines(
+    index: usize,
+    measured: Option<f64>,
+    predicted: Option<f64>,
+    n_measured: usize,
+    n_predicted: usize,
+) -> String {
+    let line = index + 1;
+    match (measured, predicted) {
+        (Some(m), Some(p)) => format!(
+            "line {line} is {m} Hz measured but {p} Hz predicted ({n_measured} measured lines, {n_predicted} predicted)"
+        ),
+        (Some(m), None) => format!(
+            "{n_measured} measured lines but {n_predicted} predicted; measured line {line} ({m} Hz) has no predicted counterpart"
+        ),
+        (None, Some(p)) => format!(
+            "{n_measured} measured lines but {n_predicted} predicted; predicted line {line} ({p} Hz) has no measured counterpart"
+        ),
+        (None, None) => format!("{n_measured} measured lines, {n_predicted} predicted"),
+    }
+}
+
+impl crate::core::InputFault for CorrelationError {
+    fn is_input(&self) -> bool {
+        // Measured and predicted sets that do not match are the pipeline's to fix.
+        true
+    }
 }
 
 /// Column index in `predicted` for each measured pair, in measured order.
@@ -106,8 +138,8 @@ pub fn match_pairs(measured: &FrfSet, predicted: &FrfSet) -> Result<Vec<usize>, 
         if !same {
             return Err(CorrelationError::Lines {
                 index: k,
-                measured: fm.copied().unwrap_or(f64::NAN),
-                predicted: fp.copied().unwrap_or(f64::NAN),
+                measured: fm.copied(),
+                predicted: fp.copied(),
                 n_measured: nm,
                 n_predicted: np,
             });

@@ -145,6 +145,17 @@ pub enum EigenError {
     },
 }
 
+impl crate::core::InputFault for EigenError {
+    fn is_input(&self) -> bool {
+        matches!(
+            self,
+            EigenError::MasslessDof { .. }
+                | EigenError::IndefiniteMass
+                | EigenError::AllModesOfLargeModel { .. }
+        )
+    }
+}
+
 /// All (or the selected) modes of a small model, mass-normalised.
 pub fn dense_generalized(
     k: MatRef<'_, f64>,

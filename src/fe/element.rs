@@ -85,6 +85,14 @@ pub enum ElementError {
     },
 }
 
+impl crate::core::InputFault for ElementError {
+    fn is_input(&self) -> bool {
+        // Every way an element cannot be formed comes from its definition: geometry, values,
+        // orientation, a parameter name.
+        true
+    }
+}
+
 /// Checks a value is finite and positive (or non-negative when `allow_zero`).
 pub fn positive(field: &'static str, value: f64, allow_zero: bool) -> Result<f64, ElementError> {
     let ok = value.is_finite() && (value > 0.0 || (allow_zero && value == 0.0));

@@ -30,6 +30,14 @@ pub enum ModelAssemblyError {
     /// The model has no element.
     #[error("the model has no elements")]
     Empty,
+    /// Every DOF that an element reaches is constrained.
+    #[error(
+        "the model has no free DOFs: its {constrained} constrained DOFs include every DOF its elements reach; remove constraints (SPC, `constraints:`) so that something can move"
+    )]
+    NoFreeDofs {
+        /// The constrained DOFs the elements reach.
+        constrained: usize,
+    },
     /// A parameter's set holds an element the parameter cannot act on.
     #[error(
         "parameter `{parameter}` ({what}) cannot act on element {element} ({kind}) of its set; remove the element from the set or choose another parameter kind"
@@ -44,6 +52,12 @@ pub enum ModelAssemblyError {
         /// Element type.
         kind: &'static str,
     },
+}
+
+impl crate::core::InputFault for ModelAssemblyError {
+    fn is_input(&self) -> bool {
+        true
+    }
 }
 
 /// The kernel section of a model beam section (shear factor 0 in a general section: shear-rigid).
@@ -205,7 +219,7 @@ pub fn assemble_model(
         .map(|(_, e)| block_nodes(e).iter().map(|n| index[n]).collect())
         .collect();
     let constraints: BTreeSet<_> = model.constraints.iter().copied().collect();
-    assemble(&node_ids, &lists, &constraints, |i| {
+    let (sys, info) = assemble(&node_ids, &lists, &constraints, |i| {
         let (id, e) = elements[i];
         let matrices =
             element_matrices(model, e, mass).map_err(|source| ModelAssemblyError::Element {
@@ -213,11 +227,17 @@ pub fn assemble_model(
                 kind: e.type_name(),
                 source,
             })?;
-        Ok(Contribution {
+        Ok::<_, ModelAssemblyError>(Contribution {
             nodes: lists[i].clone(),
             matrices,
         })
-    })
+    })?;
+    if sys.dofs.is_empty() {
+        return Err(ModelAssemblyError::NoFreeDofs {
+            constrained: constraints.len(),
+        });
+    }
+    Ok((sys, info))
 }
 
 /// The DOFs to which element `e` gives stiffness or mass (non-zero diagonal), unconstrained or

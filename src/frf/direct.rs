@@ -39,6 +39,12 @@ pub enum DirectError {
     Factorisation(String),
 }
 
+impl crate::core::InputFault for DirectError {
+    fn is_input(&self) -> bool {
+        matches!(self, DirectError::UnknownDof(..))
+    }
+}
+
 /// Receptance (converted to `quantity`) of `pairs` at `freqs_hz` by `α = Z⁻¹`.
 pub fn direct_receptance(
     sys: &SystemMatrices,

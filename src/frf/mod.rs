@@ -122,9 +122,26 @@ impl FrfSet {
     }
 }
 
+/// How many lines [`frequency_lines`] makes, counted in floating point so that an absurd step
+/// gives a huge count instead of wrapping around; `None` when the band or step is not finite,
+/// the band is reversed or the step is not positive, or when the step is too small to separate
+/// neighbouring lines at `stop_hz` (they would repeat in `f64`).
+pub fn frequency_line_count(start_hz: f64, stop_hz: f64, step_hz: f64) -> Option<f64> {
+    let finite = start_hz.is_finite() && stop_hz.is_finite() && step_hz.is_finite();
+    if !finite || start_hz < 0.0 || stop_hz < start_hz || !(step_hz > 0.0) {
+        return None;
+    }
+    // Successive lines must differ by many ulps of the largest line.
+    if step_hz <= 64.0 * f64::EPSILON * stop_hz.abs() {
+        return None;
+    }
+    Some(((stop_hz - start_hz) / step_hz + 1e-9).floor() + 1.0)
+}
+
 /// Frequency lines `start, start + step, …` up to `stop` inclusive (within 1e-9 of a step).
+/// Callers bound the count with [`frequency_line_count`] first: the lines are allocated.
 pub fn frequency_lines(start_hz: f64, stop_hz: f64, step_hz: f64) -> Vec<f64> {
-    let count = ((stop_hz - start_hz) / step_hz + 1e-9).floor() as usize + 1;
+    let count = frequency_line_count(start_hz, stop_hz, step_hz).unwrap_or(0.0) as usize;
     (0..count).map(|i| start_hz + i as f64 * step_hz).collect()
 }
 

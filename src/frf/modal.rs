@@ -141,6 +141,12 @@ pub enum ModalError {
     },
 }
 
+impl crate::core::InputFault for ModalError {
+    fn is_input(&self) -> bool {
+        !matches!(self, ModalError::Singular { .. })
+    }
+}
+
 /// Receptance (converted to `quantity`) of `pairs` at `freqs_hz` from the first `modes.len()`
 /// modes; `dofs` labels the rows of the mode shapes.
 pub fn modal_receptance(

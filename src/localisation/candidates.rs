@@ -55,9 +55,7 @@ pub fn declared_candidates(model: &Model) -> Result<Vec<Candidate>, Localisation
         .parameters
         .iter()
         .map(|p| {
-            let value = model
-                .parameter_value(p)
-                .map_err(|e| LocalisationError::Model(e.to_string()))?;
+            let value = model.parameter_value(p)?;
             let elements = model.sets.get(&p.set).cloned().unwrap_or_default();
             Ok(Candidate {
                 name: p.name.clone(),
@@ -204,8 +202,7 @@ impl LocalDerivative {
             &candidate.elements,
             &local,
             mass,
-        )
-        .map_err(|e| LocalisationError::Model(e.to_string()))?;
+        )?;
         Ok(LocalDerivative { rows, dk, dm })
     }
 

@@ -44,6 +44,12 @@ pub enum LocalisationError {
     /// The model could not be assembled or differentiated.
     #[error("the model: {0}")]
     Model(String),
+    /// The model could not be assembled or differentiated.
+    #[error("the model: {0}")]
+    Assembly(#[from] crate::fe::model_assembly::ModelAssemblyError),
+    /// A parameter's value could not be read.
+    #[error("the model: {0}")]
+    Parameter(#[from] crate::model::parameters::ParameterValueError),
     /// The eigen solution failed.
     #[error("modal analysis: {0}")]
     Eigen(#[from] crate::eigen::EigenError),
@@ -53,6 +59,20 @@ pub enum LocalisationError {
     /// The prediction at the measured DOFs failed.
     #[error(transparent)]
     Updating(#[from] crate::updating::UpdatingError),
+}
+
+impl crate::core::InputFault for LocalisationError {
+    fn is_input(&self) -> bool {
+        match self {
+            LocalisationError::Settings(_) => true,
+            LocalisationError::Model(_) => false,
+            LocalisationError::Assembly(e) => e.is_input(),
+            LocalisationError::Parameter(e) => e.is_input(),
+            LocalisationError::Eigen(e) => e.is_input(),
+            LocalisationError::Modal(e) => e.is_input(),
+            LocalisationError::Updating(e) => e.is_input(),
+        }
+    }
 }
 
 /// Settings of [`leverage_map`].
@@ -120,7 +140,7 @@ pub const COMPLETE_BASIS_LIMIT: usize = 3000;
 fn assemble(model: &Model, mass: MassKind) -> Result<SystemMatrices, LocalisationError> {
     assemble_model(model, mass)
         .map(|(sys, _)| sys)
-        .map_err(|e| LocalisationError::Model(e.to_string()))
+        .map_err(LocalisationError::from)
 }
 
 /// The selected modes of `sys`.

@@ -84,6 +84,12 @@ pub enum ParameterValueError {
     },
 }
 
+impl crate::core::InputFault for ParameterValueError {
+    fn is_input(&self) -> bool {
+        true
+    }
+}
+
 /// Where a parameter's value lives for one element.
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Slot {

@@ -297,6 +297,12 @@ pub enum ModelError {
     ConstraintNode(u64),
 }
 
+impl crate::core::InputFault for ModelError {
+    fn is_input(&self) -> bool {
+        true
+    }
+}
+
 impl Model {
     /// Checks every reference.
     pub fn validate(&self) -> Result<(), ModelError> {

@@ -132,6 +132,17 @@ pub enum RunError {
     },
 }
 
+impl RunError {
+    /// Whether the user's input is at fault: an unknown `--only` stage, or a stage's bad input.
+    pub fn is_input(&self) -> bool {
+        match self {
+            RunError::UnknownOnly(..) => true,
+            RunError::Stage { source, .. } => source.is_input(),
+            RunError::Cache { .. } | RunError::Out { .. } => false,
+        }
+    }
+}
+
 enum Progress {
     Bars(
         indicatif::MultiProgress,

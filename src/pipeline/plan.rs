@@ -95,6 +95,16 @@ fn valid_name(name: &str) -> bool {
             .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
 }
 
+/// Whether a pipeline name is safe as a file name: it names the lock file, so it must be one
+/// path component of letters, digits, `_`, `-` and `.`, not starting with `.`.
+pub fn valid_pipeline_name(name: &str) -> bool {
+    (1..=128).contains(&name.len())
+        && !name.starts_with('.')
+        && name
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || "_-.".contains(c))
+}
+
 /// Builds the plan, or every problem found.
 pub fn plan(src: &SourcedSpec, registry: &Registry) -> Result<Plan, Diagnostics> {
     let file = src.file.as_str();
@@ -112,6 +122,17 @@ pub fn plan(src: &SourcedSpec, registry: &Registry) -> Result<Plan, Diagnostics>
         .unwrap_or(std::path::Path::new("."))
         .to_path_buf();
     let mut diags = Vec::new();
+    if !valid_pipeline_name(&spec.name) {
+        diags.push(
+            Diagnostic::new(
+                file,
+                format!("`{}` is not a valid pipeline name", spec.name.escape_debug()),
+            )
+            .at(loc.value(&["name"]))
+            .field("name")
+            .help("the name names the lock file: use 1 to 128 letters, digits, `_`, `-` and `.`, not starting with `.`"),
+        );
+    }
     let names: Vec<&str> = spec.stages.keys().map(String::as_str).collect();
     if names.is_empty() {
         diags.push(Diagnostic::new(file, "the pipeline has no stages").at(loc.key(&["stages"])));

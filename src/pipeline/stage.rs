@@ -3,6 +3,7 @@
 //! output artefacts. Stages never touch the cache or the file system of the engine.
 
 use crate::artefact::{Artefact, ArtefactError, ArtefactKind};
+use crate::core::InputFault;
 use serde::Serialize;
 use serde::de::DeserializeOwned;
 use std::collections::{BTreeMap, BTreeSet};
@@ -63,21 +64,101 @@ impl ParamIssue {
     }
 }
 
-/// Why a stage failed while running.
+/// Why a stage failed while running. The kind decides the exit code: [`StageError::Input`] is
+/// the user's to fix (exit 2), the others are failures (exit 1).
 #[derive(Debug, thiserror::Error)]
 pub enum StageError {
     /// An input artefact could not be interpreted.
     #[error(transparent)]
     Artefact(#[from] ArtefactError),
-    /// The computation failed; the message says why and what to change.
+    /// A parameter, a file it names, or the content of an input does not fit what the stage
+    /// needs: the message says what would be valid. Found only at run time because it depends on
+    /// upstream results (a parameter naming a mode the model does not have, say).
+    #[error("{}{message}", if field.is_empty() { String::new() } else { format!("with.{field}: ") })]
+    Input {
+        /// Parameter path below `with` (`parameters`, `modes.count`), or empty for the inputs.
+        field: String,
+        /// What is wrong and what would be valid.
+        message: String,
+        /// The numerics' error that found it, when one did.
+        #[source]
+        source: Option<Box<dyn std::error::Error + Send + Sync>>,
+    },
+    /// A computation failed; the numerical error is kept as the source.
+    #[error("{context}")]
+    Numerical {
+        /// What was being computed, with the cause's message.
+        context: String,
+        /// The numerics' own error.
+        #[source]
+        source: Box<dyn std::error::Error + Send + Sync>,
+    },
+    /// Any other failure (an engine invariant, a figure that could not be drawn).
     #[error("{0}")]
     Failed(String),
 }
 
 impl StageError {
-    /// A failure from any error.
+    /// A failure from any error, its text kept (prefer [`StageError::numerical`] for numerics'
+    /// errors, which keeps the error itself).
     pub fn failed(e: impl std::fmt::Display) -> Self {
         StageError::Failed(e.to_string())
+    }
+
+    /// A numerical failure keeping its source error.
+    pub fn numerical(e: impl std::error::Error + Send + Sync + 'static) -> Self {
+        StageError::Numerical {
+            context: e.to_string(),
+            source: Box::new(e),
+        }
+    }
+
+    /// `map_err` adapter: a numerical failure while doing `what`, keeping its source error.
+    pub fn numerical_in<E: std::error::Error + Send + Sync + 'static>(
+        what: impl std::fmt::Display,
+    ) -> impl FnOnce(E) -> Self {
+        move |e| StageError::Numerical {
+            context: format!("{what}: {e}"),
+            source: Box::new(e),
+        }
+    }
+
+    /// Bad input at parameter `field` (empty: the inputs as a whole).
+    pub fn input(field: &str, message: impl std::fmt::Display) -> Self {
+        StageError::Input {
+            field: field.to_string(),
+            message: message.to_string(),
+            source: None,
+        }
+    }
+
+    /// `map_err` adapter for the numerics' errors: bad input at parameter `field` when the error
+    /// says the input is at fault ([`InputFault`]), a numerical failure otherwise; the error is
+    /// kept as the source either way.
+    pub fn from_numerics<E: InputFault + Send + Sync + 'static>(
+        field: &str,
+    ) -> impl FnOnce(E) -> Self + '_ {
+        move |e| {
+            if e.is_input() {
+                StageError::Input {
+                    field: field.to_string(),
+                    message: e.to_string(),
+                    source: Some(Box::new(e)),
+                }
+            } else {
+                StageError::numerical(e)
+            }
+        }
+    }
+
+    /// `map_err` adapter: an error that means parameter `field` is wrong.
+    pub fn input_at<E: std::fmt::Display>(field: &str) -> impl FnOnce(E) -> Self + '_ {
+        move |e| StageError::input(field, e)
+    }
+
+    /// Whether the user's input is at fault (exit code 2).
+    pub fn is_input(&self) -> bool {
+        matches!(self, StageError::Input { .. })
     }
 }
 

@@ -50,6 +50,17 @@ pub enum ReductionError {
     /// The model is inconsistent or an element could not be formed.
     #[error("{0}")]
     Model(String),
+    /// The model's references are broken.
+    #[error(transparent)]
+    Definition(#[from] crate::model::ModelError),
+    /// A substructure (or the whole model, `substructure` empty) could not be assembled.
+    #[error("{}{source}", if substructure.is_empty() { String::new() } else { format!("substructure `{substructure}`: ") })]
+    Assembly {
+        /// The substructure's name, or empty.
+        substructure: String,
+        /// The assembly's reason.
+        source: crate::fe::model_assembly::ModelAssemblyError,
+    },
     /// No substructure was given.
     #[error("no substructures: give element sets, property ids, or a part count")]
     NoSubstructures,
@@ -231,6 +242,23 @@ pub enum ReductionError {
     /// The reduced model's eigenproblem failed.
     #[error("reduced model: {0}")]
     ReducedEigen(crate::eigen::EigenError),
+}
+
+impl crate::core::InputFault for ReductionError {
+    fn is_input(&self) -> bool {
+        match self {
+            ReductionError::Definition(_) => true,
+            ReductionError::Assembly { source, .. } => source.is_input(),
+            ReductionError::Eigen { source, .. } | ReductionError::ReducedEigen(source) => {
+                source.is_input()
+            }
+            ReductionError::Model(_)
+            | ReductionError::SingularResidual { .. }
+            | ReductionError::SingularCoupling { .. }
+            | ReductionError::Shape { .. } => false,
+            _ => true,
+        }
+    }
 }
 
 #[cfg(test)]

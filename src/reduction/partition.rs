@@ -103,9 +103,7 @@ impl Partition {
         groups: Vec<(String, Vec<u64>)>,
         mass: MassKind,
     ) -> Result<Partition, ReductionError> {
-        model
-            .validate()
-            .map_err(|e| ReductionError::Model(e.to_string()))?;
+        model.validate()?;
         if groups.is_empty() {
             return Err(ReductionError::NoSubstructures);
         }
@@ -150,8 +148,12 @@ impl Partition {
                 let mut dofs = BTreeSet::new();
                 for id in &ids {
                     let e = &model.elements[id];
-                    let d = element_dofs(model, *id, e, mass)
-                        .map_err(|e| ReductionError::Model(e.to_string()))?;
+                    let d = element_dofs(model, *id, e, mass).map_err(|source| {
+                        ReductionError::Assembly {
+                            substructure: String::new(),
+                            source,
+                        }
+                    })?;
                     dofs.extend(d.into_iter().filter(|d| !constrained.contains(d)));
                 }
                 Ok((name, ids, dofs.into_iter().collect()))
@@ -313,9 +315,7 @@ pub fn automatic_groups(
     model: &Model,
     parts: usize,
 ) -> Result<Vec<(String, Vec<u64>)>, ReductionError> {
-    model
-        .validate()
-        .map_err(|e| ReductionError::Model(e.to_string()))?;
+    model.validate()?;
     let n = model.elements.len();
     if parts == 0 || parts > n {
         return Err(ReductionError::PartCount { parts, elements: n });

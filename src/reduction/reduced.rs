@@ -673,8 +673,12 @@ pub fn substructure_matrices(
     sub: &Substructure,
     mass: MassKind,
 ) -> Result<SystemMatrices, ReductionError> {
-    let (sys, _) = assemble_elements(model, &sub.elements, mass)
-        .map_err(|e| ReductionError::Model(format!("substructure `{}`: {e}", sub.name)))?;
+    let (sys, _) = assemble_elements(model, &sub.elements, mass).map_err(|source| {
+        ReductionError::Assembly {
+            substructure: sub.name.clone(),
+            source,
+        }
+    })?;
     if sys.dofs == sub.dofs {
         return Ok(sys);
     }
@@ -930,8 +934,9 @@ pub fn reduced_parameter_derivative(
                 return Ok(None);
             }
             let (dk, dm) = elements_parameter_derivative(model, parameter, &ids, &sub.dofs, mass)
-                .map_err(|e| {
-                ReductionError::Model(format!("substructure `{}`: {e}", sub.name))
+                .map_err(|source| ReductionError::Assembly {
+                substructure: sub.name.clone(),
+                source,
             })?;
             Ok(Some((
                 reduced.project_component(k, &dk),

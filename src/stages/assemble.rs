@@ -43,7 +43,7 @@ impl TypedStage for Assemble {
 
     fn run(p: &Params, inputs: &StageInputs) -> Result<StageOutputs, StageError> {
         let model = mesh_from_artefact(inputs.require("mesh")?)?;
-        let (sys, info) = assemble_model(&model, p.mass).map_err(StageError::failed)?;
+        let (sys, info) = assemble_model(&model, p.mass).map_err(StageError::from_numerics(""))?;
         let mut a = matrices_to_artefact(&sys);
         // Per updating parameter, the assembled derivatives `dK__<name>`, `dM__<name>` (2.13).
         for param in &model.parameters {
@@ -52,14 +52,17 @@ impl TypedStage for Assemble {
                 .chars()
                 .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
             {
-                return Err(StageError::Failed(format!(
-                    "parameter name `{}` must use letters, digits, `_` and `-`",
-                    param.name
-                )));
+                return Err(StageError::input(
+                    "",
+                    format!(
+                        "parameter name `{}` must use letters, digits, `_` and `-`",
+                        param.name
+                    ),
+                ));
             }
         }
         let derivatives = parameter_derivatives(&model, &model.parameters, &sys.dofs, p.mass)
-            .map_err(StageError::failed)?;
+            .map_err(StageError::from_numerics(""))?;
         for (param, (dk, dm)) in model.parameters.iter().zip(&derivatives) {
             for (prefix, mat) in [("dK", dk), ("dM", dm)] {
                 a = a.with_table(

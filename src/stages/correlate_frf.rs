@@ -43,7 +43,7 @@ impl TypedStage for CorrelateFrf {
     fn run(_: &Params, inputs: &StageInputs) -> Result<StageOutputs, StageError> {
         let measured = frf_from_artefact(inputs.require("measured")?)?;
         let predicted = frf_from_artefact(inputs.require("predicted")?)?;
-        let c = correlate(&measured, &predicted).map_err(StageError::failed)?;
+        let c = correlate(&measured, &predicted).map_err(StageError::from_numerics(""))?;
         Ok(StageOutputs::from([(
             "correlation".to_string(),
             correlation_to_artefact(&c),

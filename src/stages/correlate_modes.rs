@@ -135,22 +135,25 @@ impl TypedStage for CorrelateModes {
             .filter_map(|(i, d)| at.get(d).map(|j| (i, *j)))
             .collect();
         if rows.is_empty() {
-            return Err(StageError::Failed(format!(
-                "the two mode sets share no DOF: reference has {} (first {}), predicted {} (first {}); \
+            return Err(StageError::input(
+                "",
+                format!(
+                    "the two mode sets share no DOF: reference has {} (first {}), predicted {} (first {}); \
                  expand a reduced model's modes to physical DOFs or take both from the same mesh",
-                reference.dofs.len(),
-                reference
-                    .dofs
-                    .first()
-                    .map(|d| d.to_string())
-                    .unwrap_or_default(),
-                predicted.dofs.len(),
-                predicted
-                    .dofs
-                    .first()
-                    .map(|d| d.to_string())
-                    .unwrap_or_default(),
-            )));
+                    reference.dofs.len(),
+                    reference
+                        .dofs
+                        .first()
+                        .map(|d| d.to_string())
+                        .unwrap_or_default(),
+                    predicted.dofs.len(),
+                    predicted
+                        .dofs
+                        .first()
+                        .map(|d| d.to_string())
+                        .unwrap_or_default(),
+                ),
+            ));
         }
         let ref_hz = reference.modes.frequencies_hz();
         let pred_hz = predicted.modes.frequencies_hz();
@@ -160,14 +163,17 @@ impl TypedStage for CorrelateModes {
         };
         let ref_rigid = reference.modes.rigid_body_modes.min(kept);
         if kept == ref_rigid {
-            return Err(StageError::Failed(format!(
-                "no elastic reference mode to compare{}: the reference has {} modes, {} of them rigid-body modes",
-                p.max_freq_hz
-                    .map(|f| format!(" below max_freq_hz = {f} Hz"))
-                    .unwrap_or_default(),
-                ref_hz.len(),
-                reference.modes.rigid_body_modes
-            )));
+            return Err(StageError::input(
+                "max_freq_hz",
+                format!(
+                    "no elastic reference mode to compare{}: the reference has {} modes, {} of them rigid-body modes",
+                    p.max_freq_hz
+                        .map(|f| format!(" below max_freq_hz = {f} Hz"))
+                        .unwrap_or_default(),
+                    ref_hz.len(),
+                    reference.modes.rigid_body_modes
+                ),
+            ));
         }
         let a = Mat::from_fn(rows.len(), kept, |r, j| {
             reference.modes.shapes[(rows[r].0, j)]

@@ -6,8 +6,8 @@ use crate::artefact::ArtefactKind;
 use crate::artefact::kinds::{frf_to_artefact, matrices_from_artefact, modes_from_artefact};
 use crate::core::DofId;
 use crate::frf::{
-    DirectDamping, FrfSet, ModalDamping, Quantity, direct_receptance, frequency_lines,
-    modal_receptance,
+    DirectDamping, FrfSet, ModalDamping, Quantity, direct_receptance, frequency_line_count,
+    frequency_lines, modal_receptance,
 };
 use crate::pipeline::{
     CheckContext, ParamIssue, PortSpec, StageError, StageInputs, StageOutputs, TypedStage,
@@ -303,14 +303,31 @@ impl TypedStage for FrfSynthesise {
                 ));
             }
         }
-        if issues.is_empty() && p.lines().len() > MAX_LINES {
-            issues.push(ParamIssue::at(
-                "step_hz",
-                format!(
-                    "{} lines exceed the limit of {MAX_LINES}; widen the step",
-                    p.lines().len()
-                ),
-            ));
+        if let (true, Some([a, b]), Some(step)) = (issues.is_empty(), p.band_hz, p.step_hz) {
+            // Counted before anything is allocated: a step of 1e-3 Hz over 1 MHz is 1e9 lines.
+            match frequency_line_count(a, b, step) {
+                None => issues.push(ParamIssue::at(
+                    "step_hz",
+                    format!(
+                        "{step} Hz is too small to separate lines near {b} Hz in double precision; widen the step"
+                    ),
+                )),
+                Some(n) if n > MAX_LINES as f64 => issues.push(ParamIssue::at(
+                    "step_hz",
+                    format!(
+                        "[{a}, {b}] Hz at {step} Hz is {n:.3e} lines, above the limit of {MAX_LINES}; widen the step or narrow the band"
+                    ),
+                )),
+                Some(_) => {}
+            }
+        }
+        if let Some(l) = &p.lines_hz {
+            if l.len() > MAX_LINES {
+                issues.push(ParamIssue::at(
+                    "lines_hz",
+                    format!("{} lines exceed the limit of {MAX_LINES}", l.len()),
+                ));
+            }
         }
         let values = match &p.damping {
             Damping::Structural(v) | Damping::Viscous(v) => v.values(),
@@ -362,12 +379,21 @@ impl TypedStage for FrfSynthesise {
                 let m = modes_from_artefact(inputs.require("modes")?)?;
                 let pairs = FrfSet::all_pairs(&with_components(&m.dofs), &p.excitations);
                 let mut modes = m.modes;
+                if modes.is_empty() {
+                    return Err(StageError::input(
+                        "",
+                        "the `modes` input holds no mode, so every modal FRF would be zero; compute modes upstream (raise `max_freq_hz` or give `count`)",
+                    ));
+                }
                 if let Some(c) = p.mode_count {
                     if c > modes.len() {
-                        return Err(StageError::Failed(format!(
-                            "mode_count {c} exceeds the {} modes given; compute more modes upstream",
-                            modes.len()
-                        )));
+                        return Err(StageError::input(
+                            "mode_count",
+                            format!(
+                                "{c} exceeds the {} modes given; compute more modes upstream",
+                                modes.len()
+                            ),
+                        ));
                     }
                     modes.eigenvalues.truncate(c);
                     modes.residuals.truncate(c);
@@ -376,15 +402,15 @@ impl TypedStage for FrfSynthesise {
                 let damping = p
                     .damping
                     .modal_for(modes.len())
-                    .map_err(|e| StageError::Failed(format!("damping: {e}")))?;
+                    .map_err(StageError::input_at("damping"))?;
                 modal_receptance(&modes, &m.dofs, &damping, &pairs, &lines, p.quantity)
-                    .map_err(StageError::failed)?
+                    .map_err(StageError::from_numerics(""))?
             }
             _ => {
                 let sys = matrices_from_artefact(inputs.require("model")?)?;
                 let pairs = FrfSet::all_pairs(&with_components(&sys.dofs), &p.excitations);
                 direct_receptance(&sys, &p.damping.direct(), &pairs, &lines, p.quantity)
-                    .map_err(StageError::failed)?
+                    .map_err(StageError::from_numerics(""))?
             }
         };
         Ok(StageOutputs::from([(

@@ -153,18 +153,22 @@ impl TypedStage for LocaliseEigensensitivity {
             (_, Some(n), _) => ModeChoice::Elastic(n),
             (_, _, Some(b)) => ModeChoice::Band(b),
             _ => {
-                return Err(StageError::Failed(
-                    "modes: give one of `modes`, `elastic_modes`, `band_hz`".into(),
+                return Err(StageError::input(
+                    "modes",
+                    "give one of `modes`, `elastic_modes`, `band_hz`",
                 ));
             }
         };
-        let map =
-            eigenvalue_map(&model, candidates, &choice, p.mass).map_err(StageError::failed)?;
+        let map = eigenvalue_map(&model, candidates, &choice, p.mass)
+            .map_err(StageError::from_numerics("modes"))?;
         if map.modes.len() > MAX_MODES {
-            return Err(StageError::Failed(format!(
-                "band_hz: {} modes lie in the band; narrow it to at most {MAX_MODES}",
-                map.modes.len()
-            )));
+            return Err(StageError::input(
+                "band_hz",
+                format!(
+                    "{} modes lie in the band; narrow it to at most {MAX_MODES}",
+                    map.modes.len()
+                ),
+            ));
         }
         let title = p.plot.title.clone().unwrap_or_else(|| {
             "Eigenvalue sensitivity phi_i d(lambda_r)/d(phi_i) / max per mode".to_string()

@@ -99,7 +99,7 @@ impl Candidates {
                 element_candidates(model, &kind.kind(), &sets)
             }
         }
-        .map_err(StageError::failed)
+        .map_err(StageError::from_numerics("candidates"))
     }
 
     fn describe(&self) -> String {
@@ -238,10 +238,13 @@ impl PlotParams {
                 .get(s)
                 .map(|ids| ids.iter().copied().collect())
                 .ok_or_else(|| {
-                    StageError::Failed(format!(
-                        "plot.highlight_set: `{s}` is not a set of the model (sets: {})",
-                        model.sets.keys().cloned().collect::<Vec<_>>().join(", ")
-                    ))
+                    StageError::input(
+                        "plot.highlight_set",
+                        format!(
+                            "`{s}` is not a set of the model (sets: {})",
+                            model.sets.keys().cloned().collect::<Vec<_>>().join(", ")
+                        ),
+                    )
                 }),
         }
     }
@@ -496,8 +499,8 @@ impl TypedStage for LocaliseLeverage {
         };
         let n = candidates.len();
         let start = std::time::Instant::now();
-        let map =
-            leverage_map(&model, candidates, &measured, &settings).map_err(StageError::failed)?;
+        let map = leverage_map(&model, candidates, &measured, &settings)
+            .map_err(StageError::from_numerics(""))?;
         tracing::info!(
             "leverage of {n} candidates over {} lines in {:.2} s",
             map.chosen.len(),

@@ -141,14 +141,17 @@ impl TypedStage for MeshParameters {
             };
             let value = model
                 .parameter_value(&param)
-                .map_err(|e| StageError::Failed(format!("declare `{}`: {e}", d.name)))?;
+                .map_err(|e| StageError::input("declare", format!("`{}`: {e}", d.name)))?;
             param.lower = d.lower.unwrap_or(0.1 * value);
             param.upper = d.upper.unwrap_or(10.0 * value);
             if !(param.lower <= param.upper) {
-                return Err(StageError::Failed(format!(
-                    "declare `{}`: lower bound {:e} above upper bound {:e}",
-                    d.name, param.lower, param.upper
-                )));
+                return Err(StageError::input(
+                    "declare",
+                    format!(
+                        "`{}`: lower bound {:e} above upper bound {:e}",
+                        d.name, param.lower, param.upper
+                    ),
+                ));
             }
             model.parameters.retain(|q| q.name != param.name);
             model.parameters.push(param);
@@ -160,22 +163,25 @@ impl TypedStage for MeshParameters {
                 .find(|q| q.name == name)
                 .cloned()
                 .ok_or_else(|| {
-                    StageError::Failed(format!(
-                        "`{name}` is not a parameter of the model; declared: {}",
-                        model
-                            .parameters
-                            .iter()
-                            .map(|q| q.name.as_str())
-                            .collect::<Vec<_>>()
-                            .join(", ")
-                    ))
+                    StageError::input(
+                        "",
+                        format!(
+                            "`{name}` is not a parameter of the model; declared: {}",
+                            model
+                                .parameters
+                                .iter()
+                                .map(|q| q.name.as_str())
+                                .collect::<Vec<_>>()
+                                .join(", ")
+                        ),
+                    )
                 })
         };
         let set = |name: &str, value: f64, model: &mut crate::model::Model| {
             let param = find(name, model)?;
             model
                 .set_parameter_value(&param, value)
-                .map_err(|e| StageError::Failed(format!("`{name}`: {e}")))
+                .map_err(|e| StageError::input("", format!("`{name}`: {e}")))
         };
         for (name, v) in &p.values {
             set(name, *v, &mut model)?;
@@ -184,7 +190,7 @@ impl TypedStage for MeshParameters {
             let param = find(name, &model)?;
             let v = model
                 .parameter_value(&param)
-                .map_err(|e| StageError::Failed(format!("`{name}`: {e}")))?;
+                .map_err(|e| StageError::input("", format!("`{name}`: {e}")))?;
             set(name, v * f, &mut model)?;
         }
         if let Some(result) = inputs.get("result") {

@@ -257,17 +257,18 @@ impl TypedStage for ModelLumped {
 
     fn run(p: &Params, _: &StageInputs) -> Result<StageOutputs, StageError> {
         let model = p.model();
-        let sys = assemble_lumped(&model).map_err(StageError::failed)?;
+        let sys = assemble_lumped(&model).map_err(StageError::input_at(""))?;
         let mut a = matrices_to_artefact(&sys);
         let mut meta = Vec::new();
         for q in &p.parameters {
             let Some((target, value)) = q.target(p) else {
-                return Err(StageError::Failed(format!(
-                    "parameter `{}` names no mass or spring",
-                    q.name
-                )));
+                return Err(StageError::input(
+                    "parameters",
+                    format!("parameter `{}` names no mass or spring", q.name),
+                ));
             };
-            let (dk, dm) = lumped_derivative(&model, target).map_err(StageError::failed)?;
+            let (dk, dm) =
+                lumped_derivative(&model, target).map_err(StageError::input_at("parameters"))?;
             a = a
                 .with_table(&format!("dK__{}", q.name), triplet_table(&dk), Storage::Ipc)
                 .with_table(&format!("dM__{}", q.name), triplet_table(&dm), Storage::Ipc);

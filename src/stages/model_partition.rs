@@ -108,7 +108,11 @@ impl TypedStage for ModelPartition {
             (_, Some(k)) => Partition::automatic(&model, k, p.mass),
             _ => Partition::from_properties(&model, p.mass),
         }
-        .map_err(StageError::failed)?;
+        .map_err(StageError::from_numerics(match (&p.sets, p.parts) {
+            (Some(_), _) => "sets",
+            (_, Some(_)) => "parts",
+            _ => "",
+        }))?;
         Ok(StageOutputs::from([(
             "partition".to_string(),
             partition_to_artefact(&part),

@@ -103,10 +103,13 @@ impl TypedStage for ModesStage {
         }
         let sys = matrices_from_artefact(inputs.require("model")?)?;
         if sys.n() > DENSE_LIMIT && p.count.is_none() && p.max_freq_hz.is_none() {
-            return Err(StageError::Failed(format!(
-                "the model has {} DOFs: give `count` or `max_freq_hz` (all modes only up to {DENSE_LIMIT} DOFs)",
-                sys.n()
-            )));
+            return Err(StageError::input(
+                "",
+                format!(
+                    "the model has {} DOFs: give `count` or `max_freq_hz` (all modes only up to {DENSE_LIMIT} DOFs)",
+                    sys.n()
+                ),
+            ));
         }
         let selection = match (p.count, p.max_freq_hz) {
             (Some(c), _) => ModeSelection::Count(c),
@@ -126,12 +129,35 @@ impl TypedStage for ModesStage {
             ..Default::default()
         };
         let (modes, _) = lowest_modes(&sys.k, &sys.m, &sys.dofs, selection, &params)
-            .map_err(StageError::failed)?;
+            .map_err(StageError::from_numerics(""))?;
+        if modes.is_empty() {
+            // Say where the first mode lies, so the limit can be set right.
+            let (first, _) =
+                lowest_modes(&sys.k, &sys.m, &sys.dofs, ModeSelection::Count(1), &params)
+                    .map_err(StageError::from_numerics(""))?;
+            return Err(no_mode_below(p, &first.frequencies_hz()));
+        }
         Ok(StageOutputs::from([(
             "modes".to_string(),
             modes_to_artefact(&sys.dofs, &modes),
         )]))
     }
+}
+
+/// The error for a frequency limit below the first mode: an empty basis would make every modal
+/// FRF downstream zero.
+fn no_mode_below(p: &Params, first_hz: &[f64]) -> StageError {
+    StageError::input(
+        "max_freq_hz",
+        format!(
+            "no mode lies below {} Hz{}; raise the limit or give `count`",
+            p.max_freq_hz.unwrap_or(0.0),
+            first_hz
+                .first()
+                .map(|f| format!(" (the lowest is at {f:.6} Hz)"))
+                .unwrap_or_default()
+        ),
+    )
 }
 
 /// Modes of a reduced model (dense, or sparse beyond 2000 coordinates), expanded to every
@@ -143,8 +169,16 @@ fn run_reduced(p: &Params, a: &crate::artefact::Artefact) -> Result<StageOutputs
         (_, Some(f)) => ModeSelection::BelowHz(f),
         _ => ModeSelection::All,
     };
-    let modes = r.modes(selection).map_err(StageError::failed)?;
-    let (dofs, expanded) = r.expand_modes(&modes).map_err(StageError::failed)?;
+    let modes = r.modes(selection).map_err(StageError::from_numerics(""))?;
+    if modes.is_empty() {
+        let first = r
+            .modes(ModeSelection::Count(1))
+            .map_err(StageError::from_numerics(""))?;
+        return Err(no_mode_below(p, &first.frequencies_hz()));
+    }
+    let (dofs, expanded) = r
+        .expand_modes(&modes)
+        .map_err(StageError::from_numerics(""))?;
     let (phys, modal) = r.size();
     let a = modes_to_artefact(&dofs, &expanded)
         .with_meta("reduced_coords", r.n().into())

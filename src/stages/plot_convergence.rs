@@ -98,10 +98,13 @@ impl TypedStage for PlotConvergence {
         let c = convergence_from_artefact(inputs.require("result")?)?;
         let known = || c.parameters.join(", ");
         let unknown = |name: &str, field: &str| {
-            StageError::Failed(format!(
-                "`{field}` names `{name}`, which the result does not hold; its parameters are {}",
-                known()
-            ))
+            StageError::input(
+                field,
+                format!(
+                    "names `{name}`, which the result does not hold; its parameters are {}",
+                    known()
+                ),
+            )
         };
         let chosen: Vec<usize> = match &p.parameters {
             Some(list) => list
@@ -114,11 +117,14 @@ impl TypedStage for PlotConvergence {
                 })
                 .collect::<Result<_, _>>()?,
             None if c.parameters.len() > MAX_PARAMETERS => {
-                return Err(StageError::Failed(format!(
-                    "the result holds {} parameters; name at most {MAX_PARAMETERS} in `parameters` ({})",
-                    c.parameters.len(),
-                    known()
-                )));
+                return Err(StageError::input(
+                    "parameters",
+                    format!(
+                        "the result holds {} parameters; name at most {MAX_PARAMETERS} in `parameters` ({})",
+                        c.parameters.len(),
+                        known()
+                    ),
+                ));
             }
             None => (0..c.parameters.len()).collect(),
         };
@@ -130,7 +136,7 @@ impl TypedStage for PlotConvergence {
             .map(|&q| {
                 let scale = if p.relative { c.initial[q] } else { 1.0 };
                 if scale == 0.0 {
-                    return Err(StageError::Failed(format!(
+                    return Err(StageError::input("relative", format!(
                         "parameter `{}` starts at 0, so it cannot be drawn relative to its initial value; set `relative: false`",
                         c.parameters[q]
                     )));

@@ -141,7 +141,7 @@ impl TypedStage for PlotFrf {
                     .collect::<Result<Vec<_>, _>>()
             })
             .transpose()
-            .map_err(StageError::Failed)?;
+            .map_err(StageError::input_at("pairs"))?;
         let opts = FrfPlotOptions {
             title: p.title.clone(),
             width_px: p.width_px,

@@ -157,11 +157,11 @@ pub fn run(
 ) -> Result<StageOutputs, StageError> {
     let model = mesh_from_artefact(inputs.require("mesh")?)?;
     let part = partition_from_artefact(inputs.require("partition")?)?;
-    check_method(&part, &method).map_err(StageError::failed)?;
+    check_method(&part, &method).map_err(StageError::from_numerics(""))?;
     let matrices = |sub: &Substructure| -> Result<SystemMatrices, StageError> {
-        substructure_matrices(&model, sub, mass).map_err(StageError::failed)
+        substructure_matrices(&model, sub, mass).map_err(StageError::from_numerics(""))
     };
-    let interface_failed = |e: ReductionError| StageError::Failed(format!("interface modes: {e}"));
+    let interface_failed = |e: ReductionError| StageError::numerical_in("interface modes")(e);
     // Craig-Bampton on interface modes: the junction condensations choose the modes, then each
     // component is reduced on them alone (its part key holds its rows of the basis), so no
     // component ever holds a junction-sized basis.
@@ -172,7 +172,7 @@ pub fn run(
                 .par_iter()
                 .map(|sub| {
                     junction_condensation(&sub.name, &matrices(sub)?, &sub.junction)
-                        .map_err(StageError::failed)
+                        .map_err(StageError::from_numerics(""))
                 })
                 .collect::<Result<Vec<_>, StageError>>()?;
             interface_basis_from_condensations(&part.junction, condensations, selection)
@@ -188,7 +188,7 @@ pub fn run(
             let rows = match &lean_interface {
                 Some(psi) => Some(
                     interface_rows(&part.junction, &sub.junction, psi.as_ref())
-                        .map_err(StageError::failed)?,
+                        .map_err(StageError::from_numerics(""))?,
                 ),
                 None => None,
             };
@@ -216,7 +216,7 @@ pub fn run(
                         }
                         None => reduce_assembled(sub, &sys, &method),
                     }
-                    .map_err(StageError::failed)?;
+                    .map_err(StageError::from_numerics(""))?;
                     let a = component_to_artefact(&c);
                     computed = Some(c);
                     Ok(a)
@@ -236,11 +236,11 @@ pub fn run(
         (None, None) => None,
     };
     let r = ReducedModel::synthesise_with_interface(method, part.junction.clone(), components, psi)
-        .map_err(StageError::failed)?;
+        .map_err(StageError::from_numerics(""))?;
     let mut derivs = Vec::new();
     for param in &model.parameters {
         let (dk, dm) = reduced_parameter_derivative(&model, &part, &r, param, mass)
-            .map_err(|e| StageError::Failed(format!("parameter `{}`: {e}", param.name)))?;
+            .map_err(StageError::from_numerics("parameters"))?;
         derivs.push((param.name.clone(), dk, dm));
     }
     let a: Artefact = reduced_to_artefact(&r, &derivs);

@@ -550,7 +550,8 @@ impl TypedStage for Update {
                 let fe = if fixed {
                     FeModel::without_parameters(mesh, p.mass)
                 } else {
-                    FeModel::new(mesh, &p.parameters, p.mass).map_err(StageError::failed)?
+                    FeModel::new(mesh, &p.parameters, p.mass)
+                        .map_err(StageError::from_numerics(""))?
                 };
                 match inputs.get("partition") {
                     Some(part) => {
@@ -587,27 +588,32 @@ impl TypedStage for Update {
                 if fixed {
                     params.clear();
                 } else if params.is_empty() {
-                    return Err(StageError::Failed(
-                        "the `model` input declares no parameters: add `parameters:` to its model.lumped stage".into(),
+                    return Err(StageError::input(
+                        "parameters",
+                        "the `model` input declares no parameters: add `parameters:` to its model.lumped stage",
                     ));
                 }
                 if !p.parameters.is_empty() {
                     let known: Vec<String> = params.iter().map(|q| q.0.name.clone()).collect();
                     for name in &p.parameters {
                         if !known.contains(name) {
-                            return Err(StageError::Failed(format!(
-                                "parameter `{name}` is not a parameter of the model (it has: {})",
-                                known.join(", ")
-                            )));
+                            return Err(StageError::input(
+                                "parameters",
+                                format!(
+                                    "`{name}` is not a parameter of the model (it has: {})",
+                                    known.join(", ")
+                                ),
+                            ));
                         }
                     }
                     params.retain(|q| p.parameters.contains(&q.0.name));
                 }
-                Box::new(LinearModel::new(sys, params).map_err(StageError::failed)?)
+                Box::new(LinearModel::new(sys, params).map_err(StageError::from_numerics(""))?)
             }
             _ => {
-                return Err(StageError::Failed(
-                    "connect exactly one of `mesh` and `model`".into(),
+                return Err(StageError::input(
+                    "",
+                    "connect exactly one of the inputs `mesh` and `model`",
                 ));
             }
         };
@@ -638,9 +644,10 @@ impl TypedStage for Update {
                         .iter()
                         .map(|d| {
                             index.get(d).copied().ok_or_else(|| {
-                                StageError::Failed(format!(
-                                    "measured_dofs: {d} is not a DOF of the measured modes"
-                                ))
+                                StageError::input(
+                                    "measured_dofs",
+                                    format!("{d} is not a DOF of the measured modes"),
+                                )
                             })
                         })
                         .collect::<Result<_, _>>()?;
@@ -658,7 +665,12 @@ impl TypedStage for Update {
             }
             None => None,
         };
-        let missing = |port: &str| StageError::Failed(format!("input `{port}` is not connected"));
+        let missing = |port: &str| {
+            StageError::input(
+                "",
+                format!("the method needs the input `{port}`; connect it"),
+            )
+        };
         let top_hz = measured
             .as_ref()
             .and_then(|m| m.freqs_hz.last().copied())
@@ -730,10 +742,10 @@ impl TypedStage for Update {
         phases.push(method);
         let phases: Vec<&dyn UpdateMethod> = phases.iter().map(|m| m.as_ref()).collect();
         let history = run_phases(&phases, model.as_ref(), &start, p.max_iterations)
-            .map_err(StageError::failed)?;
+            .map_err(StageError::from_numerics(""))?;
         let updated = model
             .evaluate(&history.final_values)
-            .map_err(StageError::failed)?;
+            .map_err(StageError::from_numerics(""))?;
         let name = match p.method {
             Method::Pc => "pc",
             Method::Rfm => "rfm",
@@ -768,13 +780,16 @@ fn move_to_sensitive_regions(
     let mut moved = Vec::new();
     for name in &ss.parameters {
         let i = names.iter().position(|n| n == name).ok_or_else(|| {
-            StageError::Failed(format!(
-                "sensitive_start.parameters: `{name}` is not an updated parameter (they are: {})",
-                names.join(", ")
-            ))
+            StageError::input(
+                "sensitive_start.parameters",
+                format!(
+                    "`{name}` is not an updated parameter (they are: {})",
+                    names.join(", ")
+                ),
+            )
         })?;
         let found = sensitive_start(model, &start, i, &modes, ss.points_per_decade)
-            .map_err(StageError::failed)?;
+            .map_err(StageError::from_numerics(""))?;
         tracing::info!(
             "sensitive start: {name} {:e} -> {:e} (unity sensitivity {:.3e} -> {:.3e})",
             found.before,
@@ -804,26 +819,28 @@ fn identify_damping(
 ) -> Result<StageOutputs, StageError> {
     let (state, evaluated) = model
         .modal_state(&model.initial_values(), basis)
-        .map_err(StageError::failed)?;
+        .map_err(StageError::from_numerics(""))?;
     let m = state.modes.len();
     let (kind, initial) = match p.damping.modal_for(m) {
         Ok(ModalDamping::Structural(v)) => (DampingKind::Structural, v),
         Ok(ModalDamping::Viscous(v)) => (DampingKind::Viscous, v),
         Ok(ModalDamping::None) => {
-            return Err(StageError::Failed(
-                "damping identification needs a starting modal damping in `damping`".into(),
+            return Err(StageError::input(
+                "damping",
+                "damping identification needs a starting modal damping in `damping`",
             ));
         }
         Err(e) => {
-            return Err(StageError::Failed(format!(
-                "damping (a modal basis of {m} modes): {e}"
-            )));
+            return Err(StageError::input(
+                "damping",
+                format!("(a modal basis of {m} modes): {e}"),
+            ));
         }
     };
     let natural = state.modes.frequencies_hz();
     let (lo, hi) = match (measured.freqs_hz.first(), measured.freqs_hz.last()) {
         (Some(&lo), Some(&hi)) => (lo, hi),
-        _ => return Err(StageError::Failed("the measured FRFs have no lines".into())),
+        _ => return Err(StageError::input("", "the measured FRFs have no lines")),
     };
     let modes: Vec<usize> = if p.damping_modes.is_empty() {
         (0..m)
@@ -847,18 +864,19 @@ fn identify_damping(
             subset_kappa: p.subset_kappa(),
         },
     )
-    .map_err(|e| StageError::Failed(format!("damping_modes: {e}")))?;
+    .map_err(StageError::input_at("damping_modes"))?;
     let system = match evaluated {
         Some(ev) => ev.system,
         None => {
             model
                 .evaluate(&model.initial_values())
-                .map_err(StageError::failed)?
+                .map_err(StageError::from_numerics(""))?
                 .system
         }
     };
     let parameters = DampingParameters::new(&method, system);
-    let history = run(&method, &parameters, p.max_iterations).map_err(StageError::failed)?;
+    let history =
+        run(&method, &parameters, p.max_iterations).map_err(StageError::from_numerics(""))?;
     let identified: Vec<IdentifiedDamping> = modes
         .iter()
         .zip(history.parameters.iter().zip(&history.final_values))
@@ -884,7 +902,7 @@ fn identify_damping(
     );
     let system = parameters
         .evaluate(&history.final_values)
-        .map_err(StageError::failed)?
+        .map_err(StageError::from_numerics(""))?
         .system;
     Ok(StageOutputs::from([
         ("result".to_string(), result),

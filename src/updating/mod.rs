@@ -133,6 +133,10 @@ pub struct UpdateHistory {
     pub final_values: Vec<f64>,
     /// Why it stopped.
     pub stop: StopReason,
+    /// When the last iterate's merit fell below an earlier one's and the stop rule was not met,
+    /// the iteration whose values are returned as `final_values` instead (the best seen).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub returned_iteration: Option<usize>,
 }
 
 /// Applies a relative step with the bounds: `φ (1 + Δ)` clamped to `[lower, upper]`; returns the
@@ -249,12 +253,15 @@ pub fn run_from(
         record.relative_change = vec![0.0; n];
         record.active = vec![false; n];
         iterations.push(record);
-        Ok(UpdateHistory {
+        let mut history = UpdateHistory {
             parameters: params.clone(),
             iterations,
             final_values: values,
             stop,
-        })
+            returned_iteration: None,
+        };
+        keep_best_iterate(method, &mut history);
+        Ok(history)
     };
     for it in 0..max_iterations {
         if let Some(stop) = current.stop {
@@ -316,6 +323,54 @@ pub fn run_from(
     }
     let stop = current.stop.unwrap_or(StopReason::MaxIterations);
     finish(current.record, iterations, values, stop)
+}
+
+/// An update that did not meet its stop rule (iterations exhausted, or stalled) and whose last
+/// iterate has a lower merit than an earlier one returns the best iterate's values instead,
+/// with a warning: a model worse than the one the user started from must never be handed on
+/// silently as "updated".
+fn keep_best_iterate(method: &dyn UpdateMethod, history: &mut UpdateHistory) {
+    if matches!(
+        history.stop,
+        StopReason::Converged | StopReason::NothingToUpdate
+    ) {
+        return;
+    }
+    let merits: Vec<f64> = history
+        .iterations
+        .iter()
+        .filter_map(|r| method.merit(r))
+        .collect();
+    if merits.len() != history.iterations.len() {
+        return;
+    }
+    let (Some(&last), Some(&first)) = (merits.last(), merits.first()) else {
+        return;
+    };
+    let best = (0..merits.len())
+        .max_by(|&a, &b| merits[a].total_cmp(&merits[b]).then(b.cmp(&a)))
+        .unwrap_or(0);
+    if !(merits[best] > last) {
+        return;
+    }
+    let record = &history.iterations[best];
+    if last < first {
+        tracing::warn!(
+            "the update ended ({:?}) worse than it began: merit {last:.4} against {first:.4} at the start; returning iteration {} (merit {:.4}) instead of the last iterate",
+            history.stop,
+            record.iteration,
+            merits[best]
+        );
+    } else {
+        tracing::warn!(
+            "the update ended ({:?}) below its best iterate: merit {last:.4} against {:.4} at iteration {}; returning that iteration",
+            history.stop,
+            merits[best],
+            record.iteration
+        );
+    }
+    history.final_values = record.values.clone();
+    history.returned_iteration = Some(record.iteration);
 }
 
 #[cfg(test)]

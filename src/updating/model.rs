@@ -40,6 +40,15 @@ pub enum UpdatingError {
     /// The model could not be rebuilt at some parameter values.
     #[error("the model at the current parameter values: {0}")]
     Model(String),
+    /// A parameter's value could not be read or set.
+    #[error("the model at the current parameter values: {0}")]
+    Parameter(#[from] crate::model::parameters::ParameterValueError),
+    /// The model could not be assembled or differentiated.
+    #[error("the model at the current parameter values: {0}")]
+    Assembly(#[from] crate::fe::model_assembly::ModelAssemblyError),
+    /// A substructure could not be reduced again.
+    #[error("the reduced model at the current parameter values: {0}")]
+    Reduction(#[from] Box<crate::reduction::ReductionError>),
     /// The eigen solution failed.
     #[error("modal analysis: {0}")]
     Eigen(#[from] crate::eigen::EigenError),
@@ -55,6 +64,27 @@ pub enum UpdatingError {
     /// The method's settings are inconsistent.
     #[error("{0}")]
     Settings(String),
+}
+
+impl From<crate::reduction::ReductionError> for UpdatingError {
+    fn from(e: crate::reduction::ReductionError) -> Self {
+        UpdatingError::Reduction(Box::new(e))
+    }
+}
+
+impl crate::core::InputFault for UpdatingError {
+    fn is_input(&self) -> bool {
+        match self {
+            UpdatingError::Model(_) => false,
+            UpdatingError::Parameter(e) => e.is_input(),
+            UpdatingError::Assembly(e) => e.is_input(),
+            UpdatingError::Reduction(e) => e.is_input(),
+            UpdatingError::Eigen(e) => e.is_input(),
+            UpdatingError::Modal(e) => e.is_input(),
+            UpdatingError::Direct(e) => e.is_input(),
+            UpdatingError::Data(_) | UpdatingError::Settings(_) => true,
+        }
+    }
 }
 
 /// A model evaluated at parameter values.
@@ -138,9 +168,7 @@ impl FeModel {
             .map(|p| {
                 Ok(UpdatingParameter {
                     name: p.name.clone(),
-                    initial: model
-                        .parameter_value(p)
-                        .map_err(|e| UpdatingError::Model(e.to_string()))?,
+                    initial: model.parameter_value(p).map_err(UpdatingError::from)?,
                     lower: p.lower,
                     upper: p.upper,
                 })
@@ -171,7 +199,7 @@ impl FeModel {
         for (p, &v) in self.parameters.iter().zip(values) {
             model
                 .set_parameter_value(p, v)
-                .map_err(|e| UpdatingError::Model(e.to_string()))?;
+                .map_err(UpdatingError::from)?;
         }
         Ok(model)
     }
@@ -184,10 +212,9 @@ impl ParametricModel for FeModel {
 
     fn evaluate(&self, values: &[f64]) -> Result<Evaluated, UpdatingError> {
         let model = self.model_at(values)?;
-        let (system, _) =
-            assemble_model(&model, self.mass).map_err(|e| UpdatingError::Model(e.to_string()))?;
+        let (system, _) = assemble_model(&model, self.mass).map_err(UpdatingError::from)?;
         let derivatives = parameter_derivatives(&model, &self.parameters, &system.dofs, self.mass)
-            .map_err(|e| UpdatingError::Model(e.to_string()))?;
+            .map_err(UpdatingError::from)?;
         Ok(Evaluated {
             system,
             derivatives,
@@ -340,7 +367,7 @@ impl ModalState {
         if let Some(r) = &self.reduced {
             return r
                 .expand(self.modes.shapes.as_ref(), dofs)
-                .map_err(|e| UpdatingError::Data(e.to_string()));
+                .map_err(|e| UpdatingError::Reduction(Box::new(e)));
         }
         let index = self.index();
         let rows: Vec<usize> = dofs
@@ -478,7 +505,7 @@ impl ReducedFeModel {
         values: &[f64],
     ) -> Result<std::sync::Arc<ReducedModel>, UpdatingError> {
         use std::sync::atomic::Ordering;
-        let err = |e: crate::reduction::ReductionError| UpdatingError::Model(e.to_string());
+        let err = |e: crate::reduction::ReductionError| UpdatingError::Reduction(Box::new(e));
         let previous = self
             .last
             .lock()
@@ -570,9 +597,7 @@ impl ParametricModel for ReducedFeModel {
         } else {
             selection
         };
-        let modes = reduced
-            .modes(selection)
-            .map_err(|e| UpdatingError::Model(e.to_string()))?;
+        let modes = reduced.modes(selection).map_err(UpdatingError::from)?;
         if modes.is_empty() {
             return Err(UpdatingError::Settings(
                 "the reduced model has no mode in the basis: raise the mode count or limit".into(),
@@ -591,7 +616,7 @@ impl ParametricModel for ReducedFeModel {
                     p,
                     self.fe.mass,
                 )
-                .map_err(|e| UpdatingError::Model(e.to_string()))?;
+                .map_err(UpdatingError::from)?;
                 let phi = modes.shapes.as_ref();
                 let pk = phi.transpose() * &dk * phi;
                 let pm = phi.transpose() * &dm * phi;

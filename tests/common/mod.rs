@@ -54,7 +54,7 @@ pub fn femu() -> std::process::Command {
 }
 
 /// `stage/port` directories under `root`, sorted.
-fn artefact_dirs(root: &Path) -> Vec<PathBuf> {
+pub fn artefact_dirs(root: &Path) -> Vec<PathBuf> {
     let mut out = Vec::new();
     let dirs = |p: &Path| -> Vec<PathBuf> {
         std::fs::read_dir(p)
