@@ -1,4 +1,4 @@
-//! The P-C's sensitivity sweep (THEORY §3): `∂H/∂φ` for every parameter, measured pair and
+//! The P-C's sensitivity sweep (docs/theory.md §3): `∂H/∂φ` for every parameter, measured pair and
 //! frequency line from a modal basis, the size by default — 100 modes (`2m`), 50
 //! parameters, 10 FRFs, 1000 lines (`cargo bench --bench sensitivity_sweep [modes params
 //! frfs lines]`). Prints the time, the rate of the flops actually done, and the rate a direct

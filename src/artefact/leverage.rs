@@ -1,4 +1,4 @@
-//! The error-localisation artefacts (THEORY §7), as tables a user can plot without femu.
+//! The error-localisation artefacts (docs/theory.md §7), as tables a user can plot without femu.
 //!
 //! | kind | tables (Parquet) | columns |
 //! |---|---|---|

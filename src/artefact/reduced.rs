@@ -1,4 +1,4 @@
-//! Typed views of the substructuring artefacts (THEORY §9).
+//! Typed views of the substructuring artefacts (docs/theory.md §9).
 //!
 //! | kind | tables (storage) | columns |
 //! |---|---|---|

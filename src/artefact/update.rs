@@ -1,7 +1,7 @@
 //! The `update_result` artefact: an updating run as tables a user can plot without femu —
 //! per iteration and parameter the value and relative change and whether it was updated, per
 //! iteration the correlation and the conditioning of `S`, its singular values and null-space
-//! directions (THEORY §11), and per parameter the initial and final values.
+//! directions (docs/theory.md §11), and per parameter the initial and final values.
 
 use super::{Artefact, ArtefactError, ArtefactKind, Column, Storage, Table};
 use crate::updating::UpdateHistory;

@@ -1,4 +1,4 @@
-//! FRF correlation coefficients (THEORY §4).
+//! FRF correlation coefficients (docs/theory.md §4).
 //!
 //! At a line `ω_k`, `x` stacks the measured FRFs and `a` the predicted ones. With `c = xᴴa`,
 //! `X = xᴴx`, `A = aᴴa`:

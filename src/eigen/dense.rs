@@ -1,4 +1,5 @@
-//! Dense generalised symmetric eigenproblem `K φ = λ M φ` for small models (THEORY §1, 1.7–1.12).
+//! Dense generalised symmetric eigenproblem `K φ = λ M φ` for small models
+//! (docs/theory.md §1, 1.7–1.12: (1.7), (1.8), (1.9), (1.10), (1.11), (1.12)).
 //!
 //! With a shift `σ = −10⁻⁶ median(K_jj/M_jj)` below every eigenvalue, `K − σM = L Lᵀ`
 //! (Cholesky) and the pencil becomes the standard symmetric problem `(L⁻¹ M L⁻ᵀ) y = ν y`,

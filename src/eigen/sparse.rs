@@ -1,4 +1,5 @@
-//! Lowest modes of large sparse models by shift-invert Lanczos (THEORY §1, 1.7–1.12).
+//! Lowest modes of large sparse models by shift-invert Lanczos (docs/theory.md §1, 1.7–1.12: (1.7),
+//! (1.8), (1.9), (1.10), (1.11), (1.12)).
 //!
 //! With a shift `σ` below the wanted eigenvalues, `A = K − σM` is factored once by sparse
 //! Cholesky ([`SpdFactor`]: `A = P L Lᵀ Pᵀ`, faer's AMD ordering and supernodal structure, our

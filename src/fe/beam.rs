@@ -47,7 +47,7 @@
 //! A [`Section::General`] section takes `A`, `I_y`, `I_z`, `J` and the shear coefficients directly
 //! (`None` = shear-rigid, Euler–Bernoulli, as a blank K1/K2 on Nastran's PBAR).
 //!
-//! **Derivatives** (THEORY §2): every entry of `K_ℓ`, `M_ℓ` is a rational function of
+//! **Derivatives** (docs/theory.md §2): every entry of `K_ℓ`, `M_ℓ` is a rational function of
 //! `E, G, ρ, nsm, A, I_y, I_z, J, I_p, 1/κ_y, 1/κ_z`. The local kernel is written once over a scalar
 //! type and evaluated either with `f64` or with dual numbers `a + b ε` (`ε² = 0`) seeded with the
 //! analytic derivatives of those quantities (the section's closed-form `∂A/∂d`, `∂I/∂d`, `∂J/∂d`,
@@ -1907,8 +1907,8 @@ mod tests {
 
     /// `φ ∂K/∂φ` and `φ ∂M/∂φ` of every parameter of every section, both mass kinds, on the short
     /// (shear-dominated, `Φ` up to ~0.5) and long skew elements, against central differences with
-    /// relative step 1e-6. Error measure: `max |φ (∂K − ΔK/Δφ)| / max |K|` (unity-based, THEORY §2);
-    /// truncation ~1e-12 and round-off ~1e-10, tolerance 1e-6.
+    /// relative step 1e-6. Error measure: `max |φ (∂K − ΔK/Δφ)| / max |K|` (unity-based,
+    /// docs/theory.md §2); truncation ~1e-12 and round-off ~1e-10, tolerance 1e-6.
     #[test]
     fn element_derivatives_match_central_differences() {
         let mut worst = 0.0f64;

@@ -4,7 +4,7 @@
 //! (SI) to dense element matrices in the basic system, with DOFs node-major and six per node in
 //! the order `ux uy uz rx ry rz`. Derivatives with respect to the element's parameters are exact
 //! (analytic) and returned beside the matrices, so assembly of `∂K/∂φ`, `∂M/∂φ` never rebuilds the
-//! model (THEORY §2).
+//! model (docs/theory.md §2).
 
 use faer::Mat;
 

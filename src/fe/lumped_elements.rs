@@ -1,5 +1,5 @@
 //! Lumped elements: six-DOF springs, scalar springs and concentrated (CONM2-like) masses, with
-//! their exact parameter derivatives (THEORY §2: linear in every parameter).
+//! their exact parameter derivatives (docs/theory.md §2: linear in every parameter).
 //!
 //! **Six-DOF spring** (like a CBUSH between coincident nodes, in the basic system): stiffness
 //! `k_c` in each direction `c ∈ {x, y, z, θx, θy, θz}`. Between nodes `a` and `b` DOF `c` of each gets

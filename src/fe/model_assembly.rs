@@ -266,8 +266,8 @@ pub fn element_dofs(
 }
 
 /// Assembles `K` and `M` of only the elements `ids` of `model` over the DOFs of their nodes
-/// (a substructure, THEORY §9): constraints of the model apply, DOFs without stiffness and mass
-/// in these elements are dropped. Element ids absent from the model are an error.
+/// (a substructure, docs/theory.md §9): constraints of the model apply, DOFs without stiffness and
+/// mass in these elements are dropped. Element ids absent from the model are an error.
 pub fn assemble_elements(
     model: &Model,
     ids: &[u64],
@@ -320,9 +320,10 @@ pub fn assemble_elements(
 }
 
 /// `∂K/∂φ` and `∂M/∂φ` of one updating parameter over the free DOFs `dofs` of an assembled
-/// system (THEORY §2, 2.13–2.16): only the elements of the parameter's set are evaluated, each by
-/// its kernel's exact derivative, so no part of the model is assembled again. For a CONM2 mass a
-/// translational direction is the (isotropic) mass `m`, a rotation its diagonal inertia.
+/// system (docs/theory.md §2, 2.13–2.16: (2.13), (2.14), (2.15), (2.16)): only the elements of the
+/// parameter's set are evaluated, each by its kernel's exact derivative, so no part of the model is
+/// assembled again. For a CONM2 mass a translational direction is the (isotropic) mass `m`, a
+/// rotation its diagonal inertia.
 pub fn parameter_derivative(
     model: &Model,
     parameter: &crate::model::Parameter,

@@ -50,13 +50,14 @@
 //! rotation of every node (frame independent, hence also diagonal in the basic system). `A` is the
 //! area of the (projected) flat element. Non-structural mass carries no rotary inertia.
 //!
-//! **Derivatives** (THEORY §2, thesis 2.13–2.16: analytic where the element allows, so assembled
-//! `∂K/∂φ`, `∂M/∂φ` need no rebuild). The local stiffness is kept in three parts: membrane +
-//! drilling `K_m ∝ E t`, shear `K_s ∝ E t` (× the tria3 stabilisation factor), bending
-//! `K_b ∝ E t³`, so `∂K/∂t = K_m/t + (∂ ln K_s/∂t) K_s + 3 K_b/t`, `∂K/∂E = K/E`, `∂K/∂ρ = 0`; the
-//! mass is `M = μ M_tr + I M_rot` with `∂μ/∂t = ρ`, `∂I/∂t = ρ t²/4`, `∂μ/∂ρ = t`, `∂I/∂ρ = t³/12`,
-//! `∂μ/∂nsm = 1`. All are exact; [`quad4_with_derivatives`] returns the matrices and any number of
-//! derivatives from one evaluation of the local parts.
+//! **Derivatives** (docs/theory.md §2, thesis 2.13–2.16: (2.13), (2.14), (2.15), (2.16); analytic
+//! where the element allows, so assembled `∂K/∂φ`, `∂M/∂φ` need no rebuild). The local stiffness is
+//! kept in three parts: membrane + drilling `K_m ∝ E t`, shear `K_s ∝ E t` (× the tria3
+//! stabilisation factor), bending `K_b ∝ E t³`, so `∂K/∂t = K_m/t + (∂ ln K_s/∂t) K_s + 3 K_b/t`,
+//! `∂K/∂E = K/E`, `∂K/∂ρ = 0`; the mass is `M = μ M_tr + I M_rot` with `∂μ/∂t = ρ`,
+//! `∂I/∂t = ρ t²/4`, `∂μ/∂ρ = t`, `∂I/∂ρ = t³/12`, `∂μ/∂nsm = 1`. All are exact;
+//! [`quad4_with_derivatives`] returns the matrices and any number of derivatives from one
+//! evaluation of the local parts.
 //!
 //! **Cost.** Everything is on the stack (`[[f64; 24]; 24]`) until the final conversion to
 //! [`faer::Mat`]; no heap allocation in the integration loops.

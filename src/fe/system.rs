@@ -1,5 +1,5 @@
 //! System matrices `K`, `M` and optional damping `C` (viscous) and `D` (structural) of
-//! `M ẍ + C ẋ + (K + iD) x = f` (THEORY §1), sparse column-major, with their DOF labels.
+//! `M ẍ + C ẋ + (K + iD) x = f` (docs/theory.md §1), sparse column-major, with their DOF labels.
 
 use crate::core::DofId;
 use faer::sparse::{SparseColMat, Triplet};

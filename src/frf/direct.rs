@@ -1,4 +1,4 @@
-//! Receptance by direct solution of the dynamic stiffness (THEORY §1, 1.14):
+//! Receptance by direct solution of the dynamic stiffness (docs/theory.md §1, 1.14):
 //! `α(ω) = Z(ω)⁻¹`, `Z(ω) = K + iD + iωC − ω² M`, one sparse complex LU per frequency line, the
 //! symbolic analysis shared by all lines. Exact for any damping, proportional or not.
 

@@ -1,5 +1,5 @@
 //! Frequency response functions: the FRF set type, synthesis by modal summation and by direct
-//! solution of the dynamic stiffness, and simulated measurement noise (THEORY §1, §10).
+//! solution of the dynamic stiffness, and simulated measurement noise (docs/theory.md §1, §10).
 
 pub mod direct;
 pub mod modal;

@@ -1,4 +1,4 @@
-//! Receptance by modal summation with proportional damping (THEORY §1):
+//! Receptance by modal summation with proportional damping (docs/theory.md §1):
 //! structural `α_ij(ω) = Σ_r φ_ir φ_jr / (ω_r² − ω² + i η_r ω_r²)` (6.10) and viscous
 //! `α_ij(ω) = Σ_r φ_ir φ_jr / (ω_r² − ω² + 2i ζ_r ω ω_r)` (6.7). Rigid-body modes are not damped.
 

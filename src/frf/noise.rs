@@ -1,8 +1,8 @@
-//! Simulated measurement noise (THEORY §10).
+//! Simulated measurement noise (docs/theory.md §10).
 //!
 //! - Thesis noise (2.29): `H̃ = H (1 + p ε)`, `ε` uniform on `[a, b]`, drawn independently for
 //!   every FRF value. The thesis text lost the interval's lower bound; `[0, 1]` is the default
-//!   reading (THEORY.md), `[-1, 1]` the zero-mean alternative.
+//!   reading (docs/theory.md §10), `[-1, 1]` the zero-mean alternative.
 //! - Complex Gaussian noise at a signal-to-noise ratio: per FRF, `σ² = mean_k |H_k|² / 10^(SNR/10)`,
 //!   `H̃ = H + σ (g₁ + i g₂)/√2`, `g` standard normal.
 //!

@@ -1,4 +1,4 @@
-//! Candidate parameters of an error localisation and their derivatives (THEORY §2, §7).
+//! Candidate parameters of an error localisation and their derivatives (docs/theory.md §2, §7).
 //!
 //! A candidate is one property (`E`, `ρ`, shell thickness, …) of a group of elements: a declared
 //! updating parameter, or a single element. Its derivative `(∂K/∂φ, ∂M/∂φ)` is formed over the

@@ -1,8 +1,8 @@
-//! Eigenvalue-sensitivity maps (thesis 5.1–5.3, THEORY §7): for each chosen mode `r` and
-//! candidate `i`, `φ_i ∂λ_r/∂φ_i = φ_i φ_rᵀ(∂K/∂φ_i − λ_r ∂M/∂φ_i)φ_r`, unity-based (2.16), and
-//! the same normalised per mode by its largest magnitude over the candidates. Only the diagonal
-//! of the projection (4.5) is needed, so each value is one quadratic form over the candidate's
-//! own DOFs.
+//! Eigenvalue-sensitivity maps (thesis 5.1–5.3: (5.1), (5.2), (5.3); docs/theory.md §7): for each
+//! chosen mode `r` and candidate `i`, `φ_i ∂λ_r/∂φ_i = φ_i φ_rᵀ(∂K/∂φ_i − λ_r ∂M/∂φ_i)φ_r`,
+//! unity-based (2.16), and the same normalised per mode by its largest magnitude over the
+//! candidates. Only the diagonal of the projection (4.5) is needed, so each value is one quadratic
+//! form over the candidate's own DOFs.
 
 use super::candidates::LocalDerivative;
 use crate::fe::system::SparseMatrix;

@@ -1,4 +1,5 @@
-//! The leverage of a candidate parameter (thesis 5.4–5.9, THEORY §7).
+//! The leverage of a candidate parameter (thesis 5.4–5.9: (5.4), (5.5), (5.6), (5.7), (5.8), (5.9);
+//! docs/theory.md §7).
 //!
 //! With one parameter `i` alone the P-C's equations (4.16) over the updating lines read
 //! `ε = S_i Δφ_i` (5.5), `ε` stacking `1 − χ_s(ω_k)`, `1 − χ_a(ω_k)` and `S_i` their

@@ -1,5 +1,5 @@
-//! Error localisation (thesis ch. 5, THEORY §7): which candidate parameters can best explain the
-//! discrepancy between measured and predicted FRFs.
+//! Error localisation (thesis ch. 5, docs/theory.md §7): which candidate parameters can best
+//! explain the discrepancy between measured and predicted FRFs.
 //!
 //! - [`leverage_map`]: the correlation-based leverage `L_i = (S_iᵀε)²/(S_iᵀS_i)` (5.9) of every
 //!   candidate over the updating lines (4.20; by default every line but those at predicted

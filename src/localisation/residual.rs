@@ -1,4 +1,4 @@
-//! The static share of the truncated modes at the measured DOFs (THEORY §1, §3).
+//! The static share of the truncated modes at the measured DOFs (docs/theory.md §1, §3).
 //!
 //! A modal basis kept to twice the band misses the quasi-static response of the higher modes.
 //! With `G = (K − σM)⁻¹` (`σ < 0` so free-free models factor) the residual flexibility

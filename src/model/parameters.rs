@@ -1,6 +1,6 @@
-//! Reading and writing the value of an updating parameter (THEORY §2, 2.16): a parameter is one
-//! property of the elements of its set, so its value is that property's value, which must be the
-//! same on every element of the set. Writing a value gives the set its own copies of shared
+//! Reading and writing the value of an updating parameter (docs/theory.md §2, 2.16): a parameter is
+//! one property of the elements of its set, so its value is that property's value, which must be
+//! the same on every element of the set. Writing a value gives the set its own copies of shared
 //! properties and materials first, so elements outside the set never change with it; the
 //! connectivity never changes.
 

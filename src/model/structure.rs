@@ -1,7 +1,7 @@
 //! A finite-element model as engineers describe it: grid points, elements referring to
 //! properties and materials, lumped springs and masses, single-point constraints, named element
-//! sets and updating parameters (THEORY §2). Ids are the user's (Nastran) ids; nothing here is a
-//! matrix row number.
+//! sets and updating parameters (docs/theory.md §2). Ids are the user's (Nastran) ids; nothing here
+//! is a matrix row number.
 
 use crate::core::{Component, DofId};
 use std::collections::BTreeMap;
@@ -183,7 +183,7 @@ impl Element {
     }
 }
 
-/// What an updating parameter changes (THEORY §2).
+/// What an updating parameter changes (docs/theory.md §2).
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize, schemars::JsonSchema)]
 #[serde(rename_all = "snake_case")]
 pub enum ParameterKind {

@@ -1,12 +1,14 @@
-//! Craig-Bampton reduction of one substructure (thesis §3.4, 3.5–3.13).
+//! Craig-Bampton reduction of one substructure (thesis §3.4, 3.5–3.13: (3.5), (3.6), (3.7), (3.8),
+//! (3.9), (3.10), (3.11), (3.12), (3.13)).
 //!
 //! With the DOFs split into junction `j` and internal `i`:
-//! - constraint modes (3.5–3.7): unit displacement at one junction DOF, the others held,
-//!   `Φ_c,i = −K_ii⁻¹ K_ij`, solved with a sparse Cholesky factor of `K_ii` (never a dense inverse);
+//! - constraint modes (3.5–3.7: (3.5), (3.6), (3.7)): unit displacement at one junction DOF, the
+//!   others held, `Φ_c,i = −K_ii⁻¹ K_ij`, solved with a sparse Cholesky factor of `K_ii` (never a
+//!   dense inverse);
 //! - fixed-interface normal modes (3.8, 3.9): the lowest modes of `(K_ii, M_ii)` up to a count or
 //!   a cut-off frequency (thesis: twice the top of the band), by [`lowest_modes`];
-//! - `x = T [x_j; q]`, `T = [[I, 0], [Φ_c,i, Φ_n,i]]` (3.11–3.13), and the projected `TᵀKT`,
-//!   `TᵀMT` that enter the assembly at common junction DOFs (3.14).
+//! - `x = T [x_j; q]`, `T = [[I, 0], [Φ_c,i, Φ_n,i]]` (3.11–3.13: (3.11), (3.12), (3.13)), and the
+//!   projected `TᵀKT`, `TᵀMT` that enter the assembly at common junction DOFs (3.14).
 //!
 //! - [`junction_condensation`] and [`craig_bampton_on_interface`]: the same reduction for
 //!   junctions of thousands of DOFs — the junction's Guyan model first (to choose interface
@@ -63,7 +65,8 @@ pub fn craig_bampton_on_interface(
 }
 
 /// Constraint modes for the junction motions `basis` (the identity when `None`) plus the
-/// fixed-interface normal modes (3.5–3.13).
+/// fixed-interface normal modes (3.5–3.13: (3.5), (3.6), (3.7), (3.8), (3.9), (3.10), (3.11),
+/// (3.12), (3.13)).
 fn constrained_reduction(
     name: &str,
     sys: &SystemMatrices,
@@ -156,7 +159,7 @@ fn constrained_reduction(
 }
 
 /// The junction block of a Craig-Bampton component: its static condensation onto the junction
-/// (the substructure's Guyan model, 3.5–3.7 with 3.14),
+/// (the substructure's Guyan model, 3.5–3.7: (3.5), (3.6), (3.7), with (3.14)),
 /// `K_G = K_jj + K_ji Ψ = K_jj − K_ji K_ii⁻¹ K_ij` and `M_G = [I; Ψ]ᵀ M [I; Ψ]`.
 #[derive(Clone, Debug, PartialEq)]
 pub struct JunctionCondensation {

@@ -1,4 +1,6 @@
-//! Free interface with force coupling, Lombard et al. (1997) (thesis §3.5.4, 3.40–3.53).
+//! Free interface with force coupling, Lombard et al. (1997) (thesis §3.5.4, 3.40–3.53: (3.40),
+//! (3.41), (3.42), (3.43), (3.44), (3.45), (3.46), (3.47), (3.48), (3.49), (3.50), (3.51), (3.52),
+//! (3.53)).
 //!
 //! Component `k` is described by its free modes and residual flexibility (3.40):
 //! `x = Φ q + R_{:,j} F_j`. The internal DOFs are split into masters `m` (physical DOFs kept,
@@ -7,14 +9,14 @@
 //! `x = Φ Φ_m⁺ x_m + (R_{:,j} − Φ Φ_m⁺ R_mj) F_j`, and at the junction `x_j = A x_m + B F_j`
 //! with `A = Φ_j Φ_m⁺`, `B = R_jj − Φ_j Φ_m⁺ R_mj`.
 //!
-//! **Coupling, any number of boundaries.** The thesis writes (3.44–3.47) for one boundary.
-//! Here every junction DOF is treated at once: with `L_k` selecting component `k`'s junction
-//! DOFs from the global junction vector `x_J` and `P_k` its masters from all masters `x_M`,
-//! compatibility `x^k_j = L_k x_J` gives `F^k_j = B_k⁻¹ (L_k x_J − A_k P_k x_M)` (3.44), and
-//! equilibrium `Σ_k L_kᵀ F^k_j = 0` (3.45) gives
-//! `x_J = S⁻¹ W x_M`, `S = Σ L_kᵀ B_k⁻¹ L_k`, `W = Σ L_kᵀ B_k⁻¹ A_k P_k` (3.46). Each component
-//! then maps all masters to its DOFs, `x^k = T_k x_M` (3.48–3.50), and
-//! `K_c = Σ T_kᵀ K_k T_k` is a plain sum (3.51). For one boundary this is exactly (3.46–3.47).
+//! **Coupling, any number of boundaries.** The thesis writes (3.44–3.47: (3.44), (3.45), (3.46),
+//! (3.47)) for one boundary. Here every junction DOF is treated at once: with `L_k` selecting
+//! component `k`'s junction DOFs from the global junction vector `x_J` and `P_k` its masters from
+//! all masters `x_M`, compatibility `x^k_j = L_k x_J` gives `F^k_j = B_k⁻¹ (L_k x_J − A_k P_k x_M)`
+//! (3.44), and equilibrium `Σ_k L_kᵀ F^k_j = 0` (3.45) gives `x_J = S⁻¹ W x_M`,
+//! `S = Σ L_kᵀ B_k⁻¹ L_k`, `W = Σ L_kᵀ B_k⁻¹ A_k P_k` (3.46). Each component then maps all masters
+//! to its DOFs, `x^k = T_k x_M` (3.48–3.50: (3.48), (3.49), (3.50)), and `K_c = Σ T_kᵀ K_k T_k` is
+//! a plain sum (3.51). For one boundary this is exactly (3.46–3.47: (3.46), (3.47)).
 //!
 //! **Effective Independence** (Kammer 1991): from candidate rows of `Φ`, repeatedly drop the
 //! candidates contributing least to the Fisher information, `E = diag(Φ_c (Φ_cᵀΦ_c)⁻¹ Φ_cᵀ)`,
@@ -112,8 +114,8 @@ pub fn effective_independence(
     }
 }
 
-/// Force-coupling analysis of substructure `name` (3.40–3.43): free modes, residual
-/// flexibility, masters by Effective Independence among its internal candidates.
+/// Force-coupling analysis of substructure `name` (3.40–3.43: (3.40), (3.41), (3.42), (3.43)): free
+/// modes, residual flexibility, masters by Effective Independence among its internal candidates.
 pub fn force_coupling(
     name: &str,
     sys: &SystemMatrices,
@@ -233,8 +235,9 @@ pub fn force_coupling(
     })
 }
 
-/// Global master coordinates and each component's dense coupling `C_k` (3.44–3.50, generalised
-/// to every junction DOF at once; see the module documentation).
+/// Global master coordinates and each component's dense coupling `C_k` (3.44–3.50: (3.44), (3.45),
+/// (3.46), (3.47), (3.48), (3.49), (3.50); generalised to every junction DOF at once; see the
+/// module documentation).
 pub(super) fn couple(
     junction: &[DofId],
     components: &[ComponentReduction],

@@ -1,21 +1,24 @@
 //! Free-interface component modes with residual flexibility, MacNeal (1971) / Rubin (1975)
-//! (thesis §3.5, 3.15–3.39, Appendix A.1).
+//! (thesis §3.5, 3.15–3.39: (3.15), (3.16), (3.17), (3.18), (3.19), (3.20), (3.21), (3.22), (3.23),
+//! (3.24), (3.25), (3.26), (3.27), (3.28), (3.29), (3.30), (3.31), (3.32), (3.33), (3.34), (3.35),
+//! (3.36), (3.37), (3.38), (3.39); Appendix A.1).
 //!
 //! Free modes `Φ` of `(K, M)` of the whole substructure (3.32, 3.33), rigid-body modes `Φ_r`
 //! included. Attachment modes are columns of the flexibility `G = K⁻¹` (3.17); for a floating
-//! substructure `K` is singular and the elastic flexibility is used instead (3.22–3.25):
-//! hold `r` DOFs temporarily (`r` = rigid-body modes), invert the rest (`G` with zero rows and
-//! columns at the held DOFs), and filter with the inertia-relief projector
-//! `P = I − M Φ_r Φ_rᵀ`:  `G_e = Pᵀ G P`. `P` removes the rigid-body resultant of a load,
-//! `Pᵀ` the rigid-body part of a displacement, so `G_e = Σ_elastic φ φᵀ/λ` whatever DOFs were
-//! held (the Appendix A demonstration; tested). The held DOFs are chosen by pivoted
-//! Gram–Schmidt on the rows of `Φ_r`, so `Φ_r` restricted to them is well conditioned and the
-//! remaining stiffness is non-singular.
+//! substructure `K` is singular and the elastic flexibility is used instead (3.22–3.25: (3.22),
+//! (3.23), (3.24), (3.25)): hold `r` DOFs temporarily (`r` = rigid-body modes), invert the rest
+//! (`G` with zero rows and columns at the held DOFs), and filter with the inertia-relief projector
+//! `P = I − M Φ_r Φ_rᵀ`: `G_e = Pᵀ G P`. `P` removes the rigid-body resultant of a load, `Pᵀ` the
+//! rigid-body part of a displacement, so `G_e = Σ_elastic φ φᵀ/λ` whatever DOFs were held (the
+//! Appendix A demonstration; tested). The held DOFs are chosen by pivoted Gram–Schmidt on the rows
+//! of `Φ_r`, so `Φ_r` restricted to them is well conditioned and the remaining stiffness is
+//! non-singular.
 //!
-//! Residual flexibility (3.29–3.31): `R = G_e − Φ_el Λ_el⁻¹ Φ_elᵀ` (kept elastic modes); only
-//! its junction columns `R_{:,j}` are formed (a sparse solve per junction DOF). Eliminating the
-//! junction forces with the junction rows (3.36) gives the transformation (3.37–3.39)
-//! `x_j = x_j`, `x_i = R_ij R_jj⁻¹ x_j + (Φ_i − R_ij R_jj⁻¹ Φ_j) q`.
+//! Residual flexibility (3.29–3.31: (3.29), (3.30), (3.31)): `R = G_e − Φ_el Λ_el⁻¹ Φ_elᵀ` (kept
+//! elastic modes); only its junction columns `R_{:,j}` are formed (a sparse solve per junction
+//! DOF). Eliminating the junction forces with the junction rows (3.36) gives the transformation
+//! (3.37–3.39: (3.37), (3.38), (3.39)) `x_j = x_j`,
+//! `x_i = R_ij R_jj⁻¹ x_j + (Φ_i − R_ij R_jj⁻¹ Φ_j) q`.
 //!
 //! Complete limit: with every free mode kept the residual flexibility is zero and `R_jj⁻¹`
 //! does not exist; compatibility is then imposed on the modes themselves (`n_j` carrier modes
@@ -90,9 +93,9 @@ pub fn choose_held_dofs(phi_r: MatRef<'_, f64>, candidates: &[usize]) -> Vec<usi
     held
 }
 
-/// `G_e B = Pᵀ G P B` (3.22–3.24) for a block of loads `B` (`N × p`): `Φ_r` the mass-normalised
-/// rigid-body modes (`N × r`, possibly `r = 0`, then `G = K⁻¹`), `held` the temporarily held
-/// DOFs (`r` of them). Errors when the stiffness with `held` removed is singular.
+/// `G_e B = Pᵀ G P B` (3.22–3.24: (3.22), (3.23), (3.24)) for a block of loads `B` (`N × p`): `Φ_r`
+/// the mass-normalised rigid-body modes (`N × r`, possibly `r = 0`, then `G = K⁻¹`), `held` the
+/// temporarily held DOFs (`r` of them). Errors when the stiffness with `held` removed is singular.
 pub fn elastic_flexibility(
     k: &crate::fe::system::SparseMatrix,
     m: &crate::fe::system::SparseMatrix,
@@ -139,8 +142,9 @@ pub fn elastic_flexibility(
     Ok(z)
 }
 
-/// Columns `cols` of the residual flexibility `R = G_e − Φ_el Λ_el⁻¹ Φ_elᵀ` (3.29–3.31) of a
-/// substructure whose kept free modes are `modes` (all rigid-body modes among them).
+/// Columns `cols` of the residual flexibility `R = G_e − Φ_el Λ_el⁻¹ Φ_elᵀ` (3.29–3.31: (3.29),
+/// (3.30), (3.31)) of a substructure whose kept free modes are `modes` (all rigid-body modes among
+/// them).
 pub fn residual_flexibility(
     name: &str,
     sys: &SystemMatrices,
@@ -212,7 +216,8 @@ pub(super) fn residual_inverse(
     }))
 }
 
-/// MacNeal/Rubin free-interface reduction of substructure `name` (3.32–3.39).
+/// MacNeal/Rubin free-interface reduction of substructure `name` (3.32–3.39: (3.32), (3.33),
+/// (3.34), (3.35), (3.36), (3.37), (3.38), (3.39)).
 pub fn free_interface(
     name: &str,
     sys: &SystemMatrices,
@@ -263,8 +268,8 @@ pub fn free_interface(
 /// modes `a` (chosen by pivoted Gram–Schmidt on the junction rows, so `Φ_ja` is as well
 /// conditioned as the modes allow) give way to the junction displacements,
 /// `q_a = Φ_ja⁻¹ (x_j − Φ_jb q_b)`, so `x = Φ_a Φ_ja⁻¹ x_j + (Φ_b − Φ_a Φ_ja⁻¹ Φ_jb) q_b`. This is
-/// MacNeal's transformation (3.37–3.39) with exactly the carriers omitted (then
-/// `R_ij R_jj⁻¹ = Φ_ia Φ_ja⁻¹`); `T` is square and invertible, so the synthesis is exact.
+/// MacNeal's transformation (3.37–3.39: (3.37), (3.38), (3.39)) with exactly the carriers omitted
+/// (then `R_ij R_jj⁻¹ = Φ_ia Φ_ja⁻¹`); `T` is square and invertible, so the synthesis is exact.
 fn complete_free_interface(
     name: &str,
     sys: &SystemMatrices,
@@ -317,7 +322,7 @@ fn complete_free_interface(
 }
 
 /// `T = [A, B]` (junction columns, then modal columns) with the junction rows set exactly to
-/// `[I, 0]`, which they are by construction (3.37–3.39).
+/// `[I, 0]`, which they are by construction (3.37–3.39: (3.37), (3.38), (3.39)).
 fn junction_transformation(a: MatRef<'_, f64>, b: MatRef<'_, f64>, j_idx: &[usize]) -> Mat<f64> {
     let nj = a.ncols();
     let mut t = Mat::from_fn(a.nrows(), nj + b.ncols(), |i, c| {

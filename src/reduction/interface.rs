@@ -1,7 +1,7 @@
 //! Interface modes (characteristic constraint modes, Castanier, Tan & Pierre 2001): the junction
 //! DOFs of a Craig-Bampton or free-interface model replaced by the lowest modes of the junction's
 //! Guyan model `(K_JJ, M_JJ)`, the sum of every substructure's static condensation onto its
-//! junction (3.5–3.7 with 3.14).
+//! junction (3.5–3.7: (3.5), (3.6), (3.7), with (3.14)).
 //!
 //! Each substructure's condensation is dense over its junction, so `K_JJ` is a union of
 //! overlapping dense blocks. Up to [`GLOBAL_INTERFACE_LIMIT`] junction DOFs its modes are found

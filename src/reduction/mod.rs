@@ -1,4 +1,4 @@
-//! Substructuring and component mode synthesis (THEORY §9, thesis chapter 3).
+//! Substructuring and component mode synthesis (docs/theory.md §9, thesis chapter 3).
 //!
 //! A model is split into substructures `k` ([`partition`]); each is reduced on its own, in
 //! parallel, by a frequency-independent transformation `x_k = T_k q_k` (3.3, 3.13, 3.39, 3.50),
@@ -6,13 +6,17 @@
 //! (3.14 at common junction coordinates; 3.51 as a plain sum for force coupling).
 //!
 //! - [`craig_bampton`]: constraint modes `Ψ = −K_ii⁻¹ K_ij` (sparse Cholesky) and
-//!   fixed-interface normal modes of `(K_ii, M_ii)` (3.5–3.13).
+//!   fixed-interface normal modes of `(K_ii, M_ii)` (3.5–3.13: (3.5), (3.6), (3.7), (3.8), (3.9),
+//!   (3.10), (3.11), (3.12), (3.13)).
 //! - [`free_interface`]: MacNeal/Rubin free modes plus residual flexibility `R = G − Φ Λ⁻¹ Φᵀ`,
 //!   or `G_e = Pᵀ G P` with the inertia-relief projector for floating substructures
-//!   (3.15–3.39, Appendix A.1).
+//!   (3.15–3.39: (3.15), (3.16), (3.17), (3.18), (3.19), (3.20), (3.21), (3.22), (3.23), (3.24),
+//!   (3.25), (3.26), (3.27), (3.28), (3.29), (3.30), (3.31), (3.32), (3.33), (3.34), (3.35),
+//!   (3.36), (3.37), (3.38), (3.39); Appendix A.1).
 //! - [`force_coupling`]: Lombard et al. (1997): free modes and residual flexibility, physical
 //!   master DOFs chosen by Effective Independence (Kammer 1991), junction forces eliminated by
-//!   compatibility and equilibrium at every junction DOF (3.40–3.51), optional second-level
+//!   compatibility and equilibrium at every junction DOF (3.40–3.51: (3.40), (3.41), (3.42),
+//!   (3.43), (3.44), (3.45), (3.46), (3.47), (3.48), (3.49), (3.50), (3.51)), optional second-level
 //!   condensation (3.53).
 //!
 //! Every method produces per substructure a [`ComponentReduction`] — a local basis `T_k^loc`

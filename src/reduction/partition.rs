@@ -1,5 +1,5 @@
-//! Substructures of a model (THEORY §9, thesis §3.3, fig. 3.1): groups of elements, the DOFs
-//! each group holds, junction DOFs `j` shared by two or more substructures, internal DOFs `i`
+//! Substructures of a model (docs/theory.md §9, thesis §3.3, fig. 3.1): groups of elements, the
+//! DOFs each group holds, junction DOFs `j` shared by two or more substructures, internal DOFs `i`
 //! (the rest), and the boundaries — the sets of junction DOFs shared by the same substructures.
 //!
 //! Groups come from named element sets, from property ids, or from an automatic `k`-way

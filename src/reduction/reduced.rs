@@ -77,17 +77,20 @@ impl std::str::FromStr for Coordinate {
 /// Which method, with its settings.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Method {
-    /// Craig-Bampton: constraint modes + fixed-interface modes (3.5–3.13).
+    /// Craig-Bampton: constraint modes + fixed-interface modes (3.5–3.13: (3.5), (3.6), (3.7),
+    /// (3.8), (3.9), (3.10), (3.11), (3.12), (3.13)).
     CraigBampton {
         /// Fixed-interface modes kept per substructure.
         modes: ModeSelection,
     },
-    /// MacNeal/Rubin free interface with residual flexibility (3.26–3.39).
+    /// MacNeal/Rubin free interface with residual flexibility (3.26–3.39: (3.26), (3.27), (3.28),
+    /// (3.29), (3.30), (3.31), (3.32), (3.33), (3.34), (3.35), (3.36), (3.37), (3.38), (3.39)).
     FreeInterface {
         /// Free-interface modes kept per substructure.
         modes: ModeSelection,
     },
-    /// Free interface with force coupling, Lombard et al. (3.40–3.53).
+    /// Free interface with force coupling, Lombard et al. (3.40–3.53: (3.40), (3.41), (3.42),
+    /// (3.43), (3.44), (3.45), (3.46), (3.47), (3.48), (3.49), (3.50), (3.51), (3.52), (3.53)).
     ForceCoupling {
         /// Free-interface modes kept per substructure.
         modes: ModeSelection,
@@ -175,7 +178,7 @@ pub struct ReductionInfo {
 pub enum Coupling {
     /// Local coordinate `i` is global coordinate `map[i]` (3.14).
     Boolean(Vec<usize>),
-    /// `q_loc = C q` (force coupling, 3.48–3.50).
+    /// `q_loc = C q` (force coupling, 3.48–3.50: (3.48), (3.49), (3.50)).
     Dense(Mat<f64>),
 }
 
@@ -280,7 +283,8 @@ pub struct ReducedModel {
 }
 
 impl ReducedModel {
-    /// Couples components (3.14; 3.46–3.51 for force coupling) into a reduced model.
+    /// Couples components (3.14; 3.46–3.51: (3.46), (3.47), (3.48), (3.49), (3.50), (3.51) for
+    /// force coupling) into a reduced model.
     pub fn synthesise(
         method: Method,
         junction: Vec<DofId>,

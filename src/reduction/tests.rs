@@ -340,11 +340,11 @@ fn replacing_one_component_equals_a_full_reduction() {
     }
 }
 
-/// Thesis Appendix A (3.22–3.25): the elastic flexibility `G_e = Pᵀ G P` of a floating
-/// substructure (plate 1 alone, free-free, 6 rigid-body modes) does not depend on which DOFs
-/// are held temporarily: two disjoint held sets give the same `G_e`, equal to the elastic
-/// modal sum `Σ φφᵀ/λ` over every elastic mode. Tolerance 1e-8 of the largest entry between
-/// held sets (two Cholesky solves of a shell with λ_max/λ_1 ~ 1e9), 1e-7 against the modal
+/// Thesis Appendix A (3.22–3.25: (3.22), (3.23), (3.24), (3.25)): the elastic flexibility
+/// `G_e = Pᵀ G P` of a floating substructure (plate 1 alone, free-free, 6 rigid-body modes) does
+/// not depend on which DOFs are held temporarily: two disjoint held sets give the same `G_e`, equal
+/// to the elastic modal sum `Σ φφᵀ/λ` over every elastic mode. Tolerance 1e-8 of the largest entry
+/// between held sets (two Cholesky solves of a shell with λ_max/λ_1 ~ 1e9), 1e-7 against the modal
 /// sum (a full dense eigensolution, on the 30 mm plate).
 #[test]
 fn appendix_a_elastic_flexibility_is_independent_of_the_held_dofs() {

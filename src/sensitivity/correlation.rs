@@ -1,4 +1,5 @@
-//! Sensitivities of the FRF correlation coefficients (THEORY §4; thesis 4.8–4.15).
+//! Sensitivities of the FRF correlation coefficients (docs/theory.md §4; thesis 4.8–4.15: (4.8),
+//! (4.9), (4.10), (4.11), (4.12), (4.13), (4.14), (4.15)).
 //!
 //! At one line, with measured `x`, predicted `a`, `c = xᴴa`, `X = xᴴx`, `A = aᴴa` and a
 //! prediction derivative `s = ∂a/∂φ`:

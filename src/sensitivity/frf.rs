@@ -1,4 +1,5 @@
-//! FRF sensitivities on a modal basis (THEORY §3; thesis 4.2–4.7, 6.8, 6.11).
+//! FRF sensitivities on a modal basis (docs/theory.md §3; thesis 4.2–4.7: (4.2), (4.3), (4.4),
+//! (4.5), (4.6), (4.7); (6.8), (6.11)).
 //!
 //! For the modal sum `α_ij = Σ_r φ_ir φ_jr / d_r`, `d_r = λ_r − ω² + iγ_r` with the modal damping
 //! held fixed, the derivative with respect to a parameter follows from the eigenvalue derivative

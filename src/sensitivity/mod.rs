@@ -1,4 +1,4 @@
-//! Sensitivities (THEORY §3, §4, §7): modal projections of derivative matrices, eigenvalue
+//! Sensitivities (docs/theory.md §3, §4, §7): modal projections of derivative matrices, eigenvalue
 //! sensitivities, FRF and damping sensitivities on a modal basis, and the sensitivities of the
 //! correlation coefficients `χ_s`, `χ_a`.
 

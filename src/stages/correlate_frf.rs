@@ -1,5 +1,5 @@
 //! `correlate.frf`: the shape and amplitude correlation coefficients `χ_s(ω)`, `χ_a(ω)` per line
-//! (4.8, 4.9), FRAC per measured FRF (1.19), and their summary (THEORY §4).
+//! (4.8, 4.9), FRAC per measured FRF (1.19), and their summary (docs/theory.md §4).
 
 use crate::artefact::ArtefactKind;
 use crate::artefact::kinds::{correlation_to_artefact, frf_from_artefact};

@@ -1,6 +1,6 @@
 //! `frf.synthesise`: receptance, mobility or accelerance at chosen DOFs over a band, by modal
 //! summation (structural `η_r` or viscous `ζ_r`, uniform or per mode, optionally truncated) or by
-//! direct solution of `Z(ω)` (THEORY §1).
+//! direct solution of `Z(ω)` (docs/theory.md §1).
 
 use crate::artefact::ArtefactKind;
 use crate::artefact::kinds::{frf_to_artefact, matrices_from_artefact, modes_from_artefact};

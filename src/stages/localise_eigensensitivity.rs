@@ -1,8 +1,8 @@
-//! `localise.eigensensitivity`: the classical error indicator (thesis 5.1–5.3, THEORY §7), the
-//! unity-based eigenvalue sensitivity `φ_i ∂λ_r/∂φ_i = φ_i φ_rᵀ(∂K/∂φ_i − λ_r ∂M/∂φ_i)φ_r` of
-//! every candidate for chosen modes, normalised per mode. Purely analytical: it ignores the
-//! measurements, which is the thesis's argument for the leverage. Writes the table, a mesh
-//! panel per mode and a bar panel per mode.
+//! `localise.eigensensitivity`: the classical error indicator (thesis 5.1–5.3: (5.1), (5.2), (5.3);
+//! docs/theory.md §7), the unity-based eigenvalue sensitivity
+//! `φ_i ∂λ_r/∂φ_i = φ_i φ_rᵀ(∂K/∂φ_i − λ_r ∂M/∂φ_i)φ_r` of every candidate for chosen modes,
+//! normalised per mode. Purely analytical: it ignores the measurements, which is the thesis's
+//! argument for the leverage. Writes the table, a mesh panel per mode and a bar panel per mode.
 
 use super::localise_leverage::{Candidates, PlotParams, element_values};
 use crate::artefact::ArtefactKind;

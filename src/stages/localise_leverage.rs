@@ -1,8 +1,9 @@
-//! `localise.leverage`: correlation-based error localisation (thesis 5.4–5.9, THEORY §7). The
-//! leverage `L_i = (S_iᵀε)²/(S_iᵀS_i)` of every candidate parameter over the P-C's updating lines
-//! says how much of the residual `ε` (`1 − χ_s`, `1 − χ_a`) that parameter alone can remove.
-//! Candidates are the model's declared parameters or every element on its own (processed in
-//! chunks). Writes the table, a mesh coloured by the normalised leverage and a bar chart.
+//! `localise.leverage`: correlation-based error localisation (thesis 5.4–5.9: (5.4), (5.5), (5.6),
+//! (5.7), (5.8), (5.9); docs/theory.md §7). The leverage `L_i = (S_iᵀε)²/(S_iᵀS_i)` of every
+//! candidate parameter over the P-C's updating lines says how much of the residual `ε` (`1 − χ_s`,
+//! `1 − χ_a`) that parameter alone can remove. Candidates are the model's declared parameters or
+//! every element on its own (processed in chunks). Writes the table, a mesh coloured by the
+//! normalised leverage and a bar chart.
 
 use super::frf_synthesise::Damping;
 use crate::artefact::ArtefactKind;

@@ -1,7 +1,7 @@
-//! `mesh.parameters`: declares updating parameters on a model (THEORY §2: a property of a named
-//! element set, with bounds), sets parameter values (to build an erroneous initial model, or a
-//! "true" structure for simulated measurements), and writes the final values of an `update`
-//! run back into the model (input `result`), so the updated model is a mesh every stage reads.
+//! `mesh.parameters`: declares updating parameters on a model (docs/theory.md §2: a property of a
+//! named element set, with bounds), sets parameter values (to build an erroneous initial model, or
+//! a "true" structure for simulated measurements), and writes the final values of an `update` run
+//! back into the model (input `result`), so the updated model is a mesh every stage reads.
 
 use crate::artefact::ArtefactKind;
 use crate::artefact::mesh::{mesh_from_artefact, mesh_to_artefact};

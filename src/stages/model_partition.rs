@@ -1,5 +1,5 @@
-//! `model.partition`: substructures of a model (THEORY §9, thesis §3.3) from named element sets,
-//! from property ids, or an automatic `k`-way partition (recursive coordinate bisection with
+//! `model.partition`: substructures of a model (docs/theory.md §9, thesis §3.3) from named element
+//! sets, from property ids, or an automatic `k`-way partition (recursive coordinate bisection with
 //! boundary refinement) for large models; junction DOFs and boundaries detected.
 
 use crate::artefact::ArtefactKind;

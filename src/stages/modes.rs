@@ -1,5 +1,5 @@
-//! `modes`: natural frequencies and mass-normalised mode shapes of a model (THEORY §1): dense
-//! shift-invert for small models, sparse shift-invert Lanczos for large ones.
+//! `modes`: natural frequencies and mass-normalised mode shapes of a model (docs/theory.md §1):
+//! dense shift-invert for small models, sparse shift-invert Lanczos for large ones.
 
 use crate::artefact::ArtefactKind;
 use crate::artefact::kinds::{matrices_from_artefact, modes_to_artefact};

@@ -1,5 +1,5 @@
 //! `noise.add`: simulated measurement noise on FRFs — the thesis's multiplicative uniform noise
-//! (2.29) or complex Gaussian noise at an SNR — reproducible from a seed (THEORY §10).
+//! (2.29) or complex Gaussian noise at an SNR — reproducible from a seed (docs/theory.md §10).
 
 use crate::artefact::ArtefactKind;
 use crate::artefact::kinds::{frf_from_artefact, frf_to_artefact};

@@ -1,5 +1,6 @@
 //! `reduce.craig_bampton`: Craig-Bampton: constraint modes `−K_ii⁻¹K_ij` (sparse Cholesky) and fixed-interface normal modes up to a cut-off
-//! (thesis 3.5–3.13), per substructure in parallel, assembled at the junction DOFs (3.14).
+//! (thesis 3.5–3.13: (3.5), (3.6), (3.7), (3.8), (3.9), (3.10), (3.11), (3.12), (3.13)), per
+//! substructure in parallel, assembled at the junction DOFs (3.14).
 
 use super::reduce_common::{self, ModalReductionParams};
 use crate::pipeline::{

@@ -1,6 +1,7 @@
 //! `reduce.force_coupling`: free interface with force coupling (Lombard et al. 1997, thesis
-//! 3.40–3.51): physical master DOFs only, chosen by Effective Independence (Kammer 1991) from the
-//! candidates, junction forces eliminated by compatibility and equilibrium, optional
+//! 3.40–3.51: (3.40), (3.41), (3.42), (3.43), (3.44), (3.45), (3.46), (3.47), (3.48), (3.49),
+//! (3.50), (3.51)): physical master DOFs only, chosen by Effective Independence (Kammer 1991) from
+//! the candidates, junction forces eliminated by compatibility and equilibrium, optional
 //! second-level condensation (3.53).
 
 use super::reduce_common::{self, ComponentModes};

@@ -1,5 +1,7 @@
 //! `reduce.free_interface`: MacNeal/Rubin free interface: free modes plus residual flexibility, inertia-relief projection
-//! for floating substructures (thesis 3.22–3.39), assembled at the junction DOFs (3.14).
+//! for floating substructures (thesis 3.22–3.39: (3.22), (3.23), (3.24), (3.25), (3.26), (3.27),
+//! (3.28), (3.29), (3.30), (3.31), (3.32), (3.33), (3.34), (3.35), (3.36), (3.37), (3.38), (3.39)),
+//! assembled at the junction DOFs (3.14).
 
 use super::reduce_common::{self, ModalReductionParams};
 use crate::pipeline::{

@@ -1,4 +1,4 @@
-//! `update`: updates a model's parameters from measured data (THEORY §5, §6): the
+//! `update`: updates a model's parameters from measured data (docs/theory.md §5, §6): the
 //! predictor-corrector on `χ_s`, `χ_a` (`pc`), Lin and Ewins's response function method
 //! (`rfm`), or inverse eigensensitivity from measured modes (`eigensensitivity`). The model is a
 //! mesh (rebuilt from its elements at every iteration: exact for every parameter kind) or a
@@ -53,7 +53,7 @@ pub enum Method {
     Damping,
 }
 
-/// Settings of the P-C (THEORY §5).
+/// Settings of the P-C (docs/theory.md §5).
 #[derive(Clone, Debug, serde::Deserialize, serde::Serialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct PcParams {
@@ -275,9 +275,10 @@ impl Default for Reduction {
 )]
 #[serde(rename_all = "snake_case")]
 pub enum ReductionMethod {
-    /// Craig-Bampton (3.5–3.13).
+    /// Craig-Bampton (3.5–3.13: (3.5), (3.6), (3.7), (3.8), (3.9), (3.10), (3.11), (3.12), (3.13)).
     CraigBampton,
-    /// Free interface, MacNeal/Rubin (3.26–3.39).
+    /// Free interface, MacNeal/Rubin (3.26–3.39: (3.26), (3.27), (3.28), (3.29), (3.30), (3.31),
+    /// (3.32), (3.33), (3.34), (3.35), (3.36), (3.37), (3.38), (3.39)).
     FreeInterface,
 }
 

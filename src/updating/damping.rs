@@ -1,11 +1,11 @@
-//! Modal damping identification (THEORY §8; thesis ch. 6).
+//! Modal damping identification (docs/theory.md §8; thesis ch. 6).
 //!
 //! The spatial model is fixed; the parameters are the modal loss factors `η_r` (structural) or
 //! damping ratios `ζ_r` (viscous) of chosen elastic modes. The equations are the P-C's
-//! (4.16–4.21) with the exact damping sensitivities (6.8, 6.11) as the columns of `S`, unity
-//! based: `η_r ∂H/∂η_r`. Each `η_r` acts near its own resonance, so the columns are nearly
-//! orthogonal and every parameter is updated (no subset selection). Rigid-body modes have no
-//! damping and are never parameters.
+//! (4.16–4.21: (4.16), (4.17), (4.18), (4.19), (4.20), (4.21)) with the exact damping sensitivities
+//! (6.8, 6.11) as the columns of `S`, unity based: `η_r ∂H/∂η_r`. Each `η_r` acts near its own
+//! resonance, so the columns are nearly orthogonal and every parameter is updated (no subset
+//! selection). Rigid-body modes have no damping and are never parameters.
 //!
 //! A viscous model fitted to structurally damped measurements matches them only near each
 //! resonance, where `η_r ≈ 2ζ_r` ([`equivalent_loss_factor`]).

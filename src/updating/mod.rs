@@ -1,9 +1,11 @@
-//! Model updating (THEORY §5, §6, §11): the predictor-corrector on FRF correlation coefficients,
-//! the response function method as baseline and classical inverse eigensensitivity, all driven
-//! one iteration at a time by [`run`], which owns the loop, the stop rule and the history.
+//! Model updating (docs/theory.md §5, §6, §11): the predictor-corrector on FRF correlation
+//! coefficients, the response function method as baseline and classical inverse eigensensitivity,
+//! all driven one iteration at a time by [`run`], which owns the loop, the stop rule and the
+//! history.
 //!
-//! Changes are unity-based (2.13–2.16): every method solves for the relative changes
-//! `Δφ_i/φ_i` with sensitivities `φ_i ∂(·)/∂φ_i`, and new values are clamped to the bounds.
+//! Changes are unity-based (2.13–2.16: (2.13), (2.14), (2.15), (2.16)): every method solves for the
+//! relative changes `Δφ_i/φ_i` with sensitivities `φ_i ∂(·)/∂φ_i`, and new values are clamped to
+//! the bounds.
 
 pub mod damping;
 pub mod eigensensitivity;

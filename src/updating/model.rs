@@ -1,4 +1,4 @@
-//! Models whose matrices depend on updating parameters (THEORY §2).
+//! Models whose matrices depend on updating parameters (docs/theory.md §2).
 //!
 //! [`ParametricModel`] is what every updating method needs: the matrices at given parameter
 //! values and their derivatives `∂K/∂φ`, `∂M/∂φ` there. Two kinds exist:

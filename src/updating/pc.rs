@@ -1,4 +1,5 @@
-//! The predictor-corrector (P-C) method (THEORY §5; thesis 4.16–4.23, 5.13–5.14).
+//! The predictor-corrector (P-C) method (docs/theory.md §5; thesis 4.16–4.23: (4.16), (4.17),
+//! (4.18), (4.19), (4.20), (4.21), (4.22), (4.23); 5.13–5.14: (5.13), (5.14)).
 //!
 //! At each updating line `ω_k`: `[1 − χ_s(ω_k); 1 − χ_a(ω_k)] = [∂χ_s/∂φ; ∂χ_a/∂φ] Δφ`, stacked into
 //! `ε = S Δφ` (`2N_fu × N_φ`, real, unity-based). The lines are all measured lines except those
@@ -299,8 +300,8 @@ pub(super) fn open_iteration(
 
 /// The closing every correlation-based iteration shares, from the weighted `S` and `ε`: the
 /// residual and the diagnostics of `S`, the active parameters (QR subset selection with
-/// `κ_mn`, 5.13–5.14, or every parameter `S` sees), and the Gauss-Newton step with its
-/// candidates ([`candidate_steps`]), each scaled down to a largest relative change of
+/// `κ_mn`, 5.13–5.14: (5.13), (5.14); or every parameter `S` sees), and the Gauss-Newton step with
+/// its candidates ([`candidate_steps`]), each scaled down to a largest relative change of
 /// `max_step`.
 pub(super) fn close_iteration(
     mut record: IterationRecord,

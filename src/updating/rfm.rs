@@ -1,4 +1,5 @@
-//! The response function method of Lin and Ewins (THEORY §6; thesis 2.22–2.24), the baseline.
+//! The response function method of Lin and Ewins (docs/theory.md §6; thesis 2.22–2.24: (2.22),
+//! (2.23), (2.24)), the baseline.
 //!
 //! For excitation `i` at a line `ω`: `α_A(ω) ΔZ(ω) α_Xi(ω) = α_Ai(ω) − α_Xi(ω)` with
 //! `ΔZ = Σ_j φ_j (∂Z/∂φ_j) Δφ_j/φ_j` and `∂Z/∂φ = (1 + iη) ∂K/∂φ − ω² ∂M/∂φ` (uniform structural

@@ -1,4 +1,5 @@
-//! Moving a lumped parameter's starting value into its sensitive region (thesis §5.4, 5.10–5.12).
+//! Moving a lumped parameter's starting value into its sensitive region (thesis §5.4, 5.10–5.12:
+//! (5.10), (5.11), (5.12)).
 //!
 //! A boundary or joint spring whose initial estimate is far too stiff or too soft hardly moves
 //! any eigenvalue, so no sensitivity-based method sees it. Measured against the unity-based
