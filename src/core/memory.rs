@@ -7,10 +7,10 @@
 /// and unmaps them on `free`. The eigensolver's block vectors, the triangular solves' work
 /// arrays and the substructures' dense blocks are that size at a million DOFs and are allocated
 /// thousands of times: every one then costs page faults, the kernel's zeroing of every page and
-/// TLB shoot-downs across threads (perf: 20 % of a 300k-DOF eigen solve). With `mmap` off and
-/// trimming off, freed blocks stay in the heap for the next allocation (measured: the 300k
-/// plate's 50 modes 25.5 s → 22.0 s). The cost is a peak resident size up to ~10 % higher,
-/// from fragmentation. Call once at start-up, before threads start; a no-op off glibc.
+/// TLB shoot-downs across threads, a noticeable share of an eigen solve. With `mmap` off and
+/// trimming off, freed blocks stay in the heap for the next allocation. The cost is a peak
+/// resident size up to ~10 % higher, from fragmentation. Call once at start-up, before threads
+/// start; a no-op off glibc.
 pub fn keep_freed_memory() {
     #[cfg(all(target_os = "linux", target_env = "gnu"))]
     // SAFETY: `mallopt` only changes allocator tuning parameters; it is called before any
@@ -35,8 +35,8 @@ pub fn release_freed_memory() {
 ///
 /// Allocated zeroed (`calloc`), not zeroed by a write: memory fresh from the kernel is zero
 /// already, so no single-threaded pass touches every page up front, and the pages are first
-/// touched by whichever threads then fill them (the 1M-DOF plate's 2.6 GB Cholesky factor:
-/// 4.8 s of `memset` and page faults on one thread before the factorisation, removed).
+/// touched by whichever threads then fill them. (A `memset` of a Cholesky factor of gigabytes
+/// would fault every page in on one thread before the parallel factorisation starts.)
 pub fn zeroed_f64(len: usize) -> Option<Vec<f64>> {
     if len == 0 {
         return Some(Vec::new());

@@ -2,21 +2,19 @@
 //!
 //! faer's approximate minimum degree orders the graph of the nodes ([`super::ordering`]: the
 //! columns of each node merged into one vertex) and faer finds the supernodal structure; the
-//! numeric
-//! factorisation is our multifrontal one ([`super::multifrontal`]: one dense Cholesky, solve and
-//! rank update per supernode, independent subtrees in parallel; 1M-DOF plate 22 s → 11 s against
-//! faer's left-looking kernel). When AMD's order leaves the supernodal tree out of postorder
-//! (the muffler's does), the columns are renumbered in a postorder of the tree and the
+//! numeric factorisation is our multifrontal one ([`super::multifrontal`]: one dense Cholesky,
+//! solve and rank update per supernode, independent subtrees in parallel), which uses the dense
+//! kernels better than faer's left-looking one. When AMD's order leaves the supernodal tree out of
+//! postorder (the muffler's does), the columns are renumbered in a postorder of the tree and the
 //! structure found again: an equivalent ordering with the same fill in which every subtree is
-//! contiguous, as the parallel factorisation and solves need (300k muffler: solves 1.7× and
-//! the numeric factorisation 1.4× faster). A nested dissection by breadth-first level
-//! structures was tried on the plate and the muffler and gave 25–50 % more fill than AMD, and
-//! METIS's multilevel one only 5 % less. The solves are multifrontal too: a triangular solve
-//! with a few right-hand sides is bound by reading the factor, so every pass over the factor
-//! serves [`SOLVE_COLUMNS`] columns, independent subtrees run on separate threads, and only
-//! the large fronts of the top of the tree split their dense kernels. The forward and the
-//! backward sweep are also available apart, for the symmetric shift-invert operator
-//! `L⁻¹ Pᵀ M P L⁻ᵀ` of the Lanczos process.
+//! contiguous, as the parallel factorisation and solves need. A nested dissection by breadth-first
+//! level structures was tried on the plate and the muffler and gave 25–50 % more fill than AMD, and
+//! METIS's multilevel one only 5 % less. The solves are multifrontal too: a triangular solve with a
+//! few right-hand sides is bound by reading the factor, so every pass over the factor serves
+//! [`SOLVE_COLUMNS`] columns, independent subtrees run on separate threads, and only the large
+//! fronts of the top of the tree split their dense kernels. The forward and the backward sweep are
+//! also available apart, for the symmetric shift-invert operator `L⁻¹ Pᵀ M P L⁻ᵀ` of the Lanczos
+//! process.
 
 use super::multifrontal::{self, FrontError};
 use crate::fe::system::SparseMatrix;
@@ -129,7 +127,7 @@ impl SpdFactor {
     }
 
     /// Factors `A` and frees it as soon as its permuted copy is made, before the factor's
-    /// storage is allocated (at 1M DOFs, half a gigabyte less at the peak).
+    /// storage is allocated, so `A` is not held beside its copy and the factor at the peak.
     pub fn consuming(a: SparseMatrix) -> Result<Self, FactorError> {
         Self::factor(a)
     }
@@ -188,8 +186,7 @@ impl SpdFactor {
 
     /// [`Self::solve_in_place`] with up to `columns` columns per pass. A pass's work arrays
     /// hold `2 n` values per column; in return every column beyond [`SOLVE_COLUMNS`] costs
-    /// less than its share of a pass (the 1M-DOF plate's 50 refined modes in one pass of 50
-    /// instead of four of 13: the refinement 5.3 s → 3.9 s).
+    /// less than its share of a pass, since a pass is bound by reading the factor.
     pub fn solve_in_place_in_passes(&self, x: MatMut<'_, f64>, columns: usize) {
         self.sweeps(x, columns, multifrontal::Sweeps::Both);
     }

@@ -3,9 +3,9 @@
 //!
 //! faer's own numeric factorisation is left-looking: every supernode gathers one scattered
 //! product per descendant that updates it, with inner dimensions as narrow as a descendant's
-//! width, and walks the supernodes one after another. On shell models that reaches about a
-//! quarter of this machine's dense speed (21 GFlop/s of 85 at 300k DOFs). Here each supernode
-//! instead forms its frontal matrix once:
+//! width, and walks the supernodes one after another. On shell models that reaches only a
+//! fraction of the machine's dense speed. Here each supernode instead forms its frontal matrix
+//! once:
 //!
 //! 1. its columns of `P A Pᵀ` and its children's update matrices, as far as they fall in its
 //!    columns, are added into the panel `[L_11; L_21]` (which is the factor's own storage);
@@ -16,9 +16,8 @@
 //!
 //! Independent subtrees of the elimination tree run in parallel, and fronts large enough for it
 //! also split their dense kernels over the threads. The values land in faer's supernodal layout
-//! (faer's own solve reads them in the tests). Measured on the 1M-DOF plate: numeric
-//! factorisation 22 s → 11–16 s; one pass of 8 right-hand sides 0.93 s → 0.6 s, as each entry of
-//! the factor is now read once per pass rather than once per thread.
+//! (faer's own solve reads them in the tests). The solves also run multifrontal, so each entry
+//! of the factor is read once per pass over the right-hand sides rather than once per thread.
 
 use super::layout::{from_row_major, to_row_major};
 use super::thin;
@@ -403,8 +402,8 @@ impl Context<'_> {
             Par::Seq
         };
         // A large front's panel is zeroed by all threads: its pages are first touched here,
-        // and that costs more than the zeroing itself (1M plate: 1.3 GB of such panels took
-        // 2.5 s on one thread).
+        // and that costs more than the zeroing itself, too much for one thread on large
+        // models.
         if par == Par::Seq || panel.len() < PARALLEL_FILL_ENTRIES {
             panel.fill(0.0);
         } else {

@@ -19,10 +19,10 @@
 //! frequency limit, `−1 %` of its eigenvalue — far enough from zero for a stable factorisation
 //! (rigid-body pivots stay eight orders above round-off), close enough that the lowest modes
 //! stay well separated. The median ratio grows as the mesh is refined (as `h⁻⁴` for bending):
-//! at `−10⁻⁶` of it the 1M-DOF muffler's shift sat at `−0.85 λ₁₀₀`, which cost a quarter more
-//! solves and made the shift useless to the static correction. The final eigenvalues are Rayleigh
-//! quotients `φᵀKφ` (`φᵀMφ = 1`), and every mode reports its relative residual. "All modes below
-//! f" enlarges the request until a mode above `f` is found.
+//! at `−10⁻⁶` of it the 1M-DOF muffler's shift sat at `−0.85 λ₁₀₀`, which slowed the
+//! convergence and made the shift useless to the static correction. The final eigenvalues are
+//! Rayleigh quotients `φᵀKφ` (`φᵀMφ = 1`), and every mode reports its relative residual. "All modes
+//! below f" enlarges the request until a mode above `f` is found.
 
 use super::dense::{EigenError, ModeSelection, Modes, dense_generalized, fix_sign, median_ratio};
 use super::factor::{FactorError, FactorInfo, SOLVE_COLUMNS, SpdFactor};
@@ -236,9 +236,9 @@ pub fn lowest_modes_keeping_factor(
     Ok((modes, info, Some(factor)))
 }
 
-/// Columns per pass of the refinement's backward sweep: 50 modes in one pass, 100 in two (the
-/// sweeps are bound by reading the factor: 1M plate, 50 modes, refinement 5.3 s → 3.9 s
-/// against passes of 16).
+/// Columns per pass of the refinement's backward sweep. The sweeps are bound by reading the
+/// factor, so a pass should be wide; 16 is the widest the thin solve kernels take
+/// ([`super::thin::MAX_COLUMNS`]), beyond which the solve falls back to faer's kernels.
 const REFINEMENT_SOLVE_COLUMNS: usize = 16;
 
 /// Eigenvalues, shapes `Φ`, and the products `KΦ`, `MΦ`.
@@ -429,7 +429,7 @@ fn project_once(basis: MatRef<'_, f64>, w: MatMut<'_, f64>) -> Mat<f64> {
 /// [`project_once`], writing the coefficients into `c`. Both products run by tiles of rows
 /// shared among the threads: `basisᵀ w` as a sum of the tiles' products in row order (so the
 /// result does not depend on the threads), then `w ← w − basis c` tile by tile. (faer's
-/// products split a `p × b` result, too small to share: 9 GB/s of basis read at 300k DOFs.)
+/// products split the `p × b` result among the threads, and it is too small to share.)
 fn project_once_into(basis: MatRef<'_, f64>, w: MatMut<'_, f64>, mut c: MatMut<'_, f64>) {
     let mut tiles = Vec::new();
     tile_inner_products(basis, w.as_ref(), &mut tiles);
@@ -609,7 +609,7 @@ fn apply_operator(
 /// Block thick-restart Lanczos on the symmetric `C = L⁻¹ Pᵀ M P L⁻ᵀ` ([`apply_operator`]),
 /// with blocks of `b` vectors so that every pass over the Cholesky factor serves `b`
 /// right-hand sides (the solves are memory-bound). The basis is orthonormal in the plain inner
-/// product, so no `M V` is stored beside it (at 1M DOFs and 50 modes, 0.8 GB less). Returns
+/// product, so no `M V` is stored beside it (one array the size of the basis less). Returns
 /// the `nev` lowest `λ` (ascending) and `C Y` for their Ritz vectors `Y` (what [`refine`]
 /// starts from: `P L⁻ᵀ C Y = A⁻¹ M Φ` for the modes `Φ = P L⁻ᵀ Y`).
 fn lanczos(
@@ -622,8 +622,8 @@ fn lanczos(
     info: &mut SparseEigenInfo,
 ) -> Result<(Vec<f64>, Mat<f64>), EigenError> {
     let b = block_size(nev).min(nev.max(1));
-    // A basis of 2.5 nev: the 300k plate's 50 modes needed 184 Lanczos vectors in three
-    // cycles of 2 nev, and need 160 in two of 2.5 nev, as many as without any restart.
+    // A basis of 2.5 nev rather than 2 nev: the extra vectors save a restart cycle, so the
+    // modes converge with about as many Lanczos vectors as they would without any restart.
     let want = (5 * nev / 2).max(nev + 3 * b);
     let p = (want.div_ceil(b) * b).min((n - b) / b * b).max(2 * b);
     if p <= nev {
@@ -795,16 +795,17 @@ fn ritz(
 /// Lanczos block size: the number of right-hand sides per pass over the factor. A pass with
 /// 16 columns costs little more than one with 8 (the solves are memory-bound), but a larger
 /// block converges more slowly per vector: 16 pays off once the basis (`2·nev`) holds a dozen
-/// blocks of 16. Measured (2 threads, 100 modes): the 100k muffler 8.0 s → 7.2 s, the 100k
-/// plate 6.2 s → 5.8 s; at 50 modes 16 took 9 restarts against 3 and was slower.
+/// blocks of 16. With a smaller basis the slower convergence costs more restarts than the
+/// wider passes save.
 fn block_size(nev: usize) -> usize {
     if 2 * nev >= 12 * 16 { 16 } else { 8 }
 }
 
 /// `out = V Y Θ + F G` (the Ritz vectors' images `C V Y` by the Lanczos relation, `G = R Y_last`)
 /// by tiles of rows in parallel, each formed while its rows of `V` and `F` are in cache: one
-/// read of the basis, and the result's fresh pages first touched by every thread (1M plate:
-/// 1.2 s as an in-place combination, a copy, a scaling and a product, one after the other).
+/// read of the basis, and the result's fresh pages first touched by every thread. (Done as an
+/// in-place combination, a copy, a scaling and a product one after the other, the same work
+/// read the basis several times and faulted the pages in on one thread.)
 fn ritz_images_by_tiles(
     v: MatRef<'_, f64>,
     y: MatRef<'_, f64>,

@@ -3,10 +3,10 @@
 //!
 //! A solve with a few right-hand sides is bound by reading the factor: every entry serves one
 //! multiply-add per right-hand side. faer's general kernels, handed right-hand sides by rows,
-//! walk the panel across its columns a few rows at a time, one page further at every step
-//! (measured on the 300k-DOF plate's factor: 7.6–9 GB/s of factor, where this machine reads
-//! 26 GB/s). Here every panel column is read front to back, four columns at a time, while the
-//! right-hand-side rows of those four columns stay in registers.
+//! walk the panel across its columns a few rows at a time, one page further at every step, and
+//! read the factor well below the memory bandwidth. Here every panel column is read front to
+//! back, four columns at a time, while the right-hand-side rows of those four columns stay in
+//! registers.
 //!
 //! Each result is a fixed sequence of fused multiply-adds, the same on every machine that has
 //! AVX2 and FMA (the kernels are compiled for them and chosen at run time, [`available`]);

@@ -106,8 +106,9 @@ pub fn sparse_from_triplets(
 
 /// The lower triangle of `α A + β B` for square matrices of one size, merged column by column
 /// (no triplet sort: memory and time linear in the non-zeros). Entries of one row in one column
-/// are summed. The columns are merged on all threads: once to count each column's entries,
-/// once to write them where the counts put them (1M-DOF plate: 0.72 s on one thread before).
+/// are summed. The columns are merged on all threads, since at a million DOFs the merge is not
+/// negligible: once to count each column's entries, once to write them where the counts put
+/// them.
 pub fn lower_combination(
     alpha: f64,
     a: &SparseMatrix,
@@ -142,8 +143,8 @@ pub fn lower_combination(
     }
     let nnz = col_ptr[n];
     // Storage for at most the two lower triangles, zeroed by the allocator: pages beyond
-    // `nnz` are never touched. (Sized exactly, the blocks left other holes in the heap, and the
-    // 1M plate's refinement later peaked 110 MiB higher.)
+    // `nnz` are never touched. (Sized exactly, the blocks left other holes in the heap, which
+    // raised the peak memory of the eigensolver's later steps.)
     let bound = (a.compute_nnz() + b.compute_nnz()) / 2 + n;
     let (mut rows, mut vals) = (vec![0usize; bound.max(nnz)], vec![0.0f64; bound.max(nnz)]);
     rows.truncate(nnz);

@@ -5,8 +5,8 @@
 //!
 //! Each substructure's condensation is dense over its junction, so `K_JJ` is a union of
 //! overlapping dense blocks. Up to [`GLOBAL_INTERFACE_LIMIT`] junction DOFs its modes are found
-//! directly. Beyond, its sparse factor fills in (the blocks chain across the whole model: at
-//! 1M DOFs in 64 parts the factor of the 45k-DOF junction outgrew 12 GiB), so the modes are
+//! directly. Beyond, its sparse factor fills in (the blocks chain across the whole model, and
+//! the factor of a junction of tens of thousands of DOFs outgrows the memory), so the modes are
 //! found in two levels (after the local-level interface modes of Hong, Epureanu & Castanier
 //! 2013):
 //! 1. per boundary — the junction DOFs shared by one set of substructures — the modes of the

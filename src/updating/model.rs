@@ -321,8 +321,8 @@ pub struct ModalState {
     /// The reduced model the modes live on (their rows are its coordinates then, and shapes
     /// at physical DOFs come from its expansion).
     pub reduced: Option<std::sync::Arc<ReducedModel>>,
-    /// The eigensolver's factor of `K − σM`, which the static correction reuses (at 1M DOFs a
-    /// second factorisation costs 15 s); `None` on the dense path and for reduced models.
+    /// The eigensolver's factor of `K − σM`, which the static correction reuses instead of
+    /// paying for a second factorisation; `None` on the dense path and for reduced models.
     pub factor: Option<std::sync::Arc<ShiftedFactor>>,
 }
 
