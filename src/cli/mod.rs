@@ -8,7 +8,7 @@ use crate::cache::Cache;
 use crate::pipeline::lock::LockFile;
 use crate::pipeline::schema::{artefact_schema, pipeline_schema};
 use crate::pipeline::{
-    Diagnostics, Plan, ProgressMode, RunOptions, Status, execute, materialise, plan, read_pipeline,
+    Diagnostics, Plan, ProgressMode, RunOptions, Status, execute, plan, read_pipeline,
 };
 use crate::stages::registry;
 use anyhow::Context;
@@ -257,13 +257,17 @@ fn dispatch(cli: Cli) -> Result<u8, Failure> {
             let report = execute(&plan, &cache, &opts)?;
             let lock = LockFile::from_run(&plan, &report);
             if opts.only.is_empty() {
-                lock.write(&cache.lock_path(&plan.name))
-                    .context("writing the lock file")?;
+                if let Some(warning) = lock.record_in(&cache, &plan.name)? {
+                    eprintln!("warning: {warning}");
+                }
             }
             if let Some(out) = &out {
-                materialise(&report, &cache, out)?;
-                lock.write(&out.join("femu.lock.json"))
-                    .context("writing the lock file")?;
+                crate::pipeline::executor::materialise_with_lock(
+                    &report,
+                    &cache,
+                    out,
+                    Some(&lock),
+                )?;
             }
             println!(
                 "pipeline {}: {} stages, {} ran, {} cached",
@@ -626,7 +630,8 @@ fn explain(plan: &Plan, cache_dir: &Path) {
         }
         if let Some(lock) = cache
             .as_ref()
-            .and_then(|c| std::fs::read_to_string(c.lock_path(&plan.name)).ok())
+            .and_then(|c| c.lock_path(&plan.name).ok())
+            .and_then(|p| std::fs::read_to_string(p).ok())
         {
             if let Ok(lock) = serde_json::from_str::<LockFile>(&lock) {
                 if let Some(s) = lock.stages.get(&n.name) {
