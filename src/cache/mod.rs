@@ -273,6 +273,26 @@ impl Cache {
         Ok(locks.join(format!("{pipeline}.lock.json")))
     }
 
+    /// Writes `text` as the lock file of `pipeline`: into `tmp/` (so a killed writer's leftover
+    /// is found by [`Cache::remove_stale_temporaries`]), then renamed into `locks/`.
+    pub fn write_lock(&self, pipeline: &str, text: &[u8]) -> Result<PathBuf, CacheError> {
+        let path = self.lock_path(pipeline)?;
+        self.writable()?;
+        let tmp = self.tmp_path("lock");
+        if let Err(e) = write_synced(&tmp, text) {
+            let _ = std::fs::remove_file(&tmp);
+            return Err(e);
+        }
+        std::fs::rename(&tmp, &path).map_err(|source| {
+            let _ = std::fs::remove_file(&tmp);
+            CacheError::Io {
+                path: path.clone(),
+                source,
+            }
+        })?;
+        Ok(path)
+    }
+
     fn read_manifest(&self, key: &str) -> Result<Manifest, String> {
         let path = self
             .entry_dir(key)

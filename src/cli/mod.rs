@@ -257,7 +257,8 @@ fn dispatch(cli: Cli) -> Result<u8, Failure> {
             let report = execute(&plan, &cache, &opts)?;
             let lock = LockFile::from_run(&plan, &report);
             if opts.only.is_empty() {
-                if let Some(warning) = lock.record_in(&cache, &plan.name)? {
+                let recorded = lock.record_in(&cache, &plan.name);
+                if let Some(warning) = recorded.context("writing the lock file")? {
                     eprintln!("warning: {warning}");
                 }
             }

@@ -104,8 +104,11 @@ impl LockFile {
                 path.display()
             )));
         }
-        self.write(&path)
-            .map_err(|source| CacheError::Io { path, source })?;
+        let text = self.to_text().map_err(|source| CacheError::Io {
+            path: path.clone(),
+            source,
+        })?;
+        cache.write_lock(name, text.as_bytes())?;
         Ok(None)
     }
 }
