@@ -153,7 +153,7 @@ stages:
     assert_eq!(cb(&third).status, femu::pipeline::Status::Cached);
     assert_eq!(cb(&third).parts.keys, second.parts.keys);
     assert_eq!(lock.stages["cb"].parts, second.parts.keys);
-    lock.write(&cache.lock_path("cms-parts")).unwrap();
+    lock.write(&cache.lock_path("cms-parts").unwrap()).unwrap();
     let locked = cache.locked_keys();
     assert!(second.parts.keys.iter().all(|k| locked.contains(k)));
     cache.gc(&locked).unwrap();
@@ -166,7 +166,7 @@ stages:
 
     // A corrupt component is evicted and computed again, not read.
     let reused = kept[0];
-    let dir = cache.artefact_dir(reused, "part");
+    let dir = cache.artefact_dir(reused, "part").unwrap();
     let file = std::fs::read_dir(&dir)
         .unwrap()
         .map(|e| e.unwrap().path())

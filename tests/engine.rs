@@ -89,7 +89,10 @@ fn a_corrupted_artefact_is_detected_and_recomputed() {
     let dir = tempfile::tempdir().unwrap();
     let (_, first, cache) = run(&pipeline("four-dof"), dir.path(), &[]);
     let victim = first.stages.iter().find(|s| s.name == "predicted").unwrap();
-    let file = cache.artefact_dir(&victim.key, "frf").join("frf.parquet");
+    let file = cache
+        .artefact_dir(&victim.key, "frf")
+        .unwrap()
+        .join("frf.parquet");
     let mut bytes = std::fs::read(&file).unwrap();
     let n = bytes.len();
     bytes[n / 2] ^= 0x5a;
@@ -244,5 +247,11 @@ fn hdf5_outputs_have_the_same_digests() {
     let (_, b, _) = run(&pipeline("four-dof"), &dir.path().join("c2"), &[]);
     assert_eq!(digests(&a), digests(&b));
     let s = &a.stages[0];
-    assert!(cache.artefact_dir(&s.key, "model").join("data.h5").exists());
+    assert!(
+        cache
+            .artefact_dir(&s.key, "model")
+            .unwrap()
+            .join("data.h5")
+            .exists()
+    );
 }

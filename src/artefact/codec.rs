@@ -172,7 +172,15 @@ pub fn read_dir(dir: &Path) -> Result<Artefact, ArtefactError> {
         .cloned()
         .unwrap_or_default();
     let hdf5_tables = if m.format == Format::Hdf5 {
-        Some(read_hdf5(&dir.join(HDF5_FILE))?)
+        let path = dir.join(HDF5_FILE);
+        Some(read_hdf5(&path).map_err(|e| match e {
+            // Name the file that could not be read.
+            ArtefactError::Hdf5Unavailable => ArtefactError::Decode {
+                path: path.clone(),
+                message: e.to_string(),
+            },
+            e => e,
+        })?)
     } else {
         None
     };
@@ -353,8 +361,39 @@ pub fn write_parquet(table: &Table, path: &Path) -> Result<(), ArtefactError> {
     Ok(())
 }
 
-/// Reads a Parquet file into a table.
+/// Reads a Parquet file into a table. Hostile bytes give an error naming the file, never a
+/// panic (see [`guard_decoder`]).
 pub fn read_parquet(path: &Path) -> Result<Table, ArtefactError> {
+    guard_decoder(path, "Parquet", || read_parquet_unguarded(path))
+}
+
+/// Runs a third-party decoder on `path`, turning a panic into a decode error naming the file.
+///
+/// The Parquet and Arrow IPC readers validate most of what they read, but a file crafted to
+/// contradict itself (offsets past a buffer, a schema that disagrees with its data) can still
+/// reach an `unwrap` or an index inside arrow/parquet. A cache entry or an `--out` tree is user
+/// input, so such a panic is caught here, at the boundary, and reported as corruption.
+fn guard_decoder<T>(
+    path: &Path,
+    what: &str,
+    read: impl FnOnce() -> Result<T, ArtefactError>,
+) -> Result<T, ArtefactError> {
+    std::panic::catch_unwind(std::panic::AssertUnwindSafe(read)).unwrap_or_else(|panic| {
+        let detail = panic
+            .downcast_ref::<&str>()
+            .map(|s| s.to_string())
+            .or_else(|| panic.downcast_ref::<String>().cloned())
+            .unwrap_or_else(|| "no message".into());
+        Err(ArtefactError::Decode {
+            path: path.to_path_buf(),
+            message: format!(
+                "not a readable {what} file: its reader failed on malformed data ({detail})"
+            ),
+        })
+    })
+}
+
+fn read_parquet_unguarded(path: &Path) -> Result<Table, ArtefactError> {
     use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
     let file = File::open(path).map_err(|e| ArtefactError::io(path, e))?;
     let dec = |m: String| ArtefactError::Decode {
@@ -393,8 +432,13 @@ pub fn write_ipc(table: &Table, path: &Path) -> Result<(), ArtefactError> {
     Ok(())
 }
 
-/// Reads an Arrow IPC file into a table.
+/// Reads an Arrow IPC file into a table. Hostile bytes give an error naming the file, never a
+/// panic (see [`guard_decoder`]).
 pub fn read_ipc(path: &Path) -> Result<Table, ArtefactError> {
+    guard_decoder(path, "Arrow IPC", || read_ipc_unguarded(path))
+}
+
+fn read_ipc_unguarded(path: &Path) -> Result<Table, ArtefactError> {
     let file = File::open(path).map_err(|e| ArtefactError::io(path, e))?;
     let dec = |m: String| ArtefactError::Decode {
         path: path.to_path_buf(),
@@ -497,5 +541,169 @@ mod tests {
         std::fs::write(dir.path().join("frf.parquet"), b"not parquet").unwrap();
         let e = read_dir(dir.path()).unwrap_err().to_string();
         assert!(e.contains("frf.parquet"), "{e}");
+    }
+
+    /// Bounded fuzzing of the readers: arbitrary bytes, and valid files with bytes overwritten,
+    /// cut short or spliced, never panic; every failure is an error naming the file.
+    mod fuzz {
+        use super::*;
+        use proptest::prelude::*;
+        use proptest::sample::Index;
+
+        /// The sample's files, written once: name → bytes.
+        fn valid_files() -> &'static BTreeMap<String, Vec<u8>> {
+            static FILES: std::sync::OnceLock<BTreeMap<String, Vec<u8>>> =
+                std::sync::OnceLock::new();
+            FILES.get_or_init(|| {
+                let dir = tempfile::tempdir().unwrap();
+                write_dir(&sample(), dir.path(), Format::Arrow, None).unwrap();
+                ["frf.parquet", "shapes.arrow", "meta.json"]
+                    .into_iter()
+                    .map(|f| (f.to_string(), std::fs::read(dir.path().join(f)).unwrap()))
+                    .collect()
+            })
+        }
+
+        /// How a valid file is damaged.
+        #[derive(Debug, Clone)]
+        struct Damage {
+            /// Bytes overwritten, at positions anywhere or within the last 512 bytes (where
+            /// Parquet and Arrow IPC keep their footers).
+            writes: Vec<(Index, u8, bool)>,
+            /// Cut the file to this fraction of its length.
+            cut: Option<Index>,
+            /// Insert these bytes at a position.
+            splice: Option<(Index, Vec<u8>)>,
+        }
+
+        fn damage() -> impl Strategy<Value = Damage> {
+            (
+                prop::collection::vec((any::<Index>(), any::<u8>(), any::<bool>()), 0..12),
+                prop::option::of(any::<Index>()),
+                prop::option::of((any::<Index>(), prop::collection::vec(any::<u8>(), 1..64))),
+            )
+                .prop_map(|(writes, cut, splice)| Damage {
+                    writes,
+                    cut,
+                    splice,
+                })
+        }
+
+        fn apply(bytes: &[u8], d: &Damage) -> Vec<u8> {
+            let mut b = bytes.to_vec();
+            for (at, v, tail) in &d.writes {
+                let n = b.len();
+                if n == 0 {
+                    break;
+                }
+                let i = if *tail && n > 512 {
+                    n - 512 + at.index(512)
+                } else {
+                    at.index(n)
+                };
+                b[i] = *v;
+            }
+            if let Some((at, extra)) = &d.splice {
+                let i = at.index(b.len() + 1);
+                b.splice(i..i, extra.iter().copied());
+            }
+            if let Some(cut) = &d.cut {
+                b.truncate(cut.index(b.len() + 1));
+            }
+            b
+        }
+
+        /// Reads `file` of `dir` with the reader for its name; an error must name the file (for a
+        /// damaged `meta.json`, a file of the directory: it may now name another table file).
+        fn read_names_file(dir: &Path, file: &str) -> Result<(), String> {
+            let path = dir.join(file);
+            let (err, named) = match file {
+                "frf.parquet" => (read_parquet(&path).err(), path.clone()),
+                "shapes.arrow" => (read_ipc(&path).err(), path.clone()),
+                _ => (read_dir(dir).err(), dir.to_path_buf()),
+            };
+            match err {
+                Some(e) if !e.to_string().contains(&named.display().to_string()) => {
+                    Err(format!("the error does not name {}: {e}", named.display()))
+                }
+                _ => Ok(()),
+            }
+        }
+
+        fn config() -> ProptestConfig {
+            ProptestConfig {
+                cases: 300,
+                failure_persistence: None,
+                ..ProptestConfig::default()
+            }
+        }
+
+        proptest! {
+            #![proptest_config(config())]
+
+            #[test]
+            fn arbitrary_bytes_are_an_error_naming_the_file(
+                which in 0usize..3,
+                bytes in prop::collection::vec(any::<u8>(), 0..2048),
+                magic in any::<bool>(),
+            ) {
+                let dir = tempfile::tempdir().unwrap();
+                write_dir(&sample(), dir.path(), Format::Arrow, None).unwrap();
+                let file = ["frf.parquet", "shapes.arrow", "meta.json"][which];
+                let mut b = bytes;
+                if magic && which == 0 {
+                    // Parquet's magic at both ends, so the footer parser runs on the rest.
+                    b.splice(0..0, *b"PAR1");
+                    b.extend_from_slice(b"PAR1");
+                }
+                if magic && which == 1 {
+                    b.splice(0..0, *b"ARROW1\0\0");
+                    b.extend_from_slice(b"ARROW1");
+                }
+                std::fs::write(dir.path().join(file), &b).unwrap();
+                let r = read_names_file(dir.path(), file);
+                prop_assert!(r.is_ok(), "{}", r.unwrap_err());
+            }
+
+            #[test]
+            fn damaged_files_are_an_error_naming_the_file(which in 0usize..3, d in damage()) {
+                let dir = tempfile::tempdir().unwrap();
+                write_dir(&sample(), dir.path(), Format::Arrow, None).unwrap();
+                let file = ["frf.parquet", "shapes.arrow", "meta.json"][which];
+                std::fs::write(dir.path().join(file), apply(&valid_files()[file], &d)).unwrap();
+                let r = read_names_file(dir.path(), file);
+                prop_assert!(r.is_ok(), "{}", r.unwrap_err());
+            }
+
+            /// `meta.json` that is valid JSON but says anything: other kinds and versions, tables
+            /// naming odd files and storages, blobs that are not names.
+            #[test]
+            fn hostile_meta_json_is_an_error_naming_the_directory(
+                kind in prop::sample::select(vec!["frf", "modes", "nope", ""]),
+                version in prop::sample::select(vec![serde_json::json!(1), serde_json::json!(2), serde_json::json!("1"), serde_json::Value::Null]),
+                format in prop::sample::select(vec![serde_json::json!("arrow"), serde_json::json!("hdf5"), serde_json::json!(7)]),
+                file in prop::sample::select(vec!["frf.parquet", "shapes.arrow", "meta.json", "", ".", "..", "../frf.parquet", "/etc/passwd", "missing.parquet"]),
+                storage in prop::sample::select(vec!["parquet", "arrow_ipc", "csv"]),
+                blob in prop::sample::select(vec![serde_json::json!(["meta.json"]), serde_json::json!(["../x"]), serde_json::json!([1]), serde_json::json!("x"), serde_json::json!(["nope.png"])]),
+            ) {
+                let dir = tempfile::tempdir().unwrap();
+                write_dir(&sample(), dir.path(), Format::Arrow, None).unwrap();
+                let meta = serde_json::json!({
+                    "femu_artefact": kind,
+                    "schema_version": version,
+                    "format": format,
+                    "tables": {"t": {"file": file, "storage": storage}},
+                    "blobs": blob,
+                });
+                std::fs::write(dir.path().join(META_FILE), meta.to_string()).unwrap();
+                if let Err(e) = read_dir(dir.path()) {
+                    let text = e.to_string();
+                    prop_assert!(
+                        text.contains(&dir.path().display().to_string()),
+                        "the error does not name a file of the directory: {}", text
+                    );
+                }
+            }
+        }
     }
 }

@@ -9,11 +9,20 @@
 //! tmp/                              work in progress, committed by one atomic rename
 //! locks/<pipeline>.lock.json        the last run's keys and digests (per pipeline)
 //! ```
-//! A reader verifies every file hash before trusting an entry; a corrupt entry is reported,
-//! evicted (renamed away atomically, then deleted) and recomputed. Two processes that compute the
-//! same entry at once both succeed: the second rename finds the entry in place and is dropped.
+//! A reader verifies every file hash, and that each output's `meta.json` names this entry, port
+//! and kind as its producer, before trusting an entry; a corrupt entry is reported, evicted
+//! (renamed away atomically, then deleted) and recomputed. Two processes that compute the same
+//! entry at once both succeed: the second rename finds the entry in place and is dropped.
+//!
+//! Names from users or from disk (pipeline, port, file names) are joined to the root only when
+//! they are one plain path component ([`names`]). Temporaries carry their process and host
+//! ([`owner`]); opening a cache removes those of dead processes. A cache that cannot be written
+//! (read-only file system, no permission) still serves hits: [`Cache::read_only`] says why.
 
-use crate::artefact::codec::{read_dir, write_dir};
+pub mod names;
+pub mod owner;
+
+use crate::artefact::codec::{read_dir, read_meta, write_dir};
 use crate::artefact::digest::{canonical_json, hash_bytes};
 use crate::artefact::{Artefact, ArtefactError, ArtefactKind, Format};
 use std::collections::{BTreeMap, BTreeSet};
@@ -43,6 +52,28 @@ pub enum CacheError {
         /// Entry key.
         key: String,
         /// What is wrong.
+        reason: String,
+    },
+    /// A name that would become a path is not one plain path component.
+    #[error("{what} `{name}` cannot name a file under {root}: {reason}; a valid name is {valid}", valid = names::VALID_NAME)]
+    UnsafeName {
+        /// What the name names (pipeline, port, key).
+        what: &'static str,
+        /// The name.
+        name: String,
+        /// The directory it would be joined to.
+        root: PathBuf,
+        /// Why it is refused.
+        reason: &'static str,
+    },
+    /// The cache cannot be written.
+    #[error(
+        "cache {root} is read-only ({reason}); cached results can be read but nothing can be stored: use a writable --cache-dir to compute"
+    )]
+    ReadOnly {
+        /// Cache root.
+        root: PathBuf,
+        /// Why it is read-only.
         reason: String,
     },
 }
@@ -111,6 +142,8 @@ pub struct EntrySummary {
 #[derive(Clone, Debug)]
 pub struct Cache {
     root: PathBuf,
+    /// Why the store cannot be written, when it cannot.
+    read_only: Option<String>,
 }
 
 static TMP_COUNTER: AtomicU64 = AtomicU64::new(0);
@@ -135,15 +168,58 @@ pub fn cache_key(
 }
 
 impl Cache {
-    /// Opens (creating) a store at `root`.
+    /// Opens (creating) a store at `root`, and removes the temporaries of dead processes. A store
+    /// whose `entries/` exists but that cannot be written (the first write fails) opens
+    /// read-only: hits are served, commits fail with [`CacheError::ReadOnly`].
     pub fn open(root: &Path) -> Result<Cache, CacheError> {
-        for sub in ["entries", "tmp", "locks"] {
-            let p = root.join(sub);
-            std::fs::create_dir_all(&p).map_err(io(&p))?;
+        let mut cache = Cache {
+            root: root.to_path_buf(),
+            read_only: None,
+        };
+        match cache.prepare() {
+            Ok(()) => {
+                cache.remove_stale_temporaries();
+                Ok(cache)
+            }
+            Err(e) if root.join("entries").is_dir() => {
+                cache.read_only = Some(e.to_string());
+                Ok(cache)
+            }
+            Err(e) => Err(e),
+        }
+    }
+
+    /// Opens an existing store without ever writing to it (a shared, read-only cache).
+    pub fn open_read_only(root: &Path) -> Result<Cache, CacheError> {
+        let entries = root.join("entries");
+        if !entries.is_dir() {
+            return Err(CacheError::Io {
+                path: entries,
+                source: std::io::Error::new(
+                    std::io::ErrorKind::NotFound,
+                    "no cache here (a read-only cache must already hold `entries/`)",
+                ),
+            });
         }
         Ok(Cache {
             root: root.to_path_buf(),
+            read_only: Some("opened read-only".into()),
         })
+    }
+
+    /// Creates the layout and proves that `tmp/` takes a new file.
+    fn prepare(&self) -> Result<(), CacheError> {
+        for sub in ["entries", "tmp", "locks"] {
+            let p = self.root.join(sub);
+            std::fs::create_dir_all(&p).map_err(io(&p))?;
+        }
+        let probe = self.tmp_path("probe");
+        std::fs::OpenOptions::new()
+            .write(true)
+            .create_new(true)
+            .open(&probe)
+            .map_err(io(&probe))?;
+        std::fs::remove_file(&probe).map_err(io(&probe))
     }
 
     /// Root directory.
@@ -151,24 +227,77 @@ impl Cache {
         &self.root
     }
 
-    fn entry_dir(&self, key: &str) -> PathBuf {
-        self.root.join("entries").join(key)
+    /// Why the store cannot be written, or `None` when it can.
+    pub fn read_only(&self) -> Option<&str> {
+        self.read_only.as_deref()
     }
 
-    /// Directory of one output artefact of an entry.
-    pub fn artefact_dir(&self, key: &str, port: &str) -> PathBuf {
-        self.entry_dir(key).join(port)
+    fn writable(&self) -> Result<(), CacheError> {
+        match &self.read_only {
+            None => Ok(()),
+            Some(reason) => Err(CacheError::ReadOnly {
+                root: self.root.clone(),
+                reason: reason.clone(),
+            }),
+        }
     }
 
-    /// Path of a pipeline's lock file.
-    pub fn lock_path(&self, pipeline: &str) -> PathBuf {
-        self.root
-            .join("locks")
-            .join(format!("{pipeline}.lock.json"))
+    /// `base/name` when `name` is one plain path component, else an error naming both.
+    fn join_checked(base: &Path, what: &'static str, name: &str) -> Result<PathBuf, CacheError> {
+        match names::unsafe_reason(name) {
+            None => Ok(base.join(name)),
+            Some(reason) => Err(CacheError::UnsafeName {
+                what,
+                name: name.to_string(),
+                root: base.to_path_buf(),
+                reason,
+            }),
+        }
+    }
+
+    fn entry_dir(&self, key: &str) -> Result<PathBuf, CacheError> {
+        Self::join_checked(&self.root.join("entries"), "cache key", key)
+    }
+
+    /// Directory of one output artefact of an entry; an error if the key or port is not a
+    /// plain name.
+    pub fn artefact_dir(&self, key: &str, port: &str) -> Result<PathBuf, CacheError> {
+        Self::join_checked(&self.entry_dir(key)?, "output port", port)
+    }
+
+    /// Path of a pipeline's lock file; an error if `pipeline` is not a plain name (it must not
+    /// reach outside `locks/`).
+    pub fn lock_path(&self, pipeline: &str) -> Result<PathBuf, CacheError> {
+        let locks = self.root.join("locks");
+        Self::join_checked(&locks, "pipeline name", pipeline)?;
+        Ok(locks.join(format!("{pipeline}.lock.json")))
+    }
+
+    /// Writes `text` as the lock file of `pipeline`: into `tmp/` (so a killed writer's leftover
+    /// is found by [`Cache::remove_stale_temporaries`]), then renamed into `locks/`.
+    pub fn write_lock(&self, pipeline: &str, text: &[u8]) -> Result<PathBuf, CacheError> {
+        let path = self.lock_path(pipeline)?;
+        self.writable()?;
+        let tmp = self.tmp_path("lock");
+        if let Err(e) = write_synced(&tmp, text) {
+            let _ = std::fs::remove_file(&tmp);
+            return Err(e);
+        }
+        std::fs::rename(&tmp, &path).map_err(|source| {
+            let _ = std::fs::remove_file(&tmp);
+            CacheError::Io {
+                path: path.clone(),
+                source,
+            }
+        })?;
+        Ok(path)
     }
 
     fn read_manifest(&self, key: &str) -> Result<Manifest, String> {
-        let path = self.entry_dir(key).join("manifest.json");
+        let path = self
+            .entry_dir(key)
+            .map_err(|e| e.to_string())?
+            .join("manifest.json");
         let text =
             std::fs::read_to_string(&path).map_err(|e| format!("manifest unreadable: {e}"))?;
         serde_json::from_str(&text).map_err(|e| format!("manifest is not valid: {e}"))
@@ -179,20 +308,74 @@ impl Cache {
         if m.key != key {
             return Err(format!("manifest names key {}", m.key));
         }
-        let dir = self.entry_dir(key);
+        let dir = self.entry_dir(key).map_err(|e| e.to_string())?;
         for (rel, want) in &m.files {
-            let bytes = std::fs::read(dir.join(rel)).map_err(|e| format!("{rel}: {e}"))?;
+            if let Some(why) = names::unsafe_relative_reason(rel) {
+                return Err(format!("manifest lists file `{rel}`: {why}"));
+            }
+            let path = dir.join(rel);
+            let meta = std::fs::symlink_metadata(&path).map_err(|e| format!("{rel}: {e}"))?;
+            if !meta.is_file() {
+                return Err(format!("{rel}: not a regular file"));
+            }
+            let bytes = std::fs::read(&path).map_err(|e| format!("{rel}: {e}"))?;
             if &hash_bytes(&bytes) != want {
                 return Err(format!("{rel}: content does not match its recorded hash"));
             }
         }
+        for (port, record) in &m.outputs {
+            self.check_producer(key, &m.stage_kind, port, &record.kind, Some(&record.digest))?;
+        }
         Ok(m)
+    }
+
+    /// Checks that the `meta.json` of output `port` names this entry as its producer: its key,
+    /// stage kind and port, its artefact kind and (when known) its digest. Files copied from
+    /// another entry, even with consistent hashes, fail here.
+    fn check_producer(
+        &self,
+        key: &str,
+        stage_kind: &str,
+        port: &str,
+        kind: &str,
+        digest: Option<&str>,
+    ) -> Result<(), String> {
+        let dir = self.artefact_dir(key, port).map_err(|e| e.to_string())?;
+        let meta = read_meta(&dir).map_err(|e| e.to_string())?;
+        if meta.kind.name() != kind {
+            return Err(format!(
+                "port `{port}` holds a `{}` artefact, the manifest says `{kind}`",
+                meta.kind
+            ));
+        }
+        if let Some(d) = digest.filter(|d| **d != meta.digest) {
+            return Err(format!(
+                "port `{port}`: meta.json records digest {}, the manifest {d}",
+                meta.digest
+            ));
+        }
+        let producer = meta.raw.get("producer");
+        let field = |name: &str| producer.and_then(|p| p.get(name)).and_then(|v| v.as_str());
+        for (name, want) in [("key", key), ("port", port), ("stage_kind", stage_kind)] {
+            match field(name) {
+                Some(got) if got == want => {}
+                got => {
+                    return Err(format!(
+                        "port `{port}`: meta.json names producer {name} {}, not this entry's {want}",
+                        got.unwrap_or("<none>")
+                    ));
+                }
+            }
+        }
+        Ok(())
     }
 
     /// Looks up and verifies an entry; a corrupt one is evicted and reported.
     pub fn lookup(&self, key: &str) -> Lookup {
-        if !self.entry_dir(key).exists() {
-            return Lookup::Miss;
+        match self.entry_dir(key) {
+            Ok(dir) if !dir.exists() => return Lookup::Miss,
+            Ok(_) => {}
+            Err(e) => return Lookup::Corrupt(e.to_string()),
         }
         match self.verify(key) {
             Ok(m) => Lookup::Hit(m),
@@ -205,7 +388,8 @@ impl Cache {
 
     /// Removes an entry: an atomic rename out of `entries/`, then deletion.
     pub fn evict(&self, key: &str) -> Result<(), CacheError> {
-        let dir = self.entry_dir(key);
+        self.writable()?;
+        let dir = self.entry_dir(key)?;
         let trash = self.tmp_path(&format!("evict-{key}"));
         match std::fs::rename(&dir, &trash) {
             Ok(()) => std::fs::remove_dir_all(&trash).map_err(io(&trash)),
@@ -217,15 +401,38 @@ impl Cache {
         }
     }
 
+    /// A fresh name in `tmp/`: `<stem>.<n>.<nanos>.<pid>@<host>` (see [`owner`]).
     fn tmp_path(&self, stem: &str) -> PathBuf {
         let n = TMP_COUNTER.fetch_add(1, Ordering::Relaxed);
         let nanos = std::time::SystemTime::now()
             .duration_since(std::time::UNIX_EPOCH)
             .map(|d| d.subsec_nanos())
             .unwrap_or(0);
+        let owner = owner::owner_suffix(std::process::id());
         self.root
             .join("tmp")
-            .join(format!("{stem}.{}.{n}.{nanos}", std::process::id()))
+            .join(format!("{stem}.{n}.{nanos}.{owner}"))
+    }
+
+    /// Removes the temporaries in `tmp/` of processes of this host that have died (killed in
+    /// the middle of a commit or an eviction); returns the bytes freed. Live processes' work and
+    /// other hosts' work are left alone; failures are ignored (the next open or `gc` retries).
+    pub fn remove_stale_temporaries(&self) -> u64 {
+        if self.read_only.is_some() {
+            return 0;
+        }
+        let tmp = self.root.join("tmp");
+        let mut freed = 0;
+        for e in std::fs::read_dir(&tmp).into_iter().flatten().flatten() {
+            if !owner::is_stale(&e.file_name().to_string_lossy()) {
+                continue;
+            }
+            let size = tree_size(&e.path());
+            if remove_any(&e.path()).is_ok() {
+                freed += size;
+            }
+        }
+        freed
     }
 
     /// Writes the outputs of a stage run and commits them under `key` atomically. Returns the
@@ -252,6 +459,8 @@ impl Cache {
         format: Format,
         parts: &[String],
     ) -> Result<Manifest, CacheError> {
+        self.writable()?;
+        let dest = self.entry_dir(key)?;
         let tmp = self.tmp_path(key);
         std::fs::create_dir_all(&tmp).map_err(io(&tmp))?;
         let result = self.write_entry(&tmp, key, stage_kind, impl_version, outputs, format, parts);
@@ -262,7 +471,6 @@ impl Cache {
                 return Err(e);
             }
         };
-        let dest = self.entry_dir(key);
         match std::fs::rename(&tmp, &dest) {
             Ok(()) => Ok(manifest),
             Err(_) if dest.exists() => {
@@ -317,7 +525,7 @@ impl Cache {
     ) -> Result<Manifest, CacheError> {
         let mut records = BTreeMap::new();
         for (port, a) in outputs {
-            let dir = tmp.join(port);
+            let dir = Self::join_checked(tmp, "output port", port)?;
             std::fs::create_dir_all(&dir).map_err(io(&dir))?;
             let producer = serde_json::json!({"stage_kind": stage_kind, "impl_version": impl_version, "key": key, "port": port});
             let digest = write_dir(a, &dir, format, Some(producer))?;
@@ -348,16 +556,33 @@ impl Cache {
         Ok(manifest)
     }
 
-    /// Reads one output artefact of a verified entry.
+    /// Reads one output artefact of a verified entry. An output whose `meta.json` names
+    /// another producer, or of another kind, is corrupt: the entry is evicted.
     pub fn read(&self, key: &str, port: &str, kind: ArtefactKind) -> Result<Artefact, CacheError> {
-        let a = read_dir(&self.artefact_dir(key, port))?;
-        if a.kind != kind {
-            return Err(CacheError::Corrupt {
-                key: key.into(),
-                reason: format!("port `{port}` holds `{}`, expected `{kind}`", a.kind),
-            });
+        let a = read_dir(&self.artefact_dir(key, port)?)?;
+        let check = if a.kind != kind {
+            Err(format!(
+                "port `{port}` holds `{}`, expected `{kind}`",
+                a.kind
+            ))
+        } else {
+            self.read_manifest(key).and_then(|m| {
+                let digest = m.outputs.get(port).map(|r| r.digest.as_str());
+                self.check_producer(key, &m.stage_kind, port, kind.name(), digest)
+            })
+        };
+        match check {
+            Ok(()) => Ok(a),
+            Err(reason) => {
+                if self.read_only.is_none() {
+                    let _ = self.evict(key);
+                }
+                Err(CacheError::Corrupt {
+                    key: key.into(),
+                    reason,
+                })
+            }
         }
-        Ok(a)
     }
 
     /// Every committed entry.
@@ -417,6 +642,7 @@ impl Cache {
 
     /// Removes every entry not in `keep` and all leftovers in `tmp/`; returns (entries, bytes) freed.
     pub fn gc(&self, keep: &BTreeSet<String>) -> Result<(usize, u64), CacheError> {
+        self.writable()?;
         let (mut n, mut bytes) = (0, 0);
         for e in self.entries()? {
             if !keep.contains(&e.key) {
@@ -425,6 +651,7 @@ impl Cache {
                 bytes += e.bytes;
             }
         }
+        bytes += self.remove_stale_temporaries();
         let tmp = self.root.join("tmp");
         for e in std::fs::read_dir(&tmp).map_err(io(&tmp))?.flatten() {
             // Only stale work: anything younger than an hour may belong to a running process.
@@ -436,7 +663,7 @@ impl Cache {
                 .is_some_and(|d| d.as_secs() > 3600);
             if old {
                 bytes += tree_size(&e.path());
-                let _ = std::fs::remove_dir_all(e.path());
+                let _ = remove_any(&e.path());
             }
         }
         Ok((n, bytes))
@@ -474,8 +701,17 @@ fn hash_tree(
     Ok(())
 }
 
+/// Removes a file, a link (never its target) or a directory tree.
+fn remove_any(p: &Path) -> std::io::Result<()> {
+    if std::fs::symlink_metadata(p)?.is_dir() {
+        std::fs::remove_dir_all(p)
+    } else {
+        std::fs::remove_file(p)
+    }
+}
+
 fn tree_size(p: &Path) -> u64 {
-    if p.is_dir() {
+    if std::fs::symlink_metadata(p).is_ok_and(|m| m.is_dir()) {
         std::fs::read_dir(p)
             .into_iter()
             .flatten()
@@ -483,7 +719,7 @@ fn tree_size(p: &Path) -> u64 {
             .map(|e| tree_size(&e.path()))
             .sum()
     } else {
-        p.metadata().map(|m| m.len()).unwrap_or(0)
+        std::fs::symlink_metadata(p).map(|m| m.len()).unwrap_or(0)
     }
 }
 
@@ -516,7 +752,7 @@ mod tests {
             .unwrap();
         assert_eq!(again, m);
         // Flip a byte in the data: detected, evicted.
-        let f = cache.artefact_dir("k1", "frf").join("t.parquet");
+        let f = cache.artefact_dir("k1", "frf").unwrap().join("t.parquet");
         let mut bytes = std::fs::read(&f).unwrap();
         let mid = bytes.len() / 2;
         bytes[mid] ^= 0xff;
@@ -565,5 +801,137 @@ mod tests {
         let (n, _) = cache.gc(&BTreeSet::from(["a".to_string()])).unwrap();
         assert_eq!(n, 1);
         assert_eq!(cache.entries().unwrap().len(), 1);
+    }
+
+    /// Copies `from`'s output over `to`'s with every hash made consistent.
+    fn forge(cache: &Cache, from: &str, to: &str) {
+        let (src, dst) = (
+            cache.artefact_dir(from, "frf").unwrap(),
+            cache.artefact_dir(to, "frf").unwrap(),
+        );
+        std::fs::remove_dir_all(&dst).unwrap();
+        std::fs::create_dir(&dst).unwrap();
+        for f in std::fs::read_dir(&src).unwrap().flatten() {
+            std::fs::copy(f.path(), dst.join(f.file_name())).unwrap();
+        }
+        let donor = cache.read_manifest(from).unwrap();
+        let mut m = cache.read_manifest(to).unwrap();
+        m.outputs = donor.outputs.clone();
+        m.files.clear();
+        let dir = cache.entry_dir(to).unwrap();
+        hash_tree(&dir, &dir, &mut m.files).unwrap();
+        m.files.remove("manifest.json");
+        std::fs::write(
+            dir.join("manifest.json"),
+            serde_json::to_string_pretty(&m).unwrap(),
+        )
+        .unwrap();
+    }
+
+    #[test]
+    fn an_entry_copied_from_another_with_consistent_hashes_is_corrupt() {
+        let dir = tempfile::tempdir().unwrap();
+        let cache = Cache::open(dir.path()).unwrap();
+        cache
+            .commit("ka", "t", 1, &outputs(1.0), Format::Arrow)
+            .unwrap();
+        cache
+            .commit("kb", "t", 1, &outputs(2.0), Format::Arrow)
+            .unwrap();
+        forge(&cache, "kb", "ka");
+        match cache.lookup("ka") {
+            Lookup::Corrupt(reason) => {
+                assert!(reason.contains("producer key kb"), "{reason}")
+            }
+            other => panic!("a forged entry was accepted: {other:?}"),
+        }
+        assert!(matches!(cache.lookup("ka"), Lookup::Miss), "evicted");
+        // Forged after a verified lookup: the read itself refuses and evicts.
+        cache
+            .commit("ka", "t", 1, &outputs(1.0), Format::Arrow)
+            .unwrap();
+        assert!(matches!(cache.lookup("ka"), Lookup::Hit(_)));
+        forge(&cache, "kb", "ka");
+        let e = cache.read("ka", "frf", ArtefactKind::Frf).unwrap_err();
+        assert!(matches!(e, CacheError::Corrupt { .. }), "{e}");
+        assert!(matches!(cache.lookup("ka"), Lookup::Miss), "evicted");
+        // The untouched donor is fine.
+        assert!(cache.read("kb", "frf", ArtefactKind::Frf).is_ok());
+    }
+
+    #[test]
+    fn names_from_disk_or_users_never_leave_the_root() {
+        let dir = tempfile::tempdir().unwrap();
+        let cache = Cache::open(dir.path()).unwrap();
+        for bad in ["../x", "/etc", "a/b", ".."] {
+            assert!(cache.lock_path(bad).is_err(), "{bad}");
+            assert!(cache.artefact_dir(bad, "frf").is_err(), "{bad}");
+            assert!(cache.artefact_dir("k", bad).is_err(), "{bad}");
+        }
+        // A manifest that lists a file outside its entry is corrupt, and nothing is read there.
+        let m = cache
+            .commit("k", "t", 1, &outputs(1.0), Format::Arrow)
+            .unwrap();
+        let mut forged = m.clone();
+        forged
+            .files
+            .insert("../../outside".into(), hash_bytes(b"secret"));
+        std::fs::write(dir.path().join("outside"), b"secret").unwrap();
+        std::fs::write(
+            cache.entry_dir("k").unwrap().join("manifest.json"),
+            serde_json::to_string(&forged).unwrap(),
+        )
+        .unwrap();
+        assert!(matches!(cache.lookup("k"), Lookup::Corrupt(ref r) if r.contains("../../outside")),);
+    }
+
+    #[test]
+    fn a_cache_that_cannot_be_written_opens_read_only() {
+        let dir = tempfile::tempdir().unwrap();
+        let cache = Cache::open(dir.path()).unwrap();
+        assert_eq!(cache.read_only(), None);
+        cache
+            .commit("k", "t", 1, &outputs(1.0), Format::Arrow)
+            .unwrap();
+        // `tmp` a file: the first write fails (whatever the user's privileges).
+        std::fs::remove_dir_all(dir.path().join("tmp")).unwrap();
+        std::fs::write(dir.path().join("tmp"), b"").unwrap();
+        let ro = Cache::open(dir.path()).unwrap();
+        assert!(ro.read_only().is_some_and(|r| r.contains("tmp")), "{ro:?}");
+        assert!(matches!(ro.lookup("k"), Lookup::Hit(_)));
+        assert!(ro.read("k", "frf", ArtefactKind::Frf).is_ok());
+        let e = ro
+            .commit("k2", "t", 1, &outputs(2.0), Format::Arrow)
+            .unwrap_err();
+        assert!(matches!(e, CacheError::ReadOnly { .. }), "{e}");
+        assert!(matches!(ro.evict("k"), Err(CacheError::ReadOnly { .. })));
+        assert!(ro.gc(&BTreeSet::new()).is_err());
+        assert!(matches!(ro.lookup("k"), Lookup::Hit(_)), "still there");
+        // No cache at all is an error, not an empty read-only one.
+        let none = tempfile::tempdir().unwrap();
+        assert!(Cache::open_read_only(none.path()).is_err());
+    }
+
+    #[test]
+    fn open_removes_dead_processes_temporaries_only() {
+        let dir = tempfile::tempdir().unwrap();
+        let cache = Cache::open(dir.path()).unwrap();
+        let mut child = std::process::Command::new("sh")
+            .args(["-c", "exit 0"])
+            .spawn()
+            .unwrap();
+        let dead = child.id();
+        child.wait().unwrap();
+        let tmp = dir.path().join("tmp");
+        let dead_dir = tmp.join(format!("k.0.0.{}", owner::owner_suffix(dead)));
+        let dead_file = tmp.join(format!("probe.0.0.{}", owner::owner_suffix(dead)));
+        std::fs::create_dir_all(dead_dir.join("frf")).unwrap();
+        std::fs::write(dead_dir.join("frf/x"), vec![1u8; 1000]).unwrap();
+        std::fs::write(&dead_file, b"").unwrap();
+        let live = cache.tmp_path("k");
+        std::fs::create_dir_all(&live).unwrap();
+        assert!(cache.remove_stale_temporaries() >= 1000);
+        assert!(!dead_dir.exists() && !dead_file.exists());
+        assert!(live.exists());
     }
 }

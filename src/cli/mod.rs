@@ -10,7 +10,7 @@ use crate::pipeline::lock::LockFile;
 use crate::pipeline::schema::{artefact_schema, pipeline_schema};
 use crate::pipeline::{
     Diagnostic, Diagnostics, Plan, ProgressMode, RunOptions, SourcedSpec, StageError, Status,
-    execute, materialise, plan, read_pipeline,
+    execute, plan, read_pipeline,
 };
 use crate::stages::registry;
 use anyhow::Context;
@@ -314,13 +314,18 @@ fn dispatch(cli: Cli) -> Result<u8, Failure> {
             let report = execute(&plan, &cache, &opts).map_err(|e| locate_run_error(&src, e))?;
             let lock = LockFile::from_run(&plan, &report);
             if opts.only.is_empty() {
-                lock.write(&cache.lock_path(&plan.name))
-                    .context("writing the lock file")?;
+                let recorded = lock.record_in(&cache, &plan.name);
+                if let Some(warning) = recorded.context("writing the lock file")? {
+                    eprintln!("warning: {warning}");
+                }
             }
             if let Some(out) = &out {
-                materialise(&report, &cache, out)?;
-                lock.write(&out.join("femu.lock.json"))
-                    .context("writing the lock file")?;
+                crate::pipeline::executor::materialise_with_lock(
+                    &report,
+                    &cache,
+                    out,
+                    Some(&lock),
+                )?;
             }
             println!(
                 "pipeline {}: {} stages, {} ran, {} cached",
@@ -702,7 +707,8 @@ fn explain(plan: &Plan, cache_dir: &Path) {
         }
         if let Some(lock) = cache
             .as_ref()
-            .and_then(|c| std::fs::read_to_string(c.lock_path(&plan.name)).ok())
+            .and_then(|c| c.lock_path(&plan.name).ok())
+            .and_then(|p| std::fs::read_to_string(p).ok())
         {
             if let Ok(lock) = serde_json::from_str::<LockFile>(&lock) {
                 if let Some(s) = lock.stages.get(&n.name) {

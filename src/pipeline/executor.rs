@@ -3,6 +3,7 @@
 //! keys hold input digests, not input keys, a re-run stage that reproduces its outputs exactly
 //! leaves everything downstream cached (early cutoff).
 
+use super::lock::{LockFile, OUT_LOCK_FILE};
 use super::memo::{PartCache, PartCounts};
 use super::plan::Plan;
 use super::stage::{StageError, StageInputs};
@@ -431,25 +432,294 @@ fn run_node(
     Ok(r)
 }
 
-/// Copies every output of the run to `out/<stage>/<port>/` as plain files.
+/// Copies every output of the run to `out/<stage>/<port>/` as plain files (see
+/// [`materialise_with_lock`]).
 pub fn materialise(report: &RunReport, cache: &Cache, out: &Path) -> Result<(), RunError> {
-    let err = |path: &Path| {
-        let path = path.display().to_string();
-        move |source| RunError::Out { path, source }
+    materialise_with_lock(report, cache, out, None)
+}
+
+/// Copies every output of the run to `out/<stage>/<port>/` as plain files, with `lock` as
+/// `out/femu.lock.json`.
+///
+/// `out` must be missing, an empty directory, or an earlier femu output (it holds
+/// `femu.lock.json`); it must not be, or hold, a symbolic link: femu never deletes or writes
+/// through a link. The new tree is written into a fresh directory beside `out` (names created
+/// exclusively, so nothing planted is followed) and swapped in by renames; an earlier output is
+/// deleted without following links. When the parent cannot be written, the tree is staged
+/// inside `out` and moved into place entry by entry (not atomic then).
+pub fn materialise_with_lock(
+    report: &RunReport,
+    cache: &Cache,
+    out: &Path,
+    lock: Option<&LockFile>,
+) -> Result<(), RunError> {
+    let out = out_path(out)?;
+    let exists = check_out(&out)?;
+    let (parent, name) = match (out.parent(), out.file_name()) {
+        (Some(p), Some(n)) => (
+            if p.as_os_str().is_empty() {
+                Path::new(".")
+            } else {
+                p
+            },
+            n.to_string_lossy().to_string(),
+        ),
+        _ => return Err(out_err(&out, "is not a directory femu can replace")),
     };
-    for s in &report.stages {
-        for port in s.outputs.keys() {
-            let dest = out.join(&s.name).join(port);
-            if dest.exists() {
-                std::fs::remove_dir_all(&dest).map_err(err(&dest))?;
-            }
-            std::fs::create_dir_all(&dest).map_err(err(&dest))?;
-            let src = cache.artefact_dir(&s.key, port);
-            for e in std::fs::read_dir(&src).map_err(err(&src))? {
-                let e = e.map_err(err(&src))?;
-                std::fs::copy(e.path(), dest.join(e.file_name())).map_err(err(&dest))?;
-            }
+    if !exists {
+        std::fs::create_dir_all(parent).map_err(out_io(parent))?;
+    }
+    remove_dead_staging(parent, &name);
+    let tag = unique_tag();
+    let sibling = parent.join(format!(".{name}.femu-staging.{tag}"));
+    let (staging, in_place) = match std::fs::create_dir(&sibling) {
+        Ok(()) => (sibling, false),
+        Err(e)
+            if exists
+                && matches!(
+                    e.kind(),
+                    std::io::ErrorKind::PermissionDenied | std::io::ErrorKind::ReadOnlyFilesystem
+                ) =>
+        {
+            let inside = out.join(format!(".femu-staging.{tag}"));
+            std::fs::create_dir(&inside).map_err(out_io(&inside))?;
+            (inside, true)
+        }
+        Err(e) => return Err(out_io(&sibling)(e)),
+    };
+    let filled = fill_staging(report, cache, &staging, lock);
+    let done = filled.and_then(|()| {
+        if in_place {
+            replace_contents(&out, &staging)
+        } else {
+            swap_in(&staging, &out, parent, &name, exists)
+        }
+    });
+    if done.is_err() {
+        let _ = std::fs::remove_dir_all(&staging);
+    }
+    done
+}
+
+/// `<n>.<pid>@<host>`: unique in this process, and tells a dead owner's leftovers (see
+/// [`crate::cache::owner`]).
+fn unique_tag() -> String {
+    static N: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+    let n = N.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    format!(
+        "{n}.{}",
+        crate::cache::owner::owner_suffix(std::process::id())
+    )
+}
+
+fn out_err(path: &Path, what: &str) -> RunError {
+    RunError::Out {
+        path: path.display().to_string(),
+        source: std::io::Error::new(std::io::ErrorKind::InvalidInput, what.to_string()),
+    }
+}
+
+fn out_io(path: &Path) -> impl FnOnce(std::io::Error) -> RunError + '_ {
+    move |source| RunError::Out {
+        path: path.display().to_string(),
+        source,
+    }
+}
+
+/// `out` with a last component to rename (`.` and `..` are resolved; they must exist).
+fn out_path(out: &Path) -> Result<std::path::PathBuf, RunError> {
+    if out.file_name().is_some() {
+        return Ok(out.to_path_buf());
+    }
+    let real = std::fs::canonicalize(out).map_err(out_io(out))?;
+    match real.file_name() {
+        Some(_) => Ok(real),
+        None => Err(out_err(
+            out,
+            "is the root directory; choose a directory of its own",
+        )),
+    }
+}
+
+/// Whether `out` exists, after checking that femu may replace it.
+fn check_out(out: &Path) -> Result<bool, RunError> {
+    let meta = match std::fs::symlink_metadata(out) {
+        Ok(m) => m,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(false),
+        Err(e) => return Err(out_io(out)(e)),
+    };
+    if meta.file_type().is_symlink() {
+        return Err(out_err(
+            out,
+            "is a symbolic link; femu writes only into a directory it owns (a new directory, an empty one, or an earlier --out), never through a link",
+        ));
+    }
+    if !meta.is_dir() {
+        return Err(out_err(
+            out,
+            "exists and is not a directory; choose a new or empty directory, or an earlier --out",
+        ));
+    }
+    let mut children = std::fs::read_dir(out).map_err(out_io(out))?;
+    if children.next().is_none() {
+        return Ok(true);
+    }
+    let lock = out.join(OUT_LOCK_FILE);
+    let is_femu = std::fs::symlink_metadata(&lock).is_ok_and(|m| m.is_file());
+    if !is_femu {
+        return Err(out_err(
+            out,
+            "is not empty and holds no femu.lock.json, so it is not an earlier femu output; femu replaces only a new or empty directory or its own earlier output",
+        ));
+    }
+    refuse_links(out)?;
+    Ok(true)
+}
+
+/// Refuses a tree that holds a symbolic link anywhere: femu writes none, so one was planted.
+fn refuse_links(dir: &Path) -> Result<(), RunError> {
+    for e in std::fs::read_dir(dir).map_err(out_io(dir))? {
+        let path = e.map_err(out_io(dir))?.path();
+        let meta = std::fs::symlink_metadata(&path).map_err(out_io(&path))?;
+        if meta.file_type().is_symlink() {
+            return Err(out_err(
+                &path,
+                "is a symbolic link inside an earlier femu output; femu writes none, so it refuses to delete or write through it: remove the link, or choose another --out",
+            ));
+        }
+        if meta.is_dir() {
+            refuse_links(&path)?;
         }
     }
     Ok(())
+}
+
+/// Removes staging and replaced trees that dead processes of this host left beside `out`.
+fn remove_dead_staging(parent: &Path, name: &str) {
+    let prefixes = [
+        format!(".{name}.femu-staging."),
+        format!(".{name}.femu-old."),
+    ];
+    for e in std::fs::read_dir(parent).into_iter().flatten().flatten() {
+        let file = e.file_name().to_string_lossy().to_string();
+        let ours = prefixes.iter().any(|p| file.starts_with(p.as_str()));
+        let dir = std::fs::symlink_metadata(e.path()).is_ok_and(|m| m.is_dir());
+        if ours && dir && crate::cache::owner::is_stale(&file) {
+            let _ = std::fs::remove_dir_all(e.path());
+        }
+    }
+}
+
+/// Creates a directory that must be new (an existing name, link or not, is an error).
+fn create_new_dir(path: &Path) -> Result<(), RunError> {
+    std::fs::create_dir(path).map_err(out_io(path))
+}
+
+/// Creates a file that must be new and writes `from` into it (never through a link).
+fn create_new_file(path: &Path, from: &mut dyn std::io::Read) -> Result<(), RunError> {
+    let mut f = std::fs::OpenOptions::new()
+        .write(true)
+        .create_new(true)
+        .open(path)
+        .map_err(out_io(path))?;
+    std::io::copy(from, &mut f).map_err(out_io(path))?;
+    Ok(())
+}
+
+fn fill_staging(
+    report: &RunReport,
+    cache: &Cache,
+    staging: &Path,
+    lock: Option<&LockFile>,
+) -> Result<(), RunError> {
+    let checked =
+        |base: &Path, what: &str, name: &str| match crate::cache::names::unsafe_reason(name) {
+            None => Ok(base.join(name)),
+            Some(why) => Err(out_err(
+                base,
+                &format!(
+                    "{what} `{name}` cannot name a directory here: {why}; a valid name is {}",
+                    crate::cache::names::VALID_NAME
+                ),
+            )),
+        };
+    for s in &report.stages {
+        let stage_dir = checked(staging, "stage", &s.name)?;
+        if s.outputs.is_empty() {
+            continue;
+        }
+        create_new_dir(&stage_dir)?;
+        for port in s.outputs.keys() {
+            let dest = checked(&stage_dir, "output port", port)?;
+            create_new_dir(&dest)?;
+            let src = cache
+                .artefact_dir(&s.key, port)
+                .map_err(|e| out_err(&dest, &e.to_string()))?;
+            for e in std::fs::read_dir(&src).map_err(out_io(&src))? {
+                let e = e.map_err(out_io(&src))?;
+                let from = e.path();
+                let meta = std::fs::symlink_metadata(&from).map_err(out_io(&from))?;
+                if !meta.is_file() {
+                    return Err(out_err(
+                        &from,
+                        "is not a regular file in a cache entry; femu copies only regular files",
+                    ));
+                }
+                let mut f = std::fs::File::open(&from).map_err(out_io(&from))?;
+                create_new_file(&dest.join(e.file_name()), &mut f)?;
+            }
+        }
+    }
+    if let Some(lock) = lock {
+        let text = lock
+            .to_text()
+            .map_err(out_io(&staging.join(OUT_LOCK_FILE)))?;
+        create_new_file(&staging.join(OUT_LOCK_FILE), &mut text.as_bytes())?;
+    }
+    Ok(())
+}
+
+/// Renames `staging` to `out`, moving an earlier `out` aside first and deleting it after.
+fn swap_in(
+    staging: &Path,
+    out: &Path,
+    parent: &Path,
+    name: &str,
+    exists: bool,
+) -> Result<(), RunError> {
+    if !exists {
+        return std::fs::rename(staging, out).map_err(out_io(out));
+    }
+    let old = parent.join(format!(".{name}.femu-old.{}", unique_tag()));
+    std::fs::rename(out, &old).map_err(out_io(out))?;
+    if let Err(e) = std::fs::rename(staging, out) {
+        let _ = std::fs::rename(&old, out);
+        return Err(out_io(out)(e));
+    }
+    // `remove_dir_all` deletes links, never what they point to.
+    std::fs::remove_dir_all(&old).map_err(out_io(&old))
+}
+
+/// Replaces the contents of `out` by those of `staging` (a directory inside it).
+fn replace_contents(out: &Path, staging: &Path) -> Result<(), RunError> {
+    let keep = staging.file_name();
+    for e in std::fs::read_dir(out).map_err(out_io(out))? {
+        let e = e.map_err(out_io(out))?;
+        if Some(e.file_name().as_os_str()) == keep {
+            continue;
+        }
+        let path = e.path();
+        let meta = std::fs::symlink_metadata(&path).map_err(out_io(&path))?;
+        if meta.is_dir() {
+            std::fs::remove_dir_all(&path).map_err(out_io(&path))?;
+        } else {
+            std::fs::remove_file(&path).map_err(out_io(&path))?;
+        }
+    }
+    for e in std::fs::read_dir(staging).map_err(out_io(staging))? {
+        let e = e.map_err(out_io(staging))?;
+        let to = out.join(e.file_name());
+        std::fs::rename(e.path(), &to).map_err(out_io(&to))?;
+    }
+    std::fs::remove_dir(staging).map_err(out_io(staging))
 }

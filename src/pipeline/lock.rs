@@ -4,9 +4,12 @@
 
 use super::executor::RunReport;
 use super::plan::Plan;
-use crate::cache::OutputRecord;
+use crate::cache::{Cache, CacheError, OutputRecord};
 use std::collections::BTreeMap;
 use std::path::Path;
+
+/// Name of the lock file in an `--out` directory.
+pub const OUT_LOCK_FILE: &str = "femu.lock.json";
 
 /// One stage in a lock file.
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -74,14 +77,38 @@ impl LockFile {
         }
     }
 
+    /// The lock file's text (pretty JSON and a final newline).
+    pub fn to_text(&self) -> std::io::Result<String> {
+        Ok(serde_json::to_string_pretty(self).map_err(std::io::Error::other)? + "\n")
+    }
+
     /// Writes the lock file atomically.
     pub fn write(&self, path: &Path) -> std::io::Result<()> {
         if let Some(parent) = path.parent() {
             std::fs::create_dir_all(parent)?;
         }
-        let text = serde_json::to_string_pretty(self).map_err(std::io::Error::other)? + "\n";
+        let text = self.to_text()?;
         let tmp = path.with_extension(format!("tmp.{}", std::process::id()));
         std::fs::write(&tmp, text)?;
         std::fs::rename(&tmp, path)
+    }
+
+    /// Records the run as `locks/<name>.lock.json` in `cache`, so `femu cache gc` keeps its
+    /// entries. A read-only cache is left untouched: the warning to show is returned instead.
+    /// A `name` that is not one plain file name is an error, whatever the cache.
+    pub fn record_in(&self, cache: &Cache, name: &str) -> Result<Option<String>, CacheError> {
+        let path = cache.lock_path(name)?;
+        if let Some(reason) = cache.read_only() {
+            return Ok(Some(format!(
+                "the cache is read-only ({reason}): lock file {} was not written, so `femu cache gc` on this cache does not know this run",
+                path.display()
+            )));
+        }
+        let text = self.to_text().map_err(|source| CacheError::Io {
+            path: path.clone(),
+            source,
+        })?;
+        cache.write_lock(name, text.as_bytes())?;
+        Ok(None)
     }
 }

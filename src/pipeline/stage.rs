@@ -140,9 +140,15 @@ impl StageError {
     ) -> impl FnOnce(E) -> Self + '_ {
         move |e| {
             if e.is_input() {
+                // The numerics often name the field themselves (`modes: mode 5000 …`).
+                let text = e.to_string();
+                let message = match text.strip_prefix(field).and_then(|m| m.strip_prefix(": ")) {
+                    Some(rest) if !field.is_empty() => rest.to_string(),
+                    _ => text,
+                };
                 StageError::Input {
                     field: field.to_string(),
-                    message: e.to_string(),
+                    message,
                     source: Some(Box::new(e)),
                 }
             } else {

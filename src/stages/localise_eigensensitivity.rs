@@ -160,7 +160,7 @@ impl TypedStage for LocaliseEigensensitivity {
             }
         };
         let map = eigenvalue_map(&model, candidates, &choice, p.mass)
-            .map_err(StageError::from_numerics("modes"))?;
+            .map_err(StageError::from_numerics(""))?;
         if map.modes.len() > MAX_MODES {
             return Err(StageError::input(
                 "band_hz",

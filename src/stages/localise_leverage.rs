@@ -654,7 +654,7 @@ mod tests {
     fn bad_inputs_are_explained() {
         let e = run(serde_json::json!({}), false);
         assert!(
-            e.starts_with("candidates:") && e.contains("mesh.parameters"),
+            e.starts_with("with.candidates:") && e.contains("mesh.parameters"),
             "{e}"
         );
         let e = run(
@@ -665,7 +665,7 @@ mod tests {
         let e = run(serde_json::json!({"band_hz": [200, 300]}), true);
         assert!(e.starts_with("band_hz") && e.contains("10 to 20 Hz"), "{e}");
         let e = run(serde_json::json!({"plot": {"highlight_set": "nope"}}), true);
-        assert!(e.starts_with("plot.highlight_set"), "{e}");
+        assert!(e.starts_with("with.plot.highlight_set"), "{e}");
         let e = run(
             serde_json::json!({"candidates": {"every_element": {"kind": "thickness", "set": "bar"}}}),
             false,

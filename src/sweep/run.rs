@@ -84,8 +84,10 @@ pub fn run_point(
             // The point's lock file keeps its entries through `femu cache gc`.
             let lock = LockFile::from_run(&planned.plan, &report);
             let lock_name = format!("{}@{}", sweep.name(), point_file_name(point));
-            if let Err(e) = lock.write(&cache.lock_path(&lock_name)) {
-                status.message = Some(format!("warning: lock file not written: {e}"));
+            match lock.record_in(cache, &lock_name) {
+                Ok(None) => {}
+                Ok(Some(w)) => status.message = Some(format!("warning: {w}")),
+                Err(e) => status.message = Some(format!("warning: lock file not written: {e}")),
             }
             status.executed = report.executed();
             status.stages = report
