@@ -154,12 +154,21 @@ fn open(file: &Path, w: &Where) -> Result<(Resolved, Cache, StateDir), Failure> 
     let resolved = resolve(&sweep).map_err(|d| fail(d.into()))?;
     let cache_dir = w.c.dir();
     let cache = Cache::open(&cache_dir)?;
-    let out = w
-        .out
-        .clone()
-        .unwrap_or_else(|| cache_dir.join("sweeps").join(sweep.name()));
-    let state = StateDir::open(&out).map_err(fail)?;
+    let state = state_dir(&cache_dir, &sweep, w)?;
     Ok((resolved, cache, state))
+}
+
+/// The state directory: `--out DIR`, or the sweep's own directory in the cache.
+fn state_dir(
+    cache_dir: &Path,
+    sweep: &crate::sweep::SourcedSweep,
+    w: &Where,
+) -> Result<StateDir, Failure> {
+    match &w.out {
+        Some(out) => StateDir::open(out),
+        None => StateDir::for_sweep(cache_dir, &sweep.name()),
+    }
+    .map_err(fail)
 }
 
 /// `femu sweep …`.
@@ -186,11 +195,7 @@ pub(super) fn dispatch(args: SweepArgs) -> Result<u8, Failure> {
             let sweep = load(&file, &w)?;
             let cache_dir = w.c.dir();
             let cache = Cache::open(&cache_dir)?;
-            let out = w
-                .out
-                .clone()
-                .unwrap_or_else(|| cache_dir.join("sweeps").join(sweep.name()));
-            let state = StateDir::open(&out).map_err(fail)?;
+            let state = state_dir(&cache_dir, &sweep, &w)?;
             if common {
                 let (requested, executed) = run_common(&sweep, &cache, &state).map_err(fail)?;
                 let record = serde_json::json!({"requested": requested, "executed": executed});

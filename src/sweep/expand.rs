@@ -191,7 +191,8 @@ fn param_path(
     at: &[&str],
 ) -> Result<ParamPath, Diagnostic> {
     let parts: Vec<&str> = key.split('.').collect();
-    let field = at.join(".");
+    // Escaped: a key may hold a line break.
+    let field = at.join(".").escape_debug().to_string();
     let stages: Vec<&str> = pipeline.spec.stages.keys().map(String::as_str).collect();
     let bad = |msg: String, help: String| sweep.at_key(at, msg).field(field.clone()).help(help);
     if parts.iter().any(|p| p.is_empty()) || parts.len() < 2 {
@@ -222,6 +223,16 @@ fn param_path(
         return Err(bad(
             format!("`{key}` does not name a parameter below `with`"),
             format!("sweeps set stage parameters: write `{suggestion}`"),
+        ));
+    }
+    // The path is part of every point's name, which names a directory and a task-list line.
+    if let Some(bad_part) = parts[2..].iter().find(|p| {
+        !p.chars()
+            .all(|c| c.is_ascii_alphanumeric() || "_-".contains(c))
+    }) {
+        return Err(bad(
+            format!("{bad_part:?} in `{}` is not a usable parameter name", key.escape_debug()),
+            "parameter names (and the deeper keys after them) are ASCII letters, digits, `_` and `-`, e.g. `measured.with.seed`".into(),
         ));
     }
     Ok(ParamPath {
@@ -443,8 +454,13 @@ fn range_values(
         .collect())
 }
 
-/// Expands the sweep's axes into points (no planning).
+/// Expands the sweep's axes into points (no planning); at most
+/// [`super::spec::MAX_REPORTED_ERRORS`] problems are listed.
 pub fn expand(sweep: &SourcedSweep, pipeline: &SourcedSpec) -> Result<Expansion, Diagnostics> {
+    expand_all(sweep, pipeline).map_err(|d| super::spec::capped(&sweep.file, d.0))
+}
+
+fn expand_all(sweep: &SourcedSweep, pipeline: &SourcedSpec) -> Result<Expansion, Diagnostics> {
     let mut diags = Vec::new();
     let mut axes: Vec<Axis> = Vec::new();
     let mut seen: BTreeMap<String, Vec<String>> = BTreeMap::new();
@@ -924,14 +940,19 @@ pub fn plan_point(
     })
 }
 
-/// Reads, expands, checks and plans a sweep, dropping duplicate points.
+/// Reads, expands, checks and plans a sweep, dropping duplicate points; at most
+/// [`super::spec::MAX_REPORTED_ERRORS`] problems are listed.
 pub fn resolve(sweep: &SourcedSweep) -> Result<Resolved, Diagnostics> {
+    resolve_all(sweep).map_err(|d| super::spec::capped(&sweep.file, d.0))
+}
+
+fn resolve_all(sweep: &SourcedSweep) -> Result<Resolved, Diagnostics> {
     let base = base_pipeline(sweep)?;
     let only = check_only(sweep, &base);
     if !only.is_empty() {
         return Err(Diagnostics(only));
     }
-    let expansion = expand(sweep, &base)?;
+    let expansion = expand_all(sweep, &base)?;
     // Each value alone first, so that a bad value is reported once, at its own position.
     let mut diags = Vec::new();
     let mut checked: BTreeSet<(String, String)> = BTreeSet::new();

@@ -46,7 +46,9 @@ pub enum SweepError {
     Usage(String),
     /// Another process drives the same sweep.
     #[error(
-        "another `femu sweep` (pid {pid} on {host}) is driving this sweep; wait for it, or remove {lock} if it is gone"
+        "another `femu sweep` ({}) holds {} and is driving this sweep; this one stops with exit code 1 (the sweep is busy, the input is fine): wait for it to finish, or follow it with `femu sweep status`",
+        busy_holder(*.pid, .host),
+        .lock.display()
     )]
     Busy {
         /// Its process id.
@@ -76,6 +78,15 @@ pub enum SweepError {
     /// A plot could not be drawn.
     #[error("plot: {0}")]
     Plot(String),
+}
+
+/// Who holds a sweep lock, for messages.
+fn busy_holder(pid: u32, host: &str) -> String {
+    if pid == 0 || host.is_empty() {
+        "which has not written its pid yet".to_string()
+    } else {
+        format!("pid {pid} on {host}")
+    }
 }
 
 impl SweepError {

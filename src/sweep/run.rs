@@ -376,6 +376,7 @@ fn spawn_worker(
     threads: &str,
     sets: &[String],
 ) -> Result<Child, SweepError> {
+    super::state::check_point_name(&p.point.name)?;
     let dir = state.point_dir(&p.point.name);
     std::fs::create_dir_all(&dir).map_err(|source| SweepError::Io {
         path: dir.clone(),

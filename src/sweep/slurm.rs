@@ -54,7 +54,92 @@ fn job_name(sweep: &str) -> String {
     format!("femu-{n}")
 }
 
-/// Prepares the submission of the unfinished points (nothing is written).
+/// Whether `p` can stand in an `#SBATCH --output=` line as it is: ASCII letters, digits and
+/// `/._-+,@=:~` (no spaces or quotes, which a directive cannot quote, and no `%`, which Slurm
+/// expands in file names).
+fn directive_safe_path(p: &str) -> bool {
+    !p.is_empty()
+        && p.chars()
+            .all(|c| c.is_ascii_alphanumeric() || "/._-+,@=:~".contains(c))
+}
+
+/// Text for a comment line of a script: control characters (a line break would end the comment
+/// and start a command) shown as `?`.
+fn comment_text(s: &str) -> String {
+    s.chars()
+        .map(|c| if c.is_control() { '?' } else { c })
+        .collect()
+}
+
+/// Checks everything `prepare` writes into the scripts unquoted or into the task list, again:
+/// the sweep file was checked when read, but a spec built or changed in code was not.
+fn check_script_inputs(resolved: &Resolved, batch: &str, femu: &str) -> Result<(), SweepError> {
+    use super::spec::{
+        valid_directive_value, valid_executable, valid_mem, valid_slurm_word, valid_sweep_name,
+        valid_time,
+    };
+    let sl = &resolved.sweep.spec.slurm;
+    let bad = |field: &str, value: &str, valid: &str| {
+        Err(SweepError::Usage(format!(
+            "{}: field `{field}`: {value:?} cannot be written into a batch script; {valid}",
+            resolved.sweep.file
+        )))
+    };
+    let name = resolved.sweep.name();
+    if !valid_sweep_name(&name) {
+        return bad("name", &name, super::spec::SWEEP_NAME_HELP);
+    }
+    if !valid_sweep_name(batch) {
+        return bad(
+            "batch",
+            batch,
+            "a batch id is ASCII letters, digits, `.`, `_` and `-`",
+        );
+    }
+    let words = [
+        ("slurm.partition", &sl.partition, true),
+        ("slurm.account", &sl.account, false),
+    ];
+    for (field, v, list) in words {
+        if let Some(v) = v.as_deref().filter(|v| !valid_slurm_word(v, list)) {
+            return bad(field, v, "give ASCII letters, digits, `.`, `_` and `-`");
+        }
+    }
+    if let Some(t) = sl.time.as_deref().filter(|t| !valid_time(t)) {
+        return bad(
+            "slurm.time",
+            t,
+            "write `MM`, `MM:SS`, `HH:MM:SS`, `D-HH`, `D-HH:MM` or `D-HH:MM:SS`",
+        );
+    }
+    if let Some(m) = sl.mem.as_deref().filter(|m| !valid_mem(m)) {
+        return bad(
+            "slurm.mem",
+            m,
+            "write a whole number with an optional unit K, M, G or T",
+        );
+    }
+    for e in &sl.extra {
+        if !e.starts_with("--") || !valid_directive_value(e) {
+            return bad(
+                "slurm.extra",
+                e,
+                "write `--NAME=VALUE` in printable ASCII without spaces, quotes, backslashes or `#`",
+            );
+        }
+    }
+    if !valid_executable(femu) {
+        return bad("slurm.femu", femu, "give a path without control characters");
+    }
+    for u in &resolved.unique {
+        super::state::check_point_name(&u.point.name)?;
+    }
+    Ok(())
+}
+
+/// Prepares the submission of the unfinished points (nothing is written). Every value written
+/// into an `#SBATCH` line is checked against a safe alphabet, and everything in a command is
+/// shell-quoted.
 pub fn prepare(
     resolved: &Resolved,
     state: &StateDir,
@@ -75,6 +160,7 @@ pub fn prepare(
     }
     let tasks = points.len().div_ceil(per_task);
     let femu = sl.femu.clone().unwrap_or_else(|| exe.display().to_string());
+    check_script_inputs(resolved, batch, &femu)?;
     let sweep_file =
         std::fs::canonicalize(&resolved.sweep.path).map_err(|source| SweepError::Io {
             path: resolved.sweep.path.clone(),
@@ -106,7 +192,14 @@ pub fn prepare(
     for e in &sl.extra {
         resources.push(format!("#SBATCH {e}"));
     }
-    let logs = root.join("slurm").join("logs");
+    // femu submits from the state directory, so a relative path reaches the same logs when the
+    // state directory's own path cannot be written in a directive.
+    let logs = root.join("slurm").join("logs").display().to_string();
+    let logs = if directive_safe_path(&logs) {
+        logs
+    } else {
+        "slurm/logs".to_string()
+    };
     let common = |body: &str, header: &str| {
         let mut s = String::from("#!/bin/bash\n");
         s.push_str(header);
@@ -130,14 +223,14 @@ pub fn prepare(
     }
     let limit = sl.array_limit.map(|l| format!("%{l}")).unwrap_or_default();
     let array_header = format!(
-        "# femu sweep `{name}`: {} point(s) in {tasks} array task(s) of {per_task}, batch {batch}\n\
+        "# femu sweep `{}`: {} point(s) in {tasks} array task(s) of {per_task}, batch {batch}\n\
          #SBATCH --job-name={}\n\
          #SBATCH --array=0-{}{limit}\n\
-         #SBATCH --output={}/{batch}_%a.out\n",
+         #SBATCH --output={logs}/{batch}_%a.out\n",
+        comment_text(&name),
         points.len(),
         job_name(&name),
         tasks.saturating_sub(1),
-        logs.display(),
     );
     let array_body = format!(
         "exec {} sweep run-point {args} --tasks {} --task \"${{SLURM_ARRAY_TASK_ID}}\" --per-task {per_task}\n",
@@ -146,16 +239,17 @@ pub fn prepare(
     );
     let common_script = (!resolved.common.is_empty() && points.len() > 1).then(|| {
         let header = format!(
-            "# femu sweep `{name}`: the stages common to every point ({}), computed once, batch {batch}\n\
+            "# femu sweep `{}`: the stages common to every point ({}), computed once, batch {batch}\n\
              #SBATCH --job-name={}-common\n\
-             #SBATCH --output={}/{batch}_common.out\n",
-            resolved.common.join(", "),
+             #SBATCH --output={logs}/{batch}_common.out\n",
+            comment_text(&name),
+            comment_text(&resolved.common.join(", ")),
             job_name(&name),
-            logs.display(),
         );
         let body = format!(
-            "exec {} sweep run-point {args} --common --batch {batch}\n",
-            sh_quote(&femu)
+            "exec {} sweep run-point {args} --common --batch {}\n",
+            sh_quote(&femu),
+            sh_quote(batch)
         );
         common(&body, &header)
     });
@@ -200,7 +294,10 @@ pub fn submit(sub: &Submission, state: &StateDir) -> Result<Vec<String>, SweepEr
         let path = dir.join(format!("{}_common.sbatch", sub.batch));
         super::state::write_atomic(&path, script.as_bytes())?;
         let id = parse_job_id(&run_tool(
-            Command::new("sbatch").arg("--parsable").arg(&path),
+            Command::new("sbatch")
+                .current_dir(state.root())
+                .arg("--parsable")
+                .arg(&path),
             "sbatch",
         )?)?;
         dependency = Some(format!("--dependency=afterany:{id}"));
@@ -209,7 +306,8 @@ pub fn submit(sub: &Submission, state: &StateDir) -> Result<Vec<String>, SweepEr
     let path = dir.join(format!("{}.sbatch", sub.batch));
     super::state::write_atomic(&path, sub.array_script.as_bytes())?;
     let mut cmd = Command::new("sbatch");
-    cmd.arg("--parsable");
+    // Submitted from the state directory: relative log paths in the scripts start there.
+    cmd.current_dir(state.root()).arg("--parsable");
     if let Some(d) = &dependency {
         cmd.arg(d);
     }

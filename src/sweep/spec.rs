@@ -279,28 +279,186 @@ impl SourcedSweep {
     }
 }
 
-/// Reads a sweep file.
+/// Largest sweep file read by default (16 MiB); `FEMU_SWEEP_MAX_BYTES` raises or lowers it.
+pub const DEFAULT_MAX_SWEEP_BYTES: u64 = 16 * 1024 * 1024;
+
+/// The environment variable that sets the largest sweep file read, in bytes.
+pub const MAX_SWEEP_BYTES_ENV: &str = "FEMU_SWEEP_MAX_BYTES";
+
+/// Most problems reported for one sweep; the rest are counted in a last line.
+pub const MAX_REPORTED_ERRORS: usize = 50;
+
+/// Longest sweep name.
+pub const MAX_NAME_LEN: usize = 100;
+
+/// What a valid sweep name is, for messages.
+pub const SWEEP_NAME_HELP: &str = "a sweep name is 1 to 100 ASCII letters, digits, `.`, `_` and `-`, starting with a letter or digit, e.g. `four-dof-noise`: it names the state directory CACHE/sweeps/NAME and the Slurm job, so it cannot contain `/`, `..`, spaces or line breaks";
+
+/// Whether `s` is a usable sweep name: a single path component of ASCII letters, digits, `.`,
+/// `_` and `-`, starting with a letter or digit (so never `.`, `..`, hidden or option-like).
+pub fn valid_sweep_name(s: &str) -> bool {
+    s.len() <= MAX_NAME_LEN
+        && s.starts_with(|c: char| c.is_ascii_alphanumeric())
+        && s.chars()
+            .all(|c| c.is_ascii_alphanumeric() || "._-".contains(c))
+}
+
+/// Whether `s` is a Slurm partition list or account: words of ASCII letters, digits, `.`, `_`,
+/// `-`, separated by commas when `list`.
+pub fn valid_slurm_word(s: &str, list: bool) -> bool {
+    let word = |w: &str| {
+        !w.is_empty()
+            && w.chars()
+                .all(|c| c.is_ascii_alphanumeric() || "._-".contains(c))
+    };
+    s.len() <= 200
+        && if list {
+            s.split(',').all(word)
+        } else {
+            word(s)
+        }
+}
+
+/// Whether `s` can stand in an `#SBATCH` directive line unquoted: printable ASCII without
+/// spaces, quotes, backslashes or `#` (directives cannot be shell-quoted; sbatch splits them at
+/// spaces and strips quotes, and a line break would end the comment).
+pub fn valid_directive_value(s: &str) -> bool {
+    s.len() <= 1000
+        && s.chars()
+            .all(|c| c.is_ascii_graphic() && !"'\"\\#".contains(c))
+}
+
+/// Whether `s` is a usable executable path: non-empty, without control characters (it is
+/// shell-quoted in the scripts, so spaces and quotes are fine).
+pub fn valid_executable(s: &str) -> bool {
+    !s.is_empty() && s.len() <= 4096 && !s.chars().any(char::is_control)
+}
+
+/// Keeps the first [`MAX_REPORTED_ERRORS`] problems and counts the rest in a last line.
+pub fn capped(file: &str, mut diags: Vec<Diagnostic>) -> Diagnostics {
+    if diags.len() > MAX_REPORTED_ERRORS {
+        let more = diags.len() - MAX_REPORTED_ERRORS;
+        diags.truncate(MAX_REPORTED_ERRORS);
+        diags.push(
+            Diagnostic::new(file, format!("… and {more} more problems")).help(format!(
+                "only the first {MAX_REPORTED_ERRORS} are shown; fix these and run again"
+            )),
+        );
+    }
+    Diagnostics(diags)
+}
+
+/// The largest sweep file read: `FEMU_SWEEP_MAX_BYTES` if set, else 16 MiB.
+pub fn max_sweep_bytes() -> Result<u64, String> {
+    match std::env::var(MAX_SWEEP_BYTES_ENV) {
+        Err(_) => Ok(DEFAULT_MAX_SWEEP_BYTES),
+        Ok(v) => v
+            .trim()
+            .parse::<u64>()
+            .ok()
+            .filter(|n| *n > 0)
+            .ok_or_else(|| {
+                format!("{MAX_SWEEP_BYTES_ENV}=`{v}` is not a positive whole number of bytes")
+            }),
+    }
+}
+
+fn too_large(file: &str, limit: u64) -> Diagnostics {
+    Diagnostics(vec![
+        Diagnostic::new(
+            file,
+            format!(
+                "the sweep file is larger than the limit of {} ({limit} bytes)",
+                show_bytes(limit)
+            ),
+        )
+        .help(format!(
+            "sweep files are a few kilobytes; if this one really is larger, raise the limit with {MAX_SWEEP_BYTES_ENV}=BYTES"
+        )),
+    ])
+}
+
+fn show_bytes(n: u64) -> String {
+    if n >= 1 << 20 && n % (1 << 20) == 0 {
+        format!("{} MiB", n >> 20)
+    } else if n >= 1 << 10 && n % (1 << 10) == 0 {
+        format!("{} KiB", n >> 10)
+    } else {
+        format!("{n} bytes")
+    }
+}
+
+/// Reads a sweep file, up to [`max_sweep_bytes`].
 pub fn read_sweep(path: &Path) -> Result<SourcedSweep, Diagnostics> {
     let file = path.display().to_string();
-    let text = std::fs::read_to_string(path).map_err(|e| {
+    let limit = max_sweep_bytes().map_err(|m| {
+        Diagnostics(vec![
+            Diagnostic::new(&file, m).help("give the limit in bytes, e.g. 33554432 for 32 MiB"),
+        ])
+    })?;
+    read_sweep_limited(path, limit)
+}
+
+/// Reads a sweep file of at most `max_bytes` bytes.
+pub fn read_sweep_limited(path: &Path, max_bytes: u64) -> Result<SourcedSweep, Diagnostics> {
+    use std::io::Read;
+    let file = path.display().to_string();
+    let cannot = |e: std::io::Error| {
         Diagnostics(vec![Diagnostic::new(
             &file,
             format!("cannot read the sweep file: {e}"),
         )])
+    };
+    let mut bytes = Vec::new();
+    std::fs::File::open(path)
+        .map_err(cannot)?
+        .take(max_bytes.saturating_add(1))
+        .read_to_end(&mut bytes)
+        .map_err(cannot)?;
+    if bytes.len() as u64 > max_bytes {
+        return Err(too_large(&file, max_bytes));
+    }
+    let text = String::from_utf8(bytes).map_err(|e| {
+        let at = e.utf8_error().valid_up_to();
+        let line = e.as_bytes()[..at].iter().filter(|b| **b == b'\n').count() + 1;
+        Diagnostics(vec![
+            Diagnostic::new(
+                &file,
+                format!("the sweep file is not UTF-8 text (byte {at})"),
+            )
+            .at(Some(Pos { line, col: 1 }))
+            .help("save the file as UTF-8"),
+        ])
     })?;
-    parse_sweep(path, &text)
+    parse_sweep_limited(path, &text, max_bytes)
 }
 
-/// Parses sweep text; `path` names it in messages and anchors the pipeline path.
+/// Parses sweep text; `path` names it in messages and anchors the pipeline path. A leading
+/// byte-order mark is skipped; text over the default limit of 16 MiB is refused.
 pub fn parse_sweep(path: &Path, text: &str) -> Result<SourcedSweep, Diagnostics> {
+    parse_sweep_limited(path, text, DEFAULT_MAX_SWEEP_BYTES)
+}
+
+/// [`parse_sweep`] with a size limit in bytes.
+pub fn parse_sweep_limited(
+    path: &Path,
+    text: &str,
+    max_bytes: u64,
+) -> Result<SourcedSweep, Diagnostics> {
     let file = path.display().to_string();
+    if text.len() as u64 > max_bytes {
+        return Err(too_large(&file, max_bytes));
+    }
+    // A byte-order mark is legal YAML, but neither parser takes it.
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     let locator = Locator::scan(text).map_err(|(pos, msg)| {
         Diagnostics(vec![
             Diagnostic::new(&file, format!("YAML syntax error: {msg}")).at(Some(pos)),
         ])
     })?;
     if !locator.duplicates.is_empty() {
-        return Err(Diagnostics(
+        return Err(capped(
+            &file,
             locator
                 .duplicates
                 .iter()
@@ -343,12 +501,34 @@ pub fn parse_sweep(path: &Path, text: &str) -> Result<SourcedSweep, Diagnostics>
         locator,
         overrides: Vec::new(),
     };
-    let diags = check_slurm(&sweep);
+    let mut diags = check_name(&sweep);
+    diags.extend(check_slurm(&sweep));
     if diags.is_empty() {
         Ok(sweep)
     } else {
-        Err(Diagnostics(diags))
+        Err(capped(&sweep.file, diags))
     }
+}
+
+/// Checks the sweep's name (`name:` or the file name): it becomes a directory and a job name.
+fn check_name(s: &SourcedSweep) -> Vec<Diagnostic> {
+    let name = s.name();
+    if valid_sweep_name(&name) {
+        return Vec::new();
+    }
+    let d = match &s.spec.name {
+        Some(n) => s
+            .at_value(&["name"], format!("{n:?} is not a usable sweep name"))
+            .field("name")
+            .help(SWEEP_NAME_HELP),
+        None => Diagnostic::new(
+            &s.file,
+            format!("the sweep is named after its file, and {name:?} is not a usable sweep name"),
+        )
+        .field("name")
+        .help(format!("give the sweep a `name:`; {SWEEP_NAME_HELP}")),
+    };
+    vec![d]
 }
 
 /// Checks the `slurm:` block's formats.
@@ -359,7 +539,7 @@ fn check_slurm(s: &SourcedSweep) -> Vec<Diagnostic> {
     if let Some(t) = &sl.time {
         if !valid_time(t) {
             out.push(
-                s.at_value(&["slurm", "time"], format!("`{t}` is not a Slurm time limit"))
+                s.at_value(&["slurm", "time"], format!("{t:?} is not a Slurm time limit"))
                     .field(field("time"))
                     .help("write minutes `MM`, `MM:SS`, `HH:MM:SS`, `D-HH`, `D-HH:MM` or `D-HH:MM:SS`, e.g. `00:30:00`"),
             );
@@ -370,7 +550,7 @@ fn check_slurm(s: &SourcedSweep) -> Vec<Diagnostic> {
             out.push(
                 s.at_value(
                     &["slurm", "mem"],
-                    format!("`{m}` is not a Slurm memory size"),
+                    format!("{m:?} is not a Slurm memory size"),
                 )
                 .field(field("mem"))
                 .help(
@@ -393,41 +573,67 @@ fn check_slurm(s: &SourcedSweep) -> Vec<Diagnostic> {
             );
         }
     }
-    for (name, v) in [
-        ("partition", &sl.partition),
-        ("account", &sl.account),
-        ("femu", &sl.femu),
+    for (name, v, list) in [
+        ("partition", &sl.partition, true),
+        ("account", &sl.account, false),
     ] {
         if let Some(v) = v {
-            if v.is_empty() || v.chars().any(|c| c.is_whitespace() || c == '\'') {
+            if !valid_slurm_word(v, list) {
                 out.push(
-                    s.at_value(&["slurm", name], format!("`{v}` is not a usable {name}"))
+                    s.at_value(&["slurm", name], format!("{v:?} is not a usable Slurm {name}"))
                         .field(field(name))
-                        .help("give a non-empty value without spaces or quotes"),
+                        .help(if list {
+                            "give partition names of ASCII letters, digits, `.`, `_` and `-`, separated by commas, e.g. `short` or `short,long`"
+                        } else {
+                            "give an account name of ASCII letters, digits, `.`, `_` and `-`, e.g. `proj-42`"
+                        }),
                 );
             }
         }
     }
-    for (i, e) in sl.extra.iter().enumerate() {
-        let idx = i.to_string();
-        if !e.starts_with("--") || e.contains('\n') || e.len() < 3 {
+    if let Some(v) = &sl.femu {
+        if !valid_executable(v) {
             out.push(
-                s.at_value(
-                    &["slurm", "extra", &idx],
-                    format!("`{e}` is not an sbatch option"),
-                )
-                .field(format!("slurm.extra.{i}"))
-                .help("write one long option per entry, e.g. `--qos=short` or `--constraint=avx2`"),
-            );
-        } else if e.starts_with("--array") || e.starts_with("--output") {
-            out.push(
-                s.at_value(&["slurm", "extra", &idx], format!("`{e}` is set by femu"))
-                    .field(format!("slurm.extra.{i}"))
-                    .help("femu writes --array and --output itself; use `array_limit` to bound the running tasks"),
+                s.at_value(&["slurm", "femu"], format!("{v:?} is not a usable path of the femu executable"))
+                    .field(field("femu"))
+                    .help("give the path of femu on the compute nodes: not empty, without line breaks or other control characters"),
             );
         }
     }
+    for (i, e) in sl.extra.iter().enumerate() {
+        let idx = i.to_string();
+        let at = |m: String| {
+            s.at_value(&["slurm", "extra", &idx], m)
+                .field(format!("slurm.extra.{i}"))
+        };
+        let option = e
+            .strip_prefix("--")
+            .map(|o| o.split_once('=').map_or(o, |(n, _)| n));
+        match option {
+            Some(o) if !o.is_empty()
+                && o.chars().all(|c| c.is_ascii_alphanumeric() || c == '-')
+                && valid_directive_value(e) =>
+            {
+                if femu_sets(o) {
+                    out.push(at(format!("`{e}` is set by femu")).help(
+                        "femu writes --array and --output itself; use `array_limit` to bound the running tasks",
+                    ));
+                }
+            }
+            _ => out.push(at(format!("{e:?} is not an sbatch option")).help(
+                "write one long option per entry, `--NAME` or `--NAME=VALUE`, in printable ASCII without spaces, quotes, backslashes or `#` (an #SBATCH line cannot be quoted), e.g. `--qos=short` or `--constraint=avx2`",
+            )),
+        }
+    }
     out
+}
+
+/// Whether the long option `o` (without `--`) is, or abbreviates, one femu writes itself
+/// (sbatch takes unambiguous prefixes of long options).
+fn femu_sets(o: &str) -> bool {
+    ["array", "output"]
+        .iter()
+        .any(|f| o.starts_with(f) || (o.len() >= 2 && f.starts_with(o)))
 }
 
 /// Whether `t` is one of Slurm's time formats.

@@ -122,6 +122,28 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), SweepError> {
     std::fs::rename(&tmp, path).map_err(io(path))
 }
 
+/// Whether `point` is a usable point name: one path component of the characters point names
+/// are made of (ASCII letters, digits and `._-@,~=+`), not starting with `.`.
+pub fn valid_point_name(point: &str) -> bool {
+    !point.is_empty()
+        && point.len() <= 255
+        && !point.starts_with('.')
+        && point
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || "._-@,~=+".contains(c))
+}
+
+/// Refuses a point name that could leave the state directory or break a task list.
+pub fn check_point_name(point: &str) -> Result<(), SweepError> {
+    if valid_point_name(point) {
+        Ok(())
+    } else {
+        Err(SweepError::Usage(format!(
+            "{point:?} is not a point name: point names are one path component of ASCII letters, digits and `._-@,~=+`"
+        )))
+    }
+}
+
 /// Seconds since the Unix epoch.
 pub fn now_unix() -> u64 {
     std::time::SystemTime::now()
@@ -156,6 +178,19 @@ impl StateDir {
         Ok(StateDir { root })
     }
 
+    /// Opens (creating) the state directory of the sweep `name` in a cache: `CACHE/sweeps/NAME`.
+    /// A name that is not one safe path component (see [`super::spec::valid_sweep_name`]) is
+    /// refused, so no name can put the state outside the cache.
+    pub fn for_sweep(cache_dir: &Path, name: &str) -> Result<StateDir, SweepError> {
+        if !super::spec::valid_sweep_name(name) {
+            return Err(SweepError::Usage(format!(
+                "{name:?} is not a usable sweep name; {}",
+                super::spec::SWEEP_NAME_HELP
+            )));
+        }
+        StateDir::open(&cache_dir.join("sweeps").join(name))
+    }
+
     /// The directory.
     pub fn root(&self) -> &Path {
         &self.root
@@ -179,6 +214,7 @@ impl StateDir {
 
     /// Writes a point's status atomically.
     pub fn write_status(&self, s: &PointStatus) -> Result<(), SweepError> {
+        check_point_name(&s.point)?;
         let dir = self.point_dir(&s.point);
         std::fs::create_dir_all(&dir).map_err(io(&dir))?;
         let text = serde_json::to_string_pretty(s).map_err(|e| SweepError::Io {
@@ -215,55 +251,100 @@ impl StateDir {
             .collect()
     }
 
-    /// Takes the sweep lock, or says who holds it.
+    /// Takes the sweep lock, or says at once who holds it.
+    ///
+    /// The lock is `flock(2)` on `sweep.lock` (held for the life of the returned guard, released
+    /// by the kernel when the holder exits or dies, so there is no stale lock to clean up); the
+    /// file says who holds it, for the message of the process that is refused. Taking the lock
+    /// and testing it are one system call, so two processes started together cannot both pass.
     pub fn lock(&self) -> Result<SweepLock, SweepError> {
         let path = self.root.join("sweep.lock");
-        let me = format!("{} {}", std::process::id(), host_name());
-        for _ in 0..2 {
-            match std::fs::OpenOptions::new()
-                .write(true)
-                .create_new(true)
-                .open(&path)
-            {
-                Ok(mut f) => {
-                    f.write_all(me.as_bytes()).map_err(io(&path))?;
-                    return Ok(SweepLock { path });
-                }
-                Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {
-                    let text = std::fs::read_to_string(&path).unwrap_or_default();
-                    let mut it = text.split_whitespace();
-                    let pid: Option<u32> = it.next().and_then(|p| p.parse().ok());
-                    let host = it.next().unwrap_or("").to_string();
-                    let alive = pid.is_some_and(|p| host == host_name() && pid_alive(p));
-                    if alive {
-                        return Err(SweepError::Busy {
-                            pid: pid.unwrap_or(0),
-                            host,
-                            lock: path,
-                        });
-                    }
-                    // A stale lock of a process that died: take it over.
-                    let _ = std::fs::remove_file(&path);
-                }
-                Err(e) => return Err(io(&path)(e)),
-            }
+        let mut file = std::fs::OpenOptions::new()
+            .read(true)
+            .write(true)
+            .create(true)
+            .truncate(false)
+            .open(&path)
+            .map_err(io(&path))?;
+        if !try_lock_file(&file).map_err(io(&path))? {
+            let (pid, host) = read_holder(&path);
+            return Err(SweepError::Busy {
+                pid,
+                host,
+                lock: path,
+            });
         }
-        Err(SweepError::Busy {
-            pid: 0,
-            host: String::new(),
-            lock: path,
-        })
+        // The holder's identity, written under the lock; a reader may see it empty for a moment.
+        let me = format!("{} {}\n", std::process::id(), host_name());
+        file.set_len(0).map_err(io(&path))?;
+        file.write_all(me.as_bytes()).map_err(io(&path))?;
+        Ok(SweepLock { file, path })
     }
 }
 
-/// The held sweep lock; released when dropped.
+/// Takes an exclusive lock on `file` without waiting: `Ok(false)` when another holds it.
+#[cfg(unix)]
+fn try_lock_file(file: &std::fs::File) -> std::io::Result<bool> {
+    use std::os::unix::io::AsRawFd;
+    loop {
+        // SAFETY: flock on a descriptor this `File` owns and keeps open.
+        let r = unsafe { libc::flock(file.as_raw_fd(), libc::LOCK_EX | libc::LOCK_NB) };
+        if r == 0 {
+            return Ok(true);
+        }
+        let e = std::io::Error::last_os_error();
+        match e.raw_os_error() {
+            Some(libc::EWOULDBLOCK) => return Ok(false),
+            Some(libc::EINTR) => continue,
+            _ => return Err(e),
+        }
+    }
+}
+
+/// Takes an exclusive lock on `file` without waiting: `Ok(false)` when another holds it.
+#[cfg(not(unix))]
+fn try_lock_file(file: &std::fs::File) -> std::io::Result<bool> {
+    match file.try_lock() {
+        Ok(()) => Ok(true),
+        Err(std::fs::TryLockError::WouldBlock) => Ok(false),
+        Err(std::fs::TryLockError::Error(e)) => Err(e),
+    }
+}
+
+/// The pid and host written in a held lock file (waiting briefly for a holder that has only
+/// just taken it); `(0, "")` when it never says.
+fn read_holder(path: &Path) -> (u32, String) {
+    for _ in 0..50 {
+        let text = std::fs::read_to_string(path).unwrap_or_default();
+        let mut it = text.split_whitespace();
+        if let (Some(pid), Some(host)) = (it.next().and_then(|p| p.parse().ok()), it.next()) {
+            return (pid, host.to_string());
+        }
+        std::thread::sleep(std::time::Duration::from_millis(2));
+    }
+    (0, String::new())
+}
+
+/// The held sweep lock; released when dropped (or when the process ends, however it ends).
+///
+/// The file is emptied but not removed: removing it would let a process that opened it just
+/// before lock the removed file while a third creates and locks a new one.
 #[derive(Debug)]
 pub struct SweepLock {
+    file: std::fs::File,
     path: PathBuf,
+}
+
+impl SweepLock {
+    /// The lock file.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
 }
 
 impl Drop for SweepLock {
     fn drop(&mut self) {
-        let _ = std::fs::remove_file(&self.path);
+        // Closing the file releases the lock.
+        let _ = self.file.set_len(0);
     }
 }
