@@ -55,7 +55,12 @@ fn large_field() -> String {
     };
     s.push_str(&card("MAT1*", &["1", "2.1+11", "", ".3", "7850."]));
     s.push_str(&card("PSHELL*", &["10", "1", ".002", "1"]));
-    for (id, x, y) in [(1, "0.", "0."), (2, "1.", "0."), (3, "1.", "1."), (4, "0.", "1.")] {
+    for (id, x, y) in [
+        (1, "0.", "0."),
+        (2, "1.", "0."),
+        (3, "1.", "1."),
+        (4, "0.", "1."),
+    ] {
         s.push_str(&card("GRID*", &[&id.to_string(), "", x, y, "0."]));
     }
     s.push_str(&card("CQUAD4*", &["1", "10", "1", "2", "3", "4"]));
@@ -65,9 +70,32 @@ fn large_field() -> String {
 
 /// Fields and words that exercise the readers' edge cases.
 const TOKENS: [&str; 26] = [
-    "", "0", "-1", "1.5-3", ".5", "7.+4", "1D3", "NaN", "inf", "1e400", "THRU", "+", "*", "$",
-    ",", "=", "\t", "é", "99999999999999999999", "INCLUDE 'x.bdf'", "BEGIN BULK", "ENDDATA",
-    "GRID", "CQUAD4*", "    -1", "    58b     1     2          11          10",
+    "",
+    "0",
+    "-1",
+    "1.5-3",
+    ".5",
+    "7.+4",
+    "1D3",
+    "NaN",
+    "inf",
+    "1e400",
+    "THRU",
+    "+",
+    "*",
+    "$",
+    ",",
+    "=",
+    "\t",
+    "é",
+    "99999999999999999999",
+    "INCLUDE 'x.bdf'",
+    "BEGIN BULK",
+    "ENDDATA",
+    "GRID",
+    "CQUAD4*",
+    "    -1",
+    "    58b     1     2          11          10",
 ];
 
 /// One structured mutation of a line-oriented text.
@@ -76,10 +104,20 @@ enum Mutation {
     DeleteLine(usize),
     DuplicateLine(usize),
     SwapLines(usize, usize),
-    ReplaceField { line: usize, field: usize, token: usize },
-    InsertBytes { at: usize, bytes: Vec<u8> },
+    ReplaceField {
+        line: usize,
+        field: usize,
+        token: usize,
+    },
+    InsertBytes {
+        at: usize,
+        bytes: Vec<u8>,
+    },
     Truncate(usize),
-    FlipByte { at: usize, bit: u8 },
+    FlipByte {
+        at: usize,
+        bit: u8,
+    },
 }
 
 fn mutation() -> impl Strategy<Value = Mutation> {
@@ -164,7 +202,10 @@ fn check_deck(bytes: &[u8]) -> Result<(), TestCaseError> {
     let text = String::from_utf8_lossy(bytes);
     if let Err(e) = nastran::parse_bulk(&text, DECK_NAME) {
         let m = e.to_string();
-        prop_assert!(m.contains(DECK_NAME), "the error does not name the file: {m}");
+        prop_assert!(
+            m.contains(DECK_NAME),
+            "the error does not name the file: {m}"
+        );
     }
     Ok(())
 }
@@ -174,7 +215,10 @@ fn check_uff(bytes: &[u8]) -> Result<(), TestCaseError> {
     match uff::parse_uff(bytes, UFF_NAME) {
         Err(e) => {
             let m = e.to_string();
-            prop_assert!(m.contains(UFF_NAME), "the error does not name the file: {m}");
+            prop_assert!(
+                m.contains(UFF_NAME),
+                "the error does not name the file: {m}"
+            );
         }
         Ok(f) => {
             if let Err(e) = uff::to_frf_set(&f.frfs) {
@@ -227,7 +271,7 @@ fn the_seeds_are_valid() {
 }
 
 proptest! {
-    #![proptest_config(config(400))]
+    #![proptest_config(config(1500))]
 
     #[test]
     fn nastran_arbitrary_bytes(bytes in prop::collection::vec(any::<u8>(), 0..2000)) {

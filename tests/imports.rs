@@ -185,11 +185,18 @@ fn femu_bounded(args: &[&std::ffi::OsStr], env: &[(&str, &str)]) -> (Option<i32>
 }
 
 /// A pipeline of one import stage reading `path` (with extra `with:` entries), written in `dir`.
-fn import_pipeline(dir: &std::path::Path, kind: &str, path: &str, extra: &str) -> std::path::PathBuf {
+fn import_pipeline(
+    dir: &std::path::Path,
+    kind: &str,
+    path: &str,
+    extra: &str,
+) -> std::path::PathBuf {
     let file = dir.join("p.yaml");
     std::fs::write(
         &file,
-        format!("name: imp\nstages:\n  imp:\n    kind: {kind}\n    with: {{path: '{path}'{extra}}}\n"),
+        format!(
+            "name: imp\nstages:\n  imp:\n    kind: {kind}\n    with: {{path: '{path}'{extra}}}\n"
+        ),
     )
     .unwrap();
     file
@@ -223,8 +230,10 @@ fn devices_are_refused_at_check_time_without_reading_them() {
 fn the_size_limit_holds_for_a_deck_with_includes_and_can_be_raised() {
     let dir = tempfile::tempdir().unwrap();
     let deck = std::fs::read_to_string(root().join("fixtures/nastran/plate_with_bar.bdf")).unwrap();
-    // The deck's cards in an INCLUDE of 3.5 kB under a 2 kB main file.
-    std::fs::write(dir.path().join("cards.bdf"), &deck).unwrap();
+    // The deck's bulk data (about 3 kB) in an INCLUDE under a 20-byte main file.
+    let bulk = &deck[deck.find("BEGIN BULK").unwrap() + "BEGIN BULK".len()..];
+    assert!(bulk.len() > 2048);
+    std::fs::write(dir.path().join("cards.bdf"), bulk).unwrap();
     std::fs::write(dir.path().join("main.bdf"), "INCLUDE 'cards.bdf'\n").unwrap();
     let p = import_pipeline(dir.path(), "mesh.import", "main.bdf", "");
     let (code, err) = validate(&p, &[("FEMU_MAX_INPUT_BYTES", "2K")]);
@@ -239,7 +248,10 @@ fn the_size_limit_holds_for_a_deck_with_includes_and_can_be_raised() {
     assert_eq!(code, Some(0), "{err}");
     let (code, err) = validate(&p, &[("FEMU_MAX_INPUT_BYTES", "lots")]);
     assert_eq!(code, Some(2), "{err}");
-    assert!(err.contains("FEMU_MAX_INPUT_BYTES = `lots` is not a byte count"), "{err}");
+    assert!(
+        err.contains("FEMU_MAX_INPUT_BYTES = `lots` is not a byte count"),
+        "{err}"
+    );
     // The UFF reader under the same limit.
     std::fs::copy(
         root().join("fixtures/uff/four_dof_receptance.uff"),
@@ -249,7 +261,10 @@ fn the_size_limit_holds_for_a_deck_with_includes_and_can_be_raised() {
     let p = import_pipeline(dir.path(), "frf.import", "m.uff", "");
     let (code, err) = validate(&p, &[("FEMU_MAX_INPUT_BYTES", "1000")]);
     assert_eq!(code, Some(2), "{err}");
-    assert!(err.contains("larger than the input limit of 1000 bytes"), "{err}");
+    assert!(
+        err.contains("larger than the input limit of 1000 bytes"),
+        "{err}"
+    );
     assert_eq!(validate(&p, &[]).0, Some(0));
 }
 
@@ -258,13 +273,20 @@ fn a_file_of_another_kind_is_not_quoted_in_errors() {
     let dir = tempfile::tempdir().unwrap();
     let secret = "root:x:0:0:hunter2-topsecret:/root:/bin/bash\nalice:x:1000:1000:Alice Secret:/home/alice:/bin/sh\n";
     std::fs::write(dir.path().join("passwd"), secret).unwrap();
-    std::fs::write(dir.path().join("words.txt"), "Lorem ipsum dolor\nsit amet\n").unwrap();
+    std::fs::write(
+        dir.path().join("words.txt"),
+        "Lorem ipsum dolor\nsit amet\n",
+    )
+    .unwrap();
     let sub = dir.path().join("sub");
     std::fs::create_dir(&sub).unwrap();
     for kind in ["mesh.import", "frf.import"] {
         for (path, words) in [
-            ("../passwd", &["root", "hunter2", "alice", "Secret", "bash"][..]),
-            ("../words.txt", &["Lorem", "LOREM", "ipsum", "amet"][..]),
+            (
+                "../passwd",
+                &["root", "hunter2", "alice", "Secret", "bash"][..],
+            ),
+            ("../words.txt", &["Lorem", "LOREM", "ipsum", "dolor"][..]),
         ] {
             let p = import_pipeline(&sub, kind, path, "");
             let (code, err) = validate(&p, &[]);
@@ -284,9 +306,7 @@ fn uff_with(bad: &str, binary: bool) -> Vec<u8> {
     let fixture = root().join("fixtures/uff/four_dof_receptance.uff");
     if !binary {
         let text = std::fs::read_to_string(&fixture).unwrap();
-        return text
-            .replacen("-1.751989356819E-05", bad, 1)
-            .into_bytes();
+        return text.replacen("-1.751989356819E-05", bad, 1).into_bytes();
     }
     let file = femu::model::import::uff::read_uff(&fixture).unwrap();
     let mut set = femu::model::import::uff::to_frf_set(&file.frfs).unwrap();
@@ -319,7 +339,11 @@ fn nan_or_inf_in_measured_frfs_is_an_error_naming_record_line_and_frequency() {
             true,
             "dataset 58b (FRF record 2 of the file, header at line",
         ),
-        ("inf", true, "the value of spectral line 4 (20 Hz) is inf in the imaginary part"),
+        (
+            "inf",
+            true,
+            "the value of spectral line 4 (20 Hz) is inf in the imaginary part",
+        ),
     ] {
         std::fs::write(dir.path().join("m.uff"), uff_with(bad, binary)).unwrap();
         let p = import_pipeline(dir.path(), "frf.import", "m.uff", "");
@@ -329,8 +353,15 @@ fn nan_or_inf_in_measured_frfs_is_an_error_naming_record_line_and_frequency() {
         assert!(err.contains("measured values must be finite"), "{err}");
     }
     // The unchanged file is accepted (the tests above fail for the value, not the file).
-    std::fs::write(dir.path().join("m.uff"), uff_with("-1.751989356819E-05", false)).unwrap();
-    assert_eq!(validate(&import_pipeline(dir.path(), "frf.import", "m.uff", ""), &[]).0, Some(0));
+    std::fs::write(
+        dir.path().join("m.uff"),
+        uff_with("-1.751989356819E-05", false),
+    )
+    .unwrap();
+    assert_eq!(
+        validate(&import_pipeline(dir.path(), "frf.import", "m.uff", ""), &[]).0,
+        Some(0)
+    );
 }
 
 #[test]
@@ -338,7 +369,11 @@ fn cards_femu_does_not_read_fail_the_check_unless_ignored_and_are_recorded() {
     let dir = tempfile::tempdir().unwrap();
     let deck = std::fs::read_to_string(root().join("fixtures/nastran/plate_with_bar.bdf")).unwrap();
     let with_rbe2 = deck.replace("ENDDATA", "RBE2,900,1,123456,2\nENDDATA");
-    let line = with_rbe2.lines().position(|l| l.starts_with("RBE2")).unwrap() + 1;
+    let line = with_rbe2
+        .lines()
+        .position(|l| l.starts_with("RBE2"))
+        .unwrap()
+        + 1;
     std::fs::write(dir.path().join("plate.bdf"), &with_rbe2).unwrap();
     let p = import_pipeline(dir.path(), "mesh.import", "plate.bdf", "");
     let (code, err) = validate(&p, &[]);
@@ -348,10 +383,19 @@ fn cards_femu_does_not_read_fail_the_check_unless_ignored_and_are_recorded() {
         "{err}"
     );
     // Accepted on request: run, and the artefact's meta lists what was skipped and dropped.
-    let p = import_pipeline(dir.path(), "mesh.import", "plate.bdf", ", ignore_cards: [rbe2]");
+    let p = import_pipeline(
+        dir.path(),
+        "mesh.import",
+        "plate.bdf",
+        ", ignore_cards: [rbe2]",
+    );
     let (_, report, cache) = run(&p, &dir.path().join("cache"), &[]);
     let a = cache
-        .read(&report.stages[0].key, "mesh", femu::artefact::ArtefactKind::Mesh)
+        .read(
+            &report.stages[0].key,
+            "mesh",
+            femu::artefact::ArtefactKind::Mesh,
+        )
         .unwrap();
     assert_eq!(a.meta["ignored_cards"], serde_json::json!({"RBE2": 1}));
     assert_eq!(
@@ -360,10 +404,18 @@ fn cards_femu_does_not_read_fail_the_check_unless_ignored_and_are_recorded() {
     );
     assert_eq!(a.meta["ignore_cards"], serde_json::json!(["rbe2"]));
     // An ignore list naming a card femu reads is refused at check time.
-    let p = import_pipeline(dir.path(), "mesh.import", "plate.bdf", ", ignore_cards: [GRID]");
+    let p = import_pipeline(
+        dir.path(),
+        "mesh.import",
+        "plate.bdf",
+        ", ignore_cards: [GRID]",
+    );
     let (code, err) = validate(&p, &[]);
     assert_eq!(code, Some(2), "{err}");
-    assert!(err.contains("femu reads GRID, so it cannot be ignored"), "{err}");
+    assert!(
+        err.contains("femu reads GRID, so it cannot be ignored"),
+        "{err}"
+    );
 }
 
 #[test]
@@ -380,7 +432,9 @@ fn a_material_femu_cannot_use_fails_the_check_at_its_card() {
     let (code, err) = validate(&p, &[]);
     assert_eq!(code, Some(2), "{err}");
     assert!(
-        err.contains(&format!("plate.bdf line {line}: MAT1 field 3 (E): E = 0 is not positive")),
+        err.contains(&format!(
+            "plate.bdf line {line}: MAT1 field 3 (E): E = 0 is not positive"
+        )),
         "{err}"
     );
 }

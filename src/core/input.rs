@@ -331,7 +331,16 @@ mod tests {
         }
         let dir = tempfile::tempdir().unwrap();
         let e = read_input_with(dir.path(), &p, p.max_bytes).unwrap_err();
-        assert!(matches!(e, InputError::NotRegular { kind: "a directory", .. }), "{e}");
+        assert!(
+            matches!(
+                e,
+                InputError::NotRegular {
+                    kind: "a directory",
+                    ..
+                }
+            ),
+            "{e}"
+        );
         #[cfg(unix)]
         {
             let fifo = dir.path().join("fifo");
@@ -340,7 +349,16 @@ mod tests {
             assert_eq!(unsafe { libc::mkfifo(c.as_ptr(), 0o600) }, 0);
             // Without the check this would block for ever on open.
             let e = read_input_with(&fifo, &p, p.max_bytes).unwrap_err();
-            assert!(matches!(e, InputError::NotRegular { kind: "a FIFO (named pipe)", .. }), "{e}");
+            assert!(
+                matches!(
+                    e,
+                    InputError::NotRegular {
+                        kind: "a FIFO (named pipe)",
+                        ..
+                    }
+                ),
+                "{e}"
+            );
         }
     }
 
@@ -349,7 +367,10 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let f = dir.path().join("f.txt");
         std::fs::write(&f, vec![b'x'; 100]).unwrap();
-        assert_eq!(read_input_with(&f, &policy_of(100), 100).unwrap().len(), 100);
+        assert_eq!(
+            read_input_with(&f, &policy_of(100), 100).unwrap().len(),
+            100
+        );
         let e = read_input_with(&f, &policy_of(99), 99).unwrap_err();
         assert_eq!(
             e,
@@ -382,8 +403,7 @@ mod tests {
         std::fs::create_dir_all(root.join("sub")).unwrap();
         std::fs::write(root.join("sub/in.bdf"), "GRID,1\n").unwrap();
         std::fs::write(outer.path().join("secret.txt"), "secret\n").unwrap();
-        std::os::unix::fs::symlink(outer.path().join("secret.txt"), root.join("link.txt"))
-            .unwrap();
+        std::os::unix::fs::symlink(outer.path().join("secret.txt"), root.join("link.txt")).unwrap();
         std::os::unix::fs::symlink(root.join("sub/in.bdf"), root.join("inner_link.bdf")).unwrap();
         let p = InputPolicy::default().confined_to(&root).unwrap();
         let ok = |rel: &str| read_input_with(&root.join(rel), &p, p.max_bytes);

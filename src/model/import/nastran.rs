@@ -118,10 +118,10 @@ const REFUSED_CARDS: [&str; 83] = [
     "BSET", "BSET1", "CSET", "CSET1", "SPOINT", "EPOINT", "GRDSET", "CROD", "CONROD", "CTUBE",
     "PROD", "PTUBE", "CQUAD8", "CQUADR", "CQUAD", "CTRIA6", "CTRIAR", "CSHEAR", "PSHEAR", "CHEXA",
     "CPENTA", "CTETRA", "CPYRAM", "PSOLID", "PCOMP", "PCOMPG", "MAT2", "MAT8", "MAT9", "MAT10",
-    "MATT1", "MATS1", "CONM1", "CMASS1", "CMASS2", "CMASS3", "CMASS4", "PMASS", "CDAMP1",
-    "CDAMP2", "CDAMP3", "CDAMP4", "CDAMP5", "PDAMP", "CVISC", "PVISC", "CELAS3", "CELAS4",
-    "CBUSH1D", "PBUSH1D", "CGAP", "PGAP", "CWELD", "PWELD", "CFAST", "PFAST", "NSM", "NSM1",
-    "NSML", "NSML1", "DMIG", "GENEL", "PBEAML",
+    "MATT1", "MATS1", "CONM1", "CMASS1", "CMASS2", "CMASS3", "CMASS4", "PMASS", "CDAMP1", "CDAMP2",
+    "CDAMP3", "CDAMP4", "CDAMP5", "PDAMP", "CVISC", "PVISC", "CELAS3", "CELAS4", "CBUSH1D",
+    "PBUSH1D", "CGAP", "PGAP", "CWELD", "PWELD", "CFAST", "PFAST", "NSM", "NSM1", "NSML", "NSML1",
+    "DMIG", "GENEL", "PBEAML",
 ];
 
 /// Whether `name` is a card name Nastran could have written: a letter, then letters or digits,
@@ -670,7 +670,10 @@ impl Loader {
         } else if let Some(body) = rest.strip_prefix("parameter ") {
             let p: Parameter = serde_json::from_str(body.trim()).map_err(|e| {
                 bad(
-                    format!("the femu parameter comment is not a valid parameter: {}", excerpt(&e.to_string(), 100)),
+                    format!(
+                        "the femu parameter comment is not a valid parameter: {}",
+                        excerpt(&e.to_string(), 100)
+                    ),
                     "write `$femu-parameter` followed by the parameter as one line of JSON",
                 )
             })?;
@@ -1212,7 +1215,10 @@ fn assemble(lines: &[SrcLine], warnings: &mut Vec<String>) -> Result<Vec<Card>, 
                 return Err(syntax(
                     format!(
                         "continuation `{}` does not match `{}` at the end of the previous line of {} (line {})",
-                        q(&split.first), q(&last_cont), card.name, card.loc.line
+                        q(&split.first),
+                        q(&last_cont),
+                        card.name,
+                        card.loc.line
                     ),
                     "continuation lines must follow their parent in order (unsorted decks are not supported)",
                 ));
@@ -1226,10 +1232,7 @@ fn assemble(lines: &[SrcLine], warnings: &mut Vec<String>) -> Result<Vec<Card>, 
             ));
         } else if like {
             return Err(syntax(
-                format!(
-                    "`{}` starts neither a card nor a continuation",
-                    q(&l.text)
-                ),
+                format!("`{}` starts neither a card nor a continuation", q(&l.text)),
                 "a card name starts in column 1 with a letter; a continuation starts with `+`, `*`, `,` or a blank",
             ));
         } else {
@@ -2061,7 +2064,9 @@ impl Builder {
                     return Err(c.err(
                         3,
                         "G",
-                        format!("E = 2(1+NU)G = {e} derived from G = {g} and NU = {nu} is not positive"),
+                        format!(
+                            "E = 2(1+NU)G = {e} derived from G = {g} and NU = {nu} is not positive"
+                        ),
                         "G > 0 and -1 < NU <= 0.5 when E is blank",
                     ));
                 }
@@ -2989,7 +2994,11 @@ GRID    99              this is never read
         ] {
             let e = error(&format!("{BASE}CQUAD4,1,10,1,2,3,4\n{card}\n"));
             let name = card.split(',').next().unwrap();
-            let key = if name == "PARAM" { "PARAM,COUPMASS" } else { name };
+            let key = if name == "PARAM" {
+                "PARAM,COUPMASS"
+            } else {
+                name
+            };
             assert!(
                 e.starts_with(&format!("t.bdf line {line}: {key} is not read by femu")),
                 "{e}"
@@ -3028,11 +3037,11 @@ GRID    99              this is never read
 
     #[test]
     fn wtmass_other_than_one_is_an_error() {
-        let e = error(&format!(
-            "{BASE}CQUAD4,1,10,1,2,3,4\nPARAM,WTMASS,.00259\n"
-        ));
+        let e = error(&format!("{BASE}CQUAD4,1,10,1,2,3,4\nPARAM,WTMASS,.00259\n"));
         assert!(
-            e.starts_with("t.bdf line 8: PARAM field 3 (V1): WTMASS 0.00259 scales the mass matrix"),
+            e.starts_with(
+                "t.bdf line 8: PARAM field 3 (V1): WTMASS 0.00259 scales the mass matrix"
+            ),
             "{e}"
         );
         // Even when the user ignores PARAMs: it would silently scale M.
@@ -3070,7 +3079,9 @@ GRID    99              this is never read
         ] {
             let e = error(text);
             assert!(e.contains("does not look like Nastran bulk data"), "{e}");
-            for word in ["quick", "root", "hunter2", "Password", "PASSWORD", "SECRET", "bin"] {
+            for word in [
+                "quick", "root", "hunter2", "Password", "PASSWORD", "SECRET", "bin",
+            ] {
                 assert!(!e.contains(word), "{word} quoted: {e}");
             }
         }
@@ -3079,7 +3090,10 @@ GRID    99              this is never read
         let e = error(&long);
         assert!(e.contains(&format!("`#{}…`", "x".repeat(39))), "{e}");
         let e = error(&format!("{BASE}GRID,5,,{},0.,0.\n", "y".repeat(300)));
-        assert!(e.contains(&format!("`{}…` is not a number", "y".repeat(40))), "{e}");
+        assert!(
+            e.contains(&format!("`{}…` is not a number", "y".repeat(40))),
+            "{e}"
+        );
     }
 
     #[test]
@@ -3087,28 +3101,73 @@ GRID    99              this is never read
         let quad = "CQUAD4,1,10,1,2,3,4\n";
         let grids = "GRID,1,,0.,0.,0.\nGRID,2,,1.,0.,0.\nGRID,3,,1.,1.,0.\nGRID,4,,0.,1.,0.\n";
         let cases = [
-            ("MAT1,1,0.,,.3,7850.", "MAT1 field 3 (E): E = 0 is not positive"),
-            ("MAT1,1,-2.1+11,,.3,7850.", "MAT1 field 3 (E): E = -210000000000 is not positive"),
-            ("MAT1,1,,,.3,7850.", "MAT1 field 3 (E): E and G are both blank"),
-            ("MAT1,1,2.1+11,-1.,.3,7850.", "MAT1 field 4 (G): G = -1 is negative"),
-            ("MAT1,1,2.1+11,,.6,7850.", "MAT1 field 5 (NU): Poisson's ratio 0.6"),
-            ("MAT1,1,2.1+11,,-1.,7850.", "MAT1 field 5 (NU): Poisson's ratio -1"),
-            ("MAT1,1,2.1+11,1.+10,,7850.", "MAT1 field 5 (NU): Poisson's ratio 9.5"),
-            ("MAT1,1,2.1+11,,.3,-1.", "MAT1 field 6 (RHO): -1 is negative"),
+            (
+                "MAT1,1,0.,,.3,7850.",
+                "MAT1 field 3 (E): E = 0 is not positive",
+            ),
+            (
+                "MAT1,1,-2.1+11,,.3,7850.",
+                "MAT1 field 3 (E): E = -210000000000 is not positive",
+            ),
+            (
+                "MAT1,1,,,.3,7850.",
+                "MAT1 field 3 (E): E and G are both blank",
+            ),
+            (
+                "MAT1,1,2.1+11,-1.,.3,7850.",
+                "MAT1 field 4 (G): G = -1 is negative",
+            ),
+            (
+                "MAT1,1,2.1+11,,.6,7850.",
+                "MAT1 field 5 (NU): Poisson's ratio 0.6",
+            ),
+            (
+                "MAT1,1,2.1+11,,-1.,7850.",
+                "MAT1 field 5 (NU): Poisson's ratio -1",
+            ),
+            (
+                "MAT1,1,2.1+11,1.+10,,7850.",
+                "MAT1 field 5 (NU): Poisson's ratio 9.5",
+            ),
+            (
+                "MAT1,1,2.1+11,,.3,-1.",
+                "MAT1 field 6 (RHO): -1 is negative",
+            ),
         ];
         for (mat, want) in cases {
             let e = error(&format!("{mat}\nPSHELL,10,1,.002,1\n{grids}{quad}"));
-            assert!(e.starts_with(&format!("t.bdf line 1: {want}")), "{mat}: {e}");
+            assert!(
+                e.starts_with(&format!("t.bdf line 1: {want}")),
+                "{mat}: {e}"
+            );
         }
         let mat = "MAT1,1,2.1+11,,.3,7850.\n";
         let props = [
             ("PSHELL,10,1,0.,1", "PSHELL field 4 (T): 0 is not positive"),
-            ("PSHELL,10,1,.002,1,,,,-1.", "PSHELL field 9 (NSM): -1 is negative"),
-            ("PBAR,10,1,0.,1.-8,1.-8,1.-8", "PBAR field 4 (A): 0 is not positive"),
-            ("PBAR,10,1,1.-4,,1.-8,1.-8", "PBAR field 5 (I1): the field is blank"),
-            ("PBAR,10,1,1.-4,1.-8,1.-8,-1.", "PBAR field 7 (J): -1 is negative"),
-            ("PBEAM,10,1,1.-4,1.-8,0.", "PBEAM field 6 (I2(A)): 0 is not positive"),
-            ("PBARL,10,1,,BAR\n,.01,.02,-1.", "PBARL field 4 (NSM) of continuation 1"),
+            (
+                "PSHELL,10,1,.002,1,,,,-1.",
+                "PSHELL field 9 (NSM): -1 is negative",
+            ),
+            (
+                "PBAR,10,1,0.,1.-8,1.-8,1.-8",
+                "PBAR field 4 (A): 0 is not positive",
+            ),
+            (
+                "PBAR,10,1,1.-4,,1.-8,1.-8",
+                "PBAR field 5 (I1): the field is blank",
+            ),
+            (
+                "PBAR,10,1,1.-4,1.-8,1.-8,-1.",
+                "PBAR field 7 (J): -1 is negative",
+            ),
+            (
+                "PBEAM,10,1,1.-4,1.-8,0.",
+                "PBEAM field 6 (I2(A)): 0 is not positive",
+            ),
+            (
+                "PBARL,10,1,,BAR\n,.01,.02,-1.",
+                "PBARL field 4 (NSM) of continuation 1",
+            ),
             ("PELAS,10,-5.", "PELAS field 3 (K1): -5 is negative"),
             ("PBUSH,10,K,1.,-1.", "PBUSH field 5 (K2): -1 is negative"),
         ];
@@ -3123,23 +3182,38 @@ GRID    99              this is never read
                 "CBAR,1,10,1,2,0.,0.,1.\n".to_string()
             };
             let e = error(&format!("{mat}{prop}\n{grids}{elem}"));
-            assert!(e.starts_with(&format!("t.bdf line 2: {want}")), "{prop}: {e}");
+            assert!(
+                e.starts_with(&format!("t.bdf line 2: {want}")),
+                "{prop}: {e}"
+            );
         }
         let e = error(&format!("{mat}{grids}CONM2,1,1,,-2.\n"));
         assert!(e.contains("CONM2 field 5 (M): -2 is negative"), "{e}");
         // A shell needs NU < 0.5; the MAT1 card allows 0.5: the element names both cards.
-        let e = error(&format!("MAT1,1,2.1+11,,.5,7850.\nPSHELL,10,1,.002,1\n{grids}{quad}"));
+        let e = error(&format!(
+            "MAT1,1,2.1+11,,.5,7850.\nPSHELL,10,1,.002,1\n{grids}{quad}"
+        ));
         assert!(
             e.starts_with("t.bdf line 7: CQUAD4 1 (property 10 at t.bdf line 2, material 1 at t.bdf line 1): nu = 0.5 is out of range"),
             "{e}"
         );
         // Dangling references are named at the card with file and line.
         let e = error(&format!("{mat}PSHELL,10,2,.002,1\n{grids}{quad}"));
-        assert!(e.starts_with("t.bdf line 2:") && e.contains("MAT1 2"), "{e}");
-        let e = error(&format!("{mat}PSHELL,10,1,.002,1\n{grids}CQUAD4,1,11,1,2,3,4\n"));
+        assert!(
+            e.starts_with("t.bdf line 2:") && e.contains("MAT1 2"),
+            "{e}"
+        );
+        let e = error(&format!(
+            "{mat}PSHELL,10,1,.002,1\n{grids}CQUAD4,1,11,1,2,3,4\n"
+        ));
         assert!(e.starts_with("t.bdf line 7:"), "{e}");
-        let e = error(&format!("{mat}PSHELL,10,1,.002,1\n{grids}CQUAD4,1,10,1,2,3,9\n"));
-        assert!(e.starts_with("t.bdf line 7:") && e.contains("GRID 9"), "{e}");
+        let e = error(&format!(
+            "{mat}PSHELL,10,1,.002,1\n{grids}CQUAD4,1,10,1,2,3,9\n"
+        ));
+        assert!(
+            e.starts_with("t.bdf line 7:") && e.contains("GRID 9"),
+            "{e}"
+        );
     }
 
     #[test]

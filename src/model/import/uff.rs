@@ -1540,7 +1540,9 @@ fn parse_58(b: &Block<'_>, ctx: &mut Ctx<'_>) -> Result<Option<Uff58>, UffError>
             // As the ASCII index: abscissa first when uneven, then the ordinate parts.
             first_bad = (0..n).find_map(|k| {
                 let x = if even { None } else { Some(xs[k]) };
-                let parts = x.into_iter().chain(ys[k * ky..(k + 1) * ky].iter().copied());
+                let parts = x
+                    .into_iter()
+                    .chain(ys[k * ky..(k + 1) * ky].iter().copied());
                 parts
                     .enumerate()
                     .find(|(_, v)| !v.is_finite())
@@ -1636,7 +1638,10 @@ fn parse_58(b: &Block<'_>, ctx: &mut Ctx<'_>) -> Result<Option<Uff58>, UffError>
     if let Some((i, line)) = first_bad {
         let (point, r) = (i / per_point, i % per_point);
         let found = match r.checked_sub(usize::from(!even)) {
-            None => format!("{} in the abscissa", xs.get(point).copied().unwrap_or(f64::NAN)),
+            None => format!(
+                "{} in the abscissa",
+                xs.get(point).copied().unwrap_or(f64::NAN)
+            ),
             Some(part) => {
                 let v = ys.get(point * ky + part).copied().unwrap_or(f64::NAN);
                 let which = match (ordinate.is_complex(), part) {
