@@ -389,34 +389,39 @@ pub enum UffError {
         next: f64,
     },
     /// A measured value is NaN or infinite.
-    #[error(
-        "{file}:{line}: dataset 58{binary} (FRF record {index} of the file, header at line {header}), H({response}, {reference}): the value of spectral line {point} ({freq_hz} Hz) is {found}; measured values must be finite (a NaN or infinite value makes every correlation over the record meaningless); remove or repair the record"
-    )]
-    NonFinite {
-        /// The file.
-        file: String,
-        /// 1-based line holding the value (ASCII), or the dataset number's line (58b).
-        line: usize,
-        /// `b` for binary data, else empty.
-        binary: &'static str,
-        /// 1-based index of the FRF record among the file's dataset 58 records.
-        index: usize,
-        /// Line of the record's dataset number.
-        header: usize,
-        /// Response DOF.
-        response: DofId,
-        /// Reference DOF.
-        reference: DofId,
-        /// 1-based spectral line.
-        point: usize,
-        /// Its frequency, Hz.
-        freq_hz: f64,
-        /// What was found (e.g. `NaN in the real part`).
-        found: String,
-    },
+    #[error(transparent)]
+    NonFinite(Box<NonFiniteValue>),
     /// No FRF record to group.
     #[error("no FRF records (dataset 58, function type 4) to form an FRF set from")]
     NoFrfs,
+}
+
+/// A measured value that is NaN or infinite, and where it is.
+#[derive(Debug, thiserror::Error)]
+#[error(
+    "{file}:{line}: dataset 58{binary} (FRF record {index} of the file, header at line {header}), H({response}, {reference}): the value of spectral line {point} ({freq_hz} Hz) is {found}; measured values must be finite (a NaN or infinite value makes every correlation over the record meaningless); remove or repair the record"
+)]
+pub struct NonFiniteValue {
+    /// The file.
+    pub file: String,
+    /// 1-based line holding the value (ASCII), or the dataset number's line (58b).
+    pub line: usize,
+    /// `b` for binary data, else empty.
+    pub binary: &'static str,
+    /// 1-based index of the FRF record among the file's dataset 58 records.
+    pub index: usize,
+    /// Line of the record's dataset number.
+    pub header: usize,
+    /// Response DOF.
+    pub response: DofId,
+    /// Reference DOF.
+    pub reference: DofId,
+    /// 1-based spectral line.
+    pub point: usize,
+    /// Its frequency, Hz.
+    pub freq_hz: f64,
+    /// What was found (e.g. `NaN in the real part`).
+    pub found: String,
 }
 
 fn dataset_name(d: Option<u32>) -> String {
@@ -1623,17 +1628,19 @@ fn parse_58(b: &Block<'_>, ctx: &mut Ctx<'_>) -> Result<Option<Uff58>, UffError>
     } else {
         values.into_iter().map(|v| v * scale).collect()
     };
-    let non_finite = |point: usize, line: usize, found: String| UffError::NonFinite {
-        file: file.to_string(),
-        line,
-        binary: if b.binary.is_some() { "b" } else { "" },
-        index,
-        header: b.header_line,
-        response,
-        reference,
-        point: point + 1,
-        freq_hz: freqs_hz.get(point).copied().unwrap_or(f64::NAN),
-        found,
+    let non_finite = |point: usize, line: usize, found: String| {
+        UffError::NonFinite(Box::new(NonFiniteValue {
+            file: file.to_string(),
+            line,
+            binary: if b.binary.is_some() { "b" } else { "" },
+            index,
+            header: b.header_line,
+            response,
+            reference,
+            point: point + 1,
+            freq_hz: freqs_hz.get(point).copied().unwrap_or(f64::NAN),
+            found,
+        }))
     };
     if let Some((i, line)) = first_bad {
         let (point, r) = (i / per_point, i % per_point);
