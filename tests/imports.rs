@@ -149,3 +149,292 @@ fn uff_measurements_feed_the_correlation() {
         }
     }
 }
+
+// ---------------------------------------------------------------------------------------------
+// Bad input: every user-named file through one bounded reader, errors at check time with
+// file:line, nothing of an unrelated file quoted.
+
+/// `femu validate` (or `run`) with `env`, killed after 60 s so that an unbounded read fails the
+/// test instead of exhausting the machine's memory.
+fn femu_bounded(args: &[&std::ffi::OsStr], env: &[(&str, &str)]) -> (Option<i32>, String) {
+    let mut cmd = femu();
+    cmd.args(args)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped());
+    for (k, v) in env {
+        cmd.env(k, v);
+    }
+    let mut child = cmd.spawn().unwrap();
+    let t0 = std::time::Instant::now();
+    loop {
+        if child.try_wait().unwrap().is_some() {
+            break;
+        }
+        if t0.elapsed() > std::time::Duration::from_secs(60) {
+            child.kill().unwrap();
+            child.wait().unwrap();
+            panic!("femu {args:?} did not finish within 60 s (an unbounded read?)");
+        }
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    let out = child.wait_with_output().unwrap();
+    (
+        out.status.code(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+/// A pipeline of one import stage reading `path` (with extra `with:` entries), written in `dir`.
+fn import_pipeline(
+    dir: &std::path::Path,
+    kind: &str,
+    path: &str,
+    extra: &str,
+) -> std::path::PathBuf {
+    let file = dir.join("p.yaml");
+    std::fs::write(
+        &file,
+        format!(
+            "name: imp\nstages:\n  imp:\n    kind: {kind}\n    with: {{path: '{path}'{extra}}}\n"
+        ),
+    )
+    .unwrap();
+    file
+}
+
+fn validate(file: &std::path::Path, env: &[(&str, &str)]) -> (Option<i32>, String) {
+    femu_bounded(&["validate".as_ref(), file.as_os_str()], env)
+}
+
+#[test]
+fn devices_are_refused_at_check_time_without_reading_them() {
+    let dir = tempfile::tempdir().unwrap();
+    for kind in ["mesh.import", "frf.import"] {
+        for dev in ["/dev/zero", "/dev/urandom"] {
+            let p = import_pipeline(dir.path(), kind, dev, "");
+            let (code, err) = validate(&p, &[]);
+            assert_eq!(code, Some(2), "{kind} {dev}: {err}");
+            assert!(
+                err.contains(dev) && err.contains("is a character device, not a regular file"),
+                "{kind} {dev}: {err}"
+            );
+        }
+        let p = import_pipeline(dir.path(), kind, ".", "");
+        let (code, err) = validate(&p, &[]);
+        assert_eq!(code, Some(2), "{err}");
+        assert!(err.contains("is a directory, not a regular file"), "{err}");
+    }
+}
+
+#[test]
+fn the_size_limit_holds_for_a_deck_with_includes_and_can_be_raised() {
+    let dir = tempfile::tempdir().unwrap();
+    let deck = std::fs::read_to_string(root().join("fixtures/nastran/plate_with_bar.bdf")).unwrap();
+    // The deck's bulk data (about 3 kB) in an INCLUDE under a 20-byte main file.
+    let bulk = &deck[deck.find("BEGIN BULK").unwrap() + "BEGIN BULK".len()..];
+    assert!(bulk.len() > 2048);
+    std::fs::write(dir.path().join("cards.bdf"), bulk).unwrap();
+    std::fs::write(dir.path().join("main.bdf"), "INCLUDE 'cards.bdf'\n").unwrap();
+    let p = import_pipeline(dir.path(), "mesh.import", "main.bdf", "");
+    let (code, err) = validate(&p, &[("FEMU_MAX_INPUT_BYTES", "2K")]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(
+        err.contains("main.bdf line 1: INCLUDE of `cards.bdf` failed")
+            && err.contains("larger than the input limit of")
+            && err.contains("FEMU_MAX_INPUT_BYTES"),
+        "{err}"
+    );
+    let (code, err) = validate(&p, &[("FEMU_MAX_INPUT_BYTES", "8K")]);
+    assert_eq!(code, Some(0), "{err}");
+    let (code, err) = validate(&p, &[("FEMU_MAX_INPUT_BYTES", "lots")]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(
+        err.contains("FEMU_MAX_INPUT_BYTES = `lots` is not a byte count"),
+        "{err}"
+    );
+    // The UFF reader under the same limit.
+    std::fs::copy(
+        root().join("fixtures/uff/four_dof_receptance.uff"),
+        dir.path().join("m.uff"),
+    )
+    .unwrap();
+    let p = import_pipeline(dir.path(), "frf.import", "m.uff", "");
+    let (code, err) = validate(&p, &[("FEMU_MAX_INPUT_BYTES", "1000")]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(
+        err.contains("larger than the input limit of 1000 bytes"),
+        "{err}"
+    );
+    assert_eq!(validate(&p, &[]).0, Some(0));
+}
+
+#[test]
+fn a_file_of_another_kind_is_not_quoted_in_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let secret = "root:x:0:0:hunter2-topsecret:/root:/bin/bash\nalice:x:1000:1000:Alice Secret:/home/alice:/bin/sh\n";
+    std::fs::write(dir.path().join("passwd"), secret).unwrap();
+    std::fs::write(
+        dir.path().join("words.txt"),
+        "Lorem ipsum dolor\nsit amet\n",
+    )
+    .unwrap();
+    let sub = dir.path().join("sub");
+    std::fs::create_dir(&sub).unwrap();
+    for kind in ["mesh.import", "frf.import"] {
+        for (path, words) in [
+            (
+                "../passwd",
+                &["root", "hunter2", "alice", "Secret", "bash"][..],
+            ),
+            ("../words.txt", &["Lorem", "LOREM", "ipsum", "dolor"][..]),
+        ] {
+            let p = import_pipeline(&sub, kind, path, "");
+            let (code, err) = validate(&p, &[]);
+            assert_eq!(code, Some(2), "{kind} {path}: {err}");
+            assert!(err.contains(path.trim_start_matches("../")), "{err}");
+            assert!(err.contains("does not look like"), "{kind} {path}: {err}");
+            for w in words {
+                assert!(!err.contains(w), "{kind} {path} quotes {w}: {err}");
+            }
+        }
+    }
+}
+
+/// The fixture's first data value replaced by `bad` (ASCII), or one value of its FRF set made
+/// `bad` and written as 58b.
+fn uff_with(bad: &str, binary: bool) -> Vec<u8> {
+    let fixture = root().join("fixtures/uff/four_dof_receptance.uff");
+    if !binary {
+        let text = std::fs::read_to_string(&fixture).unwrap();
+        return text.replacen("-1.751989356819E-05", bad, 1).into_bytes();
+    }
+    let file = femu::model::import::uff::read_uff(&fixture).unwrap();
+    let mut set = femu::model::import::uff::to_frf_set(&file.frfs).unwrap();
+    let v: f64 = bad.parse().unwrap();
+    set.values[(3, 1)] = faer::c64::new(0.0, v);
+    femu::model::export::uff::write_uff58(&set, true)
+}
+
+#[test]
+fn nan_or_inf_in_measured_frfs_is_an_error_naming_record_line_and_frequency() {
+    let dir = tempfile::tempdir().unwrap();
+    for (bad, binary, want) in [
+        (
+            "NaN",
+            false,
+            "m.uff:15: dataset 58 (FRF record 1 of the file, header at line 2), H(1:ux, 1:ux): the value of spectral line 3 (15 Hz) is NaN in the real part",
+        ),
+        (
+            "inf",
+            false,
+            "m.uff:15: dataset 58 (FRF record 1 of the file, header at line 2), H(1:ux, 1:ux): the value of spectral line 3 (15 Hz) is inf in the real part",
+        ),
+        (
+            "-1.0E+999",
+            false,
+            "the value of spectral line 3 (15 Hz) is -inf in the real part",
+        ),
+        (
+            "NaN",
+            true,
+            "dataset 58b (FRF record 2 of the file, header at line",
+        ),
+        (
+            "inf",
+            true,
+            "the value of spectral line 4 (20 Hz) is inf in the imaginary part",
+        ),
+    ] {
+        std::fs::write(dir.path().join("m.uff"), uff_with(bad, binary)).unwrap();
+        let p = import_pipeline(dir.path(), "frf.import", "m.uff", "");
+        let (code, err) = validate(&p, &[]);
+        assert_eq!(code, Some(2), "{bad} {binary}: {err}");
+        assert!(err.contains(want), "{bad} {binary}: {err}");
+        assert!(err.contains("measured values must be finite"), "{err}");
+    }
+    // The unchanged file is accepted (the tests above fail for the value, not the file).
+    std::fs::write(
+        dir.path().join("m.uff"),
+        uff_with("-1.751989356819E-05", false),
+    )
+    .unwrap();
+    assert_eq!(
+        validate(&import_pipeline(dir.path(), "frf.import", "m.uff", ""), &[]).0,
+        Some(0)
+    );
+}
+
+#[test]
+fn cards_femu_does_not_read_fail_the_check_unless_ignored_and_are_recorded() {
+    let dir = tempfile::tempdir().unwrap();
+    let deck = std::fs::read_to_string(root().join("fixtures/nastran/plate_with_bar.bdf")).unwrap();
+    let with_rbe2 = deck.replace("ENDDATA", "RBE2,900,1,123456,2\nENDDATA");
+    let line = with_rbe2
+        .lines()
+        .position(|l| l.starts_with("RBE2"))
+        .unwrap()
+        + 1;
+    std::fs::write(dir.path().join("plate.bdf"), &with_rbe2).unwrap();
+    let p = import_pipeline(dir.path(), "mesh.import", "plate.bdf", "");
+    let (code, err) = validate(&p, &[]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(
+        err.contains(&format!("plate.bdf line {line}: RBE2 is not read by femu")),
+        "{err}"
+    );
+    // Accepted on request: run, and the artefact's meta lists what was skipped and dropped.
+    let p = import_pipeline(
+        dir.path(),
+        "mesh.import",
+        "plate.bdf",
+        ", ignore_cards: [rbe2]",
+    );
+    let (_, report, cache) = run(&p, &dir.path().join("cache"), &[]);
+    let a = cache
+        .read(
+            &report.stages[0].key,
+            "mesh",
+            femu::artefact::ArtefactKind::Mesh,
+        )
+        .unwrap();
+    assert_eq!(a.meta["ignored_cards"], serde_json::json!({"RBE2": 1}));
+    assert_eq!(
+        a.meta["skipped_cards"],
+        serde_json::json!({"EIGRL": 1, "PARAM,POST": 1})
+    );
+    assert_eq!(a.meta["ignore_cards"], serde_json::json!(["rbe2"]));
+    // An ignore list naming a card femu reads is refused at check time.
+    let p = import_pipeline(
+        dir.path(),
+        "mesh.import",
+        "plate.bdf",
+        ", ignore_cards: [GRID]",
+    );
+    let (code, err) = validate(&p, &[]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(
+        err.contains("femu reads GRID, so it cannot be ignored"),
+        "{err}"
+    );
+}
+
+#[test]
+fn a_material_femu_cannot_use_fails_the_check_at_its_card() {
+    let dir = tempfile::tempdir().unwrap();
+    let deck = std::fs::read_to_string(root().join("fixtures/nastran/plate_with_bar.bdf")).unwrap();
+    let mat = deck.lines().find(|l| l.starts_with("MAT1")).unwrap();
+    let line = deck.lines().position(|l| l.starts_with("MAT1")).unwrap() + 1;
+    // Small field: E in columns 25-32.
+    let zero = mat.replacen("2.1+11  ", "0.      ", 1);
+    assert_ne!(zero, mat);
+    std::fs::write(dir.path().join("plate.bdf"), deck.replace(mat, &zero)).unwrap();
+    let p = import_pipeline(dir.path(), "mesh.import", "plate.bdf", "");
+    let (code, err) = validate(&p, &[]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(
+        err.contains(&format!(
+            "plate.bdf line {line}: MAT1 field 3 (E): E = 0 is not positive"
+        )),
+        "{err}"
+    );
+}

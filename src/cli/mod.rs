@@ -35,6 +35,41 @@ struct PipelineArgs {
     /// Override a parameter: STAGE.PARAM=VALUE (VALUE is YAML); repeatable.
     #[arg(long = "set", value_name = "STAGE.PARAM=VALUE")]
     sets: Vec<String>,
+    /// Read files named in the pipeline (`path:`, INCLUDEs) only from the pipeline's own
+    /// directory tree (for shared services; by default `../` reads are allowed).
+    #[arg(long)]
+    confine_reads: bool,
+    /// Most bytes read for one imported file with its INCLUDEs (e.g. 4G; default 2G, or
+    /// $FEMU_MAX_INPUT_BYTES).
+    #[arg(long, value_name = "SIZE")]
+    max_input_bytes: Option<String>,
+}
+
+impl PipelineArgs {
+    /// Sets the process-wide policy for reading the files a pipeline names.
+    fn set_read_policy(&self) -> Result<(), Diagnostics> {
+        use crate::core::input::{InputPolicy, parse_byte_count, set_policy};
+        let fail = |m: String| Diagnostics(vec![Diagnostic::new("femu", m)]);
+        let mut policy = InputPolicy::from_env().map_err(|e| fail(e.to_string()))?;
+        if let Some(text) = &self.max_input_bytes {
+            policy.max_bytes = parse_byte_count(text).ok_or_else(|| {
+                fail(format!(
+                    "--max-input-bytes {text}: give a positive byte count such as 500M or 4G"
+                ))
+            })?;
+        }
+        if self.confine_reads {
+            let dir = match self.pipeline.parent() {
+                Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+                _ => PathBuf::from("."),
+            };
+            policy = policy
+                .confined_to(&dir)
+                .map_err(|e| fail(format!("--confine-reads: {e}")))?;
+        }
+        set_policy(policy);
+        Ok(())
+    }
 }
 
 #[derive(clap::Args, Debug, Clone)]
@@ -258,6 +293,7 @@ fn load_plan(p: &PipelineArgs) -> Result<Plan, Diagnostics> {
 
 /// The plan with the file it came from, to locate errors found while running.
 fn load_sourced_plan(p: &PipelineArgs) -> Result<(SourcedSpec, Plan), Diagnostics> {
+    p.set_read_policy()?;
     let mut src = read_pipeline(&p.pipeline)?;
     src.apply_overrides(&p.sets)?;
     let plan = plan(&src, &registry())?;

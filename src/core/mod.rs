@@ -2,6 +2,7 @@
 
 mod dof;
 mod fault;
+pub mod input;
 pub mod memory;
 
 pub use dof::{Component, DofId, DofParseError};

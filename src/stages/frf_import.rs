@@ -1,11 +1,13 @@
 //! `frf.import`: measured FRFs from a Universal File (dataset 58, ASCII or binary 58b),
-//! converted to SI with every conversion recorded. The file is read when the pipeline is checked;
-//! the cache key holds the digest of the FRFs, not the path.
+//! converted to SI with every conversion recorded. The file is read when the pipeline is checked
+//! (through [`crate::core::input`]: regular files only, bounded size), so a malformed record or a
+//! NaN or infinite measured value is reported then; the cache key holds the digest of the FRFs,
+//! not the path.
 
 use crate::artefact::ArtefactKind;
 use crate::artefact::kinds::frf_to_artefact;
 use crate::frf::FrfSet;
-use crate::model::import::uff::{read_uff, to_frf_set};
+use crate::model::import::uff::{UffError, read_uff, to_frf_set};
 use crate::pipeline::{
     CheckContext, ParamIssue, PortSpec, StageError, StageInputs, StageOutputs, TypedStage,
 };
@@ -26,8 +28,12 @@ pub struct Params {
 }
 
 fn import(base: &Path, path: &str) -> Result<(FrfSet, Vec<String>), String> {
-    let file = read_uff(base.join(path)).map_err(|e| e.to_string())?;
-    let set = to_frf_set(&file.frfs).map_err(|e| e.to_string())?;
+    let full = base.join(path);
+    let file = read_uff(&full).map_err(|e| e.to_string())?;
+    let set = to_frf_set(&file.frfs).map_err(|e| match e {
+        UffError::NoFrfs => format!("{}: {e}", full.display()),
+        e => e.to_string(),
+    })?;
     let mut notes = file.conversions.clone();
     notes.extend(file.warnings.iter().cloned());
     Ok((set, notes))
@@ -67,10 +73,11 @@ impl TypedStage for FrfImport {
     }
 
     fn run(p: &Params, inputs: &StageInputs) -> Result<StageOutputs, StageError> {
-        let (set, notes) = import(&inputs.base_dir, &p.path).map_err(StageError::Failed)?;
+        // Normally found when checking; here only when the file changed since.
+        let (set, notes) = import(&inputs.base_dir, &p.path).map_err(StageError::input_at("path"))?;
         let a = frf_to_artefact(&set);
         if p.content_digest.as_deref() != Some(a.digest().as_str()) {
-            return Err(StageError::Failed(format!(
+            return Err(StageError::input("path", format!(
                 "{} changed between checking and running the pipeline; run again",
                 p.path
             )));

@@ -1,15 +1,21 @@
 //! `mesh.import`: a model from Nastran bulk data (free, small and large field, continuations,
-//! INCLUDE). The file is parsed when the pipeline is checked, so a malformed card is reported
-//! with its file and line before anything runs; the cache key holds the digest of the imported
-//! model, not the path, so moving or renaming the file reuses the cache and editing it does not.
+//! INCLUDE). The file is parsed when the pipeline is checked, so a malformed card, a card femu
+//! does not read or a value its elements cannot take is reported with its file and line before
+//! anything runs; the cache key holds the digest of the imported model, not the path, so moving
+//! or renaming the file reuses the cache and editing it does not.
+//!
+//! Cards femu does not read are errors, except loads, analysis and output cards (skipped and
+//! counted) and the cards listed in `ignore_cards` (dropped and counted). Both counts go into
+//! the artefact's meta (`skipped_cards`, `ignored_cards`) and onto the console.
 
 use crate::artefact::ArtefactKind;
 use crate::artefact::mesh::mesh_to_artefact;
 use crate::model::Model;
-use crate::model::import::nastran::read_bulk;
+use crate::model::import::nastran::{BulkOptions, READ_CARDS, read_bulk_with};
 use crate::pipeline::{
     CheckContext, ParamIssue, PortSpec, StageError, StageInputs, StageOutputs, TypedStage,
 };
+use std::collections::BTreeMap;
 use std::path::Path;
 
 /// The stage.
@@ -21,6 +27,11 @@ pub struct MeshImport;
 pub struct Params {
     /// Bulk data file (`.bdf`, `.dat`, `.nas`, `.blk`), relative to the pipeline file.
     pub path: String,
+    /// Cards femu does not read that may be dropped although they may change the stiffness,
+    /// mass or constraints (e.g. `RBE2`, `CHEXA`; `PARAM,NAME` for one PARAM). Without them
+    /// such a card is an error.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub ignore_cards: Vec<String>,
     /// Digest of the imported model, filled in when the pipeline is checked (not for users).
     #[serde(default)]
     pub content_digest: Option<String>,
@@ -28,18 +39,62 @@ pub struct Params {
 
 struct Imported {
     model: Model,
-    unknown: std::collections::BTreeMap<String, usize>,
+    skipped: BTreeMap<String, usize>,
+    ignored: BTreeMap<String, usize>,
     warnings: Vec<String>,
 }
 
-fn import(base: &Path, path: &str) -> Result<Imported, String> {
-    let full = base.join(path);
-    let b = read_bulk(&full).map_err(|e| e.to_string())?;
+/// The options from `ignore_cards`: names upper-cased, each a card name or `PARAM,NAME`, and
+/// none a card femu reads.
+fn options(p: &Params) -> Result<BulkOptions, String> {
+    let mut out = BulkOptions::default();
+    for raw in &p.ignore_cards {
+        let name = raw.trim().to_ascii_uppercase();
+        let word = |w: &str| {
+            let b = w.as_bytes();
+            !b.is_empty()
+                && b.len() <= 8
+                && b[0].is_ascii_alphabetic()
+                && b.iter().all(|c| c.is_ascii_alphanumeric())
+        };
+        let ok = match name.split_once(',') {
+            Some(("PARAM", param)) => word(param),
+            Some(_) => false,
+            None => word(&name),
+        };
+        if !ok {
+            return Err(format!(
+                "`{}` is not a card name; write names such as RBE2 or CHEXA, or PARAM,NAME for one PARAM",
+                crate::core::input::excerpt(raw, 40)
+            ));
+        }
+        if READ_CARDS.contains(&name.as_str()) {
+            return Err(format!(
+                "femu reads {name}, so it cannot be ignored; `ignore_cards` lists cards femu does not read"
+            ));
+        }
+        out.ignore_cards.insert(name);
+    }
+    Ok(out)
+}
+
+fn import(base: &Path, p: &Params) -> Result<Imported, String> {
+    let full = base.join(&p.path);
+    let b = read_bulk_with(&full, &options(p)?).map_err(|e| e.to_string())?;
     Ok(Imported {
         model: b.model,
-        unknown: b.unknown,
+        skipped: b.skipped,
+        ignored: b.ignored,
         warnings: b.warnings,
     })
+}
+
+/// `NAME ×count` list for the console.
+fn counts(m: &BTreeMap<String, usize>) -> String {
+    m.iter()
+        .map(|(k, n)| format!("{k} ×{n}"))
+        .collect::<Vec<_>>()
+        .join(", ")
 }
 
 impl TypedStage for MeshImport {
@@ -61,7 +116,10 @@ impl TypedStage for MeshImport {
     }
 
     fn validate(p: &mut Params, ctx: &CheckContext) -> Vec<ParamIssue> {
-        match import(&ctx.base_dir, &p.path) {
+        if let Err(e) = options(p) {
+            return vec![ParamIssue::at("ignore_cards", e)];
+        }
+        match import(&ctx.base_dir, p) {
             Ok(i) => {
                 p.content_digest = Some(mesh_to_artefact(&i.model).digest());
                 Vec::new()
@@ -75,19 +133,58 @@ impl TypedStage for MeshImport {
     }
 
     fn run(p: &Params, inputs: &StageInputs) -> Result<StageOutputs, StageError> {
-        let i = import(&inputs.base_dir, &p.path).map_err(StageError::Failed)?;
+        // Normally found when checking; here only when the file changed since.
+        let i = import(&inputs.base_dir, p).map_err(StageError::input_at("path"))?;
         let mut a = mesh_to_artefact(&i.model);
         if p.content_digest.as_deref() != Some(a.digest().as_str()) {
-            return Err(StageError::Failed(format!(
+            return Err(StageError::input("path", format!(
                 "{} changed between checking and running the pipeline; run again",
                 p.path
             )));
         }
+        if !i.skipped.is_empty() {
+            tracing::warn!(
+                "mesh.import {}: cards skipped (they change neither stiffness, mass nor constraints): {}",
+                p.path,
+                counts(&i.skipped)
+            );
+        }
+        if !i.ignored.is_empty() {
+            tracing::warn!(
+                "mesh.import {}: cards dropped as `ignore_cards` asks (the model lacks what they define): {}",
+                p.path,
+                counts(&i.ignored)
+            );
+        }
+        let unused: Vec<&String> = p
+            .ignore_cards
+            .iter()
+            .filter(|c| {
+                let c = c.trim().to_ascii_uppercase();
+                !i.ignored
+                    .keys()
+                    .any(|k| *k == c || k.split(',').next() == Some(c.as_str()))
+            })
+            .collect();
+        let mut warnings = i.warnings;
+        if !unused.is_empty() {
+            warnings.push(format!(
+                "ignore_cards lists {unused:?}, which the deck does not hold"
+            ));
+        }
         a.meta.insert(
-            "unknown_cards".into(),
-            serde_json::to_value(&i.unknown).unwrap_or_default(),
+            "skipped_cards".into(),
+            serde_json::to_value(&i.skipped).unwrap_or_default(),
         );
-        a.meta.insert("import_warnings".into(), i.warnings.into());
+        a.meta.insert(
+            "ignored_cards".into(),
+            serde_json::to_value(&i.ignored).unwrap_or_default(),
+        );
+        a.meta.insert(
+            "ignore_cards".into(),
+            serde_json::to_value(&p.ignore_cards).unwrap_or_default(),
+        );
+        a.meta.insert("import_warnings".into(), warnings.into());
         Ok(StageOutputs::from([("mesh".to_string(), a)]))
     }
 }

@@ -12,8 +12,21 @@
 //! `1.E3` and `1D3`, and blank fields taking the QRG defaults.
 //!
 //! Cards read: GRID, CORD2R, CQUAD4, CTRIA3, CBAR, CBEAM, PSHELL, PBAR, PBARL (BAR, ROD, TUBE),
-//! PBEAM, MAT1, CELAS1 with PELAS, CELAS2, CBUSH with PBUSH, CONM2, SPC, SPC1, SET1. Every other
-//! card is skipped and counted in [`BulkImport::unknown`]; PARAM,WTMASS ≠ 1 also gives a warning.
+//! PBEAM, MAT1, CELAS1 with PELAS, CELAS2, CBUSH with PBUSH, CONM2, SPC, SPC1, SET1. Cards that
+//! change neither stiffness, mass nor constraints ([`SKIPPED_CARDS`], PARAMs of
+//! [`SKIPPED_PARAMS`], `PARAM,WTMASS,1.0`) are skipped and counted in [`BulkImport::skipped`];
+//! every other card is an error naming file, line and card unless the user lists it in
+//! [`BulkOptions::ignore_cards`] (then it is counted in [`BulkImport::ignored`]).
+//! `PARAM,WTMASS` ≠ 1 is an error. A deck without elements is an error.
+//!
+//! Files are read through [`crate::core::input`] (regular files only, bounded size, optional
+//! confinement). Messages quote at most [`EXCERPT_CHARS`] characters of a line, and nothing of a
+//! file in which no Nastran card has been seen.
+//!
+//! Values femu's elements cannot take are refused at the card, so that `femu validate` finds
+//! them: MAT1 E > 0 (given or derived), G ≥ 0, −1 < NU ≤ 0.5 (< 0.5 for shells), RHO ≥ 0;
+//! PSHELL T > 0; PBAR/PBEAM A, I1, I2 > 0, J, K1, K2 ≥ 0; NSM ≥ 0; spring stiffnesses ≥ 0; CONM2
+//! mass ≥ 0. Every element is then checked as the assembly would check it, naming its card.
 //!
 //! Deviations from Nastran, each stated where it happens:
 //! - GRID: CP must be 0 or a CORD2R id. CD ≠ 0 is ignored with a warning: PS, SPC and spring
@@ -59,6 +72,7 @@
 //! After reading, [`Model::add_property_sets`] adds `pid<N>` sets and [`Model::validate`] checks
 //! every reference; a failure names the card that holds the dangling reference.
 
+use crate::core::input::{EXCERPT_CHARS, InputError, InputPolicy, excerpt, read_input_with};
 use crate::core::{Component, DofId};
 use crate::model::structure::{
     BeamProperty, BeamSection, Element, Material, Model, ModelError, Parameter, ShellProperty,
@@ -70,13 +84,77 @@ use std::rc::Rc;
 /// Deepest INCLUDE nesting accepted.
 const MAX_INCLUDE_DEPTH: usize = 64;
 
+/// Cards femu reads.
+pub const READ_CARDS: [&str; 20] = [
+    "GRID", "CORD2R", "CQUAD4", "CTRIA3", "CBAR", "CBEAM", "PSHELL", "PBAR", "PBARL", "PBEAM",
+    "MAT1", "CELAS1", "CELAS2", "PELAS", "CBUSH", "PBUSH", "CONM2", "SPC", "SPC1", "SET1",
+];
+
+/// Cards skipped (counted) because they change neither stiffness, mass nor constraints: static
+/// and dynamic loads and their tables, temperatures (femu has no temperature-dependent
+/// material, and MATT1 is refused), eigenvalue and frequency-response control, plot elements,
+/// and coordinate systems other than CORD2R (a GRID or element that uses one is an error).
+pub const SKIPPED_CARDS: [&str; 46] = [
+    "FORCE", "FORCE1", "FORCE2", "MOMENT", "MOMENT1", "MOMENT2", "LOAD", "PLOAD", "PLOAD1",
+    "PLOAD2", "PLOAD4", "GRAV", "RFORCE", "ACCEL", "ACCEL1", "LSEQ", "DAREA", "DLOAD", "RLOAD1",
+    "RLOAD2", "TLOAD1", "TLOAD2", "DPHASE", "DELAY", "TABLED1", "TABLED2", "TABLED3", "TABLED4",
+    "TEMP", "TEMPD", "EIGRL", "EIGR", "EIGC", "EIGB", "FREQ", "FREQ1", "FREQ2", "FREQ3", "FREQ4",
+    "TSTEP", "PLOTEL", "CORD1R", "CORD1C", "CORD1S", "CORD2C", "CORD2S",
+];
+
+/// PARAM names skipped (counted): output and diagnostics only. `PARAM,WTMASS,1.0` is skipped
+/// too; any other WTMASS is an error (it scales the mass matrix, which femu does not do).
+pub const SKIPPED_PARAMS: [&str; 11] = [
+    "POST", "POSTEXT", "PATVER", "PRGPST", "GRDPNT", "MAXRATIO", "BAILOUT", "NOCOMPS", "OGEOM",
+    "OUGCORD", "PRTMAXIM",
+];
+
+/// Nastran cards femu does not read that change the stiffness, mass, damping or constraints;
+/// an error unless listed in [`BulkOptions::ignore_cards`] (the list only decides how messages
+/// name them: any other unread card is an error too).
+const REFUSED_CARDS: [&str; 83] = [
+    "RBE1", "RBE2", "RBE3", "RBAR", "RBAR1", "RROD", "RTRPLT", "RSPLINE", "MPC", "MPCADD",
+    "SPCADD", "SPCD", "SUPORT", "SUPORT1", "ASET", "ASET1", "OMIT", "OMIT1", "QSET", "QSET1",
+    "BSET", "BSET1", "CSET", "CSET1", "SPOINT", "EPOINT", "GRDSET", "CROD", "CONROD", "CTUBE",
+    "PROD", "PTUBE", "CQUAD8", "CQUADR", "CQUAD", "CTRIA6", "CTRIAR", "CSHEAR", "PSHEAR", "CHEXA",
+    "CPENTA", "CTETRA", "CPYRAM", "PSOLID", "PCOMP", "PCOMPG", "MAT2", "MAT8", "MAT9", "MAT10",
+    "MATT1", "MATS1", "CONM1", "CMASS1", "CMASS2", "CMASS3", "CMASS4", "PMASS", "CDAMP1", "CDAMP2",
+    "CDAMP3", "CDAMP4", "CDAMP5", "PDAMP", "CVISC", "PVISC", "CELAS3", "CELAS4", "CBUSH1D",
+    "PBUSH1D", "CGAP", "PGAP", "CWELD", "PWELD", "CFAST", "PFAST", "NSM", "NSM1", "NSML", "NSML1",
+    "DMIG", "GENEL", "PBEAML",
+];
+
+/// Whether `name` is a card name Nastran could have written: a letter, then letters or digits,
+/// at most 8 characters.
+fn is_card_name(name: &str) -> bool {
+    let b = name.as_bytes();
+    !b.is_empty()
+        && b.len() <= 8
+        && b[0].is_ascii_alphabetic()
+        && b.iter().all(|c| c.is_ascii_alphanumeric())
+}
+
+/// Whether `name` is a card femu knows to be Nastran's (read, skipped or refused).
+fn is_known_card(name: &str) -> bool {
+    name == "PARAM"
+        || READ_CARDS.contains(&name)
+        || SKIPPED_CARDS.contains(&name)
+        || REFUSED_CARDS.contains(&name)
+}
+
 /// A model read from a bulk data deck, with what was skipped.
 #[derive(Clone, Debug, PartialEq)]
 pub struct BulkImport {
     /// The model (with `pid<N>` sets added, validated).
     pub model: Model,
-    /// Cards that are not read, by name, with how often each occurs.
+    /// Cards that are not read, by name (`PARAM,NAME` for PARAM), with how often each occurs:
+    /// the union of `skipped` and `ignored`.
     pub unknown: BTreeMap<String, usize>,
+    /// Cards skipped because they do not change the stiffness, mass or constraints (loads,
+    /// analysis and output control), with their counts.
+    pub skipped: BTreeMap<String, usize>,
+    /// Cards dropped because the user listed them in [`BulkOptions::ignore_cards`], with counts.
+    pub ignored: BTreeMap<String, usize>,
     /// Deviations from Nastran's meaning that did not stop the import, each naming file and line.
     pub warnings: Vec<String>,
 }
@@ -163,6 +241,34 @@ pub enum NastranError {
         /// Where the first definition is (`file line N`).
         first: Box<str>,
     },
+    /// An element femu's assembly cannot build from the values of its cards.
+    #[error(
+        "{file} line {line}: {card} {id}{uses}: {message}; correct the element's grids or the property and material it uses"
+    )]
+    Element {
+        /// File of the element card.
+        file: Box<str>,
+        /// Its line.
+        line: usize,
+        /// The element card's name.
+        card: Box<str>,
+        /// Element id.
+        id: u64,
+        /// The property and material it uses, with where they are defined.
+        uses: Box<str>,
+        /// What the element check found.
+        message: Box<str>,
+    },
+    /// The deck defines no element: nothing to assemble.
+    #[error("{file}: {problem}; {valid}")]
+    Empty {
+        /// The top file.
+        file: Box<str>,
+        /// What was found.
+        problem: Box<str>,
+        /// What would be valid.
+        valid: Box<str>,
+    },
     /// The deck is complete but inconsistent (a reference to something not defined).
     #[error("{file} line {line}: {source}; {valid}")]
     Model {
@@ -187,24 +293,74 @@ fn row_note(row: &usize, field_line: &usize, line: &usize) -> String {
     }
 }
 
-/// Reads a bulk data file (and the files it includes).
+/// Choices of the user that change what an import accepts.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct BulkOptions {
+    /// Card names (upper case; `PARAM,NAME` for one PARAM) the user accepts to drop although
+    /// they may change the stiffness, mass or constraints.
+    pub ignore_cards: BTreeSet<String>,
+}
+
+/// Reads a bulk data file (and the files it includes) under the process-wide input policy,
+/// refusing every card it does not read unless it is known to be harmless.
 pub fn read_bulk(path: impl AsRef<Path>) -> Result<BulkImport, NastranError> {
+    read_bulk_with(path, &BulkOptions::default())
+}
+
+/// [`read_bulk`] with options.
+pub fn read_bulk_with(
+    path: impl AsRef<Path>,
+    options: &BulkOptions,
+) -> Result<BulkImport, NastranError> {
     let path = path.as_ref();
-    let bytes = std::fs::read(path).map_err(|e| NastranError::Io {
+    let io = |e: InputError| NastranError::Io {
         path: path.display().to_string().into(),
         message: e.to_string().into(),
-    })?;
-    parse_bulk(
+    };
+    let policy = crate::core::input::policy().map_err(io)?;
+    let bytes = read_input_with(path, &policy, policy.max_bytes).map_err(io)?;
+    parse_with_policy(
         &String::from_utf8_lossy(&bytes),
         &path.display().to_string(),
+        options,
+        policy,
+        bytes.len() as u64,
     )
 }
 
-/// Parses bulk data text; `file_name` names it in messages and anchors relative INCLUDEs.
+/// Parses bulk data text; `file_name` names it in messages and anchors relative INCLUDEs
+/// (read under the process-wide input policy).
 pub fn parse_bulk(text: &str, file_name: &str) -> Result<BulkImport, NastranError> {
+    parse_bulk_with(text, file_name, &BulkOptions::default())
+}
+
+/// [`parse_bulk`] with options.
+pub fn parse_bulk_with(
+    text: &str,
+    file_name: &str,
+    options: &BulkOptions,
+) -> Result<BulkImport, NastranError> {
+    let policy = crate::core::input::policy().map_err(|e| NastranError::Io {
+        path: file_name.into(),
+        message: e.to_string().into(),
+    })?;
+    parse_with_policy(text, file_name, options, policy, text.len() as u64)
+}
+
+fn parse_with_policy(
+    text: &str,
+    file_name: &str,
+    options: &BulkOptions,
+    policy: InputPolicy,
+    used: u64,
+) -> Result<BulkImport, NastranError> {
     let path = Path::new(file_name);
     let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
-    let mut loader = Loader::default();
+    let mut loader = Loader {
+        policy,
+        used,
+        ..Loader::default()
+    };
     loader
         .stack
         .push(std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf()));
@@ -213,6 +369,7 @@ pub fn parse_bulk(text: &str, file_name: &str) -> Result<BulkImport, NastranErro
     let mut builder = Builder {
         top_file: Rc::from(file_name),
         warnings: std::mem::take(&mut loader.warnings),
+        ignore: options.ignore_cards.clone(),
         ..Builder::default()
     };
     for card in &cards {
@@ -306,6 +463,11 @@ fn parse_components(text: &str) -> Option<Vec<Component>> {
     Some(out)
 }
 
+/// A field or line quoted in a message: at most [`EXCERPT_CHARS`] characters.
+fn q(s: &str) -> String {
+    excerpt(s, EXCERPT_CHARS)
+}
+
 fn starts_with_ci(s: &str, prefix: &str) -> bool {
     s.get(..prefix.len())
         .is_some_and(|head| head.eq_ignore_ascii_case(prefix))
@@ -384,6 +546,10 @@ impl Loc {
 
 #[derive(Default)]
 struct Loader {
+    /// How INCLUDEd files may be read.
+    policy: InputPolicy,
+    /// Bytes read so far (the deck and its INCLUDEs share the policy's limit).
+    used: u64,
     lines: Vec<SrcLine>,
     warnings: Vec<String>,
     stack: Vec<PathBuf>,
@@ -451,7 +617,7 @@ impl Loader {
                 return Err(syntax(
                     format!(
                         "`{}` starts a part superelement or auxiliary model",
-                        text.trim()
+                        q(text)
                     ),
                     "only one BEGIN BULK section is supported",
                 ));
@@ -489,14 +655,14 @@ impl Loader {
             let (sid, name) = body.split_once(' ').unwrap_or((body, ""));
             let sid = parse_int(sid).filter(|v| *v > 0).ok_or_else(|| {
                 bad(
-                    format!("`{line}` has no set id"),
+                    format!("`{}` has no set id", q(line)),
                     "write `$femu-set <sid> <name>`",
                 )
             })?;
             let name = name.trim();
             if name.is_empty() {
                 return Err(bad(
-                    format!("`{line}` has no set name"),
+                    format!("`{}` has no set name", q(line)),
                     "write `$femu-set <sid> <name>`",
                 ));
             }
@@ -504,7 +670,10 @@ impl Loader {
         } else if let Some(body) = rest.strip_prefix("parameter ") {
             let p: Parameter = serde_json::from_str(body.trim()).map_err(|e| {
                 bad(
-                    format!("the femu parameter comment is not a valid parameter: {e}"),
+                    format!(
+                        "the femu parameter comment is not a valid parameter: {}",
+                        excerpt(&e.to_string(), 100)
+                    ),
                     "write `$femu-parameter` followed by the parameter as one line of JSON",
                 )
             })?;
@@ -531,12 +700,17 @@ impl Loader {
         } else {
             dir.join(name)
         };
-        let bytes = std::fs::read(&target).map_err(|e| {
-            err(
-                format!("of `{}` failed: {e}", target.display()),
-                "relative paths are taken from the folder of the including file",
-            )
+        let budget = self.policy.max_bytes.saturating_sub(self.used);
+        let bytes = read_input_with(&target, &self.policy, budget).map_err(|e| {
+            let valid = match e {
+                InputError::TooLarge { .. } => {
+                    "the deck and all its INCLUDEs together must fit in the input limit"
+                }
+                _ => "relative paths are taken from the folder of the including file",
+            };
+            err(format!("of `{}` failed: {e}", q(name)), valid)
         })?;
+        self.used += bytes.len() as u64;
         let canonical = std::fs::canonicalize(&target).unwrap_or_else(|_| target.clone());
         if self.stack.contains(&canonical) {
             let chain: Vec<String> = self
@@ -634,6 +808,9 @@ struct Card {
     fields: Vec<Field>,
     /// A large-field first half-line was read and its second half is still to come.
     half_open: bool,
+    /// Whether a card femu knows came before this one in its file, so that quoting the file's
+    /// text in a message shows Nastran data, not some other file named by mistake.
+    nastran_like: bool,
 }
 
 /// One physical line split into fields.
@@ -766,7 +943,7 @@ impl Card {
             self.err(
                 k,
                 label,
-                format!("`{t}` is not an integer"),
+                format!("`{}` is not an integer", q(t)),
                 "write a whole number without a decimal point",
             )
         })
@@ -834,7 +1011,7 @@ impl Card {
             self.err(
                 k,
                 label,
-                format!("`{t}` is not a number"),
+                format!("`{}` is not a number", q(t)),
                 "write a real number such as 2.1E11, 2.1+11, 0.5 or .5",
             )
         })
@@ -863,6 +1040,20 @@ impl Card {
         }
     }
 
+    /// A real ≥ 0 (blank: `default`); femu's elements refuse negative values of it.
+    fn nonneg_real(&self, k: usize, label: &str, default: f64) -> Result<f64, NastranError> {
+        let v = self.real_or(k, label, default)?;
+        if v < 0.0 {
+            return Err(self.err(
+                k,
+                label,
+                format!("{v} is negative"),
+                "a real number >= 0 (femu's elements do not accept negative values here)",
+            ));
+        }
+        Ok(v)
+    }
+
     fn comps(&self, k: usize, label: &str) -> Result<Vec<Component>, NastranError> {
         let t = self.text(k);
         if t.is_empty() {
@@ -872,7 +1063,7 @@ impl Card {
             self.err(
                 k,
                 label,
-                format!("`{t}` is not a component list"),
+                format!("`{}` is not a component list", q(t)),
                 "write distinct digits 1-6 without blanks, e.g. 123 or 123456",
             )
         })
@@ -885,7 +1076,7 @@ impl Card {
             _ => Err(self.err(
                 k,
                 label,
-                format!("`{}` is not one grid component", self.text(k)),
+                format!("`{}` is not one grid component", q(self.text(k))),
                 "a single component 1-6 (scalar points are not supported)",
             )),
         }
@@ -942,12 +1133,29 @@ impl Card {
     }
 }
 
+/// The error for a line of a file in which no Nastran card has been seen yet: its text is not
+/// quoted, as the file may be anything a path named by mistake.
+fn not_nastran(file: &str, line: usize) -> NastranError {
+    NastranError::Syntax {
+        file: file.into(),
+        line,
+        problem: "this line does not start a Nastran card femu knows, and no card came before it in this file, so the file does not look like Nastran bulk data (its text is not quoted)".into(),
+        valid: format!(
+            "name a bulk data deck: cards such as {} in small, large or free field format",
+            READ_CARDS.join(", ")
+        )
+        .into(),
+    }
+}
+
 /// Groups lines into cards.
 fn assemble(lines: &[SrcLine], warnings: &mut Vec<String>) -> Result<Vec<Card>, NastranError> {
     let mut cards: Vec<Card> = Vec::new();
     let mut last_cont = String::new();
     let mut beyond: BTreeMap<Rc<str>, (usize, usize)> = BTreeMap::new();
+    let mut nastran_like: BTreeSet<Rc<str>> = BTreeSet::new();
     for l in lines {
+        let like = nastran_like.contains(&l.file);
         let syntax = |problem: String, valid: &str| NastranError::Syntax {
             file: l.file.to_string().into(),
             line: l.line,
@@ -967,6 +1175,19 @@ fn assemble(lines: &[SrcLine], warnings: &mut Vec<String>) -> Result<Vec<Card>, 
                 .trim_end_matches('*')
                 .trim()
                 .to_ascii_uppercase();
+            if !is_card_name(&name) {
+                return Err(if like {
+                    syntax(
+                        format!("`{}` is not a card name", q(&split.first)),
+                        "a card name is a letter followed by letters or digits, at most 8 characters",
+                    )
+                } else {
+                    not_nastran(&l.file, l.line)
+                });
+            }
+            if is_known_card(&name) {
+                nastran_like.insert(l.file.clone());
+            }
             let mut card = Card {
                 name: name.clone(),
                 loc: Loc {
@@ -976,6 +1197,7 @@ fn assemble(lines: &[SrcLine], warnings: &mut Vec<String>) -> Result<Vec<Card>, 
                 },
                 fields: Vec::new(),
                 half_open: false,
+                nastran_like: like,
             };
             last_cont = split.cont.clone();
             card.push(split, l.line);
@@ -993,7 +1215,10 @@ fn assemble(lines: &[SrcLine], warnings: &mut Vec<String>) -> Result<Vec<Card>, 
                 return Err(syntax(
                     format!(
                         "continuation `{}` does not match `{}` at the end of the previous line of {} (line {})",
-                        split.first, last_cont, card.name, card.loc.line
+                        q(&split.first),
+                        q(&last_cont),
+                        card.name,
+                        card.loc.line
                     ),
                     "continuation lines must follow their parent in order (unsorted decks are not supported)",
                 ));
@@ -1005,14 +1230,13 @@ fn assemble(lines: &[SrcLine], warnings: &mut Vec<String>) -> Result<Vec<Card>, 
                 "replication (`=`, `==`) is not supported".to_string(),
                 "write each card in full",
             ));
-        } else {
+        } else if like {
             return Err(syntax(
-                format!(
-                    "`{}` starts neither a card nor a continuation",
-                    l.text.trim()
-                ),
+                format!("`{}` starts neither a card nor a continuation", q(&l.text)),
                 "a card name starts in column 1 with a letter; a continuation starts with `+`, `*`, `,` or a blank",
             ));
+        } else {
+            return Err(not_nastran(&l.file, l.line));
         }
     }
     for (file, (line, count)) in beyond {
@@ -1126,7 +1350,10 @@ fn scale(a: [f64; 3], s: f64) -> [f64; 3] {
 struct Builder {
     top_file: Rc<str>,
     warnings: Vec<String>,
-    unknown: BTreeMap<String, usize>,
+    /// Card names the user accepts to drop.
+    ignore: BTreeSet<String>,
+    skipped: BTreeMap<String, usize>,
+    ignored: BTreeMap<String, usize>,
     grids: BTreeMap<u64, GridIn>,
     cords: BTreeMap<u64, CordIn>,
     materials: BTreeMap<u64, (Loc, Material)>,
@@ -1192,20 +1419,69 @@ impl Builder {
             "SPC" => self.spc(c),
             "SPC1" => self.spc1(c),
             "SET1" => self.set1(c),
-            other => {
-                if other == "PARAM" && c.word(1) == "WTMASS" {
-                    let w = c.real_or(2, "V1", 1.0)?;
-                    if w != 1.0 {
-                        self.warnings.push(format!(
-                            "{} line {}: PARAM WTMASS {w} is not applied; masses and densities are used as written (femu expects SI units)",
-                            c.loc.file, c.loc.line
-                        ));
-                    }
-                }
-                *self.unknown.entry(other.to_string()).or_insert(0) += 1;
+            "PARAM" => self.param(c),
+            other if SKIPPED_CARDS.contains(&other) => {
+                *self.skipped.entry(other.to_string()).or_insert(0) += 1;
                 Ok(())
             }
+            other => self.unread(c, other, other),
         }
+    }
+
+    /// A card femu does not read: dropped when the user asked for it, else an error.
+    fn unread(&mut self, c: &Card, key: &str, name: &str) -> Result<(), NastranError> {
+        if self.ignore.contains(key) || self.ignore.contains(name) {
+            *self.ignored.entry(key.to_string()).or_insert(0) += 1;
+            return Ok(());
+        }
+        if !(c.nastran_like || is_known_card(name)) {
+            return Err(not_nastran(&c.loc.file, c.loc.line));
+        }
+        Err(NastranError::Syntax {
+            file: c.loc.file.to_string().into(),
+            line: c.loc.line,
+            problem: format!(
+                "{} is not read by femu and may change the stiffness, mass or constraints, so the deck cannot be imported as it is",
+                q(key)
+            )
+            .into(),
+            valid: format!(
+                "femu reads {}; it skips loads, analysis and output cards ({}, …) and PARAM {}; to drop {} knowingly, add it to the stage's `ignore_cards`",
+                READ_CARDS.join(", "),
+                SKIPPED_CARDS[..6].join(", "),
+                SKIPPED_PARAMS.join(", "),
+                q(key)
+            )
+            .into(),
+        })
+    }
+
+    fn param(&mut self, c: &Card) -> Result<(), NastranError> {
+        let name = c.word(1);
+        if !is_card_name(&name) {
+            return Err(c.err(
+                1,
+                "N",
+                format!("`{}` is not a parameter name", q(&name)),
+                "a name of at most 8 letters and digits, starting with a letter",
+            ));
+        }
+        let key = format!("PARAM,{name}");
+        if name == "WTMASS" {
+            let w = c.real_or(2, "V1", 1.0)?;
+            if w != 1.0 {
+                return Err(c.err(
+                    2,
+                    "V1",
+                    format!("WTMASS {w} scales the mass matrix, which femu does not implement"),
+                    "remove PARAM,WTMASS and write masses and densities in consistent (SI) units, or set it to 1.0",
+                ));
+            }
+        } else if !SKIPPED_PARAMS.contains(&name.as_str()) {
+            return self.unread(c, &key, "PARAM");
+        }
+        *self.skipped.entry(key).or_insert(0) += 1;
+        Ok(())
     }
 
     fn new_element(&mut self, c: &Card, id: u64, e: ElemIn) -> Result<(), NastranError> {
@@ -1349,7 +1625,7 @@ impl Builder {
                     return Err(c.err(
                         j,
                         label,
-                        format!("`{}` given with G0 {g0}", c.text(j)),
+                        format!("`{}` given with G0 {g0}", q(c.text(j))),
                         "with an integer G0 in the X1 field, X2 and X3 must be blank",
                     ));
                 }
@@ -1392,7 +1668,7 @@ impl Builder {
                 return Err(c.err(
                     8,
                     if beam { "OFFT/BIT" } else { "OFFT" },
-                    format!("`{offt}` is not an offset flag"),
+                    format!("`{}` is not an offset flag", q(&offt)),
                     "one of GGG, BGG, GGO, BGO, GOG, BOG, GOO, BOO (or a real BIT on CBEAM)",
                 ));
             }
@@ -1454,7 +1730,7 @@ impl Builder {
         let bending = c.real_or(5, "12I/T**3", 1.0)?;
         let mid3 = c.int(6, "MID3")?;
         c.real(7, "TS/T")?;
-        let nsm = c.real_or(8, "NSM", 0.0)?;
+        let nsm = c.nonneg_real(8, "NSM", 0.0)?;
         let mid4 = c.int(11, "MID4")?;
         self.new_property(c, 1, "PID", id)?;
         match mid2 {
@@ -1505,19 +1781,19 @@ impl Builder {
     fn pbar(&mut self, c: &Card) -> Result<(), NastranError> {
         let id = c.id(1, "PID")?;
         let material = c.id(2, "MID")?;
-        let area = c.real_or(3, "A", 0.0)?;
-        let i1 = c.real_or(4, "I1", 0.0)?;
-        let i2 = c.real_or(5, "I2", 0.0)?;
-        let j = c.real_or(6, "J", 0.0)?;
-        let nsm = c.real_or(7, "NSM", 0.0)?;
+        let area = c.positive(3, "A")?;
+        let i1 = c.positive(4, "I1")?;
+        let i2 = c.positive(5, "I2")?;
+        let j = c.nonneg_real(6, "J", 0.0)?;
+        let nsm = c.nonneg_real(7, "NSM", 0.0)?;
         for (i, label) in ["C1", "C2", "D1", "D2", "E1", "E2", "F1", "F2"]
             .iter()
             .enumerate()
         {
             c.real(9 + i, label)?;
         }
-        let k1 = c.real_or(17, "K1", 0.0)?;
-        let k2 = c.real_or(18, "K2", 0.0)?;
+        let k1 = c.nonneg_real(17, "K1", 0.0)?;
+        let k2 = c.nonneg_real(18, "K2", 0.0)?;
         c.zero(
             19,
             "I12",
@@ -1550,7 +1826,7 @@ impl Builder {
             return Err(c.err(
                 3,
                 "GROUP",
-                format!("cross-section library `{group}` is not supported"),
+                format!("cross-section library `{}` is not supported", q(&group)),
                 "leave GROUP blank or MSCBML0",
             ));
         }
@@ -1570,7 +1846,7 @@ impl Builder {
                 return Err(c.err(
                     4,
                     "TYPE",
-                    format!("section type `{kind}` is not supported"),
+                    format!("section type `{}` is not supported", q(&kind)),
                     "BAR, ROD or TUBE (or give the properties on a PBAR)",
                 ));
             }
@@ -1598,7 +1874,7 @@ impl Builder {
                 }
             }
         };
-        let nsm = c.real_or(9 + n, "NSM", 0.0)?;
+        let nsm = c.nonneg_real(9 + n, "NSM", 0.0)?;
         self.new_property(c, 1, "PID", id)?;
         self.beams.insert(
             id,
@@ -1618,6 +1894,23 @@ impl Builder {
         let mut end_a = [0.0; 6];
         for (i, label) in labels.iter().enumerate() {
             end_a[i] = c.real_or(3 + i, &format!("{label}(A)"), 0.0)?;
+        }
+        for (i, label) in [(0, "A(A)"), (1, "I1(A)"), (2, "I2(A)")] {
+            if end_a[i] <= 0.0 {
+                return Err(c.err(
+                    3 + i,
+                    label,
+                    if c.blank(3 + i) {
+                        "the field is blank".to_string()
+                    } else {
+                        format!("{} is not positive", end_a[i])
+                    },
+                    "a real number > 0 (femu's beam needs a positive area and second moments)",
+                ));
+            }
+        }
+        for (i, label) in [(4, "J(A)"), (5, "NSM(A)")] {
+            c.nonneg_real(3 + i, label, 0.0)?;
         }
         if end_a[3] != 0.0 {
             return Err(c.err(
@@ -1640,7 +1933,7 @@ impl Builder {
                     return Err(c.err(
                         k0,
                         "SO",
-                        format!("`{so}` is not a stress output flag"),
+                        format!("`{}` is not a stress output flag", q(&so)),
                         "YES, YESA or NO",
                     ));
                 }
@@ -1666,8 +1959,8 @@ impl Builder {
                     c.real(k0 + i, "stress point")?;
                 }
             } else if tail == 0 {
-                k1 = c.real_or(k0, "K1", 1.0)?;
-                k2 = c.real_or(k0 + 1, "K2", 1.0)?;
+                k1 = c.nonneg_real(k0, "K1", 1.0)?;
+                k2 = c.nonneg_real(k0 + 1, "K2", 1.0)?;
                 c.real(k0 + 2, "S1")?;
                 c.real(k0 + 3, "S2")?;
                 let ignored = ["NSI(A)", "NSI(B)", "CW(A)", "CW(B)"];
@@ -1728,9 +2021,20 @@ impl Builder {
     fn mat1(&mut self, c: &Card) -> Result<(), NastranError> {
         let id = c.id(1, "MID")?;
         let e = c.real(2, "E")?;
+        if let Some(v) = e.filter(|v| *v <= 0.0) {
+            return Err(c.err(
+                2,
+                "E",
+                format!("E = {v} is not positive"),
+                "E > 0 (Nastran allows E = 0 with G given; femu's isotropic elements need E > 0)",
+            ));
+        }
         let g = c.real(3, "G")?;
+        if let Some(v) = g.filter(|v| *v < 0.0) {
+            return Err(c.err(3, "G", format!("G = {v} is negative"), "G >= 0 or blank"));
+        }
         let nu = c.real(4, "NU")?;
-        let rho = c.real_or(5, "RHO", 0.0)?;
+        let rho = c.nonneg_real(5, "RHO", 0.0)?;
         let mut note = None;
         let (e, nu) = match (e, g, nu) {
             (Some(e), Some(g), Some(nu)) => {
@@ -1754,7 +2058,20 @@ impl Builder {
                 (e, e / (2.0 * g) - 1.0)
             }
             (Some(e), None, Some(nu)) => (e, nu),
-            (None, Some(g), Some(nu)) => (2.0 * (1.0 + nu) * g, nu),
+            (None, Some(g), Some(nu)) => {
+                let e = 2.0 * (1.0 + nu) * g;
+                if !(e > 0.0 && e.is_finite()) {
+                    return Err(c.err(
+                        3,
+                        "G",
+                        format!(
+                            "E = 2(1+NU)G = {e} derived from G = {g} and NU = {nu} is not positive"
+                        ),
+                        "G > 0 and -1 < NU <= 0.5 when E is blank",
+                    ));
+                }
+                (e, nu)
+            }
             (Some(e), None, None) => {
                 note = Some(
                     "G and NU are blank (Nastran: G = 0); femu's isotropic material needs NU, 0 is used (G = E/2)"
@@ -1774,16 +2091,13 @@ impl Builder {
                 return Err(c.err(2, "E", "E and G are both blank", "give E (and NU or G)"));
             }
         };
-        if !(nu > -1.0 && nu < 1.0) {
+        if !(nu > -1.0 && nu <= 0.5) {
             return Err(c.err(
                 4,
                 "NU",
-                format!("Poisson's ratio {nu} (given or derived) is outside (-1, 1)"),
-                "-1 < NU <= 0.5",
+                format!("Poisson's ratio {nu} (given or derived) is outside (-1, 0.5]"),
+                "-1 < NU <= 0.5 (Nastran Quick Reference, MAT1)",
             ));
-        }
-        if nu > 0.5 {
-            note = Some(format!("Poisson's ratio {nu} exceeds 0.5 (implausible)"));
         }
         if let Some((first, _)) = self.materials.get(&id) {
             return Err(duplicate(c, 1, "MID", "material", id, first));
@@ -1826,7 +2140,10 @@ impl Builder {
             let pid = c.id_or(2, "PID", id)?;
             return self.new_element(c, id, ElemIn::Celas1 { pid, dof, other });
         }
-        let k = c.req_real(2, "K")?;
+        if c.blank(2) {
+            return Err(c.err(2, "K", "the field is blank", "a stiffness >= 0"));
+        }
+        let k = c.nonneg_real(2, "K", 0.0)?;
         if c.real_or(7, "GE", 0.0)? != 0.0 {
             self.warn(&c.loc, id, "damping GE is ignored");
         }
@@ -1841,7 +2158,11 @@ impl Builder {
             }
             let label = if off == 0 { "PID1" } else { "PID2" };
             let id = c.id(1 + off, label)?;
-            let k = c.req_real(2 + off, if off == 0 { "K1" } else { "K2" })?;
+            let label_k = if off == 0 { "K1" } else { "K2" };
+            if c.blank(2 + off) {
+                return Err(c.err(2 + off, label_k, "the field is blank", "a stiffness >= 0"));
+            }
+            let k = c.nonneg_real(2 + off, label_k, 0.0)?;
             if c.real_or(3 + off, "GE", 0.0)? != 0.0 {
                 self.warn(&c.loc, id, "damping GE is ignored");
             }
@@ -1921,14 +2242,14 @@ impl Builder {
             if flag == "K" {
                 let mut kv = [0.0; 6];
                 for (i, &j) in values.iter().enumerate() {
-                    kv[i] = c.real_or(j, &format!("K{}", i + 1), 0.0)?;
+                    kv[i] = c.nonneg_real(j, &format!("K{}", i + 1), 0.0)?;
                 }
                 k = Some(kv);
             } else if parse_real(&flag).is_some() {
                 return Err(c.err(
                     kf,
                     "flag",
-                    format!("`{flag}` is a number"),
+                    format!("`{}` is a number", q(&flag)),
                     "a flag: K, B, GE, RCV or M",
                 ));
             } else if values.iter().any(|&j| !c.blank(j)) {
@@ -1962,7 +2283,7 @@ impl Builder {
         let id = c.id(1, "EID")?;
         let node = c.id(2, "G")?;
         let cid = c.int(3, "CID")?.unwrap_or(0);
-        let mass = c.real_or(4, "M", 0.0)?;
+        let mass = c.nonneg_real(4, "M", 0.0)?;
         let x = [
             c.real_or(5, "X1", 0.0)?,
             c.real_or(6, "X2", 0.0)?,
@@ -2413,9 +2734,70 @@ impl Builder {
                 valid: valid.into(),
             });
         }
+        if model.elements.is_empty() {
+            return Err(NastranError::Empty {
+                file: self.top_file.to_string().into(),
+                problem: format!(
+                    "no element was read ({} GRID card(s)), so there is no stiffness or mass to assemble",
+                    model.nodes.len()
+                )
+                .into(),
+                valid: format!(
+                    "a bulk data deck with elements femu reads (femu reads {})",
+                    READ_CARDS.join(", ")
+                )
+                .into(),
+            });
+        }
+        // Every element as the assembly will build it, so that a value femu cannot use is
+        // found when the pipeline is checked, at the card that holds it.
+        for (id, e) in &model.elements {
+            if let Err(err) = crate::fe::model_assembly::element_matrices(
+                &model,
+                e,
+                crate::fe::element::MassKind::Consistent,
+            ) {
+                let loc = element_locs.get(id).cloned().unwrap_or(Loc {
+                    file: self.top_file.clone(),
+                    line: 0,
+                    card: Rc::from("element"),
+                });
+                let uses = match e.property() {
+                    Some(p) => {
+                        let mid = model
+                            .shell_properties
+                            .get(&p)
+                            .map(|s| s.material)
+                            .or_else(|| model.beam_properties.get(&p).map(|b| b.material));
+                        let at = |l: Option<&Loc>| {
+                            l.map_or(String::new(), |l| format!(" at {}", l.place()))
+                        };
+                        let mat = mid.map_or(String::new(), |m| {
+                            format!(", material {m}{}", at(self.materials.get(&m).map(|x| &x.0)))
+                        });
+                        format!(" (property {p}{}{mat})", at(self.pids.get(&p)))
+                    }
+                    None => String::new(),
+                };
+                return Err(NastranError::Element {
+                    file: loc.file.to_string().into(),
+                    line: loc.line,
+                    card: loc.card.to_string().into(),
+                    id: *id,
+                    uses: uses.into(),
+                    message: err.to_string().into(),
+                });
+            }
+        }
+        let mut unknown = self.skipped.clone();
+        for (k, n) in &self.ignored {
+            *unknown.entry(k.clone()).or_insert(0) += n;
+        }
         Ok(BulkImport {
             model,
-            unknown: self.unknown,
+            unknown,
+            skipped: self.skipped,
+            ignored: self.ignored,
             warnings: self.warnings,
         })
     }
@@ -2575,23 +2957,262 @@ GRID    99              this is never read
         assert_eq!(m.sets["pid10"], vec![100, 101]);
         assert_eq!(m.sets["pid20"], vec![200, 201]);
         let unknown: Vec<(&str, usize)> = b.unknown.iter().map(|(k, v)| (k.as_str(), *v)).collect();
-        assert_eq!(unknown, vec![("EIGRL", 1), ("PARAM", 1)]);
+        assert_eq!(unknown, vec![("EIGRL", 1), ("PARAM,POST", 1)]);
         assert!(b.warnings.is_empty(), "{:?}", b.warnings);
     }
 
     #[test]
-    fn unknown_cards_are_counted_not_errors() {
-        let b = parse(&format!(
-            "{BASE}PARAM,POST,-1\nPARAM,WTMASS,.00259\nCHEXA,1,1,1,2,3,4,5,6\n,7,8\nRBE2,9,1,123456,2\nRBE2,10,1,123456,3\n"
-        ));
-        assert_eq!(b.unknown["PARAM"], 2);
-        assert_eq!(b.unknown["RBE2"], 2);
-        assert_eq!(b.unknown["CHEXA"], 1);
-        assert_eq!(b.unknown.len(), 3);
+    fn cards_that_change_the_model_are_errors_unless_ignored() {
+        let extra = "CQUAD4,1,10,1,2,3,4\nPARAM,POST,-1\nEIGRL,1,,,10\nFORCE,1,1,,1.,0.,0.,1.\nCHEXA,2,1,1,2,3,4,5,6\n,7,8\nRBE2,9,1,123456,2\nRBE2,10,1,123456,3\n";
+        let deck = format!("{BASE}{extra}");
+        // Each card that may change K, M or constraints is an error naming file, line and card.
+        let e = error(&deck);
         assert!(
-            b.warnings[0].contains("t.bdf line 8: PARAM WTMASS 0.00259 is not applied"),
-            "{:?}",
-            b.warnings
+            e.starts_with("t.bdf line 11: CHEXA is not read by femu")
+                && e.contains("femu reads GRID, CORD2R")
+                && e.contains("`ignore_cards`"),
+            "{e}"
+        );
+        for (card, line) in [
+            ("RBE3,1,,2,123,1.,123,3", 8),
+            ("MPC,1,2,1,1.,3,1,-1.", 8),
+            ("CROD,5,5,1,2", 8),
+            ("CONROD,5,1,2,1,.1", 8),
+            ("CQUAD8,5,10,1,2,3,4", 8),
+            ("CTRIA6,5,10,1,2,3", 8),
+            ("CPENTA,5,1,1,2,3,4", 8),
+            ("CTETRA,5,1,1,2,3,4", 8),
+            ("GRDSET,,,,,,,123456", 8),
+            ("PCOMP,20", 8),
+            ("CONM1,5,1,1.", 8),
+            ("CMASS1,5,5,1,1", 8),
+            ("CDAMP1,5,5,1,1", 8),
+            ("SPCADD,3,1,2", 8),
+            ("SUPORT,1,123456", 8),
+            ("RBAR,5,1,2,123456", 8),
+            ("PARAM,COUPMASS,1", 8),
+        ] {
+            let e = error(&format!("{BASE}CQUAD4,1,10,1,2,3,4\n{card}\n"));
+            let name = card.split(',').next().unwrap();
+            let key = if name == "PARAM" {
+                "PARAM,COUPMASS"
+            } else {
+                name
+            };
+            assert!(
+                e.starts_with(&format!("t.bdf line {line}: {key} is not read by femu")),
+                "{e}"
+            );
+        }
+        // Accepted when the user lists them; skipped and ignored cards are counted apart.
+        let opts = BulkOptions {
+            ignore_cards: ["CHEXA", "RBE2"].map(String::from).into(),
+        };
+        let b = parse_bulk_with(&deck, "t.bdf", &opts).unwrap();
+        assert_eq!(
+            b.skipped,
+            BTreeMap::from([
+                ("EIGRL".to_string(), 1),
+                ("FORCE".to_string(), 1),
+                ("PARAM,POST".to_string(), 1)
+            ])
+        );
+        assert_eq!(
+            b.ignored,
+            BTreeMap::from([("CHEXA".to_string(), 1), ("RBE2".to_string(), 2)])
+        );
+        assert_eq!(b.unknown.len(), 5);
+        // A PARAM is ignored by its name or as PARAM.
+        let opts = BulkOptions {
+            ignore_cards: ["PARAM,COUPMASS".to_string()].into(),
+        };
+        let b = parse_bulk_with(
+            &format!("{BASE}CQUAD4,1,10,1,2,3,4\nPARAM,COUPMASS,1\n"),
+            "t.bdf",
+            &opts,
+        )
+        .unwrap();
+        assert_eq!(b.ignored["PARAM,COUPMASS"], 1);
+    }
+
+    #[test]
+    fn wtmass_other_than_one_is_an_error() {
+        let e = error(&format!("{BASE}CQUAD4,1,10,1,2,3,4\nPARAM,WTMASS,.00259\n"));
+        assert!(
+            e.starts_with(
+                "t.bdf line 8: PARAM field 3 (V1): WTMASS 0.00259 scales the mass matrix"
+            ),
+            "{e}"
+        );
+        // Even when the user ignores PARAMs: it would silently scale M.
+        let opts = BulkOptions {
+            ignore_cards: ["PARAM".to_string(), "PARAM,WTMASS".to_string()].into(),
+        };
+        assert!(
+            parse_bulk_with(
+                &format!("{BASE}CQUAD4,1,10,1,2,3,4\nPARAM,WTMASS,.00259\n"),
+                "t.bdf",
+                &opts
+            )
+            .is_err()
+        );
+        let b = parse(&format!("{BASE}CQUAD4,1,10,1,2,3,4\nPARAM,WTMASS,1.0\n"));
+        assert_eq!(b.skipped["PARAM,WTMASS"], 1);
+    }
+
+    #[test]
+    fn a_deck_without_elements_or_not_nastran_is_refused_without_quoting_it() {
+        let e = error(BASE);
+        assert!(
+            e.starts_with("t.bdf: no element was read (4 GRID card(s))"),
+            "{e}"
+        );
+        let e = error("$ only a comment\n");
+        assert!(e.contains("no element was read (0 GRID card(s))"), "{e}");
+        // Words, a password file, a CSV: not quoted, said not to look like Nastran.
+        for text in [
+            "the quick brown fox\njumps over\n",
+            "root:x:0:0:root:/root:/bin/bash\n",
+            "secret,hunter2,more\n",
+            "Password\n",
+            "#!/bin/sh\n",
+        ] {
+            let e = error(text);
+            assert!(e.contains("does not look like Nastran bulk data"), "{e}");
+            for word in [
+                "quick", "root", "hunter2", "Password", "PASSWORD", "SECRET", "bin",
+            ] {
+                assert!(!e.contains(word), "{word} quoted: {e}");
+            }
+        }
+        // After a Nastran card, an offending line is quoted, shortened to 40 characters.
+        let long = format!("{BASE}#{}\n", "x".repeat(200));
+        let e = error(&long);
+        assert!(e.contains(&format!("`#{}…`", "x".repeat(39))), "{e}");
+        let e = error(&format!("{BASE}GRID,5,,{},0.,0.\n", "y".repeat(300)));
+        assert!(
+            e.contains(&format!("`{}…` is not a number", "y".repeat(40))),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn material_and_property_values_are_checked_at_the_card() {
+        let quad = "CQUAD4,1,10,1,2,3,4\n";
+        let grids = "GRID,1,,0.,0.,0.\nGRID,2,,1.,0.,0.\nGRID,3,,1.,1.,0.\nGRID,4,,0.,1.,0.\n";
+        let cases = [
+            (
+                "MAT1,1,0.,,.3,7850.",
+                "MAT1 field 3 (E): E = 0 is not positive",
+            ),
+            (
+                "MAT1,1,-2.1+11,,.3,7850.",
+                "MAT1 field 3 (E): E = -210000000000 is not positive",
+            ),
+            (
+                "MAT1,1,,,.3,7850.",
+                "MAT1 field 3 (E): E and G are both blank",
+            ),
+            (
+                "MAT1,1,2.1+11,-1.,.3,7850.",
+                "MAT1 field 4 (G): G = -1 is negative",
+            ),
+            (
+                "MAT1,1,2.1+11,,.6,7850.",
+                "MAT1 field 5 (NU): Poisson's ratio 0.6",
+            ),
+            (
+                "MAT1,1,2.1+11,,-1.,7850.",
+                "MAT1 field 5 (NU): Poisson's ratio -1",
+            ),
+            (
+                "MAT1,1,2.1+11,1.+10,,7850.",
+                "MAT1 field 5 (NU): Poisson's ratio 9.5",
+            ),
+            (
+                "MAT1,1,2.1+11,,.3,-1.",
+                "MAT1 field 6 (RHO): -1 is negative",
+            ),
+        ];
+        for (mat, want) in cases {
+            let e = error(&format!("{mat}\nPSHELL,10,1,.002,1\n{grids}{quad}"));
+            assert!(
+                e.starts_with(&format!("t.bdf line 1: {want}")),
+                "{mat}: {e}"
+            );
+        }
+        let mat = "MAT1,1,2.1+11,,.3,7850.\n";
+        let props = [
+            ("PSHELL,10,1,0.,1", "PSHELL field 4 (T): 0 is not positive"),
+            (
+                "PSHELL,10,1,.002,1,,,,-1.",
+                "PSHELL field 9 (NSM): -1 is negative",
+            ),
+            (
+                "PBAR,10,1,0.,1.-8,1.-8,1.-8",
+                "PBAR field 4 (A): 0 is not positive",
+            ),
+            (
+                "PBAR,10,1,1.-4,,1.-8,1.-8",
+                "PBAR field 5 (I1): the field is blank",
+            ),
+            (
+                "PBAR,10,1,1.-4,1.-8,1.-8,-1.",
+                "PBAR field 7 (J): -1 is negative",
+            ),
+            (
+                "PBEAM,10,1,1.-4,1.-8,0.",
+                "PBEAM field 6 (I2(A)): 0 is not positive",
+            ),
+            (
+                "PBARL,10,1,,BAR\n,.01,.02,-1.",
+                "PBARL field 4 (NSM) of continuation 1",
+            ),
+            ("PELAS,10,-5.", "PELAS field 3 (K1): -5 is negative"),
+            ("PBUSH,10,K,1.,-1.", "PBUSH field 5 (K2): -1 is negative"),
+        ];
+        for (prop, want) in props {
+            let elem = if prop.starts_with("PSHELL") {
+                quad.to_string()
+            } else if prop.starts_with("PELAS") {
+                "CELAS1,1,10,1,1\n".to_string()
+            } else if prop.starts_with("PBUSH") {
+                "CBUSH,1,10,1,2\n".to_string()
+            } else {
+                "CBAR,1,10,1,2,0.,0.,1.\n".to_string()
+            };
+            let e = error(&format!("{mat}{prop}\n{grids}{elem}"));
+            assert!(
+                e.starts_with(&format!("t.bdf line 2: {want}")),
+                "{prop}: {e}"
+            );
+        }
+        let e = error(&format!("{mat}{grids}CONM2,1,1,,-2.\n"));
+        assert!(e.contains("CONM2 field 5 (M): -2 is negative"), "{e}");
+        // A shell needs NU < 0.5; the MAT1 card allows 0.5: the element names both cards.
+        let e = error(&format!(
+            "MAT1,1,2.1+11,,.5,7850.\nPSHELL,10,1,.002,1\n{grids}{quad}"
+        ));
+        assert!(
+            e.starts_with("t.bdf line 7: CQUAD4 1 (property 10 at t.bdf line 2, material 1 at t.bdf line 1): nu = 0.5 is out of range"),
+            "{e}"
+        );
+        // Dangling references are named at the card with file and line.
+        let e = error(&format!("{mat}PSHELL,10,2,.002,1\n{grids}{quad}"));
+        assert!(
+            e.starts_with("t.bdf line 2:") && e.contains("MAT1 2"),
+            "{e}"
+        );
+        let e = error(&format!(
+            "{mat}PSHELL,10,1,.002,1\n{grids}CQUAD4,1,11,1,2,3,4\n"
+        ));
+        assert!(e.starts_with("t.bdf line 7:"), "{e}");
+        let e = error(&format!(
+            "{mat}PSHELL,10,1,.002,1\n{grids}CQUAD4,1,10,1,2,3,9\n"
+        ));
+        assert!(
+            e.starts_with("t.bdf line 7:") && e.contains("GRID 9"),
+            "{e}"
         );
     }
 
@@ -2609,6 +3230,7 @@ CORD2R,5,,1.,2.,3.,1.,2.,4.
 GRID,1,5,1.,2.,.5
 GRID,2,6,2.,3.,4.
 GRID,3,0,1.,1.,1.
+CONM2,9,3,,1.
 ";
         let m = parse(deck).model;
         assert!(close(m.nodes[&1], [-1.0, 3.0, 3.5]), "{:?}", m.nodes[&1]);
@@ -2689,7 +3311,7 @@ GRID,3,0,1.,1.,1.
             e,
             "t.bdf line 9: CBAR field 4 (W1A) of continuation 1 (line 10): 0.5 is not supported; offsets and pin flags are not supported: leave them blank or 0 and place the grid points on the axis"
         );
-        let e = error(&format!("{BASE}PBAR,10,1,1.\n"));
+        let e = error(&format!("{BASE}PBAR,10,1,1.,1.,1.\n"));
         assert_eq!(
             e,
             "t.bdf line 7: PBAR field 2 (PID): property 10 is already defined at t.bdf line 2; ids must be unique"
@@ -2817,6 +3439,7 @@ GRID,3,0,1.,1.,1.
     fn beam_properties_pbar_pbarl_pbeam() {
         let deck = format!(
             "{BASE}\
+CBAR,1,21,1,2,0.,0.,1.
 PBAR,21,1,1.-4,2.-8,3.-8,4.-8,.1
 ,,,,,,,,
 ,.8,.9
@@ -2887,7 +3510,7 @@ PBEAM,25,1,2.,3.,4.,,5.
 
     #[test]
     fn mat1_derives_the_missing_constant() {
-        let deck = "MAT1,1,2.1+11,,.3,7850.\nMAT1,2,2.6+10,1.+10\nMAT1,3,,1.+10,.3\nMAT1,4,1.+9\nMAT1,5,200.,80.,.3\n";
+        let deck = "MAT1,1,2.1+11,,.3,7850.\nMAT1,2,2.6+10,1.+10\nMAT1,3,,1.+10,.3\nMAT1,4,1.+9\nMAT1,5,200.,80.,.3\nGRID,1\nCONM2,1,1,,1.\n";
         let b = parse(deck);
         let m = &b.model.materials;
         assert_eq!((m[&1].e, m[&1].nu, m[&1].rho), (2.1e11, 0.3, 7850.0));
@@ -3087,7 +3710,8 @@ $femu-parameter {{\"name\":\"t\",\"kind\":\"shell_thickness\",\"set\":\"skin\",\
         let m = &b.model;
         assert!(b.warnings.is_empty(), "{:?}", b.warnings);
         assert_eq!(b.unknown.len(), 2);
-        assert_eq!((b.unknown["PARAM"], b.unknown["EIGRL"]), (1, 1));
+        assert_eq!((b.skipped["PARAM,POST"], b.skipped["EIGRL"]), (1, 1));
+        assert!(b.ignored.is_empty());
         assert_eq!(m.nodes.len(), 25);
         for j in 0..5u64 {
             for i in 0..5u64 {

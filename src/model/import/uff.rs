@@ -39,6 +39,7 @@
 //! frequency lines. Errors name the file, the 1-based line, the dataset, record and field, what
 //! was found and what is valid; no input makes the reader panic.
 
+use crate::core::input::{EXCERPT_CHARS, excerpt};
 use crate::core::{Component, DofId};
 use crate::frf::{FrfPair, FrfSet, Quantity};
 use faer::{Mat, c64};
@@ -287,26 +288,28 @@ pub enum UffError {
     },
     /// A line outside any dataset is not the delimiter.
     #[error(
-        "{file}:{line}: expected the dataset delimiter `    -1` (-1 right-justified in columns 1-6), found `{found}`"
+        "{file}:{line}: expected the dataset delimiter `    -1` (-1 right-justified in columns 1-6), found {found}"
     )]
     Delimiter {
         /// The file.
         file: String,
         /// 1-based line.
         line: usize,
-        /// The line's text.
+        /// An excerpt of the line in backquotes, or, before the file's first dataset, a note
+        /// that it is not quoted.
         found: String,
     },
     /// The line after a delimiter does not hold a dataset number.
     #[error(
-        "{file}:{line}: expected a dataset number after `    -1` (I6, e.g. `    58`, or `    58b` for binary data), found `{found}`"
+        "{file}:{line}: expected a dataset number after `    -1` (I6, e.g. `    58`, or `    58b` for binary data), found {found}"
     )]
     DatasetNumber {
         /// The file.
         file: String,
         /// 1-based line.
         line: usize,
-        /// The line's text.
+        /// An excerpt of the line in backquotes, or, before the file's first dataset, a note
+        /// that it is not quoted.
         found: String,
     },
     /// The file ends inside a dataset.
@@ -385,9 +388,40 @@ pub enum UffError {
         /// Its frequency, Hz.
         next: f64,
     },
+    /// A measured value is NaN or infinite.
+    #[error(transparent)]
+    NonFinite(Box<NonFiniteValue>),
     /// No FRF record to group.
     #[error("no FRF records (dataset 58, function type 4) to form an FRF set from")]
     NoFrfs,
+}
+
+/// A measured value that is NaN or infinite, and where it is.
+#[derive(Debug, thiserror::Error)]
+#[error(
+    "{file}:{line}: dataset 58{binary} (FRF record {index} of the file, header at line {header}), H({response}, {reference}): the value of spectral line {point} ({freq_hz} Hz) is {found}; measured values must be finite (a NaN or infinite value makes every correlation over the record meaningless); remove or repair the record"
+)]
+pub struct NonFiniteValue {
+    /// The file.
+    pub file: String,
+    /// 1-based line holding the value (ASCII), or the dataset number's line (58b).
+    pub line: usize,
+    /// `b` for binary data, else empty.
+    pub binary: &'static str,
+    /// 1-based index of the FRF record among the file's dataset 58 records.
+    pub index: usize,
+    /// Line of the record's dataset number.
+    pub header: usize,
+    /// Response DOF.
+    pub response: DofId,
+    /// Reference DOF.
+    pub reference: DofId,
+    /// 1-based spectral line.
+    pub point: usize,
+    /// Its frequency, Hz.
+    pub freq_hz: f64,
+    /// What was found (e.g. `NaN in the real part`).
+    pub found: String,
 }
 
 fn dataset_name(d: Option<u32>) -> String {
@@ -397,13 +431,14 @@ fn dataset_name(d: Option<u32>) -> String {
     }
 }
 
-/// Reads and parses a universal file.
+/// Reads and parses a universal file, read under the process-wide input policy
+/// ([`crate::core::input`]: regular files only, bounded size, optional confinement).
 pub fn read_uff(path: impl AsRef<Path>) -> Result<UffFile, UffError> {
     let path = path.as_ref();
     let file = path.display().to_string();
-    let bytes = std::fs::read(path).map_err(|source| UffError::Io {
+    let bytes = crate::core::input::read_input(path).map_err(|e| UffError::Io {
         file: file.clone(),
-        source,
+        source: std::io::Error::other(e),
     })?;
     parse_uff(&bytes, &file)
 }
@@ -418,10 +453,13 @@ pub fn parse_uff(bytes: &[u8], file_name: &str) -> Result<UffFile, UffError> {
         node_lines: HashMap::new(),
         warned: HashSet::new(),
         skipped_functions: BTreeMap::new(),
+        datasets: 0,
+        frf_records: 0,
     };
     let mut out = UffFile::default();
     let mut skipped: BTreeMap<u32, usize> = BTreeMap::new();
     while let Some(block) = next_block(&mut cur, &mut ctx)? {
+        ctx.datasets += 1;
         match (block.number, block.binary.is_some()) {
             (58, _) => match parse_58(&block, &mut ctx)? {
                 Some(rec) => {
@@ -617,17 +655,23 @@ fn text(raw: &[u8]) -> Cow<'_, str> {
     String::from_utf8_lossy(raw)
 }
 
-/// A text shortened for a message.
+/// A text shortened for a message: at most [`EXCERPT_CHARS`] characters.
 fn shown(s: &str) -> String {
     let s = s.trim();
     if s.is_empty() {
         return "(blank)".to_string();
     }
-    let mut out: String = s.chars().take(60).collect();
-    if s.chars().count() > 60 {
-        out.push('…');
+    excerpt(s, EXCERPT_CHARS)
+}
+
+/// A line quoted in a structural error: an excerpt once the file has shown itself to be a
+/// universal file (a dataset was read), else a note that the text is not quoted.
+fn quoted_line(ctx: &Ctx<'_>, raw: &[u8]) -> String {
+    if ctx.datasets > 0 {
+        format!("`{}`", shown(&text(raw)))
+    } else {
+        "a line that is not quoted: nothing before it is a universal file dataset, so the file does not look like a universal file".to_string()
     }
-    out
 }
 
 /// Columns `a..b` (0-based, byte columns) of a line, empty past its end.
@@ -812,6 +856,10 @@ struct Ctx<'f> {
     warned: HashSet<&'static str>,
     /// Skipped dataset 58 function types: count and first line.
     skipped_functions: BTreeMap<i64, (usize, usize)>,
+    /// Datasets read so far (before the first, the file's text is not quoted in messages).
+    datasets: usize,
+    /// Dataset 58 records met so far.
+    frf_records: usize,
 }
 
 impl Ctx<'_> {
@@ -845,7 +893,7 @@ fn next_block<'a>(cur: &mut Cursor<'a>, ctx: &mut Ctx<'_>) -> Result<Option<Bloc
         return Err(UffError::Delimiter {
             file: file.to_string(),
             line: no,
-            found: shown(&text(raw)),
+            found: quoted_line(ctx, raw),
         });
     };
     let Some((header_line, hraw)) = cur.next_line() else {
@@ -867,7 +915,7 @@ fn next_block<'a>(cur: &mut Cursor<'a>, ctx: &mut Ctx<'_>) -> Result<Option<Bloc
     let number: u32 = number_text.parse().map_err(|_| UffError::DatasetNumber {
         file: file.to_string(),
         line: header_line,
-        found: shown(&htext),
+        found: quoted_line(ctx, hraw),
     })?;
     let truncated = |cur: &Cursor<'_>, expected: String| UffError::Truncated {
         file: file.to_string(),
@@ -1332,6 +1380,8 @@ fn dof_of(
 
 fn parse_58(b: &Block<'_>, ctx: &mut Ctx<'_>) -> Result<Option<Uff58>, UffError> {
     let file = ctx.file;
+    ctx.frf_records += 1;
+    let index = ctx.frf_records;
     let at = |k: usize, line: usize| At {
         file,
         line,
@@ -1440,6 +1490,8 @@ fn parse_58(b: &Block<'_>, ctx: &mut Ctx<'_>) -> Result<Option<Uff58>, UffError>
             "a count that fits in memory",
         )
     })?;
+    // The first value that is not finite: its index among the data values and its line.
+    let mut first_bad: Option<(usize, usize)> = None;
     let (xs, ys) = match &b.binary {
         None => {
             let mut vals: Vec<f64> = Vec::new();
@@ -1460,6 +1512,9 @@ fn parse_58(b: &Block<'_>, ctx: &mut Ctx<'_>) -> Result<Option<Uff58>, UffError>
                                 format!("more than {total} values"),
                                 format!("{total} values: {layout} (record 7)"),
                             ));
+                        }
+                        if !v.is_finite() && first_bad.is_none() {
+                            first_bad = Some((vals.len(), no));
                         }
                         vals.push(v);
                     }
@@ -1484,7 +1539,22 @@ fn parse_58(b: &Block<'_>, ctx: &mut Ctx<'_>) -> Result<Option<Uff58>, UffError>
                 (xs, ys)
             }
         }
-        Some(bin) => decode_binary(bin, n, ky, even, ordinate, &layout, &at(12, b.header_line))?,
+        Some(bin) => {
+            let (xs, ys) =
+                decode_binary(bin, n, ky, even, ordinate, &layout, &at(12, b.header_line))?;
+            // As the ASCII index: abscissa first when uneven, then the ordinate parts.
+            first_bad = (0..n).find_map(|k| {
+                let x = if even { None } else { Some(xs[k]) };
+                let parts = x
+                    .into_iter()
+                    .chain(ys[k * ky..(k + 1) * ky].iter().copied());
+                parts
+                    .enumerate()
+                    .find(|(_, v)| !v.is_finite())
+                    .map(|(r, _)| (k * per_point + r, b.header_line))
+            });
+            (xs, ys)
+        }
     };
 
     // Abscissa.
@@ -1553,11 +1623,54 @@ fn parse_58(b: &Block<'_>, ctx: &mut Ctx<'_>) -> Result<Option<Uff58>, UffError>
     } else {
         ys.iter().map(|&y| c64::new(y, 0.0)).collect()
     };
-    let values = if scale == 1.0 {
+    let values: Vec<c64> = if scale == 1.0 {
         values
     } else {
         values.into_iter().map(|v| v * scale).collect()
     };
+    let non_finite = |point: usize, line: usize, found: String| {
+        UffError::NonFinite(Box::new(NonFiniteValue {
+            file: file.to_string(),
+            line,
+            binary: if b.binary.is_some() { "b" } else { "" },
+            index,
+            header: b.header_line,
+            response,
+            reference,
+            point: point + 1,
+            freq_hz: freqs_hz.get(point).copied().unwrap_or(f64::NAN),
+            found,
+        }))
+    };
+    if let Some((i, line)) = first_bad {
+        let (point, r) = (i / per_point, i % per_point);
+        let found = match r.checked_sub(usize::from(!even)) {
+            None => format!(
+                "{} in the abscissa",
+                xs.get(point).copied().unwrap_or(f64::NAN)
+            ),
+            Some(part) => {
+                let v = ys.get(point * ky + part).copied().unwrap_or(f64::NAN);
+                let which = match (ordinate.is_complex(), part) {
+                    (false, _) => "",
+                    (true, 0) => " in the real part",
+                    (true, _) => " in the imaginary part",
+                };
+                format!("{v}{which}")
+            }
+        };
+        return Err(non_finite(point, line, found));
+    }
+    if let Some(k) = values
+        .iter()
+        .position(|v| !(v.re.is_finite() && v.im.is_finite()))
+    {
+        return Err(non_finite(
+            k,
+            b.header_line,
+            format!("infinite after conversion to SI (factor {scale:e})"),
+        ));
+    }
     Ok(Some(Uff58 {
         file: file.to_string(),
         line: b.header_line,
