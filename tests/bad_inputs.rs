@@ -349,3 +349,29 @@ fn exponential_aliases_are_located() {
     assert_eq!(code, 2, "{err}");
     assert!(err.contains("pipeline.yaml:7:"), "{err}");
 }
+
+#[test]
+fn confined_reads_stay_in_the_pipeline_tree() {
+    let dir = tempfile::tempdir().unwrap();
+    let inner = dir.path().join("study");
+    std::fs::create_dir(&inner).unwrap();
+    std::fs::write(dir.path().join("outside.bdf"), "BEGIN BULK\nENDDATA\n").unwrap();
+    let text = "name: confined\nstages:\n  mesh:\n    kind: mesh.import\n    with: {path: ../outside.bdf}\n";
+    std::fs::write(inner.join("pipeline.yaml"), text).unwrap();
+    let out = common::femu()
+        .current_dir(&inner)
+        .args(["validate", "pipeline.yaml", "--confine-reads"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(err.contains("to which input files are confined"), "{err}");
+    assert!(err.contains("pipeline.yaml:5:"), "{err}");
+    let out = common::femu()
+        .current_dir(&inner)
+        .args(["validate", "pipeline.yaml", "--max-input-bytes", "lots"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--max-input-bytes lots"));
+}

@@ -74,13 +74,17 @@ impl TypedStage for FrfImport {
 
     fn run(p: &Params, inputs: &StageInputs) -> Result<StageOutputs, StageError> {
         // Normally found when checking; here only when the file changed since.
-        let (set, notes) = import(&inputs.base_dir, &p.path).map_err(StageError::input_at("path"))?;
+        let (set, notes) =
+            import(&inputs.base_dir, &p.path).map_err(StageError::input_at("path"))?;
         let a = frf_to_artefact(&set);
         if p.content_digest.as_deref() != Some(a.digest().as_str()) {
-            return Err(StageError::input("path", format!(
-                "{} changed between checking and running the pipeline; run again",
-                p.path
-            )));
+            return Err(StageError::input(
+                "path",
+                format!(
+                    "{} changed between checking and running the pipeline; run again",
+                    p.path
+                ),
+            ));
         }
         let a = a.with_meta("import_notes", notes.into());
         Ok(StageOutputs::from([("frf".to_string(), a)]))

@@ -137,10 +137,13 @@ impl TypedStage for MeshImport {
         let i = import(&inputs.base_dir, p).map_err(StageError::input_at("path"))?;
         let mut a = mesh_to_artefact(&i.model);
         if p.content_digest.as_deref() != Some(a.digest().as_str()) {
-            return Err(StageError::input("path", format!(
-                "{} changed between checking and running the pipeline; run again",
-                p.path
-            )));
+            return Err(StageError::input(
+                "path",
+                format!(
+                    "{} changed between checking and running the pipeline; run again",
+                    p.path
+                ),
+            ));
         }
         if !i.skipped.is_empty() {
             tracing::warn!(
