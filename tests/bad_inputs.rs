@@ -318,7 +318,7 @@ fn megabytes_of_junk_fail_fast_with_few_lines() {
     let out = common::femu().arg("validate").arg(&file).output().unwrap();
     assert_eq!(out.status.code(), Some(2));
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(err.contains("... and 4949 more errors"), "{err}");
+    assert!(err.contains("… and 4949 more problems"), "{err}");
     assert!(err.lines().count() < 120, "{} lines", err.lines().count());
 }
 
@@ -374,4 +374,85 @@ fn confined_reads_stay_in_the_pipeline_tree() {
         .unwrap();
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("--max-input-bytes lots"));
+}
+
+#[test]
+fn a_model_without_free_dofs_says_so() {
+    let dir = tempfile::tempdir().unwrap();
+    let deck = "BEGIN BULK\n\
+                GRID,1,,0.,0.,0.\n\
+                GRID,2,,1.,0.,0.\n\
+                MAT1,1,2.1+11,,.3,7850.\n\
+                PBAR,1,1,1.-4,1.-8,1.-8,2.-8\n\
+                CBAR,1,1,1,2,0.,1.,0.\n\
+                SPC1,1,123456,1,2\n\
+                ENDDATA\n";
+    std::fs::write(dir.path().join("fixed.bdf"), deck).unwrap();
+    let text = "name: fixed\nstages:\n  mesh:\n    kind: mesh.import\n    with: {path: fixed.bdf}\n  matrices:\n    kind: assemble\n    inputs: {mesh: mesh}\n";
+    std::fs::write(dir.path().join("pipeline.yaml"), text).unwrap();
+    let out = common::femu()
+        .current_dir(dir.path())
+        .args(["run", "pipeline.yaml", "-q"])
+        .env("FEMU_CACHE_DIR", dir.path().join("cache"))
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("stage `matrices`") && err.contains("no free DOFs"),
+        "{err}"
+    );
+    assert!(!err.contains("not positive definite"), "{err}");
+}
+
+/// The pipeline reader and planner never panic, whatever the text, and every problem names the
+/// file: arbitrary bytes, and shipped pipelines with lines deleted, duplicated or cut.
+mod fuzz {
+    use proptest::prelude::*;
+
+    fn shipped() -> Vec<String> {
+        ["four-dof", "four-dof-rfm", "bent-plate-pc"]
+            .iter()
+            .map(|n| std::fs::read_to_string(super::common::pipeline(n)).unwrap())
+            .collect()
+    }
+
+    fn check(text: &str) {
+        let registry = femu::stages::registry();
+        let result = femu::pipeline::parse_pipeline("fuzz.yaml", text)
+            .and_then(|s| femu::pipeline::plan(&s, &registry).map(|_| ()));
+        if let Err(d) = result {
+            assert!(!d.0.is_empty());
+            assert!(d.0.iter().all(|d| d.file == "fuzz.yaml"), "{d}");
+        }
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig { cases: 400, ..ProptestConfig::default() })]
+
+        #[test]
+        fn arbitrary_text(bytes in prop::collection::vec(any::<u8>(), 0..400)) {
+            check(&String::from_utf8_lossy(&bytes));
+        }
+
+        #[test]
+        fn mutated_pipelines(which in 0usize..3, edits in prop::collection::vec((0usize..4, any::<prop::sample::Index>(), any::<u8>()), 1..6)) {
+            let mut lines: Vec<String> = shipped()[which].lines().map(str::to_string).collect();
+            for (op, at, byte) in edits {
+                if lines.is_empty() { break; }
+                let i = at.index(lines.len());
+                match op {
+                    0 => { lines.remove(i); }
+                    1 => { let l = lines[i].clone(); lines.insert(i, l); }
+                    2 => {
+                        let mut k = lines[i].len() / 2;
+                        while !lines[i].is_char_boundary(k) { k -= 1; }
+                        lines[i].truncate(k);
+                    }
+                    _ => { lines[i].push(char::from(byte % 95 + 32)); }
+                }
+            }
+            check(&lines.join("\n"));
+        }
+    }
 }

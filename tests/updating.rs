@@ -163,7 +163,7 @@ fn bent_plate_pc_recovers_the_thin_strip() {
     let stderr = String::from_utf8_lossy(&run.stderr);
     assert!(!run.status.success());
     assert!(
-        stderr.contains("`parameters` names `t10`, which the result does not hold")
+        stderr.contains("field `with.parameters`: names `t10`, which the result does not hold")
             && stderr.contains("t1, t2, t3, t4, t5, t6, t7, t8, t9"),
         "{stderr}"
     );

@@ -293,10 +293,12 @@ fn load_plan(p: &PipelineArgs) -> Result<Plan, Diagnostics> {
 
 /// The plan with the file it came from, to locate errors found while running.
 fn load_sourced_plan(p: &PipelineArgs) -> Result<(SourcedSpec, Plan), Diagnostics> {
+    let file = p.pipeline.display().to_string();
+    let cap = |d: Diagnostics| Diagnostics::capped(&file, d.0);
     p.set_read_policy()?;
-    let mut src = read_pipeline(&p.pipeline)?;
-    src.apply_overrides(&p.sets)?;
-    let plan = plan(&src, &registry())?;
+    let mut src = read_pipeline(&p.pipeline).map_err(cap)?;
+    src.apply_overrides(&p.sets).map_err(cap)?;
+    let plan = plan(&src, &registry()).map_err(cap)?;
     Ok((src, plan))
 }
 

@@ -89,20 +89,33 @@ impl fmt::Display for Diagnostic {
 #[derive(Clone, Debug, PartialEq)]
 pub struct Diagnostics(pub Vec<Diagnostic>);
 
-/// The most diagnostics displayed; the rest are counted (a file of junk must not print millions
-/// of lines).
-pub const MAX_SHOWN: usize = 50;
+/// Most problems reported at once; the rest are counted in a last line (a file of junk must not
+/// print millions of lines).
+pub const MAX_REPORTED: usize = 50;
+
+impl Diagnostics {
+    /// Keeps the first [`MAX_REPORTED`] problems and counts the rest in a last one, for `file`.
+    pub fn capped(file: &str, mut diags: Vec<Diagnostic>) -> Diagnostics {
+        if diags.len() > MAX_REPORTED {
+            let more = diags.len() - MAX_REPORTED;
+            diags.truncate(MAX_REPORTED);
+            diags.push(
+                Diagnostic::new(file, format!("… and {more} more problems")).help(format!(
+                    "only the first {MAX_REPORTED} are shown; fix these and run again"
+                )),
+            );
+        }
+        Diagnostics(diags)
+    }
+}
 
 impl fmt::Display for Diagnostics {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        for (i, d) in self.0.iter().take(MAX_SHOWN).enumerate() {
+        for (i, d) in self.0.iter().enumerate() {
             if i > 0 {
                 writeln!(f)?;
             }
             write!(f, "error: {d}")?;
-        }
-        if self.0.len() > MAX_SHOWN {
-            write!(f, "\n... and {} more errors", self.0.len() - MAX_SHOWN)?;
         }
         Ok(())
     }

@@ -286,7 +286,7 @@ pub const DEFAULT_MAX_SWEEP_BYTES: u64 = 16 * 1024 * 1024;
 pub const MAX_SWEEP_BYTES_ENV: &str = "FEMU_SWEEP_MAX_BYTES";
 
 /// Most problems reported for one sweep; the rest are counted in a last line.
-pub const MAX_REPORTED_ERRORS: usize = 50;
+pub const MAX_REPORTED_ERRORS: usize = crate::pipeline::diagnostic::MAX_REPORTED;
 
 /// Longest sweep name.
 pub const MAX_NAME_LEN: usize = 100;
@@ -335,17 +335,8 @@ pub fn valid_executable(s: &str) -> bool {
 }
 
 /// Keeps the first [`MAX_REPORTED_ERRORS`] problems and counts the rest in a last line.
-pub fn capped(file: &str, mut diags: Vec<Diagnostic>) -> Diagnostics {
-    if diags.len() > MAX_REPORTED_ERRORS {
-        let more = diags.len() - MAX_REPORTED_ERRORS;
-        diags.truncate(MAX_REPORTED_ERRORS);
-        diags.push(
-            Diagnostic::new(file, format!("… and {more} more problems")).help(format!(
-                "only the first {MAX_REPORTED_ERRORS} are shown; fix these and run again"
-            )),
-        );
-    }
-    Diagnostics(diags)
+pub fn capped(file: &str, diags: Vec<Diagnostic>) -> Diagnostics {
+    Diagnostics::capped(file, diags)
 }
 
 /// The largest sweep file read: `FEMU_SWEEP_MAX_BYTES` if set, else 16 MiB.
