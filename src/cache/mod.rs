@@ -916,12 +916,7 @@ mod tests {
     fn open_removes_dead_processes_temporaries_only() {
         let dir = tempfile::tempdir().unwrap();
         let cache = Cache::open(dir.path()).unwrap();
-        let mut child = std::process::Command::new("sh")
-            .args(["-c", "exit 0"])
-            .spawn()
-            .unwrap();
-        let dead = child.id();
-        child.wait().unwrap();
+        let dead = owner::exited_child_pid();
         let tmp = dir.path().join("tmp");
         let dead_dir = tmp.join(format!("k.0.0.{}", owner::owner_suffix(dead)));
         let dead_file = tmp.join(format!("probe.0.0.{}", owner::owner_suffix(dead)));

@@ -84,6 +84,19 @@ pub fn is_stale(name: &str) -> bool {
     })
 }
 
+/// The pid of a child process that has already exited (and been reaped), for tests of what
+/// happens to a dead process's leftovers.
+#[cfg(test)]
+pub(crate) fn exited_child_pid() -> u32 {
+    let mut child = std::process::Command::new("sh")
+        .args(["-c", "exit 0"])
+        .spawn()
+        .expect("sh runs");
+    let pid = child.id();
+    child.wait().expect("the child exits");
+    pid
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -95,12 +108,7 @@ mod tests {
         assert_eq!(parse_owner(&name), Some((me, host_tag())));
         assert!(!is_stale(&name), "this process is alive");
         assert_eq!(parse_owner("abc.12.7"), None, "old names have no owner");
-        let mut child = std::process::Command::new("sh")
-            .args(["-c", "exit 0"])
-            .spawn()
-            .unwrap();
-        let dead = child.id();
-        child.wait().unwrap();
+        let dead = exited_child_pid();
         assert!(process_is_dead(dead));
         assert!(is_stale(&format!("k.0.0.{}", owner_suffix(dead))));
         assert!(!is_stale(&format!("k.0.0.{dead}@another-host")));

@@ -162,9 +162,10 @@ pub fn host_name() -> String {
         .unwrap_or_else(|| "localhost".into())
 }
 
-/// Whether process `pid` is alive on this host (Linux `/proc`; elsewhere assumed dead).
+/// Whether process `pid` is alive on this host (the cache's test for a dead owner, so both
+/// judge processes alike).
 pub fn pid_alive(pid: u32) -> bool {
-    Path::new("/proc").join(pid.to_string()).exists()
+    !crate::cache::owner::process_is_dead(pid)
 }
 
 impl StateDir {
