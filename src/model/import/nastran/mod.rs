@@ -1,0 +1,399 @@
+//! Nastran bulk data import: reads a `.bdf`/`.dat` deck into a [`Model`].
+//!
+//! Field layouts follow the MSC Nastran Quick Reference Guide (QRG). Field numbers in messages
+//! are the QRG's: 1–10 on each line of a card, with continuation lines counted from 1.
+//!
+//! Formats: small field (8 characters), large field (16 characters, `NAME*` and `*`
+//! continuation half-lines), free field (commas; `NAME*,` for four fields per line), explicit
+//! (`+name`/`*name`) and implicit (blank first field) continuations, `$` comments, `INCLUDE`
+//! (quoted or bare, relative to the including file, quoted names may run over several lines,
+//! cycles rejected), `BEGIN BULK` (anything before it is skipped when present) and `ENDDATA`
+//! (anything after it is ignored), the real number shorthands `1.5-3`, `7.+4`, `.5`, `1+3`,
+//! `1.E3` and `1D3`, and blank fields taking the QRG defaults.
+//!
+//! Cards read: GRID, CORD2R, CQUAD4, CTRIA3, CBAR, CBEAM, PSHELL, PBAR, PBARL (BAR, ROD, TUBE),
+//! PBEAM, MAT1, CELAS1 with PELAS, CELAS2, CBUSH with PBUSH, CONM2, SPC, SPC1, SET1. Cards that
+//! change neither stiffness, mass nor constraints ([`SKIPPED_CARDS`], PARAMs of
+//! [`SKIPPED_PARAMS`], `PARAM,WTMASS,1.0`) are skipped and counted in [`BulkImport::skipped`];
+//! every other card is an error naming file, line and card unless the user lists it in
+//! [`BulkOptions::ignore_cards`] (then it is counted in [`BulkImport::ignored`]).
+//! `PARAM,WTMASS` ≠ 1 is an error. A deck without elements is an error.
+//!
+//! Files are read through [`crate::core::input`] (regular files only, bounded size, optional
+//! confinement). Messages quote at most [`EXCERPT_CHARS`] characters of a line, and nothing of a
+//! file in which no Nastran card has been seen.
+//!
+//! Values femu's elements cannot take are refused at the card, so that `femu validate` finds
+//! them: MAT1 E > 0 (given or derived), G ≥ 0, −1 < NU ≤ 0.5 (< 0.5 for shells), RHO ≥ 0;
+//! PSHELL T > 0; PBAR/PBEAM A, I1, I2 > 0, J, K1, K2 ≥ 0; NSM ≥ 0; spring stiffnesses ≥ 0; CONM2
+//! mass ≥ 0. Every element is then checked as the assembly would check it, naming its card.
+//!
+//! Deviations from Nastran, each stated where it happens:
+//! - GRID: CP must be 0 or a CORD2R id. CD ≠ 0 is ignored with a warning: PS, SPC and spring
+//!   components are taken in the basic system. SEID is ignored.
+//! - CORD2R: RID must be 0 or another CORD2R (chains are resolved; cycles are errors).
+//! - CQUAD4/CTRIA3: ZOFFS ≠ 0 is an error; THETA/MCID is ignored (isotropic material);
+//!   corner thicknesses T1–T4 are ignored with a warning (the PSHELL T is used).
+//! - CBAR/CBEAM: the orientation is X1–X3 (taken in the basic system, as CD is ignored) or G0;
+//!   a blank orientation (BAROR/BEAMOR defaults) is an error. Pin flags PA/PB and offsets
+//!   W1A–W3B ≠ 0 are errors; CBEAM warping points SA/SB are ignored with a warning.
+//! - PSHELL: MID1 is the material for membrane and bending. MID2 blank (no bending in Nastran)
+//!   or different from MID1, MID3 different from MID1, MID4 given or 12I/T³ ≠ 1 give warnings.
+//!   T must be given (> 0).
+//! - PBAR: I1 (plane 1) is the second moment about the element z axis, I2 about y; K1/K2 blank
+//!   or 0 mean no shear flexibility; I12 ≠ 0 is an error; stress points are ignored.
+//! - PBARL: GROUP must be blank or MSCBML0; TYPE BAR (DIM1 → `width`, DIM2 → `height`; the QRG
+//!   figure puts DIM1 along element z and DIM2 along element y, so I1 = DIM1·DIM2³/12), ROD
+//!   (DIM1 radius) and TUBE (DIM1 outer, DIM2 inner radius) only.
+//! - PBEAM: end A only; stations must repeat the end-A values (blank or equal) — a tapered beam
+//!   is an error. K1/K2 default 1.0 (0 = no shear flexibility). I12 ≠ 0 is an error; NSI, CW and
+//!   the M/N offsets are ignored with a warning.
+//! - MAT1: a blank E, G or NU is derived from the other two (E = 2(1+NU)G). With only E given,
+//!   NU = 0 (Nastran sets G = 0; femu's isotropic material has G = E/2) with a warning. When all
+//!   three are given and inconsistent, E and NU are kept and a warning names the G used.
+//! - CELAS1/CELAS2/PELAS: grid points only (no scalar points); GE and S are ignored (GE ≠ 0 warns).
+//! - CBUSH/PBUSH: only the K line is used (B, GE, RCV, M… ignored with a warning); the element
+//!   system (CID ≠ 0, orientation vector or G0) is ignored with a warning — stiffness acts along
+//!   the basic axes. The spring location (S, OCID, S1–S3) is ignored with a warning.
+//! - CONM2: CID 0 (offset X1–X3) or −1 (X1–X3 are the basic coordinates of the centre of
+//!   gravity); any other CID is an error.
+//! - SPC: D must be 0. SPC and SPC1 of every SID are merged into one constraint list (there is no
+//!   case control to choose one); several SIDs give a warning. THRU ranges cover the grids that
+//!   exist. Constraints come back sorted and without repeats.
+//! - SET1: element ids (with THRU over existing elements, optional SKIN) → set `set<SID>`, ids
+//!   sorted without repeats.
+//! - Integers are accepted where a real is expected (Nastran wants a decimal point), except where
+//!   the type decides the meaning (CBAR/CBEAM/CBUSH X1 against G0).
+//! - Unsorted decks (continuations away from their parent) and replication (`=`) are not
+//!   supported; a free-field line may hold at most ten fields.
+//! - femu extensions written by the exporter and read back: `$femu-set <sid> <name>` names the
+//!   SET1 `<sid>` (or an empty set), `$femu-parameter <json>` holds an updating parameter.
+//!
+//! After reading, [`Model::add_property_sets`] adds `pid<N>` sets and [`Model::validate`] checks
+//! every reference; a failure names the card that holds the dangling reference.
+
+use crate::core::input::{EXCERPT_CHARS, InputError, InputPolicy, excerpt, read_input_with};
+use crate::core::{Component, DofId};
+use crate::model::structure::{
+    BeamProperty, BeamSection, Element, Material, Model, ModelError, Parameter, ShellProperty,
+};
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::{Path, PathBuf};
+use std::rc::Rc;
+
+mod builder;
+mod card;
+mod constraints;
+mod coords;
+mod elements;
+mod finish;
+mod lumped;
+mod numbers;
+mod properties;
+mod source;
+#[cfg(test)]
+mod tests;
+
+use builder::*;
+use card::*;
+use coords::*;
+pub(crate) use numbers::parse_real;
+use numbers::*;
+use source::*;
+
+/// Deepest INCLUDE nesting accepted.
+const MAX_INCLUDE_DEPTH: usize = 64;
+
+/// Cards femu reads.
+pub const READ_CARDS: [&str; 20] = [
+    "GRID", "CORD2R", "CQUAD4", "CTRIA3", "CBAR", "CBEAM", "PSHELL", "PBAR", "PBARL", "PBEAM",
+    "MAT1", "CELAS1", "CELAS2", "PELAS", "CBUSH", "PBUSH", "CONM2", "SPC", "SPC1", "SET1",
+];
+
+/// Cards skipped (counted) because they change neither stiffness, mass nor constraints: static
+/// and dynamic loads and their tables, temperatures (femu has no temperature-dependent
+/// material, and MATT1 is refused), eigenvalue and frequency-response control, plot elements,
+/// and coordinate systems other than CORD2R (a GRID or element that uses one is an error).
+pub const SKIPPED_CARDS: [&str; 46] = [
+    "FORCE", "FORCE1", "FORCE2", "MOMENT", "MOMENT1", "MOMENT2", "LOAD", "PLOAD", "PLOAD1",
+    "PLOAD2", "PLOAD4", "GRAV", "RFORCE", "ACCEL", "ACCEL1", "LSEQ", "DAREA", "DLOAD", "RLOAD1",
+    "RLOAD2", "TLOAD1", "TLOAD2", "DPHASE", "DELAY", "TABLED1", "TABLED2", "TABLED3", "TABLED4",
+    "TEMP", "TEMPD", "EIGRL", "EIGR", "EIGC", "EIGB", "FREQ", "FREQ1", "FREQ2", "FREQ3", "FREQ4",
+    "TSTEP", "PLOTEL", "CORD1R", "CORD1C", "CORD1S", "CORD2C", "CORD2S",
+];
+
+/// PARAM names skipped (counted): output and diagnostics only. `PARAM,WTMASS,1.0` is skipped
+/// too; any other WTMASS is an error (it scales the mass matrix, which femu does not do).
+pub const SKIPPED_PARAMS: [&str; 11] = [
+    "POST", "POSTEXT", "PATVER", "PRGPST", "GRDPNT", "MAXRATIO", "BAILOUT", "NOCOMPS", "OGEOM",
+    "OUGCORD", "PRTMAXIM",
+];
+
+/// Nastran cards femu does not read that change the stiffness, mass, damping or constraints;
+/// an error unless listed in [`BulkOptions::ignore_cards`] (the list only decides how messages
+/// name them: any other unread card is an error too).
+const REFUSED_CARDS: [&str; 83] = [
+    "RBE1", "RBE2", "RBE3", "RBAR", "RBAR1", "RROD", "RTRPLT", "RSPLINE", "MPC", "MPCADD",
+    "SPCADD", "SPCD", "SUPORT", "SUPORT1", "ASET", "ASET1", "OMIT", "OMIT1", "QSET", "QSET1",
+    "BSET", "BSET1", "CSET", "CSET1", "SPOINT", "EPOINT", "GRDSET", "CROD", "CONROD", "CTUBE",
+    "PROD", "PTUBE", "CQUAD8", "CQUADR", "CQUAD", "CTRIA6", "CTRIAR", "CSHEAR", "PSHEAR", "CHEXA",
+    "CPENTA", "CTETRA", "CPYRAM", "PSOLID", "PCOMP", "PCOMPG", "MAT2", "MAT8", "MAT9", "MAT10",
+    "MATT1", "MATS1", "CONM1", "CMASS1", "CMASS2", "CMASS3", "CMASS4", "PMASS", "CDAMP1", "CDAMP2",
+    "CDAMP3", "CDAMP4", "CDAMP5", "PDAMP", "CVISC", "PVISC", "CELAS3", "CELAS4", "CBUSH1D",
+    "PBUSH1D", "CGAP", "PGAP", "CWELD", "PWELD", "CFAST", "PFAST", "NSM", "NSM1", "NSML", "NSML1",
+    "DMIG", "GENEL", "PBEAML",
+];
+
+/// Whether `name` is a card name Nastran could have written: a letter, then letters or digits,
+/// at most 8 characters.
+fn is_card_name(name: &str) -> bool {
+    let b = name.as_bytes();
+    !b.is_empty()
+        && b.len() <= 8
+        && b[0].is_ascii_alphabetic()
+        && b.iter().all(|c| c.is_ascii_alphanumeric())
+}
+
+/// Whether `name` is a card femu knows to be Nastran's (read, skipped or refused).
+fn is_known_card(name: &str) -> bool {
+    name == "PARAM"
+        || READ_CARDS.contains(&name)
+        || SKIPPED_CARDS.contains(&name)
+        || REFUSED_CARDS.contains(&name)
+}
+
+/// A model read from a bulk data deck, with what was skipped.
+#[derive(Clone, Debug, PartialEq)]
+pub struct BulkImport {
+    /// The model (with `pid<N>` sets added, validated).
+    pub model: Model,
+    /// Cards that are not read, by name (`PARAM,NAME` for PARAM), with how often each occurs:
+    /// the union of `skipped` and `ignored`.
+    pub unknown: BTreeMap<String, usize>,
+    /// Cards skipped because they do not change the stiffness, mass or constraints (loads,
+    /// analysis and output control), with their counts.
+    pub skipped: BTreeMap<String, usize>,
+    /// Cards dropped because the user listed them in [`BulkOptions::ignore_cards`], with counts.
+    pub ignored: BTreeMap<String, usize>,
+    /// Deviations from Nastran's meaning that did not stop the import, each naming file and line.
+    pub warnings: Vec<String>,
+}
+
+/// Why a bulk data deck could not be read.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum NastranError {
+    /// A file could not be read.
+    #[error("cannot read Nastran bulk data file `{path}`: {message}")]
+    Io {
+        /// The path.
+        path: Box<str>,
+        /// The operating system's message.
+        message: Box<str>,
+    },
+    /// An INCLUDE statement that cannot be followed.
+    #[error("{file} line {line}: INCLUDE {problem}; {valid}")]
+    Include {
+        /// File holding the INCLUDE.
+        file: Box<str>,
+        /// Its line.
+        line: usize,
+        /// What is wrong.
+        problem: Box<str>,
+        /// What would be valid.
+        valid: Box<str>,
+    },
+    /// A line that is neither a card, a continuation nor a comment.
+    #[error("{file} line {line}: {problem}; {valid}")]
+    Syntax {
+        /// File.
+        file: Box<str>,
+        /// Line.
+        line: usize,
+        /// What is wrong.
+        problem: Box<str>,
+        /// What would be valid.
+        valid: Box<str>,
+    },
+    /// A field of a card is malformed, missing, unsupported or refers to nothing.
+    #[error(
+        "{file} line {line}: {card} field {field} ({label}){}: {problem}; {valid}",
+        row_note(.row, .field_line, .line)
+    )]
+    Field {
+        /// File.
+        file: Box<str>,
+        /// Line of the card's first line.
+        line: usize,
+        /// Card name.
+        card: Box<str>,
+        /// Continuation holding the field (0: the card's first line).
+        row: usize,
+        /// Field number 1–10 on that line, as in the QRG.
+        field: usize,
+        /// File line holding the field.
+        field_line: usize,
+        /// The QRG's name for the field.
+        label: Box<str>,
+        /// What is wrong.
+        problem: Box<str>,
+        /// What would be valid.
+        valid: Box<str>,
+    },
+    /// An id defined twice.
+    #[error(
+        "{file} line {line}: {card} field {field} ({label}): {what} {id} is already defined at {first}; ids must be unique"
+    )]
+    Duplicate {
+        /// File.
+        file: Box<str>,
+        /// Line of the second definition.
+        line: usize,
+        /// Card name.
+        card: Box<str>,
+        /// Field number of the id, as in the QRG.
+        field: usize,
+        /// The QRG's name for the field.
+        label: &'static str,
+        /// Kind of id (grid, element, property, …).
+        what: &'static str,
+        /// The id.
+        id: u64,
+        /// Where the first definition is (`file line N`).
+        first: Box<str>,
+    },
+    /// An element femu's assembly cannot build from the values of its cards.
+    #[error(
+        "{file} line {line}: {card} {id}{uses}: {message}; correct the element's grids or the property and material it uses"
+    )]
+    Element {
+        /// File of the element card.
+        file: Box<str>,
+        /// Its line.
+        line: usize,
+        /// The element card's name.
+        card: Box<str>,
+        /// Element id.
+        id: u64,
+        /// The property and material it uses, with where they are defined.
+        uses: Box<str>,
+        /// What the element check found.
+        message: Box<str>,
+    },
+    /// The deck defines no element: nothing to assemble.
+    #[error("{file}: {problem}; {valid}")]
+    Empty {
+        /// The top file.
+        file: Box<str>,
+        /// What was found.
+        problem: Box<str>,
+        /// What would be valid.
+        valid: Box<str>,
+    },
+    /// The deck is complete but inconsistent (a reference to something not defined).
+    #[error("{file} line {line}: {source}; {valid}")]
+    Model {
+        /// File of the card holding the reference.
+        file: Box<str>,
+        /// Its line.
+        line: usize,
+        /// The model check that failed.
+        source: ModelError,
+        /// What would be valid.
+        valid: Box<str>,
+    },
+}
+
+fn row_note(row: &usize, field_line: &usize, line: &usize) -> String {
+    if *row > 0 {
+        format!(" of continuation {row} (line {field_line})")
+    } else if field_line != line {
+        format!(" (line {field_line})")
+    } else {
+        String::new()
+    }
+}
+
+/// Choices of the user that change what an import accepts.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct BulkOptions {
+    /// Card names (upper case; `PARAM,NAME` for one PARAM) the user accepts to drop although
+    /// they may change the stiffness, mass or constraints.
+    pub ignore_cards: BTreeSet<String>,
+}
+
+/// Reads a bulk data file (and the files it includes) under the process-wide input policy,
+/// refusing every card it does not read unless it is known to be harmless.
+pub fn read_bulk(path: impl AsRef<Path>) -> Result<BulkImport, NastranError> {
+    read_bulk_with(path, &BulkOptions::default())
+}
+
+/// [`read_bulk`] with options.
+pub fn read_bulk_with(
+    path: impl AsRef<Path>,
+    options: &BulkOptions,
+) -> Result<BulkImport, NastranError> {
+    let path = path.as_ref();
+    let io = |e: InputError| NastranError::Io {
+        path: path.display().to_string().into(),
+        message: e.to_string().into(),
+    };
+    let policy = crate::core::input::policy().map_err(io)?;
+    let bytes = read_input_with(path, &policy, policy.max_bytes).map_err(io)?;
+    parse_with_policy(
+        &String::from_utf8_lossy(&bytes),
+        &path.display().to_string(),
+        options,
+        policy,
+        bytes.len() as u64,
+    )
+}
+
+/// Parses bulk data text; `file_name` names it in messages and anchors relative INCLUDEs
+/// (read under the process-wide input policy).
+pub fn parse_bulk(text: &str, file_name: &str) -> Result<BulkImport, NastranError> {
+    parse_bulk_with(text, file_name, &BulkOptions::default())
+}
+
+/// [`parse_bulk`] with options.
+pub fn parse_bulk_with(
+    text: &str,
+    file_name: &str,
+    options: &BulkOptions,
+) -> Result<BulkImport, NastranError> {
+    let policy = crate::core::input::policy().map_err(|e| NastranError::Io {
+        path: file_name.into(),
+        message: e.to_string().into(),
+    })?;
+    parse_with_policy(text, file_name, options, policy, text.len() as u64)
+}
+
+fn parse_with_policy(
+    text: &str,
+    file_name: &str,
+    options: &BulkOptions,
+    policy: InputPolicy,
+    used: u64,
+) -> Result<BulkImport, NastranError> {
+    let path = Path::new(file_name);
+    let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
+    let mut loader = Loader {
+        policy,
+        used,
+        ..Loader::default()
+    };
+    loader
+        .stack
+        .push(std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf()));
+    loader.load(text, Rc::from(file_name), &dir, true)?;
+    let cards = assemble(&loader.lines, &mut loader.warnings)?;
+    let mut builder = Builder {
+        top_file: Rc::from(file_name),
+        warnings: std::mem::take(&mut loader.warnings),
+        ignore: options.ignore_cards.clone(),
+        ..Builder::default()
+    };
+    for card in &cards {
+        builder.card(card)?;
+    }
+    builder.finish(loader.set_names, loader.parameters)
+}

@@ -1,0 +1,409 @@
+//! Property and material cards: PSHELL, PBAR, PBARL, PBEAM, MAT1.
+
+use super::*;
+
+impl Builder {
+    pub(super) fn pshell(&mut self, c: &Card) -> Result<(), NastranError> {
+        let id = c.id(1, "PID")?;
+        let Some(mid1) = c.int(2, "MID1")? else {
+            return Err(c.err(
+                2,
+                "MID1",
+                "the field is blank (a shell without membrane material)",
+                "femu needs MID1, a MAT1 id used for membrane and bending",
+            ));
+        };
+        if mid1 <= 0 {
+            return Err(c.err(
+                2,
+                "MID1",
+                format!("{mid1} is not a material id"),
+                "a MAT1 id (integer > 0)",
+            ));
+        }
+        let material = mid1 as u64;
+        let thickness = c.positive(3, "T")?;
+        let mid2 = c.int(4, "MID2")?;
+        let bending = c.real_or(5, "12I/T**3", 1.0)?;
+        let mid3 = c.int(6, "MID3")?;
+        c.real(7, "TS/T")?;
+        let nsm = c.nonneg_real(8, "NSM", 0.0)?;
+        let mid4 = c.int(11, "MID4")?;
+        self.new_property(c, 1, "PID", id)?;
+        match mid2 {
+            None => self.warn(
+                &c.loc,
+                id,
+                format!("MID2 is blank (no bending stiffness in Nastran); femu's shell uses MID1 {material} for bending too"),
+            ),
+            Some(m) if m != mid1 => self.warn(
+                &c.loc,
+                id,
+                format!("MID2 {m} differs from MID1; MID1 {material} is used for bending"),
+            ),
+            _ => {}
+        }
+        if let Some(m) = mid3.filter(|m| *m != mid1) {
+            self.warn(
+                &c.loc,
+                id,
+                format!("MID3 {m} differs from MID1; MID1 {material} is used for transverse shear"),
+            );
+        }
+        if let Some(m) = mid4 {
+            self.warn(
+                &c.loc,
+                id,
+                format!("MID4 {m} (membrane-bending coupling) is ignored"),
+            );
+        }
+        if bending != 1.0 {
+            self.warn(
+                &c.loc,
+                id,
+                format!("12I/T**3 = {bending} is ignored; the bending stiffness is that of a solid plate of thickness T"),
+            );
+        }
+        self.shells.insert(
+            id,
+            ShellProperty {
+                material,
+                thickness,
+                nsm,
+            },
+        );
+        Ok(())
+    }
+
+    pub(super) fn pbar(&mut self, c: &Card) -> Result<(), NastranError> {
+        let id = c.id(1, "PID")?;
+        let material = c.id(2, "MID")?;
+        let area = c.positive(3, "A")?;
+        let i1 = c.positive(4, "I1")?;
+        let i2 = c.positive(5, "I2")?;
+        let j = c.nonneg_real(6, "J", 0.0)?;
+        let nsm = c.nonneg_real(7, "NSM", 0.0)?;
+        for (i, label) in ["C1", "C2", "D1", "D2", "E1", "E2", "F1", "F2"]
+            .iter()
+            .enumerate()
+        {
+            c.real(9 + i, label)?;
+        }
+        let k1 = c.nonneg_real(17, "K1", 0.0)?;
+        let k2 = c.nonneg_real(18, "K2", 0.0)?;
+        c.zero(
+            19,
+            "I12",
+            "a product of inertia is not supported: give I1 and I2 about the principal axes and orient the bar along them",
+        )?;
+        self.new_property(c, 1, "PID", id)?;
+        self.beams.insert(
+            id,
+            BeamProperty {
+                material,
+                section: BeamSection::General {
+                    area,
+                    iy: i2,
+                    iz: i1,
+                    j,
+                    shear_y: k1,
+                    shear_z: k2,
+                },
+                nsm,
+            },
+        );
+        Ok(())
+    }
+
+    pub(super) fn pbarl(&mut self, c: &Card) -> Result<(), NastranError> {
+        let id = c.id(1, "PID")?;
+        let material = c.id(2, "MID")?;
+        let group = c.word(3);
+        if !(group.is_empty() || group == "MSCBML0") {
+            return Err(c.err(
+                3,
+                "GROUP",
+                format!("cross-section library `{}` is not supported", q(&group)),
+                "leave GROUP blank or MSCBML0",
+            ));
+        }
+        let kind = c.word(4);
+        let n = match kind.as_str() {
+            "BAR" | "TUBE" => 2,
+            "ROD" => 1,
+            "" => {
+                return Err(c.err(
+                    4,
+                    "TYPE",
+                    "the field is blank",
+                    "a section type: BAR, ROD or TUBE",
+                ));
+            }
+            _ => {
+                return Err(c.err(
+                    4,
+                    "TYPE",
+                    format!("section type `{}` is not supported", q(&kind)),
+                    "BAR, ROD or TUBE (or give the properties on a PBAR)",
+                ));
+            }
+        };
+        let dim1 = c.positive(9, "DIM1")?;
+        let section = match kind.as_str() {
+            "BAR" => BeamSection::Rectangle {
+                width: dim1,
+                height: c.positive(10, "DIM2")?,
+            },
+            "ROD" => BeamSection::Circle { radius: dim1 },
+            _ => {
+                let inner = c.req_real(10, "DIM2")?;
+                if !(0.0..dim1).contains(&inner) {
+                    return Err(c.err(
+                        10,
+                        "DIM2",
+                        format!("inner radius {inner} is not in [0, outer radius {dim1})"),
+                        "0 <= DIM2 < DIM1",
+                    ));
+                }
+                BeamSection::Tube {
+                    outer_radius: dim1,
+                    inner_radius: inner,
+                }
+            }
+        };
+        let nsm = c.nonneg_real(9 + n, "NSM", 0.0)?;
+        self.new_property(c, 1, "PID", id)?;
+        self.beams.insert(
+            id,
+            BeamProperty {
+                material,
+                section,
+                nsm,
+            },
+        );
+        Ok(())
+    }
+
+    pub(super) fn pbeam(&mut self, c: &Card) -> Result<(), NastranError> {
+        let id = c.id(1, "PID")?;
+        let material = c.id(2, "MID")?;
+        let labels = ["A", "I1", "I2", "I12", "J", "NSM"];
+        let mut end_a = [0.0; 6];
+        for (i, label) in labels.iter().enumerate() {
+            end_a[i] = c.real_or(3 + i, &format!("{label}(A)"), 0.0)?;
+        }
+        for (i, label) in [(0, "A(A)"), (1, "I1(A)"), (2, "I2(A)")] {
+            if end_a[i] <= 0.0 {
+                return Err(c.err(
+                    3 + i,
+                    label,
+                    if c.blank(3 + i) {
+                        "the field is blank".to_string()
+                    } else {
+                        format!("{} is not positive", end_a[i])
+                    },
+                    "a real number > 0 (femu's beam needs a positive area and second moments)",
+                ));
+            }
+        }
+        for (i, label) in [(4, "J(A)"), (5, "NSM(A)")] {
+            c.nonneg_real(3 + i, label, 0.0)?;
+        }
+        if end_a[3] != 0.0 {
+            return Err(c.err(
+                6,
+                "I12(A)",
+                format!("product of inertia {} is not supported", end_a[3]),
+                "give I1 and I2 about the principal axes and orient the beam along them",
+            ));
+        }
+        let rows = c.fields.len().div_ceil(8);
+        let mut r = 1;
+        let mut tail = 0;
+        let (mut k1, mut k2) = (1.0, 1.0);
+        while r < rows {
+            let k0 = 1 + 8 * r;
+            let so = c.word(k0);
+            let is_station = parse_real(&so).is_none() && !so.is_empty();
+            if is_station {
+                if !matches!(so.as_str(), "YES" | "YESA" | "NO") {
+                    return Err(c.err(
+                        k0,
+                        "SO",
+                        format!("`{}` is not a stress output flag", q(&so)),
+                        "YES, YESA or NO",
+                    ));
+                }
+                c.real(k0 + 1, "X/XB")?;
+                for (i, label) in labels.iter().enumerate() {
+                    let given = c.real(k0 + 2 + i, label)?;
+                    if let Some(v) =
+                        given.filter(|v| (v - end_a[i]).abs() > 1e-9 * v.abs().max(end_a[i].abs()))
+                    {
+                        return Err(c.err(
+                            k0 + 2 + i,
+                            label,
+                            format!("{label} = {v} differs from {} at end A (a tapered beam)", end_a[i]),
+                            "only constant sections are supported: repeat the end-A values or leave the station fields blank",
+                        ));
+                    }
+                }
+                r += if so == "YES" { 2 } else { 1 };
+                continue;
+            }
+            if r == 1 {
+                for i in 0..8 {
+                    c.real(k0 + i, "stress point")?;
+                }
+            } else if tail == 0 {
+                k1 = c.nonneg_real(k0, "K1", 1.0)?;
+                k2 = c.nonneg_real(k0 + 1, "K2", 1.0)?;
+                c.real(k0 + 2, "S1")?;
+                c.real(k0 + 3, "S2")?;
+                let ignored = ["NSI(A)", "NSI(B)", "CW(A)", "CW(B)"];
+                let mut any = false;
+                for (i, label) in ignored.iter().enumerate() {
+                    any |= c.real_or(k0 + 4 + i, label, 0.0)? != 0.0;
+                }
+                if any {
+                    self.warn(
+                        &c.loc,
+                        id,
+                        "NSI (mass moment of inertia) and CW (warping) are ignored",
+                    );
+                }
+                tail = 1;
+            } else if tail == 1 {
+                let mut any = false;
+                for i in 0..8 {
+                    any |= c.real_or(k0 + i, "M/N offset", 0.0)? != 0.0;
+                }
+                if any {
+                    self.warn(
+                        &c.loc,
+                        id,
+                        "the NSM centre of gravity and neutral axis offsets (M, N) are ignored",
+                    );
+                }
+                tail = 2;
+            } else if (0..8).any(|i| !c.blank(k0 + i)) {
+                return Err(c.err(
+                    k0,
+                    "?",
+                    "this continuation follows the K and M lines",
+                    "PBEAM ends with the K1 line and the M1(A) line",
+                ));
+            }
+            r += 1;
+        }
+        self.new_property(c, 1, "PID", id)?;
+        self.beams.insert(
+            id,
+            BeamProperty {
+                material,
+                section: BeamSection::General {
+                    area: end_a[0],
+                    iy: end_a[2],
+                    iz: end_a[1],
+                    j: end_a[4],
+                    shear_y: k1,
+                    shear_z: k2,
+                },
+                nsm: end_a[5],
+            },
+        );
+        Ok(())
+    }
+
+    pub(super) fn mat1(&mut self, c: &Card) -> Result<(), NastranError> {
+        let id = c.id(1, "MID")?;
+        let e = c.real(2, "E")?;
+        if let Some(v) = e.filter(|v| *v <= 0.0) {
+            return Err(c.err(
+                2,
+                "E",
+                format!("E = {v} is not positive"),
+                "E > 0 (Nastran allows E = 0 with G given; femu's isotropic elements need E > 0)",
+            ));
+        }
+        let g = c.real(3, "G")?;
+        if let Some(v) = g.filter(|v| *v < 0.0) {
+            return Err(c.err(3, "G", format!("G = {v} is negative"), "G >= 0 or blank"));
+        }
+        let nu = c.real(4, "NU")?;
+        let rho = c.nonneg_real(5, "RHO", 0.0)?;
+        let mut note = None;
+        let (e, nu) = match (e, g, nu) {
+            (Some(e), Some(g), Some(nu)) => {
+                let g_used = e / (2.0 * (1.0 + nu));
+                if (g - g_used).abs() > 1e-6 * g.abs().max(g_used.abs()) {
+                    note = Some(format!(
+                        "G = {g} does not equal E/(2(1+NU)); E and NU are kept, so G = {g_used}"
+                    ));
+                }
+                (e, nu)
+            }
+            (Some(e), Some(g), None) => {
+                if g <= 0.0 {
+                    return Err(c.err(
+                        3,
+                        "G",
+                        format!("G = {g} with NU blank"),
+                        "G > 0 so that NU = E/(2G) - 1",
+                    ));
+                }
+                (e, e / (2.0 * g) - 1.0)
+            }
+            (Some(e), None, Some(nu)) => (e, nu),
+            (None, Some(g), Some(nu)) => {
+                let e = 2.0 * (1.0 + nu) * g;
+                if !(e > 0.0 && e.is_finite()) {
+                    return Err(c.err(
+                        3,
+                        "G",
+                        format!(
+                            "E = 2(1+NU)G = {e} derived from G = {g} and NU = {nu} is not positive"
+                        ),
+                        "G > 0 and -1 < NU <= 0.5 when E is blank",
+                    ));
+                }
+                (e, nu)
+            }
+            (Some(e), None, None) => {
+                note = Some(
+                    "G and NU are blank (Nastran: G = 0); femu's isotropic material needs NU, 0 is used (G = E/2)"
+                        .to_string(),
+                );
+                (e, 0.0)
+            }
+            (None, Some(_), None) => {
+                return Err(c.err(
+                    2,
+                    "E",
+                    "E and NU are blank",
+                    "give two of E, G and NU (femu's isotropic material needs E)",
+                ));
+            }
+            (None, None, _) => {
+                return Err(c.err(2, "E", "E and G are both blank", "give E (and NU or G)"));
+            }
+        };
+        if !(nu > -1.0 && nu <= 0.5) {
+            return Err(c.err(
+                4,
+                "NU",
+                format!("Poisson's ratio {nu} (given or derived) is outside (-1, 0.5]"),
+                "-1 < NU <= 0.5 (Nastran Quick Reference, MAT1)",
+            ));
+        }
+        if let Some((first, _)) = self.materials.get(&id) {
+            return Err(duplicate(c, 1, "MID", "material", id, first));
+        }
+        if let Some(text) = note {
+            self.warn(&c.loc, id, text);
+        }
+        self.materials
+            .insert(id, (c.loc.clone(), Material { e, nu, rho }));
+        Ok(())
+    }
+}
