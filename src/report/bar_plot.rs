@@ -5,7 +5,7 @@
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
-use super::frf_plot::{Figure, PlotError, render, titled_figure};
+use super::figure::{Figure, PlotError, backend_error, render, titled_figure};
 
 /// One panel.
 #[derive(Clone, Debug, PartialEq)]
@@ -60,7 +60,6 @@ fn draw<DB: DrawingBackend>(
     plot: &BarPlot,
     columns: usize,
 ) -> Result<(), PlotError> {
-    let be = |e: DrawingAreaErrorKind<DB::ErrorType>| PlotError::Backend(e.to_string());
     let body = titled_figure(root, &plot.title, TITLE_H, &INK)?;
     let rows = plot.panels.len().max(1).div_ceil(columns);
     let cells = body.split_evenly((rows, columns));
@@ -105,7 +104,7 @@ fn draw<DB: DrawingBackend>(
             .x_label_area_size(40)
             .y_label_area_size(56)
             .build_cartesian_2d(-0.5..(n.max(1) as f64 - 0.5), y_lo..y_hi)
-            .map_err(be)?;
+            .map_err(backend_error)?;
         let step = n.div_ceil(MAX_LABELS).max(1);
         let labels = panel.labels.clone();
         let x_fmt = move |v: &f64| {
@@ -143,7 +142,7 @@ fn draw<DB: DrawingBackend>(
             .axis_style(INK.stroke_width(1))
             .disable_x_mesh()
             .draw()
-            .map_err(be)?;
+            .map_err(backend_error)?;
         let area = chart.plotting_area();
         for (i, v) in heights.iter().enumerate() {
             if panel.log && !v.is_finite() {
@@ -159,19 +158,19 @@ fn draw<DB: DrawingBackend>(
                 [(x - 0.38, base), (x + 0.38, finite(v))],
                 colour.filled(),
             ))
-            .map_err(be)?;
+            .map_err(backend_error)?;
         }
         if !plot.marked_label.is_empty() && panel.marked.iter().any(|m| *m) {
             let (pw, _) = cell.dim_in_pixel();
             let x = pw as i32 - 30 - 7 * plot.marked_label.chars().count() as i32;
             cell.draw(&Rectangle::new([(x, 30), (x + 12, 42)], MARK.filled()))
-                .map_err(be)?;
+                .map_err(backend_error)?;
             cell.draw(&Text::new(
                 plot.marked_label.clone(),
                 (x + 16, 30),
                 ("sans-serif", 12).into_font().color(&INK),
             ))
-            .map_err(be)?;
+            .map_err(backend_error)?;
         }
     }
     Ok(())

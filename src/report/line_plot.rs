@@ -6,7 +6,7 @@
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
-use super::frf_plot::{Figure, PlotError, render, titled_figure};
+use super::figure::{Figure, PlotError, backend_error, render, titled_figure};
 
 /// One line.
 #[derive(Clone, Debug, PartialEq)]
@@ -93,7 +93,6 @@ fn draw<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
     plot: &LinePlot,
 ) -> Result<(), PlotError> {
-    let be = |e: DrawingAreaErrorKind<DB::ErrorType>| PlotError::Backend(e.to_string());
     let body = titled_figure(root, &plot.title, TITLE_H, &INK)?;
     let cells = body.split_evenly((plot.panels.len().max(1), 1));
     for (panel, cell) in plot.panels.iter().zip(cells.iter()) {
@@ -112,7 +111,7 @@ fn draw<DB: DrawingBackend>(
             .x_label_area_size(40)
             .y_label_area_size(64)
             .build_cartesian_2d(-0.2..x_hi + 0.2, y_lo..y_hi)
-            .map_err(be)?;
+            .map_err(backend_error)?;
         let x_fmt = |v: &f64| {
             let i = v.round();
             if (v - i).abs() < 1e-6 && i >= 0.0 {
@@ -148,7 +147,7 @@ fn draw<DB: DrawingBackend>(
             .light_line_style(WHITE.stroke_width(0))
             .axis_style(INK.stroke_width(1))
             .draw()
-            .map_err(be)?;
+            .map_err(backend_error)?;
         for (k, s) in panel.series.iter().enumerate() {
             let colour = PALETTE[k % PALETTE.len()];
             // Finite runs as separate polylines.
@@ -167,10 +166,10 @@ fn draw<DB: DrawingBackend>(
             for r in &runs {
                 chart
                     .draw_series(LineSeries::new(r.iter().copied(), colour.stroke_width(2)))
-                    .map_err(be)?;
+                    .map_err(backend_error)?;
                 chart
                     .draw_series(r.iter().map(|&p| Circle::new(p, 3, colour.filled())))
-                    .map_err(be)?;
+                    .map_err(backend_error)?;
             }
             if let Some(level) = s.reference.filter(|v| v.is_finite()) {
                 chart
@@ -180,19 +179,19 @@ fn draw<DB: DrawingBackend>(
                         5,
                         colour.stroke_width(1),
                     ))
-                    .map_err(be)?;
+                    .map_err(backend_error)?;
             }
             let y = 40 + 18 * k as i32;
             legend
                 .draw(&Rectangle::new([(4, y), (20, y + 3)], colour.filled()))
-                .map_err(be)?;
+                .map_err(backend_error)?;
             legend
                 .draw(&Text::new(
                     s.label.clone(),
                     (26, y - 6),
                     ("sans-serif", 12).into_font().color(&INK),
                 ))
-                .map_err(be)?;
+                .map_err(backend_error)?;
         }
         if panel.series.iter().any(|s| s.reference.is_some()) {
             let y = 40 + 18 * panel.series.len() as i32 + 6;
@@ -201,20 +200,20 @@ fn draw<DB: DrawingBackend>(
                     vec![(4, y + 1), (9, y + 1)],
                     INK.stroke_width(1),
                 ))
-                .map_err(be)?;
+                .map_err(backend_error)?;
             legend
                 .draw(&PathElement::new(
                     vec![(14, y + 1), (20, y + 1)],
                     INK.stroke_width(1),
                 ))
-                .map_err(be)?;
+                .map_err(backend_error)?;
             legend
                 .draw(&Text::new(
                     "true value",
                     (26, y - 5),
                     ("sans-serif", 12).into_font().color(&INK),
                 ))
-                .map_err(be)?;
+                .map_err(backend_error)?;
         }
     }
     Ok(())

@@ -82,6 +82,8 @@ pub fn check_collect(
 }
 
 /// One `collect:` entry: its form, its column name, its source in the plan and its reduction.
+// A diagnostic is built on the error path only, where its size costs nothing.
+#[allow(clippy::result_large_err)]
 fn collect_item(
     sweep: &SourcedSweep,
     plan: &Plan,
@@ -117,6 +119,8 @@ fn collect_item(
 
 /// A `collect:` entry's source path, reduction and where the path is written: a path, or a
 /// mapping of `from` and `reduce`.
+// A diagnostic is built on the error path only, where its size costs nothing.
+#[allow(clippy::result_large_err)]
 fn collect_form<'a>(
     sweep: &SourcedSweep,
     name: &'a str,
@@ -169,6 +173,8 @@ fn collect_form<'a>(
 
 /// A collected column's name is a file-safe name not taken by `point`, `row` or a swept
 /// parameter.
+// A diagnostic is built on the error path only, where its size costs nothing.
+#[allow(clippy::result_large_err)]
 fn check_column_name(
     sweep: &SourcedSweep,
     name: &str,

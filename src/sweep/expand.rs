@@ -752,6 +752,8 @@ fn exclusion_rules(
 }
 
 /// The swept parameter `key` of exclusion `e` (its index), checked to take the value `v`.
+// A diagnostic is built on the error path only, where its size costs nothing.
+#[allow(clippy::result_large_err)]
 fn exclusion_term(
     sweep: &SourcedSweep,
     axes: &[Axis],
