@@ -177,19 +177,7 @@ fn draw<DB: DrawingBackend>(
         .iter()
         .map(|(_, s)| s.iter().map(|v| box_stats(v)).collect())
         .collect();
-    let all = stats.iter().flatten().flatten();
-    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
-    for s in all {
-        lo = lo
-            .min(s.lo)
-            .min(s.outliers.iter().copied().fold(f64::INFINITY, f64::min));
-        hi = hi
-            .max(s.hi)
-            .max(s.outliers.iter().copied().fold(f64::NEG_INFINITY, f64::max));
-    }
-    if !lo.is_finite() || !hi.is_finite() {
-        (lo, hi) = (0.0, 1.0);
-    }
+    let (lo, hi) = value_extent(&stats);
     let y = value_axis(lo, hi);
     let x = Categories {
         labels: data.groups.iter().map(|g| g.0.clone()).collect(),
@@ -244,38 +232,7 @@ fn draw<DB: DrawingBackend>(
             let Some(b) = b else { continue };
             let color = PALETTE[s % PALETTE.len()];
             let cx = g as f64 - 0.4 + slot * (s as f64 + 0.5);
-            let area = chart.plotting_area();
-            area.draw(&Rectangle::new(
-                [(cx - half, b.q1), (cx + half, b.q3)],
-                color.mix(0.25).filled(),
-            ))
-            .map_err(backend_error)?;
-            area.draw(&Rectangle::new(
-                [(cx - half, b.q1), (cx + half, b.q3)],
-                color.stroke_width(2),
-            ))
-            .map_err(backend_error)?;
-            area.draw(&PathElement::new(
-                vec![(cx - half, b.median), (cx + half, b.median)],
-                INK.stroke_width(3),
-            ))
-            .map_err(backend_error)?;
-            for (from, to) in [(b.q1, b.lo), (b.q3, b.hi)] {
-                area.draw(&PathElement::new(
-                    vec![(cx, from), (cx, to)],
-                    color.stroke_width(2),
-                ))
-                .map_err(backend_error)?;
-                area.draw(&PathElement::new(
-                    vec![(cx - half * 0.5, to), (cx + half * 0.5, to)],
-                    color.stroke_width(2),
-                ))
-                .map_err(backend_error)?;
-            }
-            for o in &b.outliers {
-                area.draw(&Circle::new((cx, *o), 3, color.stroke_width(1)))
-                    .map_err(backend_error)?;
-            }
+            draw_box(chart.plotting_area(), cx, half, b, color)?;
         }
         let n: usize = boxes.iter().flatten().map(|b| b.n).sum();
         let style = TextStyle::from(("sans-serif", 12).into_font())
@@ -287,34 +244,103 @@ fn draw<DB: DrawingBackend>(
             .map_err(backend_error)?;
     }
     if !data.series.is_empty() {
-        let style = TextStyle::from(("sans-serif", 14).into_font())
-            .color(&INK)
-            .pos(Pos::new(HPos::Left, VPos::Center));
-        for (i, name) in data.series.iter().enumerate() {
-            let yy = 70 + 26 * i as i32;
-            let color = PALETTE[i % PALETTE.len()];
-            legend
-                .draw(&Rectangle::new(
-                    [(8, yy - 8), (28, yy + 8)],
-                    color.mix(0.25).filled(),
-                ))
-                .map_err(backend_error)?;
-            legend
-                .draw(&Rectangle::new(
-                    [(8, yy - 8), (28, yy + 8)],
-                    color.stroke_width(2),
-                ))
-                .map_err(backend_error)?;
-            legend
-                .draw(&Text::new(name.clone(), (36, yy), style.clone()))
-                .map_err(backend_error)?;
-        }
+        draw_legend(&legend, &data.series)?;
     }
     Ok(())
 }
 
 fn w_of<DB: DrawingBackend>(a: &DrawingArea<DB, Shift>) -> i32 {
     a.dim_in_pixel().0 as i32
+}
+
+/// The range of every whisker and outlier, `(0, 1)` when there is none.
+fn value_extent(stats: &[Vec<Option<BoxStats>>]) -> (f64, f64) {
+    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    for s in stats.iter().flatten().flatten() {
+        lo = lo
+            .min(s.lo)
+            .min(s.outliers.iter().copied().fold(f64::INFINITY, f64::min));
+        hi = hi
+            .max(s.hi)
+            .max(s.outliers.iter().copied().fold(f64::NEG_INFINITY, f64::max));
+    }
+    if !lo.is_finite() || !hi.is_finite() {
+        (lo, hi) = (0.0, 1.0);
+    }
+    (lo, hi)
+}
+
+/// One box centred at `cx`, `half` wide each side: the quartile box, the median, the
+/// whiskers with their caps and the outliers.
+fn draw_box<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Cartesian2d<Categories, Axis>>,
+    cx: f64,
+    half: f64,
+    b: &BoxStats,
+    color: RGBColor,
+) -> Result<(), PlotError> {
+    area.draw(&Rectangle::new(
+        [(cx - half, b.q1), (cx + half, b.q3)],
+        color.mix(0.25).filled(),
+    ))
+    .map_err(backend_error)?;
+    area.draw(&Rectangle::new(
+        [(cx - half, b.q1), (cx + half, b.q3)],
+        color.stroke_width(2),
+    ))
+    .map_err(backend_error)?;
+    area.draw(&PathElement::new(
+        vec![(cx - half, b.median), (cx + half, b.median)],
+        INK.stroke_width(3),
+    ))
+    .map_err(backend_error)?;
+    for (from, to) in [(b.q1, b.lo), (b.q3, b.hi)] {
+        area.draw(&PathElement::new(
+            vec![(cx, from), (cx, to)],
+            color.stroke_width(2),
+        ))
+        .map_err(backend_error)?;
+        area.draw(&PathElement::new(
+            vec![(cx - half * 0.5, to), (cx + half * 0.5, to)],
+            color.stroke_width(2),
+        ))
+        .map_err(backend_error)?;
+    }
+    for o in &b.outliers {
+        area.draw(&Circle::new((cx, *o), 3, color.stroke_width(1)))
+            .map_err(backend_error)?;
+    }
+    Ok(())
+}
+
+/// The legend: one swatch per series, in the series' colour.
+fn draw_legend<DB: DrawingBackend>(
+    legend: &DrawingArea<DB, Shift>,
+    series: &[String],
+) -> Result<(), PlotError> {
+    let style = TextStyle::from(("sans-serif", 14).into_font())
+        .color(&INK)
+        .pos(Pos::new(HPos::Left, VPos::Center));
+    for (i, name) in series.iter().enumerate() {
+        let yy = 70 + 26 * i as i32;
+        let color = PALETTE[i % PALETTE.len()];
+        legend
+            .draw(&Rectangle::new(
+                [(8, yy - 8), (28, yy + 8)],
+                color.mix(0.25).filled(),
+            ))
+            .map_err(backend_error)?;
+        legend
+            .draw(&Rectangle::new(
+                [(8, yy - 8), (28, yy + 8)],
+                color.stroke_width(2),
+            ))
+            .map_err(backend_error)?;
+        legend
+            .draw(&Text::new(name.clone(), (36, yy), style.clone()))
+            .map_err(backend_error)?;
+    }
+    Ok(())
 }
 
 #[cfg(test)]

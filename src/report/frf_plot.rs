@@ -116,124 +116,16 @@ impl Plan {
         correlation: Option<&FrfCorrelation>,
         opts: &FrfPlotOptions,
     ) -> Result<Plan, PlotError> {
-        let size_ok = |s: u32| (MIN_SIDE_PX..=MAX_SIDE_PX).contains(&s);
-        if !size_ok(opts.width_px) || !size_ok(opts.height_px) {
-            return Err(PlotError::Size {
-                width: opts.width_px,
-                height: opts.height_px,
-                min: MIN_SIDE_PX,
-                max: MAX_SIDE_PX,
-            });
-        }
-        if opts.max_frfs == 0 || opts.max_frfs > MAX_FRFS {
-            return Err(PlotError::MaxFrfs {
-                given: opts.max_frfs,
-                limit: MAX_FRFS,
-            });
-        }
-        check_shape("measured", measured)?;
-        if measured.pairs.is_empty() || measured.freqs_hz.is_empty() {
-            return Err(PlotError::Empty {
-                pairs: measured.pairs.len(),
-                lines: measured.freqs_hz.len(),
-            });
-        }
-        if let Some(p) = predicted {
-            check_shape("predicted", p)?;
-            if p.quantity != measured.quantity {
-                return Err(PlotError::Quantity {
-                    measured: measured.quantity.name(),
-                    predicted: p.quantity.name(),
-                });
-            }
-        }
-        if let Some(c) = correlation
-            .filter(|c| c.chi_s.len() != c.freqs_hz.len() || c.chi_a.len() != c.freqs_hz.len())
-        {
-            return Err(PlotError::CorrelationShape {
-                lines: c.freqs_hz.len(),
-                chi_s: c.chi_s.len(),
-                chi_a: c.chi_a.len(),
-            });
-        }
-
+        check_inputs(measured, predicted, correlation, opts)?;
         let selected = select_pairs(measured, opts)?;
-        let mut curves = Vec::with_capacity(selected.len());
-        for (n, (pair, col)) in selected.iter().enumerate() {
-            let pred_col = match predicted {
-                Some(p) => Some((
-                    p,
-                    p.pair_index(pair)
-                        .ok_or_else(|| PlotError::MissingPrediction {
-                            pair: pair_name(pair),
-                            known: pair_list(&p.pairs),
-                        })?,
-                )),
-                None => None,
-            };
-            let frac = correlation.and_then(|c| {
-                let i = c.pairs.iter().position(|q| q == pair)?;
-                c.frac.get(i).copied().filter(|v| v.is_finite())
-            });
-            let (measured_db, measured_phase) = frf_runs(measured, *col);
-            let (predicted_db, predicted_phase) = match pred_col {
-                Some((p, j)) => {
-                    let (d, ph) = frf_runs(p, j);
-                    (Some(d), Some(ph))
-                }
-                None => (None, None),
-            };
-            curves.push(Curve {
-                label: format!("H {}", pair_name(pair)),
-                color: PALETTE[n % PALETTE.len()],
-                frac,
-                measured_db,
-                measured_phase,
-                predicted_db,
-                predicted_phase,
-            });
-        }
-
+        let curves = curves(measured, predicted, correlation, &selected)?;
         let chi = correlation.map(|c| {
             (
                 chi_curve(&c.freqs_hz, &c.chi_s),
                 chi_curve(&c.freqs_hz, &c.chi_a),
             )
         });
-
-        // Frequency axis: the finite extent of everything drawn.
-        let mut fx = Extent::default();
-        let mut db = Extent::default();
-        for c in &curves {
-            for runs in [Some(&c.measured_db), c.predicted_db.as_ref()]
-                .into_iter()
-                .flatten()
-            {
-                for &(f, v) in runs.iter().flatten() {
-                    fx.add(f);
-                    db.add(v);
-                }
-            }
-        }
-        if let Some((s, a)) = &chi {
-            for &(f, _) in s.runs.iter().chain(&a.runs).flatten() {
-                fx.add(f);
-            }
-        }
-        // Lines whose values are all non-finite still set the frequency extent.
-        for f in &measured.freqs_hz {
-            fx.add(*f);
-        }
-        let (flo, fhi) = fx.get().ok_or(PlotError::NoFrequencies)?;
-        if !(fhi - flo).is_finite() {
-            return Err(PlotError::FrequencySpan { lo: flo, hi: fhi });
-        }
-        let x_axis = Axis::frequency(flo, fhi);
-        let (db_axis, db_has_data) = match db.get() {
-            Some((lo, hi)) => (Axis::decibel(lo, hi), true),
-            None => (Axis::decibel(-60.0, 0.0), false),
-        };
-
+        let (x_axis, db_axis, db_has_data) = data_axes(measured, &curves, chi.as_ref())?;
         Ok(Plan {
             title: opts.title.clone(),
             db_label: format!("Amplitude (dB re 1 {})", pretty_unit(measured.quantity)),
@@ -248,6 +140,143 @@ impl Plan {
             chi_axis: Axis::unit_interval(),
         })
     }
+}
+
+/// The figure size, `max_frfs`, the sets' shapes and quantities and the correlation's lengths.
+fn check_inputs(
+    measured: &FrfSet,
+    predicted: Option<&FrfSet>,
+    correlation: Option<&FrfCorrelation>,
+    opts: &FrfPlotOptions,
+) -> Result<(), PlotError> {
+    let size_ok = |s: u32| (MIN_SIDE_PX..=MAX_SIDE_PX).contains(&s);
+    if !size_ok(opts.width_px) || !size_ok(opts.height_px) {
+        return Err(PlotError::Size {
+            width: opts.width_px,
+            height: opts.height_px,
+            min: MIN_SIDE_PX,
+            max: MAX_SIDE_PX,
+        });
+    }
+    if opts.max_frfs == 0 || opts.max_frfs > MAX_FRFS {
+        return Err(PlotError::MaxFrfs {
+            given: opts.max_frfs,
+            limit: MAX_FRFS,
+        });
+    }
+    check_shape("measured", measured)?;
+    if measured.pairs.is_empty() || measured.freqs_hz.is_empty() {
+        return Err(PlotError::Empty {
+            pairs: measured.pairs.len(),
+            lines: measured.freqs_hz.len(),
+        });
+    }
+    if let Some(p) = predicted {
+        check_shape("predicted", p)?;
+        if p.quantity != measured.quantity {
+            return Err(PlotError::Quantity {
+                measured: measured.quantity.name(),
+                predicted: p.quantity.name(),
+            });
+        }
+    }
+    if let Some(c) = correlation
+        .filter(|c| c.chi_s.len() != c.freqs_hz.len() || c.chi_a.len() != c.freqs_hz.len())
+    {
+        return Err(PlotError::CorrelationShape {
+            lines: c.freqs_hz.len(),
+            chi_s: c.chi_s.len(),
+            chi_a: c.chi_a.len(),
+        });
+    }
+    Ok(())
+}
+
+/// One curve per selected FRF (measured column `col`), its prediction and FRAC, in legend
+/// order and colour.
+fn curves(
+    measured: &FrfSet,
+    predicted: Option<&FrfSet>,
+    correlation: Option<&FrfCorrelation>,
+    selected: &[(FrfPair, usize)],
+) -> Result<Vec<Curve>, PlotError> {
+    let mut curves = Vec::with_capacity(selected.len());
+    for (n, (pair, col)) in selected.iter().enumerate() {
+        let pred_col = match predicted {
+            Some(p) => Some((
+                p,
+                p.pair_index(pair)
+                    .ok_or_else(|| PlotError::MissingPrediction {
+                        pair: pair_name(pair),
+                        known: pair_list(&p.pairs),
+                    })?,
+            )),
+            None => None,
+        };
+        let frac = correlation.and_then(|c| {
+            let i = c.pairs.iter().position(|q| q == pair)?;
+            c.frac.get(i).copied().filter(|v| v.is_finite())
+        });
+        let (measured_db, measured_phase) = frf_runs(measured, *col);
+        let (predicted_db, predicted_phase) = match pred_col {
+            Some((p, j)) => {
+                let (d, ph) = frf_runs(p, j);
+                (Some(d), Some(ph))
+            }
+            None => (None, None),
+        };
+        curves.push(Curve {
+            label: format!("H {}", pair_name(pair)),
+            color: PALETTE[n % PALETTE.len()],
+            frac,
+            measured_db,
+            measured_phase,
+            predicted_db,
+            predicted_phase,
+        });
+    }
+    Ok(curves)
+}
+
+/// The frequency axis (the finite extent of everything drawn) and the amplitude axis, with
+/// whether any amplitude is finite.
+fn data_axes(
+    measured: &FrfSet,
+    curves: &[Curve],
+    chi: Option<&(ChiCurve, ChiCurve)>,
+) -> Result<(Axis, Axis, bool), PlotError> {
+    let mut fx = Extent::default();
+    let mut db = Extent::default();
+    for c in curves {
+        for runs in [Some(&c.measured_db), c.predicted_db.as_ref()]
+            .into_iter()
+            .flatten()
+        {
+            for &(f, v) in runs.iter().flatten() {
+                fx.add(f);
+                db.add(v);
+            }
+        }
+    }
+    if let Some((s, a)) = chi {
+        for &(f, _) in s.runs.iter().chain(&a.runs).flatten() {
+            fx.add(f);
+        }
+    }
+    // Lines whose values are all non-finite still set the frequency extent.
+    for f in &measured.freqs_hz {
+        fx.add(*f);
+    }
+    let (flo, fhi) = fx.get().ok_or(PlotError::NoFrequencies)?;
+    if !(fhi - flo).is_finite() {
+        return Err(PlotError::FrequencySpan { lo: flo, hi: fhi });
+    }
+    let x_axis = Axis::frequency(flo, fhi);
+    let (db_axis, db_has_data) = match db.get() {
+        Some((lo, hi)) => (Axis::decibel(lo, hi), true),
+        None => (Axis::decibel(-60.0, 0.0), false),
+    };
+    Ok((x_axis, db_axis, db_has_data))
 }
 
 fn check_shape(which: &'static str, set: &FrfSet) -> Result<(), PlotError> {

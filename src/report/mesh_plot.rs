@@ -289,7 +289,18 @@ fn draw<DB: DrawingBackend>(
             }
         }
     }
-    // Colour bar.
+    draw_colour_bar(root, plot, &scale, w)
+}
+
+/// The colour bar right of the panels with its ticks and label, and the keys of the "no
+/// value" fill and of marked elements.
+fn draw_colour_bar<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    plot: &MeshPlot<'_>,
+    scale: &Scale,
+    w: u32,
+) -> Result<(), PlotError> {
+    let centre = Pos::new(HPos::Center, VPos::Center);
     let (lo, hi) = scale.range();
     let bx = (w - BAR_W) as i32 + 18;
     let (by0, by1) = (TITLE_H as i32 + 50, TITLE_H as i32 + PANEL.1 as i32 - 90);

@@ -9,9 +9,9 @@
 //! the expansion order, so the same sweep gives the same table, byte for byte.
 
 use super::SweepError;
-use super::expand::{ParamPath, Resolved};
+use super::expand::{ParamPath, PlannedPoint, Resolved};
 use super::spec::{PlotSpec, Reduce, SourcedSweep};
-use super::state::{PointState, StateDir, write_atomic};
+use super::state::{PointState, PointStatus, StateDir, write_atomic};
 use crate::artefact::codec::write_parquet;
 use crate::artefact::kinds::layout;
 use crate::artefact::{ArtefactKind, Column, Table};
@@ -567,25 +567,62 @@ pub fn collect(
     let has_rows = items
         .iter()
         .any(|i| i.reduce.is_none() && !matches!(i.source, Source::Meta(_)));
-    let mut point_col: Vec<String> = Vec::new();
-    let mut row_col: Vec<i64> = Vec::new();
-    let mut param_vals: Vec<Vec<&Value>> = vec![Vec::new(); resolved.expansion.params.len()];
-    let mut cols: Vec<(String, Option<Column>)> = Vec::new();
+    let mut g = Gathered {
+        point_col: Vec::new(),
+        row_col: Vec::new(),
+        param_vals: vec![Vec::new(); resolved.expansion.params.len()],
+        cols: Vec::new(),
+        has_rows,
+    };
     let mut missing = Vec::new();
     let mut points = 0;
     for u in &resolved.unique {
-        let status = match state.status(&u.point.name) {
-            Some(s) if s.state == PointState::Done && s.plan_hash == u.plan_hash => s,
-            _ => {
-                missing.push(u.point.name.clone());
-                continue;
+        match state.status(&u.point.name) {
+            Some(s) if s.state == PointState::Done && s.plan_hash == u.plan_hash => {
+                points += 1;
+                g.add_point(u, &s, cache, &items)?;
             }
-        };
-        points += 1;
+            _ => missing.push(u.point.name.clone()),
+        }
+    }
+    if points == 0 {
+        return Err(SweepError::Collect(format!(
+            "no point of {} is finished yet; run `femu sweep {}` first",
+            sweep.name(),
+            sweep.file
+        )));
+    }
+    let table = g.into_table(&resolved.expansion.params)?;
+    write_collected(resolved, table, out, points, missing)
+}
+
+/// The collected columns of the finished points, point by point: one row per point, or per
+/// row of its collected table columns.
+struct Gathered<'a> {
+    point_col: Vec<String>,
+    row_col: Vec<i64>,
+    /// Each swept parameter's value on every row.
+    param_vals: Vec<Vec<&'a Value>>,
+    /// Collected columns in first-seen order; `None` until a point gives one.
+    cols: Vec<(String, Option<Column>)>,
+    /// Whether any item is a whole column, so the table gets a `row` column.
+    has_rows: bool,
+}
+
+impl<'a> Gathered<'a> {
+    /// Appends one finished point's rows: its items read from the cache, scalars repeated on
+    /// each of its rows.
+    fn add_point(
+        &mut self,
+        u: &'a PlannedPoint,
+        status: &PointStatus,
+        cache: &Cache,
+        items: &[CollectItem],
+    ) -> Result<(), SweepError> {
         let mut scalars: Vec<(String, Column)> = Vec::new();
         let mut rows: Vec<(String, Column)> = Vec::new();
-        for item in &items {
-            match read_item(cache, &status, item)? {
+        for item in items {
+            match read_item(cache, status, item)? {
                 Got::Scalar(c) => scalars.push((item.name.clone(), c)),
                 Got::Rows(r) => rows.extend(r),
             }
@@ -600,55 +637,63 @@ pub fn collect(
             )));
         }
         for _ in 0..n {
-            point_col.push(u.point.name.clone());
+            self.point_col.push(u.point.name.clone());
         }
-        if has_rows {
-            row_col.extend(0..n as i64);
+        if self.has_rows {
+            self.row_col.extend(0..n as i64);
         }
         for (k, (_, v)) in u.point.values.iter().enumerate() {
             for _ in 0..n {
-                param_vals[k].push(v);
+                self.param_vals[k].push(v);
             }
         }
-        let reps = n;
-        let scalars = scalars
-            .into_iter()
-            .map(|(name, c)| (name, repeat(&c, reps)));
+        let scalars = scalars.into_iter().map(|(name, c)| (name, repeat(&c, n)));
         for (name, c) in scalars.chain(rows) {
-            let slot = match cols.iter().position(|(c, _)| *c == name) {
+            let slot = match self.cols.iter().position(|(c, _)| *c == name) {
                 Some(i) => i,
                 None => {
-                    cols.push((name.clone(), None));
-                    cols.len() - 1
+                    self.cols.push((name.clone(), None));
+                    self.cols.len() - 1
                 }
             };
-            append(&mut cols[slot].1, c, &name)?;
+            append(&mut self.cols[slot].1, c, &name)?;
         }
+        Ok(())
     }
-    if points == 0 {
-        return Err(SweepError::Collect(format!(
-            "no point of {} is finished yet; run `femu sweep {}` first",
-            sweep.name(),
-            sweep.file
-        )));
-    }
-    let total_rows = point_col.len();
-    let mut table = Table::new().with("point", Column::Str(point_col));
-    for (p, vals) in resolved.expansion.params.iter().zip(&param_vals) {
-        table = table.with(p.short(), param_column(vals));
-    }
-    if has_rows {
-        table = table.with("row", Column::I64(row_col));
-    }
-    for (name, c) in cols {
-        let c = c.unwrap_or(Column::F64(Vec::new()));
-        if c.len() != total_rows {
-            return Err(SweepError::Collect(format!(
-                "column `{name}` is missing in some points; every point must have the same collected columns"
-            )));
+
+    /// The table: `point`, the swept parameters, `row` if any, then the collected columns,
+    /// each present in every point.
+    fn into_table(self, params: &[ParamPath]) -> Result<Table, SweepError> {
+        let total_rows = self.point_col.len();
+        let mut table = Table::new().with("point", Column::Str(self.point_col));
+        for (p, vals) in params.iter().zip(&self.param_vals) {
+            table = table.with(p.short(), param_column(vals));
         }
-        table = table.with(name, c);
+        if self.has_rows {
+            table = table.with("row", Column::I64(self.row_col));
+        }
+        for (name, c) in self.cols {
+            let c = c.unwrap_or(Column::F64(Vec::new()));
+            if c.len() != total_rows {
+                return Err(SweepError::Collect(format!(
+                    "column `{name}` is missing in some points; every point must have the same collected columns"
+                )));
+            }
+            table = table.with(name, c);
+        }
+        Ok(table)
     }
+}
+
+/// Writes `collected.parquet`, the plots and `collected.json` (the summary) into `out`.
+fn write_collected(
+    resolved: &Resolved,
+    table: Table,
+    out: &Path,
+    points: usize,
+    missing: Vec<String>,
+) -> Result<Collected, SweepError> {
+    let sweep = &resolved.sweep;
     std::fs::create_dir_all(out).map_err(|source| SweepError::Io {
         path: out.to_path_buf(),
         source,

@@ -389,59 +389,68 @@ fn range_values(
         }
     }
     let ints = bounds.iter().chain(step).all(|v| v.is_i64());
-    if ints {
-        let (a, b) = (
+    let values = if ints {
+        int_range(
             bounds[0].as_i64().unwrap_or(0),
             bounds[1].as_i64().unwrap_or(0),
-        );
-        let s = step.and_then(Value::as_i64).unwrap_or(1);
-        if s <= 0 || b < a {
-            return Err(sweep
-                .at_value(
-                    &p,
-                    format!("the range [{a}, {b}] with step {s} is empty or runs backwards"),
-                )
-                .field(field)
-                .help(help));
-        }
-        let n = b
-            .checked_sub(a)
-            .map_or(usize::MAX, |d| (d / s) as usize)
-            .saturating_add(1);
-        if n > MAX_RANGE {
-            return Err(sweep
-                .at_value(
-                    &p,
-                    format!("the range has {n} values, more than {MAX_RANGE}"),
-                )
-                .field(field)
-                .help("narrow the range or raise the step"));
-        }
-        return Ok((0..n).map(|i| Value::from(a + s * i as i64)).collect());
+            step.and_then(Value::as_i64).unwrap_or(1),
+        )
+    } else {
+        float_range(
+            bounds[0].as_f64().unwrap_or(0.0),
+            bounds[1].as_f64().unwrap_or(0.0),
+            step.and_then(Value::as_f64).unwrap_or(1.0),
+        )
+    };
+    values.map_err(|fault| {
+        let (msg, help) = match fault {
+            RangeFault::Empty(msg) => (msg, help),
+            RangeFault::TooLong(msg) => (msg, "narrow the range or raise the step"),
+        };
+        sweep.at_value(&p, msg).field(field).help(help)
+    })
+}
+
+/// Why a range gives no values.
+enum RangeFault {
+    /// Empty or backwards.
+    Empty(String),
+    /// More than [`MAX_RANGE`] values.
+    TooLong(String),
+}
+
+/// `a, a + s, …` up to `b` in integers.
+fn int_range(a: i64, b: i64, s: i64) -> Result<Vec<Value>, RangeFault> {
+    if s <= 0 || b < a {
+        return Err(RangeFault::Empty(format!(
+            "the range [{a}, {b}] with step {s} is empty or runs backwards"
+        )));
     }
-    let (a, b) = (
-        bounds[0].as_f64().unwrap_or(0.0),
-        bounds[1].as_f64().unwrap_or(0.0),
-    );
-    let s = step.and_then(Value::as_f64).unwrap_or(1.0);
+    let n = b
+        .checked_sub(a)
+        .map_or(usize::MAX, |d| (d / s) as usize)
+        .saturating_add(1);
+    if n > MAX_RANGE {
+        return Err(RangeFault::TooLong(format!(
+            "the range has {n} values, more than {MAX_RANGE}"
+        )));
+    }
+    Ok((0..n).map(|i| Value::from(a + s * i as i64)).collect())
+}
+
+/// `a, a + s, …` up to `b` (within rounding) in floating point, each rounded to 12
+/// significant digits.
+fn float_range(a: f64, b: f64, s: f64) -> Result<Vec<Value>, RangeFault> {
     if !(s > 0.0) || !(b >= a) || !a.is_finite() || !b.is_finite() {
-        return Err(sweep
-            .at_value(
-                &p,
-                format!("the range [{a}, {b}] with step {s} is empty or runs backwards"),
-            )
-            .field(field)
-            .help(help));
+        return Err(RangeFault::Empty(format!(
+            "the range [{a}, {b}] with step {s} is empty or runs backwards"
+        )));
     }
     let n = ((b - a) / s * (1.0 + 1e-12) + 1e-9).floor() + 1.0;
     if !(n <= MAX_RANGE as f64) {
-        return Err(sweep
-            .at_value(
-                &p,
-                format!("the range has {n} values, more than {MAX_RANGE}"),
-            )
-            .field(field)
-            .help("narrow the range or raise the step"));
+        return Err(RangeFault::TooLong(format!(
+            "the range has {n} values, more than {MAX_RANGE}"
+        )));
     }
     Ok((0..n as usize)
         .map(|i| {
