@@ -3,6 +3,7 @@
 use super::Failure;
 use crate::stages::registry;
 
+/// `femu list [KIND]`.
 pub(super) fn run(kind: Option<&str>) -> Result<u8, Failure> {
     let reg = registry();
     match kind {
