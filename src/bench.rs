@@ -199,21 +199,60 @@ pub fn pc_iteration_bench(
     lines: usize,
     modes: usize,
 ) -> Result<PcIterationBench, String> {
-    use crate::core::{Component, DofId};
-    use crate::frf::{FrfPair, FrfSet, ModalDamping};
-    use crate::model::{Element, Parameter, ParameterKind};
-    use crate::sensitivity::frf::{EigenFactor, shift_steps, static_shift};
-    use crate::sensitivity::{ModalFrfModel, frf_sensitivities};
-    use crate::updating::model::{FeModel, ModalState, project_derivatives};
-    use crate::updating::pc::{LineCorrelation, correlation_equations, predict, select_lines};
-    use crate::updating::solve::{
-        ParameterWeighting, damped_step, diagnostics, select_subset, subset_condition_limit,
-    };
+    use crate::frf::ModalDamping;
+    use crate::updating::model::FeModel;
     use crate::updating::{ParametricModel, UpdatingError};
 
     let mut model = muffler(muffler_element_size(target_dofs, 2), 2);
-    // Shells by property (a parameter must hold one thickness), split into contiguous groups
-    // in proportion to each property's share.
+    let groups = thickness_groups(&mut model, parameters);
+    let nodes: Vec<u64> = model.nodes.keys().copied().collect();
+    let fe = FeModel::new(model, &[], MassKind::Consistent).map_err(|e| e.to_string())?;
+    let values = fe.initial_values();
+    let t = Instant::now();
+    let evaluated = fe
+        .evaluate(&values)
+        .map_err(|e: UpdatingError| e.to_string())?;
+    let assembly_seconds = t.elapsed().as_secs_f64();
+    let basis = pc_basis(&evaluated, &values, modes)?;
+    let state = &basis.state;
+    let damping = ModalDamping::Structural(vec![0.01]);
+    let measured = pc_measurement(state, &nodes, frfs, lines, &damping)?;
+    let it = pc_iterate(state, &evaluated, &values, &measured, &damping)?;
+    let pairs = measured.pairs.len();
+    let m = state.modes.len() as f64;
+    let flops = 8.0 * m * m * it.lines as f64 * pairs as f64 * groups as f64;
+    Ok(PcIterationBench {
+        dofs: state.dofs.len(),
+        parameters: groups,
+        frfs: pairs,
+        lines: it.lines,
+        modes: state.modes.len(),
+        assembly_seconds,
+        eigen_seconds: basis.eigen_seconds,
+        eigen: basis.eigen,
+        projection_seconds: basis.projection_seconds,
+        static_correction_seconds: it.static_correction_seconds,
+        static_shift_steps: it.static_shift_steps,
+        prediction_seconds: it.prediction_seconds,
+        sweep_seconds: it.sweep_seconds,
+        sweep_gflops: flops / it.sweep_seconds.max(1e-12) / 1e9,
+        solve_seconds: it.solve_seconds,
+        iteration_seconds: assembly_seconds
+            + basis.eigen_seconds
+            + basis.projection_seconds
+            + it.static_correction_seconds
+            + it.prediction_seconds
+            + it.sweep_seconds
+            + it.solve_seconds,
+        peak_rss_mib: peak_rss_mib(),
+    })
+}
+
+/// Adds about `parameters` thickness parameters to `model`: its shells by property (a parameter
+/// must hold one thickness), split into contiguous groups in proportion to each property's
+/// share. Returns the number of groups.
+fn thickness_groups(model: &mut crate::model::Model, parameters: usize) -> usize {
+    use crate::model::{Element, Parameter, ParameterKind};
     let mut by_property: std::collections::BTreeMap<u64, Vec<u64>> = Default::default();
     for (&id, e) in &model.elements {
         if let Element::Quad4 { property, .. } | Element::Tria3 { property, .. } = e {
@@ -241,14 +280,24 @@ pub fn pc_iteration_bench(
             });
         }
     }
-    let nodes: Vec<u64> = model.nodes.keys().copied().collect();
-    let fe = FeModel::new(model, &[], MassKind::Consistent).map_err(|e| e.to_string())?;
-    let values = fe.initial_values();
-    let err = |e: UpdatingError| e.to_string();
+    groups
+}
 
-    let t = Instant::now();
-    let evaluated = fe.evaluate(&values).map_err(err)?;
-    let assembly_seconds = t.elapsed().as_secs_f64();
+/// The modal state of one iteration with the time of its eigen solve and projections.
+struct PcBasis {
+    state: crate::updating::model::ModalState,
+    eigen: SparseEigenInfo,
+    eigen_seconds: f64,
+    projection_seconds: f64,
+}
+
+/// The lowest `modes` modes (the factor kept) and `Φᵀ ∂K/∂φ Φ`, `Φᵀ ∂M/∂φ Φ`, timed.
+fn pc_basis(
+    evaluated: &crate::updating::model::Evaluated,
+    values: &[f64],
+    modes: usize,
+) -> Result<PcBasis, String> {
+    use crate::updating::model::{ModalState, project_derivatives};
     let t = Instant::now();
     let (found, eigen, factor) = lowest_modes_keeping_factor(
         &evaluated.system.k,
@@ -260,7 +309,7 @@ pub fn pc_iteration_bench(
     .map_err(|e| e.to_string())?;
     let eigen_seconds = t.elapsed().as_secs_f64();
     let t = Instant::now();
-    let projected = project_derivatives(&evaluated.derivatives, &values, found.shapes.as_ref());
+    let projected = project_derivatives(&evaluated.derivatives, values, found.shapes.as_ref());
     let projection_seconds = t.elapsed().as_secs_f64();
     let state = ModalState {
         modes: found,
@@ -269,9 +318,27 @@ pub fn pc_iteration_bench(
         reduced: None,
         factor: factor.map(std::sync::Arc::new),
     };
+    Ok(PcBasis {
+        state,
+        eigen,
+        eigen_seconds,
+        projection_seconds,
+    })
+}
 
-    // The measurement: the prediction with a smooth, line-dependent 10 % distortion, so that
-    // every line stays below κ_f and enters the equations.
+/// The measurement: `frfs` vertical FRFs of nodes spread over the model (one excitation) on
+/// `lines` lines up to the middle elastic mode, the prediction with a smooth, line-dependent
+/// 10 % distortion, so that every line stays below κ_f and enters the equations.
+fn pc_measurement(
+    state: &crate::updating::model::ModalState,
+    nodes: &[u64],
+    frfs: usize,
+    lines: usize,
+    damping: &crate::frf::ModalDamping,
+) -> Result<crate::frf::FrfSet, String> {
+    use crate::core::{Component, DofId};
+    use crate::frf::{FrfPair, FrfSet};
+    use crate::updating::pc::predict;
     let free: std::collections::HashSet<DofId> = state.dofs.iter().copied().collect();
     let picks: Vec<DofId> = (0..nodes.len())
         .step_by((nodes.len() / (4 * frfs.max(1))).max(1))
@@ -291,22 +358,51 @@ pub fn pc_iteration_bench(
     let top = elastic.get(elastic.len() / 2).copied().unwrap_or(100.0);
     let step = top / lines.max(1) as f64;
     let freqs: Vec<f64> = (1..=lines).map(|k| k as f64 * step).collect();
-    let damping = ModalDamping::Structural(vec![0.01]);
     let mut measured = FrfSet {
         quantity: crate::frf::Quantity::Receptance,
         freqs_hz: freqs.clone(),
         pairs: pairs.clone(),
         values: faer::Mat::zeros(freqs.len(), pairs.len()),
     };
-    let clean = predict(&state, &measured, &damping).map_err(err)?;
+    let clean = predict(state, &measured, damping).map_err(|e| e.to_string())?;
     measured.values = faer::Mat::from_fn(freqs.len(), pairs.len(), |k, q| {
         clean.values[(k, q)] * (1.0 + 0.1 * (0.37 * k as f64 + q as f64).cos())
     });
+    Ok(measured)
+}
 
+/// The timed parts of one iteration after the modal basis, and the lines it used.
+struct PcTimes {
+    static_correction_seconds: f64,
+    static_shift_steps: Option<usize>,
+    prediction_seconds: f64,
+    sweep_seconds: f64,
+    solve_seconds: f64,
+    lines: usize,
+}
+
+/// The rest of `PredictorCorrector::iterate`, timed part by part: static correction of the
+/// shape derivatives, prediction and line selection, the sensitivity sweep, and the solve.
+fn pc_iterate(
+    state: &crate::updating::model::ModalState,
+    evaluated: &crate::updating::model::Evaluated,
+    values: &[f64],
+    measured: &crate::frf::FrfSet,
+    damping: &crate::frf::ModalDamping,
+) -> Result<PcTimes, String> {
+    use crate::sensitivity::frf::{EigenFactor, shift_steps, static_shift};
+    use crate::sensitivity::{ModalFrfModel, frf_sensitivities};
+    use crate::updating::UpdatingError;
+    use crate::updating::pc::{LineCorrelation, correlation_equations, predict, select_lines};
+    use crate::updating::solve::{
+        ParameterWeighting, damped_step, diagnostics, select_subset, subset_condition_limit,
+    };
+    let err = |e: UpdatingError| e.to_string();
+    let f = state.modes.frequencies_hz();
     let t = Instant::now();
     let dofs = measured.dofs();
     let corrections = state
-        .shape_corrections(&evaluated, &values, &dofs)
+        .shape_corrections(evaluated, values, &dofs)
         .map_err(err)?;
     let static_correction_seconds = t.elapsed().as_secs_f64();
     let static_shift_steps = state.factor.as_deref().and_then(|factor| {
@@ -322,8 +418,8 @@ pub fn pc_iteration_bench(
         )
     });
     let t = Instant::now();
-    let predicted = predict(&state, &measured, &damping).map_err(err)?;
-    let correlation = LineCorrelation::new(&measured, &predicted);
+    let predicted = predict(state, measured, damping).map_err(err)?;
+    let correlation = LineCorrelation::new(measured, &predicted);
     // κ_f = 1: every line enters, as the speed goal asks ("all parameters at all lines").
     let chosen = select_lines(&measured.freqs_hz, &correlation, &f, 1.0, 1.0);
     let prediction_seconds = t.elapsed().as_secs_f64();
@@ -332,13 +428,13 @@ pub fn pc_iteration_bench(
         eigenvalues: &state.modes.eigenvalues,
         shapes: shapes.as_ref(),
         dofs: &dofs,
-        damping: &damping,
+        damping,
     };
-    let chosen_hz: Vec<f64> = chosen.iter().map(|&k| freqs[k]).collect();
+    let chosen_hz: Vec<f64> = chosen.iter().map(|&k| measured.freqs_hz[k]).collect();
     let t = Instant::now();
     let sens = frf_sensitivities(
         &modal,
-        &pairs,
+        &measured.pairs,
         &chosen_hz,
         measured.quantity,
         &state.projected,
@@ -347,7 +443,7 @@ pub fn pc_iteration_bench(
     .map_err(|e| e.to_string())?;
     let sweep_seconds = t.elapsed().as_secs_f64();
     let t = Instant::now();
-    let (s, eps) = correlation_equations(&measured, &predicted, &chosen, &sens, true);
+    let (s, eps) = correlation_equations(measured, &predicted, &chosen, &sens, true);
     let _ = diagnostics(s.as_ref());
     let active = select_subset(
         s.as_ref(),
@@ -355,32 +451,13 @@ pub fn pc_iteration_bench(
     );
     let _ = damped_step(s.as_ref(), &eps, &active, ParameterWeighting::None, 0.0);
     let solve_seconds = t.elapsed().as_secs_f64();
-    let m = state.modes.len() as f64;
-    let flops = 8.0 * m * m * chosen.len() as f64 * pairs.len() as f64 * groups as f64;
-    Ok(PcIterationBench {
-        dofs: state.dofs.len(),
-        parameters: groups,
-        frfs: pairs.len(),
-        lines: chosen.len(),
-        modes: state.modes.len(),
-        assembly_seconds,
-        eigen_seconds,
-        eigen,
-        projection_seconds,
+    Ok(PcTimes {
         static_correction_seconds,
         static_shift_steps,
         prediction_seconds,
         sweep_seconds,
-        sweep_gflops: flops / sweep_seconds.max(1e-12) / 1e9,
         solve_seconds,
-        iteration_seconds: assembly_seconds
-            + eigen_seconds
-            + projection_seconds
-            + static_correction_seconds
-            + prediction_seconds
-            + sweep_seconds
-            + solve_seconds,
-        peak_rss_mib: peak_rss_mib(),
+        lines: chosen.len(),
     })
 }
 
@@ -450,16 +527,6 @@ pub struct CmsBench {
 /// and the re-analysis after one substructure's shell thickness changes by 5 % (only that
 /// substructure is reduced again; the interface basis is held).
 pub fn cms_bench(target_dofs: usize, parts: &[usize], modes: usize) -> Result<CmsBench, String> {
-    use crate::model::{Element, Parameter, ParameterKind};
-    use crate::reduction::craig_bampton::junction_condensation;
-    use crate::reduction::{
-        Method, Partition, ReducedModel, interface_basis_from_condensations,
-        reduce_substructure_on_interface, substructure_matrices,
-    };
-    use crate::updating::ParametricModel;
-    use crate::updating::model::FeModel;
-    use rayon::prelude::*;
-
     let model = muffler(muffler_element_size(target_dofs, 2), 2);
     let t = Instant::now();
     let (sys, _) = assemble_model(&model, MassKind::Consistent).map_err(|e| e.to_string())?;
@@ -485,156 +552,10 @@ pub fn cms_bench(target_dofs: usize, parts: &[usize], modes: usize) -> Result<Cm
     reset_peak_rss();
     let top_hz = direct.frequencies_hz().last().copied().unwrap_or(0.0);
     let cut_off = 2.0 * top_hz;
-    let method = Method::CraigBampton {
-        modes: ModeSelection::BelowHz(cut_off),
-    };
-    let error = |reduced: &crate::eigen::Modes| {
-        let mut worst = 0.0f64;
-        for (k, l) in direct.eigenvalues.iter().enumerate() {
-            if *l > 0.0 {
-                let lc = reduced.eigenvalues.get(k).copied().unwrap_or(f64::INFINITY);
-                worst = worst.max(((lc - l) / l).abs());
-            }
-        }
-        worst
-    };
-    let mut splits = Vec::new();
-    for &k in parts {
-        reset_peak_rss();
-        let t = Instant::now();
-        let partition =
-            Partition::automatic(&model, k, MassKind::Consistent).map_err(|e| e.to_string())?;
-        let partition_seconds = t.elapsed().as_secs_f64();
-        // Junction condensations, interface modes, then every substructure reduced on the
-        // interface modes alone (`reduce_with_interface`'s route, timed by phase).
-        let t = Instant::now();
-        let condensations = partition
-            .substructures
-            .par_iter()
-            .map(|sub| {
-                let sys = substructure_matrices(&model, sub, MassKind::Consistent)?;
-                junction_condensation(&sub.name, &sys, &sub.junction)
-            })
-            .collect::<Result<Vec<_>, _>>()
-            .map_err(|e| e.to_string())?;
-        let condensation_seconds = t.elapsed().as_secs_f64();
-        tracing::info!(
-            "{k} parts, {} junction DOFs: condensations {condensation_seconds:.1} s",
-            partition.junction.len()
-        );
-        let t = Instant::now();
-        let psi = interface_basis_from_condensations(
-            &partition.junction,
-            condensations,
-            ModeSelection::BelowHz(cut_off),
-        )
-        .map_err(|e| e.to_string())?
-        .ok_or("the partition has no junction: ask for more than one part")?;
-        let interface_seconds = t.elapsed().as_secs_f64();
-        tracing::info!("{k} parts: interface modes {interface_seconds:.1} s");
-        let t = Instant::now();
-        let components = (0..partition.substructures.len())
-            .into_par_iter()
-            .map(|k| {
-                reduce_substructure_on_interface(
-                    &model,
-                    &partition,
-                    k,
-                    &method,
-                    MassKind::Consistent,
-                    psi.as_ref(),
-                )
-            })
-            .collect::<Result<Vec<_>, _>>()
-            .map_err(|e| e.to_string())?;
-        let craig_bampton_size = (
-            partition.junction.len(),
-            components.iter().map(|c| c.mode_frequencies_hz.len()).sum(),
-        );
-        let mut reduced = ReducedModel::synthesise_with_interface(
-            method.clone(),
-            partition.junction.clone(),
-            components,
-            Some(psi),
-        )
-        .map_err(|e| e.to_string())?;
-        let reduce_seconds = t.elapsed().as_secs_f64();
-        let interface_modes = reduced.interface.as_ref().map_or(0, |p| p.ncols());
-        let t = Instant::now();
-        let red_modes = reduced
-            .modes(ModeSelection::Count(modes))
-            .map_err(|e| e.to_string())?;
-        let reduced_modes_seconds = t.elapsed().as_secs_f64();
-        // One substructure's shells of one property (one thickness) 5 % thicker.
-        let mut changed = model.clone();
-        let shell_property = |e: &u64| match changed.elements.get(e) {
-            Some(Element::Quad4 { property, .. } | Element::Tria3 { property, .. }) => {
-                Some(*property)
-            }
-            _ => None,
-        };
-        let members = &partition.substructures[0].elements;
-        let property = members.iter().find_map(shell_property);
-        let shells: Vec<u64> = members
-            .iter()
-            .copied()
-            .filter(|e| property.is_some() && shell_property(e) == property)
-            .collect();
-        changed.sets.insert("bench_part".into(), shells);
-        changed.parameters = vec![Parameter {
-            name: "t_part".into(),
-            kind: ParameterKind::ShellThickness,
-            set: "bench_part".into(),
-            lower: 1e-5,
-            upper: 1.0,
-        }];
-        let fe = FeModel::new(changed, &[], MassKind::Consistent).map_err(|e| e.to_string())?;
-        let values: Vec<f64> = fe.initial_values().iter().map(|v| 1.05 * v).collect();
-        let changed = fe.model_at(&values).map_err(|e| e.to_string())?;
-        let t = Instant::now();
-        let psi = reduced
-            .interface
-            .clone()
-            .ok_or("the reduced model lost its interface basis")?;
-        let component = reduce_substructure_on_interface(
-            &changed,
-            &partition,
-            0,
-            &method,
-            MassKind::Consistent,
-            psi.as_ref(),
-        )
-        .map_err(|e| e.to_string())?;
-        let reanalysis_reduce_seconds = t.elapsed().as_secs_f64();
-        reduced.replace(component).map_err(|e| e.to_string())?;
-        reduced
-            .modes(ModeSelection::Count(modes))
-            .map_err(|e| e.to_string())?;
-        let reanalysis_seconds = t.elapsed().as_secs_f64();
-        splits.push(CmsSplitBench {
-            parts: k,
-            junction_dofs: partition.junction.len(),
-            largest_part_dofs: partition
-                .substructures
-                .iter()
-                .map(|s| s.dofs.len())
-                .max()
-                .unwrap_or(0),
-            craig_bampton_size,
-            interface_modes,
-            reduced_size: reduced.size(),
-            condensation_seconds,
-            interface_seconds,
-            partition_seconds,
-            reduce_seconds,
-            reduced_modes_seconds,
-            max_eigenvalue_error: error(&red_modes),
-            reanalysis_seconds,
-            reanalysis_reduce_seconds,
-            speed_up: direct_seconds / reanalysis_seconds,
-            peak_rss_mib: peak_rss_mib(),
-        });
-    }
+    let splits = parts
+        .iter()
+        .map(|&k| cms_split(&model, k, cut_off, modes, &direct, direct_seconds))
+        .collect::<Result<Vec<_>, String>>()?;
     Ok(CmsBench {
         dofs,
         modes,
@@ -644,4 +565,226 @@ pub fn cms_bench(target_dofs: usize, parts: &[usize], modes: usize) -> Result<Cm
         direct_peak_rss_mib,
         splits,
     })
+}
+
+/// One partition of the CMS benchmark: partition, reduce, solve the reduced modes against the
+/// `direct` ones, then re-analyse after one substructure changed.
+fn cms_split(
+    model: &crate::model::Model,
+    k: usize,
+    cut_off: f64,
+    modes: usize,
+    direct: &crate::eigen::Modes,
+    direct_seconds: f64,
+) -> Result<CmsSplitBench, String> {
+    use crate::reduction::{Method, Partition};
+    reset_peak_rss();
+    let method = Method::CraigBampton {
+        modes: ModeSelection::BelowHz(cut_off),
+    };
+    let t = Instant::now();
+    let partition =
+        Partition::automatic(model, k, MassKind::Consistent).map_err(|e| e.to_string())?;
+    let partition_seconds = t.elapsed().as_secs_f64();
+    let CmsReduction {
+        mut reduced,
+        craig_bampton_size,
+        condensation_seconds,
+        interface_seconds,
+        reduce_seconds,
+    } = cms_reduce(model, &partition, &method, cut_off, k)?;
+    let interface_modes = reduced.interface.as_ref().map_or(0, |p| p.ncols());
+    let t = Instant::now();
+    let red_modes = reduced
+        .modes(ModeSelection::Count(modes))
+        .map_err(|e| e.to_string())?;
+    let reduced_modes_seconds = t.elapsed().as_secs_f64();
+    let changed = changed_part_model(model, &partition)?;
+    let (reanalysis_reduce_seconds, reanalysis_seconds) =
+        cms_reanalyse(&changed, &partition, &method, &mut reduced, modes)?;
+    Ok(CmsSplitBench {
+        parts: k,
+        junction_dofs: partition.junction.len(),
+        largest_part_dofs: partition
+            .substructures
+            .iter()
+            .map(|s| s.dofs.len())
+            .max()
+            .unwrap_or(0),
+        craig_bampton_size,
+        interface_modes,
+        reduced_size: reduced.size(),
+        condensation_seconds,
+        interface_seconds,
+        partition_seconds,
+        reduce_seconds,
+        reduced_modes_seconds,
+        max_eigenvalue_error: max_eigenvalue_error(direct, &red_modes),
+        reanalysis_seconds,
+        reanalysis_reduce_seconds,
+        speed_up: direct_seconds / reanalysis_seconds,
+        peak_rss_mib: peak_rss_mib(),
+    })
+}
+
+/// A partition reduced on its interface modes, with the time of each phase.
+struct CmsReduction {
+    reduced: crate::reduction::ReducedModel,
+    craig_bampton_size: (usize, usize),
+    condensation_seconds: f64,
+    interface_seconds: f64,
+    reduce_seconds: f64,
+}
+
+/// Junction condensations, interface modes below `cut_off`, then every substructure reduced on
+/// the interface modes alone (`reduce_with_interface`'s route, timed by phase).
+fn cms_reduce(
+    model: &crate::model::Model,
+    partition: &crate::reduction::Partition,
+    method: &crate::reduction::Method,
+    cut_off: f64,
+    parts: usize,
+) -> Result<CmsReduction, String> {
+    use crate::reduction::craig_bampton::junction_condensation;
+    use crate::reduction::{
+        ReducedModel, interface_basis_from_condensations, reduce_substructure_on_interface,
+        substructure_matrices,
+    };
+    use rayon::prelude::*;
+    let t = Instant::now();
+    let condensations = partition
+        .substructures
+        .par_iter()
+        .map(|sub| {
+            let sys = substructure_matrices(model, sub, MassKind::Consistent)?;
+            junction_condensation(&sub.name, &sys, &sub.junction)
+        })
+        .collect::<Result<Vec<_>, _>>()
+        .map_err(|e| e.to_string())?;
+    let condensation_seconds = t.elapsed().as_secs_f64();
+    tracing::info!(
+        "{parts} parts, {} junction DOFs: condensations {condensation_seconds:.1} s",
+        partition.junction.len()
+    );
+    let t = Instant::now();
+    let psi = interface_basis_from_condensations(
+        &partition.junction,
+        condensations,
+        ModeSelection::BelowHz(cut_off),
+    )
+    .map_err(|e| e.to_string())?
+    .ok_or("the partition has no junction: ask for more than one part")?;
+    let interface_seconds = t.elapsed().as_secs_f64();
+    tracing::info!("{parts} parts: interface modes {interface_seconds:.1} s");
+    let t = Instant::now();
+    let components = (0..partition.substructures.len())
+        .into_par_iter()
+        .map(|k| {
+            reduce_substructure_on_interface(
+                model,
+                partition,
+                k,
+                method,
+                MassKind::Consistent,
+                psi.as_ref(),
+            )
+        })
+        .collect::<Result<Vec<_>, _>>()
+        .map_err(|e| e.to_string())?;
+    let craig_bampton_size = (
+        partition.junction.len(),
+        components.iter().map(|c| c.mode_frequencies_hz.len()).sum(),
+    );
+    let reduced = ReducedModel::synthesise_with_interface(
+        method.clone(),
+        partition.junction.clone(),
+        components,
+        Some(psi),
+    )
+    .map_err(|e| e.to_string())?;
+    Ok(CmsReduction {
+        reduced,
+        craig_bampton_size,
+        condensation_seconds,
+        interface_seconds,
+        reduce_seconds: t.elapsed().as_secs_f64(),
+    })
+}
+
+/// The model with one substructure's shells of one property (one thickness) 5 % thicker.
+fn changed_part_model(
+    model: &crate::model::Model,
+    partition: &crate::reduction::Partition,
+) -> Result<crate::model::Model, String> {
+    use crate::model::{Element, Parameter, ParameterKind};
+    use crate::updating::ParametricModel;
+    use crate::updating::model::FeModel;
+    let mut changed = model.clone();
+    let shell_property = |e: &u64| match changed.elements.get(e) {
+        Some(Element::Quad4 { property, .. } | Element::Tria3 { property, .. }) => Some(*property),
+        _ => None,
+    };
+    let members = &partition.substructures[0].elements;
+    let property = members.iter().find_map(shell_property);
+    let shells: Vec<u64> = members
+        .iter()
+        .copied()
+        .filter(|e| property.is_some() && shell_property(e) == property)
+        .collect();
+    changed.sets.insert("bench_part".into(), shells);
+    changed.parameters = vec![Parameter {
+        name: "t_part".into(),
+        kind: ParameterKind::ShellThickness,
+        set: "bench_part".into(),
+        lower: 1e-5,
+        upper: 1.0,
+    }];
+    let fe = FeModel::new(changed, &[], MassKind::Consistent).map_err(|e| e.to_string())?;
+    let values: Vec<f64> = fe.initial_values().iter().map(|v| 1.05 * v).collect();
+    fe.model_at(&values).map_err(|e| e.to_string())
+}
+
+/// Re-analysis after substructure 0 changed: its reduction on the kept interface basis, then
+/// the reduced modes; returns (reduction, whole re-analysis) seconds.
+fn cms_reanalyse(
+    changed: &crate::model::Model,
+    partition: &crate::reduction::Partition,
+    method: &crate::reduction::Method,
+    reduced: &mut crate::reduction::ReducedModel,
+    modes: usize,
+) -> Result<(f64, f64), String> {
+    use crate::reduction::reduce_substructure_on_interface;
+    let t = Instant::now();
+    let psi = reduced
+        .interface
+        .clone()
+        .ok_or("the reduced model lost its interface basis")?;
+    let component = reduce_substructure_on_interface(
+        changed,
+        partition,
+        0,
+        method,
+        MassKind::Consistent,
+        psi.as_ref(),
+    )
+    .map_err(|e| e.to_string())?;
+    let reduce_seconds = t.elapsed().as_secs_f64();
+    reduced.replace(component).map_err(|e| e.to_string())?;
+    reduced
+        .modes(ModeSelection::Count(modes))
+        .map_err(|e| e.to_string())?;
+    Ok((reduce_seconds, t.elapsed().as_secs_f64()))
+}
+
+/// The largest relative error of the reduced eigenvalues against the direct ones (positive
+/// direct eigenvalues only; a missing reduced one counts as infinite).
+fn max_eigenvalue_error(direct: &crate::eigen::Modes, reduced: &crate::eigen::Modes) -> f64 {
+    let mut worst = 0.0f64;
+    for (k, l) in direct.eigenvalues.iter().enumerate() {
+        if *l > 0.0 {
+            let lc = reduced.eigenvalues.get(k).copied().unwrap_or(f64::INFINITY);
+            worst = worst.max(((lc - l) / l).abs());
+        }
+    }
+    worst
 }

@@ -286,11 +286,16 @@ pub fn execute(plan: &Plan, cache: &Cache, opts: &RunOptions) -> Result<RunRepor
     })
 }
 
+/// Artefacts produced in this run, by (node, output port).
+type Produced = Mutex<HashMap<(usize, String), Arc<Artefact>>>;
+
+/// Node `i`: served by the cache when its key is there (unless `force`), else its stage run
+/// on its inputs and the outputs committed.
 fn run_node(
     plan: &Plan,
     i: usize,
     reports: &[Option<StageReport>],
-    produced: &Mutex<HashMap<(usize, String), Arc<Artefact>>>,
+    produced: &Produced,
     cache: &Cache,
     force: bool,
     progress: &Progress,
@@ -302,23 +307,7 @@ fn run_node(
         stage: node.name.clone(),
         source,
     };
-    let upstream = |port: &str| -> (&StageReport, &OutputRecord) {
-        let r = &node.inputs[port];
-        let rep = reports[r.node].as_ref().expect("waves run upstream first");
-        (rep, &rep.outputs[&r.port])
-    };
-    let digests: BTreeMap<String, String> = node
-        .inputs
-        .keys()
-        .map(|p| (p.clone(), upstream(p).1.digest.clone()))
-        .collect();
-    let key = cache_key(
-        kind,
-        node.stage.impl_version(),
-        &node.stage.key_params(&node.params),
-        node.format,
-        &digests,
-    );
+    let key = node_key(plan, i, reports);
     let mut note = None;
     if !force {
         match cache.lookup(&key) {
@@ -349,57 +338,8 @@ fn run_node(
     }
     progress.start(&node.name, kind);
     let parts = Arc::new(PartCache::new(cache.clone(), node.format, force));
-    let mut inputs = StageInputs {
-        base_dir: plan.base_dir.clone(),
-        parts: Some(parts.clone()),
-        ..Default::default()
-    };
-    for (port, r) in &node.inputs {
-        let cached = produced
-            .lock()
-            .ok()
-            .and_then(|m| m.get(&(r.node, r.port.clone())).cloned());
-        let a = match cached {
-            Some(a) => a,
-            None => {
-                let (rep, out) = upstream(port);
-                let k = ArtefactKind::from_name(&out.kind).ok_or_else(|| {
-                    cache_err(CacheError::Corrupt {
-                        key: rep.key.clone(),
-                        reason: format!("unknown kind {}", out.kind),
-                    })
-                })?;
-                Arc::new(cache.read(&rep.key, &r.port, k).map_err(cache_err)?)
-            }
-        };
-        inputs.artefacts.insert(port.clone(), a);
-    }
-    let outputs = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-        node.stage.run(&node.params, &inputs)
-    }))
-    .unwrap_or_else(|_| {
-        Err(StageError::Failed(
-            "internal error: the stage panicked (a femu bug; please report it with the pipeline)"
-                .into(),
-        ))
-    })
-    .map_err(|source| RunError::Stage {
-        stage: node.name.clone(),
-        kind: kind.into(),
-        source,
-    })?;
-    for p in node.stage.outputs() {
-        if !outputs.contains_key(p.name) {
-            return Err(RunError::Stage {
-                stage: node.name.clone(),
-                kind: kind.into(),
-                source: StageError::Failed(format!(
-                    "internal error: output `{}` was not produced",
-                    p.name
-                )),
-            });
-        }
-    }
+    let inputs = node_inputs(plan, i, reports, produced, cache, parts.clone())?;
+    let outputs = run_stage(plan, i, &inputs)?;
     let parts = parts.counts();
     let version = node.stage.impl_version();
     let manifest = if force {
@@ -430,6 +370,116 @@ fn run_node(
     };
     progress.finish(&r);
     Ok(r)
+}
+
+/// The upstream report and output record that input `port` of node `i` reads.
+fn upstream<'r>(
+    plan: &Plan,
+    i: usize,
+    reports: &'r [Option<StageReport>],
+    port: &str,
+) -> (&'r StageReport, &'r OutputRecord) {
+    let r = &plan.nodes[i].inputs[port];
+    let rep = reports[r.node].as_ref().expect("waves run upstream first");
+    (rep, &rep.outputs[&r.port])
+}
+
+/// Node `i`'s cache key: its kind, implementation version, key parameters, format and the
+/// digests of its inputs.
+fn node_key(plan: &Plan, i: usize, reports: &[Option<StageReport>]) -> String {
+    let node = &plan.nodes[i];
+    let digests: BTreeMap<String, String> = node
+        .inputs
+        .keys()
+        .map(|p| (p.clone(), upstream(plan, i, reports, p).1.digest.clone()))
+        .collect();
+    cache_key(
+        node.stage.kind(),
+        node.stage.impl_version(),
+        &node.stage.key_params(&node.params),
+        node.format,
+        &digests,
+    )
+}
+
+/// Node `i`'s input artefacts: from this run's memory when produced here, else from the cache.
+fn node_inputs(
+    plan: &Plan,
+    i: usize,
+    reports: &[Option<StageReport>],
+    produced: &Produced,
+    cache: &Cache,
+    parts: Arc<PartCache>,
+) -> Result<StageInputs, RunError> {
+    let node = &plan.nodes[i];
+    let cache_err = |source| RunError::Cache {
+        stage: node.name.clone(),
+        source,
+    };
+    let mut inputs = StageInputs {
+        base_dir: plan.base_dir.clone(),
+        parts: Some(parts),
+        ..Default::default()
+    };
+    for (port, r) in &node.inputs {
+        let cached = produced
+            .lock()
+            .ok()
+            .and_then(|m| m.get(&(r.node, r.port.clone())).cloned());
+        let a = match cached {
+            Some(a) => a,
+            None => {
+                let (rep, out) = upstream(plan, i, reports, port);
+                let k = ArtefactKind::from_name(&out.kind).ok_or_else(|| {
+                    cache_err(CacheError::Corrupt {
+                        key: rep.key.clone(),
+                        reason: format!("unknown kind {}", out.kind),
+                    })
+                })?;
+                Arc::new(cache.read(&rep.key, &r.port, k).map_err(cache_err)?)
+            }
+        };
+        inputs.artefacts.insert(port.clone(), a);
+    }
+    Ok(inputs)
+}
+
+/// Runs node `i`'s stage, a panic reported as its failure, and checks every declared output
+/// was produced.
+fn run_stage(
+    plan: &Plan,
+    i: usize,
+    inputs: &StageInputs,
+) -> Result<super::stage::StageOutputs, RunError> {
+    let node = &plan.nodes[i];
+    let kind = node.stage.kind();
+    let outputs = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        node.stage.run(&node.params, inputs)
+    }))
+    .unwrap_or_else(|_| {
+        Err(StageError::Failed(
+            "internal error: the stage panicked (a femu bug; please report it with the pipeline)"
+                .into(),
+        ))
+    })
+    .map_err(|source| RunError::Stage {
+        stage: node.name.clone(),
+        kind: kind.into(),
+        source,
+    })?;
+    for p in node.stage.outputs() {
+        if !outputs.contains_key(p.name) {
+            return Err(RunError::Stage {
+                stage: node.name.clone(),
+                kind: kind.into(),
+                source: StageError::Failed(format!(
+                    "internal error: output `{}` was not produced",
+                    p.name
+                )),
+            });
+        }
+    }
+    Ok(outputs)
 }
 
 /// Copies every output of the run to `out/<stage>/<port>/` as plain files (see

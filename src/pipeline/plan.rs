@@ -3,8 +3,8 @@
 //! and cycles rejected. Every problem found is reported, not only the first.
 
 use super::diagnostic::{Diagnostic, Diagnostics, nearest};
-use super::spec::SourcedSpec;
-use super::stage::{CheckContext, Stage};
+use super::spec::{SourcedSpec, StageSpec};
+use super::stage::{CheckContext, PortSpec, Stage};
 use crate::artefact::Format;
 use std::collections::{BTreeMap, BTreeSet};
 
@@ -105,12 +105,45 @@ pub fn valid_pipeline_name(name: &str) -> bool {
             .all(|c| c.is_ascii_alphanumeric() || "_-.".contains(c))
 }
 
-/// Builds the plan, or every problem found.
+/// Upstream wiring of each stage: input port -> (upstream stage, its output port).
+type Edges<'a> = BTreeMap<&'a str, BTreeMap<String, (String, String)>>;
+
+/// Builds the plan, or every problem found: the names, the stage kinds, each stage's inputs,
+/// required ports and parameters (all reported together), then the topological order.
 pub fn plan(src: &SourcedSpec, registry: &Registry) -> Result<Plan, Diagnostics> {
-    let file = src.file.as_str();
-    let loc = &src.locator;
     let spec = &src.spec;
-    let base_dir = std::path::Path::new(file)
+    let base_dir = base_dir(&src.file);
+    let mut p = Planning::new(src);
+    p.check_names();
+    let kinds = p.resolve_kinds(registry);
+    let mut edges: Edges = BTreeMap::new();
+    let mut params: BTreeMap<&str, serde_json::Value> = BTreeMap::new();
+    for (name, st) in &spec.stages {
+        let Some(stage) = kinds.get(name.as_str()).copied() else {
+            continue;
+        };
+        let wired = p.wire_inputs(name, st, stage, &kinds);
+        p.check_required(name, st, stage);
+        if let Some(v) = p.check_params(name, st, stage, &base_dir) {
+            params.insert(name, v);
+        }
+        edges.insert(name, wired);
+    }
+    if !p.diags.is_empty() {
+        return Err(Diagnostics(p.diags));
+    }
+    let order = p.topological_order(&edges)?;
+    Ok(Plan {
+        name: spec.name.clone(),
+        description: spec.description.clone(),
+        nodes: nodes(spec, &order, &kinds, &params, &edges),
+        base_dir,
+    })
+}
+
+/// The directory of the pipeline file, `.` for a bare file name.
+fn base_dir(file: &str) -> std::path::PathBuf {
+    std::path::Path::new(file)
         .parent()
         .map(|p| {
             if p.as_os_str().is_empty() {
@@ -120,174 +153,200 @@ pub fn plan(src: &SourcedSpec, registry: &Registry) -> Result<Plan, Diagnostics>
             }
         })
         .unwrap_or(std::path::Path::new("."))
-        .to_path_buf();
-    let mut diags = Vec::new();
-    if !valid_pipeline_name(&spec.name) {
-        diags.push(
-            Diagnostic::new(
-                file,
-                format!("`{}` is not a valid pipeline name", spec.name.escape_debug()),
-            )
-            .at(loc.value(&["name"]))
-            .field("name")
-            .help("the name names the lock file: use 1 to 128 letters, digits, `_`, `-` and `.`, not starting with `.`"),
-        );
+        .to_path_buf()
+}
+
+/// The pipeline being planned and the problems found so far.
+struct Planning<'a> {
+    file: &'a str,
+    loc: &'a super::locate::Locator,
+    spec: &'a super::spec::PipelineSpec,
+    /// Stage names in file order.
+    names: Vec<&'a str>,
+    diags: Vec<Diagnostic>,
+}
+
+impl<'a> Planning<'a> {
+    fn new(src: &'a SourcedSpec) -> Self {
+        Planning {
+            file: src.file.as_str(),
+            loc: &src.locator,
+            spec: &src.spec,
+            names: src.spec.stages.keys().map(String::as_str).collect(),
+            diags: Vec::new(),
+        }
     }
-    let names: Vec<&str> = spec.stages.keys().map(String::as_str).collect();
-    if names.is_empty() {
-        diags.push(Diagnostic::new(file, "the pipeline has no stages").at(loc.key(&["stages"])));
-    }
-    // Kinds.
-    let mut kinds: BTreeMap<&str, &'static dyn Stage> = BTreeMap::new();
-    for (name, st) in &spec.stages {
-        if !valid_name(name) {
-            diags.push(
-                Diagnostic::new(file, format!("`{name}` is not a valid stage name"))
-                    .at(loc.key(&["stages", name]))
-                    .help(
-                        "use letters, digits, `_` and `-` (no dots: `stage.port` refers to a port)",
-                    ),
+
+    /// The pipeline's name (it names the lock file) and that it has stages.
+    fn check_names(&mut self) {
+        let (file, loc, spec) = (self.file, self.loc, self.spec);
+        if !valid_pipeline_name(&spec.name) {
+            self.diags.push(
+                Diagnostic::new(
+                    file,
+                    format!("`{}` is not a valid pipeline name", spec.name.escape_debug()),
+                )
+                .at(loc.value(&["name"]))
+                .field("name")
+                .help("the name names the lock file: use 1 to 128 letters, digits, `_`, `-` and `.`, not starting with `.`"),
             );
         }
-        match registry.get(&st.kind) {
-            Some(s) => {
-                kinds.insert(name, s);
-            }
-            None => {
-                let all: Vec<&str> = registry.all().iter().map(|s| s.kind()).collect();
-                let help = match nearest(&st.kind, all.iter().copied()) {
-                    Some(n) => format!("did you mean `{n}`? (`femu list` shows every kind)"),
-                    None => format!("known kinds: {}", all.join(", ")),
-                };
-                diags.push(
-                    Diagnostic::new(file, format!("unknown stage kind `{}`", st.kind))
-                        .at(loc.value(&["stages", name, "kind"]))
-                        .stage(name)
-                        .field("kind")
-                        .help(help),
-                );
-            }
+        if self.names.is_empty() {
+            self.diags
+                .push(Diagnostic::new(file, "the pipeline has no stages").at(loc.key(&["stages"])));
         }
     }
-    // Inputs and parameters.
-    let mut edges: BTreeMap<&str, BTreeMap<String, (String, String)>> = BTreeMap::new();
-    let mut params: BTreeMap<&str, serde_json::Value> = BTreeMap::new();
-    for (name, st) in &spec.stages {
-        let Some(stage) = kinds.get(name.as_str()).copied() else {
-            continue;
-        };
+
+    /// Each stage's kind in the registry, and that its name is valid.
+    fn resolve_kinds(&mut self, registry: &Registry) -> BTreeMap<&'a str, &'static dyn Stage> {
+        let (file, loc) = (self.file, self.loc);
+        let mut kinds = BTreeMap::new();
+        for (name, st) in &self.spec.stages {
+            if !valid_name(name) {
+                self.diags.push(
+                    Diagnostic::new(file, format!("`{name}` is not a valid stage name"))
+                        .at(loc.key(&["stages", name]))
+                        .help(
+                            "use letters, digits, `_` and `-` (no dots: `stage.port` refers to a port)",
+                        ),
+                );
+            }
+            match registry.get(&st.kind) {
+                Some(s) => {
+                    kinds.insert(name.as_str(), s);
+                }
+                None => {
+                    let all: Vec<&str> = registry.all().iter().map(|s| s.kind()).collect();
+                    let help = match nearest(&st.kind, all.iter().copied()) {
+                        Some(n) => format!("did you mean `{n}`? (`femu list` shows every kind)"),
+                        None => format!("known kinds: {}", all.join(", ")),
+                    };
+                    self.diags.push(
+                        Diagnostic::new(file, format!("unknown stage kind `{}`", st.kind))
+                            .at(loc.value(&["stages", name, "kind"]))
+                            .stage(name)
+                            .field("kind")
+                            .help(help),
+                    );
+                }
+            }
+        }
+        kinds
+    }
+
+    /// A stage's inputs matched to upstream output ports of the same artefact kind.
+    fn wire_inputs(
+        &mut self,
+        name: &str,
+        st: &StageSpec,
+        stage: &'static dyn Stage,
+        kinds: &BTreeMap<&str, &'static dyn Stage>,
+    ) -> BTreeMap<String, (String, String)> {
         let ports = stage.inputs();
-        let port_list = || {
-            ports
-                .iter()
-                .map(|p| {
-                    format!(
-                        "{} ({}{})",
-                        p.name,
-                        p.kind,
-                        if p.required { ", required" } else { "" }
-                    )
-                })
-                .collect::<Vec<_>>()
-                .join(", ")
-        };
         let mut wired = BTreeMap::new();
         for (port, source) in &st.inputs {
-            let at = loc.value(&["stages", name, "inputs", port]);
-            let field = format!("inputs.{port}");
             let Some(pspec) = ports.iter().find(|p| p.name == port) else {
                 let help = if ports.is_empty() {
                     format!("`{}` takes no inputs", st.kind)
                 } else {
-                    format!("inputs of `{}`: {}", st.kind, port_list())
+                    format!("inputs of `{}`: {}", st.kind, port_list(&ports))
                 };
-                diags.push(
-                    Diagnostic::new(file, format!("`{}` has no input port `{port}`", st.kind))
-                        .at(loc.key(&["stages", name, "inputs", port]))
-                        .stage(name)
-                        .field(&field)
-                        .help(help),
-                );
-                continue;
-            };
-            let (up, up_port) = match source.split_once('.') {
-                Some((s, p)) => (s, Some(p)),
-                None => (source.as_str(), None),
-            };
-            if up == name {
-                diags.push(
-                    Diagnostic::new(file, "a stage cannot read its own output")
-                        .at(at)
-                        .stage(name)
-                        .field(&field),
-                );
-                continue;
-            }
-            let Some(up_spec) = spec.stages.get(up) else {
-                let help = match nearest(up, names.iter().copied()) {
-                    Some(n) => format!("did you mean `{n}`?"),
-                    None => format!("stages are: {}", names.join(", ")),
-                };
-                diags.push(
-                    Diagnostic::new(file, format!("no stage `{up}` in this pipeline"))
-                        .at(at)
-                        .stage(name)
-                        .field(&field)
-                        .help(help),
-                );
-                continue;
-            };
-            let Some(up_stage) = kinds.get(up).copied() else {
-                continue;
-            };
-            let outs = up_stage.outputs();
-            let out = match up_port {
-                Some(p) => outs.iter().find(|o| o.name == p),
-                None if outs.len() == 1 => outs.first(),
-                None => None,
-            };
-            let Some(out) = out else {
-                let list = outs
-                    .iter()
-                    .map(|o| format!("{up}.{} ({})", o.name, o.kind))
-                    .collect::<Vec<_>>()
-                    .join(", ");
-                let msg = match up_port {
-                    Some(p) => format!("`{up}` ({}) has no output port `{p}`", up_spec.kind),
-                    None => format!("`{up}` ({}) has several outputs; name one", up_spec.kind),
-                };
-                diags.push(
-                    Diagnostic::new(file, msg)
-                        .at(at)
-                        .stage(name)
-                        .field(&field)
-                        .help(format!("outputs: {list}")),
-                );
-                continue;
-            };
-            if out.kind != pspec.kind {
-                diags.push(
+                self.diags.push(
                     Diagnostic::new(
-                        file,
-                        format!(
-                            "input `{port}` takes a `{}` artefact but `{up}.{}` is `{}`",
-                            pspec.kind, out.name, out.kind
-                        ),
+                        self.file,
+                        format!("`{}` has no input port `{port}`", st.kind),
                     )
-                    .at(at)
+                    .at(self.loc.key(&["stages", name, "inputs", port]))
                     .stage(name)
-                    .field(&field)
-                    .help(format!("connect an output of kind `{}`", pspec.kind)),
+                    .field(format!("inputs.{port}"))
+                    .help(help),
                 );
                 continue;
+            };
+            if let Some(w) = self.wire_input(name, port, source, pspec, kinds) {
+                wired.insert(port.clone(), w);
             }
-            wired.insert(port.clone(), (up.to_string(), out.name.to_string()));
         }
-        for p in ports.iter().filter(|p| p.required) {
+        wired
+    }
+
+    /// The upstream `(stage, output port)` that input `port` reads from `source`
+    /// (`stage.port`, or `stage` with one output), or `None` with the problem reported.
+    fn wire_input(
+        &mut self,
+        name: &str,
+        port: &str,
+        source: &str,
+        pspec: &PortSpec,
+        kinds: &BTreeMap<&str, &'static dyn Stage>,
+    ) -> Option<(String, String)> {
+        let at = self.loc.value(&["stages", name, "inputs", port]);
+        let field = format!("inputs.{port}");
+        let report = |msg: String| {
+            Diagnostic::new(self.file, msg)
+                .at(at)
+                .stage(name)
+                .field(&field)
+        };
+        let (up, up_port) = match source.split_once('.') {
+            Some((s, p)) => (s, Some(p)),
+            None => (source, None),
+        };
+        if up == name {
+            let d = report("a stage cannot read its own output".into());
+            self.diags.push(d);
+            return None;
+        }
+        let Some(up_spec) = self.spec.stages.get(up) else {
+            let help = match nearest(up, self.names.iter().copied()) {
+                Some(n) => format!("did you mean `{n}`?"),
+                None => format!("stages are: {}", self.names.join(", ")),
+            };
+            let d = report(format!("no stage `{up}` in this pipeline")).help(help);
+            self.diags.push(d);
+            return None;
+        };
+        let up_stage = kinds.get(up).copied()?;
+        let outs = up_stage.outputs();
+        let out = match up_port {
+            Some(p) => outs.iter().find(|o| o.name == p),
+            None if outs.len() == 1 => outs.first(),
+            None => None,
+        };
+        let Some(out) = out else {
+            let list = outs
+                .iter()
+                .map(|o| format!("{up}.{} ({})", o.name, o.kind))
+                .collect::<Vec<_>>()
+                .join(", ");
+            let msg = match up_port {
+                Some(p) => format!("`{up}` ({}) has no output port `{p}`", up_spec.kind),
+                None => format!("`{up}` ({}) has several outputs; name one", up_spec.kind),
+            };
+            let d = report(msg).help(format!("outputs: {list}"));
+            self.diags.push(d);
+            return None;
+        };
+        if out.kind != pspec.kind {
+            let d = report(format!(
+                "input `{port}` takes a `{}` artefact but `{up}.{}` is `{}`",
+                pspec.kind, out.name, out.kind
+            ))
+            .help(format!("connect an output of kind `{}`", pspec.kind));
+            self.diags.push(d);
+            return None;
+        }
+        Some((up.to_string(), out.name.to_string()))
+    }
+
+    /// Every required input port of a stage is connected.
+    fn check_required(&mut self, name: &str, st: &StageSpec, stage: &'static dyn Stage) {
+        let loc = self.loc;
+        for p in stage.inputs().iter().filter(|p| p.required) {
             if !st.inputs.contains_key(p.name) {
-                diags.push(
+                self.diags.push(
                     Diagnostic::new(
-                        file,
+                        self.file,
                         format!("required input `{}` ({}) is not connected", p.name, p.kind),
                     )
                     .at(loc
@@ -299,70 +358,101 @@ pub fn plan(src: &SourcedSpec, registry: &Registry) -> Result<Plan, Diagnostics>
                 );
             }
         }
+    }
+
+    /// A stage's parameters, typed and range-checked with defaults filled in by the stage.
+    fn check_params(
+        &mut self,
+        name: &str,
+        st: &StageSpec,
+        stage: &'static dyn Stage,
+        base_dir: &std::path::Path,
+    ) -> Option<serde_json::Value> {
         let ctx = CheckContext {
             connected: st.inputs.keys().cloned().collect(),
-            base_dir: base_dir.clone(),
+            base_dir: base_dir.to_path_buf(),
         };
-        match stage.check(&st.with, &ctx) {
-            Ok(v) => {
-                params.insert(name, v);
-            }
-            Err(issues) => {
-                for issue in issues {
-                    let mut path = vec!["stages", name.as_str(), "with"];
-                    path.extend(issue.path.iter().map(String::as_str));
-                    let field = std::iter::once("with")
-                        .chain(issue.path.iter().map(String::as_str))
-                        .collect::<Vec<_>>()
-                        .join(".");
-                    diags.push(
-                        Diagnostic::new(file, issue.message.clone())
-                            .at(loc.value(&path))
-                            .stage(name)
-                            .field(field)
-                            .help(format!("`femu list {}` shows its parameters", st.kind)),
-                    );
-                }
-            }
+        let issues = match stage.check(&st.with, &ctx) {
+            Ok(v) => return Some(v),
+            Err(issues) => issues,
+        };
+        for issue in issues {
+            let mut path = vec!["stages", name, "with"];
+            path.extend(issue.path.iter().map(String::as_str));
+            let field = std::iter::once("with")
+                .chain(issue.path.iter().map(String::as_str))
+                .collect::<Vec<_>>()
+                .join(".");
+            self.diags.push(
+                Diagnostic::new(self.file, issue.message.clone())
+                    .at(self.loc.value(&path))
+                    .stage(name)
+                    .field(field)
+                    .help(format!("`femu list {}` shows its parameters", st.kind)),
+            );
         }
-        edges.insert(name, wired);
+        None
     }
-    if !diags.is_empty() {
-        return Err(Diagnostics(diags));
-    }
-    // Topological order, file order among ready stages (Kahn).
-    let mut order: Vec<&str> = Vec::new();
-    let mut done: BTreeSet<&str> = BTreeSet::new();
-    while order.len() < names.len() {
-        let next = names.iter().copied().find(|n| {
-            !done.contains(n) && edges[n].values().all(|(up, _)| done.contains(up.as_str()))
-        });
-        match next {
-            Some(n) => {
-                done.insert(n);
-                order.push(n);
-            }
-            None => {
+
+    /// Topological order, file order among ready stages (Kahn), or the cycle that prevents it.
+    fn topological_order(&self, edges: &Edges<'a>) -> Result<Vec<&'a str>, Diagnostics> {
+        let names = &self.names;
+        let mut order: Vec<&str> = Vec::new();
+        let mut done: BTreeSet<&str> = BTreeSet::new();
+        while order.len() < names.len() {
+            let next = names.iter().copied().find(|n| {
+                !done.contains(n) && edges[n].values().all(|(up, _)| done.contains(up.as_str()))
+            });
+            let Some(n) = next else {
                 let stuck: Vec<&str> = names
                     .iter()
                     .copied()
                     .filter(|n| !done.contains(n))
                     .collect();
-                let cycle = find_cycle(&stuck, &edges);
+                let cycle = find_cycle(&stuck, edges);
                 return Err(Diagnostics(vec![
                     Diagnostic::new(
-                        file,
+                        self.file,
                         format!("the stages form a cycle: {}", cycle.join(" -> ")),
                     )
-                    .at(loc.key(&["stages", cycle[0]]))
+                    .at(self.loc.key(&["stages", cycle[0]]))
                     .stage(cycle[0])
                     .help("a pipeline is a DAG: break the cycle by removing one of these inputs"),
                 ]));
-            }
+            };
+            done.insert(n);
+            order.push(n);
         }
+        Ok(order)
     }
+}
+
+/// An input port list for help texts: `name (kind, required), …`.
+fn port_list(ports: &[PortSpec]) -> String {
+    ports
+        .iter()
+        .map(|p| {
+            format!(
+                "{} ({}{})",
+                p.name,
+                p.kind,
+                if p.required { ", required" } else { "" }
+            )
+        })
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// The plan's nodes in `order`, inputs referring to upstream nodes by index.
+fn nodes(
+    spec: &super::spec::PipelineSpec,
+    order: &[&str],
+    kinds: &BTreeMap<&str, &'static dyn Stage>,
+    params: &BTreeMap<&str, serde_json::Value>,
+    edges: &Edges,
+) -> Vec<PlanNode> {
     let index: BTreeMap<&str, usize> = order.iter().enumerate().map(|(i, n)| (*n, i)).collect();
-    let nodes = order
+    order
         .iter()
         .map(|n| {
             let st = &spec.stages[*n];
@@ -386,20 +476,11 @@ pub fn plan(src: &SourcedSpec, registry: &Registry) -> Result<Plan, Diagnostics>
                 description: st.description.clone(),
             }
         })
-        .collect();
-    Ok(Plan {
-        name: spec.name.clone(),
-        description: spec.description.clone(),
-        nodes,
-        base_dir,
-    })
+        .collect()
 }
 
 /// A cycle among `stuck` stages, as a closed path of names.
-fn find_cycle<'a>(
-    stuck: &[&'a str],
-    edges: &BTreeMap<&'a str, BTreeMap<String, (String, String)>>,
-) -> Vec<&'a str> {
+fn find_cycle<'a>(stuck: &[&'a str], edges: &Edges<'a>) -> Vec<&'a str> {
     let mut path = vec![stuck[0]];
     loop {
         let cur = *path.last().unwrap_or(&stuck[0]);

@@ -13,7 +13,7 @@ use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 use std::ops::Range;
 
-use super::frf_plot::{Figure, PlotError, render};
+use super::figure::{Axis, Figure, PALETTE, PlotError, backend_error, nice_step, render};
 
 /// What to draw.
 #[derive(Clone, Debug, PartialEq)]
@@ -89,16 +89,6 @@ pub fn box_stats(values: &[f64]) -> Option<BoxStats> {
 }
 
 const INK: RGBColor = RGBColor(33, 33, 33);
-const PALETTE: [RGBColor; 8] = [
-    RGBColor(0, 114, 178),
-    RGBColor(213, 94, 0),
-    RGBColor(0, 158, 115),
-    RGBColor(204, 121, 167),
-    RGBColor(230, 159, 0),
-    RGBColor(86, 180, 233),
-    RGBColor(120, 94, 240),
-    RGBColor(140, 86, 75),
-];
 
 /// Figure size in pixels.
 const SIZE: (u32, u32) = (1000, 650);
@@ -132,57 +122,9 @@ impl Ranged for Categories {
     }
 }
 
-/// A numeric axis with fixed ticks.
-#[derive(Clone)]
-struct Values {
-    lo: f64,
-    hi: f64,
-    ticks: Vec<f64>,
-}
-
-impl Ranged for Values {
-    type FormatOption = DefaultFormatting;
-    type ValueType = f64;
-
-    fn map(&self, value: &f64, limit: (i32, i32)) -> i32 {
-        let t = (value - self.lo) / (self.hi - self.lo);
-        let px = limit.0 as f64 + t * (limit.1 - limit.0) as f64;
-        if px.is_finite() {
-            px.round() as i32
-        } else {
-            limit.0
-        }
-    }
-
-    fn key_points<Hint: KeyPointHint>(&self, hint: Hint) -> Vec<f64> {
-        if hint.weight().allow_light_points() {
-            Vec::new()
-        } else {
-            self.ticks.clone()
-        }
-    }
-
-    fn range(&self) -> Range<f64> {
-        self.lo..self.hi
-    }
-}
-
-fn nice_step(raw: f64) -> f64 {
-    let mag = 10f64.powf(raw.log10().floor());
-    let r = raw / mag;
-    let m = if r <= 1.0 {
-        1.0
-    } else if r <= 2.0 {
-        2.0
-    } else if r <= 5.0 {
-        5.0
-    } else {
-        10.0
-    };
-    m * mag
-}
-
-fn value_axis(lo: f64, hi: f64) -> Values {
+/// The value axis: the data range with 6 % headroom, about six ticks at a nice step, no minor
+/// ticks.
+fn value_axis(lo: f64, hi: f64) -> Axis {
     let (lo, hi) = if hi > lo {
         let pad = (hi - lo) * 0.06;
         (lo - pad, hi + pad)
@@ -197,7 +139,13 @@ fn value_axis(lo: f64, hi: f64) -> Values {
         .take_while(|v| *v <= hi)
         .map(|v| if v.abs() < step * 1e-9 { 0.0 } else { v })
         .collect();
-    Values { lo, hi, ticks }
+    Axis {
+        lo,
+        hi,
+        major: ticks,
+        minor: Vec::new(),
+        decimals: 0,
+    }
 }
 
 fn tick_label(v: f64) -> String {
@@ -222,27 +170,14 @@ fn draw<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
     data: &BoxPlotData,
 ) -> Result<(), PlotError> {
-    let be = |e: DrawingAreaErrorKind<DB::ErrorType>| PlotError::Backend(e.to_string());
-    root.fill(&WHITE).map_err(be)?;
+    root.fill(&WHITE).map_err(backend_error)?;
     let n_series = data.series.len().max(1);
     let stats: Vec<Vec<Option<BoxStats>>> = data
         .groups
         .iter()
         .map(|(_, s)| s.iter().map(|v| box_stats(v)).collect())
         .collect();
-    let all = stats.iter().flatten().flatten();
-    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
-    for s in all {
-        lo = lo
-            .min(s.lo)
-            .min(s.outliers.iter().copied().fold(f64::INFINITY, f64::min));
-        hi = hi
-            .max(s.hi)
-            .max(s.outliers.iter().copied().fold(f64::NEG_INFINITY, f64::max));
-    }
-    if !lo.is_finite() || !hi.is_finite() {
-        (lo, hi) = (0.0, 1.0);
-    }
+    let (lo, hi) = value_extent(&stats);
     let y = value_axis(lo, hi);
     let x = Categories {
         labels: data.groups.iter().map(|g| g.0.clone()).collect(),
@@ -250,7 +185,9 @@ fn draw<DB: DrawingBackend>(
     let legend_font = TextStyle::from(("sans-serif", 14).into_font());
     let mut legend_w = 0;
     for name in &data.series {
-        let (tw, _) = root.estimate_text_size(name, &legend_font).map_err(be)?;
+        let (tw, _) = root
+            .estimate_text_size(name, &legend_font)
+            .map_err(backend_error)?;
         legend_w = legend_w.max(tw as i32 + 56);
     }
     let legend_w = legend_w.min(w_of(root) * 2 / 5);
@@ -264,7 +201,7 @@ fn draw<DB: DrawingBackend>(
         .x_label_area_size(56)
         .y_label_area_size(80)
         .build_cartesian_2d(x.clone(), y.clone())
-        .map_err(be)?;
+        .map_err(backend_error)?;
     let labels = x.labels.clone();
     let x_fmt = move |v: &f64| {
         let i = v.round();
@@ -287,7 +224,7 @@ fn draw<DB: DrawingBackend>(
         .axis_style(INK.stroke_width(1))
         .disable_x_mesh()
         .draw()
-        .map_err(be)?;
+        .map_err(backend_error)?;
     let slot = 0.8 / n_series as f64;
     let half = slot * 0.38;
     for (g, boxes) in stats.iter().enumerate() {
@@ -295,38 +232,7 @@ fn draw<DB: DrawingBackend>(
             let Some(b) = b else { continue };
             let color = PALETTE[s % PALETTE.len()];
             let cx = g as f64 - 0.4 + slot * (s as f64 + 0.5);
-            let area = chart.plotting_area();
-            area.draw(&Rectangle::new(
-                [(cx - half, b.q1), (cx + half, b.q3)],
-                color.mix(0.25).filled(),
-            ))
-            .map_err(be)?;
-            area.draw(&Rectangle::new(
-                [(cx - half, b.q1), (cx + half, b.q3)],
-                color.stroke_width(2),
-            ))
-            .map_err(be)?;
-            area.draw(&PathElement::new(
-                vec![(cx - half, b.median), (cx + half, b.median)],
-                INK.stroke_width(3),
-            ))
-            .map_err(be)?;
-            for (from, to) in [(b.q1, b.lo), (b.q3, b.hi)] {
-                area.draw(&PathElement::new(
-                    vec![(cx, from), (cx, to)],
-                    color.stroke_width(2),
-                ))
-                .map_err(be)?;
-                area.draw(&PathElement::new(
-                    vec![(cx - half * 0.5, to), (cx + half * 0.5, to)],
-                    color.stroke_width(2),
-                ))
-                .map_err(be)?;
-            }
-            for o in &b.outliers {
-                area.draw(&Circle::new((cx, *o), 3, color.stroke_width(1)))
-                    .map_err(be)?;
-            }
+            draw_box(chart.plotting_area(), cx, half, b, color)?;
         }
         let n: usize = boxes.iter().flatten().map(|b| b.n).sum();
         let style = TextStyle::from(("sans-serif", 12).into_font())
@@ -335,37 +241,106 @@ fn draw<DB: DrawingBackend>(
         chart
             .plotting_area()
             .draw(&Text::new(format!("n={n}"), (g as f64, y.hi), style))
-            .map_err(be)?;
+            .map_err(backend_error)?;
     }
     if !data.series.is_empty() {
-        let style = TextStyle::from(("sans-serif", 14).into_font())
-            .color(&INK)
-            .pos(Pos::new(HPos::Left, VPos::Center));
-        for (i, name) in data.series.iter().enumerate() {
-            let yy = 70 + 26 * i as i32;
-            let color = PALETTE[i % PALETTE.len()];
-            legend
-                .draw(&Rectangle::new(
-                    [(8, yy - 8), (28, yy + 8)],
-                    color.mix(0.25).filled(),
-                ))
-                .map_err(be)?;
-            legend
-                .draw(&Rectangle::new(
-                    [(8, yy - 8), (28, yy + 8)],
-                    color.stroke_width(2),
-                ))
-                .map_err(be)?;
-            legend
-                .draw(&Text::new(name.clone(), (36, yy), style.clone()))
-                .map_err(be)?;
-        }
+        draw_legend(&legend, &data.series)?;
     }
     Ok(())
 }
 
 fn w_of<DB: DrawingBackend>(a: &DrawingArea<DB, Shift>) -> i32 {
     a.dim_in_pixel().0 as i32
+}
+
+/// The range of every whisker and outlier, `(0, 1)` when there is none.
+fn value_extent(stats: &[Vec<Option<BoxStats>>]) -> (f64, f64) {
+    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    for s in stats.iter().flatten().flatten() {
+        lo = lo
+            .min(s.lo)
+            .min(s.outliers.iter().copied().fold(f64::INFINITY, f64::min));
+        hi = hi
+            .max(s.hi)
+            .max(s.outliers.iter().copied().fold(f64::NEG_INFINITY, f64::max));
+    }
+    if !lo.is_finite() || !hi.is_finite() {
+        (lo, hi) = (0.0, 1.0);
+    }
+    (lo, hi)
+}
+
+/// One box centred at `cx`, `half` wide each side: the quartile box, the median, the
+/// whiskers with their caps and the outliers.
+fn draw_box<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Cartesian2d<Categories, Axis>>,
+    cx: f64,
+    half: f64,
+    b: &BoxStats,
+    color: RGBColor,
+) -> Result<(), PlotError> {
+    area.draw(&Rectangle::new(
+        [(cx - half, b.q1), (cx + half, b.q3)],
+        color.mix(0.25).filled(),
+    ))
+    .map_err(backend_error)?;
+    area.draw(&Rectangle::new(
+        [(cx - half, b.q1), (cx + half, b.q3)],
+        color.stroke_width(2),
+    ))
+    .map_err(backend_error)?;
+    area.draw(&PathElement::new(
+        vec![(cx - half, b.median), (cx + half, b.median)],
+        INK.stroke_width(3),
+    ))
+    .map_err(backend_error)?;
+    for (from, to) in [(b.q1, b.lo), (b.q3, b.hi)] {
+        area.draw(&PathElement::new(
+            vec![(cx, from), (cx, to)],
+            color.stroke_width(2),
+        ))
+        .map_err(backend_error)?;
+        area.draw(&PathElement::new(
+            vec![(cx - half * 0.5, to), (cx + half * 0.5, to)],
+            color.stroke_width(2),
+        ))
+        .map_err(backend_error)?;
+    }
+    for o in &b.outliers {
+        area.draw(&Circle::new((cx, *o), 3, color.stroke_width(1)))
+            .map_err(backend_error)?;
+    }
+    Ok(())
+}
+
+/// The legend: one swatch per series, in the series' colour.
+fn draw_legend<DB: DrawingBackend>(
+    legend: &DrawingArea<DB, Shift>,
+    series: &[String],
+) -> Result<(), PlotError> {
+    let style = TextStyle::from(("sans-serif", 14).into_font())
+        .color(&INK)
+        .pos(Pos::new(HPos::Left, VPos::Center));
+    for (i, name) in series.iter().enumerate() {
+        let yy = 70 + 26 * i as i32;
+        let color = PALETTE[i % PALETTE.len()];
+        legend
+            .draw(&Rectangle::new(
+                [(8, yy - 8), (28, yy + 8)],
+                color.mix(0.25).filled(),
+            ))
+            .map_err(backend_error)?;
+        legend
+            .draw(&Rectangle::new(
+                [(8, yy - 8), (28, yy + 8)],
+                color.stroke_width(2),
+            ))
+            .map_err(backend_error)?;
+        legend
+            .draw(&Text::new(name.clone(), (36, yy), style.clone()))
+            .map_err(backend_error)?;
+    }
+    Ok(())
 }
 
 #[cfg(test)]

@@ -2,24 +2,20 @@
 //! coefficients `χ_s`, `χ_a` in three stacked panels on a common frequency axis.
 //!
 //! The figure is rendered twice from the same layout, into an in-memory RGB bitmap that is
-//! encoded as PNG and into an SVG string; nothing touches the file system. Text uses the
-//! DejaVu Sans faces embedded by the `dejavu` crate, registered with plotters on first use, so
-//! the output does not depend on the fonts installed and is byte-identical for equal inputs.
+//! encoded as PNG and into an SVG string, with the shared infrastructure of [`super::figure`].
 //!
 //! Non-finite values (zero amplitude in dB, NaN, ±inf) are skipped: lines break there, and the
 //! axes are fitted to the finite data only.
 
-use std::ops::Range;
-use std::sync::Once;
-use std::sync::atomic::{AtomicBool, Ordering};
-
 use faer::c64;
-use plotters::backend::{BitMapBackend, RGBPixel, SVGBackend};
 use plotters::coord::Shift;
-use plotters::coord::ranged1d::{DefaultFormatting, KeyPointHint, Ranged};
 use plotters::prelude::*;
-use plotters::style::register_font;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
+
+use super::figure::{
+    Axis, Extent, Metrics, PALETTE, backend_error, nice_step, render, text_style, widen,
+};
+pub use super::figure::{Figure, MAX_SIDE_PX, MIN_SIDE_PX, PlotError};
 
 use crate::correlation::FrfCorrelation;
 use crate::frf::{FrfPair, FrfSet, Quantity};
@@ -51,166 +47,8 @@ impl Default for FrfPlotOptions {
     }
 }
 
-/// The rendered figure.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct Figure {
-    /// PNG file contents (8-bit RGB).
-    pub png: Vec<u8>,
-    /// SVG document.
-    pub svg: String,
-}
-
 /// Largest `max_frfs`: the number of distinct FRF colours.
 pub const MAX_FRFS: usize = PALETTE.len();
-/// Smallest figure side in pixels.
-pub const MIN_SIDE_PX: u32 = 400;
-/// Largest figure side in pixels.
-pub const MAX_SIDE_PX: u32 = 8000;
-
-/// Why a figure could not be drawn.
-#[derive(Clone, Debug, PartialEq, thiserror::Error)]
-pub enum PlotError {
-    /// The measured set has no FRF or no frequency line.
-    #[error(
-        "nothing to draw: the measured set holds {pairs} FRF(s) on {lines} frequency line(s); give at least one FRF and one line"
-    )]
-    Empty {
-        /// Measured FRFs.
-        pairs: usize,
-        /// Measured frequency lines.
-        lines: usize,
-    },
-    /// `pairs` was given but empty.
-    #[error(
-        "no FRF selected: `pairs` is an empty list; request at least one of the measured FRFs {known}"
-    )]
-    NoneSelected {
-        /// Measured FRFs.
-        known: String,
-    },
-    /// A requested FRF is not in the measured set.
-    #[error("the FRF {pair} is not in the measured set; measured FRFs are {known}")]
-    UnknownPair {
-        /// The requested FRF, `response/excitation`.
-        pair: String,
-        /// Measured FRFs.
-        known: String,
-    },
-    /// A requested FRF is listed twice.
-    #[error("the FRF {pair} is requested twice; list each FRF once")]
-    DuplicatePair {
-        /// The repeated FRF, `response/excitation`.
-        pair: String,
-    },
-    /// More FRFs requested than `max_frfs`.
-    #[error(
-        "{requested} FRFs requested but max_frfs is {max}; request at most {max} or raise max_frfs (up to {limit})"
-    )]
-    TooMany {
-        /// Requested FRFs.
-        requested: usize,
-        /// `max_frfs`.
-        max: usize,
-        /// [`MAX_FRFS`].
-        limit: usize,
-    },
-    /// `max_frfs` is 0 or beyond the palette.
-    #[error(
-        "max_frfs is {given}; it must be between 1 and {limit} so that every FRF gets its own colour"
-    )]
-    MaxFrfs {
-        /// The value given.
-        given: usize,
-        /// [`MAX_FRFS`].
-        limit: usize,
-    },
-    /// Figure size out of range.
-    #[error(
-        "figure size {width}x{height} px is out of range; each side must be within {min}..={max} px"
-    )]
-    Size {
-        /// Requested width.
-        width: u32,
-        /// Requested height.
-        height: u32,
-        /// [`MIN_SIDE_PX`].
-        min: u32,
-        /// [`MAX_SIDE_PX`].
-        max: u32,
-    },
-    /// The values matrix of a set does not match its lines and pairs.
-    #[error(
-        "the {which} set's values are {rows}x{cols} but it has {lines} frequency line(s) and {pairs} FRF(s); values must be lines x FRFs"
-    )]
-    Shape {
-        /// `measured` or `predicted`.
-        which: &'static str,
-        /// Rows of `values`.
-        rows: usize,
-        /// Columns of `values`.
-        cols: usize,
-        /// Length of `freqs_hz`.
-        lines: usize,
-        /// Length of `pairs`.
-        pairs: usize,
-    },
-    /// Measured and predicted sets hold different quantities.
-    #[error(
-        "measured FRFs are {measured} but predicted FRFs are {predicted}; overlay a prediction of the measured quantity"
-    )]
-    Quantity {
-        /// Measured quantity name.
-        measured: &'static str,
-        /// Predicted quantity name.
-        predicted: &'static str,
-    },
-    /// A drawn FRF has no prediction.
-    #[error(
-        "the predicted set has no FRF {pair}; predicted FRFs are {known}; request only predicted FRFs in `pairs` or predict this one"
-    )]
-    MissingPrediction {
-        /// The FRF, `response/excitation`.
-        pair: String,
-        /// Predicted FRFs.
-        known: String,
-    },
-    /// The correlation's vectors differ in length.
-    #[error(
-        "the correlation has {lines} frequency line(s) but {chi_s} χ_s and {chi_a} χ_a value(s); give one value of each per line"
-    )]
-    CorrelationShape {
-        /// Length of `freqs_hz`.
-        lines: usize,
-        /// Length of `chi_s`.
-        chi_s: usize,
-        /// Length of `chi_a`.
-        chi_a: usize,
-    },
-    /// No finite frequency among the drawn data.
-    #[error("no finite frequency line to draw; frequency lines must be finite values in Hz")]
-    NoFrequencies,
-    /// The frequency lines span more than an `f64` can hold.
-    #[error(
-        "frequency lines run from {lo} to {hi} Hz, a span too wide to draw; frequencies must lie within ±8.9e307 Hz"
-    )]
-    FrequencySpan {
-        /// Lowest finite frequency.
-        lo: f64,
-        /// Highest finite frequency.
-        hi: f64,
-    },
-    /// The embedded font was rejected.
-    #[error(
-        "the embedded DejaVu Sans font could not be registered with plotters; the font bytes must be a valid TrueType file"
-    )]
-    Font,
-    /// The drawing backend failed.
-    #[error("drawing failed: {0}; the inputs were valid, this is a fault of the plotting backend")]
-    Backend(String),
-    /// PNG encoding failed.
-    #[error("PNG encoding failed: {0}; the RGB buffer must hold width x height x 3 bytes")]
-    Encode(String),
-}
 
 /// Renders measured FRFs, optionally overlaid with predictions and the correlation, as PNG and SVG.
 pub fn frf_overlay(
@@ -228,114 +66,8 @@ pub fn frf_overlay(
     )
 }
 
-/// Clears `root` to white and writes a bold figure title in a band `height` pixels high;
-/// returns the area under it.
-pub(crate) fn titled_figure<DB: DrawingBackend>(
-    root: &DrawingArea<DB, Shift>,
-    title: &str,
-    height: u32,
-    ink: &RGBColor,
-) -> Result<DrawingArea<DB, Shift>, PlotError> {
-    root.fill(&WHITE).map_err(backend_error)?;
-    let (band, body) = root.split_vertically(height);
-    band.titled(
-        title,
-        ("sans-serif", 20, FontStyle::Bold).into_font().color(ink),
-    )
-    .map_err(backend_error)?;
-    Ok(body)
-}
-
-/// Draws one figure on the bitmap backend (see [`render`]).
-pub(crate) type BitmapDrawing<'a> = dyn for<'b, 'c> Fn(&'c DrawingArea<BitMapBackend<'b, RGBPixel>, Shift>) -> Result<(), PlotError>
-    + 'a;
-/// Draws one figure on the SVG backend (see [`render`]).
-pub(crate) type SvgDrawing<'a> =
-    dyn for<'b, 'c> Fn(&'c DrawingArea<SVGBackend<'b>, Shift>) -> Result<(), PlotError> + 'a;
-
-/// Renders a figure of `w × h` pixels as PNG and SVG: `bitmap` and `svg` are the same drawing
-/// (a generic function instantiated for each backend). Every drawing fills its background, so
-/// equal inputs give byte-identical files.
-pub(crate) fn render(
-    w: u32,
-    h: u32,
-    bitmap: &BitmapDrawing<'_>,
-    svg: &SvgDrawing<'_>,
-) -> Result<Figure, PlotError> {
-    register_fonts()?;
-    let mut rgb = vec![255u8; w as usize * h as usize * 3];
-    {
-        let backend = BitMapBackend::<RGBPixel>::with_buffer_and_format(&mut rgb, (w, h))
-            .map_err(|e| PlotError::Backend(e.to_string()))?;
-        let root = backend.into_drawing_area();
-        bitmap(&root)?;
-        root.present().map_err(backend_error)?;
-    }
-    let png = encode_png(&rgb, w, h)?;
-    let mut text = String::new();
-    {
-        let root = SVGBackend::with_string(&mut text, (w, h)).into_drawing_area();
-        svg(&root)?;
-        root.present().map_err(backend_error)?;
-    }
-    Ok(Figure { png, svg: text })
-}
-
-// ---------------------------------------------------------------------------------------------
-// Fonts and encoding
-
-static FONT_INIT: Once = Once::new();
-static FONT_OK: AtomicBool = AtomicBool::new(false);
-
-/// Registers DejaVu Sans (regular, bold, oblique) as plotters' `sans-serif`, once per process.
-pub(crate) fn register_fonts() -> Result<(), PlotError> {
-    FONT_INIT.call_once(|| {
-        let ok = register_font("sans-serif", FontStyle::Normal, dejavu::sans::regular()).is_ok()
-            && register_font("sans-serif", FontStyle::Bold, dejavu::sans::bold()).is_ok()
-            && register_font("sans-serif", FontStyle::Italic, dejavu::sans::oblique()).is_ok()
-            && register_font("sans-serif", FontStyle::Oblique, dejavu::sans::oblique()).is_ok();
-        FONT_OK.store(ok, Ordering::Release);
-    });
-    if FONT_OK.load(Ordering::Acquire) {
-        Ok(())
-    } else {
-        Err(PlotError::Font)
-    }
-}
-
-pub(crate) fn encode_png(rgb: &[u8], w: u32, h: u32) -> Result<Vec<u8>, PlotError> {
-    use image::ImageEncoder;
-    if rgb.len() != w as usize * h as usize * 3 {
-        return Err(PlotError::Encode(format!(
-            "buffer holds {} bytes for {w}x{h} px",
-            rgb.len()
-        )));
-    }
-    let mut png = Vec::new();
-    image::codecs::png::PngEncoder::new(&mut png)
-        .write_image(rgb, w, h, image::ColorType::Rgb8)
-        .map_err(|e| PlotError::Encode(e.to_string()))?;
-    Ok(png)
-}
-
-fn backend_error<E: std::fmt::Display>(e: E) -> PlotError {
-    PlotError::Backend(e.to_string())
-}
-
 // ---------------------------------------------------------------------------------------------
 // Data preparation: everything is validated and reduced to finite polylines before drawing.
-
-/// Colour-blind-aware categorical palette (one colour per FRF).
-const PALETTE: [RGBColor; 8] = [
-    RGBColor(0, 114, 178),   // blue
-    RGBColor(213, 94, 0),    // vermillion
-    RGBColor(0, 158, 115),   // bluish green
-    RGBColor(204, 121, 167), // reddish purple
-    RGBColor(230, 159, 0),   // orange
-    RGBColor(86, 180, 233),  // sky blue
-    RGBColor(120, 94, 240),  // violet
-    RGBColor(140, 86, 75),   // brown
-];
 
 const INK: RGBColor = RGBColor(30, 30, 30);
 const MUTED: RGBColor = RGBColor(100, 100, 100);
@@ -384,124 +116,16 @@ impl Plan {
         correlation: Option<&FrfCorrelation>,
         opts: &FrfPlotOptions,
     ) -> Result<Plan, PlotError> {
-        let size_ok = |s: u32| (MIN_SIDE_PX..=MAX_SIDE_PX).contains(&s);
-        if !size_ok(opts.width_px) || !size_ok(opts.height_px) {
-            return Err(PlotError::Size {
-                width: opts.width_px,
-                height: opts.height_px,
-                min: MIN_SIDE_PX,
-                max: MAX_SIDE_PX,
-            });
-        }
-        if opts.max_frfs == 0 || opts.max_frfs > MAX_FRFS {
-            return Err(PlotError::MaxFrfs {
-                given: opts.max_frfs,
-                limit: MAX_FRFS,
-            });
-        }
-        check_shape("measured", measured)?;
-        if measured.pairs.is_empty() || measured.freqs_hz.is_empty() {
-            return Err(PlotError::Empty {
-                pairs: measured.pairs.len(),
-                lines: measured.freqs_hz.len(),
-            });
-        }
-        if let Some(p) = predicted {
-            check_shape("predicted", p)?;
-            if p.quantity != measured.quantity {
-                return Err(PlotError::Quantity {
-                    measured: measured.quantity.name(),
-                    predicted: p.quantity.name(),
-                });
-            }
-        }
-        if let Some(c) = correlation
-            .filter(|c| c.chi_s.len() != c.freqs_hz.len() || c.chi_a.len() != c.freqs_hz.len())
-        {
-            return Err(PlotError::CorrelationShape {
-                lines: c.freqs_hz.len(),
-                chi_s: c.chi_s.len(),
-                chi_a: c.chi_a.len(),
-            });
-        }
-
+        check_inputs(measured, predicted, correlation, opts)?;
         let selected = select_pairs(measured, opts)?;
-        let mut curves = Vec::with_capacity(selected.len());
-        for (n, (pair, col)) in selected.iter().enumerate() {
-            let pred_col = match predicted {
-                Some(p) => Some((
-                    p,
-                    p.pair_index(pair)
-                        .ok_or_else(|| PlotError::MissingPrediction {
-                            pair: pair_name(pair),
-                            known: pair_list(&p.pairs),
-                        })?,
-                )),
-                None => None,
-            };
-            let frac = correlation.and_then(|c| {
-                let i = c.pairs.iter().position(|q| q == pair)?;
-                c.frac.get(i).copied().filter(|v| v.is_finite())
-            });
-            let (measured_db, measured_phase) = frf_runs(measured, *col);
-            let (predicted_db, predicted_phase) = match pred_col {
-                Some((p, j)) => {
-                    let (d, ph) = frf_runs(p, j);
-                    (Some(d), Some(ph))
-                }
-                None => (None, None),
-            };
-            curves.push(Curve {
-                label: format!("H {}", pair_name(pair)),
-                color: PALETTE[n % PALETTE.len()],
-                frac,
-                measured_db,
-                measured_phase,
-                predicted_db,
-                predicted_phase,
-            });
-        }
-
+        let curves = curves(measured, predicted, correlation, &selected)?;
         let chi = correlation.map(|c| {
             (
                 chi_curve(&c.freqs_hz, &c.chi_s),
                 chi_curve(&c.freqs_hz, &c.chi_a),
             )
         });
-
-        // Frequency axis: the finite extent of everything drawn.
-        let mut fx = Extent::default();
-        let mut db = Extent::default();
-        for c in &curves {
-            for runs in [Some(&c.measured_db), c.predicted_db.as_ref()]
-                .into_iter()
-                .flatten()
-            {
-                for &(f, v) in runs.iter().flatten() {
-                    fx.add(f);
-                    db.add(v);
-                }
-            }
-        }
-        if let Some((s, a)) = &chi {
-            for &(f, _) in s.runs.iter().chain(&a.runs).flatten() {
-                fx.add(f);
-            }
-        }
-        // Lines whose values are all non-finite still set the frequency extent.
-        for f in &measured.freqs_hz {
-            fx.add(*f);
-        }
-        let (flo, fhi) = fx.get().ok_or(PlotError::NoFrequencies)?;
-        if !(fhi - flo).is_finite() {
-            return Err(PlotError::FrequencySpan { lo: flo, hi: fhi });
-        }
-        let x_axis = Axis::frequency(flo, fhi);
-        let (db_axis, db_has_data) = match db.get() {
-            Some((lo, hi)) => (Axis::decibel(lo, hi), true),
-            None => (Axis::decibel(-60.0, 0.0), false),
-        };
-
+        let (x_axis, db_axis, db_has_data) = data_axes(measured, &curves, chi.as_ref())?;
         Ok(Plan {
             title: opts.title.clone(),
             db_label: format!("Amplitude (dB re 1 {})", pretty_unit(measured.quantity)),
@@ -516,6 +140,143 @@ impl Plan {
             chi_axis: Axis::unit_interval(),
         })
     }
+}
+
+/// The figure size, `max_frfs`, the sets' shapes and quantities and the correlation's lengths.
+fn check_inputs(
+    measured: &FrfSet,
+    predicted: Option<&FrfSet>,
+    correlation: Option<&FrfCorrelation>,
+    opts: &FrfPlotOptions,
+) -> Result<(), PlotError> {
+    let size_ok = |s: u32| (MIN_SIDE_PX..=MAX_SIDE_PX).contains(&s);
+    if !size_ok(opts.width_px) || !size_ok(opts.height_px) {
+        return Err(PlotError::Size {
+            width: opts.width_px,
+            height: opts.height_px,
+            min: MIN_SIDE_PX,
+            max: MAX_SIDE_PX,
+        });
+    }
+    if opts.max_frfs == 0 || opts.max_frfs > MAX_FRFS {
+        return Err(PlotError::MaxFrfs {
+            given: opts.max_frfs,
+            limit: MAX_FRFS,
+        });
+    }
+    check_shape("measured", measured)?;
+    if measured.pairs.is_empty() || measured.freqs_hz.is_empty() {
+        return Err(PlotError::Empty {
+            pairs: measured.pairs.len(),
+            lines: measured.freqs_hz.len(),
+        });
+    }
+    if let Some(p) = predicted {
+        check_shape("predicted", p)?;
+        if p.quantity != measured.quantity {
+            return Err(PlotError::Quantity {
+                measured: measured.quantity.name(),
+                predicted: p.quantity.name(),
+            });
+        }
+    }
+    if let Some(c) = correlation
+        .filter(|c| c.chi_s.len() != c.freqs_hz.len() || c.chi_a.len() != c.freqs_hz.len())
+    {
+        return Err(PlotError::CorrelationShape {
+            lines: c.freqs_hz.len(),
+            chi_s: c.chi_s.len(),
+            chi_a: c.chi_a.len(),
+        });
+    }
+    Ok(())
+}
+
+/// One curve per selected FRF (measured column `col`), its prediction and FRAC, in legend
+/// order and colour.
+fn curves(
+    measured: &FrfSet,
+    predicted: Option<&FrfSet>,
+    correlation: Option<&FrfCorrelation>,
+    selected: &[(FrfPair, usize)],
+) -> Result<Vec<Curve>, PlotError> {
+    let mut curves = Vec::with_capacity(selected.len());
+    for (n, (pair, col)) in selected.iter().enumerate() {
+        let pred_col = match predicted {
+            Some(p) => Some((
+                p,
+                p.pair_index(pair)
+                    .ok_or_else(|| PlotError::MissingPrediction {
+                        pair: pair_name(pair),
+                        known: pair_list(&p.pairs),
+                    })?,
+            )),
+            None => None,
+        };
+        let frac = correlation.and_then(|c| {
+            let i = c.pairs.iter().position(|q| q == pair)?;
+            c.frac.get(i).copied().filter(|v| v.is_finite())
+        });
+        let (measured_db, measured_phase) = frf_runs(measured, *col);
+        let (predicted_db, predicted_phase) = match pred_col {
+            Some((p, j)) => {
+                let (d, ph) = frf_runs(p, j);
+                (Some(d), Some(ph))
+            }
+            None => (None, None),
+        };
+        curves.push(Curve {
+            label: format!("H {}", pair_name(pair)),
+            color: PALETTE[n % PALETTE.len()],
+            frac,
+            measured_db,
+            measured_phase,
+            predicted_db,
+            predicted_phase,
+        });
+    }
+    Ok(curves)
+}
+
+/// The frequency axis (the finite extent of everything drawn) and the amplitude axis, with
+/// whether any amplitude is finite.
+fn data_axes(
+    measured: &FrfSet,
+    curves: &[Curve],
+    chi: Option<&(ChiCurve, ChiCurve)>,
+) -> Result<(Axis, Axis, bool), PlotError> {
+    let mut fx = Extent::default();
+    let mut db = Extent::default();
+    for c in curves {
+        for runs in [Some(&c.measured_db), c.predicted_db.as_ref()]
+            .into_iter()
+            .flatten()
+        {
+            for &(f, v) in runs.iter().flatten() {
+                fx.add(f);
+                db.add(v);
+            }
+        }
+    }
+    if let Some((s, a)) = chi {
+        for &(f, _) in s.runs.iter().chain(&a.runs).flatten() {
+            fx.add(f);
+        }
+    }
+    // Lines whose values are all non-finite still set the frequency extent.
+    for f in &measured.freqs_hz {
+        fx.add(*f);
+    }
+    let (flo, fhi) = fx.get().ok_or(PlotError::NoFrequencies)?;
+    if !(fhi - flo).is_finite() {
+        return Err(PlotError::FrequencySpan { lo: flo, hi: fhi });
+    }
+    let x_axis = Axis::frequency(flo, fhi);
+    let (db_axis, db_has_data) = match db.get() {
+        Some((lo, hi)) => (Axis::decibel(lo, hi), true),
+        None => (Axis::decibel(-60.0, 0.0), false),
+    };
+    Ok((x_axis, db_axis, db_has_data))
 }
 
 fn check_shape(which: &'static str, set: &FrfSet) -> Result<(), PlotError> {
@@ -684,37 +445,8 @@ impl RunBuilder {
     }
 }
 
-#[derive(Default)]
-struct Extent(Option<(f64, f64)>);
-
-impl Extent {
-    fn add(&mut self, v: f64) {
-        if v.is_finite() {
-            self.0 = Some(match self.0 {
-                Some((lo, hi)) => (lo.min(v), hi.max(v)),
-                None => (v, v),
-            });
-        }
-    }
-
-    fn get(&self) -> Option<(f64, f64)> {
-        self.0
-    }
-}
-
 // ---------------------------------------------------------------------------------------------
-// Axes: a linear axis with its own tick positions, so ticks are chosen here (nice steps,
-// degrees in multiples of 90) and never from a degenerate range.
-
-#[derive(Clone, Debug)]
-struct Axis {
-    lo: f64,
-    hi: f64,
-    major: Vec<f64>,
-    minor: Vec<f64>,
-    /// Decimals that print every major tick exactly.
-    decimals: usize,
-}
+// Axes of the panels with its own tick positions, so ticks are chosen here (nice steps,
 
 impl Axis {
     /// Exactly the data extent (widened if it is a single line).
@@ -751,147 +483,6 @@ impl Axis {
             minor: (0..=8).map(|k| 0.125 * k as f64).collect(),
             decimals: 2,
         }
-    }
-
-    fn with_ticks(lo: f64, hi: f64, target: usize) -> Axis {
-        let step = nice_step((hi - lo) / target as f64);
-        let minor_step = step / if is_two(step) { 4.0 } else { 5.0 };
-        let decimals = (-step.log10().floor()).clamp(0.0, 12.0) as usize;
-        Axis {
-            lo,
-            hi,
-            major: ticks(lo, hi, step),
-            minor: ticks(lo, hi, minor_step),
-            decimals,
-        }
-    }
-
-    fn label(&self, v: f64) -> String {
-        let s = if v.abs() >= 1e7 || (v != 0.0 && v.abs() < 1e-5 && self.decimals > 5) {
-            format!("{v:.3e}")
-        } else {
-            format!("{:.*}", self.decimals, v)
-        };
-        // Avoid "-0" and use a typographic minus.
-        let s = if s
-            .trim_start_matches('-')
-            .chars()
-            .all(|c| c == '0' || c == '.')
-        {
-            s.trim_start_matches('-').to_string()
-        } else {
-            s
-        };
-        s.replace('-', "−")
-    }
-}
-
-/// `(lo, hi)` with a positive span that survives rounding.
-fn widen(lo: f64, hi: f64, half: f64) -> (f64, f64) {
-    let min_span = (lo.abs().max(hi.abs()) * 1e-9).max(f64::MIN_POSITIVE);
-    if hi - lo > min_span {
-        (lo, hi)
-    } else {
-        let h = half.max(lo.abs() * 0.01);
-        (lo - h, hi + h)
-    }
-}
-
-/// 1, 2 or 5 times a power of ten, at least `raw`.
-fn nice_step(raw: f64) -> f64 {
-    if !(raw.is_finite() && raw > 0.0) {
-        return 1.0;
-    }
-    let mag = 10f64.powf(raw.log10().floor());
-    let norm = raw / mag;
-    let mult = if norm <= 1.0 {
-        1.0
-    } else if norm <= 2.0 {
-        2.0
-    } else if norm <= 5.0 {
-        5.0
-    } else {
-        10.0
-    };
-    mult * mag
-}
-
-fn is_two(step: f64) -> bool {
-    let mag = 10f64.powf(step.log10().floor());
-    ((step / mag) - 2.0).abs() < 1e-9
-}
-
-/// Multiples of `step` within `[lo, hi]` (at most 200).
-fn ticks(lo: f64, hi: f64, step: f64) -> Vec<f64> {
-    if !(step.is_finite() && step > 0.0) {
-        return Vec::new();
-    }
-    let first = (lo / step).ceil();
-    let tol = step * 1e-6;
-    (0..200)
-        .map(|k| (first + k as f64) * step)
-        .take_while(|v| *v <= hi + tol)
-        .filter(|v| *v >= lo - tol)
-        .collect()
-}
-
-impl Ranged for Axis {
-    type FormatOption = DefaultFormatting;
-    type ValueType = f64;
-
-    fn map(&self, value: &f64, limit: (i32, i32)) -> i32 {
-        let t = (value - self.lo) / (self.hi - self.lo);
-        let px = limit.0 as f64 + t * (limit.1 - limit.0) as f64;
-        if px.is_finite() {
-            px.round() as i32
-        } else {
-            limit.0
-        }
-    }
-
-    fn key_points<Hint: KeyPointHint>(&self, hint: Hint) -> Vec<f64> {
-        if hint.weight().allow_light_points() {
-            self.minor.clone()
-        } else {
-            self.major.clone()
-        }
-    }
-
-    fn range(&self) -> Range<f64> {
-        self.lo..self.hi
-    }
-}
-
-// ---------------------------------------------------------------------------------------------
-// Drawing
-
-/// Pixel sizes derived from the figure size.
-struct Metrics {
-    u: f64,
-}
-
-impl Metrics {
-    fn px(&self, v: f64) -> i32 {
-        (v * self.u).round().max(1.0) as i32
-    }
-
-    /// Width of a data line: at least 2 px so curves stay solid on small figures.
-    fn line(&self) -> u32 {
-        self.px(1.8).max(2) as u32
-    }
-
-    /// Font size in pixels, an even integer: plotters' ab_glyph renderer places each glyph at
-    /// `size / 2` truncated, so odd or fractional sizes shift some glyphs (e.g. `.`) by a pixel.
-    fn font(&self, v: f64) -> f64 {
-        ((v * self.u / 2.0).round() * 2.0).max(8.0)
-    }
-}
-
-fn text_style<'a>(size: f64, style: FontStyle, color: RGBColor, pos: Pos) -> TextStyle<'a> {
-    TextStyle {
-        font: ("sans-serif", size, style).into_font(),
-        color: color.to_backend_color(),
-        pos,
     }
 }
 

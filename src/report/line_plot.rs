@@ -6,7 +6,7 @@
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
-use super::frf_plot::{Figure, PlotError, render, titled_figure};
+use super::figure::{Figure, PlotError, backend_error, render, titled_figure};
 
 /// One line.
 #[derive(Clone, Debug, PartialEq)]
@@ -93,130 +93,154 @@ fn draw<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
     plot: &LinePlot,
 ) -> Result<(), PlotError> {
-    let be = |e: DrawingAreaErrorKind<DB::ErrorType>| PlotError::Backend(e.to_string());
     let body = titled_figure(root, &plot.title, TITLE_H, &INK)?;
     let cells = body.split_evenly((plot.panels.len().max(1), 1));
     for (panel, cell) in plot.panels.iter().zip(cells.iter()) {
-        let (chart_area, legend) = cell.split_horizontally(PANEL.0);
-        let steps = panel
-            .series
-            .iter()
-            .map(|s| s.values.len())
-            .max()
-            .unwrap_or(1);
-        let x_hi = (steps.max(2) - 1) as f64;
-        let (y_lo, y_hi) = value_range(panel);
-        let mut chart = ChartBuilder::on(&chart_area)
-            .caption(&panel.title, ("sans-serif", 16).into_font().color(&INK))
-            .margin(12)
-            .x_label_area_size(40)
-            .y_label_area_size(64)
-            .build_cartesian_2d(-0.2..x_hi + 0.2, y_lo..y_hi)
-            .map_err(be)?;
-        let x_fmt = |v: &f64| {
-            let i = v.round();
-            if (v - i).abs() < 1e-6 && i >= 0.0 {
-                format!("{i:.0}")
-            } else {
-                String::new()
-            }
-        };
-        let span = y_hi - y_lo;
-        let digits = if span > 0.0 {
-            (-(span.log10().floor()) + 1.0).clamp(0.0, 6.0) as usize
+        draw_panel(cell, plot, panel)?;
+    }
+    Ok(())
+}
+
+/// One panel: the series as lines with markers over the step axis, their reference levels
+/// dashed, and the legend on the right.
+fn draw_panel<DB: DrawingBackend>(
+    cell: &DrawingArea<DB, Shift>,
+    plot: &LinePlot,
+    panel: &LinePanel,
+) -> Result<(), PlotError> {
+    let (chart_area, legend) = cell.split_horizontally(PANEL.0);
+    let steps = panel
+        .series
+        .iter()
+        .map(|s| s.values.len())
+        .max()
+        .unwrap_or(1);
+    let x_hi = (steps.max(2) - 1) as f64;
+    let (y_lo, y_hi) = value_range(panel);
+    let mut chart = ChartBuilder::on(&chart_area)
+        .caption(&panel.title, ("sans-serif", 16).into_font().color(&INK))
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(64)
+        .build_cartesian_2d(-0.2..x_hi + 0.2, y_lo..y_hi)
+        .map_err(backend_error)?;
+    let x_fmt = |v: &f64| {
+        let i = v.round();
+        if (v - i).abs() < 1e-6 && i >= 0.0 {
+            format!("{i:.0}")
         } else {
-            3
-        };
-        let y_fmt = move |v: &f64| {
-            let s = format!("{v:.digits$}");
-            if s.starts_with('-') && s.trim_start_matches(['-', '0', '.']).is_empty() {
-                s[1..].to_string()
-            } else {
-                s
-            }
-        };
-        chart
-            .configure_mesh()
-            .x_labels(steps.clamp(2, 21))
-            .x_label_formatter(&x_fmt)
-            .y_label_formatter(&y_fmt)
-            .x_desc(&plot.x_label)
-            .y_desc(&panel.y_label)
-            .label_style(("sans-serif", 12).into_font().color(&INK))
-            .axis_desc_style(("sans-serif", 14).into_font().color(&INK))
-            .bold_line_style(RGBColor(225, 225, 225).stroke_width(1))
-            .light_line_style(WHITE.stroke_width(0))
-            .axis_style(INK.stroke_width(1))
-            .draw()
-            .map_err(be)?;
-        for (k, s) in panel.series.iter().enumerate() {
-            let colour = PALETTE[k % PALETTE.len()];
-            // Finite runs as separate polylines.
-            let mut run: Vec<(f64, f64)> = Vec::new();
-            let mut runs = Vec::new();
-            for (i, v) in s.values.iter().enumerate() {
-                if v.is_finite() {
-                    run.push((i as f64, *v));
-                } else if !run.is_empty() {
-                    runs.push(std::mem::take(&mut run));
-                }
-            }
-            if !run.is_empty() {
-                runs.push(run);
-            }
-            for r in &runs {
-                chart
-                    .draw_series(LineSeries::new(r.iter().copied(), colour.stroke_width(2)))
-                    .map_err(be)?;
-                chart
-                    .draw_series(r.iter().map(|&p| Circle::new(p, 3, colour.filled())))
-                    .map_err(be)?;
-            }
-            if let Some(level) = s.reference.filter(|v| v.is_finite()) {
-                chart
-                    .draw_series(DashedLineSeries::new(
-                        [(-0.2, level), (x_hi + 0.2, level)],
-                        8,
-                        5,
-                        colour.stroke_width(1),
-                    ))
-                    .map_err(be)?;
-            }
-            let y = 40 + 18 * k as i32;
-            legend
-                .draw(&Rectangle::new([(4, y), (20, y + 3)], colour.filled()))
-                .map_err(be)?;
-            legend
-                .draw(&Text::new(
-                    s.label.clone(),
-                    (26, y - 6),
-                    ("sans-serif", 12).into_font().color(&INK),
-                ))
-                .map_err(be)?;
+            String::new()
         }
-        if panel.series.iter().any(|s| s.reference.is_some()) {
-            let y = 40 + 18 * panel.series.len() as i32 + 6;
-            legend
-                .draw(&PathElement::new(
-                    vec![(4, y + 1), (9, y + 1)],
-                    INK.stroke_width(1),
+    };
+    let span = y_hi - y_lo;
+    let digits = if span > 0.0 {
+        (-(span.log10().floor()) + 1.0).clamp(0.0, 6.0) as usize
+    } else {
+        3
+    };
+    let y_fmt = move |v: &f64| {
+        let s = format!("{v:.digits$}");
+        if s.starts_with('-') && s.trim_start_matches(['-', '0', '.']).is_empty() {
+            s[1..].to_string()
+        } else {
+            s
+        }
+    };
+    chart
+        .configure_mesh()
+        .x_labels(steps.clamp(2, 21))
+        .x_label_formatter(&x_fmt)
+        .y_label_formatter(&y_fmt)
+        .x_desc(&plot.x_label)
+        .y_desc(&panel.y_label)
+        .label_style(("sans-serif", 12).into_font().color(&INK))
+        .axis_desc_style(("sans-serif", 14).into_font().color(&INK))
+        .bold_line_style(RGBColor(225, 225, 225).stroke_width(1))
+        .light_line_style(WHITE.stroke_width(0))
+        .axis_style(INK.stroke_width(1))
+        .draw()
+        .map_err(backend_error)?;
+    for (k, s) in panel.series.iter().enumerate() {
+        let colour = PALETTE[k % PALETTE.len()];
+        let runs = finite_runs(&s.values);
+        for r in &runs {
+            chart
+                .draw_series(LineSeries::new(r.iter().copied(), colour.stroke_width(2)))
+                .map_err(backend_error)?;
+            chart
+                .draw_series(r.iter().map(|&p| Circle::new(p, 3, colour.filled())))
+                .map_err(backend_error)?;
+        }
+        if let Some(level) = s.reference.filter(|v| v.is_finite()) {
+            chart
+                .draw_series(DashedLineSeries::new(
+                    [(-0.2, level), (x_hi + 0.2, level)],
+                    8,
+                    5,
+                    colour.stroke_width(1),
                 ))
-                .map_err(be)?;
-            legend
-                .draw(&PathElement::new(
-                    vec![(14, y + 1), (20, y + 1)],
-                    INK.stroke_width(1),
-                ))
-                .map_err(be)?;
-            legend
-                .draw(&Text::new(
-                    "true value",
-                    (26, y - 5),
-                    ("sans-serif", 12).into_font().color(&INK),
-                ))
-                .map_err(be)?;
+                .map_err(backend_error)?;
+        }
+        let y = 40 + 18 * k as i32;
+        legend
+            .draw(&Rectangle::new([(4, y), (20, y + 3)], colour.filled()))
+            .map_err(backend_error)?;
+        legend
+            .draw(&Text::new(
+                s.label.clone(),
+                (26, y - 6),
+                ("sans-serif", 12).into_font().color(&INK),
+            ))
+            .map_err(backend_error)?;
+    }
+    if panel.series.iter().any(|s| s.reference.is_some()) {
+        draw_reference_key(&legend, panel.series.len())?;
+    }
+    Ok(())
+}
+
+/// The finite stretches of `values` as separate polylines over the step index.
+fn finite_runs(values: &[f64]) -> Vec<Vec<(f64, f64)>> {
+    let mut run: Vec<(f64, f64)> = Vec::new();
+    let mut runs = Vec::new();
+    for (i, v) in values.iter().enumerate() {
+        if v.is_finite() {
+            run.push((i as f64, *v));
+        } else if !run.is_empty() {
+            runs.push(std::mem::take(&mut run));
         }
     }
+    if !run.is_empty() {
+        runs.push(run);
+    }
+    runs
+}
+
+/// The legend's key for the dashed reference levels, below the `series` entries.
+fn draw_reference_key<DB: DrawingBackend>(
+    legend: &DrawingArea<DB, Shift>,
+    series: usize,
+) -> Result<(), PlotError> {
+    let y = 40 + 18 * series as i32 + 6;
+    legend
+        .draw(&PathElement::new(
+            vec![(4, y + 1), (9, y + 1)],
+            INK.stroke_width(1),
+        ))
+        .map_err(backend_error)?;
+    legend
+        .draw(&PathElement::new(
+            vec![(14, y + 1), (20, y + 1)],
+            INK.stroke_width(1),
+        ))
+        .map_err(backend_error)?;
+    legend
+        .draw(&Text::new(
+            "true value",
+            (26, y - 5),
+            ("sans-serif", 12).into_font().color(&INK),
+        ))
+        .map_err(backend_error)?;
     Ok(())
 }
 

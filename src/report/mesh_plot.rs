@@ -14,7 +14,7 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 
-use super::frf_plot::{Figure, PlotError, render};
+use super::figure::{Figure, PlotError, backend_error, render, text_style};
 use crate::model::{Element, Model};
 
 /// Viewing direction: the camera looks at the mesh from this azimuth and elevation.
@@ -212,11 +212,7 @@ fn text<'a>(size: f64, bold: bool, pos: Pos) -> TextStyle<'a> {
     } else {
         FontStyle::Normal
     };
-    TextStyle {
-        font: ("sans-serif", size, style).into_font(),
-        color: INK.to_backend_color(),
-        pos,
-    }
+    text_style(size, style, INK, pos)
 }
 
 fn draw<DB: DrawingBackend>(
@@ -225,8 +221,7 @@ fn draw<DB: DrawingBackend>(
     items: &[Item],
     columns: usize,
 ) -> Result<(), PlotError> {
-    let be = |e: DrawingAreaErrorKind<DB::ErrorType>| PlotError::Backend(e.to_string());
-    root.fill(&WHITE).map_err(be)?;
+    root.fill(&WHITE).map_err(backend_error)?;
     let (w, _) = root.dim_in_pixel();
     let centre = Pos::new(HPos::Center, VPos::Center);
     root.draw(&Text::new(
@@ -234,7 +229,7 @@ fn draw<DB: DrawingBackend>(
         ((w - BAR_W) as i32 / 2, TITLE_H as i32 / 2),
         text(20.0, true, centre),
     ))
-    .map_err(be)?;
+    .map_err(backend_error)?;
     // One fit for every panel: the projected bounding box.
     let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
     for p in items.iter().flat_map(|i| &i.points) {
@@ -262,7 +257,7 @@ fn draw<DB: DrawingBackend>(
             ((left + pw / 2.0) as i32, (top + caption / 2.0 + 4.0) as i32),
             text(16.0, false, centre),
         ))
-        .map_err(be)?;
+        .map_err(backend_error)?;
         let ox = left + pw / 2.0 - s * (x0 + x1) / 2.0;
         let oy = top + caption + (ph - caption) / 2.0 + s * (y0 + y1) / 2.0;
         let px = |p: &(f64, f64)| ((ox + s * p.0).round() as i32, (oy - s * p.1).round() as i32);
@@ -273,7 +268,7 @@ fn draw<DB: DrawingBackend>(
             let marked = plot.highlight.contains(&item.id);
             if item.face {
                 root.draw(&Polygon::new(pts.clone(), fill.filled()))
-                    .map_err(be)?;
+                    .map_err(backend_error)?;
                 let mut ring = pts.clone();
                 ring.push(pts[0]);
                 let edge = if marked {
@@ -281,19 +276,31 @@ fn draw<DB: DrawingBackend>(
                 } else {
                     EDGE.stroke_width(1)
                 };
-                root.draw(&PathElement::new(ring, edge)).map_err(be)?;
+                root.draw(&PathElement::new(ring, edge))
+                    .map_err(backend_error)?;
             } else {
                 let colour = if value.is_some() { fill } else { EDGE };
                 if marked {
                     root.draw(&PathElement::new(pts.clone(), MARK.stroke_width(6)))
-                        .map_err(be)?;
+                        .map_err(backend_error)?;
                 }
                 root.draw(&PathElement::new(pts, colour.stroke_width(3)))
-                    .map_err(be)?;
+                    .map_err(backend_error)?;
             }
         }
     }
-    // Colour bar.
+    draw_colour_bar(root, plot, &scale, w)
+}
+
+/// The colour bar right of the panels with its ticks and label, and the keys of the "no
+/// value" fill and of marked elements.
+fn draw_colour_bar<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    plot: &MeshPlot<'_>,
+    scale: &Scale,
+    w: u32,
+) -> Result<(), PlotError> {
+    let centre = Pos::new(HPos::Center, VPos::Center);
     let (lo, hi) = scale.range();
     let bx = (w - BAR_W) as i32 + 18;
     let (by0, by1) = (TITLE_H as i32 + 50, TITLE_H as i32 + PANEL.1 as i32 - 90);
@@ -308,13 +315,13 @@ fn draw<DB: DrawingBackend>(
             [(bx, ya), (bx + 22, yb)],
             scale.colour(v).filled(),
         ))
-        .map_err(be)?;
+        .map_err(backend_error)?;
     }
     root.draw(&Rectangle::new(
         [(bx, by0), (bx + 22, by1)],
         INK.stroke_width(1),
     ))
-    .map_err(be)?;
+    .map_err(backend_error)?;
     let ticks = 4;
     for i in 0..=ticks {
         let t = i as f64 / ticks as f64;
@@ -323,45 +330,45 @@ fn draw<DB: DrawingBackend>(
             vec![(bx + 22, y), (bx + 27, y)],
             INK.stroke_width(1),
         ))
-        .map_err(be)?;
+        .map_err(backend_error)?;
         let v = lo + (hi - lo) * t;
         root.draw(&Text::new(
             format!("{v:.2}"),
             (bx + 30, y),
             text(12.0, false, Pos::new(HPos::Left, VPos::Center)),
         ))
-        .map_err(be)?;
+        .map_err(backend_error)?;
     }
     root.draw(&Text::new(
         plot.colour_label.clone(),
         (bx + 11, by0 - 20),
         text(12.0, false, centre),
     ))
-    .map_err(be)?;
+    .map_err(backend_error)?;
     let legend_y = by1 + 22;
     root.draw(&Rectangle::new(
         [(bx, legend_y - 6), (bx + 12, legend_y + 6)],
         NO_VALUE.filled(),
     ))
-    .map_err(be)?;
+    .map_err(backend_error)?;
     root.draw(&Text::new(
         "no value".to_string(),
         (bx + 16, legend_y),
         text(12.0, false, Pos::new(HPos::Left, VPos::Center)),
     ))
-    .map_err(be)?;
+    .map_err(backend_error)?;
     if !plot.highlight.is_empty() {
         root.draw(&Rectangle::new(
             [(bx, legend_y + 16), (bx + 12, legend_y + 28)],
             MARK.stroke_width(3),
         ))
-        .map_err(be)?;
+        .map_err(backend_error)?;
         root.draw(&Text::new(
             "marked".to_string(),
             (bx + 16, legend_y + 22),
             text(12.0, false, Pos::new(HPos::Left, VPos::Center)),
         ))
-        .map_err(be)?;
+        .map_err(backend_error)?;
     }
     Ok(())
 }

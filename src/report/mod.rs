@@ -5,6 +5,7 @@
 
 pub mod bar_plot;
 pub mod box_plot;
+pub mod figure;
 pub mod frf_plot;
 pub mod line_plot;
 pub mod mesh_plot;

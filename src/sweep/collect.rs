@@ -9,9 +9,9 @@
 //! the expansion order, so the same sweep gives the same table, byte for byte.
 
 use super::SweepError;
-use super::expand::{ParamPath, Resolved};
+use super::expand::{ParamPath, PlannedPoint, Resolved};
 use super::spec::{PlotSpec, Reduce, SourcedSweep};
-use super::state::{PointState, StateDir, write_atomic};
+use super::state::{PointState, PointStatus, StateDir, write_atomic};
 use crate::artefact::codec::write_parquet;
 use crate::artefact::kinds::layout;
 use crate::artefact::{ArtefactKind, Column, Table};
@@ -54,6 +54,9 @@ fn matches_layout(pattern: &str, name: &str) -> bool {
     }
 }
 
+/// The forms a collected column's source takes, for help texts.
+const HELP_FORMS: &str = "write `stage.port.table.column`, `stage.port.table`, `stage.port.meta.key`, or `{from: stage.port.table.column, reduce: mean}`";
+
 /// Checks `collect:` and `plots:` against a plan of the sweep's pipeline.
 pub fn check_collect(
     sweep: &SourcedSweep,
@@ -62,189 +65,11 @@ pub fn check_collect(
 ) -> Result<Vec<CollectItem>, Vec<Diagnostic>> {
     let mut diags = Vec::new();
     let mut items = Vec::new();
-    let help_forms = "write `stage.port.table.column`, `stage.port.table`, `stage.port.meta.key`, or `{from: stage.port.table.column, reduce: mean}`";
     for (name, raw) in &sweep.spec.collect {
-        let at = ["collect", name.as_str()];
-        let field = format!("collect.{name}");
-        let (from, reduce, from_at) = match raw {
-            Value::String(s) => (s.clone(), None, at.to_vec()),
-            Value::Object(map) => {
-                if let Some(k) = map.keys().find(|k| *k != "from" && *k != "reduce") {
-                    diags.push(
-                        sweep
-                            .at_key(&["collect", name, k], format!("unknown key `{k}`"))
-                            .field(field.clone())
-                            .help("a collected column has `from` and `reduce`"),
-                    );
-                    continue;
-                }
-                let Some(Value::String(from)) = map.get("from") else {
-                    diags.push(
-                        sweep
-                            .at_value(&at, "`from` must name a source")
-                            .field(field.clone())
-                            .help(help_forms),
-                    );
-                    continue;
-                };
-                let reduce = match map.get("reduce") {
-                    None => None,
-                    Some(Value::String(r)) => match Reduce::from_name(r) {
-                        Some(r) => Some(r),
-                        None => {
-                            diags.push(
-                                sweep
-                                    .at_value(
-                                        &["collect", name, "reduce"],
-                                        format!("unknown reduction `{r}`"),
-                                    )
-                                    .field(format!("{field}.reduce"))
-                                    .help(format!("reductions: {}", Reduce::NAMES)),
-                            );
-                            continue;
-                        }
-                    },
-                    Some(_) => {
-                        diags.push(
-                            sweep
-                                .at_value(&["collect", name, "reduce"], "`reduce` must be a name")
-                                .field(format!("{field}.reduce"))
-                                .help(format!("reductions: {}", Reduce::NAMES)),
-                        );
-                        continue;
-                    }
-                };
-                (from.clone(), reduce, vec!["collect", name.as_str(), "from"])
-            }
-            _ => {
-                diags.push(
-                    sweep
-                        .at_value(&at, "a collected column is a source path or a mapping")
-                        .field(field.clone())
-                        .help(help_forms),
-                );
-                continue;
-            }
-        };
-        if name.is_empty()
-            || name.contains(['/', '\\'])
-            || params.iter().any(|p| p.short() == *name)
-            || name == "point"
-            || name == "row"
-        {
-            diags.push(
-                sweep
-                    .at_key(&at, format!("`{name}` cannot name a collected column"))
-                    .field(field.clone())
-                    .help("`point`, `row` and the swept parameters' `stage.param` are taken; use another name without `/`"),
-            );
-            continue;
+        match collect_item(sweep, plan, params, name, raw) {
+            Ok(item) => items.push(item),
+            Err(d) => diags.push(d),
         }
-        let parts: Vec<&str> = from.split('.').collect();
-        let bad = |msg: String, help: String| {
-            sweep
-                .at_value(&from_at, msg)
-                .field(field.clone())
-                .help(help)
-        };
-        if parts.len() < 3 || parts.iter().any(|p| p.is_empty()) {
-            diags.push(bad(
-                format!("`{from}` is not a source path"),
-                help_forms.into(),
-            ));
-            continue;
-        }
-        let Some(node) = plan.nodes.iter().find(|n| n.name == parts[0]) else {
-            let names: Vec<&str> = plan.nodes.iter().map(|n| n.name.as_str()).collect();
-            let help = match nearest(parts[0], names.iter().copied()) {
-                Some(n) => format!("did you mean `{n}`?"),
-                None => format!("stages are: {}", names.join(", ")),
-            };
-            diags.push(bad(
-                format!("no stage `{}` in the pipeline", parts[0]),
-                help,
-            ));
-            continue;
-        };
-        let outputs = node.stage.outputs();
-        let Some(port) = outputs.iter().find(|o| o.name == parts[1]) else {
-            let list: Vec<String> = outputs
-                .iter()
-                .map(|o| format!("{} ({})", o.name, o.kind))
-                .collect();
-            diags.push(bad(
-                format!(
-                    "stage `{}` ({}) has no output `{}`",
-                    node.name,
-                    node.stage.kind(),
-                    parts[1]
-                ),
-                format!("outputs: {}", list.join(", ")),
-            ));
-            continue;
-        };
-        let source = if parts[2] == "meta" {
-            if parts.len() < 4 {
-                diags.push(bad(
-                    "`meta` needs a key, e.g. `meta.summary.mean_chi`".into(),
-                    help_forms.into(),
-                ));
-                continue;
-            }
-            Source::Meta(parts[3..].iter().map(|s| s.to_string()).collect())
-        } else {
-            let tables = layout(port.kind);
-            let Some(t) = tables.iter().find(|t| matches_layout(t.name, parts[2])) else {
-                let list: Vec<&str> = tables.iter().map(|t| t.name).collect();
-                diags.push(bad(
-                    format!("a `{}` artefact has no table `{}`", port.kind, parts[2]),
-                    format!("tables: {}; or `meta.KEY`", list.join(", ")),
-                ));
-                continue;
-            };
-            match parts.len() {
-                3 => Source::Table(parts[2].to_string()),
-                4 => {
-                    if !t.columns.iter().any(|c| matches_layout(c.name, parts[3])) {
-                        let list: Vec<&str> = t.columns.iter().map(|c| c.name).collect();
-                        let help = match nearest(parts[3], list.iter().copied()) {
-                            Some(n) => format!("did you mean `{n}`? columns: {}", list.join(", ")),
-                            None => format!("columns: {}", list.join(", ")),
-                        };
-                        diags.push(bad(
-                            format!(
-                                "table `{}` of a `{}` artefact has no column `{}`",
-                                parts[2], port.kind, parts[3]
-                            ),
-                            help,
-                        ));
-                        continue;
-                    }
-                    Source::Column(parts[2].to_string(), parts[3].to_string())
-                }
-                _ => {
-                    diags.push(bad(
-                        format!("`{from}` goes below a column"),
-                        help_forms.into(),
-                    ));
-                    continue;
-                }
-            }
-        };
-        if reduce.is_some() && !matches!(source, Source::Column(..)) {
-            diags.push(bad(
-                "`reduce` applies to one table column".into(),
-                "use `stage.port.table.column` as `from`, or drop `reduce`".into(),
-            ));
-            continue;
-        }
-        items.push(CollectItem {
-            name: name.clone(),
-            stage: parts[0].to_string(),
-            port: parts[1].to_string(),
-            source,
-            reduce,
-        });
     }
     for (i, p) in sweep.spec.plots.iter().enumerate() {
         check_plot(sweep, i, p, &items, params, &mut diags);
@@ -253,6 +78,200 @@ pub fn check_collect(
         Ok(items)
     } else {
         Err(diags)
+    }
+}
+
+/// One `collect:` entry: its form, its column name, its source in the plan and its reduction.
+// A diagnostic is built on the error path only, where its size costs nothing.
+#[allow(clippy::result_large_err)]
+fn collect_item(
+    sweep: &SourcedSweep,
+    plan: &Plan,
+    params: &[ParamPath],
+    name: &str,
+    raw: &Value,
+) -> Result<CollectItem, Diagnostic> {
+    let field = format!("collect.{name}");
+    let (from, reduce, from_at) = collect_form(sweep, name, raw)?;
+    check_column_name(sweep, name, params)?;
+    let bad = |(msg, help): (String, String)| {
+        sweep
+            .at_value(&from_at, msg)
+            .field(field.clone())
+            .help(help)
+    };
+    let parts: Vec<&str> = from.split('.').collect();
+    let source = source_of(plan, &from, &parts).map_err(bad)?;
+    if reduce.is_some() && !matches!(source, Source::Column(..)) {
+        return Err(bad((
+            "`reduce` applies to one table column".into(),
+            "use `stage.port.table.column` as `from`, or drop `reduce`".into(),
+        )));
+    }
+    Ok(CollectItem {
+        name: name.to_string(),
+        stage: parts[0].to_string(),
+        port: parts[1].to_string(),
+        source,
+        reduce,
+    })
+}
+
+/// A `collect:` entry's source path, reduction and where the path is written: a path, or a
+/// mapping of `from` and `reduce`.
+// A diagnostic is built on the error path only, where its size costs nothing.
+#[allow(clippy::result_large_err)]
+fn collect_form<'a>(
+    sweep: &SourcedSweep,
+    name: &'a str,
+    raw: &Value,
+) -> Result<(String, Option<Reduce>, Vec<&'a str>), Diagnostic> {
+    let at = ["collect", name];
+    let field = format!("collect.{name}");
+    let map = match raw {
+        Value::String(s) => return Ok((s.clone(), None, at.to_vec())),
+        Value::Object(map) => map,
+        _ => {
+            return Err(sweep
+                .at_value(&at, "a collected column is a source path or a mapping")
+                .field(field)
+                .help(HELP_FORMS));
+        }
+    };
+    if let Some(k) = map.keys().find(|k| *k != "from" && *k != "reduce") {
+        return Err(sweep
+            .at_key(&["collect", name, k], format!("unknown key `{k}`"))
+            .field(field)
+            .help("a collected column has `from` and `reduce`"));
+    }
+    let Some(Value::String(from)) = map.get("from") else {
+        return Err(sweep
+            .at_value(&at, "`from` must name a source")
+            .field(field)
+            .help(HELP_FORMS));
+    };
+    let reduce = match map.get("reduce") {
+        None => None,
+        Some(Value::String(r)) => Some(Reduce::from_name(r).ok_or_else(|| {
+            sweep
+                .at_value(
+                    &["collect", name, "reduce"],
+                    format!("unknown reduction `{r}`"),
+                )
+                .field(format!("{field}.reduce"))
+                .help(format!("reductions: {}", Reduce::NAMES))
+        })?),
+        Some(_) => {
+            return Err(sweep
+                .at_value(&["collect", name, "reduce"], "`reduce` must be a name")
+                .field(format!("{field}.reduce"))
+                .help(format!("reductions: {}", Reduce::NAMES)));
+        }
+    };
+    Ok((from.clone(), reduce, vec!["collect", name, "from"]))
+}
+
+/// A collected column's name is a file-safe name not taken by `point`, `row` or a swept
+/// parameter.
+// A diagnostic is built on the error path only, where its size costs nothing.
+#[allow(clippy::result_large_err)]
+fn check_column_name(
+    sweep: &SourcedSweep,
+    name: &str,
+    params: &[ParamPath],
+) -> Result<(), Diagnostic> {
+    if name.is_empty()
+        || name.contains(['/', '\\'])
+        || params.iter().any(|p| p.short() == *name)
+        || name == "point"
+        || name == "row"
+    {
+        return Err(sweep
+            .at_key(&["collect", name], format!("`{name}` cannot name a collected column"))
+            .field(format!("collect.{name}"))
+            .help("`point`, `row` and the swept parameters' `stage.param` are taken; use another name without `/`"));
+    }
+    Ok(())
+}
+
+/// What `from` (split at dots into `parts`) reads: a stage's output port, then `meta.KEY…`, a
+/// table or a table's column of its artefact kind; or the problem and its help.
+fn source_of(plan: &Plan, from: &str, parts: &[&str]) -> Result<Source, (String, String)> {
+    if parts.len() < 3 || parts.iter().any(|p| p.is_empty()) {
+        return Err((format!("`{from}` is not a source path"), HELP_FORMS.into()));
+    }
+    let Some(node) = plan.nodes.iter().find(|n| n.name == parts[0]) else {
+        let names: Vec<&str> = plan.nodes.iter().map(|n| n.name.as_str()).collect();
+        let help = match nearest(parts[0], names.iter().copied()) {
+            Some(n) => format!("did you mean `{n}`?"),
+            None => format!("stages are: {}", names.join(", ")),
+        };
+        return Err((format!("no stage `{}` in the pipeline", parts[0]), help));
+    };
+    let outputs = node.stage.outputs();
+    let Some(port) = outputs.iter().find(|o| o.name == parts[1]) else {
+        let list: Vec<String> = outputs
+            .iter()
+            .map(|o| format!("{} ({})", o.name, o.kind))
+            .collect();
+        return Err((
+            format!(
+                "stage `{}` ({}) has no output `{}`",
+                node.name,
+                node.stage.kind(),
+                parts[1]
+            ),
+            format!("outputs: {}", list.join(", ")),
+        ));
+    };
+    if parts[2] == "meta" {
+        if parts.len() < 4 {
+            return Err((
+                "`meta` needs a key, e.g. `meta.summary.mean_chi`".into(),
+                HELP_FORMS.into(),
+            ));
+        }
+        return Ok(Source::Meta(
+            parts[3..].iter().map(|s| s.to_string()).collect(),
+        ));
+    }
+    table_source(port.kind, from, parts)
+}
+
+/// A table (`stage.port.table`) or one of its columns (`….column`) of a `kind` artefact.
+fn table_source(
+    kind: ArtefactKind,
+    from: &str,
+    parts: &[&str],
+) -> Result<Source, (String, String)> {
+    let tables = layout(kind);
+    let Some(t) = tables.iter().find(|t| matches_layout(t.name, parts[2])) else {
+        let list: Vec<&str> = tables.iter().map(|t| t.name).collect();
+        return Err((
+            format!("a `{}` artefact has no table `{}`", kind, parts[2]),
+            format!("tables: {}; or `meta.KEY`", list.join(", ")),
+        ));
+    };
+    match parts.len() {
+        3 => Ok(Source::Table(parts[2].to_string())),
+        4 => {
+            if !t.columns.iter().any(|c| matches_layout(c.name, parts[3])) {
+                let list: Vec<&str> = t.columns.iter().map(|c| c.name).collect();
+                let help = match nearest(parts[3], list.iter().copied()) {
+                    Some(n) => format!("did you mean `{n}`? columns: {}", list.join(", ")),
+                    None => format!("columns: {}", list.join(", ")),
+                };
+                return Err((
+                    format!(
+                        "table `{}` of a `{}` artefact has no column `{}`",
+                        parts[2], kind, parts[3]
+                    ),
+                    help,
+                ));
+            }
+            Ok(Source::Column(parts[2].to_string(), parts[3].to_string()))
+        }
+        _ => Err((format!("`{from}` goes below a column"), HELP_FORMS.into())),
     }
 }
 
@@ -548,25 +567,62 @@ pub fn collect(
     let has_rows = items
         .iter()
         .any(|i| i.reduce.is_none() && !matches!(i.source, Source::Meta(_)));
-    let mut point_col: Vec<String> = Vec::new();
-    let mut row_col: Vec<i64> = Vec::new();
-    let mut param_vals: Vec<Vec<&Value>> = vec![Vec::new(); resolved.expansion.params.len()];
-    let mut cols: Vec<(String, Option<Column>)> = Vec::new();
+    let mut g = Gathered {
+        point_col: Vec::new(),
+        row_col: Vec::new(),
+        param_vals: vec![Vec::new(); resolved.expansion.params.len()],
+        cols: Vec::new(),
+        has_rows,
+    };
     let mut missing = Vec::new();
     let mut points = 0;
     for u in &resolved.unique {
-        let status = match state.status(&u.point.name) {
-            Some(s) if s.state == PointState::Done && s.plan_hash == u.plan_hash => s,
-            _ => {
-                missing.push(u.point.name.clone());
-                continue;
+        match state.status(&u.point.name) {
+            Some(s) if s.state == PointState::Done && s.plan_hash == u.plan_hash => {
+                points += 1;
+                g.add_point(u, &s, cache, &items)?;
             }
-        };
-        points += 1;
+            _ => missing.push(u.point.name.clone()),
+        }
+    }
+    if points == 0 {
+        return Err(SweepError::Collect(format!(
+            "no point of {} is finished yet; run `femu sweep {}` first",
+            sweep.name(),
+            sweep.file
+        )));
+    }
+    let table = g.into_table(&resolved.expansion.params)?;
+    write_collected(resolved, table, out, points, missing)
+}
+
+/// The collected columns of the finished points, point by point: one row per point, or per
+/// row of its collected table columns.
+struct Gathered<'a> {
+    point_col: Vec<String>,
+    row_col: Vec<i64>,
+    /// Each swept parameter's value on every row.
+    param_vals: Vec<Vec<&'a Value>>,
+    /// Collected columns in first-seen order; `None` until a point gives one.
+    cols: Vec<(String, Option<Column>)>,
+    /// Whether any item is a whole column, so the table gets a `row` column.
+    has_rows: bool,
+}
+
+impl<'a> Gathered<'a> {
+    /// Appends one finished point's rows: its items read from the cache, scalars repeated on
+    /// each of its rows.
+    fn add_point(
+        &mut self,
+        u: &'a PlannedPoint,
+        status: &PointStatus,
+        cache: &Cache,
+        items: &[CollectItem],
+    ) -> Result<(), SweepError> {
         let mut scalars: Vec<(String, Column)> = Vec::new();
         let mut rows: Vec<(String, Column)> = Vec::new();
-        for item in &items {
-            match read_item(cache, &status, item)? {
+        for item in items {
+            match read_item(cache, status, item)? {
                 Got::Scalar(c) => scalars.push((item.name.clone(), c)),
                 Got::Rows(r) => rows.extend(r),
             }
@@ -581,55 +637,63 @@ pub fn collect(
             )));
         }
         for _ in 0..n {
-            point_col.push(u.point.name.clone());
+            self.point_col.push(u.point.name.clone());
         }
-        if has_rows {
-            row_col.extend(0..n as i64);
+        if self.has_rows {
+            self.row_col.extend(0..n as i64);
         }
         for (k, (_, v)) in u.point.values.iter().enumerate() {
             for _ in 0..n {
-                param_vals[k].push(v);
+                self.param_vals[k].push(v);
             }
         }
-        let reps = n;
-        let scalars = scalars
-            .into_iter()
-            .map(|(name, c)| (name, repeat(&c, reps)));
+        let scalars = scalars.into_iter().map(|(name, c)| (name, repeat(&c, n)));
         for (name, c) in scalars.chain(rows) {
-            let slot = match cols.iter().position(|(c, _)| *c == name) {
+            let slot = match self.cols.iter().position(|(c, _)| *c == name) {
                 Some(i) => i,
                 None => {
-                    cols.push((name.clone(), None));
-                    cols.len() - 1
+                    self.cols.push((name.clone(), None));
+                    self.cols.len() - 1
                 }
             };
-            append(&mut cols[slot].1, c, &name)?;
+            append(&mut self.cols[slot].1, c, &name)?;
         }
+        Ok(())
     }
-    if points == 0 {
-        return Err(SweepError::Collect(format!(
-            "no point of {} is finished yet; run `femu sweep {}` first",
-            sweep.name(),
-            sweep.file
-        )));
-    }
-    let total_rows = point_col.len();
-    let mut table = Table::new().with("point", Column::Str(point_col));
-    for (p, vals) in resolved.expansion.params.iter().zip(&param_vals) {
-        table = table.with(p.short(), param_column(vals));
-    }
-    if has_rows {
-        table = table.with("row", Column::I64(row_col));
-    }
-    for (name, c) in cols {
-        let c = c.unwrap_or(Column::F64(Vec::new()));
-        if c.len() != total_rows {
-            return Err(SweepError::Collect(format!(
-                "column `{name}` is missing in some points; every point must have the same collected columns"
-            )));
+
+    /// The table: `point`, the swept parameters, `row` if any, then the collected columns,
+    /// each present in every point.
+    fn into_table(self, params: &[ParamPath]) -> Result<Table, SweepError> {
+        let total_rows = self.point_col.len();
+        let mut table = Table::new().with("point", Column::Str(self.point_col));
+        for (p, vals) in params.iter().zip(&self.param_vals) {
+            table = table.with(p.short(), param_column(vals));
         }
-        table = table.with(name, c);
+        if self.has_rows {
+            table = table.with("row", Column::I64(self.row_col));
+        }
+        for (name, c) in self.cols {
+            let c = c.unwrap_or(Column::F64(Vec::new()));
+            if c.len() != total_rows {
+                return Err(SweepError::Collect(format!(
+                    "column `{name}` is missing in some points; every point must have the same collected columns"
+                )));
+            }
+            table = table.with(name, c);
+        }
+        Ok(table)
     }
+}
+
+/// Writes `collected.parquet`, the plots and `collected.json` (the summary) into `out`.
+fn write_collected(
+    resolved: &Resolved,
+    table: Table,
+    out: &Path,
+    points: usize,
+    missing: Vec<String>,
+) -> Result<Collected, SweepError> {
+    let sweep = &resolved.sweep;
     std::fs::create_dir_all(out).map_err(|source| SweepError::Io {
         path: out.to_path_buf(),
         source,

@@ -23,6 +23,7 @@ use crate::artefact::digest::{canonical_json, hash_bytes};
 use crate::pipeline::diagnostic::{Diagnostic, Diagnostics, nearest};
 use crate::pipeline::{Plan, SourcedSpec, plan, read_pipeline};
 use crate::stages::registry;
+use indexmap::IndexMap;
 use serde_json::Value;
 use std::collections::{BTreeMap, BTreeSet};
 
@@ -388,59 +389,68 @@ fn range_values(
         }
     }
     let ints = bounds.iter().chain(step).all(|v| v.is_i64());
-    if ints {
-        let (a, b) = (
+    let values = if ints {
+        int_range(
             bounds[0].as_i64().unwrap_or(0),
             bounds[1].as_i64().unwrap_or(0),
-        );
-        let s = step.and_then(Value::as_i64).unwrap_or(1);
-        if s <= 0 || b < a {
-            return Err(sweep
-                .at_value(
-                    &p,
-                    format!("the range [{a}, {b}] with step {s} is empty or runs backwards"),
-                )
-                .field(field)
-                .help(help));
-        }
-        let n = b
-            .checked_sub(a)
-            .map_or(usize::MAX, |d| (d / s) as usize)
-            .saturating_add(1);
-        if n > MAX_RANGE {
-            return Err(sweep
-                .at_value(
-                    &p,
-                    format!("the range has {n} values, more than {MAX_RANGE}"),
-                )
-                .field(field)
-                .help("narrow the range or raise the step"));
-        }
-        return Ok((0..n).map(|i| Value::from(a + s * i as i64)).collect());
+            step.and_then(Value::as_i64).unwrap_or(1),
+        )
+    } else {
+        float_range(
+            bounds[0].as_f64().unwrap_or(0.0),
+            bounds[1].as_f64().unwrap_or(0.0),
+            step.and_then(Value::as_f64).unwrap_or(1.0),
+        )
+    };
+    values.map_err(|fault| {
+        let (msg, help) = match fault {
+            RangeFault::Empty(msg) => (msg, help),
+            RangeFault::TooLong(msg) => (msg, "narrow the range or raise the step"),
+        };
+        sweep.at_value(&p, msg).field(field).help(help)
+    })
+}
+
+/// Why a range gives no values.
+enum RangeFault {
+    /// Empty or backwards.
+    Empty(String),
+    /// More than [`MAX_RANGE`] values.
+    TooLong(String),
+}
+
+/// `a, a + s, …` up to `b` in integers.
+fn int_range(a: i64, b: i64, s: i64) -> Result<Vec<Value>, RangeFault> {
+    if s <= 0 || b < a {
+        return Err(RangeFault::Empty(format!(
+            "the range [{a}, {b}] with step {s} is empty or runs backwards"
+        )));
     }
-    let (a, b) = (
-        bounds[0].as_f64().unwrap_or(0.0),
-        bounds[1].as_f64().unwrap_or(0.0),
-    );
-    let s = step.and_then(Value::as_f64).unwrap_or(1.0);
+    let n = b
+        .checked_sub(a)
+        .map_or(usize::MAX, |d| (d / s) as usize)
+        .saturating_add(1);
+    if n > MAX_RANGE {
+        return Err(RangeFault::TooLong(format!(
+            "the range has {n} values, more than {MAX_RANGE}"
+        )));
+    }
+    Ok((0..n).map(|i| Value::from(a + s * i as i64)).collect())
+}
+
+/// `a, a + s, …` up to `b` (within rounding) in floating point, each rounded to 12
+/// significant digits.
+fn float_range(a: f64, b: f64, s: f64) -> Result<Vec<Value>, RangeFault> {
     if !(s > 0.0) || !(b >= a) || !a.is_finite() || !b.is_finite() {
-        return Err(sweep
-            .at_value(
-                &p,
-                format!("the range [{a}, {b}] with step {s} is empty or runs backwards"),
-            )
-            .field(field)
-            .help(help));
+        return Err(RangeFault::Empty(format!(
+            "the range [{a}, {b}] with step {s} is empty or runs backwards"
+        )));
     }
     let n = ((b - a) / s * (1.0 + 1e-12) + 1e-9).floor() + 1.0;
     if !(n <= MAX_RANGE as f64) {
-        return Err(sweep
-            .at_value(
-                &p,
-                format!("the range has {n} values, more than {MAX_RANGE}"),
-            )
-            .field(field)
-            .help("narrow the range or raise the step"));
+        return Err(RangeFault::TooLong(format!(
+            "the range has {n} values, more than {MAX_RANGE}"
+        )));
     }
     Ok((0..n as usize)
         .map(|i| {
@@ -460,17 +470,60 @@ pub fn expand(sweep: &SourcedSweep, pipeline: &SourcedSpec) -> Result<Expansion,
     expand_all(sweep, pipeline).map_err(|d| super::spec::capped(&sweep.file, d.0))
 }
 
+/// The phases of [`expand`]: the axes, their product's size, the exclusion rules, the points,
+/// and the exclusions that matched nothing.
 fn expand_all(sweep: &SourcedSweep, pipeline: &SourcedSpec) -> Result<Expansion, Diagnostics> {
-    let mut diags = Vec::new();
+    let axes = swept_axes(sweep, pipeline)?;
+    let params: Vec<ParamPath> = axes.iter().flat_map(|a| a.params.clone()).collect();
+    let total = point_count(sweep, &axes)?;
+    let rules = exclusion_rules(sweep, &axes, &params)?;
+    let product = product(sweep, &axes, &params, &rules, total);
+    check_exclusions_hit(sweep, &product.hits, product.points.is_empty())?;
+    Ok(Expansion {
+        params,
+        points: product.points,
+        excluded: product.excluded,
+    })
+}
+
+/// The axes in file order: one per `matrix:` entry, then one per `zip:` group.
+fn swept_axes(sweep: &SourcedSweep, pipeline: &SourcedSpec) -> Result<Vec<Axis>, Diagnostics> {
+    let mut r = AxisReader {
+        sweep,
+        pipeline,
+        seen: BTreeMap::new(),
+        diags: Vec::new(),
+    };
     let mut axes: Vec<Axis> = Vec::new();
-    let mut seen: BTreeMap<String, Vec<String>> = BTreeMap::new();
-    let mut note_param = |p: &ParamPath, at: Vec<String>, diags: &mut Vec<Diagnostic>| {
-        if let Some(first) = seen.get(&p.short()) {
-            let at_ref: Vec<&str> = at.iter().map(String::as_str).collect();
-            diags.push(
-                sweep
+    for (key, v) in &sweep.spec.matrix {
+        axes.extend(r.matrix_axis(key, v));
+    }
+    for (g, group) in sweep.spec.zip.iter().enumerate() {
+        axes.extend(r.zip_axis(g, group));
+    }
+    if !r.diags.is_empty() {
+        return Err(Diagnostics(r.diags));
+    }
+    Ok(axes)
+}
+
+/// Reads the axes, reporting every problem and each parameter swept in two places.
+struct AxisReader<'a> {
+    sweep: &'a SourcedSweep,
+    pipeline: &'a SourcedSpec,
+    /// Swept parameter (`stage.param`) → where it was first swept.
+    seen: BTreeMap<String, Vec<String>>,
+    diags: Vec<Diagnostic>,
+}
+
+impl AxisReader<'_> {
+    /// Notes `p` swept at `at`; false (with the problem reported) when it was swept before.
+    fn note_param(&mut self, p: &ParamPath, at: &[&str]) -> bool {
+        if let Some(first) = self.seen.get(&p.short()) {
+            self.diags.push(
+                self.sweep
                     .at_key(
-                        &at_ref,
+                        at,
                         format!(
                             "`{}` is swept twice (also at `{}`)",
                             p.text,
@@ -482,64 +535,85 @@ fn expand_all(sweep: &SourcedSweep, pipeline: &SourcedSpec) -> Result<Expansion,
             );
             false
         } else {
-            seen.insert(p.short(), at);
+            self.seen
+                .insert(p.short(), at.iter().map(|s| s.to_string()).collect());
             true
         }
-    };
-    for (key, v) in &sweep.spec.matrix {
-        let at = ["matrix", key.as_str()];
-        let p = match param_path(sweep, pipeline, key, &at) {
+    }
+
+    /// The axis of one `matrix:` entry.
+    fn matrix_axis(&mut self, key: &str, v: &Value) -> Option<Axis> {
+        let sweep = self.sweep;
+        let at = ["matrix", key];
+        let p = match param_path(sweep, self.pipeline, key, &at) {
             Ok(p) => p,
             Err(d) => {
-                diags.push(d);
-                continue;
+                self.diags.push(d);
+                return None;
             }
         };
         if sweep.spec.set.keys().any(|s| s == key) {
-            diags.push(
+            self.diags.push(
                 sweep
                     .at_key(&at, format!("`{key}` is both set and swept"))
                     .field(at.join("."))
                     .help("remove it from `set:` or from the matrix"),
             );
-            continue;
+            return None;
         }
-        if !note_param(&p, at.iter().map(|s| s.to_string()).collect(), &mut diags) {
-            continue;
+        if !self.note_param(&p, &at) {
+            return None;
         }
         match axis_values(sweep, &at, v) {
-            Ok(values) => axes.push(Axis {
+            Ok(values) => Some(Axis {
                 params: vec![p],
                 values: values.into_iter().map(|v| vec![v]).collect(),
             }),
-            Err(d) => diags.push(d),
+            Err(d) => {
+                self.diags.push(d);
+                None
+            }
         }
     }
-    for (g, group) in sweep.spec.zip.iter().enumerate() {
+
+    /// The axis of zip group `g`: its lists read, then joined position by position.
+    fn zip_axis(&mut self, g: usize, group: &IndexMap<String, Value>) -> Option<Axis> {
         let gi = g.to_string();
         if group.is_empty() {
-            diags.push(
-                sweep
+            self.diags.push(
+                self.sweep
                     .at_value(&["zip", &gi], "a zip group needs at least one parameter")
                     .field(format!("zip.{g}"))
                     .help("write `- {stage.with.a: [..], stage.with.b: [..]}` with lists of equal length"),
             );
-            continue;
+            return None;
         }
+        let (params, lists) = self.zip_lists(&gi, group)?;
+        let values = self.zip_tuples(g, group, &lists)?;
+        Some(Axis { params, values })
+    }
+
+    /// The parameters and value lists of a zip group; `None` when any is wrong.
+    fn zip_lists(
+        &mut self,
+        gi: &str,
+        group: &IndexMap<String, Value>,
+    ) -> Option<(Vec<ParamPath>, Vec<Vec<Value>>)> {
+        let sweep = self.sweep;
         let mut params = Vec::new();
         let mut lists: Vec<Vec<Value>> = Vec::new();
         let mut ok = true;
         for (key, v) in group {
-            let at = ["zip", gi.as_str(), key.as_str()];
-            let p = match param_path(sweep, pipeline, key, &at) {
+            let at = ["zip", gi, key.as_str()];
+            let p = match param_path(sweep, self.pipeline, key, &at) {
                 Ok(p) => p,
                 Err(d) => {
-                    diags.push(d);
+                    self.diags.push(d);
                     ok = false;
                     continue;
                 }
             };
-            if !note_param(&p, at.iter().map(|s| s.to_string()).collect(), &mut diags) {
+            if !self.note_param(&p, &at) {
                 ok = false;
                 continue;
             }
@@ -556,9 +630,9 @@ fn expand_all(sweep: &SourcedSweep, pipeline: &SourcedSpec) -> Result<Expansion,
                 Ok(vals) => {
                     if let Some(i) = vals.iter().position(Value::is_null) {
                         let idx = i.to_string();
-                        diags.push(
+                        self.diags.push(
                             sweep
-                                .at_value(&["zip", &gi, key, &idx], "null is not a parameter value")
+                                .at_value(&["zip", gi, key, &idx], "null is not a parameter value")
                                 .field(at.join("."))
                                 .help("give a value"),
                         );
@@ -568,24 +642,32 @@ fn expand_all(sweep: &SourcedSweep, pipeline: &SourcedSpec) -> Result<Expansion,
                     lists.push(vals);
                 }
                 Err(d) => {
-                    diags.push(d);
+                    self.diags.push(d);
                     ok = false;
                 }
             }
         }
-        if !ok {
-            continue;
-        }
+        ok.then_some((params, lists))
+    }
+
+    /// The tuples of a zip group: its lists of equal length, no two positions the same.
+    fn zip_tuples(
+        &mut self,
+        g: usize,
+        group: &IndexMap<String, Value>,
+        lists: &[Vec<Value>],
+    ) -> Option<Vec<Vec<Value>>> {
+        let gi = g.to_string();
         let n = lists[0].len();
-        if let Some((k, l)) = group.keys().zip(&lists).find(|(_, l)| l.len() != n) {
+        if let Some((k, l)) = group.keys().zip(lists).find(|(_, l)| l.len() != n) {
             let first = group.keys().next().map(String::as_str).unwrap_or("");
-            diags.push(
-                sweep
+            self.diags.push(
+                self.sweep
                     .at_value(&["zip", &gi, k], format!("`{k}` has {} values but `{first}` has {n}", l.len()))
                     .field(format!("zip.{g}.{k}"))
                     .help("every list of a zip group gives one value per point: make them the same length"),
             );
-            continue;
+            return None;
         }
         let tuples: Vec<Vec<Value>> = (0..n)
             .map(|i| lists.iter().map(|l| l[i].clone()).collect())
@@ -600,8 +682,8 @@ fn expand_all(sweep: &SourcedSweep, pipeline: &SourcedSpec) -> Result<Expansion,
                 })
                 .map(|j| (i, j))
         }) {
-            diags.push(
-                sweep
+            self.diags.push(
+                self.sweep
                     .at_value(
                         &["zip", &gi],
                         format!(
@@ -613,23 +695,20 @@ fn expand_all(sweep: &SourcedSweep, pipeline: &SourcedSpec) -> Result<Expansion,
                     .field(format!("zip.{g}"))
                     .help("every position of a zip group must give a different combination"),
             );
-            continue;
+            return None;
         }
-        axes.push(Axis {
-            params,
-            values: tuples,
-        });
+        Some(tuples)
     }
-    if !diags.is_empty() {
-        return Err(Diagnostics(diags));
-    }
-    let params: Vec<ParamPath> = axes.iter().flat_map(|a| a.params.clone()).collect();
+}
+
+/// The number of points before exclusion, at most [`MAX_POINTS`].
+fn point_count(sweep: &SourcedSweep, axes: &[Axis]) -> Result<usize, Diagnostics> {
     let total = axes
         .iter()
         .try_fold(1usize, |acc, a| acc.checked_mul(a.values.len()))
         .filter(|n| *n <= MAX_POINTS);
-    let Some(total) = total else {
-        return Err(Diagnostics(vec![
+    total.ok_or_else(|| {
+        Diagnostics(vec![
             Diagnostic::new(
                 &sweep.file,
                 format!("the sweep expands to more than {MAX_POINTS} points"),
@@ -637,10 +716,21 @@ fn expand_all(sweep: &SourcedSweep, pipeline: &SourcedSpec) -> Result<Expansion,
             .at(sweep.locator.key(&["matrix"]))
             .field("matrix")
             .help("split it into several sweeps or use fewer values"),
-        ]));
-    };
-    // Exclusions: parameter → value, checked against the axes.
-    let mut rules: Vec<Vec<(usize, Value)>> = Vec::new();
+        ])
+    })
+}
+
+/// An exclusion: (index into the swept parameters, value) pairs that must all hold.
+type Rule = Vec<(usize, Value)>;
+
+/// The `exclude:` entries, each parameter checked to be swept and to take the value.
+fn exclusion_rules(
+    sweep: &SourcedSweep,
+    axes: &[Axis],
+    params: &[ParamPath],
+) -> Result<Vec<Rule>, Diagnostics> {
+    let mut diags = Vec::new();
+    let mut rules: Vec<Rule> = Vec::new();
     for (e, entry) in sweep.spec.exclude.iter().enumerate() {
         let ei = e.to_string();
         if entry.is_empty() {
@@ -657,58 +747,82 @@ fn expand_all(sweep: &SourcedSweep, pipeline: &SourcedSpec) -> Result<Expansion,
         }
         let mut rule = Vec::new();
         for (key, v) in entry {
-            let at = ["exclude", ei.as_str(), key.as_str()];
-            let Some(pi) = params
-                .iter()
-                .position(|p| p.text == *key || p.short() == *key)
-            else {
-                let names: Vec<&str> = params.iter().map(|p| p.text.as_str()).collect();
-                let help = match nearest(key, names.iter().copied()) {
-                    Some(n) => format!("did you mean `{n}`?"),
-                    None if names.is_empty() => "the sweep has no swept parameter".to_string(),
-                    None => format!("swept parameters: {}", names.join(", ")),
-                };
-                diags.push(
-                    sweep
-                        .at_key(&at, format!("`{key}` is not a swept parameter"))
-                        .field(format!("exclude.{e}.{key}"))
-                        .help(help),
-                );
-                continue;
-            };
-            let takes = axes
-                .iter()
-                .flat_map(|a| {
-                    let col = a.params.iter().position(|p| *p == params[pi]);
-                    col.map(|c| a.values.iter().map(move |t| &t[c]))
-                })
-                .flatten()
-                .any(|x| same_value(x, v));
-            if !takes {
-                let values: Vec<String> = axes
-                    .iter()
-                    .flat_map(|a| {
-                        let col = a.params.iter().position(|p| *p == params[pi]);
-                        col.map(|c| a.values.iter().map(move |t| show(&t[c])))
-                    })
-                    .flatten()
-                    .take(12)
-                    .collect();
-                diags.push(
-                    sweep
-                        .at_value(&at, format!("`{key}` never takes the value {}", show(v)))
-                        .field(format!("exclude.{e}.{key}"))
-                        .help(format!("its values are: {}", values.join(", "))),
-                );
-                continue;
+            match exclusion_term(sweep, axes, params, e, key, v) {
+                Ok(pi) => rule.push((pi, v.clone())),
+                Err(d) => diags.push(d),
             }
-            rule.push((pi, v.clone()));
         }
         rules.push(rule);
     }
     if !diags.is_empty() {
         return Err(Diagnostics(diags));
     }
+    Ok(rules)
+}
+
+/// The swept parameter `key` of exclusion `e` (its index), checked to take the value `v`.
+// A diagnostic is built on the error path only, where its size costs nothing.
+#[allow(clippy::result_large_err)]
+fn exclusion_term(
+    sweep: &SourcedSweep,
+    axes: &[Axis],
+    params: &[ParamPath],
+    e: usize,
+    key: &str,
+    v: &Value,
+) -> Result<usize, Diagnostic> {
+    let ei = e.to_string();
+    let at = ["exclude", ei.as_str(), key];
+    let Some(pi) = params
+        .iter()
+        .position(|p| p.text == *key || p.short() == *key)
+    else {
+        let names: Vec<&str> = params.iter().map(|p| p.text.as_str()).collect();
+        let help = match nearest(key, names.iter().copied()) {
+            Some(n) => format!("did you mean `{n}`?"),
+            None if names.is_empty() => "the sweep has no swept parameter".to_string(),
+            None => format!("swept parameters: {}", names.join(", ")),
+        };
+        return Err(sweep
+            .at_key(&at, format!("`{key}` is not a swept parameter"))
+            .field(format!("exclude.{e}.{key}"))
+            .help(help));
+    };
+    // The values parameter `pi` takes, over every axis it is on.
+    let taken = || {
+        axes.iter()
+            .flat_map(|a| {
+                let col = a.params.iter().position(|p| *p == params[pi]);
+                col.map(|c| a.values.iter().map(move |t| &t[c]))
+            })
+            .flatten()
+    };
+    if !taken().any(|x| same_value(x, v)) {
+        let values: Vec<String> = taken().map(show).take(12).collect();
+        return Err(sweep
+            .at_value(&at, format!("`{key}` never takes the value {}", show(v)))
+            .field(format!("exclude.{e}.{key}"))
+            .help(format!("its values are: {}", values.join(", "))));
+    }
+    Ok(pi)
+}
+
+/// The points of the product, how many were excluded, and how many each rule removed.
+struct Product {
+    points: Vec<Point>,
+    excluded: usize,
+    hits: Vec<usize>,
+}
+
+/// Walks the product of the axes (the last axis fastest), dropping excluded points and
+/// naming the others with their `--set` overrides (the sweep's `set:` first).
+fn product(
+    sweep: &SourcedSweep,
+    axes: &[Axis],
+    params: &[ParamPath],
+    rules: &[Rule],
+    total: usize,
+) -> Product {
     let mut hits = vec![0usize; rules.len()];
     let mut points = Vec::new();
     let base_sets: Vec<String> = sweep
@@ -742,7 +856,7 @@ fn expand_all(sweep: &SourcedSweep, pipeline: &SourcedSpec) -> Result<Expansion,
             overrides.extend(params.iter().zip(&values).map(|(p, v)| p.set_arg(v)));
             points.push(Point {
                 index: points.len(),
-                name: point_name(&params, &values),
+                name: point_name(params, &values),
                 values: params.iter().map(|p| p.text.clone()).zip(values).collect(),
                 overrides,
             });
@@ -756,6 +870,20 @@ fn expand_all(sweep: &SourcedSweep, pipeline: &SourcedSpec) -> Result<Expansion,
             idx[k] = 0;
         }
     }
+    Product {
+        points,
+        excluded,
+        hits,
+    }
+}
+
+/// Every exclusion removed a point, and some point is left.
+fn check_exclusions_hit(
+    sweep: &SourcedSweep,
+    hits: &[usize],
+    no_points: bool,
+) -> Result<(), Diagnostics> {
+    let mut diags = Vec::new();
     for (r, h) in hits.iter().enumerate() {
         if *h == 0 {
             let ri = r.to_string();
@@ -767,7 +895,7 @@ fn expand_all(sweep: &SourcedSweep, pipeline: &SourcedSpec) -> Result<Expansion,
             );
         }
     }
-    if points.is_empty() && diags.is_empty() {
+    if no_points && diags.is_empty() {
         diags.push(
             Diagnostic::new(&sweep.file, "every point is excluded")
                 .at(sweep.locator.key(&["exclude"]))
@@ -778,11 +906,7 @@ fn expand_all(sweep: &SourcedSweep, pipeline: &SourcedSpec) -> Result<Expansion,
     if !diags.is_empty() {
         return Err(Diagnostics(diags));
     }
-    Ok(Expansion {
-        params,
-        points,
-        excluded,
-    })
+    Ok(())
 }
 
 /// A value as a name segment: numbers and booleans as written, safe text as is, other text

@@ -266,8 +266,13 @@ pub fn run_local(
             path: resolved.sweep.path.clone(),
             source,
         })?;
-    let bar = progress_bar(opts.progress, todo.len());
-    let step = todo.len().div_ceil(10).max(1);
+    let progress = WorkerProgress {
+        bar: progress_bar(opts.progress, todo.len()),
+        show: opts.progress,
+        step: todo.len().div_ceil(10).max(1),
+        total: todo.len(),
+        t0,
+    };
     let mut queue = todo.iter();
     let mut running: Vec<(Child, &super::PlannedPoint)> = Vec::new();
     loop {
@@ -303,35 +308,7 @@ pub fn run_local(
                     let (_, p) = running.swap_remove(i);
                     finished_any = true;
                     let s = finish_worker(state, p, code)?;
-                    report.requested += s.requested;
-                    report.executed += s.executed;
-                    if s.state == PointState::Done {
-                        report.ran += 1;
-                    } else {
-                        let msg = s.message.clone().unwrap_or_default();
-                        // The first few failures as they happen; all of them in the report.
-                        if report.failed.len() < 3 {
-                            let line = format!("point {} failed: {msg}", p.point.name);
-                            match &bar {
-                                Some(b) => b.println(line),
-                                None if opts.progress => eprintln!("[femu] {line}"),
-                                None => {}
-                            }
-                        }
-                        report.failed.push((p.point.name.clone(), msg));
-                    }
-                    let finished = report.ran + report.failed.len();
-                    match &bar {
-                        Some(b) => b.inc(1),
-                        // Plain lines at every tenth of the way, for logs.
-                        None if opts.progress && finished % step == 0 => eprintln!(
-                            "[femu] {finished}/{} points ({} failed), {:.1} s",
-                            todo.len(),
-                            report.failed.len(),
-                            t0.elapsed().as_secs_f64()
-                        ),
-                        None => {}
-                    }
+                    progress.record(&mut report, &p.point.name, s);
                 }
             }
         }
@@ -339,7 +316,7 @@ pub fn run_local(
             std::thread::sleep(Duration::from_millis(5));
         }
     }
-    if let Some(b) = bar {
+    if let Some(b) = progress.bar {
         b.finish_and_clear();
     }
     report.seconds = t0.elapsed().as_secs_f64();
@@ -352,6 +329,51 @@ pub fn run_local(
         seconds: report.seconds,
     })?;
     Ok(report)
+}
+
+/// Progress of the local workers: a bar on a terminal, else (when shown) lines on stderr.
+struct WorkerProgress {
+    bar: Option<indicatif::ProgressBar>,
+    show: bool,
+    /// Points between plain progress lines: a tenth of the way.
+    step: usize,
+    total: usize,
+    t0: Instant,
+}
+
+impl WorkerProgress {
+    /// Counts a finished point in the report and shows the progress.
+    fn record(&self, report: &mut SweepReport, name: &str, s: PointStatus) {
+        report.requested += s.requested;
+        report.executed += s.executed;
+        if s.state == PointState::Done {
+            report.ran += 1;
+        } else {
+            let msg = s.message.clone().unwrap_or_default();
+            // The first few failures as they happen; all of them in the report.
+            if report.failed.len() < 3 {
+                let line = format!("point {name} failed: {msg}");
+                match &self.bar {
+                    Some(b) => b.println(line),
+                    None if self.show => eprintln!("[femu] {line}"),
+                    None => {}
+                }
+            }
+            report.failed.push((name.to_string(), msg));
+        }
+        let finished = report.ran + report.failed.len();
+        match &self.bar {
+            Some(b) => b.inc(1),
+            // Plain lines at every tenth of the way, for logs.
+            None if self.show && finished % self.step == 0 => eprintln!(
+                "[femu] {finished}/{} points ({} failed), {:.1} s",
+                self.total,
+                report.failed.len(),
+                self.t0.elapsed().as_secs_f64()
+            ),
+            None => {}
+        }
+    }
 }
 
 fn progress_bar(show: bool, n: usize) -> Option<indicatif::ProgressBar> {

@@ -10,6 +10,7 @@
 use super::SweepError;
 use super::expand::Resolved;
 use super::run::{SweepReport, pending};
+use super::spec::SlurmSpec;
 use super::state::{PointState, PointStatus, RunRecord, StateDir, host_name, now_unix};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -137,42 +138,19 @@ fn check_script_inputs(resolved: &Resolved, batch: &str, femu: &str) -> Result<(
     Ok(())
 }
 
-/// Prepares the submission of the unfinished points (nothing is written). Every value written
-/// into an `#SBATCH` line is checked against a safe alphabet, and everything in a command is
-/// shell-quoted.
-pub fn prepare(
-    resolved: &Resolved,
-    state: &StateDir,
-    cache_dir: &Path,
-    exe: &Path,
-    batch: &str,
-) -> Result<Submission, SweepError> {
-    let sl = &resolved.sweep.spec.slurm;
-    let todo = pending(resolved, state);
-    let points: Vec<(String, String)> = todo
-        .iter()
-        .map(|p| (p.point.name.clone(), p.plan_hash.clone()))
-        .collect();
+/// Points per array task and array tasks for `points` points: `points_per_task` (default 1),
+/// raised so that the array stays within `max_array_size` (default 1000).
+fn array_layout(sl: &SlurmSpec, points: usize) -> (usize, usize) {
     let max_array = sl.max_array_size.unwrap_or(1000).max(1) as usize;
     let mut per_task = sl.points_per_task.unwrap_or(1).max(1) as usize;
-    if points.len().div_ceil(per_task) > max_array {
-        per_task = points.len().div_ceil(max_array);
+    if points.div_ceil(per_task) > max_array {
+        per_task = points.div_ceil(max_array);
     }
-    let tasks = points.len().div_ceil(per_task);
-    let femu = sl.femu.clone().unwrap_or_else(|| exe.display().to_string());
-    check_script_inputs(resolved, batch, &femu)?;
-    let sweep_file =
-        std::fs::canonicalize(&resolved.sweep.path).map_err(|source| SweepError::Io {
-            path: resolved.sweep.path.clone(),
-            source,
-        })?;
-    let cache_dir = std::fs::canonicalize(cache_dir).map_err(|source| SweepError::Io {
-        path: cache_dir.to_path_buf(),
-        source,
-    })?;
-    let root = state.root();
-    let tasks_file = root.join("tasks").join(format!("{batch}.txt"));
-    let name = resolved.sweep.name();
+    (per_task, points.div_ceil(per_task))
+}
+
+/// The `#SBATCH` directives of the sweep's resources, in a fixed order, then `extra`.
+fn resource_directives(sl: &SlurmSpec) -> Vec<String> {
     let mut resources = Vec::new();
     if let Some(p) = &sl.partition {
         resources.push(format!("#SBATCH --partition={p}"));
@@ -192,6 +170,56 @@ pub fn prepare(
     for e in &sl.extra {
         resources.push(format!("#SBATCH {e}"));
     }
+    resources
+}
+
+/// A batch script: the shebang, `header`, the resource directives, strict variables, the
+/// rayon thread count from Slurm's CPUs, then `body`.
+fn batch_script(header: &str, resources: &[String], body: &str) -> String {
+    let mut s = String::from("#!/bin/bash\n");
+    s.push_str(header);
+    for r in resources {
+        s.push_str(r);
+        s.push('\n');
+    }
+    s.push_str("set -u\n");
+    s.push_str("export RAYON_NUM_THREADS=\"${SLURM_CPUS_PER_TASK:-1}\"\n");
+    s.push_str(body);
+    s
+}
+
+/// Prepares the submission of the unfinished points (nothing is written). Every value written
+/// into an `#SBATCH` line is checked against a safe alphabet, and everything in a command is
+/// shell-quoted.
+pub fn prepare(
+    resolved: &Resolved,
+    state: &StateDir,
+    cache_dir: &Path,
+    exe: &Path,
+    batch: &str,
+) -> Result<Submission, SweepError> {
+    let sl = &resolved.sweep.spec.slurm;
+    let todo = pending(resolved, state);
+    let points: Vec<(String, String)> = todo
+        .iter()
+        .map(|p| (p.point.name.clone(), p.plan_hash.clone()))
+        .collect();
+    let (per_task, tasks) = array_layout(sl, points.len());
+    let femu = sl.femu.clone().unwrap_or_else(|| exe.display().to_string());
+    check_script_inputs(resolved, batch, &femu)?;
+    let sweep_file =
+        std::fs::canonicalize(&resolved.sweep.path).map_err(|source| SweepError::Io {
+            path: resolved.sweep.path.clone(),
+            source,
+        })?;
+    let cache_dir = std::fs::canonicalize(cache_dir).map_err(|source| SweepError::Io {
+        path: cache_dir.to_path_buf(),
+        source,
+    })?;
+    let root = state.root();
+    let tasks_file = root.join("tasks").join(format!("{batch}.txt"));
+    let name = resolved.sweep.name();
+    let resources = resource_directives(sl);
     // femu submits from the state directory, so a relative path reaches the same logs when the
     // state directory's own path cannot be written in a directive.
     let logs = root.join("slurm").join("logs").display().to_string();
@@ -200,18 +228,7 @@ pub fn prepare(
     } else {
         "slurm/logs".to_string()
     };
-    let common = |body: &str, header: &str| {
-        let mut s = String::from("#!/bin/bash\n");
-        s.push_str(header);
-        for r in &resources {
-            s.push_str(r);
-            s.push('\n');
-        }
-        s.push_str("set -u\n");
-        s.push_str("export RAYON_NUM_THREADS=\"${SLURM_CPUS_PER_TASK:-1}\"\n");
-        s.push_str(body);
-        s
-    };
+    let common = |body: &str, header: &str| batch_script(header, &resources, body);
     let mut args = format!(
         "{} --cache-dir {} --out {}",
         sh_quote(&sweep_file.display().to_string()),
@@ -454,6 +471,70 @@ pub fn follow(
     opts: &FollowOptions,
 ) -> Result<SweepReport, SweepError> {
     let t0 = Instant::now();
+    wait_for_jobs(sub, jobs, state, opts, t0)?;
+    let array = jobs.last().cloned().unwrap_or_default();
+    let states = task_states(&array);
+    let mut report = SweepReport::default();
+    for (i, (name, hash)) in sub.points.iter().enumerate() {
+        let task = i / sub.per_task.max(1);
+        let s = match state.status(name) {
+            Some(s) if s.plan_hash == *hash && s.state != PointState::Running => s,
+            other => {
+                let why = states
+                    .get(&task)
+                    .map(|s| format!("Slurm ended task {task} as {s}"))
+                    .unwrap_or_else(|| {
+                        format!("array task {task} ended without recording a result")
+                    });
+                let log = state
+                    .root()
+                    .join("slurm/logs")
+                    .join(format!("{}_{task}.out", sub.batch));
+                let s = lost_point_status(
+                    name,
+                    hash,
+                    other,
+                    format!("{array}_{task}"),
+                    format!("{why}; see {}", log.display()),
+                );
+                state.write_status(&s)?;
+                s
+            }
+        };
+        report.requested += s.requested;
+        report.executed += s.executed;
+        match s.state {
+            PointState::Done => report.ran += 1,
+            _ => report
+                .failed
+                .push((name.clone(), s.message.clone().unwrap_or_default())),
+        }
+    }
+    if let Some(c) = read_common_record(state, &sub.batch) {
+        report.requested += c.0;
+        report.executed += c.1;
+    }
+    report.seconds = t0.elapsed().as_secs_f64();
+    state.append_run(&RunRecord {
+        backend: "slurm".into(),
+        points: report.ran + report.failed.len(),
+        failed: report.failed.len(),
+        requested: report.requested,
+        executed: report.executed,
+        seconds: report.seconds,
+    })?;
+    Ok(report)
+}
+
+/// Polls `squeue` every `opts.poll` until none of `jobs` is queued, reporting the finished
+/// points as they change; an error once `opts.timeout` has passed (the jobs go on).
+fn wait_for_jobs(
+    sub: &Submission,
+    jobs: &[String],
+    state: &StateDir,
+    opts: &FollowOptions,
+    t0: Instant,
+) -> Result<(), SweepError> {
     let mut last = usize::MAX;
     loop {
         let active = queued(jobs)?;
@@ -486,78 +567,42 @@ pub fn follow(
         }
         std::thread::sleep(opts.poll);
     }
-    let array = jobs.last().cloned().unwrap_or_default();
-    let states = task_states(&array);
-    let mut report = SweepReport::default();
-    for (i, (name, hash)) in sub.points.iter().enumerate() {
-        let task = i / sub.per_task.max(1);
-        let s = match state.status(name) {
-            Some(s) if s.plan_hash == *hash && s.state != PointState::Running => s,
-            other => {
-                let why = states
-                    .get(&task)
-                    .map(|s| format!("Slurm ended task {task} as {s}"))
-                    .unwrap_or_else(|| {
-                        format!("array task {task} ended without recording a result")
-                    });
-                let s = PointStatus {
-                    point: name.clone(),
-                    state: PointState::Failed,
-                    plan_hash: hash.clone(),
-                    overrides: other
-                        .as_ref()
-                        .map(|o| o.overrides.clone())
-                        .unwrap_or_default(),
-                    host: other
-                        .as_ref()
-                        .map(|o| o.host.clone())
-                        .unwrap_or_else(host_name),
-                    pid: other.as_ref().map(|o| o.pid).unwrap_or(0),
-                    slurm_job: Some(format!("{array}_{task}")),
-                    started_unix: other
-                        .as_ref()
-                        .map(|o| o.started_unix)
-                        .unwrap_or_else(now_unix),
-                    seconds: 0.0,
-                    requested: 0,
-                    executed: 0,
-                    message: Some(format!(
-                        "{why}; see {}",
-                        state
-                            .root()
-                            .join("slurm/logs")
-                            .join(format!("{}_{task}.out", sub.batch))
-                            .display()
-                    )),
-                    stages: BTreeMap::new(),
-                };
-                state.write_status(&s)?;
-                s
-            }
-        };
-        report.requested += s.requested;
-        report.executed += s.executed;
-        match s.state {
-            PointState::Done => report.ran += 1,
-            _ => report
-                .failed
-                .push((name.clone(), s.message.clone().unwrap_or_default())),
-        }
+    Ok(())
+}
+
+/// The failed status of a point whose array task `job` ended without recording a result,
+/// keeping what its last status (`other`) knew.
+fn lost_point_status(
+    name: &str,
+    hash: &str,
+    other: Option<PointStatus>,
+    job: String,
+    message: String,
+) -> PointStatus {
+    PointStatus {
+        point: name.to_string(),
+        state: PointState::Failed,
+        plan_hash: hash.to_string(),
+        overrides: other
+            .as_ref()
+            .map(|o| o.overrides.clone())
+            .unwrap_or_default(),
+        host: other
+            .as_ref()
+            .map(|o| o.host.clone())
+            .unwrap_or_else(host_name),
+        pid: other.as_ref().map(|o| o.pid).unwrap_or(0),
+        slurm_job: Some(job),
+        started_unix: other
+            .as_ref()
+            .map(|o| o.started_unix)
+            .unwrap_or_else(now_unix),
+        seconds: 0.0,
+        requested: 0,
+        executed: 0,
+        message: Some(message),
+        stages: BTreeMap::new(),
     }
-    if let Some(c) = read_common_record(state, &sub.batch) {
-        report.requested += c.0;
-        report.executed += c.1;
-    }
-    report.seconds = t0.elapsed().as_secs_f64();
-    state.append_run(&RunRecord {
-        backend: "slurm".into(),
-        points: report.ran + report.failed.len(),
-        failed: report.failed.len(),
-        requested: report.requested,
-        executed: report.executed,
-        seconds: report.seconds,
-    })?;
-    Ok(report)
 }
 
 /// Path where the common-stages job records (requested, executed).

@@ -1,0 +1,210 @@
+//! `femu bench`: time assembly and the lowest modes of a plate or the muffler box, one P-C
+//! iteration, or component mode synthesis; print the figures and write them as JSON.
+
+use super::{BenchArgs, Failure};
+
+/// `femu bench`: `--cms`, `--pc-iteration` or the model benchmark, in that precedence.
+pub(super) fn run(a: BenchArgs) -> Result<u8, Failure> {
+    if a.cms {
+        cms(a)
+    } else if a.pc_iteration {
+        pc_iteration(a)
+    } else {
+        models(a)
+    }
+}
+
+/// `femu bench --cms`.
+fn cms(a: BenchArgs) -> Result<u8, Failure> {
+    let BenchArgs {
+        dofs,
+        modes,
+        json,
+        parts,
+        ..
+    } = a;
+    let dofs = if dofs.is_empty() { vec![100_000] } else { dofs };
+    let parts = if parts.is_empty() { vec![8, 64] } else { parts };
+    let count = modes.first().copied().unwrap_or(50);
+    let mut all = Vec::new();
+    for n in dofs {
+        let b = crate::bench::cms_bench(n, &parts, count).map_err(|e| anyhow::anyhow!(e))?;
+        println!(
+            "muffler {} DOFs, lowest {} modes: assembly {:.2} s, direct eigen {:.2} s (peak {:.0} MiB); Craig-Bampton, component and interface modes to {:.0} Hz",
+            b.dofs,
+            b.modes,
+            b.assembly_seconds,
+            b.direct_seconds,
+            b.direct_peak_rss_mib.unwrap_or(f64::NAN),
+            b.component_cut_off_hz
+        );
+        println!(
+            "{:>6} {:>9} {:>10} {:>12} {:>9} {:>9} {:>9} {:>9} {:>9} {:>10} {:>11} {:>8} {:>9}",
+            "parts",
+            "junction",
+            "max part",
+            "iface+modal",
+            "partition",
+            "condense",
+            "interface",
+            "reduce",
+            "modes",
+            "max err",
+            "re-analyse",
+            "speed-up",
+            "peak MiB"
+        );
+        for s in &b.splits {
+            println!(
+                "{:>6} {:>9} {:>10} {:>12} {:>9.2} {:>9.2} {:>9.2} {:>9.2} {:>9.2} {:>10.1e} {:>11.2} {:>7.1}x {:>9.0}",
+                s.parts,
+                s.junction_dofs,
+                s.largest_part_dofs,
+                format!(
+                    "{}+{}",
+                    s.interface_modes,
+                    s.reduced_size.1 - s.interface_modes
+                ),
+                s.partition_seconds,
+                s.condensation_seconds,
+                s.interface_seconds,
+                s.reduce_seconds,
+                s.reduced_modes_seconds,
+                s.max_eigenvalue_error,
+                s.reanalysis_seconds,
+                s.speed_up,
+                s.peak_rss_mib.unwrap_or(f64::NAN)
+            );
+        }
+        all.push(b);
+    }
+    if let Some(path) = json {
+        std::fs::write(&path, serde_json::to_string_pretty(&all)?)?;
+    }
+    Ok(0)
+}
+
+/// `femu bench --pc-iteration`.
+fn pc_iteration(a: BenchArgs) -> Result<u8, Failure> {
+    let BenchArgs {
+        dofs, modes, json, ..
+    } = a;
+    let dofs = if dofs.is_empty() { vec![100_000] } else { dofs };
+    let basis = modes.first().copied().unwrap_or(100);
+    let mut all = Vec::new();
+    for n in dofs {
+        let b = crate::bench::pc_iteration_bench(n, 50, 10, 1000, basis)
+            .map_err(|e| anyhow::anyhow!(e))?;
+        println!(
+            "P-C iteration, muffler {} DOFs, {} parameters, {} FRFs, {} lines, {} modes:\n  assembly + derivatives {:.2} s, eigen {:.2} s (factor {:.1} s, {} solves {:.1} s, orthogonalisation {:.1} s, M products {:.1} s, refinement {:.1} s),\n  projections {:.2} s, static correction {:.2} s ({}),\n  prediction {:.3} s, sensitivity sweep {:.3} s ({:.0} GFLOP/s direct-sum equivalent), solve {:.3} s;\n  iteration {:.2} s, peak memory {:.0} MiB",
+            b.dofs,
+            b.parameters,
+            b.frfs,
+            b.lines,
+            b.modes,
+            b.assembly_seconds,
+            b.eigen_seconds,
+            b.eigen.factor_seconds,
+            b.eigen.solves,
+            b.eigen.solve_seconds,
+            b.eigen.orthogonalisation_seconds,
+            b.eigen.mass_product_seconds,
+            b.eigen.refinement_seconds,
+            b.projection_seconds,
+            b.static_correction_seconds,
+            match b.static_shift_steps {
+                Some(k) => format!("the eigensolver's factor, {k} shift steps"),
+                None => "a second factorisation".to_string(),
+            },
+            b.prediction_seconds,
+            b.sweep_seconds,
+            b.sweep_gflops,
+            b.solve_seconds,
+            b.iteration_seconds,
+            b.peak_rss_mib.unwrap_or(f64::NAN)
+        );
+        all.push(b);
+    }
+    if let Some(path) = json {
+        std::fs::write(&path, serde_json::to_string_pretty(&all)?)?;
+    }
+    Ok(0)
+}
+
+/// `femu bench` of the plate, or of the muffler with `--muffler`.
+fn models(a: BenchArgs) -> Result<u8, Failure> {
+    let BenchArgs {
+        dofs,
+        modes,
+        json,
+        muffler,
+        ..
+    } = a;
+    let which = if muffler {
+        crate::bench::BenchModel::Muffler
+    } else {
+        crate::bench::BenchModel::Plate
+    };
+    let dofs = if dofs.is_empty() {
+        vec![10_000, 100_000]
+    } else {
+        dofs
+    };
+    let modes = if modes.is_empty() {
+        vec![50, 100]
+    } else {
+        modes
+    };
+    let threads = rayon::current_num_threads();
+    println!(
+        "{}, four-node shells, {threads} threads",
+        if muffler {
+            "free-free muffler-like box"
+        } else {
+            "clamped steel plate"
+        }
+    );
+    println!(
+        "{:>9} {:>11} {:>9} {:>9} {:>6} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>12} {:>10}",
+        "dofs",
+        "nnz(K)",
+        "assemble",
+        "peak MiB",
+        "modes",
+        "total",
+        "factor",
+        "solves",
+        "orthog",
+        "M*x",
+        "refine",
+        "nnz(L)",
+        "peak MiB"
+    );
+    let mut all = Vec::new();
+    for n in dofs {
+        let b = crate::bench::model_bench(which, n, &modes).map_err(|e| anyhow::anyhow!(e))?;
+        for m in &b.modes {
+            println!(
+                "{:>9} {:>11} {:>9.2} {:>9.0} {:>6} {:>8.2} {:>8.2} {:>8.2} {:>8.2} {:>8.2} {:>8.2} {:>12} {:>10.0}",
+                b.dofs,
+                b.nnz,
+                b.assembly_seconds,
+                b.peak_rss_mib.unwrap_or(f64::NAN),
+                m.count,
+                m.seconds,
+                m.info.factor_seconds,
+                m.info.solve_seconds,
+                m.info.orthogonalisation_seconds,
+                m.info.mass_product_seconds,
+                m.info.refinement_seconds,
+                m.info.factor.factor_entries,
+                m.peak_rss_mib.unwrap_or(f64::NAN)
+            );
+        }
+        all.push(b);
+    }
+    if let Some(f) = json {
+        std::fs::write(&f, serde_json::to_string_pretty(&all)?)?;
+    }
+    Ok(0)
+}
