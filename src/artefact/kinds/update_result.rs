@@ -116,49 +116,7 @@ fn table_layouts() -> Vec<TableLayout> {
                 col("upper", "float64", "SI", "upper bound"),
             ],
         ),
-        table(
-            "iterations",
-            s,
-            true,
-            vec![
-                col("iteration", "int64", "", "0 = initial model"),
-                col("lines_used", "int64", "", "updating lines (or modes) used"),
-                col(
-                    "mean_chi_s",
-                    "float64",
-                    "",
-                    "mean shape correlation, all lines",
-                ),
-                col("mean_chi_a", "float64", "", "mean amplitude correlation"),
-                col("mean_chi", "float64", "", "mean (chi_s + chi_a)/2 (4.23)"),
-                col(
-                    "smoothing",
-                    "float64",
-                    "",
-                    "added loss factor of the P-C's frequency smoothing, 0 = none",
-                ),
-                col(
-                    "smoothed_mean_chi",
-                    "float64",
-                    "",
-                    "mean (chi_s + chi_a)/2 of the smoothed FRFs (the merit), NaN = none",
-                ),
-                col(
-                    "residual_norm",
-                    "float64",
-                    "",
-                    "norm of the weighted residual",
-                ),
-                col("condition", "float64", "", "condition number of S"),
-                col(
-                    "condition_limit",
-                    "float64",
-                    "",
-                    "kappa_mn of subset selection",
-                ),
-                col("active_count", "int64", "", "parameters updated"),
-            ],
-        ),
+        iterations_layout(),
         table(
             "history",
             s,
@@ -230,6 +188,54 @@ fn table_layouts() -> Vec<TableLayout> {
             ],
         ),
     ]
+}
+
+/// Per iteration: correlation, residual, conditioning, parameters updated.
+fn iterations_layout() -> TableLayout {
+    let s = Storage::Parquet;
+    table(
+        "iterations",
+        s,
+        true,
+        vec![
+            col("iteration", "int64", "", "0 = initial model"),
+            col("lines_used", "int64", "", "updating lines (or modes) used"),
+            col(
+                "mean_chi_s",
+                "float64",
+                "",
+                "mean shape correlation, all lines",
+            ),
+            col("mean_chi_a", "float64", "", "mean amplitude correlation"),
+            col("mean_chi", "float64", "", "mean (chi_s + chi_a)/2 (4.23)"),
+            col(
+                "smoothing",
+                "float64",
+                "",
+                "added loss factor of the P-C's frequency smoothing, 0 = none",
+            ),
+            col(
+                "smoothed_mean_chi",
+                "float64",
+                "",
+                "mean (chi_s + chi_a)/2 of the smoothed FRFs (the merit), NaN = none",
+            ),
+            col(
+                "residual_norm",
+                "float64",
+                "",
+                "norm of the weighted residual",
+            ),
+            col("condition", "float64", "", "condition number of S"),
+            col(
+                "condition_limit",
+                "float64",
+                "",
+                "kappa_mn of subset selection",
+            ),
+            col("active_count", "int64", "", "parameters updated"),
+        ],
+    )
 }
 
 /// An update history as an artefact; `method` names the method.
