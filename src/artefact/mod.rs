@@ -5,7 +5,7 @@
 //! Parquet for row tables, Arrow IPC for matrices and mode shapes — or, with the `hdf5` feature
 //! and `format: hdf5`, a single `data.h5`. Its digest is a blake3 hash of a canonical encoding of
 //! the content, independent of the file format, so downstream cache keys do not change when only
-//! the storage does. Typed views (`Frf`, `Modes`, …) live in [`kinds`].
+//! the storage does. Each kind is a type in [`kinds`]: its layout, writer and reader in one file.
 
 pub mod codec;
 pub mod compare;
@@ -13,19 +13,43 @@ pub mod digest;
 #[cfg(feature = "hdf5")]
 mod hdf5_codec;
 pub mod kinds;
-pub mod leverage;
-pub mod mesh;
-pub mod modal_correlation;
-pub mod reduced;
 mod table;
-pub mod update;
+
+/// The `mesh` kind's writer and reader (the path stages use).
+pub mod mesh {
+    pub use super::kinds::mesh::*;
+}
+
+/// The `update_result` kind's writer and readers.
+pub mod update {
+    pub use super::kinds::update_result::*;
+}
+
+/// The substructuring kinds: `partition`, `reduced_model`, `reduced_component`.
+pub mod reduced {
+    pub use super::kinds::partition::*;
+    pub use super::kinds::reduced_component::*;
+    pub use super::kinds::reduced_model::*;
+    pub use super::kinds::{dense_triplet_table, dof_index_digest};
+}
+
+/// The error-localisation kinds: `leverage`, `eigenvalue_sensitivity`.
+pub mod leverage {
+    pub use super::kinds::eigenvalue_sensitivity::*;
+    pub use super::kinds::leverage::*;
+}
+
+/// The `modal_correlation` kind.
+pub mod modal_correlation {
+    pub use super::kinds::modal_correlation::*;
+}
 
 pub use table::{Column, Storage, Table, TableError};
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-/// Every artefact kind with its schema version.
+/// Every artefact kind (its name, version, layout, writer and reader: [`kinds::Kind`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub enum ArtefactKind {
     /// System matrices `K`, `M`, optional `C`, `D`, with their DOF labels.
@@ -57,40 +81,9 @@ pub enum ArtefactKind {
 }
 
 impl ArtefactKind {
-    /// All kinds.
-    pub const ALL: [ArtefactKind; 13] = [
-        ArtefactKind::Matrices,
-        ArtefactKind::Modes,
-        ArtefactKind::Frf,
-        ArtefactKind::Correlation,
-        ArtefactKind::Plot,
-        ArtefactKind::Mesh,
-        ArtefactKind::UpdateResult,
-        ArtefactKind::Partition,
-        ArtefactKind::ReducedModel,
-        ArtefactKind::ReducedComponent,
-        ArtefactKind::ModalCorrelation,
-        ArtefactKind::Leverage,
-        ArtefactKind::EigenvalueSensitivity,
-    ];
-
     /// The name used in files and port declarations.
     pub fn name(self) -> &'static str {
-        match self {
-            ArtefactKind::Matrices => "matrices",
-            ArtefactKind::Modes => "modes",
-            ArtefactKind::Frf => "frf",
-            ArtefactKind::Correlation => "correlation",
-            ArtefactKind::Plot => "plot",
-            ArtefactKind::Mesh => "mesh",
-            ArtefactKind::UpdateResult => "update_result",
-            ArtefactKind::Partition => "partition",
-            ArtefactKind::ReducedModel => "reduced_model",
-            ArtefactKind::ReducedComponent => "reduced_component",
-            ArtefactKind::ModalCorrelation => "modal_correlation",
-            ArtefactKind::Leverage => "leverage",
-            ArtefactKind::EigenvalueSensitivity => "eigenvalue_sensitivity",
-        }
+        kinds::name_of(self)
     }
 
     /// Kind from its name.
@@ -100,7 +93,7 @@ impl ArtefactKind {
 
     /// Current schema version; bumped on any change of layout or meaning.
     pub fn schema_version(self) -> u32 {
-        1
+        kinds::version_of(self)
     }
 }
 

@@ -1,0 +1,201 @@
+//! The `matrices` kind: system matrices `K`, `M`, optional `C`, `D`, with their DOF labels, and
+//! (written by `assemble` and `model.lumped`) the derivatives `dK__<p>`, `dM__<p>` of updating
+//! parameters.
+//!
+//! | table (storage) | columns |
+//! |---|---|
+//! | `dofs` (Parquet) | `index, dof, node, comp` |
+//! | `K`, `M`, `C`, `D`, `dK__<p>`, `dM__<p>` (IPC) | `row, col, value` |
+
+use super::{
+    Kind, Layout, col, expect_kind, meta, meta_opt, parse_dofs, read_sparse, table, triplet_layout,
+    triplet_table,
+};
+use crate::artefact::{Artefact, ArtefactError, ArtefactKind, Column, Storage, Table};
+use crate::core::DofId;
+use crate::fe::SystemMatrices;
+use crate::fe::system::{SparseMatrix, sparse_from_triplets};
+
+/// The `matrices` kind.
+pub struct MatricesKind;
+
+impl Kind for MatricesKind {
+    const KIND: ArtefactKind = ArtefactKind::Matrices;
+    const NAME: &'static str = "matrices";
+    type Value = SystemMatrices;
+
+    fn layout() -> Layout {
+        Layout {
+            tables: vec![
+                table(
+                    "dofs",
+                    Storage::Parquet,
+                    true,
+                    vec![
+                        col("index", "int64", "", "row/column index"),
+                        col("dof", "string", "", "DOF label node:comp"),
+                        col("node", "int64", "", "node id"),
+                        col("comp", "string", "", "component ux uy uz rx ry rz"),
+                    ],
+                ),
+                triplet_layout("K", true, "dofs", "N/m", "entry; duplicates sum"),
+                triplet_layout("M", true, "dofs", "kg", "entry; duplicates sum"),
+                triplet_layout("C", false, "dofs", "N*s/m", "entry; duplicates sum"),
+                triplet_layout("D", false, "dofs", "N/m", "entry; duplicates sum"),
+                triplet_layout(
+                    "dK__{p}",
+                    false,
+                    "dofs",
+                    "",
+                    "dK/dp of updating parameter p (2.13); duplicates sum",
+                ),
+                triplet_layout(
+                    "dM__{p}",
+                    false,
+                    "dofs",
+                    "",
+                    "dM/dp of updating parameter p (2.13); duplicates sum",
+                ),
+            ],
+            meta: vec![
+                meta("n_dofs", "number of DOFs"),
+                meta("dof_index", "digest of the DOF list"),
+                meta("units", "unit of each matrix"),
+                meta_opt(
+                    "parameters",
+                    "updating parameters with value, bounds and whether they enter linearly",
+                ),
+                meta_opt("total_dofs", "DOFs before constraints (assemble)"),
+                meta_opt(
+                    "auto_constrained",
+                    "DOFs without stiffness that assemble constrained",
+                ),
+            ],
+            blobs: vec![],
+        }
+    }
+
+    fn to_artefact(sys: &SystemMatrices) -> Artefact {
+        let mut a = Artefact::new(Self::KIND)
+            .with_meta("n_dofs", sys.n().into())
+            .with_meta("dof_index", super::dof_index_digest(&sys.dofs).into())
+            .with_meta(
+                "units",
+                serde_json::json!({"K": "N/m", "M": "kg", "C": "N*s/m", "D": "N/m"}),
+            )
+            .with_table("dofs", dof_table(&sys.dofs), Storage::Parquet);
+        for (name, mat) in sys.named() {
+            a = a.with_table(name, triplet_table(mat), Storage::Ipc);
+        }
+        a
+    }
+
+    fn from_artefact(a: &Artefact) -> Result<SystemMatrices, ArtefactError> {
+        let kind = Self::KIND;
+        expect_kind(a, kind)?;
+        let dofs = parse_dofs(kind, "dofs", a.table("dofs")?.strs("dofs", "dof")?)?;
+        let n = dofs.len();
+        let read = |name: &str| read_sparse(a, name, n);
+        let sys = SystemMatrices {
+            k: read("K")?.ok_or_else(|| ArtefactError::schema(kind, "no stiffness table `K`"))?,
+            m: read("M")?.ok_or_else(|| ArtefactError::schema(kind, "no mass table `M`"))?,
+            c: read("C")?,
+            d: read("D")?,
+            dofs,
+        };
+        sys.validate()
+            .map_err(|e| ArtefactError::schema(kind, e.to_string()))?;
+        Ok(sys)
+    }
+}
+
+fn dof_table(dofs: &[DofId]) -> Table {
+    Table::new()
+        .with("index", Column::I64((0..dofs.len() as i64).collect()))
+        .with("dof", super::dof_strs(dofs))
+        .with(
+            "node",
+            Column::I64(dofs.iter().map(|d| d.node as i64).collect()),
+        )
+        .with(
+            "comp",
+            Column::Str(dofs.iter().map(|d| d.comp.name().to_string()).collect()),
+        )
+}
+
+/// System matrices as an artefact.
+pub fn matrices_to_artefact(sys: &SystemMatrices) -> Artefact {
+    MatricesKind::to_artefact(sys)
+}
+
+/// System matrices from an artefact.
+pub fn matrices_from_artefact(a: &Artefact) -> Result<SystemMatrices, ArtefactError> {
+    MatricesKind::from_artefact(a)
+}
+
+/// Parameters that enter a matrices artefact linearly (meta `parameters` with `linear: true`,
+/// as `model.lumped` writes them) with their `dK__<name>`, `dM__<name>` tables.
+#[allow(clippy::type_complexity)]
+pub fn linear_parameters_from_matrices(
+    a: &Artefact,
+    n: usize,
+) -> Result<
+    Vec<(
+        crate::updating::UpdatingParameter,
+        SparseMatrix,
+        SparseMatrix,
+    )>,
+    ArtefactError,
+> {
+    let kind = ArtefactKind::Matrices;
+    let Some(list) = a.meta.get("parameters") else {
+        return Ok(Vec::new());
+    };
+    let list: Vec<serde_json::Value> = serde_json::from_value(list.clone())
+        .map_err(|e| ArtefactError::schema(kind, format!("meta `parameters`: {e}")))?;
+    let mut out = Vec::new();
+    for v in list {
+        #[derive(serde::Deserialize)]
+        struct Entry {
+            name: String,
+            value: f64,
+            lower: f64,
+            upper: f64,
+            linear: bool,
+        }
+        let e: Entry = serde_json::from_value(v)
+            .map_err(|e| ArtefactError::schema(kind, format!("meta `parameters`: {e}")))?;
+        if !e.linear {
+            return Err(ArtefactError::schema(
+                kind,
+                format!(
+                    "parameter `{}` does not enter the matrices linearly: update the model it came from (the mesh) instead",
+                    e.name
+                ),
+            ));
+        }
+        let zero = || {
+            sparse_from_triplets("zero", n, &[])
+                .map_err(|x| ArtefactError::schema(kind, x.to_string()))
+        };
+        let dk = match read_sparse(a, &format!("dK__{}", e.name), n)? {
+            Some(m) => m,
+            None => zero()?,
+        };
+        let dm = match read_sparse(a, &format!("dM__{}", e.name), n)? {
+            Some(m) => m,
+            None => zero()?,
+        };
+        out.push((
+            crate::updating::UpdatingParameter {
+                name: e.name,
+                initial: e.value,
+                lower: e.lower,
+                upper: e.upper,
+            },
+            dk,
+            dm,
+        ));
+    }
+    Ok(out)
+}

@@ -1,0 +1,519 @@
+//! The `mesh` kind: a [`Model`] as tables a user can open with pandas.
+//!
+//! | table | columns |
+//! |---|---|
+//! | `nodes` | `node, x_m, y_m, z_m` |
+//! | `elements` | `element, type, property, n1, n2, n3, n4, v_x, v_y, v_z` (−1 / NaN when absent) |
+//! | `lumped` | `element, type, node, comp, other, other_comp, k_1 … k_6, mass_kg, i11, i21, i22, i31, i32, i33, off_x, off_y, off_z` |
+//! | `constraints` | `dof` |
+//! | `sets` | `set, element` |
+//!
+//! Materials, properties and parameters are small and go into `meta` as JSON.
+
+use super::{ColumnLayout, Kind, Layout, col, meta, meta_opt, meta_value, table};
+use crate::artefact::{Artefact, ArtefactError, ArtefactKind, Column, Storage, Table};
+use crate::core::DofId;
+use crate::model::{Element, Model};
+
+const K: ArtefactKind = ArtefactKind::Mesh;
+
+/// Names of the inertia columns of `lumped`.
+const INERTIA: [&str; 6] = ["i11", "i21", "i22", "i31", "i32", "i33"];
+/// Names of the offset columns of `lumped`.
+const OFFSET: [&str; 3] = ["off_x", "off_y", "off_z"];
+/// Names of the stiffness columns of `lumped`.
+const STIFFNESS: [&str; 6] = ["k_1", "k_2", "k_3", "k_4", "k_5", "k_6"];
+
+/// The `mesh` kind.
+pub struct MeshKind;
+
+impl Kind for MeshKind {
+    const KIND: ArtefactKind = K;
+    const NAME: &'static str = "mesh";
+    type Value = Model;
+
+    fn layout() -> Layout {
+        let s = Storage::Parquet;
+        Layout {
+            tables: vec![
+                table(
+                    "nodes",
+                    s,
+                    true,
+                    vec![
+                        col("node", "int64", "", "grid id"),
+                        col("x_m", "float64", "m", "basic x"),
+                        col("y_m", "float64", "m", "basic y"),
+                        col("z_m", "float64", "m", "basic z"),
+                    ],
+                ),
+                table("elements", s, true, element_columns()),
+                table("lumped", s, true, lumped_columns()),
+                table(
+                    "constraints",
+                    s,
+                    true,
+                    vec![col("dof", "string", "", "constrained DOF node:comp")],
+                ),
+                table(
+                    "sets",
+                    s,
+                    true,
+                    vec![
+                        col("set", "string", "", "set name"),
+                        col("element", "int64", "", "element id"),
+                    ],
+                ),
+            ],
+            meta: vec![
+                meta("n_nodes", "number of nodes"),
+                meta("n_elements", "number of elements, lumped ones included"),
+                meta("n_dofs", "unconstrained DOFs"),
+                meta("materials", "materials by id"),
+                meta("shell_properties", "shell properties by id"),
+                meta("beam_properties", "beam properties by id"),
+                meta("parameters", "updating parameters of the model"),
+                meta("units", "unit of the columns that have one"),
+                meta_opt("skipped_cards", "deck cards mesh.import did not read"),
+                meta_opt("ignored_cards", "deck cards left out on request"),
+                meta_opt("ignore_cards", "the cards requested to be left out"),
+                meta_opt("import_warnings", "what mesh.import warned about"),
+            ],
+            blobs: vec![],
+        }
+    }
+
+    fn to_artefact(m: &Model) -> Artefact {
+        mesh_to_artefact(m)
+    }
+
+    fn from_artefact(a: &Artefact) -> Result<Model, ArtefactError> {
+        mesh_from_artefact(a)
+    }
+}
+
+fn element_columns() -> Vec<ColumnLayout> {
+    vec![
+        col("element", "int64", "", "element id"),
+        col("type", "string", "", "quad4, tria3 or beam"),
+        col("property", "int64", "", "property id"),
+        col("n1", "int64", "", "first node"),
+        col("n2", "int64", "", "second node"),
+        col("n3", "int64", "", "third node or -1"),
+        col("n4", "int64", "", "fourth node or -1"),
+        col(
+            "v_x",
+            "float64",
+            "",
+            "beam orientation vector, NaN otherwise",
+        ),
+        col("v_y", "float64", "", "beam orientation vector"),
+        col("v_z", "float64", "", "beam orientation vector"),
+    ]
+}
+
+fn lumped_columns() -> Vec<ColumnLayout> {
+    let mut c = vec![
+        col("element", "int64", "", "element id"),
+        col("type", "string", "", "bush, scalar_spring or mass"),
+        col("node", "int64", "", "its node"),
+        col("comp", "string", "", "scalar spring: its component"),
+        col("other", "int64", "", "second node, or -1 when grounded"),
+        col(
+            "other_comp",
+            "string",
+            "",
+            "scalar spring: second component",
+        ),
+    ];
+    let k_doc = "bush stiffness per component (k_1 for a scalar spring), 0 otherwise";
+    for (i, name) in STIFFNESS.into_iter().enumerate() {
+        c.push(col(
+            name,
+            "float64",
+            if i < 3 { "N/m" } else { "N*m/rad" },
+            k_doc,
+        ));
+    }
+    c.push(col("mass_kg", "float64", "kg", "point mass, 0 otherwise"));
+    for name in INERTIA {
+        c.push(col(name, "float64", "kg*m^2", "mass: inertia tensor entry"));
+    }
+    for name in OFFSET {
+        c.push(col(name, "float64", "m", "mass: offset from the node"));
+    }
+    c
+}
+
+/// A model as an artefact.
+pub fn mesh_to_artefact(m: &Model) -> Artefact {
+    let mut elements = ElementColumns::default();
+    let mut lumped = LumpedColumns::default();
+    for (&id, e) in &m.elements {
+        match e {
+            Element::Quad4 { nodes, property } => elements.push(id, e, nodes, *property, None),
+            Element::Tria3 { nodes, property } => elements.push(id, e, nodes, *property, None),
+            Element::Beam {
+                nodes,
+                property,
+                orientation,
+            } => elements.push(id, e, nodes, *property, Some(*orientation)),
+            _ => lumped.push(id, e),
+        }
+    }
+    Artefact::new(K)
+        .with_meta("n_nodes", m.nodes.len().into())
+        .with_meta("n_elements", m.elements.len().into())
+        .with_meta("n_dofs", m.n_dofs().into())
+        .with_meta("materials", to_json(&m.materials))
+        .with_meta("shell_properties", to_json(&m.shell_properties))
+        .with_meta("beam_properties", to_json(&m.beam_properties))
+        .with_meta("parameters", to_json(&m.parameters))
+        .with_meta("units", serde_json::json!({"x_m": "m", "k_1": "N/m", "k_4": "N*m/rad", "mass_kg": "kg", "i11": "kg*m^2"}))
+        .with_table("nodes", nodes_table(m), Storage::Parquet)
+        .with_table("elements", elements.into_table(), Storage::Parquet)
+        .with_table("lumped", lumped.into_table(), Storage::Parquet)
+        .with_table("constraints", constraints_table(m), Storage::Parquet)
+        .with_table("sets", sets_table(m), Storage::Parquet)
+}
+
+fn nodes_table(m: &Model) -> Table {
+    Table::new()
+        .with(
+            "node",
+            Column::I64(m.nodes.keys().map(|&n| n as i64).collect()),
+        )
+        .with("x_m", Column::F64(m.nodes.values().map(|x| x[0]).collect()))
+        .with("y_m", Column::F64(m.nodes.values().map(|x| x[1]).collect()))
+        .with("z_m", Column::F64(m.nodes.values().map(|x| x[2]).collect()))
+}
+
+fn constraints_table(m: &Model) -> Table {
+    Table::new().with("dof", super::dof_strs(&m.constraints))
+}
+
+fn sets_table(m: &Model) -> Table {
+    let (mut s_name, mut s_el) = (Vec::new(), Vec::new());
+    for (name, ids) in &m.sets {
+        for e in ids {
+            s_name.push(name.clone());
+            s_el.push(*e as i64);
+        }
+    }
+    Table::new()
+        .with("set", Column::Str(s_name))
+        .with("element", Column::I64(s_el))
+}
+
+/// The columns of `elements` (shells and beams) as they fill.
+#[derive(Default)]
+struct ElementColumns {
+    id: Vec<i64>,
+    ty: Vec<String>,
+    property: Vec<i64>,
+    nodes: [Vec<i64>; 4],
+    orientation: [Vec<f64>; 3],
+}
+
+impl ElementColumns {
+    fn push(&mut self, id: u64, e: &Element, nodes: &[u64], property: u64, v: Option<[f64; 3]>) {
+        self.id.push(id as i64);
+        self.ty.push(e.type_name().to_string());
+        self.property.push(property as i64);
+        for (k, col) in self.nodes.iter_mut().enumerate() {
+            col.push(nodes.get(k).map(|n| *n as i64).unwrap_or(-1));
+        }
+        for (k, col) in self.orientation.iter_mut().enumerate() {
+            col.push(v.map(|v| v[k]).unwrap_or(f64::NAN));
+        }
+    }
+
+    fn into_table(self) -> Table {
+        let [n1, n2, n3, n4] = self.nodes;
+        let [vx, vy, vz] = self.orientation;
+        Table::new()
+            .with("element", Column::I64(self.id))
+            .with("type", Column::Str(self.ty))
+            .with("property", Column::I64(self.property))
+            .with("n1", Column::I64(n1))
+            .with("n2", Column::I64(n2))
+            .with("n3", Column::I64(n3))
+            .with("n4", Column::I64(n4))
+            .with("v_x", Column::F64(vx))
+            .with("v_y", Column::F64(vy))
+            .with("v_z", Column::F64(vz))
+    }
+}
+
+/// One lumped element as a row of `lumped`: zero (or empty, or −1) where it has no such field.
+struct LumpedRow {
+    node: u64,
+    comp: String,
+    other: i64,
+    other_comp: String,
+    k: [f64; 6],
+    mass: f64,
+    inertia: [f64; 6],
+    offset: [f64; 3],
+}
+
+impl LumpedRow {
+    /// The row of a bush, scalar spring or mass; `None` for shells and beams.
+    fn of(e: &Element) -> Option<LumpedRow> {
+        let empty = |node| LumpedRow {
+            node,
+            comp: String::new(),
+            other: -1,
+            other_comp: String::new(),
+            k: [0.0; 6],
+            mass: 0.0,
+            inertia: [0.0; 6],
+            offset: [0.0; 3],
+        };
+        Some(match e {
+            Element::Bush { node, other, k } => LumpedRow {
+                other: other.map(|o| o as i64).unwrap_or(-1),
+                k: *k,
+                ..empty(*node)
+            },
+            Element::ScalarSpring { dof, other, k } => LumpedRow {
+                comp: dof.comp.name().to_string(),
+                other: other.map(|o| o.node as i64).unwrap_or(-1),
+                other_comp: other.map(|o| o.comp.name().to_string()).unwrap_or_default(),
+                k: [*k, 0.0, 0.0, 0.0, 0.0, 0.0],
+                ..empty(dof.node)
+            },
+            Element::Mass {
+                node,
+                mass,
+                inertia,
+                offset,
+            } => LumpedRow {
+                mass: *mass,
+                inertia: *inertia,
+                offset: *offset,
+                ..empty(*node)
+            },
+            Element::Quad4 { .. } | Element::Tria3 { .. } | Element::Beam { .. } => return None,
+        })
+    }
+}
+
+/// The columns of `lumped` as they fill.
+#[derive(Default)]
+struct LumpedColumns {
+    id: Vec<i64>,
+    ty: Vec<String>,
+    node: Vec<i64>,
+    comp: Vec<String>,
+    other: Vec<i64>,
+    other_comp: Vec<String>,
+    k: [Vec<f64>; 6],
+    mass: Vec<f64>,
+    inertia: [Vec<f64>; 6],
+    offset: [Vec<f64>; 3],
+}
+
+impl LumpedColumns {
+    /// Adds a lumped element; shells and beams are not lumped and are skipped.
+    fn push(&mut self, id: u64, e: &Element) {
+        let Some(r) = LumpedRow::of(e) else {
+            return;
+        };
+        self.id.push(id as i64);
+        self.ty.push(e.type_name().to_string());
+        self.node.push(r.node as i64);
+        self.comp.push(r.comp);
+        self.other.push(r.other);
+        self.other_comp.push(r.other_comp);
+        for i in 0..6 {
+            self.k[i].push(r.k[i]);
+            self.inertia[i].push(r.inertia[i]);
+        }
+        self.mass.push(r.mass);
+        for i in 0..3 {
+            self.offset[i].push(r.offset[i]);
+        }
+    }
+
+    fn into_table(self) -> Table {
+        let mut t = Table::new()
+            .with("element", Column::I64(self.id))
+            .with("type", Column::Str(self.ty))
+            .with("node", Column::I64(self.node))
+            .with("comp", Column::Str(self.comp))
+            .with("other", Column::I64(self.other))
+            .with("other_comp", Column::Str(self.other_comp));
+        for (name, c) in STIFFNESS.into_iter().zip(self.k) {
+            t = t.with(name, Column::F64(c));
+        }
+        t = t.with("mass_kg", Column::F64(self.mass));
+        for (name, c) in INERTIA.into_iter().zip(self.inertia) {
+            t = t.with(name, Column::F64(c));
+        }
+        for (name, c) in OFFSET.into_iter().zip(self.offset) {
+            t = t.with(name, Column::F64(c));
+        }
+        t
+    }
+}
+
+/// JSON of a small model part (id-keyed maps become objects).
+fn to_json<T: serde::Serialize>(v: &T) -> serde_json::Value {
+    serde_json::to_value(v).unwrap_or(serde_json::Value::Null)
+}
+
+fn bad(msg: String) -> ArtefactError {
+    ArtefactError::schema(K, msg)
+}
+
+fn id(v: i64, what: &str, row: usize) -> Result<u64, ArtefactError> {
+    u64::try_from(v).map_err(|_| bad(format!("{what} row {row}: id {v} must be >= 0")))
+}
+
+/// A model from an artefact; the result is validated.
+pub fn mesh_from_artefact(a: &Artefact) -> Result<Model, ArtefactError> {
+    if a.kind != K {
+        return Err(bad(format!("got a `{}` artefact", a.kind)));
+    }
+    let mut m = Model {
+        materials: meta_value(a, "materials")?,
+        shell_properties: meta_value(a, "shell_properties")?,
+        beam_properties: meta_value(a, "beam_properties")?,
+        parameters: meta_value(a, "parameters")?,
+        ..Default::default()
+    };
+    read_nodes(a, &mut m)?;
+    read_elements(a, &mut m)?;
+    read_lumped(a, &mut m)?;
+    let t = a.table("constraints")?;
+    for (r, d) in t.strs("constraints", "dof")?.iter().enumerate() {
+        m.constraints.push(
+            d.parse()
+                .map_err(|e| bad(format!("constraints row {r}: {e}")))?,
+        );
+    }
+    let t = a.table("sets")?;
+    let (sn, se) = (t.strs("sets", "set")?, t.i64s("sets", "element")?);
+    for r in 0..sn.len() {
+        m.sets
+            .entry(sn[r].clone())
+            .or_default()
+            .push(id(se[r], "sets", r)?);
+    }
+    m.validate().map_err(|e| bad(e.to_string()))?;
+    Ok(m)
+}
+
+fn read_nodes(a: &Artefact, m: &mut Model) -> Result<(), ArtefactError> {
+    let t = a.table("nodes")?;
+    let (ids, x, y, z) = (
+        t.i64s("nodes", "node")?,
+        t.f64s("nodes", "x_m")?,
+        t.f64s("nodes", "y_m")?,
+        t.f64s("nodes", "z_m")?,
+    );
+    for r in 0..ids.len() {
+        m.nodes.insert(id(ids[r], "nodes", r)?, [x[r], y[r], z[r]]);
+    }
+    Ok(())
+}
+
+fn read_elements(a: &Artefact, m: &mut Model) -> Result<(), ArtefactError> {
+    let n = "elements";
+    let t = a.table(n)?;
+    let (eid, ty, prop) = (
+        t.i64s(n, "element")?,
+        t.strs(n, "type")?,
+        t.i64s(n, "property")?,
+    );
+    let ns = [
+        t.i64s(n, "n1")?,
+        t.i64s(n, "n2")?,
+        t.i64s(n, "n3")?,
+        t.i64s(n, "n4")?,
+    ];
+    let vs = [t.f64s(n, "v_x")?, t.f64s(n, "v_y")?, t.f64s(n, "v_z")?];
+    for r in 0..eid.len() {
+        let node = |k: usize| id(ns[k][r], n, r);
+        let p = id(prop[r], n, r)?;
+        let e = match ty[r].as_str() {
+            "quad4" => Element::Quad4 {
+                nodes: [node(0)?, node(1)?, node(2)?, node(3)?],
+                property: p,
+            },
+            "tria3" => Element::Tria3 {
+                nodes: [node(0)?, node(1)?, node(2)?],
+                property: p,
+            },
+            "beam" => Element::Beam {
+                nodes: [node(0)?, node(1)?],
+                property: p,
+                orientation: [vs[0][r], vs[1][r], vs[2][r]],
+            },
+            other => {
+                return Err(bad(format!(
+                    "elements row {r}: type `{other}` is not quad4, tria3 or beam"
+                )));
+            }
+        };
+        m.elements.insert(id(eid[r], n, r)?, e);
+    }
+    Ok(())
+}
+
+fn read_lumped(a: &Artefact, m: &mut Model) -> Result<(), ArtefactError> {
+    let n = "lumped";
+    let t = a.table(n)?;
+    let (lid, lty, lnode, lcomp, lother, locomp) = (
+        t.i64s(n, "element")?,
+        t.strs(n, "type")?,
+        t.i64s(n, "node")?,
+        t.strs(n, "comp")?,
+        t.i64s(n, "other")?,
+        t.strs(n, "other_comp")?,
+    );
+    let floats = |names: &[&str]| -> Result<Vec<&[f64]>, ArtefactError> {
+        names.iter().map(|c| Ok(t.f64s(n, c)?)).collect()
+    };
+    let (k, inertia, off) = (floats(&STIFFNESS)?, floats(&INERTIA)?, floats(&OFFSET)?);
+    let mass = t.f64s(n, "mass_kg")?;
+    for r in 0..lid.len() {
+        let node = id(lnode[r], n, r)?;
+        let other = if lother[r] < 0 {
+            None
+        } else {
+            Some(id(lother[r], n, r)?)
+        };
+        let dof = |nd: u64, c: &str| -> Result<DofId, ArtefactError> {
+            format!("{nd}:{c}")
+                .parse()
+                .map_err(|e| bad(format!("lumped row {r}: {e}")))
+        };
+        let e = match lty[r].as_str() {
+            "bush" => Element::Bush {
+                node,
+                other,
+                k: std::array::from_fn(|i| k[i][r]),
+            },
+            "scalar_spring" => Element::ScalarSpring {
+                dof: dof(node, &lcomp[r])?,
+                other: other.map(|o| dof(o, &locomp[r])).transpose()?,
+                k: k[0][r],
+            },
+            "mass" => Element::Mass {
+                node,
+                mass: mass[r],
+                inertia: std::array::from_fn(|i| inertia[i][r]),
+                offset: std::array::from_fn(|i| off[i][r]),
+            },
+            other => {
+                return Err(bad(format!(
+                    "lumped row {r}: type `{other}` is not bush, scalar_spring or mass"
+                )));
+            }
+        };
+        m.elements.insert(id(lid[r], n, r)?, e);
+    }
+    Ok(())
+}

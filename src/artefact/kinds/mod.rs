@@ -1,0 +1,543 @@
+//! Artefact kinds as types: one file per kind, each one [`Kind`] implementation holding the
+//! kind's name, schema version, published [`Layout`], writer and reader side by side.
+//!
+//! The layout is what `femu schema` publishes, what `femu show` and sweeps' `collect:` look
+//! columns up in, and what [`check_layout`] holds every artefact to: no table, column, metadata
+//! key or blob the layout does not declare, none it requires missing. The generic test in
+//! `kinds/tests.rs` writes a representative value of every registered kind, reads it back and
+//! checks the written artefact against the layout, so a writer, reader and layout that drift
+//! apart fail it; the registry below is the one place a kind joins the engine, and a kind
+//! missing from it (or from the test's examples) does not compile.
+//!
+//! | kind | file |
+//! |---|---|
+//! | `matrices` | [`matrices`] |
+//! | `modes` | [`modes`] |
+//! | `frf` | [`frf`] |
+//! | `correlation` | [`correlation`] |
+//! | `plot` | [`plot`] |
+//! | `mesh` | [`mesh`] |
+//! | `update_result` | [`update_result`] |
+//! | `partition` | [`partition`] |
+//! | `reduced_model` | [`reduced_model`] |
+//! | `reduced_component` | [`reduced_component`] |
+//! | `modal_correlation` | [`modal_correlation`] |
+//! | `leverage` | [`leverage`] |
+//! | `eigenvalue_sensitivity` | [`eigenvalue_sensitivity`] |
+
+use super::{Artefact, ArtefactError, ArtefactKind, Column, Storage, Table};
+use crate::core::DofId;
+use crate::fe::system::{SparseMatrix, sparse_from_triplets, sparse_triplets};
+use faer::Mat;
+
+pub mod correlation;
+pub mod eigenvalue_sensitivity;
+pub mod frf;
+pub mod leverage;
+pub mod matrices;
+pub mod mesh;
+pub mod modal_correlation;
+pub mod modes;
+pub mod partition;
+pub mod plot;
+pub mod reduced_component;
+pub mod reduced_model;
+#[cfg(test)]
+mod tests;
+pub mod update_result;
+
+pub use correlation::{CorrelationKind, correlation_from_artefact, correlation_to_artefact};
+pub use frf::{FrfKind, frf_from_artefact, frf_to_artefact};
+pub use matrices::{
+    MatricesKind, linear_parameters_from_matrices, matrices_from_artefact, matrices_to_artefact,
+};
+pub use modes::{ModesArtefact, ModesKind, modes_from_artefact, modes_to_artefact};
+pub use plot::{Plot, PlotKind, plot_artefact};
+
+/// An artefact kind as a type: its name and version, its layout, and the one writer and reader
+/// of its values. `from_artefact(to_artefact(v))` gives `v` back (re-written, the same digest).
+pub trait Kind {
+    /// The kind's tag.
+    const KIND: ArtefactKind;
+    /// Its name in files, port declarations and schemas.
+    const NAME: &'static str;
+    /// Its schema version; bumped on any change of layout or meaning.
+    const VERSION: u32 = 1;
+    /// What an artefact of the kind holds.
+    type Value;
+    /// The published layout: tables and columns, metadata keys, blobs.
+    fn layout() -> Layout;
+    /// The value as an artefact.
+    fn to_artefact(value: &Self::Value) -> Artefact;
+    /// The value from an artefact of this kind.
+    fn from_artefact(a: &Artefact) -> Result<Self::Value, ArtefactError>;
+}
+
+/// Registers every kind: the enum's list of kinds, names, versions and layouts come from here,
+/// and a variant of [`ArtefactKind`] without an entry does not compile.
+macro_rules! registry {
+    ($($variant:ident => $ty:ty),+ $(,)?) => {
+        impl ArtefactKind {
+            /// All kinds, in registry order.
+            pub const ALL: [ArtefactKind; [$(stringify!($variant)),+].len()] =
+                [$(ArtefactKind::$variant),+];
+        }
+
+        /// The name of `kind`.
+        pub(crate) fn name_of(kind: ArtefactKind) -> &'static str {
+            match kind {
+                $(ArtefactKind::$variant => <$ty as Kind>::NAME),+
+            }
+        }
+
+        /// The schema version of `kind`.
+        pub(crate) fn version_of(kind: ArtefactKind) -> u32 {
+            match kind {
+                $(ArtefactKind::$variant => <$ty as Kind>::VERSION),+
+            }
+        }
+
+        /// The full layout of `kind`.
+        pub fn kind_layout(kind: ArtefactKind) -> Layout {
+            match kind {
+                $(ArtefactKind::$variant => <$ty as Kind>::layout()),+
+            }
+        }
+
+        /// Runs the generic round-trip and layout test for `kind`; every registered kind must
+        /// have examples ([`tests::Example`]).
+        #[cfg(test)]
+        fn test_kind(kind: ArtefactKind) {
+            match kind {
+                $(ArtefactKind::$variant => tests::round_trip::<$ty>()),+
+            }
+        }
+
+        /// That each registered type reports the tag it is registered under.
+        #[cfg(test)]
+        fn registered_tag(kind: ArtefactKind) -> ArtefactKind {
+            match kind {
+                $(ArtefactKind::$variant => <$ty as Kind>::KIND),+
+            }
+        }
+    };
+}
+
+registry! {
+    Matrices => matrices::MatricesKind,
+    Modes => modes::ModesKind,
+    Frf => frf::FrfKind,
+    Correlation => correlation::CorrelationKind,
+    Plot => plot::PlotKind,
+    Mesh => mesh::MeshKind,
+    UpdateResult => update_result::UpdateResultKind,
+    Partition => partition::PartitionKind,
+    ReducedModel => reduced_model::ReducedModelKind,
+    ReducedComponent => reduced_component::ReducedComponentKind,
+    ModalCorrelation => modal_correlation::ModalCorrelationKind,
+    Leverage => leverage::LeverageKind,
+    EigenvalueSensitivity => eigenvalue_sensitivity::EigenvalueSensitivityKind,
+}
+
+// ---------------------------------------------------------------------------------------------
+// Layouts
+
+/// One column of a table layout.
+#[derive(Clone, Debug)]
+pub struct ColumnLayout {
+    /// Column name (`phi_{r}` stands for `phi_1 … phi_m`).
+    pub name: &'static str,
+    /// `float64`, `int64` or `string`.
+    pub dtype: &'static str,
+    /// SI unit, or empty.
+    pub unit: &'static str,
+    /// What it holds.
+    pub doc: &'static str,
+}
+
+/// One table of a kind's layout.
+#[derive(Clone, Debug)]
+pub struct TableLayout {
+    /// Table name (`c{i}_T` stands for `c0_T`, `c1_T`, …).
+    pub name: &'static str,
+    /// `parquet` or `arrow_ipc`.
+    pub storage: &'static str,
+    /// Whether every artefact of the kind has it.
+    pub required: bool,
+    /// Columns in order.
+    pub columns: Vec<ColumnLayout>,
+}
+
+/// One metadata key of a kind's layout.
+#[derive(Clone, Debug)]
+pub struct MetaLayout {
+    /// The key.
+    pub key: &'static str,
+    /// Whether every artefact of the kind has it (optional keys are written by some stages or
+    /// for some values only).
+    pub required: bool,
+    /// What it holds.
+    pub doc: &'static str,
+}
+
+/// Everything an artefact of a kind may hold.
+#[derive(Clone, Debug, Default)]
+pub struct Layout {
+    /// Tables, in publication order.
+    pub tables: Vec<TableLayout>,
+    /// Metadata keys.
+    pub meta: Vec<MetaLayout>,
+    /// Blob name patterns (`{name}.png`).
+    pub blobs: Vec<&'static str>,
+}
+
+/// A column layout.
+pub(crate) const fn col(
+    name: &'static str,
+    dtype: &'static str,
+    unit: &'static str,
+    doc: &'static str,
+) -> ColumnLayout {
+    ColumnLayout {
+        name,
+        dtype,
+        unit,
+        doc,
+    }
+}
+
+/// A table layout.
+pub(crate) fn table(
+    name: &'static str,
+    storage: Storage,
+    required: bool,
+    columns: Vec<ColumnLayout>,
+) -> TableLayout {
+    TableLayout {
+        name,
+        storage: storage_name(storage),
+        required,
+        columns,
+    }
+}
+
+/// A required metadata key.
+pub(crate) const fn meta(key: &'static str, doc: &'static str) -> MetaLayout {
+    MetaLayout {
+        key,
+        required: true,
+        doc,
+    }
+}
+
+/// An optional metadata key.
+pub(crate) const fn meta_opt(key: &'static str, doc: &'static str) -> MetaLayout {
+    MetaLayout {
+        key,
+        required: false,
+        doc,
+    }
+}
+
+/// The `row, col, value` layout of a matrix table; `index` names what rows and columns index.
+pub(crate) fn triplet_layout(
+    name: &'static str,
+    required: bool,
+    index: &'static str,
+    unit: &'static str,
+    value_doc: &'static str,
+) -> TableLayout {
+    let (row, column) = match index {
+        "dofs" => ("row index into `dofs`", "column index into `dofs`"),
+        _ => ("row index into `coords`", "column index into `coords`"),
+    };
+    table(
+        name,
+        Storage::Ipc,
+        required,
+        vec![
+            col("row", "int64", "", row),
+            col("col", "int64", "", column),
+            col("value", "float64", unit, value_doc),
+        ],
+    )
+}
+
+/// The name of a storage in layouts and schemas.
+pub fn storage_name(s: Storage) -> &'static str {
+    match s {
+        Storage::Parquet => "parquet",
+        Storage::Ipc => "arrow_ipc",
+    }
+}
+
+/// The tables and columns every artefact of `kind` has (the published schema).
+pub fn layout(kind: ArtefactKind) -> Vec<TableLayout> {
+    kind_layout(kind).tables
+}
+
+/// Whether `name` fits `pattern`, where one `{…}` in the pattern stands for a non-empty part.
+pub fn name_matches(pattern: &str, name: &str) -> bool {
+    match (pattern.find('{'), pattern.find('}')) {
+        (Some(a), Some(b)) if a < b => {
+            let (pre, post) = (&pattern[..a], &pattern[b + 1..]);
+            name.len() > pre.len() + post.len() && name.starts_with(pre) && name.ends_with(post)
+        }
+        _ => pattern == name,
+    }
+}
+
+/// Checks an artefact against its kind's layout exactly: required tables, metadata and blobs
+/// present; every table, column, metadata key and blob declared; columns in order with their
+/// types; tables in their storage.
+pub fn check_layout(a: &Artefact) -> Result<(), ArtefactError> {
+    let l = kind_layout(a.kind);
+    let err = |m: String| Err(ArtefactError::schema(a.kind, m));
+    for t in l.tables.iter().filter(|t| t.required) {
+        if !a.tables.contains_key(t.name) {
+            return err(format!("missing table `{}`", t.name));
+        }
+    }
+    for (name, (table, storage)) in &a.tables {
+        let declared = l
+            .tables
+            .iter()
+            .find(|t| t.name == name)
+            .or_else(|| l.tables.iter().find(|t| name_matches(t.name, name)));
+        let Some(tl) = declared else {
+            return err(format!("table `{name}` is not in the layout"));
+        };
+        if storage_name(*storage) != tl.storage {
+            return err(format!(
+                "table `{name}` is stored as {}, the layout says {}",
+                storage_name(*storage),
+                tl.storage
+            ));
+        }
+        check_columns(a.kind, name, table, tl)?;
+    }
+    for m in l.meta.iter().filter(|m| m.required) {
+        if !a.meta.contains_key(m.key) {
+            return err(format!("missing metadata `{}`", m.key));
+        }
+    }
+    for key in a.meta.keys() {
+        if !l.meta.iter().any(|m| m.key == key) {
+            return err(format!("metadata `{key}` is not in the layout"));
+        }
+    }
+    for name in a.blobs.keys() {
+        if !l.blobs.iter().any(|p| name_matches(p, name)) {
+            return err(format!("blob `{name}` is not in the layout"));
+        }
+    }
+    Ok(())
+}
+
+/// A table's columns against its layout: the same names in the same order with their types; a
+/// repeated column `x_{r}` stands for `x_1, x_2, …` (none or more).
+fn check_columns(
+    kind: ArtefactKind,
+    name: &str,
+    table: &Table,
+    tl: &TableLayout,
+) -> Result<(), ArtefactError> {
+    let mut cols = table.columns.iter().peekable();
+    for cl in &tl.columns {
+        let repeated = cl.name.strip_suffix("{r}");
+        let mut k = 1;
+        loop {
+            let want = match repeated {
+                Some(stem) => format!("{stem}{k}"),
+                None => cl.name.to_string(),
+            };
+            let Some((got, c)) = cols.peek() else {
+                if repeated.is_some() {
+                    break;
+                }
+                return Err(ArtefactError::schema(
+                    kind,
+                    format!("table `{name}` lacks column `{}`", cl.name),
+                ));
+            };
+            if *got != want {
+                if repeated.is_some() {
+                    break;
+                }
+                return Err(ArtefactError::schema(
+                    kind,
+                    format!("table `{name}`: column `{got}` where `{want}` belongs"),
+                ));
+            }
+            if c.type_name() != cl.dtype {
+                return Err(ArtefactError::schema(
+                    kind,
+                    format!(
+                        "table `{name}`: column `{got}` is {}, the layout says {}",
+                        c.type_name(),
+                        cl.dtype
+                    ),
+                ));
+            }
+            cols.next();
+            if repeated.is_none() {
+                break;
+            }
+            k += 1;
+        }
+    }
+    if let Some((extra, _)) = cols.next() {
+        return Err(ArtefactError::schema(
+            kind,
+            format!("table `{name}`: column `{extra}` is not in the layout"),
+        ));
+    }
+    Ok(())
+}
+
+// ---------------------------------------------------------------------------------------------
+// Shared pieces of writers and readers
+
+/// Digest of a DOF list: artefacts that refer to the same DOFs record the same value.
+pub fn dof_index_digest(dofs: &[DofId]) -> String {
+    let text: Vec<String> = dofs.iter().map(|d| d.to_string()).collect();
+    super::digest::hash_bytes(text.join("\n").as_bytes())
+}
+
+/// A text column.
+pub(crate) fn strs(v: impl IntoIterator<Item = String>) -> Column {
+    Column::Str(v.into_iter().collect())
+}
+
+/// DOF labels as a text column.
+pub(crate) fn dof_strs(dofs: &[DofId]) -> Column {
+    strs(dofs.iter().map(|d| d.to_string()))
+}
+
+/// DOF labels of column `column` of table `table`.
+pub(crate) fn parse_dofs(
+    kind: ArtefactKind,
+    table: &str,
+    labels: &[String],
+) -> Result<Vec<DofId>, ArtefactError> {
+    labels
+        .iter()
+        .enumerate()
+        .map(|(row, s)| {
+            s.parse::<DofId>()
+                .map_err(|e| ArtefactError::schema(kind, format!("table `{table}` row {row}: {e}")))
+        })
+        .collect()
+}
+
+/// The `dof` column of table `table`.
+pub(crate) fn dofs_table(a: &Artefact, table: &str) -> Result<Vec<DofId>, ArtefactError> {
+    parse_dofs(a.kind, table, a.table(table)?.strs(table, "dof")?)
+}
+
+/// Checks an artefact's kind before reading it as `kind`.
+pub(crate) fn expect_kind(a: &Artefact, kind: ArtefactKind) -> Result<(), ArtefactError> {
+    if a.kind == kind {
+        Ok(())
+    } else {
+        Err(ArtefactError::schema(
+            kind,
+            format!("got a `{}` artefact", a.kind),
+        ))
+    }
+}
+
+/// A metadata value of any deserialisable type (`null` when absent).
+pub(crate) fn meta_value<T: serde::de::DeserializeOwned>(
+    a: &Artefact,
+    key: &str,
+) -> Result<T, ArtefactError> {
+    let v = a.meta.get(key).cloned().unwrap_or(serde_json::Value::Null);
+    serde_json::from_value(v)
+        .map_err(|e| ArtefactError::schema(a.kind, format!("metadata `{key}`: {e}")))
+}
+
+/// A sparse matrix as a `row, col, value` table (the layout of every matrix table).
+pub fn triplet_table(mat: &SparseMatrix) -> Table {
+    let t = sparse_triplets(mat);
+    Table::new()
+        .with("row", Column::I64(t.iter().map(|e| e.0 as i64).collect()))
+        .with("col", Column::I64(t.iter().map(|e| e.1 as i64).collect()))
+        .with("value", Column::F64(t.iter().map(|e| e.2).collect()))
+}
+
+/// The sparse matrix table `name` of an artefact over `n` DOFs, if present.
+pub(crate) fn read_sparse(
+    a: &Artefact,
+    name: &str,
+    n: usize,
+) -> Result<Option<SparseMatrix>, ArtefactError> {
+    let Some((t, _)) = a.tables.get(name) else {
+        return Ok(None);
+    };
+    let (r, c, v) = (
+        t.i64s(name, "row")?,
+        t.i64s(name, "col")?,
+        t.f64s(name, "value")?,
+    );
+    let trip: Vec<(usize, usize, f64)> = r
+        .iter()
+        .zip(c)
+        .zip(v)
+        .map(|((r, c), v)| {
+            (
+                usize::try_from(*r).unwrap_or(usize::MAX),
+                usize::try_from(*c).unwrap_or(usize::MAX),
+                *v,
+            )
+        })
+        .collect();
+    sparse_from_triplets("matrix", n, &trip)
+        .map(Some)
+        .map_err(|e| ArtefactError::schema(a.kind, format!("table `{name}`: {e}")))
+}
+
+/// A dense matrix as a `row, col, value` table of its non-zero entries.
+pub fn dense_triplet_table(m: &Mat<f64>) -> Table {
+    let (mut r, mut c, mut v) = (Vec::new(), Vec::new(), Vec::new());
+    for j in 0..m.ncols() {
+        for i in 0..m.nrows() {
+            if m[(i, j)] != 0.0 {
+                r.push(i as i64);
+                c.push(j as i64);
+                v.push(m[(i, j)]);
+            }
+        }
+    }
+    Table::new()
+        .with("row", Column::I64(r))
+        .with("col", Column::I64(c))
+        .with("value", Column::F64(v))
+}
+
+/// The dense `rows × cols` matrix of triplet table `name`.
+pub(crate) fn dense_from(
+    a: &Artefact,
+    name: &str,
+    rows: usize,
+    cols: usize,
+) -> Result<Mat<f64>, ArtefactError> {
+    let t = a.table(name)?;
+    let (r, c, v) = (
+        t.i64s(name, "row")?,
+        t.i64s(name, "col")?,
+        t.f64s(name, "value")?,
+    );
+    let mut m = Mat::zeros(rows, cols);
+    for k in 0..r.len() {
+        let (i, j) = (r[k], c[k]);
+        if i < 0 || j < 0 || i as usize >= rows || j as usize >= cols {
+            return Err(ArtefactError::schema(
+                a.kind,
+                format!("table `{name}` row {k}: entry ({i}, {j}) outside {rows}x{cols}"),
+            ));
+        }
+        m[(i as usize, j as usize)] += v[k];
+    }
+    Ok(m)
+}

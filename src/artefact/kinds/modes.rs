@@ -1,0 +1,161 @@
+//! The `modes` kind: natural frequencies and mass-normalised mode shapes.
+//!
+//! | table (storage) | columns |
+//! |---|---|
+//! | `frequencies` (Parquet) | `mode, freq_hz, eigenvalue_rad2_s2, residual` |
+//! | `shapes` (IPC) | `dof, phi_1 … phi_m` |
+
+use super::{Kind, Layout, col, expect_kind, meta, meta_opt, parse_dofs, table};
+use crate::artefact::{Artefact, ArtefactError, ArtefactKind, Column, Storage, Table};
+use crate::core::DofId;
+use crate::eigen::Modes;
+use faer::Mat;
+
+/// Modes with their DOF labels.
+#[derive(Clone, Debug)]
+pub struct ModesArtefact {
+    /// Row labels of the shapes.
+    pub dofs: Vec<DofId>,
+    /// The modes.
+    pub modes: Modes,
+}
+
+/// The `modes` kind.
+pub struct ModesKind;
+
+impl Kind for ModesKind {
+    const KIND: ArtefactKind = ArtefactKind::Modes;
+    const NAME: &'static str = "modes";
+    type Value = ModesArtefact;
+
+    fn layout() -> Layout {
+        Layout {
+            tables: vec![
+                table(
+                    "frequencies",
+                    Storage::Parquet,
+                    true,
+                    vec![
+                        col("mode", "int64", "", "mode number from 1"),
+                        col("freq_hz", "float64", "Hz", "natural frequency"),
+                        col(
+                            "eigenvalue_rad2_s2",
+                            "float64",
+                            "rad^2/s^2",
+                            "eigenvalue omega^2",
+                        ),
+                        col(
+                            "residual",
+                            "float64",
+                            "",
+                            "relative residual |K phi - lambda M phi| / |K phi|",
+                        ),
+                    ],
+                ),
+                table(
+                    "shapes",
+                    Storage::Ipc,
+                    true,
+                    vec![
+                        col("dof", "string", "", "DOF label node:comp"),
+                        col(
+                            "phi_{r}",
+                            "float64",
+                            "1/sqrt(kg)",
+                            "mass-normalised shape of mode r, one column per mode",
+                        ),
+                    ],
+                ),
+            ],
+            meta: vec![
+                meta("n_modes", "number of modes"),
+                meta("n_dofs", "rows of the shapes"),
+                meta("rigid_body_modes", "modes at zero frequency"),
+                meta(
+                    "orthogonality_error",
+                    "deviation of the shapes from mass-orthonormality",
+                ),
+                meta("dof_index", "digest of the DOF list"),
+                meta("normalisation", "`mass`"),
+                meta("units", "unit of each column"),
+                meta_opt("reduced_coords", "coordinates of the reduced model solved"),
+                meta_opt("reduced_physical", "its physical coordinates"),
+                meta_opt("reduced_modal", "its modal coordinates"),
+            ],
+            blobs: vec![],
+        }
+    }
+
+    fn to_artefact(v: &ModesArtefact) -> Artefact {
+        write(&v.dofs, &v.modes)
+    }
+
+    /// The rigid-body count is that of zero eigenvalues; the residuals and orthogonality error
+    /// are as written.
+    fn from_artefact(a: &Artefact) -> Result<ModesArtefact, ArtefactError> {
+        let kind = Self::KIND;
+        expect_kind(a, kind)?;
+        let f = a.table("frequencies")?;
+        let lambdas = f.f64s("frequencies", "eigenvalue_rad2_s2")?.to_vec();
+        let residuals = f.f64s("frequencies", "residual")?.to_vec();
+        let s = a.table("shapes")?;
+        let dofs = parse_dofs(kind, "shapes", s.strs("shapes", "dof")?)?;
+        let mut shapes = Mat::<f64>::zeros(dofs.len(), lambdas.len());
+        for r in 0..lambdas.len() {
+            let col = s.f64s("shapes", &format!("phi_{}", r + 1))?;
+            for (i, v) in col.iter().enumerate() {
+                shapes[(i, r)] = *v;
+            }
+        }
+        Ok(ModesArtefact {
+            dofs,
+            modes: Modes {
+                rigid_body_modes: lambdas.iter().filter(|l| **l == 0.0).count(),
+                orthogonality_error: a
+                    .meta
+                    .get("orthogonality_error")
+                    .and_then(|v| v.as_f64())
+                    .unwrap_or(0.0),
+                eigenvalues: lambdas,
+                shapes,
+                residuals,
+            },
+        })
+    }
+}
+
+fn write(dofs: &[DofId], modes: &Modes) -> Artefact {
+    let m = modes.len();
+    let freqs = Table::new()
+        .with("mode", Column::I64((1..=m as i64).collect()))
+        .with("freq_hz", Column::F64(modes.frequencies_hz()))
+        .with("eigenvalue_rad2_s2", Column::F64(modes.eigenvalues.clone()))
+        .with("residual", Column::F64(modes.residuals.clone()));
+    let mut shapes = Table::new().with("dof", super::dof_strs(dofs));
+    for r in 0..m {
+        shapes = shapes.with(
+            format!("phi_{}", r + 1),
+            Column::F64((0..dofs.len()).map(|i| modes.shapes[(i, r)]).collect()),
+        );
+    }
+    Artefact::new(ModesKind::KIND)
+        .with_meta("n_modes", m.into())
+        .with_meta("n_dofs", dofs.len().into())
+        .with_meta("rigid_body_modes", modes.rigid_body_modes.into())
+        .with_meta("orthogonality_error", modes.orthogonality_error.into())
+        .with_meta("dof_index", super::dof_index_digest(dofs).into())
+        .with_meta("normalisation", "mass".into())
+        .with_meta("units", serde_json::json!({"freq_hz": "Hz", "eigenvalue_rad2_s2": "rad^2/s^2", "phi": "1/sqrt(kg)"}))
+        .with_table("frequencies", freqs, Storage::Parquet)
+        .with_table("shapes", shapes, Storage::Ipc)
+}
+
+/// Modes as an artefact.
+pub fn modes_to_artefact(dofs: &[DofId], modes: &Modes) -> Artefact {
+    write(dofs, modes)
+}
+
+/// Modes from an artefact.
+pub fn modes_from_artefact(a: &Artefact) -> Result<ModesArtefact, ArtefactError> {
+    ModesKind::from_artefact(a)
+}

@@ -1,0 +1,484 @@
+//! The generic test over every kind: each registered kind's examples are written, checked
+//! against the kind's layout exactly, stored and read back in every codec, and read into a value
+//! that writes the same artefact again (the comparison is by digest, so NaN entries compare).
+
+use super::*;
+use crate::artefact::Format;
+use crate::artefact::codec::{read_dir, write_dir};
+use crate::correlation::{FrfCorrelation, ModeCorrelation, ModePair};
+use crate::eigen::{ModeSelection, Modes};
+use crate::fe::element::MassKind;
+use crate::fe::lumped::assemble_lumped;
+use crate::frf::{FrfSet, Quantity};
+use crate::localisation::{Candidate, EigenMap};
+use crate::model::generate::{BentPlate, ThreeBeam, bent_plate, three_beam};
+use crate::model::{Element, LumpedModel, Model, ParameterKind};
+use crate::reduction::force_coupling::MasterSelection;
+use crate::reduction::{Method, Partition, ReducedModel, reduce, reduce_with_interface};
+use crate::updating::{Diagnostics, IterationRecord, StopReason, UpdateHistory, UpdatingParameter};
+use eigenvalue_sensitivity::EigenSensitivityRecord;
+use faer::{Mat, c64};
+use leverage::{LeverageRecord, LeverageRow, LineRow};
+use modal_correlation::{ModalCorrelationContext, ModalCorrelationRecord};
+use reduced_model::ReducedModelArtefact;
+use std::sync::OnceLock;
+use update_result::{IdentifiedDamping, ModalDamping, UpdateResult};
+
+/// Representative values of a kind: every table and optional part its writer can produce.
+pub(super) trait Example: Kind {
+    fn examples() -> Vec<Self::Value>;
+}
+
+/// Write, check the layout, store and read back in every codec, read the value, write again.
+pub(super) fn round_trip<K: Example>() {
+    let examples = K::examples();
+    assert!(!examples.is_empty(), "`{}` has no examples", K::NAME);
+    let mut formats = vec![Format::Arrow];
+    if cfg!(feature = "hdf5") {
+        formats.push(Format::Hdf5);
+    }
+    for (i, v) in examples.iter().enumerate() {
+        let what = format!("`{}` example {i}", K::NAME);
+        let a = K::to_artefact(v);
+        assert_eq!(a.kind, K::KIND, "{what}");
+        check_layout(&a).unwrap_or_else(|e| panic!("{what}: {e}"));
+        let again = K::to_artefact(&K::from_artefact(&a).unwrap_or_else(|e| panic!("{what}: {e}")));
+        assert_eq!(again.digest(), a.digest(), "{what}: read back in memory");
+        for &format in &formats {
+            let dir = tempfile::tempdir().unwrap();
+            write_dir(&a, dir.path(), format, None).unwrap_or_else(|e| panic!("{what}: {e}"));
+            let b = read_dir(dir.path()).unwrap_or_else(|e| panic!("{what} {format:?}: {e}"));
+            assert_eq!(b.digest(), a.digest(), "{what} {format:?}: stored");
+            check_layout(&b).unwrap_or_else(|e| panic!("{what} {format:?}: {e}"));
+            let back = K::from_artefact(&b).unwrap_or_else(|e| panic!("{what} {format:?}: {e}"));
+            assert_eq!(
+                K::to_artefact(&back).digest(),
+                a.digest(),
+                "{what} {format:?}: read back from disk"
+            );
+        }
+    }
+}
+
+#[test]
+fn every_kind_round_trips_and_fits_its_layout() {
+    for kind in ArtefactKind::ALL {
+        test_kind(kind);
+    }
+}
+
+/// The registry is the engine's list of kinds: each entry reports its own tag, names are
+/// unique and found again, and `schemas/artefacts/` holds exactly one schema per kind.
+#[test]
+fn the_registry_is_every_kind() {
+    let mut names = std::collections::BTreeSet::new();
+    for kind in ArtefactKind::ALL {
+        assert_eq!(registered_tag(kind), kind);
+        assert!(names.insert(kind.name()), "{kind} registered twice");
+        assert_eq!(ArtefactKind::from_name(kind.name()), Some(kind));
+        let l = kind_layout(kind);
+        let mut tables = std::collections::BTreeSet::new();
+        assert!(l.tables.iter().all(|t| tables.insert(t.name)), "{kind}");
+        let mut keys = std::collections::BTreeSet::new();
+        assert!(l.meta.iter().all(|m| keys.insert(m.key)), "{kind}");
+    }
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("schemas/artefacts");
+    let files: std::collections::BTreeSet<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .flatten()
+        .filter_map(|e| {
+            let n = e.file_name().to_string_lossy().to_string();
+            n.strip_suffix(".schema.json").map(str::to_string)
+        })
+        .collect();
+    let names: std::collections::BTreeSet<String> = names.iter().map(|s| s.to_string()).collect();
+    assert_eq!(files, names);
+}
+
+/// The exact check refuses what the layout does not declare and what it requires but lacks.
+#[test]
+fn check_layout_is_exact() {
+    let ok = FrfKind::to_artefact(&frf_example());
+    check_layout(&ok).unwrap();
+    let extra_meta = ok.clone().with_meta("unknown", 1.into());
+    assert!(check_layout(&extra_meta).is_err());
+    let mut extra_col = ok.clone();
+    if let Some((t, _)) = extra_col.tables.get_mut("frf") {
+        t.columns
+            .push(("extra".into(), Column::F64(vec![0.0; t.rows()])));
+    }
+    let e = check_layout(&extra_col).unwrap_err().to_string();
+    assert!(e.contains("`extra` is not in the layout"), "{e}");
+    let mut missing = ok.clone();
+    missing.meta.remove("quantity");
+    assert!(check_layout(&missing).is_err());
+    let mut wrong_storage = ok.clone();
+    if let Some(t) = wrong_storage.tables.get_mut("frf") {
+        t.1 = Storage::Ipc;
+    }
+    assert!(check_layout(&wrong_storage).is_err());
+    let extra_table = ok.with_table("other", Table::new(), Storage::Parquet);
+    assert!(check_layout(&extra_table).is_err());
+    let modes = ModesKind::to_artefact(&ModesKind::examples()[0]);
+    let mut gap = modes.clone();
+    if let Some((t, _)) = gap.tables.get_mut("shapes") {
+        t.columns.remove(1);
+    }
+    let e = check_layout(&gap).unwrap_err().to_string();
+    assert!(e.contains("phi_2"), "{e}");
+}
+
+fn dof(s: &str) -> crate::core::DofId {
+    s.parse().unwrap()
+}
+
+fn frf_example() -> FrfSet {
+    let dofs = [dof("1:ux"), dof("2:uz")];
+    FrfSet {
+        quantity: Quantity::Mobility,
+        freqs_hz: vec![1.0, 2.0, 3.0],
+        pairs: FrfSet::all_pairs(&dofs, &dofs[..1]),
+        values: Mat::from_fn(3, 2, |k, p| c64::new(k as f64, p as f64 - 0.5)),
+    }
+}
+
+impl Example for MatricesKind {
+    fn examples() -> Vec<crate::fe::SystemMatrices> {
+        let sys = assemble_lumped(&LumpedModel::chain(&[1.0, 1.3, 1.0], 10.0)).unwrap();
+        let mut damped = sys.clone();
+        damped.c = Some(sys.k.clone());
+        damped.d = Some(sys.m.clone());
+        vec![sys, damped]
+    }
+}
+
+impl Example for ModesKind {
+    fn examples() -> Vec<ModesArtefact> {
+        vec![ModesArtefact {
+            dofs: vec![dof("1:ux"), dof("1:uz"), dof("2:ry")],
+            modes: Modes {
+                eigenvalues: vec![0.0, 4.0, 9.5],
+                shapes: Mat::from_fn(3, 3, |i, j| (i as f64 + 1.0) * (j as f64 - 0.25)),
+                residuals: vec![1e-12, 2e-13, f64::NAN],
+                orthogonality_error: 3e-15,
+                rigid_body_modes: 1,
+            },
+        }]
+    }
+}
+
+impl Example for FrfKind {
+    fn examples() -> Vec<FrfSet> {
+        vec![frf_example()]
+    }
+}
+
+impl Example for CorrelationKind {
+    fn examples() -> Vec<FrfCorrelation> {
+        let set = frf_example();
+        vec![FrfCorrelation {
+            freqs_hz: set.freqs_hz,
+            chi_s: vec![0.9, 0.5, 1.0],
+            chi_a: vec![0.8, f64::NAN, 0.7],
+            pairs: set.pairs,
+            frac: vec![0.95, 0.25],
+        }]
+    }
+}
+
+impl Example for PlotKind {
+    fn examples() -> Vec<Plot> {
+        vec![Plot {
+            name: "frf".into(),
+            title: "an FRF".into(),
+            png: vec![0x89, b'P', b'N', b'G', 0, 1, 2],
+            svg: "<svg xmlns=\"http://www.w3.org/2000/svg\"/>".into(),
+        }]
+    }
+}
+
+impl Example for mesh::MeshKind {
+    fn examples() -> Vec<Model> {
+        let mut lumped = three_beam(&ThreeBeam::default());
+        let node = *lumped.nodes.keys().next().unwrap();
+        let id = lumped.elements.keys().max().unwrap() + 1;
+        lumped.elements.insert(
+            id,
+            Element::ScalarSpring {
+                dof: dof(&format!("{node}:uz")),
+                other: None,
+                k: 1e5,
+            },
+        );
+        vec![bent_plate(&Default::default()), lumped]
+    }
+}
+
+fn record(i: usize) -> IterationRecord {
+    IterationRecord {
+        iteration: i,
+        values: vec![1.0 + i as f64, 2.0],
+        relative_change: vec![0.1, -0.0],
+        active: vec![true, i > 0],
+        lines_used: 3,
+        mean_chi_s: 0.9,
+        mean_chi_a: if i == 0 { f64::NAN } else { 0.9816106067610754 },
+        residual_norm: 0.5,
+        condition_limit: f64::NAN,
+        smoothing: if i == 0 { 0.1 } else { 0.0 },
+        smoothed_mean_chi: if i == 0 { 0.95 } else { f64::NAN },
+        diagnostics: Diagnostics {
+            singular_values: vec![2.0, 0.0],
+            condition: f64::INFINITY,
+            null_space: vec![vec![0.0, 1.0], vec![1.0, 0.0]],
+            weakest_direction: vec![0.0, 1.0],
+        },
+    }
+}
+
+impl Example for update_result::UpdateResultKind {
+    fn examples() -> Vec<UpdateResult> {
+        let history = UpdateHistory {
+            parameters: ["a", "b"]
+                .map(|n| UpdatingParameter {
+                    name: n.into(),
+                    initial: 1.0,
+                    lower: 0.1,
+                    upper: 10.0,
+                })
+                .to_vec(),
+            iterations: vec![record(0), record(1), record(2)],
+            final_values: vec![1.1, 2.0],
+            returned_iteration: None,
+            stop: StopReason::MaxIterations,
+        };
+        let damped = UpdateResult {
+            history: UpdateHistory {
+                returned_iteration: Some(1),
+                stop: StopReason::Converged,
+                ..history.clone()
+            },
+            method: "damping".into(),
+            damping: Some(ModalDamping {
+                model: "viscous".into(),
+                modes: vec![IdentifiedDamping {
+                    mode: 7,
+                    natural_hz: 41.5,
+                    initial: 0.01,
+                    identified: 0.02,
+                    equivalent_loss_factor: 0.04,
+                }],
+            }),
+        };
+        vec![
+            UpdateResult {
+                history,
+                method: "pc".into(),
+                damping: None,
+            },
+            damped,
+        ]
+    }
+}
+
+/// The bent plate of two plates, its partition, and its reductions: Craig-Bampton (with and
+/// without interface modes, and the memory-lean interface route) and force coupling.
+struct Reductions {
+    partition: Partition,
+    models: Vec<ReducedModel>,
+}
+
+fn reductions() -> &'static Reductions {
+    static R: OnceLock<Reductions> = OnceLock::new();
+    R.get_or_init(|| {
+        let mass = MassKind::Consistent;
+        let model = bent_plate(&BentPlate {
+            with_bar: false,
+            ..Default::default()
+        });
+        let partition =
+            Partition::from_sets(&model, &["plate_1".into(), "plate_2".into()], mass).unwrap();
+        let modes = ModeSelection::BelowHz(200.0);
+        let cb = Method::CraigBampton { modes };
+        let fc = Method::ForceCoupling {
+            modes,
+            masters: MasterSelection::default(),
+            second_level: None,
+        };
+        let plain = reduce(&model, &partition, &cb, mass).unwrap();
+        let interface = plain
+            .clone()
+            .with_interface_modes(ModeSelection::Count(6))
+            .unwrap();
+        let lean =
+            reduce_with_interface(&model, &partition, &cb, mass, Some(ModeSelection::Count(6)))
+                .unwrap();
+        let force = reduce(&model, &partition, &fc, mass).unwrap();
+        Reductions {
+            partition,
+            models: vec![plain, interface, lean, force],
+        }
+    })
+}
+
+impl Example for partition::PartitionKind {
+    fn examples() -> Vec<Partition> {
+        vec![reductions().partition.clone()]
+    }
+}
+
+impl Example for reduced_model::ReducedModelKind {
+    fn examples() -> Vec<ReducedModelArtefact> {
+        reductions()
+            .models
+            .iter()
+            .enumerate()
+            .map(|(i, r)| {
+                let derivatives = match i {
+                    0 => vec![("t_1".to_string(), r.k.clone(), r.m.clone())],
+                    _ => vec![],
+                };
+                let a = reduced_model::reduced_to_artefact(r, &derivatives);
+                reduced_model::ReducedModelKind::from_artefact(&a).unwrap()
+            })
+            .collect()
+    }
+}
+
+impl Example for reduced_component::ReducedComponentKind {
+    fn examples() -> Vec<crate::reduction::ComponentReduction> {
+        let models = &reductions().models;
+        let mut out = models[0].components.clone();
+        out.extend(models[3].components.iter().cloned());
+        for c in &mut out {
+            c.info.seconds = 0.0;
+        }
+        out
+    }
+}
+
+impl Example for modal_correlation::ModalCorrelationKind {
+    fn examples() -> Vec<ModalCorrelationRecord> {
+        let pair = |reference, predicted, mac| ModePair {
+            reference,
+            predicted,
+            mac,
+            eigenvalue_error: 0.01 * reference as f64,
+            frequency_error: 0.005 * reference as f64,
+        };
+        let c = ModeCorrelation {
+            pairs: vec![pair(1, 1, 0.99), pair(2, 3, 0.8)],
+            unpaired: vec![3],
+            mac: Mat::from_fn(3, 3, |i, j| if i == j { 0.9 } else { 0.1 * (i + j) as f64 }),
+            comac: vec![0.9, 0.8],
+        };
+        let dofs = [dof("1:uz"), dof("2:uz")];
+        let at = ModalCorrelationContext {
+            reference_hz: &[0.0, 10.0, 20.0, 30.0],
+            predicted_hz: &[0.0, 10.5, 19.0, 21.0],
+            rigid_body_modes: (1, 1),
+            dofs: &dofs,
+            band_hz: Some(25.0),
+            pairing: ("mac", 0.6),
+        };
+        vec![
+            ModalCorrelationRecord::new(&c, &at),
+            ModalCorrelationRecord::new(
+                &c,
+                &ModalCorrelationContext {
+                    band_hz: None,
+                    pairing: ("order", 0.0),
+                    ..at.clone()
+                },
+            ),
+        ]
+    }
+}
+
+fn candidate(name: &str, elements: Vec<u64>) -> Candidate {
+    Candidate {
+        name: name.into(),
+        kind: ParameterKind::YoungsModulus,
+        set: format!("set_{name}"),
+        elements,
+        value: 7e10,
+    }
+}
+
+impl Example for leverage::LeverageKind {
+    fn examples() -> Vec<LeverageRecord> {
+        let row = |name: &str, leverage: f64, rank| LeverageRow {
+            candidate: name.into(),
+            kind: "youngs_modulus".into(),
+            set: format!("set_{name}"),
+            value: 7e10,
+            leverage,
+            normalised: leverage / 2.0,
+            rank,
+            change: -0.1,
+            residual_fraction: leverage / 4.0,
+        };
+        let line = |f: f64, used| LineRow {
+            freq_hz: f,
+            chi_s: 0.9,
+            chi_a: 0.7,
+            used,
+        };
+        vec![LeverageRecord {
+            band_hz: Some([5.0, 100.0]),
+            lines_used: 1,
+            residual_norm2: 4.0,
+            modes: 12,
+            candidates: vec![row("a", 2.0, 1), row("b", 1.0, 2)],
+            members: leverage::members_of(&[candidate("a", vec![1, 2]), candidate("b", vec![3])]),
+            lines: vec![line(10.0, true), line(20.0, false)],
+        }]
+    }
+}
+
+impl Example for eigenvalue_sensitivity::EigenvalueSensitivityKind {
+    fn examples() -> Vec<EigenSensitivityRecord> {
+        let map = EigenMap {
+            candidates: vec![candidate("a", vec![1, 2]), candidate("b", vec![3])],
+            modes: vec![7, 8],
+            freqs_hz: vec![12.0, 15.0],
+            values: vec![vec![1.0, -3.0], vec![0.5, 2.0]],
+            normalised: vec![vec![1.0, -1.0], vec![0.5, 2.0 / 3.0]],
+        };
+        vec![EigenSensitivityRecord::new(&map)]
+    }
+}
+
+/// Beyond the digest: a reduced model reads back with its method, coordinates, `K`, interface
+/// modes, couplings (positional ones stay positional, as the lean interface route makes them)
+/// and transformations; a component with everything but its timing. (Moved from the reduction
+/// tests, which must not import the artefact layer.)
+#[test]
+fn reduced_models_read_back_their_structure() {
+    for r in &reductions().models {
+        let back =
+            reduced_model::reduced_from_artefact(&reduced_model::reduced_to_artefact(r, &[]))
+                .unwrap();
+        let name = r.method.name();
+        assert_eq!(back.method, r.method, "{name}");
+        assert_eq!(back.coords, r.coords, "{name}");
+        assert_eq!(back.k, r.k, "{name}");
+        assert_eq!(back.interface, r.interface, "{name}");
+        assert_eq!(back.couplings, r.couplings, "{name}");
+        for k in 0..r.components.len() {
+            assert_eq!(back.transformation(k), r.transformation(k), "{name} {k}");
+            let c = reduced_component::ReducedComponentKind::from_artefact(
+                &reduced_component::component_to_artefact(&r.components[k]),
+            )
+            .unwrap();
+            let mut want = r.components[k].clone();
+            want.info.seconds = 0.0;
+            assert_eq!(c, want, "{name} component {k}");
+        }
+    }
+    let p = &reductions().partition;
+    assert_eq!(
+        partition::partition_from_artefact(&partition::partition_to_artefact(p)).unwrap(),
+        *p
+    );
+}
