@@ -2,12 +2,12 @@
 //! summation (structural `η_r` or viscous `ζ_r`, uniform or per mode, optionally truncated) or by
 //! direct solution of `Z(ω)` (docs/theory.md §1).
 
+use super::params::Damping;
 use crate::artefact::ArtefactKind;
 use crate::artefact::kinds::{frf_to_artefact, matrices_from_artefact, modes_from_artefact};
 use crate::core::DofId;
 use crate::frf::{
-    DirectDamping, FrfSet, ModalDamping, Quantity, direct_receptance, frequency_line_count,
-    frequency_lines, modal_receptance,
+    FrfSet, Quantity, direct_receptance, frequency_line_count, frequency_lines, modal_receptance,
 };
 use crate::pipeline::{
     CheckContext, ParamIssue, PortSpec, StageError, StageInputs, StageOutputs, TypedStage,
@@ -26,141 +26,6 @@ pub enum Method {
     Modal,
     /// `α = Z(ω)⁻¹` from the `model` input.
     Direct,
-}
-
-/// One value for every mode, or one per mode.
-#[derive(Clone, Debug, PartialEq, serde::Deserialize, serde::Serialize, schemars::JsonSchema)]
-#[serde(untagged)]
-pub enum PerMode {
-    /// The same value for every mode.
-    Uniform(f64),
-    /// One value per mode, in mode order.
-    PerMode(Vec<f64>),
-    /// One value for every mode except those listed by 1-based mode number (rigid-body
-    /// modes counted), e.g. `{all: 0.01, modes: {7: 0.03, 8: 0.025}}`.
-    Modes {
-        /// The value of every mode not listed.
-        all: f64,
-        /// Values by 1-based mode number (keys are numbers: YAML `7:` or JSON `"7"`).
-        modes: std::collections::BTreeMap<String, f64>,
-    },
-}
-
-impl PerMode {
-    /// The values: one (uniform) or one per mode; listed modes set over a uniform value.
-    fn values(&self) -> Vec<f64> {
-        match self {
-            PerMode::Uniform(v) => vec![*v],
-            PerMode::PerMode(v) => v.clone(),
-            PerMode::Modes { all, modes } => {
-                let listed: Vec<(usize, f64)> = modes
-                    .iter()
-                    .filter_map(|(r, &x)| r.parse::<usize>().ok().map(|r| (r, x)))
-                    .collect();
-                let n = listed.iter().map(|l| l.0).max().unwrap_or(1).max(1);
-                let mut v = vec![*all; n];
-                for (r, x) in listed {
-                    if r >= 1 {
-                        v[r - 1] = x;
-                    }
-                }
-                v
-            }
-        }
-    }
-
-    /// One value per mode for a basis of `m` modes, or what is wrong.
-    pub fn values_for(&self, m: usize) -> Result<Vec<f64>, String> {
-        match self {
-            PerMode::Uniform(v) => Ok(vec![*v; m]),
-            PerMode::PerMode(v) if v.len() == m => Ok(v.clone()),
-            PerMode::PerMode(v) => Err(format!(
-                "{} per-mode values for {m} modes: give one value per mode, or `{{all: …, modes: {{…}}}}`",
-                v.len()
-            )),
-            PerMode::Modes { all, modes } => {
-                let mut v = vec![*all; m];
-                for (key, &x) in modes {
-                    let r: usize = key.parse().map_err(|_| {
-                        format!("`{key}` is not a mode number: keys are 1-based mode numbers")
-                    })?;
-                    if r == 0 || r > m {
-                        return Err(format!(
-                            "mode {r} is not among the {m} modes (numbers count from 1)"
-                        ));
-                    }
-                    v[r - 1] = x;
-                }
-                Ok(v)
-            }
-        }
-    }
-}
-
-/// Damping of the synthesis.
-#[derive(
-    Clone, Debug, Default, PartialEq, serde::Deserialize, serde::Serialize, schemars::JsonSchema,
-)]
-#[serde(rename_all = "snake_case", deny_unknown_fields)]
-pub enum Damping {
-    /// Undamped (the model's own C and D still apply to `direct`).
-    #[default]
-    None,
-    /// Structural loss factor `η` (modal: per mode allowed; direct: uniform, `D += η K`).
-    Structural(PerMode),
-    /// Viscous damping ratio `ζ` per mode (modal only).
-    Viscous(PerMode),
-    /// Rayleigh viscous damping `C += α M + β K` (direct only).
-    Rayleigh {
-        /// Mass-proportional coefficient α in 1/s.
-        alpha: f64,
-        /// Stiffness-proportional coefficient β in s.
-        beta: f64,
-    },
-}
-
-impl Damping {
-    /// The modal damping it describes (Rayleigh, a direct-only model, gives none).
-    pub fn modal(&self) -> ModalDamping {
-        match self {
-            Damping::None | Damping::Rayleigh { .. } => ModalDamping::None,
-            Damping::Structural(v) => ModalDamping::Structural(v.values()),
-            Damping::Viscous(v) => ModalDamping::Viscous(v.values()),
-        }
-    }
-
-    /// The modal damping of a basis of `m` modes, per-mode lists checked against `m`.
-    pub fn modal_for(&self, m: usize) -> Result<ModalDamping, String> {
-        Ok(match self {
-            Damping::None | Damping::Rayleigh { .. } => ModalDamping::None,
-            Damping::Structural(v) => ModalDamping::Structural(v.values_for(m)?),
-            Damping::Viscous(v) => ModalDamping::Viscous(v.values_for(m)?),
-        })
-    }
-
-    /// Whether values are given per mode (a list or by mode number).
-    pub fn is_per_mode(&self) -> bool {
-        matches!(
-            self,
-            Damping::Structural(PerMode::PerMode(_) | PerMode::Modes { .. })
-                | Damping::Viscous(PerMode::PerMode(_) | PerMode::Modes { .. })
-        )
-    }
-
-    /// The damping added to a direct solution (a per-mode or viscous value is modal-only).
-    pub fn direct(&self) -> DirectDamping {
-        match self {
-            Damping::Structural(v) => DirectDamping {
-                structural_eta: v.values().first().copied().unwrap_or(0.0),
-                rayleigh: None,
-            },
-            Damping::Rayleigh { alpha, beta } => DirectDamping {
-                structural_eta: 0.0,
-                rayleigh: Some((*alpha, *beta)),
-            },
-            _ => DirectDamping::default(),
-        }
-    }
 }
 
 /// Parameters of `frf.synthesise`.

@@ -5,7 +5,7 @@
 //! every element on its own (processed in chunks). Writes the table, a mesh coloured by the
 //! normalised leverage and a bar chart.
 
-use super::frf_synthesise::Damping;
+use super::params::Damping;
 use crate::artefact::ArtefactKind;
 use crate::artefact::kinds::{frf_from_artefact, plot_artefact};
 use crate::artefact::leverage::{leverage_to_artefact, ranks};
