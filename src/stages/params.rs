@@ -51,6 +51,12 @@ macro_rules! bounded_f64 {
             }
         }
 
+        impl std::fmt::Display for $name {
+            fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+                self.0.fmt(f)
+            }
+        }
+
         impl From<$name> for f64 {
             fn from(v: $name) -> f64 {
                 v.0
