@@ -3,10 +3,10 @@
 //! MAC (1.18), the relative eigenvalue and frequency errors of each pair, the MAC matrix and
 //! the COMAC, as a table and a bar chart of the errors and MACs per mode.
 
+use super::params::Positive;
 use crate::artefact::ArtefactKind;
 use crate::artefact::kinds::{modes_from_artefact, plot_artefact};
 use crate::artefact::modal_correlation::{ModalCorrelationContext, modal_correlation_to_artefact};
-use super::params::Positive;
 use crate::correlation::{Pairing, correlate_modes};
 use crate::pipeline::{
     CheckContext, ParamIssue, PortSpec, StageError, StageInputs, StageOutputs, TypedStage,
@@ -148,7 +148,10 @@ impl TypedStage for CorrelateModes {
         }
         let ref_hz = reference.modes.frequencies_hz();
         let pred_hz = predicted.modes.frequencies_hz();
-        let (max_freq_hz, band_hz) = (p.max_freq_hz.map(Positive::get), p.band_hz.map(Positive::get));
+        let (max_freq_hz, band_hz) = (
+            p.max_freq_hz.map(Positive::get),
+            p.band_hz.map(Positive::get),
+        );
         let kept = match max_freq_hz {
             Some(f) => ref_hz.iter().filter(|h| **h <= f).count(),
             None => ref_hz.len(),

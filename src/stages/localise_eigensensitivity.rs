@@ -224,7 +224,11 @@ mod tests {
         assert_eq!(e.len(), 2, "{e:?}");
         let e = check(serde_json::json!({"band_hz": [50, 10]})).unwrap_err();
         assert_eq!(e[0].path, vec!["band_hz"]);
-        assert!(e[0].message.contains("0 <= start <= stop"), "{}", e[0].message);
+        assert!(
+            e[0].message.contains("0 <= start <= stop"),
+            "{}",
+            e[0].message
+        );
         let e = check(serde_json::json!({"band_hz": [10, 50], "columns": 0})).unwrap_err();
         assert_eq!(e[0].path, vec!["columns"]);
         assert!(check(serde_json::json!({"elastic_modes": 6})).is_ok());

@@ -6,8 +6,8 @@
 //! normalised leverage and a bar chart.
 
 use super::params::{
-    Band, Count, Damping, Deprecation, Fraction, Modes, NonNegative, Positive,
-    migrate_mode_fields, warn_deprecated,
+    Band, Count, Damping, Deprecation, Fraction, Modes, NonNegative, Positive, migrate_mode_fields,
+    warn_deprecated,
 };
 use crate::artefact::ArtefactKind;
 use crate::artefact::kinds::{frf_from_artefact, plot_artefact};
@@ -459,9 +459,8 @@ impl TypedStage for LocaliseLeverage {
             .copied()
             .filter(|x| p.band_hz.is_none_or(|b| *x >= b.lo && *x <= b.hi))
             .fold(0.0_f64, f64::max);
-        let modes = (p.modes).selection_or(ModeSelection::BelowHz(
-            2.0 * top_hz.max(f64::MIN_POSITIVE),
-        ));
+        let modes =
+            (p.modes).selection_or(ModeSelection::BelowHz(2.0 * top_hz.max(f64::MIN_POSITIVE)));
         let band_hz = p.band_hz.map(<[f64; 2]>::from);
         let settings = LeverageSettings {
             band_hz,
@@ -565,18 +564,24 @@ mod tests {
     fn bad_settings_are_named() {
         // Out of their types' ranges: refused as read, the range named.
         for (with, field, range) in [
-            (serde_json::json!({"band_hz": [100, 10]}), "band_hz", "start <= stop"),
+            (
+                serde_json::json!({"band_hz": [100, 10]}),
+                "band_hz",
+                "start <= stop",
+            ),
             (serde_json::json!({"kappa_f": 1.5}), "kappa_f", "(0, 1]"),
-            (serde_json::json!({"resonance_lines": -1}), "resonance_lines", "[0, ∞)"),
+            (
+                serde_json::json!({"resonance_lines": -1}),
+                "resonance_lines",
+                "[0, ∞)",
+            ),
         ] {
             let e = check(with).unwrap_err();
             assert_eq!(e[0].path, vec![field]);
             assert!(e[0].message.contains(range), "{}", e[0].message);
         }
-        let e = check(
-            serde_json::json!({"chunk": 0,
-            "damping": {"rayleigh": {"alpha": 1, "beta": 0}}, "plot": {"max_bars": 0}}),
-        )
+        let e = check(serde_json::json!({"chunk": 0,
+            "damping": {"rayleigh": {"alpha": 1, "beta": 0}}, "plot": {"max_bars": 0}}))
         .unwrap_err();
         let paths: Vec<String> = e.iter().map(|i| i.path.join(".")).collect();
         assert_eq!(paths, ["chunk", "damping", "plot.max_bars"], "{e:?}");

@@ -1,10 +1,10 @@
 //! `modes`: natural frequencies and mass-normalised mode shapes of a model (docs/theory.md §1):
 //! dense shift-invert for small models, sparse shift-invert Lanczos for large ones.
 
+use super::params::{Count, Modes, Positive};
 use crate::artefact::ArtefactKind;
 use crate::artefact::kinds::{matrices_from_artefact, modes_to_artefact};
 use crate::eigen::{ModeSelection, SparseEigenParams, lowest_modes};
-use super::params::{Count, Modes, Positive};
 use crate::pipeline::{
     CheckContext, ParamIssue, PortSpec, StageError, StageInputs, StageOutputs, TypedStage,
 };
