@@ -369,3 +369,48 @@ fn an_update_that_ends_worse_than_it_began_returns_its_best_iterate() {
     let a = femu::artefact::update::update_result_to_artefact(&h, "pc");
     assert_eq!(a.meta["returned_iteration"], serde_json::json!(0));
 }
+
+/// Old parameter spellings still read, for one release: `femu validate` and `femu run` warn and
+/// name the new spelling, and the stage's checked parameters (its cache key) are those of the new
+/// spelling, so the shipped pipeline's result is reused as it is.
+#[test]
+fn old_parameter_spellings_warn_and_mean_the_same() {
+    let tmp = tempfile::tempdir().unwrap();
+    let shipped = std::fs::read_to_string(pipeline("four-dof-rfm")).unwrap();
+    assert!(shipped.contains("      modes: {count: 3}\n"));
+    let old = tmp.path().join("old.yaml");
+    std::fs::write(
+        &old,
+        shipped.replacen("      modes: {count: 3}\n", "      mode_count: 3\n", 1),
+    )
+    .unwrap();
+    let warning = "`with.mode_count` is deprecated and will be removed in the next release: write `with.modes.count`";
+    let validate = femu()
+        .args(["validate", old.to_str().unwrap()])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&validate.stderr);
+    assert!(validate.status.success(), "{stderr}");
+    assert!(
+        stderr.contains(warning) && stderr.contains("frf.synthesise"),
+        "{stderr}"
+    );
+    let run = |path: &Path| {
+        femu()
+            .args(["run", path.to_str().unwrap(), "--only", "from_3_modes"])
+            .env("FEMU_CACHE_DIR", tmp.path().join("cache"))
+            .output()
+            .unwrap()
+    };
+    let first = run(&pipeline("four-dof-rfm"));
+    assert!(first.status.success());
+    assert!(!String::from_utf8_lossy(&first.stderr).contains("deprecated"));
+    let again = run(&old);
+    let stderr = String::from_utf8_lossy(&again.stderr);
+    assert!(again.status.success(), "{stderr}");
+    assert!(stderr.contains(warning), "{stderr}");
+    assert!(
+        stderr.contains("from_3_modes (frf.synthesise): cached"),
+        "{stderr}"
+    );
+}

@@ -3,6 +3,7 @@
 //! MAC (1.18), the relative eigenvalue and frequency errors of each pair, the MAC matrix and
 //! the COMAC, as a table and a bar chart of the errors and MACs per mode.
 
+use super::params::Positive;
 use crate::artefact::ArtefactKind;
 use crate::artefact::kinds::{modes_from_artefact, plot_artefact};
 use crate::artefact::modal_correlation::{ModalCorrelationContext, modal_correlation_to_artefact};
@@ -42,11 +43,11 @@ pub struct Params {
     pub min_mac: f64,
     /// Compare only reference modes up to this frequency, Hz (default: all).
     #[serde(default)]
-    pub max_freq_hz: Option<f64>,
+    pub max_freq_hz: Option<Positive>,
     /// Top of the validity band, Hz: pairs above it are flagged `in_band = 0`, drawn in the
     /// second colour and left out of the summary (thesis C3: 100 Hz).
     #[serde(default)]
-    pub band_hz: Option<f64>,
+    pub band_hz: Option<Positive>,
     /// Figure title.
     #[serde(default = "default_title")]
     pub title: String,
@@ -105,16 +106,6 @@ impl TypedStage for CorrelateModes {
                 format!("{} is not a MAC: give a value in [0, 1]", p.min_mac),
             ));
         }
-        for (field, f) in [("max_freq_hz", p.max_freq_hz), ("band_hz", p.band_hz)] {
-            if let Some(f) = f {
-                if !(f.is_finite() && f > 0.0) {
-                    v.push(ParamIssue::at(
-                        field,
-                        format!("{f} must be a positive frequency in Hz"),
-                    ));
-                }
-            }
-        }
         v
     }
 
@@ -157,7 +148,11 @@ impl TypedStage for CorrelateModes {
         }
         let ref_hz = reference.modes.frequencies_hz();
         let pred_hz = predicted.modes.frequencies_hz();
-        let kept = match p.max_freq_hz {
+        let (max_freq_hz, band_hz) = (
+            p.max_freq_hz.map(Positive::get),
+            p.band_hz.map(Positive::get),
+        );
+        let kept = match max_freq_hz {
             Some(f) => ref_hz.iter().filter(|h| **h <= f).count(),
             None => ref_hz.len(),
         };
@@ -167,7 +162,7 @@ impl TypedStage for CorrelateModes {
                 "max_freq_hz",
                 format!(
                     "no elastic reference mode to compare{}: the reference has {} modes, {} of them rigid-body modes",
-                    p.max_freq_hz
+                    max_freq_hz
                         .map(|f| format!(" below max_freq_hz = {f} Hz"))
                         .unwrap_or_default(),
                     ref_hz.len(),
@@ -203,7 +198,7 @@ impl TypedStage for CorrelateModes {
                 predicted_hz: &pred_hz,
                 rigid_body_modes: (ref_rigid, pred_rigid),
                 dofs: &dofs,
-                band_hz: p.band_hz,
+                band_hz,
                 pairing: (name, p.min_mac),
             },
         );
@@ -215,7 +210,7 @@ impl TypedStage for CorrelateModes {
         let marked: Vec<bool> = c
             .pairs
             .iter()
-            .map(|x| p.band_hz.is_some_and(|b| ref_hz[x.reference] > b))
+            .map(|x| band_hz.is_some_and(|b| ref_hz[x.reference] > b))
             .collect();
         let panel = |title: &str, values: Vec<f64>, log: bool| BarPanel {
             title: title.into(),

@@ -2,12 +2,15 @@
 //! summation (structural `η_r` or viscous `ζ_r`, uniform or per mode, optionally truncated) or by
 //! direct solution of `Z(ω)` (docs/theory.md §1).
 
+use super::params::{
+    Band, Count, Damping, Deprecation, Modes, NonNegative, Positive, migrate_mode_fields,
+    warn_deprecated,
+};
 use crate::artefact::ArtefactKind;
 use crate::artefact::kinds::{frf_to_artefact, matrices_from_artefact, modes_from_artefact};
 use crate::core::DofId;
 use crate::frf::{
-    DirectDamping, FrfSet, ModalDamping, Quantity, direct_receptance, frequency_line_count,
-    frequency_lines, modal_receptance,
+    FrfSet, Quantity, direct_receptance, frequency_line_count, frequency_lines, modal_receptance,
 };
 use crate::pipeline::{
     CheckContext, ParamIssue, PortSpec, StageError, StageInputs, StageOutputs, TypedStage,
@@ -26,141 +29,6 @@ pub enum Method {
     Modal,
     /// `α = Z(ω)⁻¹` from the `model` input.
     Direct,
-}
-
-/// One value for every mode, or one per mode.
-#[derive(Clone, Debug, PartialEq, serde::Deserialize, serde::Serialize, schemars::JsonSchema)]
-#[serde(untagged)]
-pub enum PerMode {
-    /// The same value for every mode.
-    Uniform(f64),
-    /// One value per mode, in mode order.
-    PerMode(Vec<f64>),
-    /// One value for every mode except those listed by 1-based mode number (rigid-body
-    /// modes counted), e.g. `{all: 0.01, modes: {7: 0.03, 8: 0.025}}`.
-    Modes {
-        /// The value of every mode not listed.
-        all: f64,
-        /// Values by 1-based mode number (keys are numbers: YAML `7:` or JSON `"7"`).
-        modes: std::collections::BTreeMap<String, f64>,
-    },
-}
-
-impl PerMode {
-    /// The values: one (uniform) or one per mode; listed modes set over a uniform value.
-    fn values(&self) -> Vec<f64> {
-        match self {
-            PerMode::Uniform(v) => vec![*v],
-            PerMode::PerMode(v) => v.clone(),
-            PerMode::Modes { all, modes } => {
-                let listed: Vec<(usize, f64)> = modes
-                    .iter()
-                    .filter_map(|(r, &x)| r.parse::<usize>().ok().map(|r| (r, x)))
-                    .collect();
-                let n = listed.iter().map(|l| l.0).max().unwrap_or(1).max(1);
-                let mut v = vec![*all; n];
-                for (r, x) in listed {
-                    if r >= 1 {
-                        v[r - 1] = x;
-                    }
-                }
-                v
-            }
-        }
-    }
-
-    /// One value per mode for a basis of `m` modes, or what is wrong.
-    pub fn values_for(&self, m: usize) -> Result<Vec<f64>, String> {
-        match self {
-            PerMode::Uniform(v) => Ok(vec![*v; m]),
-            PerMode::PerMode(v) if v.len() == m => Ok(v.clone()),
-            PerMode::PerMode(v) => Err(format!(
-                "{} per-mode values for {m} modes: give one value per mode, or `{{all: …, modes: {{…}}}}`",
-                v.len()
-            )),
-            PerMode::Modes { all, modes } => {
-                let mut v = vec![*all; m];
-                for (key, &x) in modes {
-                    let r: usize = key.parse().map_err(|_| {
-                        format!("`{key}` is not a mode number: keys are 1-based mode numbers")
-                    })?;
-                    if r == 0 || r > m {
-                        return Err(format!(
-                            "mode {r} is not among the {m} modes (numbers count from 1)"
-                        ));
-                    }
-                    v[r - 1] = x;
-                }
-                Ok(v)
-            }
-        }
-    }
-}
-
-/// Damping of the synthesis.
-#[derive(
-    Clone, Debug, Default, PartialEq, serde::Deserialize, serde::Serialize, schemars::JsonSchema,
-)]
-#[serde(rename_all = "snake_case", deny_unknown_fields)]
-pub enum Damping {
-    /// Undamped (the model's own C and D still apply to `direct`).
-    #[default]
-    None,
-    /// Structural loss factor `η` (modal: per mode allowed; direct: uniform, `D += η K`).
-    Structural(PerMode),
-    /// Viscous damping ratio `ζ` per mode (modal only).
-    Viscous(PerMode),
-    /// Rayleigh viscous damping `C += α M + β K` (direct only).
-    Rayleigh {
-        /// Mass-proportional coefficient α in 1/s.
-        alpha: f64,
-        /// Stiffness-proportional coefficient β in s.
-        beta: f64,
-    },
-}
-
-impl Damping {
-    /// The modal damping it describes (Rayleigh, a direct-only model, gives none).
-    pub fn modal(&self) -> ModalDamping {
-        match self {
-            Damping::None | Damping::Rayleigh { .. } => ModalDamping::None,
-            Damping::Structural(v) => ModalDamping::Structural(v.values()),
-            Damping::Viscous(v) => ModalDamping::Viscous(v.values()),
-        }
-    }
-
-    /// The modal damping of a basis of `m` modes, per-mode lists checked against `m`.
-    pub fn modal_for(&self, m: usize) -> Result<ModalDamping, String> {
-        Ok(match self {
-            Damping::None | Damping::Rayleigh { .. } => ModalDamping::None,
-            Damping::Structural(v) => ModalDamping::Structural(v.values_for(m)?),
-            Damping::Viscous(v) => ModalDamping::Viscous(v.values_for(m)?),
-        })
-    }
-
-    /// Whether values are given per mode (a list or by mode number).
-    pub fn is_per_mode(&self) -> bool {
-        matches!(
-            self,
-            Damping::Structural(PerMode::PerMode(_) | PerMode::Modes { .. })
-                | Damping::Viscous(PerMode::PerMode(_) | PerMode::Modes { .. })
-        )
-    }
-
-    /// The damping added to a direct solution (a per-mode or viscous value is modal-only).
-    pub fn direct(&self) -> DirectDamping {
-        match self {
-            Damping::Structural(v) => DirectDamping {
-                structural_eta: v.values().first().copied().unwrap_or(0.0),
-                rayleigh: None,
-            },
-            Damping::Rayleigh { alpha, beta } => DirectDamping {
-                structural_eta: 0.0,
-                rayleigh: Some((*alpha, *beta)),
-            },
-            _ => DirectDamping::default(),
-        }
-    }
 }
 
 /// Parameters of `frf.synthesise`.
@@ -184,19 +52,24 @@ pub struct Params {
     pub excitations: Vec<DofId>,
     /// Band `[start, stop]` in Hz, with `step_hz`.
     #[serde(default)]
-    pub band_hz: Option<[f64; 2]>,
+    pub band_hz: Option<Band>,
     /// Line spacing in Hz, with `band_hz`.
     #[serde(default)]
-    pub step_hz: Option<f64>,
+    pub step_hz: Option<Positive>,
     /// Explicit lines in Hz, instead of `band_hz`/`step_hz`.
     #[serde(default)]
-    pub lines_hz: Option<Vec<f64>>,
+    pub lines_hz: Option<Vec<NonNegative>>,
     /// Damping model.
     #[serde(default)]
     pub damping: Damping,
-    /// Use only the lowest `mode_count` modes (modal only; default: all modes given).
+    /// Use only the lowest modes given, `{count: N}` or `{max_freq_hz: F}` (modal only;
+    /// default: all modes given).
     #[serde(default)]
-    pub mode_count: Option<usize>,
+    pub modes: Modes,
+    /// Deprecated spelling of `modes.count`.
+    #[serde(default, skip_serializing)]
+    #[schemars(extend("deprecated" = true))]
+    pub mode_count: Option<Count>,
 }
 
 fn receptance() -> Quantity {
@@ -207,10 +80,30 @@ fn receptance() -> Quantity {
 const MAX_LINES: usize = 1_000_000;
 
 impl Params {
+    /// How many of the given modes (with these natural frequencies) are kept, if not all.
+    fn kept_modes(&self, natural_hz: &[f64]) -> Result<Option<usize>, StageError> {
+        let n = natural_hz.len();
+        match (self.modes.count.map(Count::get), self.modes.max_freq_hz) {
+            (Some(c), _) if c > n => Err(StageError::input(
+                "modes.count",
+                format!("{c} exceeds the {n} modes given; compute more modes upstream"),
+            )),
+            (Some(c), _) => Ok(Some(c)),
+            (None, Some(f)) => match natural_hz.iter().filter(|&&h| h <= f.get()).count() {
+                0 => Err(StageError::input(
+                    "modes.max_freq_hz",
+                    format!("no mode given lies below {} Hz", f.get()),
+                )),
+                c => Ok(Some(c)),
+            },
+            (None, None) => Ok(None),
+        }
+    }
+
     fn lines(&self) -> Vec<f64> {
         match (&self.lines_hz, self.band_hz, self.step_hz) {
-            (Some(l), _, _) => l.clone(),
-            (None, Some([a, b]), Some(s)) => frequency_lines(a, b, s),
+            (Some(l), _, _) => l.iter().map(|f| f.get()).collect(),
+            (None, Some(b), Some(s)) => frequency_lines(b.lo, b.hi, s.get()),
             _ => Vec::new(),
         }
     }
@@ -243,7 +136,10 @@ impl TypedStage for FrfSynthesise {
     }
 
     fn validate(p: &mut Params, ctx: &CheckContext) -> Vec<ParamIssue> {
-        let mut issues = Vec::new();
+        let mut found: Vec<Deprecation> = Vec::new();
+        let mut issues = migrate_mode_fields(&mut p.modes, p.mode_count.take(), None, &mut found);
+        warn_deprecated(Self::KIND, &found);
+        issues.extend(p.modes.issues("modes"));
         let method = *p.method.get_or_insert(if ctx.is_connected("modes") {
             Method::Modal
         } else {
@@ -279,31 +175,17 @@ impl TypedStage for FrfSynthesise {
                 "give `band_hz: [start, stop]` with `step_hz`, or `lines_hz: [...]`",
             )),
         }
-        if let Some([a, b]) = p.band_hz {
-            if !(a.is_finite() && b.is_finite() && a >= 0.0 && b >= a) {
-                issues.push(ParamIssue::at(
-                    "band_hz",
-                    format!("[{a}, {b}] must satisfy 0 <= start <= stop"),
-                ));
-            }
-        }
-        if let Some(s) = p.step_hz {
-            if !(s.is_finite() && s > 0.0) {
-                issues.push(ParamIssue::at("step_hz", format!("{s} must be positive")));
-            }
-        }
         if let Some(l) = &p.lines_hz {
-            if l.is_empty()
-                || l.iter().any(|f| !(f.is_finite() && *f >= 0.0))
-                || l.windows(2).any(|w| w[1] <= w[0])
-            {
+            if l.is_empty() || l.windows(2).any(|w| w[1] <= w[0]) {
                 issues.push(ParamIssue::at(
                     "lines_hz",
                     "lines must be non-negative and strictly increasing",
                 ));
             }
         }
-        if let (true, Some([a, b]), Some(step)) = (issues.is_empty(), p.band_hz, p.step_hz) {
+        if let (true, Some(Band { lo: a, hi: b }), Some(step)) =
+            (issues.is_empty(), p.band_hz, p.step_hz.map(Positive::get))
+        {
             // Counted before anything is allocated: a step of 1e-3 Hz over 1 MHz is 1e9 lines.
             match frequency_line_count(a, b, step) {
                 None => issues.push(ParamIssue::at(
@@ -349,14 +231,11 @@ impl TypedStage for FrfSynthesise {
             (Method::Modal, Damping::Rayleigh { .. }) => issues.push(ParamIssue::at("damping", "Rayleigh damping needs `method: direct`; for `modal` give `viscous` ratios per mode")),
             _ => {}
         }
-        if method == Method::Direct && p.mode_count.is_some() {
+        if method == Method::Direct && p.modes.is_given() {
             issues.push(ParamIssue::at(
-                "mode_count",
+                "modes",
                 "mode truncation applies to `method: modal` only",
             ));
-        }
-        if p.mode_count == Some(0) {
-            issues.push(ParamIssue::at("mode_count", "must be at least 1"));
         }
         issues
     }
@@ -385,16 +264,7 @@ impl TypedStage for FrfSynthesise {
                         "the `modes` input holds no mode, so every modal FRF would be zero; compute modes upstream (raise `max_freq_hz` or give `count`)",
                     ));
                 }
-                if let Some(c) = p.mode_count {
-                    if c > modes.len() {
-                        return Err(StageError::input(
-                            "mode_count",
-                            format!(
-                                "{c} exceeds the {} modes given; compute more modes upstream",
-                                modes.len()
-                            ),
-                        ));
-                    }
+                if let Some(c) = p.kept_modes(&modes.frequencies_hz())? {
                     modes.eigenvalues.truncate(c);
                     modes.residuals.truncate(c);
                     modes.shapes = modes.shapes.subcols(0, c).to_owned();
@@ -456,6 +326,29 @@ mod tests {
         .unwrap_err();
         assert!(e[0].message.contains("band_hz"));
         let e = check(serde_json::json!({"responses": ["1:ux"], "excitations": ["1:ux"], "band_hz": [10, 0], "step_hz": 1}), &["modes"]).unwrap_err();
+        assert_eq!(e[0].path, vec!["band_hz"]);
         assert!(e[0].message.contains("start <= stop"));
+    }
+
+    #[test]
+    fn mode_count_is_read_as_modes_count_with_a_deprecation() {
+        let base = serde_json::json!({"responses": ["1:ux"], "excitations": ["1:ux"], "band_hz": [0, 10], "step_hz": 1});
+        let mut old = base.clone();
+        old["mode_count"] = 3.into();
+        let mut new = base;
+        new["modes"] = serde_json::json!({"count": 3});
+        let checked = check(old.clone(), &["modes"]).unwrap();
+        assert_eq!(checked["modes"]["count"], 3);
+        assert!(checked.get("mode_count").is_none());
+        assert_eq!(checked, check(new, &["modes"]).unwrap());
+        let mut p: Params = crate::pipeline::stage::parse_params(&old).unwrap();
+        let mut found = Vec::new();
+        migrate_mode_fields(&mut p.modes, p.mode_count.take(), None, &mut found);
+        assert_eq!((found[0].old, found[0].new), ("mode_count", "modes.count"));
+        let mut zero = old;
+        zero["mode_count"] = 0.into();
+        let e = check(zero, &["modes"]).unwrap_err();
+        assert_eq!(e[0].path, vec!["mode_count"]);
+        assert!(e[0].message.contains(">= 1"), "{}", e[0].message);
     }
 }

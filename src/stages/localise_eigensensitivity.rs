@@ -5,6 +5,7 @@
 //! argument for the leverage. Writes the table, a mesh panel per mode and a bar panel per mode.
 
 use super::localise_leverage::{Candidates, PlotParams, element_values};
+use super::params::Band;
 use crate::artefact::ArtefactKind;
 use crate::artefact::kinds::plot_artefact;
 use crate::artefact::leverage::eigen_map_to_artefact;
@@ -36,7 +37,7 @@ pub struct Params {
     pub elastic_modes: Option<usize>,
     /// Every elastic mode in `[lo, hi]` Hz.
     #[serde(default)]
-    pub band_hz: Option<[f64; 2]>,
+    pub band_hz: Option<Band>,
     /// Mass matrix.
     #[serde(default)]
     pub mass: MassKind,
@@ -126,14 +127,6 @@ impl TypedStage for LocaliseEigensensitivity {
                 ));
             }
         }
-        if let Some([lo, hi]) = p.band_hz {
-            if !(lo.is_finite() && hi.is_finite() && lo >= 0.0 && hi >= lo) {
-                issues.push(ParamIssue::at(
-                    "band_hz",
-                    format!("[{lo}, {hi}] must satisfy 0 <= lo <= hi (Hz)"),
-                ));
-            }
-        }
         if !(1..=8).contains(&p.columns) {
             issues.push(ParamIssue::at(
                 "columns",
@@ -151,7 +144,7 @@ impl TypedStage for LocaliseEigensensitivity {
         let choice = match (&p.modes, p.elastic_modes, p.band_hz) {
             (Some(m), _, _) => ModeChoice::Numbers(m.clone()),
             (_, Some(n), _) => ModeChoice::Elastic(n),
-            (_, _, Some(b)) => ModeChoice::Band(b),
+            (_, _, Some(b)) => ModeChoice::Band(b.into()),
             _ => {
                 return Err(StageError::input(
                     "modes",
@@ -229,9 +222,15 @@ mod tests {
         assert!(e[0].message.contains("exactly one"));
         let e = check(serde_json::json!({"modes": [0, 7, 7]})).unwrap_err();
         assert_eq!(e.len(), 2, "{e:?}");
-        let e = check(serde_json::json!({"band_hz": [50, 10], "columns": 0})).unwrap_err();
-        let paths: Vec<String> = e.iter().map(|i| i.path.join(".")).collect();
-        assert_eq!(paths, ["band_hz", "columns"]);
+        let e = check(serde_json::json!({"band_hz": [50, 10]})).unwrap_err();
+        assert_eq!(e[0].path, vec!["band_hz"]);
+        assert!(
+            e[0].message.contains("0 <= start <= stop"),
+            "{}",
+            e[0].message
+        );
+        let e = check(serde_json::json!({"band_hz": [10, 50], "columns": 0})).unwrap_err();
+        assert_eq!(e[0].path, vec!["columns"]);
         assert!(check(serde_json::json!({"elastic_modes": 6})).is_ok());
     }
 

@@ -5,7 +5,10 @@
 //! every element on its own (processed in chunks). Writes the table, a mesh coloured by the
 //! normalised leverage and a bar chart.
 
-use super::frf_synthesise::Damping;
+use super::params::{
+    Band, Count, Damping, Deprecation, Fraction, Modes, NonNegative, Positive, migrate_mode_fields,
+    warn_deprecated,
+};
 use crate::artefact::ArtefactKind;
 use crate::artefact::kinds::{frf_from_artefact, plot_artefact};
 use crate::artefact::leverage::{leverage_to_artefact, ranks};
@@ -334,21 +337,27 @@ pub struct Params {
     pub candidates: Candidates,
     /// Only measured lines in `[lo, hi]` Hz are used (default: all).
     #[serde(default)]
-    pub band_hz: Option<[f64; 2]>,
+    pub band_hz: Option<Band>,
     /// Lines with `(χ_s + χ_a)/2` above this are not used (4.20). Default 1: every line but
     /// those at predicted resonances, since well-correlated lines count against a candidate
     /// that would spoil them (through `S_iᵀS_i`); the P-C's 0.95 keeps only the poor lines.
     #[serde(default = "kappa_f")]
-    pub kappa_f: f64,
+    pub kappa_f: Fraction,
     /// Lines within this many line spacings of a predicted natural frequency are not used.
     #[serde(default = "one")]
-    pub resonance_lines: f64,
-    /// Modes of the basis: a count …
+    pub resonance_lines: NonNegative,
+    /// Modes of the basis, `{count: N}` or `{max_freq_hz: F}` (default: every mode up to twice
+    /// the highest line used).
     #[serde(default)]
-    pub mode_count: Option<usize>,
-    /// … or every mode up to this frequency (default: twice the highest line used).
-    #[serde(default)]
-    pub modes_max_hz: Option<f64>,
+    pub modes: Modes,
+    /// Deprecated spelling of `modes.count`.
+    #[serde(default, skip_serializing)]
+    #[schemars(extend("deprecated" = true))]
+    pub mode_count: Option<Count>,
+    /// Deprecated spelling of `modes.max_freq_hz`.
+    #[serde(default, skip_serializing)]
+    #[schemars(extend("deprecated" = true))]
+    pub modes_max_hz: Option<Positive>,
     /// Modal damping of the prediction (as in `frf.synthesise` and `update`).
     #[serde(default)]
     pub damping: Damping,
@@ -371,11 +380,11 @@ pub struct Params {
     pub plot: PlotParams,
 }
 
-fn kappa_f() -> f64 {
-    1.0
+fn kappa_f() -> Fraction {
+    Fraction::of_default(1.0)
 }
-fn one() -> f64 {
-    1.0
+fn one() -> NonNegative {
+    NonNegative::of_default(1.0)
 }
 fn yes() -> bool {
     true
@@ -423,43 +432,11 @@ impl TypedStage for LocaliseLeverage {
 
     fn validate(p: &mut Params, _: &CheckContext) -> Vec<ParamIssue> {
         let mut issues = Vec::new();
-        if let Some([lo, hi]) = p.band_hz {
-            if !(lo.is_finite() && hi.is_finite() && lo >= 0.0 && hi >= lo) {
-                issues.push(ParamIssue::at(
-                    "band_hz",
-                    format!("[{lo}, {hi}] must satisfy 0 <= lo <= hi (Hz)"),
-                ));
-            }
-        }
-        if !(p.kappa_f > 0.0 && p.kappa_f <= 1.0) {
-            issues.push(ParamIssue::at(
-                "kappa_f",
-                format!("{} must lie in (0, 1]; the thesis uses 0.9 to 1", p.kappa_f),
-            ));
-        }
-        if !(p.resonance_lines >= 0.0 && p.resonance_lines.is_finite()) {
-            issues.push(ParamIssue::at(
-                "resonance_lines",
-                format!("{} must be >= 0", p.resonance_lines),
-            ));
-        }
-        if p.mode_count.is_some() && p.modes_max_hz.is_some() {
-            issues.push(ParamIssue::at(
-                "mode_count",
-                "give `mode_count` or `modes_max_hz`, not both",
-            ));
-        }
-        if p.mode_count == Some(0) {
-            issues.push(ParamIssue::at("mode_count", "must be at least 1"));
-        }
-        if let Some(f) = p.modes_max_hz {
-            if !(f.is_finite() && f > 0.0) {
-                issues.push(ParamIssue::at(
-                    "modes_max_hz",
-                    format!("{f} must be a positive frequency in Hz"),
-                ));
-            }
-        }
+        let mut found: Vec<Deprecation> = Vec::new();
+        let (count, hz) = (p.mode_count.take(), p.modes_max_hz.take());
+        issues.extend(migrate_mode_fields(&mut p.modes, count, hz, &mut found));
+        warn_deprecated(Self::KIND, &found);
+        issues.extend(p.modes.issues("modes"));
         if !(1..=1_000_000).contains(&p.chunk) {
             issues.push(ParamIssue::at(
                 "chunk",
@@ -480,17 +457,15 @@ impl TypedStage for LocaliseLeverage {
         let top_hz = f
             .iter()
             .copied()
-            .filter(|x| p.band_hz.is_none_or(|[lo, hi]| *x >= lo && *x <= hi))
+            .filter(|x| p.band_hz.is_none_or(|b| *x >= b.lo && *x <= b.hi))
             .fold(0.0_f64, f64::max);
-        let modes = match (p.mode_count, p.modes_max_hz) {
-            (Some(c), _) => ModeSelection::Count(c),
-            (_, Some(hz)) => ModeSelection::BelowHz(hz),
-            _ => ModeSelection::BelowHz(2.0 * top_hz.max(f64::MIN_POSITIVE)),
-        };
+        let modes =
+            (p.modes).selection_or(ModeSelection::BelowHz(2.0 * top_hz.max(f64::MIN_POSITIVE)));
+        let band_hz = p.band_hz.map(<[f64; 2]>::from);
         let settings = LeverageSettings {
-            band_hz: p.band_hz,
-            kappa_f: p.kappa_f,
-            resonance_lines: p.resonance_lines,
+            band_hz,
+            kappa_f: p.kappa_f.get(),
+            resonance_lines: p.resonance_lines.get(),
             modes,
             damping: p.damping.modal(),
             mass: p.mass,
@@ -507,7 +482,7 @@ impl TypedStage for LocaliseLeverage {
             map.chosen.len(),
             start.elapsed().as_secs_f64()
         );
-        let artefact = leverage_to_artefact(&map, p.band_hz);
+        let artefact = leverage_to_artefact(&map, band_hz);
         let lev: Vec<f64> = map.fits.iter().map(|f| f.leverage).collect();
         let top = lev.iter().copied().fold(0.0_f64, f64::max);
         let norm: Vec<f64> = lev
@@ -587,26 +562,50 @@ mod tests {
 
     #[test]
     fn bad_settings_are_named() {
-        let e = check(
-            serde_json::json!({"band_hz": [100, 10], "kappa_f": 1.5, "chunk": 0,
-            "damping": {"rayleigh": {"alpha": 1, "beta": 0}}, "plot": {"max_bars": 0}}),
-        )
+        // Out of their types' ranges: refused as read, the range named.
+        for (with, field, range) in [
+            (
+                serde_json::json!({"band_hz": [100, 10]}),
+                "band_hz",
+                "start <= stop",
+            ),
+            (serde_json::json!({"kappa_f": 1.5}), "kappa_f", "(0, 1]"),
+            (
+                serde_json::json!({"resonance_lines": -1}),
+                "resonance_lines",
+                "[0, ∞)",
+            ),
+        ] {
+            let e = check(with).unwrap_err();
+            assert_eq!(e[0].path, vec![field]);
+            assert!(e[0].message.contains(range), "{}", e[0].message);
+        }
+        let e = check(serde_json::json!({"chunk": 0,
+            "damping": {"rayleigh": {"alpha": 1, "beta": 0}}, "plot": {"max_bars": 0}}))
         .unwrap_err();
         let paths: Vec<String> = e.iter().map(|i| i.path.join(".")).collect();
-        assert_eq!(
-            paths,
-            ["band_hz", "kappa_f", "chunk", "damping", "plot.max_bars"],
-            "{e:?}"
-        );
+        assert_eq!(paths, ["chunk", "damping", "plot.max_bars"], "{e:?}");
         let e = check(serde_json::json!({"candidates": {"every_element": {"kind": "beam_width"}}}))
             .unwrap_err();
         assert!(e[0].message.contains("unknown variant"), "{}", e[0].message);
-        let e = check(serde_json::json!({"mode_count": 10, "modes_max_hz": 100})).unwrap_err();
-        assert_eq!(e[0].path, vec!["mode_count"]);
+        let e = check(serde_json::json!({"modes": {"count": 10, "max_freq_hz": 100}})).unwrap_err();
+        assert_eq!(e[0].path, vec!["modes", "count"]);
+        let e = check(serde_json::json!({"mode_count": 10, "modes": {"count": 10}})).unwrap_err();
+        assert_eq!(e[0].path, vec!["modes"]);
         for bad in [serde_json::json!(-0.01), serde_json::json!([])] {
             let e = check(serde_json::json!({"damping": {"structural": bad}})).unwrap_err();
             assert_eq!(e[0].path, vec!["damping"], "{bad}");
         }
+    }
+
+    #[test]
+    fn old_mode_spellings_are_read_as_modes() {
+        let old = check(serde_json::json!({"mode_count": 10})).unwrap();
+        let new = check(serde_json::json!({"modes": {"count": 10}})).unwrap();
+        assert_eq!(old, new);
+        assert!(old.get("mode_count").is_none());
+        let old = check(serde_json::json!({"modes_max_hz": 300.0})).unwrap();
+        assert_eq!(old["modes"]["max_freq_hz"], 300.0);
     }
 
     fn inputs(with_params: bool) -> StageInputs {

@@ -15,6 +15,7 @@ pub mod model_lumped;
 pub mod model_partition;
 pub mod modes;
 pub mod noise_add;
+pub mod params;
 pub mod plot_convergence;
 pub mod plot_frf;
 pub mod reduce_common;

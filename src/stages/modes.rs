@@ -1,6 +1,7 @@
 //! `modes`: natural frequencies and mass-normalised mode shapes of a model (docs/theory.md §1):
 //! dense shift-invert for small models, sparse shift-invert Lanczos for large ones.
 
+use super::params::{Count, Modes, Positive};
 use crate::artefact::ArtefactKind;
 use crate::artefact::kinds::{matrices_from_artefact, modes_to_artefact};
 use crate::eigen::{ModeSelection, SparseEigenParams, lowest_modes};
@@ -20,10 +21,10 @@ pub const DENSE_LIMIT: usize = 6000;
 pub struct Params {
     /// Keep the lowest `count` modes (default: all).
     #[serde(default)]
-    pub count: Option<usize>,
+    pub count: Option<Count>,
     /// Keep the modes up to this frequency in Hz (default: all).
     #[serde(default)]
-    pub max_freq_hz: Option<f64>,
+    pub max_freq_hz: Option<Positive>,
     /// Shift of the sparse solver: it factors `K − σM` with `σ = −(2π shift_hz)²` (default:
     /// automatic). A value near the lowest elastic frequency speeds up a slow convergence.
     #[serde(default)]
@@ -31,6 +32,17 @@ pub struct Params {
     /// Relative convergence tolerance of the sparse solver.
     #[serde(default = "tolerance")]
     pub tolerance: f64,
+}
+
+impl Params {
+    /// The modes kept (default: all).
+    fn selection(&self) -> ModeSelection {
+        Modes {
+            count: self.count,
+            max_freq_hz: self.max_freq_hz,
+        }
+        .selection_or(ModeSelection::All)
+    }
 }
 
 fn tolerance() -> f64 {
@@ -71,22 +83,11 @@ impl TypedStage for ModesStage {
                 "give `count` or `max_freq_hz`, not both",
             ));
         }
-        if p.count == Some(0) {
-            issues.push(ParamIssue::at("count", "must be at least 1"));
-        }
         if !(p.tolerance > 0.0 && p.tolerance < 1e-2) {
             issues.push(ParamIssue::at(
                 "tolerance",
                 format!("{} must lie in (0, 0.01)", p.tolerance),
             ));
-        }
-        if let Some(f) = p.max_freq_hz {
-            if !(f.is_finite() && f > 0.0) {
-                issues.push(ParamIssue::at(
-                    "max_freq_hz",
-                    format!("{f} must be a positive frequency in Hz"),
-                ));
-            }
         }
         if ctx.is_connected("model") == ctx.is_connected("reduced") {
             issues.push(ParamIssue {
@@ -111,11 +112,7 @@ impl TypedStage for ModesStage {
                 ),
             ));
         }
-        let selection = match (p.count, p.max_freq_hz) {
-            (Some(c), _) => ModeSelection::Count(c),
-            (_, Some(f)) => ModeSelection::BelowHz(f),
-            _ => ModeSelection::All,
-        };
+        let selection = p.selection();
         let params = SparseEigenParams {
             shift: p
                 .shift_hz
@@ -151,7 +148,7 @@ fn no_mode_below(p: &Params, first_hz: &[f64]) -> StageError {
         "max_freq_hz",
         format!(
             "no mode lies below {} Hz{}; raise the limit or give `count`",
-            p.max_freq_hz.unwrap_or(0.0),
+            p.max_freq_hz.map_or(0.0, Positive::get),
             first_hz
                 .first()
                 .map(|f| format!(" (the lowest is at {f:.6} Hz)"))
@@ -164,11 +161,7 @@ fn no_mode_below(p: &Params, first_hz: &[f64]) -> StageError {
 /// physical DOF of the full model (`x = T_k q`), so downstream stages see full-model modes.
 fn run_reduced(p: &Params, a: &crate::artefact::Artefact) -> Result<StageOutputs, StageError> {
     let r = crate::artefact::reduced::reduced_from_artefact(a)?;
-    let selection = match (p.count, p.max_freq_hz) {
-        (Some(c), _) => ModeSelection::Count(c),
-        (_, Some(f)) => ModeSelection::BelowHz(f),
-        _ => ModeSelection::All,
-    };
+    let selection = p.selection();
     let modes = r.modes(selection).map_err(StageError::from_numerics(""))?;
     if modes.is_empty() {
         let first = r

@@ -1,6 +1,7 @@
 //! Glue shared by the `reduce.*` stages (not a stage kind): component-mode selection, reading
 //! mesh and partition, reducing, and the reduced derivatives of every model parameter.
 
+use super::params::{Count, Modes, Positive};
 use crate::artefact::mesh::mesh_from_artefact;
 use crate::artefact::reduced::{
     component_from_artefact, component_to_artefact, method_json, partition_from_artefact,
@@ -26,10 +27,10 @@ use rayon::prelude::*;
 pub struct ComponentModes {
     /// Keep component modes up to this frequency, Hz (thesis: twice the top of the band).
     #[serde(default)]
-    pub max_freq_hz: Option<f64>,
+    pub max_freq_hz: Option<Positive>,
     /// Keep this many component modes per substructure.
     #[serde(default)]
-    pub count: Option<usize>,
+    pub count: Option<Count>,
 }
 
 impl ComponentModes {
@@ -42,27 +43,16 @@ impl ComponentModes {
                 "give `max_freq_hz` or `count`, not both",
             ));
         }
-        if let Some(f) = self.max_freq_hz {
-            if !(f.is_finite() && f > 0.0) {
-                v.push(ParamIssue::at(
-                    "max_freq_hz",
-                    format!("{f} must be a positive frequency in Hz"),
-                ));
-            }
-        }
-        if self.count == Some(0) {
-            v.push(ParamIssue::at("count", "must be at least 1"));
-        }
         v
     }
 
     /// The selection (default: modes to 200 Hz).
     pub fn selection(&self) -> ModeSelection {
-        match (self.count, self.max_freq_hz) {
-            (Some(c), _) => ModeSelection::Count(c),
-            (_, Some(f)) => ModeSelection::BelowHz(f),
-            _ => ModeSelection::BelowHz(200.0),
+        Modes {
+            count: self.count,
+            max_freq_hz: self.max_freq_hz,
         }
+        .selection_or(ModeSelection::BelowHz(200.0))
     }
 }
 
@@ -74,10 +64,10 @@ pub struct ModalReductionParams {
     /// Keep component modes up to this frequency, Hz (default 200 Hz when `count` is absent;
     /// the thesis kept twice the top of the band).
     #[serde(default)]
-    pub max_freq_hz: Option<f64>,
+    pub max_freq_hz: Option<Positive>,
     /// Keep this many component modes per substructure.
     #[serde(default)]
-    pub count: Option<usize>,
+    pub count: Option<Count>,
     /// Mass matrix kind.
     #[serde(default)]
     pub mass: MassKind,

@@ -4,6 +4,7 @@
 //! the candidates, junction forces eliminated by compatibility and equilibrium, optional
 //! second-level condensation (3.53).
 
+use super::params::{Count, Positive};
 use super::reduce_common::{self, ComponentModes};
 use crate::core::DofId;
 use crate::fe::element::MassKind;
@@ -32,10 +33,10 @@ pub struct SecondLevelParams {
 pub struct Params {
     /// Keep component modes up to this frequency, Hz (default 200 Hz when `count` is absent).
     #[serde(default)]
-    pub max_freq_hz: Option<f64>,
+    pub max_freq_hz: Option<Positive>,
     /// Keep this many component modes per substructure.
     #[serde(default)]
-    pub count: Option<usize>,
+    pub count: Option<Count>,
     /// Candidate master DOFs (default: every internal translational DOF).
     #[serde(default)]
     pub candidates: Option<Vec<DofId>>,

@@ -41,6 +41,18 @@ pub struct EigenSettings {
     pub weighting: ParameterWeighting,
 }
 
+impl Default for EigenSettings {
+    fn default() -> Self {
+        EigenSettings {
+            modes: ModeSelection::All,
+            min_mac: 0.6,
+            tolerance: 1e-8,
+            subset_kappa: None,
+            weighting: ParameterWeighting::None,
+        }
+    }
+}
+
 /// The method against measured modes.
 pub struct InverseEigensensitivity<'a> {
     /// Measured modes.

@@ -40,7 +40,7 @@ impl Default for RfmSettings {
         RfmSettings {
             lines_hz: Vec::new(),
             eta: 0.0,
-            tolerance: 1e-10,
+            tolerance: 1e-8,
             rcond: 1e-12,
         }
     }

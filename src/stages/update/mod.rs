@@ -1,0 +1,516 @@
+//! `update`: updates a model's parameters from measured data (docs/theory.md §5, §6): the
+//! predictor-corrector on `χ_s`, `χ_a` (`pc`), Lin and Ewins's response function method
+//! (`rfm`), inverse eigensensitivity from measured modes (`eigensensitivity`), or the modal
+//! damping identification (`damping`). The model is a mesh (rebuilt from its elements at every
+//! iteration: exact for every parameter kind) or a matrices artefact whose parameters enter
+//! linearly (`model.lumped`). Writes the history, the diagnostics of `S` and the final values
+//! (`result`), and the updated system (`model`); the updated mesh comes from `mesh.parameters`
+//! with the result connected.
+//!
+//! The parameters are one variant per method, selected by `method:` (one file each); the
+//! fields every method shares are here.
+
+mod damping;
+mod eigensensitivity;
+mod pc;
+mod rfm;
+
+pub use damping::{DampingMethod, DampingPcParams};
+pub use eigensensitivity::{EigensensitivityMethod, LegacyEigenPc};
+pub use pc::{PcMethod, PcParams};
+pub use rfm::RfmMethod;
+
+use super::params::{Count, Deprecation, Positive, warn_deprecated};
+use crate::artefact::ArtefactKind;
+use crate::artefact::kinds::{linear_parameters_from_matrices, matrices_from_artefact};
+use crate::artefact::kinds::{matrices_to_artefact, modes_from_artefact};
+use crate::artefact::mesh::mesh_from_artefact;
+use crate::artefact::update::update_result_to_artefact;
+use crate::eigen::ModeSelection;
+use crate::fe::element::MassKind;
+use crate::pipeline::{
+    CheckContext, ParamIssue, PortSpec, StageError, StageInputs, StageOutputs, TypedStage,
+};
+use crate::updating::sensitive_start::sensitive_start;
+use crate::updating::{FeModel, LinearModel, ParametricModel, ReducedFeModel, UpdateMethod};
+use serde::de::{DeserializeOwned, Error as _};
+
+/// The stage.
+pub struct Update;
+
+/// The updating method: the value of `method:`.
+#[derive(
+    Clone, Copy, Debug, PartialEq, serde::Deserialize, serde::Serialize, schemars::JsonSchema,
+)]
+#[serde(rename_all = "snake_case")]
+pub enum Method {
+    /// Predictor-corrector on the FRF correlation coefficients (thesis ch. 4).
+    Pc,
+    /// Response function method (Lin and Ewins), at chosen lines.
+    Rfm,
+    /// Inverse eigensensitivity from measured natural frequencies (and shapes).
+    Eigensensitivity,
+    /// Modal damping identification (thesis ch. 6): the `η_r` (structural) or `ζ_r` (viscous)
+    /// of chosen elastic modes by the P-C, the spatial model fixed.
+    Damping,
+}
+
+impl Method {
+    /// The name written in the result.
+    pub fn name(self) -> &'static str {
+        match self {
+            Method::Pc => "pc",
+            Method::Rfm => "rfm",
+            Method::Eigensensitivity => "eigensensitivity",
+            Method::Damping => "damping",
+        }
+    }
+}
+
+/// Parameters of `update`: the method's own, selected by `method:`.
+#[derive(Clone, Debug, serde::Serialize, schemars::JsonSchema)]
+#[serde(tag = "method", rename_all = "snake_case")]
+pub enum Params {
+    /// Predictor-corrector on `χ_s`, `χ_a` (docs/theory.md §5).
+    Pc(PcMethod),
+    /// Response function method at chosen lines.
+    Rfm(RfmMethod),
+    /// Inverse eigensensitivity from measured modes.
+    Eigensensitivity(EigensensitivityMethod),
+    /// Modal damping identification (thesis ch. 6).
+    Damping(DampingMethod),
+}
+
+/// Reads the variant `method:` names. (Serde's internally tagged enums buffer the block and lose
+/// the path of a bad field; this keeps it in the message.)
+impl<'de> serde::Deserialize<'de> for Params {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let mut map = serde_json::Map::<String, serde_json::Value>::deserialize(d)?;
+        let method = map
+            .remove("method")
+            .ok_or_else(|| D::Error::missing_field("method"))?;
+        let method: Method =
+            serde_json::from_value(method).map_err(|e| D::Error::custom(format!("method: {e}")))?;
+        let rest = serde_json::Value::Object(map);
+        Ok(match method {
+            Method::Pc => Params::Pc(variant(rest)?),
+            Method::Rfm => Params::Rfm(variant(rest)?),
+            Method::Eigensensitivity => Params::Eigensensitivity(variant(rest)?),
+            Method::Damping => Params::Damping(variant(rest)?),
+        })
+    }
+}
+
+/// One method's fields, a bad one named in the message.
+fn variant<T: DeserializeOwned, E: serde::de::Error>(v: serde_json::Value) -> Result<T, E> {
+    serde_path_to_error::deserialize(v).map_err(|e| {
+        let path = e.path().to_string();
+        let inner = e.into_inner();
+        if path == "." {
+            E::custom(inner)
+        } else {
+            E::custom(format!("{path}: {inner}"))
+        }
+    })
+}
+
+impl Params {
+    /// The method.
+    pub fn method(&self) -> Method {
+        match self {
+            Params::Pc(_) => Method::Pc,
+            Params::Rfm(_) => Method::Rfm,
+            Params::Eigensensitivity(_) => Method::Eigensensitivity,
+            Params::Damping(_) => Method::Damping,
+        }
+    }
+
+    /// Moves old spellings to their new places: the problems, and the deprecations met.
+    pub fn migrate(&mut self) -> (Vec<ParamIssue>, Vec<Deprecation>) {
+        let mut found = Vec::new();
+        let issues = match self {
+            Params::Pc(p) => p.migrate(&mut found),
+            Params::Rfm(_) => Vec::new(),
+            Params::Eigensensitivity(p) => p.migrate(&mut found),
+            Params::Damping(p) => p.migrate(&mut found),
+        };
+        (issues, found)
+    }
+}
+
+/// Default of `max_iterations`.
+fn max_iterations() -> usize {
+    10
+}
+
+/// The sensitive-region search (thesis §5.4, 5.12).
+#[derive(Clone, Debug, serde::Deserialize, serde::Serialize, schemars::JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct SensitiveStartParams {
+    /// Parameters to move (springs, masses: they enter K and M linearly), one after another.
+    pub parameters: Vec<String>,
+    /// 1-based numbers of the (elastic) modes whose summed unity eigenvalue sensitivity is
+    /// maximised, e.g. the dominant modes of the band.
+    pub modes: Vec<Count>,
+    /// Scan density between the bounds before the root refinement.
+    #[serde(default = "four")]
+    pub points_per_decade: Count,
+}
+
+fn four() -> Count {
+    Count::of_default(4)
+}
+
+impl SensitiveStartParams {
+    fn issues(&self) -> Vec<ParamIssue> {
+        let mut issues = Vec::new();
+        if self.parameters.is_empty() {
+            issues.push(ParamIssue::at(
+                "sensitive_start.parameters",
+                "name at least one parameter to move",
+            ));
+        }
+        if self.modes.is_empty() {
+            issues.push(ParamIssue::at(
+                "sensitive_start.modes",
+                "give 1-based mode numbers, e.g. [1, 2]",
+            ));
+        }
+        issues
+    }
+}
+
+/// Reduction method of the analysis when a partition is connected.
+#[derive(Clone, Debug, serde::Deserialize, serde::Serialize, schemars::JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct Reduction {
+    /// `craig_bampton` or `free_interface`.
+    #[serde(default = "craig_bampton")]
+    pub method: ReductionMethod,
+    /// Component modes kept per substructure up to this frequency, Hz (thesis: twice the band).
+    #[serde(default = "component_hz")]
+    pub component_modes_hz: Positive,
+    /// Replace the junction DOFs by the interface modes up to this frequency, Hz (chosen at the
+    /// start and held, like the component transformations). Default: keep the junction DOFs.
+    #[serde(default)]
+    pub interface_modes_hz: Option<Positive>,
+}
+
+impl Default for Reduction {
+    fn default() -> Self {
+        Reduction {
+            method: ReductionMethod::CraigBampton,
+            component_modes_hz: component_hz(),
+            interface_modes_hz: None,
+        }
+    }
+}
+
+/// The reductions an update can re-run substructure by substructure.
+#[derive(
+    Clone, Copy, Debug, PartialEq, serde::Deserialize, serde::Serialize, schemars::JsonSchema,
+)]
+#[serde(rename_all = "snake_case")]
+pub enum ReductionMethod {
+    /// Craig-Bampton (3.5–3.13: (3.5), (3.6), (3.7), (3.8), (3.9), (3.10), (3.11), (3.12), (3.13)).
+    CraigBampton,
+    /// Free interface, MacNeal/Rubin (3.26–3.39: (3.26), (3.27), (3.28), (3.29), (3.30), (3.31),
+    /// (3.32), (3.33), (3.34), (3.35), (3.36), (3.37), (3.38), (3.39)).
+    FreeInterface,
+}
+
+fn craig_bampton() -> ReductionMethod {
+    ReductionMethod::CraigBampton
+}
+fn component_hz() -> Positive {
+    Positive::of_default(200.0)
+}
+
+impl TypedStage for Update {
+    type Params = Params;
+    const KIND: &'static str = "update";
+    const SUMMARY: &'static str =
+        "Update model parameters from measured FRFs (P-C, RFM) or modes (inverse eigensensitivity)";
+    const IMPL_VERSION: u32 = 4;
+
+    fn inputs() -> Vec<PortSpec> {
+        vec![
+            PortSpec::optional(
+                "mesh",
+                ArtefactKind::Mesh,
+                "a finite-element model with declared parameters",
+            ),
+            PortSpec::optional(
+                "model",
+                ArtefactKind::Matrices,
+                "matrices with linear parameters (model.lumped)",
+            ),
+            PortSpec::optional("measured", ArtefactKind::Frf, "measured FRFs (pc, rfm)"),
+            PortSpec::optional(
+                "partition",
+                ArtefactKind::Partition,
+                "substructures: analyse the mesh through `reduction` (pc, eigensensitivity)",
+            ),
+            PortSpec::optional(
+                "measured_modes",
+                ArtefactKind::Modes,
+                "measured modes (eigensensitivity)",
+            ),
+        ]
+    }
+
+    fn outputs() -> Vec<PortSpec> {
+        vec![
+            PortSpec::required(
+                "result",
+                ArtefactKind::UpdateResult,
+                "history, diagnostics and final parameter values",
+            ),
+            PortSpec::required(
+                "model",
+                ArtefactKind::Matrices,
+                "K and M of the updated model",
+            ),
+        ]
+    }
+
+    /// What the types cannot say: the wiring, and the combinations within a method.
+    fn validate(p: &mut Params, ctx: &CheckContext) -> Vec<ParamIssue> {
+        let (mut issues, found) = p.migrate();
+        warn_deprecated(Self::KIND, &found);
+        issues.extend(wiring_issues(p.method(), ctx));
+        issues.extend(match p {
+            Params::Pc(p) => p.issues(),
+            Params::Rfm(p) => p.issues(),
+            Params::Eigensensitivity(p) => p.issues(),
+            Params::Damping(p) => p.issues(),
+        });
+        issues
+    }
+
+    fn run(p: &Params, inputs: &StageInputs) -> Result<StageOutputs, StageError> {
+        match p {
+            Params::Pc(p) => p.run(inputs),
+            Params::Rfm(p) => p.run(inputs),
+            Params::Eigensensitivity(p) => p.run(inputs),
+            Params::Damping(p) => p.run(inputs),
+        }
+    }
+}
+
+/// Which inputs the method needs connected.
+fn wiring_issues(method: Method, ctx: &CheckContext) -> Vec<ParamIssue> {
+    let mut issues = Vec::new();
+    if ctx.connected.is_empty() {
+        return issues;
+    }
+    let (mesh, model) = (ctx.is_connected("mesh"), ctx.is_connected("model"));
+    if mesh == model {
+        issues.push(ParamIssue::at(
+            "",
+            "connect exactly one of the inputs `mesh` (a finite-element model) and `model` (matrices from model.lumped)",
+        ));
+    }
+    let data_port = match method {
+        Method::Pc | Method::Rfm | Method::Damping => "measured",
+        Method::Eigensensitivity => "measured_modes",
+    };
+    if !ctx.is_connected(data_port) {
+        issues.push(ParamIssue::at(
+            "method",
+            format!("method {} needs the input `{data_port}`", method.name()),
+        ));
+    }
+    if ctx.is_connected("partition") && !mesh {
+        issues.push(ParamIssue::at(
+            "reduction",
+            "a partition reduces a mesh: connect `mesh` (not `model`) with it",
+        ));
+    }
+    if ctx.is_connected("partition") && method == Method::Rfm {
+        issues.push(ParamIssue::at(
+            "method",
+            "the RFM works on the full model's receptances: disconnect `partition`",
+        ));
+    }
+    issues
+}
+
+/// The model updated: a mesh (through the partition's reduction when one is connected) or
+/// linear matrices. `parameters`: the names to update (empty: all); `None`: none (a fixed
+/// model, for the damping identification). `modes_given`: whether the user chose the basis.
+fn build_model(
+    inputs: &StageInputs,
+    parameters: Option<&[String]>,
+    mass: MassKind,
+    reduction: &Reduction,
+    modes_given: bool,
+) -> Result<Box<dyn ParametricModel>, StageError> {
+    match (inputs.get("mesh"), inputs.get("model")) {
+        (Some(mesh), None) => {
+            let mesh = mesh_from_artefact(mesh)?;
+            let fe = match parameters {
+                None => FeModel::without_parameters(mesh, mass),
+                Some(names) => {
+                    FeModel::new(mesh, names, mass).map_err(StageError::from_numerics(""))?
+                }
+            };
+            let Some(part) = inputs.get("partition") else {
+                return Ok(Box::new(fe));
+            };
+            let partition = crate::artefact::reduced::partition_from_artefact(part)?;
+            let modes = ModeSelection::BelowHz(reduction.component_modes_hz.get());
+            let method = match reduction.method {
+                ReductionMethod::CraigBampton => crate::reduction::Method::CraigBampton { modes },
+                ReductionMethod::FreeInterface => crate::reduction::Method::FreeInterface { modes },
+            };
+            if modes_given {
+                tracing::info!(
+                    "`modes` applies to reduced models above {} DOFs; smaller ones use their complete modal basis",
+                    crate::updating::model::COMPLETE_REDUCED_BASIS
+                );
+            }
+            let reduced = ReducedFeModel::new(fe, partition, method);
+            Ok(match reduction.interface_modes_hz {
+                Some(f) => Box::new(reduced.with_interface_modes(ModeSelection::BelowHz(f.get()))),
+                None => Box::new(reduced),
+            })
+        }
+        (None, Some(m)) => linear_model(m, parameters),
+        _ => Err(StageError::input(
+            "",
+            "connect exactly one of the inputs `mesh` and `model`",
+        )),
+    }
+}
+
+/// Matrices with linear parameters (`model.lumped`), restricted to the named ones.
+fn linear_model(
+    m: &crate::artefact::Artefact,
+    parameters: Option<&[String]>,
+) -> Result<Box<dyn ParametricModel>, StageError> {
+    let sys = matrices_from_artefact(m)?;
+    let mut params = linear_parameters_from_matrices(m, sys.n())?;
+    match parameters {
+        None => params.clear(),
+        Some(_) if params.is_empty() => {
+            return Err(StageError::input(
+                "parameters",
+                "the `model` input declares no parameters: add `parameters:` to its model.lumped stage",
+            ));
+        }
+        Some([]) => {}
+        Some(names) => {
+            let known: Vec<String> = params.iter().map(|q| q.0.name.clone()).collect();
+            if let Some(name) = names.iter().find(|n| !known.contains(n)) {
+                return Err(StageError::input(
+                    "parameters",
+                    format!(
+                        "`{name}` is not a parameter of the model (it has: {})",
+                        known.join(", ")
+                    ),
+                ));
+            }
+            params.retain(|q| names.contains(&q.0.name));
+        }
+    }
+    Ok(Box::new(
+        LinearModel::new(sys, params).map_err(StageError::from_numerics(""))?,
+    ))
+}
+
+/// The measured FRFs, required by the FRF methods.
+fn measured_frf(inputs: &StageInputs) -> Result<crate::frf::FrfSet, StageError> {
+    let a = inputs.get("measured").ok_or_else(|| missing("measured"))?;
+    Ok(crate::artefact::kinds::frf_from_artefact(a)?)
+}
+
+/// The measured modes, required by inverse eigensensitivity.
+fn measured_modes(
+    inputs: &StageInputs,
+) -> Result<crate::artefact::kinds::ModesArtefact, StageError> {
+    let a = inputs
+        .get("measured_modes")
+        .ok_or_else(|| missing("measured_modes"))?;
+    Ok(modes_from_artefact(a)?)
+}
+
+fn missing(port: &str) -> StageError {
+    StageError::input(
+        "",
+        format!("the method needs the input `{port}`; connect it"),
+    )
+}
+
+/// The common end of the spatial methods: the sensitive-region search, the phases run in turn
+/// from its start, and the outputs.
+fn run_and_write(
+    model: &dyn ParametricModel,
+    phases: &[&dyn UpdateMethod],
+    sensitive: Option<&SensitiveStartParams>,
+    max_iterations: usize,
+    method: Method,
+) -> Result<StageOutputs, StageError> {
+    let (start, moved) = match sensitive {
+        Some(ss) => move_to_sensitive_regions(model, ss)?,
+        None => (model.initial_values(), Vec::new()),
+    };
+    let history = crate::updating::run_phases(phases, model, &start, max_iterations)
+        .map_err(StageError::from_numerics(""))?;
+    let updated = model
+        .evaluate(&history.final_values)
+        .map_err(StageError::from_numerics(""))?;
+    let mut result = update_result_to_artefact(&history, method.name());
+    if !moved.is_empty() {
+        result = result.with_meta("sensitive_start", serde_json::Value::Array(moved));
+    }
+    Ok(StageOutputs::from([
+        ("result".to_string(), result),
+        ("model".to_string(), matrices_to_artefact(&updated.system)),
+    ]))
+}
+
+/// Moves the named parameters into their sensitive regions one after another (each search
+/// with the others at their current starts); returns the start values and, per parameter, a
+/// record of the move.
+fn move_to_sensitive_regions(
+    model: &dyn ParametricModel,
+    ss: &SensitiveStartParams,
+) -> Result<(Vec<f64>, Vec<serde_json::Value>), StageError> {
+    let names: Vec<&str> = model.parameters().iter().map(|q| q.name.as_str()).collect();
+    let modes: Vec<usize> = ss.modes.iter().map(|m| m.get() - 1).collect();
+    let mut start = model.initial_values();
+    let mut moved = Vec::new();
+    for name in &ss.parameters {
+        let i = names.iter().position(|n| n == name).ok_or_else(|| {
+            StageError::input(
+                "sensitive_start.parameters",
+                format!(
+                    "`{name}` is not an updated parameter (they are: {})",
+                    names.join(", ")
+                ),
+            )
+        })?;
+        let found = sensitive_start(model, &start, i, &modes, ss.points_per_decade.get())
+            .map_err(StageError::from_numerics(""))?;
+        tracing::info!(
+            "sensitive start: {name} {:e} -> {:e} (unity sensitivity {:.3e} -> {:.3e})",
+            found.before,
+            found.value,
+            found.sensitivity_before,
+            found.sensitivity
+        );
+        start[i] = found.value;
+        moved.push(serde_json::json!({
+            "parameter": name,
+            "before": found.before,
+            "start": found.value,
+            "sensitivity_before": found.sensitivity_before,
+            "sensitivity": found.sensitivity,
+        }));
+    }
+    Ok((start, moved))
+}
+
+#[cfg(test)]
+mod tests;
