@@ -28,6 +28,7 @@ pub mod pipeline;
 pub mod reduction;
 pub mod report;
 pub mod sensitivity;
+pub mod sparse;
 pub mod stages;
 pub mod sweep;
 pub mod updating;

@@ -13,7 +13,7 @@ use crate::core::DofId;
 use crate::correlation::FrfCorrelation;
 use crate::eigen::Modes;
 use crate::fe::SystemMatrices;
-use crate::fe::system::{sparse_from_triplets, sparse_triplets};
+use crate::core::sparse::{sparse_from_triplets, sparse_triplets};
 use crate::frf::{FrfPair, FrfSet, Quantity};
 use faer::{Mat, c64};
 
@@ -84,7 +84,7 @@ pub fn matrices_to_artefact(sys: &SystemMatrices) -> Artefact {
 }
 
 /// A sparse matrix as a `row, col, value` table (the layout of every matrix table).
-pub fn triplet_table(mat: &crate::fe::system::SparseMatrix) -> Table {
+pub fn triplet_table(mat: &crate::core::sparse::SparseMatrix) -> Table {
     let t = sparse_triplets(mat);
     Table::new()
         .with("row", Column::I64(t.iter().map(|e| e.0 as i64).collect()))
@@ -116,7 +116,7 @@ fn read_matrix(
     a: &Artefact,
     name: &str,
     n: usize,
-) -> Result<Option<crate::fe::system::SparseMatrix>, ArtefactError> {
+) -> Result<Option<crate::core::sparse::SparseMatrix>, ArtefactError> {
     let Some((t, _)) = a.tables.get(name) else {
         return Ok(None);
     };
@@ -151,8 +151,8 @@ pub fn linear_parameters_from_matrices(
 ) -> Result<
     Vec<(
         crate::updating::UpdatingParameter,
-        crate::fe::system::SparseMatrix,
-        crate::fe::system::SparseMatrix,
+        crate::core::sparse::SparseMatrix,
+        crate::core::sparse::SparseMatrix,
     )>,
     ArtefactError,
 > {

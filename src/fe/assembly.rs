@@ -11,7 +11,8 @@
 //! AUTOSPC does.
 
 use super::element::ElementMatrices;
-use super::system::{SparseMatrix, SystemMatrices};
+use super::system::SystemMatrices;
+use crate::core::sparse::SparseMatrix;
 use crate::core::{Component, DofId};
 use faer::sparse::SymbolicSparseColMat;
 use rayon::prelude::*;

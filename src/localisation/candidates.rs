@@ -10,7 +10,7 @@ use super::LocalisationError;
 use crate::core::{Component, DofId};
 use crate::fe::element::MassKind;
 use crate::fe::model_assembly::elements_parameter_derivative;
-use crate::fe::system::{SparseMatrix, sparse_from_triplets, sparse_triplets};
+use crate::core::sparse::{SparseMatrix, sparse_from_triplets, sparse_triplets};
 use crate::model::{Element, Model, Parameter, ParameterKind};
 use crate::sensitivity::{ProjectedDerivative, project};
 use faer::{Mat, MatRef};
@@ -239,7 +239,7 @@ impl LocalDerivative {
 mod tests {
     use super::*;
     use crate::fe::model_assembly::{assemble_model, parameter_derivative};
-    use crate::fe::system::sparse_to_dense;
+    use crate::core::sparse::sparse_to_dense;
     use crate::model::generate::{BentPlate, bent_plate};
 
     /// The one-element derivatives of a strip's elements, summed, are the strip's derivative

@@ -12,7 +12,7 @@ use crate::eigen::{ModeSelection, Modes, SparseEigenParams, dense_generalized, l
 use crate::fe::SystemMatrices;
 use crate::fe::element::MassKind;
 use crate::fe::model_assembly::{assemble_elements, elements_parameter_derivative};
-use crate::fe::system::SparseMatrix;
+use crate::core::sparse::SparseMatrix;
 use crate::model::{Model, Parameter};
 use faer::{Mat, MatRef};
 use rayon::prelude::*;
@@ -535,7 +535,7 @@ impl ReducedModel {
                         }
                     }
                 }
-                crate::fe::system::sparse_from_triplets("reduced", a.nrows(), &trip)
+                crate::core::sparse::sparse_from_triplets("reduced", a.nrows(), &trip)
                     .map_err(|e| ReductionError::Replace(e.to_string()))
             };
             let (k, m) = (sparse(&kp)?, sparse(&self.m)?);
