@@ -10,6 +10,8 @@
 //! `docs/theory.md`.
 
 #![warn(missing_docs)]
+// Every `unsafe` block states the invariant that makes it sound.
+#![warn(clippy::undocumented_unsafe_blocks)]
 // `!(x > 0.0)` is used on purpose: it rejects NaN together with the out-of-range values.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 

@@ -22,7 +22,7 @@ mod multifrontal;
 mod operator;
 mod ordering;
 mod product;
-pub mod thin;
+mod thin;
 
 pub use combination::lower_combination;
 pub use factor::{FactorError, FactorInfo, SOLVE_COLUMNS, SpdFactor};

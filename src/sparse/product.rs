@@ -170,8 +170,11 @@ impl<const N: usize> RowProducts<'_, N> {
             let vals = self.values.map(|v| &v[range.clone()]);
             if self.fast {
                 #[cfg(target_arch = "x86_64")]
-                // SAFETY: the machine has AVX2 and FMA (`fast`); rows of `xt` and `out` are
-                // `s = 4 V` values per product, and every row index is below `n`.
+                // SAFETY: `fast` is `thin::available()`: the machine has AVX2 and FMA, which is
+                // all `fma::row` needs beyond its arguments' lengths (it reads and writes
+                // through bounds-checked slices of them). `s` is 4, 8, 12 or 16: `b` is 1 to
+                // PRODUCT_COLUMNS (`in_passes`), rounded up to a multiple of four; `out` is
+                // `N s` long; and every row index is below `n`, the rows of `xt`.
                 unsafe {
                     fma::row(indices, vals, self.xt, out, s)
                 };
@@ -222,8 +225,9 @@ mod fma {
     /// The output rows of the `N` products for one pattern row, side by side in `out`.
     ///
     /// # Safety
-    /// The machine must have AVX2 and FMA; `s ∈ {4, 8, 12, 16}`, `out` holds `N s` values,
-    /// `xt` rows of `s`, and every index of `rows` is a row of `xt`.
+    /// The machine must have AVX2 and FMA. For the right result, `s ∈ {4, 8, 12, 16}`, `out`
+    /// holds `N s` values, `xt` rows of `s`, and every index of `rows` is a row of `xt`; the
+    /// accesses themselves are bounds-checked, so other lengths panic.
     #[target_feature(enable = "avx2,fma")]
     pub unsafe fn row<const N: usize>(
         rows: &[usize],
@@ -232,18 +236,23 @@ mod fma {
         out: &mut [f64],
         s: usize,
     ) {
-        // SAFETY: as the caller guarantees.
+        // SAFETY: `row_v` needs AVX2 and FMA, which this function's target features enable
+        // and its caller guarantees.
         unsafe {
             match s {
                 4 => row_v::<1, N>(rows, vals, xt, out),
                 8 => row_v::<2, N>(rows, vals, xt, out),
                 12 => row_v::<3, N>(rows, vals, xt, out),
-                _ => row_v::<4, N>(rows, vals, xt, out),
+                16 => row_v::<4, N>(rows, vals, xt, out),
+                _ => unreachable!("rows of 4, 8, 12 or 16 values"),
             }
         }
     }
 
     /// [`row`] for rows of `4 V` values: even and odd entries summed apart, then added.
+    ///
+    /// # Safety
+    /// The machine must have AVX2 and FMA (inlined into [`row`], which enables them).
     #[inline(always)]
     unsafe fn row_v<const V: usize, const N: usize>(
         rows: &[usize],
@@ -253,24 +262,26 @@ mod fma {
     ) {
         let s = 4 * V;
         debug_assert_eq!(out.len(), N * s);
-        // SAFETY: AVX2 is enabled by the caller's target features.
+        // SAFETY: AVX2, as the caller guarantees.
         let zero = unsafe { _mm256_setzero_pd() };
         let (mut even, mut odd) = ([[zero; V]; N], [[zero; V]; N]);
         let pairs = rows.len() / 2;
-        // SAFETY (all calls below): AVX2 and FMA are enabled by the caller's target features.
         for p in 0..pairs {
+            // SAFETY: AVX2 and FMA, as the caller guarantees; `2 p + 1 < rows.len()`.
             unsafe {
                 add_entry(&mut even, rows, vals, xt, 2 * p);
                 add_entry(&mut odd, rows, vals, xt, 2 * p + 1);
             }
         }
         if rows.len() % 2 == 1 {
+            // SAFETY: AVX2 and FMA, as the caller guarantees; the last entry, alone.
             unsafe { add_entry(&mut even, rows, vals, xt, rows.len() - 1) };
         }
         for q in 0..N {
             let o: &mut [f64] = &mut out[q * s..(q + 1) * s];
             for c in 0..V {
-                // SAFETY: `o` holds `4 V` values.
+                // SAFETY: AVX2, as the caller guarantees; `o` is a slice of `4 V` values (the
+                // range above is bounds-checked), so the store at `4 c` for `c < V` stays in it.
                 unsafe {
                     _mm256_storeu_pd(
                         o.as_mut_ptr().add(4 * c),
@@ -282,6 +293,10 @@ mod fma {
     }
 
     /// `acc_q += vals_q[t] · xt[rows[t]]` for every product `q`.
+    ///
+    /// # Safety
+    /// The machine must have AVX2 and FMA. `t`, `rows[t]` and the row's range of `xt` are
+    /// bounds-checked.
     #[inline(always)]
     unsafe fn add_entry<const V: usize, const N: usize>(
         acc: &mut [[__m256d; V]; N],
@@ -294,7 +309,8 @@ mod fma {
         let i = rows[t];
         let xi = &xt[i * s..i * s + s];
         for q in 0..N {
-            // SAFETY: AVX2 and FMA are enabled by the caller; `xi` holds `4 V` values.
+            // SAFETY: AVX2 and FMA, as the caller guarantees; `xi` is a bounds-checked slice of
+            // `4 V` values, so the loads at `4 c` for `c < V` stay in it.
             unsafe {
                 let v = _mm256_set1_pd(vals[q][t]);
                 for (c, a) in acc[q].iter_mut().enumerate() {
