@@ -3,9 +3,9 @@
 //! The method is H. Grafe's (1998) FRF model updating: shape and amplitude correlation
 //! coefficients, their sensitivities, the predictor-corrector and the response function method.
 //! The crate is a data-pipeline engine: YAML pipelines chain stages that read and write typed,
-//! cached artefacts. Numerical modules (`core`, `model`, `fe`, `eigen`, `frf`, `correlation`,
-//! `sensitivity`, `reduction`, `localisation`, `updating`, `report`) never import the engine
-//! (`artefact`, `cache`, `pipeline`, `stages`, `cli`, `sweep`); `stages` is the glue. The layers,
+//! cached artefacts. Numerical modules (`core`, `model`, `fe`, `sparse`, `eigen`, `frf`,
+//! `correlation`, `sensitivity`, `reduction`, `localisation`, `updating`, `report`) never import
+//! the engine (`artefact`, `cache`, `pipeline`, `stages`, `cli`, `sweep`); `stages` is the glue. The layers,
 //! the error flow and the caching are described in `docs/architecture.md`, the mathematics in
 //! `docs/theory.md`.
 

@@ -10,10 +10,10 @@
 
 use super::{Artefact, ArtefactError, ArtefactKind, Column, Storage, Table};
 use crate::core::DofId;
+use crate::core::sparse::{sparse_from_triplets, sparse_triplets};
 use crate::correlation::FrfCorrelation;
 use crate::eigen::Modes;
 use crate::fe::SystemMatrices;
-use crate::core::sparse::{sparse_from_triplets, sparse_triplets};
 use crate::frf::{FrfPair, FrfSet, Quantity};
 use faer::{Mat, c64};
 

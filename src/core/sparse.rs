@@ -37,13 +37,11 @@ pub fn sparse_from_triplets(
         }
         entries.push(Triplet::new(row, col, val));
     }
-    SparseColMat::try_new_from_triplets(n, n, &entries).map_err(|_| {
-        SparseError::IndexOutOfRange {
-            name,
-            row: n,
-            col: n,
-            n,
-        }
+    SparseColMat::try_new_from_triplets(n, n, &entries).map_err(|_| SparseError::IndexOutOfRange {
+        name,
+        row: n,
+        col: n,
+        n,
     })
 }
 
@@ -68,4 +66,3 @@ pub fn sparse_to_dense(a: &SparseMatrix) -> Mat<f64> {
     }
     d
 }
-

@@ -637,7 +637,13 @@ fn lanczos(
         let t = Instant::now();
         let (theta, y, converged) = match early {
             Some(pairs) => pairs,
-            None => ritz(process.h.as_ref(), filled, process.r_last.as_ref(), nev, params)?,
+            None => ritz(
+                process.h.as_ref(),
+                filled,
+                process.r_last.as_ref(),
+                nev,
+                params,
+            )?,
         };
         if converged >= nev || restart == params.max_restarts {
             if converged < nev {
@@ -1027,7 +1033,13 @@ mod tests {
         let a = lower_combination(1.0, &k, -shift, &m);
         let llt = SpdFactor::new(&a, Par::rayon(0)).unwrap();
         let mut info = SparseEigenInfo::default();
-        let c = apply_operator(&llt, &m, Mat::<f64>::identity(n, n), Par::rayon(0), &mut info);
+        let c = apply_operator(
+            &llt,
+            &m,
+            Mat::<f64>::identity(n, n),
+            Par::rayon(0),
+            &mut info,
+        );
         assert!((&c - c.transpose()).norm_max() < 1e-13 * c.norm_max());
         let mut nu: Vec<f64> = c
             .self_adjoint_eigenvalues(Side::Lower)

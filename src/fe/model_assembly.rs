@@ -329,7 +329,13 @@ pub fn parameter_derivative(
     parameter: &crate::model::Parameter,
     dofs: &[crate::core::DofId],
     mass: MassKind,
-) -> Result<(crate::core::sparse::SparseMatrix, crate::core::sparse::SparseMatrix), ModelAssemblyError> {
+) -> Result<
+    (
+        crate::core::sparse::SparseMatrix,
+        crate::core::sparse::SparseMatrix,
+    ),
+    ModelAssemblyError,
+> {
     let index: DofIndex = dofs.iter().enumerate().map(|(i, d)| (*d, i)).collect();
     set_derivative(model, parameter, &index, mass)
 }
@@ -340,7 +346,13 @@ fn set_derivative(
     parameter: &crate::model::Parameter,
     index: &DofIndex,
     mass: MassKind,
-) -> Result<(crate::core::sparse::SparseMatrix, crate::core::sparse::SparseMatrix), ModelAssemblyError> {
+) -> Result<
+    (
+        crate::core::sparse::SparseMatrix,
+        crate::core::sparse::SparseMatrix,
+    ),
+    ModelAssemblyError,
+> {
     let ids = model.sets.get(&parameter.set).ok_or_else(|| {
         ModelAssemblyError::Model(ModelError::MissingSet {
             parameter: parameter.name.clone(),
@@ -361,7 +373,13 @@ pub fn parameter_derivatives(
     parameters: &[crate::model::Parameter],
     dofs: &[crate::core::DofId],
     mass: MassKind,
-) -> Result<Vec<(crate::core::sparse::SparseMatrix, crate::core::sparse::SparseMatrix)>, ModelAssemblyError> {
+) -> Result<
+    Vec<(
+        crate::core::sparse::SparseMatrix,
+        crate::core::sparse::SparseMatrix,
+    )>,
+    ModelAssemblyError,
+> {
     use rayon::prelude::*;
     let index: DofIndex = dofs.iter().enumerate().map(|(i, d)| (*d, i)).collect();
     parameters
@@ -381,7 +399,13 @@ pub fn elements_parameter_derivative(
     ids: &[u64],
     dofs: &[crate::core::DofId],
     mass: MassKind,
-) -> Result<(crate::core::sparse::SparseMatrix, crate::core::sparse::SparseMatrix), ModelAssemblyError> {
+) -> Result<
+    (
+        crate::core::sparse::SparseMatrix,
+        crate::core::sparse::SparseMatrix,
+    ),
+    ModelAssemblyError,
+> {
     let index: DofIndex = dofs.iter().enumerate().map(|(i, d)| (*d, i)).collect();
     indexed_derivative(model, parameter, ids, &index, mass)
 }
@@ -393,7 +417,13 @@ fn indexed_derivative(
     ids: &[u64],
     index: &DofIndex,
     mass: MassKind,
-) -> Result<(crate::core::sparse::SparseMatrix, crate::core::sparse::SparseMatrix), ModelAssemblyError> {
+) -> Result<
+    (
+        crate::core::sparse::SparseMatrix,
+        crate::core::sparse::SparseMatrix,
+    ),
+    ModelAssemblyError,
+> {
     use super::beam::{BeamParameter, beam2_derivative};
     use super::lumped_elements::{MassParameter, conm2_derivative, spring6_derivative};
     use super::shell::{ShellParameter, quad4_derivative, tria3_derivative};
@@ -544,10 +574,12 @@ fn indexed_derivative(
     }
     let n = index.len();
     let build = |name, t: &[(usize, usize, f64)]| {
-        crate::core::sparse::sparse_from_triplets(name, n, t).map_err(|e| ModelAssemblyError::Element {
-            element: 0,
-            kind: "assembly",
-            source: ElementError::Degenerate(e.to_string()),
+        crate::core::sparse::sparse_from_triplets(name, n, t).map_err(|e| {
+            ModelAssemblyError::Element {
+                element: 0,
+                kind: "assembly",
+                source: ElementError::Degenerate(e.to_string()),
+            }
         })
     };
     Ok((build("dK", &kt)?, build("dM", &mt)?))
@@ -556,8 +588,8 @@ fn indexed_derivative(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::eigen::{ModeSelection, SparseEigenParams, lowest_modes};
     use crate::core::sparse::sparse_to_dense;
+    use crate::eigen::{ModeSelection, SparseEigenParams, lowest_modes};
     use crate::model::generate::{
         BentPlate, FlatPlate, PlateSupport, ThreeBeam, bent_plate, flat_plate, three_beam,
     };

@@ -147,4 +147,3 @@ impl SystemMatrices {
         sparse_to_dense(&self.m)
     }
 }
-

@@ -4,8 +4,8 @@
 
 use super::{FrfPair, FrfSet, Quantity, convert_from_receptance};
 use crate::core::DofId;
-use crate::fe::SystemMatrices;
 use crate::core::sparse::sparse_triplets;
+use crate::fe::SystemMatrices;
 use crate::sparse::{Lu, SparseSolve, SymbolicLu};
 use faer::sparse::{Pair, SparseColMat, SymbolicSparseColMat};
 use faer::{Mat, MatRef, Par, c64};
@@ -176,7 +176,12 @@ impl DynamicStiffness {
     }
 
     /// `Z(ω) X = rhs` at `f_hz`, factored and solved with parallelism `par`.
-    pub fn solve(&self, f_hz: f64, rhs: MatRef<'_, c64>, par: Par) -> Result<Mat<c64>, DirectError> {
+    pub fn solve(
+        &self,
+        f_hz: f64,
+        rhs: MatRef<'_, c64>,
+        par: Par,
+    ) -> Result<Mat<c64>, DirectError> {
         let lu = self.factor(f_hz, par)?;
         let mut x = rhs.to_owned();
         lu.solve_in_place(x.as_mut(), par);

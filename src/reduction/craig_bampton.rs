@@ -18,8 +18,8 @@
 //! reproduces the full one exactly (a change of basis).
 
 use super::linalg::{
-    dense_columns, solve, sparse_times_dense, sparse_transpose_times_dense, spd_factor,
-    sub_block, symmetrise,
+    dense_columns, solve, sparse_times_dense, sparse_transpose_times_dense, spd_factor, sub_block,
+    symmetrise,
 };
 use super::{ComponentReduction, Coordinate, ReductionError, ReductionInfo};
 use crate::core::DofId;

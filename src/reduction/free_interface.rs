@@ -166,13 +166,12 @@ pub fn residual_flexibility(
     for (c, &i) in cols.iter().enumerate() {
         e[(i, c)] = 1.0;
     }
-    let mut rr = elastic_flexibility(&sys.k, &sys.m, phi_r.as_ref(), &held, e.as_ref(), par).map_err(
-        |reason| ReductionError::Mechanism {
+    let mut rr = elastic_flexibility(&sys.k, &sys.m, phi_r.as_ref(), &held, e.as_ref(), par)
+        .map_err(|reason| ReductionError::Mechanism {
             substructure: name.to_string(),
             held: held.len(),
             reason,
-        },
-    )?;
+        })?;
     for &r in &elastic {
         let inv = 1.0 / modes.eigenvalues[r];
         for (c, &col) in cols.iter().enumerate() {

@@ -1,8 +1,8 @@
 //! Small sparse/dense helpers shared by the reduction methods: sub-blocks of a sparse matrix,
 //! sparse × dense products, sparse Cholesky solves and a rank-checked pseudo-inverse.
 
-use crate::sparse::{SpdFactor, SparseSolve};
 use crate::core::sparse::SparseMatrix;
+use crate::sparse::{SparseSolve, SpdFactor};
 use faer::linalg::solvers::DenseSolveCore;
 use faer::sparse::Triplet;
 use faer::{Mat, MatRef, Par};

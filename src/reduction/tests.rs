@@ -371,8 +371,24 @@ fn appendix_a_elastic_flexibility_is_independent_of_the_held_dofs() {
     assert_eq!(held_a.len(), 6);
     assert!(held_a.iter().all(|h| !held_b.contains(h)));
     let eye = Mat::<f64>::identity(n, n);
-    let ga = elastic_flexibility(&sys.k, &sys.m, phi_r.as_ref(), &held_a, eye.as_ref(), faer::Par::rayon(0)).unwrap();
-    let gb = elastic_flexibility(&sys.k, &sys.m, phi_r.as_ref(), &held_b, eye.as_ref(), faer::Par::rayon(0)).unwrap();
+    let ga = elastic_flexibility(
+        &sys.k,
+        &sys.m,
+        phi_r.as_ref(),
+        &held_a,
+        eye.as_ref(),
+        faer::Par::rayon(0),
+    )
+    .unwrap();
+    let gb = elastic_flexibility(
+        &sys.k,
+        &sys.m,
+        phi_r.as_ref(),
+        &held_b,
+        eye.as_ref(),
+        faer::Par::rayon(0),
+    )
+    .unwrap();
     let scale = crate::core::dense::max_abs(ga.as_ref());
     let d = linalg::max_diff(ga.as_ref(), gb.as_ref());
     assert!(d < 1e-8 * scale, "held sets disagree: {d:e} of {scale:e}");
@@ -393,7 +409,15 @@ fn appendix_a_elastic_flexibility_is_independent_of_the_held_dofs() {
     .unwrap();
     let phi_t = all_t.shapes.subcols(0, 6).to_owned();
     let held_t = choose_held_dofs(phi_t.as_ref(), &(0..n).collect::<Vec<_>>());
-    let gt = elastic_flexibility(&st.k, &st.m, phi_t.as_ref(), &held_t, eye.as_ref(), faer::Par::rayon(0)).unwrap();
+    let gt = elastic_flexibility(
+        &st.k,
+        &st.m,
+        phi_t.as_ref(),
+        &held_t,
+        eye.as_ref(),
+        faer::Par::rayon(0),
+    )
+    .unwrap();
     let modal = Mat::from_fn(n, n, |i, j| {
         (6..all_t.len())
             .map(|r| all_t.shapes[(i, r)] * all_t.shapes[(j, r)] / all_t.eigenvalues[r])
@@ -404,8 +428,24 @@ fn appendix_a_elastic_flexibility_is_independent_of_the_held_dofs() {
     assert!(d < 1e-7 * scale_t, "G_e vs modal sum: {d:e} of {scale_t:e}");
     // Without the projector the two held sets give different flexibilities.
     let none = Mat::<f64>::zeros(n, 0);
-    let raw_a = elastic_flexibility(&sys.k, &sys.m, none.as_ref(), &held_a, eye.as_ref(), faer::Par::rayon(0)).unwrap();
-    let raw_b = elastic_flexibility(&sys.k, &sys.m, none.as_ref(), &held_b, eye.as_ref(), faer::Par::rayon(0)).unwrap();
+    let raw_a = elastic_flexibility(
+        &sys.k,
+        &sys.m,
+        none.as_ref(),
+        &held_a,
+        eye.as_ref(),
+        faer::Par::rayon(0),
+    )
+    .unwrap();
+    let raw_b = elastic_flexibility(
+        &sys.k,
+        &sys.m,
+        none.as_ref(),
+        &held_b,
+        eye.as_ref(),
+        faer::Par::rayon(0),
+    )
+    .unwrap();
     assert!(linalg::max_diff(raw_a.as_ref(), raw_b.as_ref()) > 1e-3 * scale);
 }
 

@@ -119,12 +119,10 @@ fn merged_lower_column(j: usize, parts: [(&[usize], &[f64], f64); 2], out: &mut 
     }
 }
 
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::core::sparse::{sparse_from_triplets, sparse_to_dense};
-
 
     /// `α A + β B`'s lower triangle equals the dense sum, for columns of different patterns,
     /// with `B` stored sorted and unsorted.

@@ -389,7 +389,15 @@ mod tests {
         let mut dense = Vec::new();
         for j in 0..n {
             for i in 0..n {
-                dense.push((i, j, if i == j { 2.0 * n as f64 } else { 1.0 / (1 + i + j) as f64 }));
+                dense.push((
+                    i,
+                    j,
+                    if i == j {
+                        2.0 * n as f64
+                    } else {
+                        1.0 / (1 + i + j) as f64
+                    },
+                ));
             }
         }
         let matrices = [
@@ -417,7 +425,10 @@ mod tests {
                 let two = solve(&factors[1], Par::rayon(2));
                 assert_eq!(one, two, "{n} rows, {columns} columns");
                 let r = &dense * &one[0] - &b;
-                assert!(r.norm_max() <= 1e-12 * b.norm_max().max(1.0), "{n} rows, {columns}");
+                assert!(
+                    r.norm_max() <= 1e-12 * b.norm_max().max(1.0),
+                    "{n} rows, {columns}"
+                );
             }
         }
     }

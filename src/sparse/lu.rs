@@ -104,7 +104,10 @@ mod tests {
     /// A structurally singular matrix (an empty column) is refused, not solved.
     #[test]
     fn a_structurally_singular_matrix_is_refused() {
-        let t = [Triplet::new(0, 0, c64::new(1.0, 0.0)), Triplet::new(1, 0, c64::new(1.0, 0.0))];
+        let t = [
+            Triplet::new(0, 0, c64::new(1.0, 0.0)),
+            Triplet::new(1, 0, c64::new(1.0, 0.0)),
+        ];
         let a = SparseColMat::<usize, c64>::try_new_from_triplets(2, 2, &t).unwrap();
         let symbolic = SymbolicLu::new(a.symbolic()).unwrap();
         assert!(Lu::new(&symbolic, a.as_ref(), Par::Seq).is_err());

@@ -590,17 +590,7 @@ pub fn solve(
                 natural.clear();
                 natural.resize(n * kc, 0.0);
                 to_row_major(x.as_ref().subcols(c0, columns), &mut natural, par);
-                let gather = |(row, &old): (&mut [f64], &usize)| {
-                    row.copy_from_slice(&natural[old * kc..(old + 1) * kc])
-                };
-                if parallel {
-                    work.par_chunks_exact_mut(kc)
-                        .zip(forward.par_iter())
-                        .with_min_len(4096)
-                        .for_each(gather);
-                } else {
-                    work.chunks_exact_mut(kc).zip(forward).for_each(gather);
-                }
+                permute_rows(&mut work, &natural, forward, kc, parallel);
             }
             None => to_row_major(x.as_ref().subcols(c0, columns), &mut work, par),
         }
@@ -619,67 +609,31 @@ pub fn solve(
             thin,
             parallel,
         };
-        // A lone root chain has the threads to itself: its large fronts split their dense
-        // kernels over them.
-        let par = if tree.roots.len() == 1 || !tree.postordered {
-            par
-        } else {
-            Par::Seq
-        };
-        let (forward, backward) = (sweeps != Sweeps::Backward, sweeps != Sweeps::Forward);
-        if tree.postordered {
-            if forward {
-                let root = |(root, rows): (usize, &mut [&mut [f64]])| {
-                    ctx.forward_subtree(root, rows, 0, par);
-                };
-                let roots = tree.split_roots(&mut rows);
-                if parallel {
-                    roots.into_par_iter().for_each(root);
-                } else {
-                    roots.into_iter().for_each(root);
-                }
-            }
-            if backward {
-                let root = |(root, rows): (usize, &mut [&mut [f64]])| {
-                    ctx.backward_subtree(root, rows, Vec::new(), 0, par);
-                };
-                let roots = tree.split_roots(&mut rows);
-                if parallel {
-                    roots.into_par_iter().for_each(root);
-                } else {
-                    roots.into_iter().for_each(root);
-                }
-            }
-        } else {
-            if forward {
-                ctx.forward_range(0, ns, &mut rows, par);
-            }
-            if backward {
-                let roots = tree.roots.iter().map(|&r| (r, Vec::new()));
-                ctx.backward_range(0, ns, &mut rows, roots.collect(), par);
-            }
-        }
+        ctx.sweep(&mut rows, sweeps, par);
         drop(rows);
         match permutation.filter(|_| sweeps != Sweeps::Forward) {
             Some((_, inverse)) => {
                 natural.clear();
                 natural.resize(n * kc, 0.0);
-                let scatter = |(row, &new): (&mut [f64], &usize)| {
-                    row.copy_from_slice(&work[new * kc..(new + 1) * kc])
-                };
-                if parallel {
-                    natural
-                        .par_chunks_exact_mut(kc)
-                        .zip(inverse.par_iter())
-                        .with_min_len(4096)
-                        .for_each(scatter);
-                } else {
-                    natural.chunks_exact_mut(kc).zip(inverse).for_each(scatter);
-                }
+                permute_rows(&mut natural, &work, inverse, kc, parallel);
                 from_row_major(&natural, x.as_mut().subcols_mut(c0, columns), par);
             }
             None => from_row_major(&work, x.as_mut().subcols_mut(c0, columns), par),
         }
+    }
+}
+
+/// `out`'s row `i` becomes `from`'s row `order[i]`, rows of `k` values; on the pool's threads
+/// when `parallel`.
+fn permute_rows(out: &mut [f64], from: &[f64], order: &[usize], k: usize, parallel: bool) {
+    let copy = |(row, &i): (&mut [f64], &usize)| row.copy_from_slice(&from[i * k..(i + 1) * k]);
+    if parallel {
+        out.par_chunks_exact_mut(k)
+            .zip(order.par_iter())
+            .with_min_len(4096)
+            .for_each(copy);
+    } else {
+        out.chunks_exact_mut(k).zip(order).for_each(copy);
     }
 }
 
@@ -698,6 +652,53 @@ struct SolveContext<'a> {
 type Rows = Vec<f64>;
 
 impl SolveContext<'_> {
+    /// The forward and/or backward sweep over every supernode; `rows` holds each one's rows
+    /// of the work array. Independent root subtrees run on separate threads when `parallel`;
+    /// a lone root chain has the threads to itself, and its large fronts split their dense
+    /// kernels `par` ways.
+    fn sweep(&self, rows: &mut [&mut [f64]], sweeps: Sweeps, par: Par) {
+        let tree = self.tree;
+        let par = if tree.roots.len() == 1 || !tree.postordered {
+            par
+        } else {
+            Par::Seq
+        };
+        let (forward, backward) = (sweeps != Sweeps::Backward, sweeps != Sweeps::Forward);
+        if !tree.postordered {
+            let ns = rows.len();
+            if forward {
+                self.forward_range(0, ns, rows, par);
+            }
+            if backward {
+                let roots = tree.roots.iter().map(|&r| (r, Vec::new()));
+                self.backward_range(0, ns, rows, roots.collect(), par);
+            }
+            return;
+        }
+        if forward {
+            let root = |(root, rows): (usize, &mut [&mut [f64]])| {
+                self.forward_subtree(root, rows, 0, par);
+            };
+            let roots = tree.split_roots(rows);
+            if self.parallel {
+                roots.into_par_iter().for_each(root);
+            } else {
+                roots.into_iter().for_each(root);
+            }
+        }
+        if backward {
+            let root = |(root, rows): (usize, &mut [&mut [f64]])| {
+                self.backward_subtree(root, rows, Vec::new(), 0, par);
+            };
+            let roots = tree.split_roots(rows);
+            if self.parallel {
+                roots.into_par_iter().for_each(root);
+            } else {
+                roots.into_iter().for_each(root);
+            }
+        }
+    }
+
     /// `[L_11; L_21]` of supernode `s` and its width.
     fn panel(&self, s: usize) -> (faer::MatRef<'_, f64>, faer::MatRef<'_, f64>) {
         let w = self.symbolic.supernode_end()[s] - self.symbolic.supernode_begin()[s];
@@ -1015,7 +1016,12 @@ mod tests {
         // On one thread: the same numbers, bit for bit.
         let mut one_thread = vec![f64::NAN; sym.len_val()];
         factorize(supernodal, &tree, &lower, &mut one_thread, Par::Seq).unwrap();
-        assert!(values.iter().zip(&one_thread).all(|(a, b)| a.to_bits() == b.to_bits()));
+        assert!(
+            values
+                .iter()
+                .zip(&one_thread)
+                .all(|(a, b)| a.to_bits() == b.to_bits())
+        );
         // The sequential route (taken when supernodes are not in postorder).
         let ctx = Context {
             symbolic: supernodal,

@@ -7,13 +7,13 @@
 //! ∂K/∂φ_i` (exact for parameters that enter linearly: lumped masses and springs, `E`, `ρ`).
 
 use crate::core::DofId;
+use crate::core::sparse::SparseMatrix;
 use crate::eigen::{
     ModeSelection, Modes, ShiftedFactor, SparseEigenParams, lowest_modes_keeping_factor,
 };
 use crate::fe::SystemMatrices;
 use crate::fe::element::MassKind;
 use crate::fe::model_assembly::{assemble_model, parameter_derivatives};
-use crate::core::sparse::SparseMatrix;
 use crate::model::{Model, Parameter};
 use crate::reduction::{Method, Partition, ReducedModel};
 use crate::sensitivity::ProjectedDerivative;
