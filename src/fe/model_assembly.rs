@@ -7,6 +7,7 @@ use super::element::{ElementError, ElementMatrices, MassKind};
 use super::lumped_elements::{LumpedMass, SpringEnds, conm2, scalar_spring, spring6};
 use super::shell::{ShellSection, quad4, tria3};
 use super::system::SystemMatrices;
+use crate::core::sparse::SparseMatrix;
 use crate::model::{BeamSection, Element, Model, ModelError};
 use faer::Mat;
 use std::collections::BTreeSet;
@@ -329,13 +330,7 @@ pub fn parameter_derivative(
     parameter: &crate::model::Parameter,
     dofs: &[crate::core::DofId],
     mass: MassKind,
-) -> Result<
-    (
-        crate::core::sparse::SparseMatrix,
-        crate::core::sparse::SparseMatrix,
-    ),
-    ModelAssemblyError,
-> {
+) -> Result<(SparseMatrix, SparseMatrix), ModelAssemblyError> {
     let index: DofIndex = dofs.iter().enumerate().map(|(i, d)| (*d, i)).collect();
     set_derivative(model, parameter, &index, mass)
 }
@@ -346,13 +341,7 @@ fn set_derivative(
     parameter: &crate::model::Parameter,
     index: &DofIndex,
     mass: MassKind,
-) -> Result<
-    (
-        crate::core::sparse::SparseMatrix,
-        crate::core::sparse::SparseMatrix,
-    ),
-    ModelAssemblyError,
-> {
+) -> Result<(SparseMatrix, SparseMatrix), ModelAssemblyError> {
     let ids = model.sets.get(&parameter.set).ok_or_else(|| {
         ModelAssemblyError::Model(ModelError::MissingSet {
             parameter: parameter.name.clone(),
@@ -373,13 +362,7 @@ pub fn parameter_derivatives(
     parameters: &[crate::model::Parameter],
     dofs: &[crate::core::DofId],
     mass: MassKind,
-) -> Result<
-    Vec<(
-        crate::core::sparse::SparseMatrix,
-        crate::core::sparse::SparseMatrix,
-    )>,
-    ModelAssemblyError,
-> {
+) -> Result<Vec<(SparseMatrix, SparseMatrix)>, ModelAssemblyError> {
     use rayon::prelude::*;
     let index: DofIndex = dofs.iter().enumerate().map(|(i, d)| (*d, i)).collect();
     parameters
@@ -399,13 +382,7 @@ pub fn elements_parameter_derivative(
     ids: &[u64],
     dofs: &[crate::core::DofId],
     mass: MassKind,
-) -> Result<
-    (
-        crate::core::sparse::SparseMatrix,
-        crate::core::sparse::SparseMatrix,
-    ),
-    ModelAssemblyError,
-> {
+) -> Result<(SparseMatrix, SparseMatrix), ModelAssemblyError> {
     let index: DofIndex = dofs.iter().enumerate().map(|(i, d)| (*d, i)).collect();
     indexed_derivative(model, parameter, ids, &index, mass)
 }
@@ -417,13 +394,7 @@ fn indexed_derivative(
     ids: &[u64],
     index: &DofIndex,
     mass: MassKind,
-) -> Result<
-    (
-        crate::core::sparse::SparseMatrix,
-        crate::core::sparse::SparseMatrix,
-    ),
-    ModelAssemblyError,
-> {
+) -> Result<(SparseMatrix, SparseMatrix), ModelAssemblyError> {
     use super::beam::{BeamParameter, beam2_derivative};
     use super::lumped_elements::{MassParameter, conm2_derivative, spring6_derivative};
     use super::shell::{ShellParameter, quad4_derivative, tria3_derivative};
