@@ -63,4 +63,14 @@ mod tests {
         assert_eq!(v[1 << 20], 1.0);
         assert!(super::zeroed_f64(0).unwrap().is_empty());
     }
+
+    /// The bounds of the `unsafe` block: a length whose layout overflows is refused before
+    /// any allocation, and one the allocator cannot serve (the null pointer) gives `None`,
+    /// not a vector over a null pointer.
+    #[test]
+    fn impossible_sizes_are_refused() {
+        assert!(super::zeroed_f64(usize::MAX).is_none());
+        assert!(super::zeroed_f64(isize::MAX as usize / 8).is_none());
+        assert_eq!(super::zeroed_f64(1).unwrap(), vec![0.0]);
+    }
 }

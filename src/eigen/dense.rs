@@ -263,7 +263,7 @@ pub fn dense_generalized(
             *lam = pkp / pmp;
         }
     }
-    let k_norm = crate::fe::system::max_abs(k) * (n as f64).sqrt();
+    let k_norm = crate::core::dense::max_abs(k) * (n as f64).sqrt();
     let residuals = (0..keep)
         .map(|j| {
             let mut r2 = 0.0;

@@ -1,16 +1,10 @@
-//! Eigensolvers for `K φ = λ M φ`, and the sparse Cholesky factors they shift and invert.
+//! Eigensolvers for `K φ = λ M φ`: dense for small models, block Lanczos on the shift-invert
+//! operator of a sparse Cholesky factor ([`crate::sparse::SymmetricFactor`]) for large ones.
 
 pub mod dense;
-pub mod factor;
-mod layout;
-mod multifrontal;
-mod ordering;
-mod product;
 pub mod sparse;
-mod thin;
 
 pub use dense::{EigenError, ModeSelection, Modes, dense_generalized};
-pub use factor::{FactorError, FactorInfo, SpdFactor};
 pub use sparse::{
     ShiftedFactor, SparseEigenInfo, SparseEigenParams, lowest_modes, lowest_modes_keeping_factor,
 };

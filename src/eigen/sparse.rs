@@ -25,11 +25,12 @@
 //! below f" enlarges the request until a mode above `f` is found.
 
 use super::dense::{EigenError, ModeSelection, Modes, dense_generalized, fix_sign, median_ratio};
-use super::factor::{FactorError, FactorInfo, SOLVE_COLUMNS, SpdFactor};
-pub use super::product::sym_matvec;
-use super::product::sym_matvec_pair;
 use crate::core::DofId;
-use crate::fe::system::{SparseMatrix, lower_combination, sparse_to_dense};
+use crate::core::sparse::{SparseMatrix, sparse_to_dense};
+use crate::sparse::{
+    FactorError, FactorInfo, SparseSolve, SpdFactor, SymmetricFactor, lower_combination,
+    sym_matvec, sym_matvec_pair,
+};
 use faer::linalg::triangular_solve::solve_lower_triangular_in_place;
 use faer::{Mat, MatMut, MatRef, Par, Side};
 use rand::{Rng, SeedableRng};
@@ -49,6 +50,9 @@ pub struct SparseEigenParams {
     pub dense_limit: usize,
     /// Seed of the start vector.
     pub seed: u64,
+    /// Parallelism of the factorisation, the solves and the sparse products (the results do
+    /// not depend on it).
+    pub par: Par,
 }
 
 impl Default for SparseEigenParams {
@@ -59,6 +63,7 @@ impl Default for SparseEigenParams {
             max_restarts: 300,
             dense_limit: 800,
             seed: 1,
+            par: Par::rayon(0),
         }
     }
 }
@@ -193,7 +198,7 @@ pub fn lowest_modes_keeping_factor(
     let t0 = Instant::now();
     // A = K − σM over the union pattern, lower triangle.
     let a = lower_combination(1.0, k, -shift, m);
-    let llt = SpdFactor::consuming(a).map_err(|e| match e {
+    let llt = SpdFactor::consuming(a, params.par).map_err(|e| match e {
         FactorError::NotPositiveDefinite => EigenError::NotPositiveDefinite { shift },
         FactorError::OutOfMemory => EigenError::FactorTooLarge { n },
     })?;
@@ -227,7 +232,7 @@ pub fn lowest_modes_keeping_factor(
     let (mut vecs, mut kphi, mut mphi) = (Mat::zeros(n, 0), Mat::zeros(n, 0), Mat::zeros(n, 0));
     let t = Instant::now();
     if counted > 0 {
-        (lambdas, vecs, kphi, mphi) = refine(&llt, k, m, ritz_images)?;
+        (lambdas, vecs, kphi, mphi) = refine(&llt, k, m, ritz_images, params.par)?;
         info.solves += counted;
     }
     let modes = finish(k, lambdas, vecs, kphi, mphi, shift, scale)?;
@@ -236,30 +241,27 @@ pub fn lowest_modes_keeping_factor(
     Ok((modes, info, Some(factor)))
 }
 
-/// Columns per pass of the refinement's backward sweep. The sweeps are bound by reading the
-/// factor, so a pass should be wide; 16 is the widest the thin solve kernels take
-/// ([`super::thin::MAX_COLUMNS`]), beyond which the solve falls back to faer's kernels.
-const REFINEMENT_SOLVE_COLUMNS: usize = 16;
-
 /// Eigenvalues, shapes `Φ`, and the products `KΦ`, `MΦ`.
 type RefinedModes = (Vec<f64>, Mat<f64>, Mat<f64>, Mat<f64>);
 
 /// One block inverse-iteration step and a Rayleigh–Ritz projection: `X = A⁻¹ M Φ` for the
 /// Ritz vectors `Φ = P L⁻ᵀ Y`, as `P L⁻ᵀ (C Y)` from the `C Y` that [`lanczos`] hands over (one
-/// backward sweep), then the small pencil `(XᵀKX, XᵀMX)`. The Lanczos residual bounds the
+/// backward sweep, in passes of [`crate::sparse::SOLVE_COLUMNS`], the widest the thin solve
+/// kernels take), then the small pencil `(XᵀKX, XᵀMX)`. The Lanczos residual bounds the
 /// error of `Y` in the metric of `C`, where the stiff modes weigh little; this step divides
 /// their share by `ν_high/ν_low`, so the residuals `‖Kφ − λMφ‖ / ‖Kφ‖` reach round-off level.
 fn refine(
-    llt: &SpdFactor,
+    llt: &impl SymmetricFactor,
     k: &SparseMatrix,
     m: &SparseMatrix,
     cy: Mat<f64>,
+    par: Par,
 ) -> Result<RefinedModes, EigenError> {
     let (n, c) = (cy.nrows(), cy.ncols());
     let mut x = cy;
-    llt.solve_backward_in_place_in_passes(x.as_mut(), REFINEMENT_SOLVE_COLUMNS);
+    llt.solve_backward_in_place(x.as_mut(), par);
     let (mut kx, mut mx) = (Mat::<f64>::zeros(n, c), Mat::<f64>::zeros(n, c));
-    sym_matvec_pair(k, m, x.as_ref(), kx.as_mut(), mx.as_mut());
+    sym_matvec_pair(k, m, x.as_ref(), kx.as_mut(), mx.as_mut(), par);
     let kr = x.transpose() * &kx;
     let mr = x.transpose() * &mx;
     let kr = Mat::from_fn(c, c, |i, j| 0.5 * (kr[(i, j)] + kr[(j, i)]));
@@ -586,25 +588,30 @@ fn cancellation(c: MatRef<'_, f64>, r: MatRef<'_, f64>) -> f64 {
 /// product with `M`, the forward sweep. `C` is symmetric and its eigenvalues are those of
 /// `A⁻¹ M`, `ν = 1/(λ − σ)`, with eigenvectors `y = Lᵀ Pᵀ φ`.
 fn apply_operator(
-    llt: &SpdFactor,
+    llt: &impl SymmetricFactor,
     m: &SparseMatrix,
     mut x: Mat<f64>,
+    par: Par,
     info: &mut SparseEigenInfo,
 ) -> Mat<f64> {
     let t = Instant::now();
-    llt.solve_backward_in_place_in_passes(x.as_mut(), SOLVE_COLUMNS);
+    llt.solve_backward_in_place(x.as_mut(), par);
     info.solve_seconds += t.elapsed().as_secs_f64();
     let t = Instant::now();
     let mut y = Mat::<f64>::zeros(x.nrows(), x.ncols());
-    sym_matvec(m, x.as_ref(), y.as_mut());
+    sym_matvec(m, x.as_ref(), y.as_mut(), par);
     drop(x);
     info.mass_product_seconds += t.elapsed().as_secs_f64();
     let t = Instant::now();
-    llt.solve_forward_in_place(y.as_mut());
+    llt.solve_forward_in_place(y.as_mut(), par);
     info.solve_seconds += t.elapsed().as_secs_f64();
     info.solves += y.ncols();
     y
 }
+
+/// Ritz values `ν` (largest first), their vectors `Y` in the basis, and how many of the
+/// leading ones converged.
+type RitzPairs = (Vec<f64>, Mat<f64>, usize);
 
 /// Block thick-restart Lanczos on the symmetric `C = L⁻¹ Pᵀ M P L⁻ᵀ` ([`apply_operator`]),
 /// with blocks of `b` vectors so that every pass over the Cholesky factor serves `b`
@@ -613,7 +620,7 @@ fn apply_operator(
 /// the `nev` lowest `λ` (ascending) and `C Y` for their Ritz vectors `Y` (what [`refine`]
 /// starts from: `P L⁻ᵀ C Y = A⁻¹ M Φ` for the modes `Φ = P L⁻ᵀ Y`).
 fn lanczos(
-    llt: &SpdFactor,
+    llt: &impl SymmetricFactor,
     m: &SparseMatrix,
     n: usize,
     nev: usize,
@@ -621,108 +628,24 @@ fn lanczos(
     params: &SparseEigenParams,
     info: &mut SparseEigenInfo,
 ) -> Result<(Vec<f64>, Mat<f64>), EigenError> {
-    let b = block_size(nev).min(nev.max(1));
-    // A basis of 2.5 nev rather than 2 nev: the extra vectors save a restart cycle, so the
-    // modes converge with about as many Lanczos vectors as they would without any restart.
-    let want = (5 * nev / 2).max(nev + 3 * b);
-    let p = (want.div_ceil(b) * b).min((n - b) / b * b).max(2 * b);
-    if p <= nev {
-        return Err(EigenError::NoConvergence);
-    }
-    let mut v = Mat::<f64>::zeros(n, p);
-    let mut h = Mat::<f64>::zeros(p, p);
-    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(params.seed);
-    // Start inside the operator's range (kills components along massless DOFs).
-    let mut random_block = |info: &mut SparseEigenInfo| -> Mat<f64> {
-        let x: Mat<f64> = Mat::from_fn(n, b, |_, _| rng.random::<f64>() - 0.5);
-        apply_operator(llt, m, x, info)
-    };
-    let start = random_block(info);
-    let (q, _) = cholesky_qr(start).ok_or(EigenError::NoConvergence)?;
-    v.as_mut().subcols_mut(0, b).copy_from(&q);
+    let mut process = Lanczos::start(llt, m, n, nev, params, info)?;
     let mut kept = 0usize;
-    // The block after the basis and its coupling `R`: set by every block before they are read.
-    let (mut f, mut r_last) = (Mat::<f64>::new(), Mat::<f64>::new());
     for restart in 0..=params.max_restarts {
         info.restarts = restart;
-        let mut s0 = kept;
-        // Ritz pairs of a check that found the basis converged before it was full.
-        let mut early = None;
-        while s0 < p {
-            let mut w = apply_operator(llt, m, v.as_ref().subcols(s0, b).to_owned(), info);
-            let t = Instant::now();
-            let upto = s0 + b;
-            // In exact arithmetic the new block couples only to the current and the previous
-            // block, and, first after a thick restart, to every kept Ritz vector (the
-            // arrowhead). One pass against those removes the bulk; one pass against the whole
-            // basis then removes what round-off left along the rest: the basis is read twice
-            // instead of four times (classical Gram–Schmidt, twice, over everything).
-            let local = if s0 > kept { s0 - b } else { 0 };
-            let mut c = Mat::<f64>::zeros(upto, b);
-            project_once_into(
-                v.as_ref().subcols(local, upto - local),
-                w.as_mut(),
-                c.as_mut().subrows_mut(local, upto - local),
-            );
-            let full = project_once(v.as_ref().subcols(0, upto), w.as_mut());
-            c += &full;
-            let orthonormal = cholesky_qr(w).and_then(|(q, r)| {
-                if cancellation(full.as_ref(), r.as_ref()) <= 1.0 {
-                    return Some((q, r));
-                }
-                info.third_passes += 1;
-                reorthogonalise(v.as_ref().subcols(0, upto), (q, r), &mut c)
-            });
-            for jj in 0..b {
-                for i in 0..upto {
-                    h[(i, s0 + jj)] = c[(i, jj)];
-                    h[(s0 + jj, i)] = c[(i, jj)];
-                }
-            }
-            info.orthogonalisation_seconds += t.elapsed().as_secs_f64();
-            let next = match orthonormal {
-                Some(x) => x,
-                None => {
-                    // (Near-)invariant subspace: continue with fresh directions, uncoupled.
-                    let mut fresh = random_block(info);
-                    project_out(v.as_ref().subcols(0, upto), fresh.as_mut());
-                    let (q, _) = cholesky_qr(fresh).ok_or(EigenError::NoConvergence)?;
-                    (q, Mat::zeros(b, b))
-                }
-            };
-            if upto < p {
-                v.as_mut().subcols_mut(upto, b).copy_from(&next.0);
-            }
-            (f, r_last) = next;
-            s0 = upto;
-            // Past `nev + b` vectors the wanted Ritz pairs may have converged before the
-            // basis is full: the check costs an eigensolution of `H` (`upto × upto`, about a
-            // millisecond), a block's solves far more.
-            if upto < p && upto >= nev + b {
-                let t = Instant::now();
-                let pairs = ritz(h.as_ref(), upto, r_last.as_ref(), nev, params)?;
-                info.orthogonalisation_seconds += t.elapsed().as_secs_f64();
-                if pairs.2 >= nev {
-                    early = Some(pairs);
-                    break;
-                }
-            }
-        }
+        let (filled, early) = process.fill(kept, nev, info)?;
         // Rayleigh–Ritz on H, as far as the basis was filled.
         let t = Instant::now();
-        let filled = s0;
         let (theta, y, converged) = match early {
             Some(pairs) => pairs,
-            None => ritz(h.as_ref(), filled, r_last.as_ref(), nev, params)?,
+            None => ritz(
+                process.h.as_ref(),
+                filled,
+                process.r_last.as_ref(),
+                nev,
+                params,
+            )?,
         };
-        let done = converged >= nev || restart == params.max_restarts;
-        let shrink = ((p - nev) / 2 / b).max(1) * b;
-        let keep = if done {
-            nev
-        } else {
-            (p - shrink).max(converged + 1).min(p - b)
-        };
-        if done {
+        if converged >= nev || restart == params.max_restarts {
             if converged < nev {
                 return Err(EigenError::NotConverged {
                     converged,
@@ -730,40 +653,208 @@ fn lanczos(
                     restarts: restart,
                 });
             }
-            // C V Y = V (H Y) + F R Y_last = V Y Θ + F R Y_last (the Lanczos relation), formed
-            // in one parallel pass over the basis's rows into storage of the size of the
-            // modes (the refinement's work then fits where the basis was).
-            let yk = y.subcols(0, keep);
-            let coupling = &r_last * yk.subrows(filled - b, b);
-            let mut v_out = Mat::<f64>::zeros(n, keep);
-            ritz_images_by_tiles(
-                v.as_ref().subcols(0, filled),
-                yk,
-                &theta[..keep],
-                f.as_ref(),
-                coupling.as_ref(),
-                v_out.as_mut(),
-            );
+            let images = process.ritz_images(&theta[..nev], y.subcols(0, nev), filled);
             info.orthogonalisation_seconds += t.elapsed().as_secs_f64();
             let lambdas: Vec<f64> = theta[..nev].iter().map(|nu| shift + 1.0 / nu).collect();
-            return Ok((lambdas, v_out));
+            return Ok((lambdas, images));
         }
-        // Thick restart: kept Ritz vectors, then the residual block; blocks must tile up to p.
-        let keep = p - (p - keep).div_ceil(b) * b;
-        let keep = keep.max(1);
-        combine_in_place(v.as_mut(), y.subcols(0, keep));
+        kept = process.thick_restart(&theta, y.as_ref(), nev, converged)?;
         info.orthogonalisation_seconds += t.elapsed().as_secs_f64();
-        h.fill(0.0);
-        for (c, &nu) in theta.iter().take(keep).enumerate() {
-            h[(c, c)] = nu;
-        }
-        v.as_mut().subcols_mut(keep, b).copy_from(&f);
-        kept = keep;
-        if kept + b > p {
-            return Err(EigenError::NoConvergence);
-        }
     }
     Err(EigenError::NoConvergence)
+}
+
+/// The state of [`lanczos`]: the basis `V` (`n × p`, blocks of `b`), the projected matrix
+/// `H = VᵀCV`, and the block `F` after the basis with its coupling `R` (`C V = V H + F R E`,
+/// `E` selecting the last block).
+struct Lanczos<'a, F> {
+    llt: &'a F,
+    m: &'a SparseMatrix,
+    params: &'a SparseEigenParams,
+    b: usize,
+    p: usize,
+    v: Mat<f64>,
+    h: Mat<f64>,
+    /// `F` and `R`: set by every block before they are read.
+    f: Mat<f64>,
+    r_last: Mat<f64>,
+    rng: rand_chacha::ChaCha8Rng,
+}
+
+impl<'a, F: SymmetricFactor> Lanczos<'a, F> {
+    /// Sizes the block and the basis for `nev` pairs and sets the first block.
+    fn start(
+        llt: &'a F,
+        m: &'a SparseMatrix,
+        n: usize,
+        nev: usize,
+        params: &'a SparseEigenParams,
+        info: &mut SparseEigenInfo,
+    ) -> Result<Self, EigenError> {
+        let b = block_size(nev).min(nev.max(1));
+        // A basis of 2.5 nev rather than 2 nev: the extra vectors save a restart cycle, so the
+        // modes converge with about as many Lanczos vectors as they would without any restart.
+        let want = (5 * nev / 2).max(nev + 3 * b);
+        let p = (want.div_ceil(b) * b).min((n - b) / b * b).max(2 * b);
+        if p <= nev {
+            return Err(EigenError::NoConvergence);
+        }
+        let mut process = Lanczos {
+            llt,
+            m,
+            params,
+            b,
+            p,
+            v: Mat::zeros(n, p),
+            h: Mat::zeros(p, p),
+            f: Mat::new(),
+            r_last: Mat::new(),
+            rng: rand_chacha::ChaCha8Rng::seed_from_u64(params.seed),
+        };
+        let start = process.random_block(info);
+        let (q, _) = cholesky_qr(start).ok_or(EigenError::NoConvergence)?;
+        process.v.as_mut().subcols_mut(0, b).copy_from(&q);
+        Ok(process)
+    }
+
+    /// A random block mapped by the operator: it starts inside the operator's range (which
+    /// kills components along massless DOFs).
+    fn random_block(&mut self, info: &mut SparseEigenInfo) -> Mat<f64> {
+        let (n, b) = (self.v.nrows(), self.b);
+        let x: Mat<f64> = Mat::from_fn(n, b, |_, _| self.rng.random::<f64>() - 0.5);
+        apply_operator(self.llt, self.m, x, self.params.par, info)
+    }
+
+    /// Fills the basis block by block from column `kept`. Past `nev + b` vectors the wanted
+    /// Ritz pairs may have converged before the basis is full: the check costs an
+    /// eigensolution of `H` (about a millisecond), a block's solves far more. Returns the
+    /// columns filled and the Ritz pairs of a check that found them converged.
+    fn fill(
+        &mut self,
+        kept: usize,
+        nev: usize,
+        info: &mut SparseEigenInfo,
+    ) -> Result<(usize, Option<RitzPairs>), EigenError> {
+        let mut s0 = kept;
+        while s0 < self.p {
+            self.extend(s0, kept, info)?;
+            s0 += self.b;
+            if s0 < self.p && s0 >= nev + self.b {
+                let t = Instant::now();
+                let pairs = ritz(self.h.as_ref(), s0, self.r_last.as_ref(), nev, self.params)?;
+                info.orthogonalisation_seconds += t.elapsed().as_secs_f64();
+                if pairs.2 >= nev {
+                    return Ok((s0, Some(pairs)));
+                }
+            }
+        }
+        Ok((s0, None))
+    }
+
+    /// One Lanczos step: `C` applied to the block at `s0`, orthogonalised against the basis
+    /// so far; its coefficients enter `H`, and the orthonormal result becomes the next block
+    /// (or `F`, past the basis's end).
+    fn extend(
+        &mut self,
+        s0: usize,
+        kept: usize,
+        info: &mut SparseEigenInfo,
+    ) -> Result<(), EigenError> {
+        let b = self.b;
+        let x = self.v.as_ref().subcols(s0, b).to_owned();
+        let mut w = apply_operator(self.llt, self.m, x, self.params.par, info);
+        let t = Instant::now();
+        let upto = s0 + b;
+        // In exact arithmetic the new block couples only to the current and the previous
+        // block, and, first after a thick restart, to every kept Ritz vector (the arrowhead).
+        // One pass against those removes the bulk; one pass against the whole basis then
+        // removes what round-off left along the rest: the basis is read twice instead of four
+        // times (classical Gram–Schmidt, twice, over everything).
+        let local = if s0 > kept { s0 - b } else { 0 };
+        let basis = self.v.as_ref().subcols(0, upto);
+        let mut c = Mat::<f64>::zeros(upto, b);
+        project_once_into(
+            basis.subcols(local, upto - local),
+            w.as_mut(),
+            c.as_mut().subrows_mut(local, upto - local),
+        );
+        let full = project_once(basis, w.as_mut());
+        c += &full;
+        let orthonormal = cholesky_qr(w).and_then(|(q, r)| {
+            if cancellation(full.as_ref(), r.as_ref()) <= 1.0 {
+                return Some((q, r));
+            }
+            info.third_passes += 1;
+            reorthogonalise(basis, (q, r), &mut c)
+        });
+        for jj in 0..b {
+            for i in 0..upto {
+                self.h[(i, s0 + jj)] = c[(i, jj)];
+                self.h[(s0 + jj, i)] = c[(i, jj)];
+            }
+        }
+        info.orthogonalisation_seconds += t.elapsed().as_secs_f64();
+        let next = match orthonormal {
+            Some(x) => x,
+            None => {
+                // (Near-)invariant subspace: continue with fresh directions, uncoupled.
+                let mut fresh = self.random_block(info);
+                project_out(self.v.as_ref().subcols(0, upto), fresh.as_mut());
+                let (q, _) = cholesky_qr(fresh).ok_or(EigenError::NoConvergence)?;
+                (q, Mat::zeros(b, b))
+            }
+        };
+        if upto < self.p {
+            self.v.as_mut().subcols_mut(upto, b).copy_from(&next.0);
+        }
+        (self.f, self.r_last) = next;
+        Ok(())
+    }
+
+    /// `C V Y = V (H Y) + F R Y_last = V Y Θ + F R Y_last` (the Lanczos relation) for the Ritz
+    /// vectors `Y` with values `theta`, over the `filled` columns of the basis: formed in one
+    /// parallel pass over the basis's rows into storage of the size of the modes (the
+    /// refinement's work then fits where the basis was).
+    fn ritz_images(&self, theta: &[f64], y: MatRef<'_, f64>, filled: usize) -> Mat<f64> {
+        let b = self.b;
+        let coupling = &self.r_last * y.subrows(filled - b, b);
+        let mut images = Mat::<f64>::zeros(self.v.nrows(), y.ncols());
+        ritz_images_by_tiles(
+            self.v.as_ref().subcols(0, filled),
+            y,
+            theta,
+            self.f.as_ref(),
+            coupling.as_ref(),
+            images.as_mut(),
+        );
+        images
+    }
+
+    /// Thick restart: the basis becomes the leading Ritz vectors (at least one more than
+    /// converged, about half the basis), `H` their values, then the residual block `F`;
+    /// blocks must tile up to `p`. Returns the number kept.
+    fn thick_restart(
+        &mut self,
+        theta: &[f64],
+        y: MatRef<'_, f64>,
+        nev: usize,
+        converged: usize,
+    ) -> Result<usize, EigenError> {
+        let (p, b) = (self.p, self.b);
+        let shrink = ((p - nev) / 2 / b).max(1) * b;
+        let keep = (p - shrink).max(converged + 1).min(p - b);
+        let keep = (p - (p - keep).div_ceil(b) * b).max(1);
+        if keep + b > p {
+            return Err(EigenError::NoConvergence);
+        }
+        combine_in_place(self.v.as_mut(), y.subcols(0, keep));
+        self.h.fill(0.0);
+        for (c, &nu) in theta.iter().take(keep).enumerate() {
+            self.h[(c, c)] = nu;
+        }
+        self.v.as_mut().subcols_mut(keep, b).copy_from(&self.f);
+        Ok(keep)
+    }
 }
 
 /// Ritz pairs of the leading `size × size` block of `H`, largest `ν` first: `(ν, Y, converged)`,
@@ -849,7 +940,7 @@ fn combine_in_place(v: MatMut<'_, f64>, y: MatRef<'_, f64>) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::fe::system::sparse_from_triplets;
+    use crate::core::sparse::sparse_from_triplets;
 
     /// A free-free chain of `n` masses: one rigid mode, `λ_r = (4k/m) sin²(rπ/(2n))`.
     fn free_chain(n: usize, k: f64, m: f64) -> (SparseMatrix, SparseMatrix, Vec<DofId>) {
@@ -940,9 +1031,15 @@ mod tests {
         let m = banded_mass(n, |j| 2.0 + (j % 3) as f64, 0.5);
         let shift = -10.0;
         let a = lower_combination(1.0, &k, -shift, &m);
-        let llt = SpdFactor::new(&a).unwrap();
+        let llt = SpdFactor::new(&a, Par::rayon(0)).unwrap();
         let mut info = SparseEigenInfo::default();
-        let c = apply_operator(&llt, &m, Mat::<f64>::identity(n, n), &mut info);
+        let c = apply_operator(
+            &llt,
+            &m,
+            Mat::<f64>::identity(n, n),
+            Par::rayon(0),
+            &mut info,
+        );
         assert!((&c - c.transpose()).norm_max() < 1e-13 * c.norm_max());
         let mut nu: Vec<f64> = c
             .self_adjoint_eigenvalues(Side::Lower)
@@ -1134,7 +1231,7 @@ mod tests {
         let (kk, _, dofs) = free_chain(900, 1.0, 1.0);
         let mt: Vec<_> = (0..899).map(|i| (i, i, 1.0)).collect();
         let mm = sparse_from_triplets("M", 900, &mt).unwrap();
-        let mut kt = crate::fe::system::sparse_triplets(&kk);
+        let mut kt = crate::core::sparse::sparse_triplets(&kk);
         kt.retain(|t| t.0 != 899 && t.1 != 899);
         let kk = sparse_from_triplets("K", 900, &kt).unwrap();
         let e = lowest_modes(

@@ -11,7 +11,8 @@
 //! AUTOSPC does.
 
 use super::element::ElementMatrices;
-use super::system::{SparseMatrix, SystemMatrices};
+use super::system::SystemMatrices;
+use crate::core::sparse::SparseMatrix;
 use crate::core::{Component, DofId};
 use faer::sparse::SymbolicSparseColMat;
 use rayon::prelude::*;
@@ -77,6 +78,7 @@ pub fn colour(elements: &[Vec<usize>], n_nodes: usize) -> Vec<Vec<usize>> {
 struct SharedValues(*mut f64);
 // SAFETY: elements of one colour share no node, so they write disjoint entries (see `scatter`).
 unsafe impl Sync for SharedValues {}
+// SAFETY: as for `Sync`: the pointer is only written through by `scatter`, colour by colour.
 unsafe impl Send for SharedValues {}
 
 /// Assembles `K` and `M` over `node_ids` (sorted, 6 DOFs each) from `elements` (node-index

@@ -4,7 +4,8 @@
 //! columns `(a, b)`; to ground it adds `k` to `(a, a)`. Dampers `c`, `d` assemble the same way into
 //! `C` and `D`; masses go on the diagonal of `M`.
 
-use super::system::{SparseMatrix, SystemMatrices, SystemMatricesError, sparse_from_triplets};
+use super::system::{SystemMatrices, SystemMatricesError};
+use crate::core::sparse::{SparseMatrix, sparse_from_triplets};
 use crate::model::{LumpedModel, LumpedModelError};
 
 /// Why a lumped model could not be assembled.
@@ -62,13 +63,13 @@ pub fn assemble_lumped(model: &LumpedModel) -> Result<SystemMatrices, LumpedAsse
         if t.is_empty() {
             Ok(None)
         } else {
-            sparse_from_triplets(name, n, &t).map(Some)
+            Ok(Some(sparse_from_triplets(name, n, &t)?))
         }
     };
     Ok(SystemMatrices {
         dofs: model.dofs.clone(),
-        k: sparse_from_triplets("K", n, &k)?,
-        m: sparse_from_triplets("M", n, &m)?,
+        k: sparse_from_triplets("K", n, &k).map_err(SystemMatricesError::from)?,
+        m: sparse_from_triplets("M", n, &m).map_err(SystemMatricesError::from)?,
         c: optional("C", c)?,
         d: optional("D", d)?,
     })
@@ -149,7 +150,7 @@ mod tests {
     #[test]
     fn duplicate_entries_are_summed() {
         let a = sparse_from_triplets("K", 2, &[(0, 0, 1.0), (0, 0, 2.5), (1, 0, 1.0)]).unwrap();
-        let d = crate::fe::system::sparse_to_dense(&a);
+        let d = crate::core::sparse::sparse_to_dense(&a);
         assert_eq!(d[(0, 0)], 3.5);
         assert_eq!(d[(1, 0)], 1.0);
     }

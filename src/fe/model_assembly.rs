@@ -7,6 +7,7 @@ use super::element::{ElementError, ElementMatrices, MassKind};
 use super::lumped_elements::{LumpedMass, SpringEnds, conm2, scalar_spring, spring6};
 use super::shell::{ShellSection, quad4, tria3};
 use super::system::SystemMatrices;
+use crate::core::sparse::SparseMatrix;
 use crate::model::{BeamSection, Element, Model, ModelError};
 use faer::Mat;
 use std::collections::BTreeSet;
@@ -329,7 +330,7 @@ pub fn parameter_derivative(
     parameter: &crate::model::Parameter,
     dofs: &[crate::core::DofId],
     mass: MassKind,
-) -> Result<(super::system::SparseMatrix, super::system::SparseMatrix), ModelAssemblyError> {
+) -> Result<(SparseMatrix, SparseMatrix), ModelAssemblyError> {
     let index: DofIndex = dofs.iter().enumerate().map(|(i, d)| (*d, i)).collect();
     set_derivative(model, parameter, &index, mass)
 }
@@ -340,7 +341,7 @@ fn set_derivative(
     parameter: &crate::model::Parameter,
     index: &DofIndex,
     mass: MassKind,
-) -> Result<(super::system::SparseMatrix, super::system::SparseMatrix), ModelAssemblyError> {
+) -> Result<(SparseMatrix, SparseMatrix), ModelAssemblyError> {
     let ids = model.sets.get(&parameter.set).ok_or_else(|| {
         ModelAssemblyError::Model(ModelError::MissingSet {
             parameter: parameter.name.clone(),
@@ -361,7 +362,7 @@ pub fn parameter_derivatives(
     parameters: &[crate::model::Parameter],
     dofs: &[crate::core::DofId],
     mass: MassKind,
-) -> Result<Vec<(super::system::SparseMatrix, super::system::SparseMatrix)>, ModelAssemblyError> {
+) -> Result<Vec<(SparseMatrix, SparseMatrix)>, ModelAssemblyError> {
     use rayon::prelude::*;
     let index: DofIndex = dofs.iter().enumerate().map(|(i, d)| (*d, i)).collect();
     parameters
@@ -381,7 +382,7 @@ pub fn elements_parameter_derivative(
     ids: &[u64],
     dofs: &[crate::core::DofId],
     mass: MassKind,
-) -> Result<(super::system::SparseMatrix, super::system::SparseMatrix), ModelAssemblyError> {
+) -> Result<(SparseMatrix, SparseMatrix), ModelAssemblyError> {
     let index: DofIndex = dofs.iter().enumerate().map(|(i, d)| (*d, i)).collect();
     indexed_derivative(model, parameter, ids, &index, mass)
 }
@@ -393,7 +394,7 @@ fn indexed_derivative(
     ids: &[u64],
     index: &DofIndex,
     mass: MassKind,
-) -> Result<(super::system::SparseMatrix, super::system::SparseMatrix), ModelAssemblyError> {
+) -> Result<(SparseMatrix, SparseMatrix), ModelAssemblyError> {
     use super::beam::{BeamParameter, beam2_derivative};
     use super::lumped_elements::{MassParameter, conm2_derivative, spring6_derivative};
     use super::shell::{ShellParameter, quad4_derivative, tria3_derivative};
@@ -544,10 +545,12 @@ fn indexed_derivative(
     }
     let n = index.len();
     let build = |name, t: &[(usize, usize, f64)]| {
-        super::system::sparse_from_triplets(name, n, t).map_err(|e| ModelAssemblyError::Element {
-            element: 0,
-            kind: "assembly",
-            source: ElementError::Degenerate(e.to_string()),
+        crate::core::sparse::sparse_from_triplets(name, n, t).map_err(|e| {
+            ModelAssemblyError::Element {
+                element: 0,
+                kind: "assembly",
+                source: ElementError::Degenerate(e.to_string()),
+            }
         })
     };
     Ok((build("dK", &kt)?, build("dM", &mt)?))
@@ -556,8 +559,8 @@ fn indexed_derivative(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::core::sparse::sparse_to_dense;
     use crate::eigen::{ModeSelection, SparseEigenParams, lowest_modes};
-    use crate::fe::system::sparse_to_dense;
     use crate::model::generate::{
         BentPlate, FlatPlate, PlateSupport, ThreeBeam, bent_plate, flat_plate, three_beam,
     };
@@ -730,7 +733,7 @@ mod tests {
                 (sparse_to_dense(&dk), sp.k_dense(), sm.k_dense()),
                 (sparse_to_dense(&dm), sp.m_dense(), sm.m_dense()),
             ] {
-                let scale = crate::fe::system::max_abs(analytic.as_ref());
+                let scale = crate::core::dense::max_abs(analytic.as_ref());
                 assert!(scale > 0.0, "{}: zero derivative", param.name);
                 let mut worst = 0.0f64;
                 for i in 0..analytic.nrows() {
@@ -763,7 +766,7 @@ mod tests {
         let ix = bsys.dof_index();
         let at = ix[&crate::core::DofId::new(1000, Component::Uy)];
         assert_eq!(d[(at, at)], 1.0);
-        assert_eq!(crate::fe::system::max_abs(d.as_ref()), 1.0);
+        assert_eq!(crate::core::dense::max_abs(d.as_ref()), 1.0);
         // A parameter on elements it cannot act on is named.
         let wrong = Parameter {
             name: "t".into(),

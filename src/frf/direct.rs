@@ -4,12 +4,11 @@
 
 use super::{FrfPair, FrfSet, Quantity, convert_from_receptance};
 use crate::core::DofId;
+use crate::core::sparse::sparse_triplets;
 use crate::fe::SystemMatrices;
-use crate::fe::system::sparse_triplets;
-use faer::linalg::solvers::Solve;
-use faer::sparse::linalg::solvers::{Lu, SymbolicLu};
+use crate::sparse::{Lu, SparseSolve, SymbolicLu};
 use faer::sparse::{Pair, SparseColMat, SymbolicSparseColMat};
-use faer::{Mat, c64};
+use faer::{Mat, MatRef, Par, c64};
 use rayon::prelude::*;
 use std::collections::HashMap;
 use std::f64::consts::PI;
@@ -77,7 +76,8 @@ pub fn direct_receptance(
             for (s, &j) in excitations.iter().enumerate() {
                 rhs[(j, s)] = c64::new(1.0, 0.0);
             }
-            let x = z.solve(f, rhs.as_ref())?;
+            // Lines run in parallel; each line's factorisation and solve may split further.
+            let x = z.solve(f, rhs.as_ref(), Par::rayon(0))?;
             let out: Vec<c64> = reads.iter().map(|&(i, s)| x[(i, s)]).collect();
             if out.iter().any(|v| !(v.re.is_finite() && v.im.is_finite())) {
                 return Err(DirectError::Singular(f));
@@ -109,7 +109,7 @@ pub struct DynamicStiffness {
     entries: Vec<((usize, usize), [f64; 4])>,
     symbolic: SymbolicSparseColMat<usize>,
     argsort: faer::sparse::Argsort<usize>,
-    symbolic_lu: SymbolicLu<usize>,
+    symbolic_lu: SymbolicLu,
 }
 
 impl DynamicStiffness {
@@ -121,7 +121,7 @@ impl DynamicStiffness {
             damping.rayleigh.unwrap_or((0.0, 0.0)),
         );
         let mut coef: HashMap<(usize, usize), [f64; 4]> = HashMap::new(); // [K, M, C, D]
-        let mut add = |mat: &crate::fe::system::SparseMatrix, slot: usize| {
+        let mut add = |mat: &crate::core::sparse::SparseMatrix, slot: usize| {
             for (i, j, v) in sparse_triplets(mat) {
                 coef.entry((i, j)).or_insert([0.0; 4])[slot] += v;
             }
@@ -146,7 +146,7 @@ impl DynamicStiffness {
             .collect();
         let (symbolic, argsort) = SymbolicSparseColMat::try_new_from_indices(n, n, &idx)
             .map_err(|e| DirectError::Factorisation(format!("{e:?}")))?;
-        let symbolic_lu = SymbolicLu::try_new(symbolic.as_ref())
+        let symbolic_lu = SymbolicLu::new(symbolic.as_ref())
             .map_err(|e| DirectError::Factorisation(format!("{e:?}")))?;
         Ok(DynamicStiffness {
             n,
@@ -162,8 +162,8 @@ impl DynamicStiffness {
         self.n
     }
 
-    /// `Z(ω) X = rhs` at `f_hz`.
-    pub fn solve(&self, f_hz: f64, rhs: faer::MatRef<'_, c64>) -> Result<Mat<c64>, DirectError> {
+    /// The LU factor of `Z(ω)` at `f_hz`, made with parallelism `par`.
+    pub fn factor(&self, f_hz: f64, par: Par) -> Result<Lu<'_, c64>, DirectError> {
         let w = 2.0 * PI * f_hz;
         let vals: Vec<c64> = self
             .entries
@@ -172,9 +172,19 @@ impl DynamicStiffness {
             .collect();
         let z = SparseColMat::new_from_argsort(self.symbolic.clone(), &self.argsort, &vals)
             .map_err(|e| DirectError::Factorisation(format!("{e:?}")))?;
-        let lu = Lu::try_new_with_symbolic(self.symbolic_lu.clone(), z.as_ref())
-            .map_err(|_| DirectError::Singular(f_hz))?;
-        let x = lu.solve(rhs);
+        Lu::new(&self.symbolic_lu, z.as_ref(), par).map_err(|_| DirectError::Singular(f_hz))
+    }
+
+    /// `Z(ω) X = rhs` at `f_hz`, factored and solved with parallelism `par`.
+    pub fn solve(
+        &self,
+        f_hz: f64,
+        rhs: MatRef<'_, c64>,
+        par: Par,
+    ) -> Result<Mat<c64>, DirectError> {
+        let lu = self.factor(f_hz, par)?;
+        let mut x = rhs.to_owned();
+        lu.solve_in_place(x.as_mut(), par);
         if x.col_iter()
             .any(|c| c.iter().any(|v| !(v.re.is_finite() && v.im.is_finite())))
         {
@@ -291,7 +301,7 @@ mod tests {
     fn two_dof_matches_the_closed_form() {
         let model = LumpedModel::chain(&[2.0, 3.0], 500.0);
         let mut sys = assemble_lumped(&model).unwrap();
-        sys.c = Some(crate::fe::system::sparse_from_triplets("C", 2, &[(0, 0, 1.5)]).unwrap());
+        sys.c = Some(crate::core::sparse::sparse_from_triplets("C", 2, &[(0, 0, 1.5)]).unwrap());
         let pairs = FrfSet::all_pairs(&sys.dofs, &sys.dofs);
         let freqs = [0.0, 1.7, 4.2];
         let r = direct_receptance(

@@ -7,10 +7,10 @@
 //! `nnz(∂K/∂φ)·m + n_e·m²` (4.5), independent of the model size.
 
 use super::LocalisationError;
+use crate::core::sparse::{SparseMatrix, sparse_from_triplets, sparse_triplets};
 use crate::core::{Component, DofId};
 use crate::fe::element::MassKind;
 use crate::fe::model_assembly::elements_parameter_derivative;
-use crate::fe::system::{SparseMatrix, sparse_from_triplets, sparse_triplets};
 use crate::model::{Element, Model, Parameter, ParameterKind};
 use crate::sensitivity::{ProjectedDerivative, project};
 use faer::{Mat, MatRef};
@@ -238,8 +238,8 @@ impl LocalDerivative {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::core::sparse::sparse_to_dense;
     use crate::fe::model_assembly::{assemble_model, parameter_derivative};
-    use crate::fe::system::sparse_to_dense;
     use crate::model::generate::{BentPlate, bent_plate};
 
     /// The one-element derivatives of a strip's elements, summed, are the strip's derivative

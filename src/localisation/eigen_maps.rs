@@ -5,7 +5,7 @@
 //! form over the candidate's own DOFs.
 
 use super::candidates::LocalDerivative;
-use crate::fe::system::SparseMatrix;
+use crate::core::sparse::SparseMatrix;
 use faer::MatRef;
 
 /// `vᵀ A v` for a sparse `A` on local rows and `v` over the same rows.

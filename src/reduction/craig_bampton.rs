@@ -18,14 +18,14 @@
 //! reproduces the full one exactly (a change of basis).
 
 use super::linalg::{
-    SparseSpd, dense_columns, sparse_times_dense, sparse_transpose_times_dense, sub_block,
+    dense_columns, solve, sparse_times_dense, sparse_transpose_times_dense, spd_factor, sub_block,
     symmetrise,
 };
 use super::{ComponentReduction, Coordinate, ReductionError, ReductionInfo};
 use crate::core::DofId;
 use crate::eigen::{ModeSelection, SparseEigenParams, lowest_modes};
 use crate::fe::SystemMatrices;
-use faer::{Mat, MatRef};
+use faer::{Mat, MatRef, Par};
 use std::collections::HashSet;
 
 /// Craig-Bampton reduction of substructure `name` with matrices `sys` and junction DOFs
@@ -84,15 +84,15 @@ fn constrained_reduction(
     let mii = sub_block(&sys.m, &i_idx, &i_idx);
     let psi = if nc > 0 && ni > 0 {
         let kij = sub_block(&sys.k, &i_idx, &j_idx);
-        let f = SparseSpd::factor(&kii).ok_or_else(|| ReductionError::NotRestrained {
+        let f = spd_factor(&kii, eigen.par).ok_or_else(|| ReductionError::NotRestrained {
             substructure: name.to_string(),
             junction: nj,
         })?;
         let rhs = match basis {
-            None => crate::fe::system::sparse_to_dense(&kij),
+            None => crate::core::sparse::sparse_to_dense(&kij),
             Some(v) => sparse_times_dense(&kij, v),
         };
-        let mut x = f.solve(rhs.as_ref());
+        let mut x = solve(&f, rhs.as_ref(), eigen.par);
         x *= faer::Scale(-1.0);
         x
     } else {
@@ -187,7 +187,7 @@ pub fn junction_condensation(
 ) -> Result<JunctionCondensation, ReductionError> {
     let (j_idx, i_idx) = split(sys, junction)?;
     let (nj, ni) = (j_idx.len(), i_idx.len());
-    let dense = crate::fe::system::sparse_to_dense;
+    let dense = crate::core::sparse::sparse_to_dense;
     let mut kg = dense(&sub_block(&sys.k, &j_idx, &j_idx));
     let mut mg = dense(&sub_block(&sys.m, &j_idx, &j_idx));
     if nj > 0 && ni > 0 {
@@ -195,21 +195,23 @@ pub fn junction_condensation(
         let mii = sub_block(&sys.m, &i_idx, &i_idx);
         let kij = sub_block(&sys.k, &i_idx, &j_idx);
         let mij = sub_block(&sys.m, &i_idx, &j_idx);
-        let f = SparseSpd::factor(&kii).ok_or_else(|| ReductionError::NotRestrained {
+        // The substructures' condensations run one after another, each on all threads.
+        let par = Par::rayon(0);
+        let f = spd_factor(&kii, par).ok_or_else(|| ReductionError::NotRestrained {
             substructure: name.to_string(),
             junction: nj,
         })?;
         for start in (0..nj).step_by(CONDENSATION_BLOCK) {
             let cols = start..(start + CONDENSATION_BLOCK).min(nj);
-            let mut psi = f.solve(dense_columns(&kij, cols.clone()).as_ref());
+            let mut psi = solve(&f, dense_columns(&kij, cols.clone()).as_ref(), par);
             psi *= faer::Scale(-1.0);
             let k_cols = sparse_transpose_times_dense(&kij, psi.as_ref());
             // `M_ii Ψ` reading each stored entry of `M_ii` once for the whole block.
             let mut y = dense_columns(&mij, cols.clone());
             let mut mpsi = Mat::zeros(ni, psi.ncols());
-            crate::eigen::sparse::sym_matvec(&mii, psi.as_ref(), mpsi.as_mut());
+            crate::sparse::sym_matvec(&mii, psi.as_ref(), mpsi.as_mut(), par);
             y += &mpsi;
-            let z = f.solve(y.as_ref());
+            let z = solve(&f, y.as_ref(), par);
             let m_cols = sparse_transpose_times_dense(&mij, psi.as_ref())
                 - sparse_transpose_times_dense(&kij, z.as_ref());
             for (c, j) in cols.enumerate() {

@@ -188,7 +188,7 @@ pub fn force_coupling(
     let g = &free.shapes * &pinv; // Φ Φ_m⁺, N × n_m
     let mut t = Mat::zeros(n, nm + nj);
     let flexibility = if nj > 0 {
-        let rj = residual_flexibility(name, sys, &free, &j_idx)?; // R_{:,j}
+        let rj = residual_flexibility(name, sys, &free, &j_idx, eigen.par)?; // R_{:,j}
         let rmj = Mat::from_fn(nm, nj, |a, b| rj[(m_idx[a], b)]);
         let h = &rj - &g * &rmj; // R_{:,j} − Φ Φ_m⁺ R_mj
         for i in 0..n {

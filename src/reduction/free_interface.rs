@@ -28,12 +28,12 @@
 //! the reduction says so (`SingularResidual`).
 
 use super::craig_bampton::split;
-use super::linalg::{SparseSpd, sparse_times_dense, sub_block, symmetrise};
+use super::linalg::{solve, sparse_times_dense, spd_factor, sub_block, symmetrise};
 use super::{ComponentReduction, ReductionError, ReductionInfo};
 use crate::core::DofId;
 use crate::eigen::{ModeSelection, Modes, SparseEigenParams, lowest_modes};
 use crate::fe::SystemMatrices;
-use faer::{Mat, MatRef, Side};
+use faer::{Mat, MatRef, Par, Side};
 
 /// Free modes of a substructure, checked to hold some elastic mode.
 pub fn free_modes(
@@ -97,11 +97,12 @@ pub fn choose_held_dofs(phi_r: MatRef<'_, f64>, candidates: &[usize]) -> Vec<usi
 /// the mass-normalised rigid-body modes (`N × r`, possibly `r = 0`, then `G = K⁻¹`), `held` the
 /// temporarily held DOFs (`r` of them). Errors when the stiffness with `held` removed is singular.
 pub fn elastic_flexibility(
-    k: &crate::fe::system::SparseMatrix,
-    m: &crate::fe::system::SparseMatrix,
+    k: &crate::core::sparse::SparseMatrix,
+    m: &crate::core::sparse::SparseMatrix,
     phi_r: MatRef<'_, f64>,
     held: &[usize],
     b: MatRef<'_, f64>,
+    par: Par,
 ) -> Result<Mat<f64>, String> {
     let n = k.nrows();
     let r = phi_r.ncols();
@@ -119,14 +120,14 @@ pub fn elastic_flexibility(
     }
     let free: Vec<usize> = (0..n).filter(|i| keep_mask[*i]).collect();
     let kf = sub_block(k, &free, &free);
-    let f = SparseSpd::factor(&kf).ok_or_else(|| {
+    let f = spd_factor(&kf, par).ok_or_else(|| {
         format!(
             "the stiffness with {} DOFs held is not positive definite",
             held.len()
         )
     })?;
     let yf = Mat::from_fn(free.len(), y.ncols(), |i, j| y[(free[i], j)]);
-    let zf = f.solve(yf.as_ref());
+    let zf = solve(&f, yf.as_ref(), par);
     let mut z = Mat::zeros(n, y.ncols());
     for (a, &i) in free.iter().enumerate() {
         for j in 0..y.ncols() {
@@ -150,6 +151,7 @@ pub fn residual_flexibility(
     sys: &SystemMatrices,
     modes: &Modes,
     cols: &[usize],
+    par: Par,
 ) -> Result<Mat<f64>, ReductionError> {
     let n = sys.n();
     let rigid: Vec<usize> = (0..modes.len())
@@ -164,13 +166,12 @@ pub fn residual_flexibility(
     for (c, &i) in cols.iter().enumerate() {
         e[(i, c)] = 1.0;
     }
-    let mut rr = elastic_flexibility(&sys.k, &sys.m, phi_r.as_ref(), &held, e.as_ref()).map_err(
-        |reason| ReductionError::Mechanism {
+    let mut rr = elastic_flexibility(&sys.k, &sys.m, phi_r.as_ref(), &held, e.as_ref(), par)
+        .map_err(|reason| ReductionError::Mechanism {
             substructure: name.to_string(),
             held: held.len(),
             reason,
-        },
-    )?;
+        })?;
     for &r in &elastic {
         let inv = 1.0 / modes.eigenvalues[r];
         for (c, &col) in cols.iter().enumerate() {
@@ -235,7 +236,7 @@ pub fn free_interface(
     }
     let mut t = Mat::zeros(n, nj + m);
     if nj > 0 {
-        let rj = residual_flexibility(name, sys, &free, &j_idx)?; // R_{:,j}, N × n_j
+        let rj = residual_flexibility(name, sys, &free, &j_idx, eigen.par)?; // R_{:,j}, N × n_j
         let rjj = Mat::from_fn(nj, nj, |a, b| rj[(j_idx[a], b)]);
         let rjj_inv = residual_inverse(name, &rjj, i_idx.len())?;
         let a = &rj * &rjj_inv; // R_{:j} R_jj⁻¹

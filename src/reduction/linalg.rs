@@ -1,11 +1,11 @@
 //! Small sparse/dense helpers shared by the reduction methods: sub-blocks of a sparse matrix,
 //! sparse × dense products, sparse Cholesky solves and a rank-checked pseudo-inverse.
 
-use crate::eigen::SpdFactor;
-use crate::fe::system::SparseMatrix;
+use crate::core::sparse::SparseMatrix;
+use crate::sparse::{SparseSolve, SpdFactor};
 use faer::linalg::solvers::DenseSolveCore;
 use faer::sparse::Triplet;
-use faer::{Mat, MatRef};
+use faer::{Mat, MatRef, Par};
 use rayon::prelude::*;
 
 /// The block `A[rows, cols]` of a sparse matrix (`rows`, `cols` index lists into `A`).
@@ -140,22 +140,18 @@ pub fn symmetrise(a: &Mat<f64>) -> Mat<f64> {
     Mat::from_fn(a.nrows(), a.ncols(), |i, j| 0.5 * (a[(i, j)] + a[(j, i)]))
 }
 
-/// A sparse Cholesky factor of a symmetric positive definite matrix.
-pub struct SparseSpd(SpdFactor);
+/// The sparse Cholesky factor of a symmetric positive definite `A` (full symmetric storage;
+/// only the lower triangle is read), made with parallelism `par`; `None` when `A` is not
+/// positive definite.
+pub fn spd_factor(a: &SparseMatrix, par: Par) -> Option<SpdFactor> {
+    SpdFactor::new(a, par).ok()
+}
 
-impl SparseSpd {
-    /// Factors `A` (full symmetric storage; only the lower triangle is read). `None` when `A`
-    /// is not positive definite.
-    pub fn factor(a: &SparseMatrix) -> Option<Self> {
-        SpdFactor::new(a).ok().map(SparseSpd)
-    }
-
-    /// `A⁻¹ B`.
-    pub fn solve(&self, b: MatRef<'_, f64>) -> Mat<f64> {
-        let mut x = b.to_owned();
-        self.0.solve_in_place(x.as_mut());
-        x
-    }
+/// `A⁻¹ B` by a factor of `A`, solved with parallelism `par`.
+pub fn solve(a: &impl SparseSolve<f64>, b: MatRef<'_, f64>, par: Par) -> Mat<f64> {
+    let mut x = b.to_owned();
+    a.solve_in_place(x.as_mut(), par);
+    x
 }
 
 /// Moore–Penrose pseudo-inverse of a matrix of full column rank, with its 2-norm condition
@@ -230,16 +226,16 @@ mod tests {
             (1, 2, 2.0),
             (2, 1, 2.0),
         ];
-        let a = crate::fe::system::sparse_from_triplets("A", 3, &trip).unwrap();
-        let d = crate::fe::system::sparse_to_dense(&a);
+        let a = crate::core::sparse::sparse_from_triplets("A", 3, &trip).unwrap();
+        let d = crate::core::sparse::sparse_to_dense(&a);
         let b = sub_block(&a, &[2, 0], &[1]);
-        assert_eq!(crate::fe::system::sparse_to_dense(&b)[(0, 0)], 2.0);
-        assert_eq!(crate::fe::system::sparse_to_dense(&b)[(1, 0)], 1.0);
+        assert_eq!(crate::core::sparse::sparse_to_dense(&b)[(0, 0)], 2.0);
+        assert_eq!(crate::core::sparse::sparse_to_dense(&b)[(1, 0)], 1.0);
         let x = Mat::from_fn(3, 2, |i, j| (i + 2 * j) as f64);
         let y = sparse_times_dense(&a, x.as_ref());
         assert_eq!(max_diff(y.as_ref(), (&d * &x).as_ref()), 0.0);
-        let f = SparseSpd::factor(&a).unwrap();
-        let z = f.solve(y.as_ref());
+        let f = spd_factor(&a, Par::Seq).unwrap();
+        let z = solve(&f, y.as_ref(), Par::Seq);
         assert!(max_diff(z.as_ref(), x.as_ref()) < 1e-13);
         let inv = inverse(&d).unwrap();
         assert!(max_diff((&inv * &d).as_ref(), Mat::<f64>::identity(3, 3).as_ref()) < 1e-14);

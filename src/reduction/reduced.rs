@@ -7,12 +7,12 @@ use super::interface::{interface_basis, interface_basis_from_condensations};
 use super::linalg::project;
 use super::partition::{Partition, Substructure};
 use super::{ReductionError, free_interface::free_interface};
+use crate::core::sparse::SparseMatrix;
 use crate::core::{Component, DofId};
 use crate::eigen::{ModeSelection, Modes, SparseEigenParams, dense_generalized, lowest_modes};
 use crate::fe::SystemMatrices;
 use crate::fe::element::MassKind;
 use crate::fe::model_assembly::{assemble_elements, elements_parameter_derivative};
-use crate::fe::system::SparseMatrix;
 use crate::model::{Model, Parameter};
 use faer::{Mat, MatRef};
 use rayon::prelude::*;
@@ -535,7 +535,7 @@ impl ReducedModel {
                         }
                     }
                 }
-                crate::fe::system::sparse_from_triplets("reduced", a.nrows(), &trip)
+                crate::core::sparse::sparse_from_triplets("reduced", a.nrows(), &trip)
                     .map_err(|e| ReductionError::Replace(e.to_string()))
             };
             let (k, m) = (sparse(&kp)?, sparse(&self.m)?);

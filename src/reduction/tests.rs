@@ -256,7 +256,7 @@ fn reduced_derivative_matches_finite_difference() {
     let (kp, mp) = reduced_at(t + h);
     let (km, mm) = reduced_at(t - h);
     for (analytic, plus, minus, what) in [(&dk, &kp, &km, "K"), (&dm, &mp, &mm, "M")] {
-        let scale = crate::fe::system::max_abs(analytic.as_ref());
+        let scale = crate::core::dense::max_abs(analytic.as_ref());
         assert!(scale > 0.0);
         let fd = (plus - minus) * faer::Scale(1.0 / (2.0 * h));
         let worst = linalg::max_diff(analytic.as_ref(), fd.as_ref());
@@ -371,9 +371,25 @@ fn appendix_a_elastic_flexibility_is_independent_of_the_held_dofs() {
     assert_eq!(held_a.len(), 6);
     assert!(held_a.iter().all(|h| !held_b.contains(h)));
     let eye = Mat::<f64>::identity(n, n);
-    let ga = elastic_flexibility(&sys.k, &sys.m, phi_r.as_ref(), &held_a, eye.as_ref()).unwrap();
-    let gb = elastic_flexibility(&sys.k, &sys.m, phi_r.as_ref(), &held_b, eye.as_ref()).unwrap();
-    let scale = crate::fe::system::max_abs(ga.as_ref());
+    let ga = elastic_flexibility(
+        &sys.k,
+        &sys.m,
+        phi_r.as_ref(),
+        &held_a,
+        eye.as_ref(),
+        faer::Par::rayon(0),
+    )
+    .unwrap();
+    let gb = elastic_flexibility(
+        &sys.k,
+        &sys.m,
+        phi_r.as_ref(),
+        &held_b,
+        eye.as_ref(),
+        faer::Par::rayon(0),
+    )
+    .unwrap();
+    let scale = crate::core::dense::max_abs(ga.as_ref());
     let d = linalg::max_diff(ga.as_ref(), gb.as_ref());
     assert!(d < 1e-8 * scale, "held sets disagree: {d:e} of {scale:e}");
     // The modal sum of a 1.4 mm shell loses ~1e-5 to the round-off of its stiff modes;
@@ -393,19 +409,43 @@ fn appendix_a_elastic_flexibility_is_independent_of_the_held_dofs() {
     .unwrap();
     let phi_t = all_t.shapes.subcols(0, 6).to_owned();
     let held_t = choose_held_dofs(phi_t.as_ref(), &(0..n).collect::<Vec<_>>());
-    let gt = elastic_flexibility(&st.k, &st.m, phi_t.as_ref(), &held_t, eye.as_ref()).unwrap();
+    let gt = elastic_flexibility(
+        &st.k,
+        &st.m,
+        phi_t.as_ref(),
+        &held_t,
+        eye.as_ref(),
+        faer::Par::rayon(0),
+    )
+    .unwrap();
     let modal = Mat::from_fn(n, n, |i, j| {
         (6..all_t.len())
             .map(|r| all_t.shapes[(i, r)] * all_t.shapes[(j, r)] / all_t.eigenvalues[r])
             .sum::<f64>()
     });
-    let scale_t = crate::fe::system::max_abs(gt.as_ref());
+    let scale_t = crate::core::dense::max_abs(gt.as_ref());
     let d = linalg::max_diff(gt.as_ref(), modal.as_ref());
     assert!(d < 1e-7 * scale_t, "G_e vs modal sum: {d:e} of {scale_t:e}");
     // Without the projector the two held sets give different flexibilities.
     let none = Mat::<f64>::zeros(n, 0);
-    let raw_a = elastic_flexibility(&sys.k, &sys.m, none.as_ref(), &held_a, eye.as_ref()).unwrap();
-    let raw_b = elastic_flexibility(&sys.k, &sys.m, none.as_ref(), &held_b, eye.as_ref()).unwrap();
+    let raw_a = elastic_flexibility(
+        &sys.k,
+        &sys.m,
+        none.as_ref(),
+        &held_a,
+        eye.as_ref(),
+        faer::Par::rayon(0),
+    )
+    .unwrap();
+    let raw_b = elastic_flexibility(
+        &sys.k,
+        &sys.m,
+        none.as_ref(),
+        &held_b,
+        eye.as_ref(),
+        faer::Par::rayon(0),
+    )
+    .unwrap();
     assert!(linalg::max_diff(raw_a.as_ref(), raw_b.as_ref()) > 1e-3 * scale);
 }
 

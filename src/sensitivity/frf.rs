@@ -22,7 +22,8 @@
 use super::projection::{ProjectedDerivative, eigenvalue_sensitivity};
 use crate::core::DofId;
 use crate::frf::{FrfPair, ModalDamping, ModalError, Quantity};
-use faer::{Mat, MatRef, c64};
+use crate::sparse::SparseSolve;
+use faer::{Mat, MatRef, Par, c64};
 use rayon::prelude::*;
 use std::collections::HashMap;
 use std::f64::consts::PI;
@@ -272,8 +273,8 @@ const SHIFT_TOLERANCE: f64 = 1e-10;
 /// in each truncated mode `s`: its error after `k` steps is `q^(k+1)`. The factor is used when
 /// [`MAX_SHIFT_STEPS`] steps reach `10⁻¹⁰`; otherwise `K − σM` is factored.
 pub fn shifted_static_solutions(
-    k: &crate::fe::system::SparseMatrix,
-    m: &crate::fe::system::SparseMatrix,
+    k: &crate::core::sparse::SparseMatrix,
+    m: &crate::core::sparse::SparseMatrix,
     eigenvalues: &[f64],
     rows: &[usize],
     eigen_factor: Option<EigenFactor<'_>>,
@@ -290,12 +291,12 @@ pub fn shifted_static_solutions(
         move_shift(ef, m, eigenvalues, rows, shift, steps, x.as_mut());
         return Ok(ShiftedStatic { x, shift });
     }
-    let a = crate::fe::system::lower_combination(1.0, k, -shift, m);
-    let llt = crate::eigen::SpdFactor::consuming(a).map_err(|e| match e {
-        crate::eigen::FactorError::NotPositiveDefinite => ShiftedStaticError::NotPositiveDefinite,
-        crate::eigen::FactorError::OutOfMemory => ShiftedStaticError::OutOfMemory { n },
+    let a = crate::sparse::lower_combination(1.0, k, -shift, m);
+    let llt = crate::sparse::SpdFactor::consuming(a, Par::rayon(0)).map_err(|e| match e {
+        crate::sparse::FactorError::NotPositiveDefinite => ShiftedStaticError::NotPositiveDefinite,
+        crate::sparse::FactorError::OutOfMemory => ShiftedStaticError::OutOfMemory { n },
     })?;
-    llt.solve_in_place(x.as_mut());
+    llt.solve_in_place(x.as_mut(), Par::rayon(0));
     Ok(ShiftedStatic { x, shift })
 }
 
@@ -341,14 +342,14 @@ pub fn shift_steps(
 /// [`shifted_static_solutions`]).
 fn move_shift(
     ef: EigenFactor<'_>,
-    m: &crate::fe::system::SparseMatrix,
+    m: &crate::core::sparse::SparseMatrix,
     eigenvalues: &[f64],
     rows: &[usize],
     shift: f64,
     steps: usize,
     mut x: faer::MatMut<'_, f64>,
 ) {
-    use crate::eigen::sparse::sym_matvec;
+    use crate::sparse::sym_matvec;
     let (phi, sigma_e, factor) = (ef.shapes, ef.factor.shift, &ef.factor.factor);
     let (n, r) = (x.nrows(), x.ncols());
     // Φᵀ e_j: the kept modes at the loaded rows.
@@ -359,13 +360,13 @@ fn move_shift(
         })
     };
     // y₀ = P A_e⁻¹ e_j: the kept part of A_e⁻¹ e_j is Φ diag(1/(λ − σ_e)) Φᵀ e_j.
-    factor.solve_in_place(x.as_mut());
+    factor.solve_in_place(x.as_mut(), Par::rayon(0));
     let mut y0 = x.to_owned();
     y0 -= phi * scaled(sigma_e);
     let mut y = y0.clone();
     let mut my = Mat::<f64>::zeros(n, r);
     for _ in 0..steps {
-        sym_matvec(m, y.as_ref(), my.as_mut());
+        sym_matvec(m, y.as_ref(), my.as_mut(), Par::rayon(0));
         // ΦᵀM A_e⁻¹ M y = diag(1/(λ − σ_e)) ΦᵀM y: the kept part, removed exactly.
         let mut kept = phi.transpose() * &my;
         for c in 0..r {
@@ -373,7 +374,7 @@ fn move_shift(
                 kept[(s, c)] /= l - sigma_e;
             }
         }
-        factor.solve_in_place(my.as_mut());
+        factor.solve_in_place(my.as_mut(), Par::rayon(0));
         my -= phi * kept;
         y.copy_from(&y0);
         y += faer::Scale(shift - sigma_e) * &my;
@@ -504,7 +505,7 @@ mod tests {
             .values
     }
 
-    fn to_sparse(a: &Mat<f64>) -> crate::fe::system::SparseMatrix {
+    fn to_sparse(a: &Mat<f64>) -> crate::core::sparse::SparseMatrix {
         let mut t = Vec::new();
         for j in 0..a.ncols() {
             for i in 0..a.nrows() {
@@ -513,7 +514,7 @@ mod tests {
                 }
             }
         }
-        crate::fe::system::sparse_from_triplets("A", a.nrows(), &t).unwrap()
+        crate::core::sparse::sparse_from_triplets("A", a.nrows(), &t).unwrap()
     }
 
     /// On the complete basis the sensitivity is the exact derivative of the modal FRF: it

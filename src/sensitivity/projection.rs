@@ -5,7 +5,7 @@
 //! gathers those rows of `Φ` and never touches the rest of the model: the cost is
 //! `nnz(∂K/∂φ)·m + |support|·m²`, independent of the model size.
 
-use crate::fe::system::SparseMatrix;
+use crate::core::sparse::SparseMatrix;
 use faer::{Mat, MatRef};
 
 /// `Φᵀ (∂K/∂φ) Φ` and `Φᵀ (∂M/∂φ) Φ` of one parameter (`m × m`, symmetric).
@@ -125,7 +125,7 @@ pub fn eigenvalue_sensitivity(eigenvalues: &[f64], d: &ProjectedDerivative) -> V
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::fe::system::{sparse_from_triplets, sparse_to_dense};
+    use crate::core::sparse::{sparse_from_triplets, sparse_to_dense};
 
     /// The support-gathered product equals the dense `Φᵀ A Φ` to round-off.
     #[test]

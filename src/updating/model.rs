@@ -7,13 +7,13 @@
 //! ∂K/∂φ_i` (exact for parameters that enter linearly: lumped masses and springs, `E`, `ρ`).
 
 use crate::core::DofId;
+use crate::core::sparse::SparseMatrix;
 use crate::eigen::{
     ModeSelection, Modes, ShiftedFactor, SparseEigenParams, lowest_modes_keeping_factor,
 };
 use crate::fe::SystemMatrices;
 use crate::fe::element::MassKind;
 use crate::fe::model_assembly::{assemble_model, parameter_derivatives};
-use crate::fe::system::SparseMatrix;
 use crate::model::{Model, Parameter};
 use crate::reduction::{Method, Partition, ReducedModel};
 use crate::sensitivity::ProjectedDerivative;
@@ -263,14 +263,14 @@ impl LinearModel {
 
 /// `a + s b` for sparse matrices of one size.
 fn add_scaled(a: &SparseMatrix, b: &SparseMatrix, s: f64) -> SparseMatrix {
-    let mut t = crate::fe::system::sparse_triplets(a);
+    let mut t = crate::core::sparse::sparse_triplets(a);
     t.extend(
-        crate::fe::system::sparse_triplets(b)
+        crate::core::sparse::sparse_triplets(b)
             .into_iter()
             .map(|(i, j, v)| (i, j, s * v)),
     );
     // Same size and finite values: building cannot fail.
-    crate::fe::system::sparse_from_triplets("sum", a.nrows(), &t).unwrap_or_else(|_| a.clone())
+    crate::core::sparse::sparse_from_triplets("sum", a.nrows(), &t).unwrap_or_else(|_| a.clone())
 }
 
 impl ParametricModel for LinearModel {

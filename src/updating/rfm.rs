@@ -13,8 +13,8 @@ use super::model::{ParametricModel, UpdatingError};
 use super::solve::{diagnostics, least_squares};
 use super::{IterationRecord, Step, UpdateMethod};
 use crate::core::DofId;
+use crate::core::sparse::SparseMatrix;
 use crate::correlation::frf::{amplitude_correlation, shape_correlation};
-use crate::fe::system::SparseMatrix;
 use crate::frf::direct::DynamicStiffness;
 use crate::frf::{DirectDamping, FrfSet, Quantity};
 use faer::{Mat, c64};
@@ -161,7 +161,7 @@ impl UpdateMethod for ResponseFunctionMethod<'_> {
                     for (c, &j) in cols.iter().enumerate() {
                         b[(j, c)] = c64::new(1.0, 0.0);
                     }
-                    let x = z.solve(f, b.as_ref())?;
+                    let x = z.solve(f, b.as_ref(), faer::Par::rayon(0))?;
                     let exc = cols.len() - 1;
                     // α̂_Xi: analytical column with the measured entries in place.
                     let mut hat: Vec<c64> = (0..n).map(|i| x[(i, exc)]).collect();

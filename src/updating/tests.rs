@@ -682,8 +682,8 @@ fn phases_share_the_budget_and_number_their_iterations_on() {
 /// error).
 #[test]
 fn static_solutions_from_the_eigen_factor_match_a_second_factorisation() {
+    use crate::core::sparse::sparse_to_dense;
     use crate::fe::element::MassKind;
-    use crate::fe::system::sparse_to_dense;
     use crate::model::generate::BentPlate;
     use crate::sensitivity::frf::{EigenFactor, shift_steps, shifted_static_solutions};
     use faer::Mat;

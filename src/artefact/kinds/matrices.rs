@@ -14,7 +14,7 @@ use super::{
 use crate::artefact::{Artefact, ArtefactError, ArtefactKind, Column, Storage, Table};
 use crate::core::DofId;
 use crate::fe::SystemMatrices;
-use crate::fe::system::{SparseMatrix, sparse_from_triplets};
+use crate::core::sparse::{SparseMatrix, sparse_from_triplets};
 
 /// The `matrices` kind.
 pub struct MatricesKind;

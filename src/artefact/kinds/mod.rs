@@ -27,7 +27,7 @@
 
 use super::{Artefact, ArtefactError, ArtefactKind, Column, Storage, Table};
 use crate::core::DofId;
-use crate::fe::system::{SparseMatrix, sparse_from_triplets, sparse_triplets};
+use crate::core::sparse::{SparseMatrix, sparse_from_triplets, sparse_triplets};
 use faer::Mat;
 
 pub mod correlation;

@@ -21,7 +21,7 @@
 
 use super::layout::{from_row_major, to_row_major};
 use super::thin;
-use crate::fe::system::SparseMatrix;
+use crate::core::sparse::SparseMatrix;
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::llt::factor::{cholesky_in_place, cholesky_in_place_scratch};
 use faer::linalg::matmul::triangular::{BlockStructure, matmul};
@@ -290,12 +290,14 @@ fn front_flops(symbolic: &SymbolicSupernodalCholesky<usize>, s: usize) -> f64 {
 }
 
 /// Fills `values` (faer's supernodal layout for `symbolic`) with the Cholesky factor of
-/// `P A Pᵀ`, given as `lower`.
+/// `P A Pᵀ`, given as `lower`. With `par` of one thread every front is factored on this
+/// thread; otherwise independent subtrees share the pool and large fronts split `par` ways.
 pub fn factorize(
     symbolic: &SymbolicSupernodalCholesky<usize>,
     tree: &Tree,
     lower: &PermutedLower,
     values: &mut [f64],
+    par: Par,
 ) -> Result<(), FrontError> {
     let ns = symbolic.n_supernodes();
     let col_ptr_val = symbolic.col_ptr_for_val();
@@ -310,20 +312,27 @@ pub fn factorize(
         symbolic,
         tree,
         lower,
+        par,
     };
     if !tree.postordered {
         ctx.range(0, ns, &mut slots)?;
         return Ok(());
     }
-    tree.split_roots(&mut slots)
-        .into_par_iter()
-        .try_for_each(|(root, slots)| ctx.subtree(root, slots, 0).map(drop))
+    let roots = tree.split_roots(&mut slots);
+    let root = |(root, slots): (usize, &mut [&mut [f64]])| ctx.subtree(root, slots, 0).map(drop);
+    if par.degree() > 1 {
+        roots.into_par_iter().try_for_each(root)
+    } else {
+        roots.into_iter().try_for_each(root)
+    }
 }
 
 struct Context<'a> {
     symbolic: &'a SymbolicSupernodalCholesky<usize>,
     tree: &'a Tree,
     lower: &'a PermutedLower,
+    /// The parallelism of the whole factorisation.
+    par: Par,
 }
 
 /// The update matrix a supernode hands to its parent: `r × r`, column-major, lower triangle.
@@ -352,7 +361,7 @@ impl Context<'_> {
             self.subtree(c, slots, depth + 1).map(|u| (c, u))
         };
         // Light children go straight to `range`; one heavy child continues the descent.
-        let updates: Vec<(usize, Update)> = if heavy >= 2 {
+        let updates: Vec<(usize, Update)> = if heavy >= 2 && self.par.degree() > 1 {
             parts.into_par_iter().map(child).collect::<Result<_, _>>()?
         } else {
             parts.into_iter().map(child).collect::<Result<_, _>>()?
@@ -397,7 +406,7 @@ impl Context<'_> {
         let (w, r) = (e - b, pattern.len());
         let nr = w + r;
         let par = if front_flops(symbolic, s) >= PARALLEL_FRONT_FLOPS {
-            Par::rayon(0)
+            self.par
         } else {
             Par::Seq
         };
@@ -538,7 +547,9 @@ pub enum Sweeps {
 /// of equal width (50 columns with `k = 16`: four of 13, not three of 16 and one of 2), in a
 /// row-major work array, so a row's values are contiguous for the gathers and scatters. Up to
 /// 16 columns, the fronts use [`thin`]'s kernels, which read each panel column once, front to
-/// back (rows padded to a multiple of four); wider passes use faer's.
+/// back (rows padded to a multiple of four); wider passes use faer's. With `par` of one
+/// thread the whole solve runs on this thread.
+#[allow(clippy::too_many_arguments)]
 pub fn solve(
     symbolic: &SymbolicSupernodalCholesky<usize>,
     tree: &Tree,
@@ -547,7 +558,9 @@ pub fn solve(
     x: MatMut<'_, f64>,
     k: usize,
     sweeps: Sweeps,
+    par: Par,
 ) {
+    let parallel = par.degree() > 1;
     let (n, ns) = (symbolic.nrows(), symbolic.n_supernodes());
     let col_ptr_val = symbolic.col_ptr_for_val();
     let panels: Vec<&[f64]> = (0..ns)
@@ -576,15 +589,10 @@ pub fn solve(
             Some((forward, _)) => {
                 natural.clear();
                 natural.resize(n * kc, 0.0);
-                to_row_major(x.as_ref().subcols(c0, columns), &mut natural);
-                work.par_chunks_exact_mut(kc)
-                    .zip(forward.par_iter())
-                    .with_min_len(4096)
-                    .for_each(|(row, &old)| {
-                        row.copy_from_slice(&natural[old * kc..(old + 1) * kc])
-                    });
+                to_row_major(x.as_ref().subcols(c0, columns), &mut natural, par);
+                permute_rows(&mut work, &natural, forward, kc, parallel);
             }
-            None => to_row_major(x.as_ref().subcols(c0, columns), &mut work),
+            None => to_row_major(x.as_ref().subcols(c0, columns), &mut work, par),
         }
         let mut rows: Vec<&mut [f64]> = Vec::with_capacity(ns);
         let mut rest = work.as_mut_slice();
@@ -599,53 +607,33 @@ pub fn solve(
             panels: &panels,
             k: kc,
             thin,
+            parallel,
         };
-        // A lone root chain has the threads to itself: its large fronts split their dense
-        // kernels over them.
-        let par = if tree.roots.len() == 1 || !tree.postordered {
-            Par::rayon(0)
-        } else {
-            Par::Seq
-        };
-        let (forward, backward) = (sweeps != Sweeps::Backward, sweeps != Sweeps::Forward);
-        if tree.postordered {
-            if forward {
-                tree.split_roots(&mut rows)
-                    .into_par_iter()
-                    .for_each(|(root, rows)| {
-                        ctx.forward_subtree(root, rows, 0, par);
-                    });
-            }
-            if backward {
-                tree.split_roots(&mut rows)
-                    .into_par_iter()
-                    .for_each(|(root, rows)| {
-                        ctx.backward_subtree(root, rows, Vec::new(), 0, par);
-                    });
-            }
-        } else {
-            if forward {
-                ctx.forward_range(0, ns, &mut rows, par);
-            }
-            if backward {
-                let roots = tree.roots.iter().map(|&r| (r, Vec::new()));
-                ctx.backward_range(0, ns, &mut rows, roots.collect(), par);
-            }
-        }
+        ctx.sweep(&mut rows, sweeps, par);
         drop(rows);
         match permutation.filter(|_| sweeps != Sweeps::Forward) {
             Some((_, inverse)) => {
                 natural.clear();
                 natural.resize(n * kc, 0.0);
-                natural
-                    .par_chunks_exact_mut(kc)
-                    .zip(inverse.par_iter())
-                    .with_min_len(4096)
-                    .for_each(|(row, &new)| row.copy_from_slice(&work[new * kc..(new + 1) * kc]));
-                from_row_major(&natural, x.as_mut().subcols_mut(c0, columns));
+                permute_rows(&mut natural, &work, inverse, kc, parallel);
+                from_row_major(&natural, x.as_mut().subcols_mut(c0, columns), par);
             }
-            None => from_row_major(&work, x.as_mut().subcols_mut(c0, columns)),
+            None => from_row_major(&work, x.as_mut().subcols_mut(c0, columns), par),
         }
+    }
+}
+
+/// `out`'s row `i` becomes `from`'s row `order[i]`, rows of `k` values; on the pool's threads
+/// when `parallel`.
+fn permute_rows(out: &mut [f64], from: &[f64], order: &[usize], k: usize, parallel: bool) {
+    let copy = |(row, &i): (&mut [f64], &usize)| row.copy_from_slice(&from[i * k..(i + 1) * k]);
+    if parallel {
+        out.par_chunks_exact_mut(k)
+            .zip(order.par_iter())
+            .with_min_len(4096)
+            .for_each(copy);
+    } else {
+        out.chunks_exact_mut(k).zip(order).for_each(copy);
     }
 }
 
@@ -656,12 +644,61 @@ struct SolveContext<'a> {
     k: usize,
     /// Whether the fronts use [`thin`]'s kernels (this machine has them, `k` is small enough).
     thin: bool,
+    /// Whether independent subtrees may run on separate threads.
+    parallel: bool,
 }
 
 /// What one supernode hands to another during a solve: `r × k`, row-major.
 type Rows = Vec<f64>;
 
 impl SolveContext<'_> {
+    /// The forward and/or backward sweep over every supernode; `rows` holds each one's rows
+    /// of the work array. Independent root subtrees run on separate threads when `parallel`;
+    /// a lone root chain has the threads to itself, and its large fronts split their dense
+    /// kernels `par` ways.
+    fn sweep(&self, rows: &mut [&mut [f64]], sweeps: Sweeps, par: Par) {
+        let tree = self.tree;
+        let par = if tree.roots.len() == 1 || !tree.postordered {
+            par
+        } else {
+            Par::Seq
+        };
+        let (forward, backward) = (sweeps != Sweeps::Backward, sweeps != Sweeps::Forward);
+        if !tree.postordered {
+            let ns = rows.len();
+            if forward {
+                self.forward_range(0, ns, rows, par);
+            }
+            if backward {
+                let roots = tree.roots.iter().map(|&r| (r, Vec::new()));
+                self.backward_range(0, ns, rows, roots.collect(), par);
+            }
+            return;
+        }
+        if forward {
+            let root = |(root, rows): (usize, &mut [&mut [f64]])| {
+                self.forward_subtree(root, rows, 0, par);
+            };
+            let roots = tree.split_roots(rows);
+            if self.parallel {
+                roots.into_par_iter().for_each(root);
+            } else {
+                roots.into_iter().for_each(root);
+            }
+        }
+        if backward {
+            let root = |(root, rows): (usize, &mut [&mut [f64]])| {
+                self.backward_subtree(root, rows, Vec::new(), 0, par);
+            };
+            let roots = tree.split_roots(rows);
+            if self.parallel {
+                roots.into_par_iter().for_each(root);
+            } else {
+                roots.into_iter().for_each(root);
+            }
+        }
+    }
+
     /// `[L_11; L_21]` of supernode `s` and its width.
     fn panel(&self, s: usize) -> (faer::MatRef<'_, f64>, faer::MatRef<'_, f64>) {
         let w = self.symbolic.supernode_end()[s] - self.symbolic.supernode_begin()[s];
@@ -688,7 +725,7 @@ impl SolveContext<'_> {
                 (c, self.forward_subtree(c, rows, depth + 1, par))
             }
         };
-        let updates: Vec<(usize, Rows)> = if heavy >= 2 {
+        let updates: Vec<(usize, Rows)> = if heavy >= 2 && self.parallel {
             parts.into_par_iter().map(child(Par::Seq)).collect()
         } else {
             parts.into_iter().map(child(par)).collect()
@@ -796,7 +833,7 @@ impl SolveContext<'_> {
                 self.backward_subtree(c, rows, above, depth + 1, par)
             }
         };
-        if heavy >= 2 {
+        if heavy >= 2 && self.parallel {
             parts.into_par_iter().for_each(child(Par::Seq));
         } else {
             parts.into_iter().for_each(child(par));
@@ -909,13 +946,13 @@ pub(crate) fn grid_laplacian(side: usize) -> SparseMatrix {
             }
         }
     }
-    crate::fe::system::sparse_from_triplets("A", side * side * side, &t).unwrap()
+    crate::core::sparse::sparse_from_triplets("A", side * side * side, &t).unwrap()
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::fe::system::sparse_from_triplets;
+    use crate::core::sparse::sparse_from_triplets;
     use faer::Side;
     use faer::dyn_stack::MemBuffer;
     use faer::sparse::linalg::cholesky::{
@@ -974,13 +1011,23 @@ mod tests {
         };
         let mut values = vec![f64::NAN; sym.len_val()];
         let lower = PermutedLower::new(&a, inverse).unwrap();
-        factorize(supernodal, &tree, &lower, &mut values).unwrap();
+        factorize(supernodal, &tree, &lower, &mut values, Par::rayon(2)).unwrap();
         check(&values, "parallel tree");
+        // On one thread: the same numbers, bit for bit.
+        let mut one_thread = vec![f64::NAN; sym.len_val()];
+        factorize(supernodal, &tree, &lower, &mut one_thread, Par::Seq).unwrap();
+        assert!(
+            values
+                .iter()
+                .zip(&one_thread)
+                .all(|(a, b)| a.to_bits() == b.to_bits())
+        );
         // The sequential route (taken when supernodes are not in postorder).
         let ctx = Context {
             symbolic: supernodal,
             tree: &tree,
             lower: &lower,
+            par: Par::rayon(0),
         };
         let mut values = vec![f64::NAN; sym.len_val()];
         let ptr = supernodal.col_ptr_for_val();
@@ -997,7 +1044,7 @@ mod tests {
 
     #[test]
     fn an_indefinite_matrix_stops_with_its_error() {
-        let mut a = crate::fe::system::sparse_triplets(&grid_laplacian(6));
+        let mut a = crate::core::sparse::sparse_triplets(&grid_laplacian(6));
         for t in a.iter_mut().filter(|t| t.0 == t.1 && t.0 == 100) {
             t.2 = -50.0;
         }
@@ -1013,7 +1060,8 @@ mod tests {
                 supernodal,
                 &Tree::new(supernodal),
                 &PermutedLower::new(&a, inverse).unwrap(),
-                &mut values
+                &mut values,
+                Par::Seq,
             ),
             Err(FrontError::NotPositiveDefinite)
         );

@@ -9,7 +9,7 @@
 //! from a graph 36 times smaller for six-DOF shells, so the ordering and the symbolic analysis
 //! do less work for the same factor.
 
-use crate::fe::system::SparseMatrix;
+use crate::core::sparse::SparseMatrix;
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::sparse::SymbolicSparseColMatRef;
 use faer::sparse::linalg::amd;
@@ -120,7 +120,7 @@ pub fn node_amd(a: &SparseMatrix) -> Option<Vec<usize>> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::fe::system::sparse_from_triplets;
+    use crate::core::sparse::sparse_from_triplets;
 
     /// A chain of three-DOF nodes, each node's block dense, neighbouring nodes fully
     /// coupled, and one extra coupling that sets DOFs 4 and 17 apart from their nodes. The

@@ -71,12 +71,13 @@ pub fn forward(panel: Panel<'_>, y: &mut [f64], u: &mut [f64], k: usize, par: Pa
     check(panel, y, k);
     assert_eq!(u.len(), panel.r * k);
     if par.degree() > 1 {
-        // SAFETY: `check` has asserted that the machine has AVX2 and FMA.
+        // SAFETY: `check` asserted AVX2 and FMA, `k ∈ {4, 8, 12, 16}` and `y.len() = w k`.
         unsafe { fma::lower_solve(panel, y, &mut [], k) };
         update_rows(panel, y, u, 0, k, par);
     } else {
         // One sweep down the panel: each block of columns updates `u` right after `y`.
-        // SAFETY: as above.
+        // SAFETY: `check` asserted AVX2 and FMA, `k ∈ {4, 8, 12, 16}` and `y.len() = w k`;
+        // `u.len() = r k` is asserted above.
         unsafe { fma::lower_solve(panel, y, u, k) };
     }
 }
@@ -89,12 +90,13 @@ pub fn backward(panel: Panel<'_>, x: &mut [f64], a: &[f64], k: usize, par: Par) 
     assert_eq!(a.len(), panel.r * k);
     if par.degree() > 1 {
         update_columns(panel, x, a, 0, k, par);
-        // SAFETY: `check` has asserted that the machine has AVX2 and FMA.
+        // SAFETY: `check` asserted AVX2 and FMA, `k ∈ {4, 8, 12, 16}` and `x.len() = w k`.
         unsafe { fma::lower_transposed_solve(panel, x, &[], k) };
     } else {
         // One sweep up the panel: each block of columns takes its products with `a` right
         // after those with the rows of `x` below it.
-        // SAFETY: as above.
+        // SAFETY: `check` asserted AVX2 and FMA, `k ∈ {4, 8, 12, 16}` and `x.len() = w k`;
+        // `a.len() = r k` is asserted above.
         unsafe { fma::lower_transposed_solve(panel, x, a, k) };
     }
 }
@@ -108,7 +110,8 @@ fn check(panel: Panel<'_>, own: &[f64], k: usize) {
     assert_eq!(own.len(), panel.w * k);
 }
 
-/// `u ← u − L₂₁[first.., :] y`, where `u` holds rows `first..` of `L₂₁`'s product.
+/// `u ← u − L₂₁[first.., :] y`, where `u` holds rows `first..` of `L₂₁`'s product. Called by
+/// [`forward`] only, after its checks, with `u` a part of its `r × k` rows starting at `first`.
 fn update_rows(panel: Panel<'_>, y: &[f64], u: &mut [f64], first: usize, k: usize, par: Par) {
     let rows = u.len() / k;
     if par.degree() > 1 && rows >= 2 * SPLIT_ROWS {
@@ -119,12 +122,14 @@ fn update_rows(panel: Panel<'_>, y: &[f64], u: &mut [f64], first: usize, k: usiz
             || update_rows(panel, y, bottom, first + half, k, par),
         );
     } else {
-        // SAFETY: the public callers have asserted that the machine has AVX2 and FMA.
+        // SAFETY: `forward` asserted AVX2 and FMA, `k ∈ {4, 8, 12, 16}` and `y.len() = w k`;
+        // the halving above keeps `u` inside rows `first..r` of the product.
         unsafe { fma::sub_product(panel, y, u, first, k) };
     }
 }
 
-/// `x ← x − L₂₁[:, first..]ᵀ a`, where `x` holds rows `first..` of `L₂₁ᵀ a`.
+/// `x ← x − L₂₁[:, first..]ᵀ a`, where `x` holds rows `first..` of `L₂₁ᵀ a`. Called by
+/// [`backward`] only, after its checks, with `x` a part of its `w × k` rows starting at `first`.
 fn update_columns(panel: Panel<'_>, x: &mut [f64], a: &[f64], first: usize, k: usize, par: Par) {
     let cols = x.len() / k;
     if par.degree() > 1 && cols >= 2 * SPLIT_ROWS.div_ceil(J) && panel.r >= SPLIT_ROWS {
@@ -135,7 +140,8 @@ fn update_columns(panel: Panel<'_>, x: &mut [f64], a: &[f64], first: usize, k: u
             || update_columns(panel, bottom, a, first + half, k, par),
         );
     } else {
-        // SAFETY: the public callers have asserted that the machine has AVX2 and FMA.
+        // SAFETY: `backward` asserted AVX2 and FMA, `k ∈ {4, 8, 12, 16}` and `a.len() = r k`;
+        // the halving above keeps `x` inside rows `first..w`.
         unsafe { fma::sub_transposed_product(panel, x, a, first, k) };
     }
 }
@@ -179,7 +185,8 @@ mod fma {
     /// empty or `r × k`.
     #[target_feature(enable = "avx2,fma")]
     pub unsafe fn lower_solve(panel: Panel<'_>, y: &mut [f64], u: &mut [f64], k: usize) {
-        // SAFETY: as the caller guarantees.
+        // SAFETY: the kernel needs AVX2 and FMA (this function's target features, which the
+        // caller guarantees), `y` of `w` rows and `u` empty or of `r` rows of `k = 4 V`.
         unsafe { by_width!(k, lower_solve_v(panel, y, u)) }
     }
 
@@ -190,7 +197,8 @@ mod fma {
     /// empty or `r × k`.
     #[target_feature(enable = "avx2,fma")]
     pub unsafe fn lower_transposed_solve(panel: Panel<'_>, x: &mut [f64], a: &[f64], k: usize) {
-        // SAFETY: as the caller guarantees.
+        // SAFETY: the kernel needs AVX2 and FMA (this function's target features, which the
+        // caller guarantees), `x` of `w` rows and `a` empty or of `r` rows of `k = 4 V`.
         unsafe { by_width!(k, lower_transposed_solve_v(panel, x, a)) }
     }
 
@@ -201,7 +209,8 @@ mod fma {
     /// holds at most `r − first` rows of `k`.
     #[target_feature(enable = "avx2,fma")]
     pub unsafe fn sub_product(panel: Panel<'_>, y: &[f64], u: &mut [f64], first: usize, k: usize) {
-        // SAFETY: as the caller guarantees.
+        // SAFETY: the kernel needs AVX2 and FMA (this function's target features, which the
+        // caller guarantees), `y` of `w` rows and `u` of at most `r − first` rows of `k = 4 V`.
         unsafe { by_width!(k, sub_product_v(panel, y, u, first)) }
     }
 
@@ -218,13 +227,17 @@ mod fma {
         first: usize,
         k: usize,
     ) {
-        // SAFETY: as the caller guarantees.
+        // SAFETY: the kernel needs AVX2 and FMA (this function's target features, which the
+        // caller guarantees), `a` of `r` rows and `x` of at most `w − first` rows of `k = 4 V`.
         unsafe { by_width!(k, sub_transposed_product_v(panel, x, a, first)) }
     }
 
     /// Blocks of `J` columns, each solving its own small triangle and then updating the rows
     /// below it, those of `y` and then those of `u` (when given): the columns are read once,
     /// from the diagonal down.
+    ///
+    /// # Safety
+    /// AVX2 and FMA; `y` holds `w` rows of `4 V`, `u` none or `r`.
     #[inline(always)]
     unsafe fn lower_solve_v<const V: usize>(panel: Panel<'_>, y: &mut [f64], u: &mut [f64]) {
         let (w, r, k) = (panel.w, panel.r, 4 * V);
@@ -247,8 +260,10 @@ mod fma {
                     }
                 }
             }
-            // SAFETY: `block` holds `jb` rows, the columns reach row `w + r`, and `u`, when
-            // not empty, has `r` rows.
+            // SAFETY: AVX2 and FMA, as the caller guarantees. `block` is a bounds-checked slice
+            // of `jb` rows; the columns' slices `j0 + jb..w` and `w..w + r` (bounds-checked)
+            // have as many entries as `below` (the `w − j0 − jb` rows of `y` after the block)
+            // and `u` (`r` rows, as the caller guarantees) have rows.
             unsafe {
                 by_block!(jb, sub_outer::<V>, panel, j0, j0 + jb..w, block, below);
                 if !u.is_empty() {
@@ -262,6 +277,9 @@ mod fma {
     /// Blocks of `J` columns from the last, each first less its products with the rows
     /// already solved below it and then with those of `a` (when given), then solving its own
     /// small triangle: the columns are read once, from the diagonal down.
+    ///
+    /// # Safety
+    /// AVX2 and FMA; `x` holds `w` rows of `4 V`, `a` none or `r`.
     #[inline(always)]
     unsafe fn lower_transposed_solve_v<const V: usize>(panel: Panel<'_>, x: &mut [f64], a: &[f64]) {
         let (w, r, k) = (panel.w, panel.r, 4 * V);
@@ -271,8 +289,10 @@ mod fma {
             let j0 = end - jb;
             let (head, solved) = x.split_at_mut(end * k);
             let block = &mut head[j0 * k..];
-            // SAFETY: `block` holds `jb` rows, the columns reach row `w + r`, and `a`, when
-            // not empty, has `r` rows.
+            // SAFETY: AVX2 and FMA, as the caller guarantees. `block` is a bounds-checked slice
+            // of `jb` rows; the columns' slices `end..w` and `w..w + r` (bounds-checked) have
+            // as many entries as `solved` (the `w − end` rows of `x` after the block) and `a`
+            // (`r` rows, as the caller guarantees) have rows.
             unsafe {
                 by_block!(jb, sub_inner::<V>, panel, j0, end..w, solved, &mut *block);
                 if !a.is_empty() {
@@ -298,6 +318,9 @@ mod fma {
     }
 
     /// Blocks of `J` columns in order.
+    ///
+    /// # Safety
+    /// AVX2 and FMA; `y` holds `w` rows of `4 V`, `u` at most `r − first`.
     #[inline(always)]
     unsafe fn sub_product_v<const V: usize>(
         panel: Panel<'_>,
@@ -311,12 +334,17 @@ mod fma {
         for j0 in (0..w).step_by(J) {
             let jb = (w - j0).min(J);
             let src = &y[j0 * k..(j0 + jb) * k];
-            // SAFETY: `src` holds `jb` rows and the columns' rows match `u`'s.
+            // SAFETY: AVX2 and FMA, as the caller guarantees; `src` is a bounds-checked slice of
+            // `jb` rows, and the columns' bounds-checked slices have as many entries as `u`
+            // has rows (`rows` is `u`'s row count, and inside the panel as `u` is).
             unsafe { by_block!(jb, sub_outer::<V>, panel, j0, rows.clone(), src, &mut *u) };
         }
     }
 
     /// Blocks of `J` columns in order.
+    ///
+    /// # Safety
+    /// AVX2 and FMA; `a` holds `r` rows of `4 V`, `x` at most `w − first`.
     #[inline(always)]
     unsafe fn sub_transposed_product_v<const V: usize>(
         panel: Panel<'_>,
@@ -329,7 +357,9 @@ mod fma {
         for j0 in (0..cols).step_by(J) {
             let jb = (cols - j0).min(J);
             let dst = &mut x[j0 * k..(j0 + jb) * k];
-            // SAFETY: `dst` holds `jb` rows and the columns' rows match `a`'s.
+            // SAFETY: AVX2 and FMA, as the caller guarantees; `dst` is a bounds-checked slice of
+            // `jb` rows, and the columns' bounds-checked slices (rows `w..w + r`) have as many
+            // entries as `a` has rows.
             unsafe { by_block!(jb, sub_inner::<V>, panel, first + j0, w..w + r, a, dst) };
         }
     }
@@ -350,8 +380,9 @@ mod fma {
         let k = 4 * V;
         let rows = dst.len() / k;
         debug_assert!(src.len() >= JB * k && cols.iter().all(|c| c.len() >= rows));
-        // SAFETY: the loads and stores stay inside `src` (`JB` rows of `k`), `dst` (`rows` rows)
-        // and the columns (at least `rows` entries), as the caller guarantees.
+        // SAFETY: AVX2 and FMA, as the caller guarantees. Loads from `src` are at `t k + 4 v + 3
+        // < JB k` (the caller's `JB` rows); loads and stores of `dst` at `i k + 4 v + 3 < rows
+        // k ≤ dst.len()`; column loads at `i < rows`, within each column (the caller's bound).
         unsafe {
             let zero = _mm256_setzero_pd();
             let negated: [[__m256d; V]; JB] = std::array::from_fn(|t| {
@@ -392,8 +423,9 @@ mod fma {
         let k = 4 * V;
         let rows = src.len() / k;
         debug_assert!(dst.len() >= JB * k && cols.iter().all(|c| c.len() >= rows));
-        // SAFETY: the loads and stores stay inside `src` (`rows` rows of `k`), `dst` (`JB` rows)
-        // and the columns (at least `rows` entries), as the caller guarantees.
+        // SAFETY: AVX2 and FMA, as the caller guarantees. Loads from `src` are at `i k + 4 v + 3
+        // < rows k ≤ src.len()`; column loads at `i < rows`, within each column (the caller's
+        // bound); loads and stores of `dst` at `t k + 4 v + 3 < JB k` (the caller's `JB` rows).
         unsafe {
             let mut acc = [[_mm256_setzero_pd(); V]; JB];
             let (input, cols) = (src.as_ptr(), cols.map(<[f64]>::as_ptr));
@@ -422,10 +454,10 @@ mod fma {
 mod fma {
     use super::Panel;
 
-    pub unsafe fn lower_solve(_: Panel<'_>, _: &mut [f64], _: usize) {
+    pub unsafe fn lower_solve(_: Panel<'_>, _: &mut [f64], _: &mut [f64], _: usize) {
         unreachable!("the thin kernels are not available off x86-64")
     }
-    pub unsafe fn lower_transposed_solve(_: Panel<'_>, _: &mut [f64], _: usize) {
+    pub unsafe fn lower_transposed_solve(_: Panel<'_>, _: &mut [f64], _: &[f64], _: usize) {
         unreachable!("the thin kernels are not available off x86-64")
     }
     pub unsafe fn sub_product(_: Panel<'_>, _: &[f64], _: &mut [f64], _: usize, _: usize) {
@@ -477,7 +509,20 @@ mod tests {
         if !available() {
             return;
         }
-        for (w, r) in [(1, 0), (3, 5), (7, 1200), (37, 2100), (64, 0)] {
+        // The smallest panel (one column, nothing below), column blocks exactly full (4, 8)
+        // and one column into a new block (5), partial blocks, and panels tall enough for
+        // the parallel split of both updates.
+        for (w, r) in [
+            (1, 0),
+            (1, 1),
+            (3, 5),
+            (4, 0),
+            (5, 1),
+            (8, 3),
+            (7, 1200),
+            (37, 2100),
+            (64, 0),
+        ] {
             let values = panel_values(w, r);
             let full = Mat::from_fn(w + r, w, |i, j| values[j * (w + r) + i]);
             let (l11, l21) = (full.subrows(0, w), full.subrows(w, r));
@@ -514,5 +559,38 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// The checks that the kernels' `unsafe` calls rely on refuse what they must: widths
+    /// that are not 4, 8, 12 or 16, and work arrays of the wrong length.
+    #[test]
+    fn the_kernels_refuse_what_their_safety_needs() {
+        if !available() {
+            return;
+        }
+        let (w, r) = (3, 2);
+        let values = panel_values(w, r);
+        let refused = |k: usize, own: usize, other: usize, forward_step: bool| {
+            std::panic::catch_unwind(|| {
+                let panel = Panel::new(&values, w, r);
+                let (mut y, mut u) = (vec![1.0; own], vec![0.0; other]);
+                if forward_step {
+                    forward(panel, &mut y, &mut u, k, Par::Seq);
+                } else {
+                    backward(panel, &mut y, &u, k, Par::Seq);
+                }
+            })
+            .is_err()
+        };
+        for forward_step in [true, false] {
+            assert!(!refused(4, w * 4, r * 4, forward_step));
+            for k in [0, 2, 6, 20] {
+                assert!(refused(k, w * k, r * k, forward_step), "k = {k}");
+            }
+            assert!(refused(4, w * 4 - 1, r * 4, forward_step));
+            assert!(refused(4, w * 4, r * 4 + 4, forward_step));
+            assert!(refused(4, w * 4, 0, forward_step));
+        }
+        assert!(std::panic::catch_unwind(|| Panel::new(&values[1..], w, r)).is_err());
     }
 }

@@ -17,13 +17,14 @@
 //! process.
 
 use super::multifrontal::{self, FrontError};
-use crate::fe::system::SparseMatrix;
+use super::operator::{SparseSolve, SymmetricFactor};
+use crate::core::sparse::SparseMatrix;
 use faer::sparse::linalg::SupernodalThreshold;
 use faer::sparse::linalg::cholesky::{
     CholeskySymbolicParams, SymbolicCholesky, SymbolicCholeskyRaw, SymmetricOrdering,
     factorize_symbolic_cholesky,
 };
-use faer::{MatMut, Side};
+use faer::{MatMut, Par, Side};
 use std::time::Instant;
 
 /// Where a factorisation's time went, and its size.
@@ -121,19 +122,20 @@ pub struct SpdFactor {
 }
 
 impl SpdFactor {
-    /// Factors `A`, of which the lower triangle is read (full or lower storage).
-    pub fn new(a: &SparseMatrix) -> Result<Self, FactorError> {
-        Self::factor(a)
+    /// Factors `A`, of which the lower triangle is read (full or lower storage), with
+    /// parallelism `par`.
+    pub fn new(a: &SparseMatrix, par: Par) -> Result<Self, FactorError> {
+        Self::factor(a, par)
     }
 
     /// Factors `A` and frees it as soon as its permuted copy is made, before the factor's
     /// storage is allocated, so `A` is not held beside its copy and the factor at the peak.
-    pub fn consuming(a: SparseMatrix) -> Result<Self, FactorError> {
-        Self::factor(a)
+    pub fn consuming(a: SparseMatrix, par: Par) -> Result<Self, FactorError> {
+        Self::factor(a, par)
     }
 
     /// Factors `a`, borrowed or owned; an owned one is dropped once permuted.
-    fn factor(a: impl std::borrow::Borrow<SparseMatrix>) -> Result<Self, FactorError> {
+    fn factor(a: impl std::borrow::Borrow<SparseMatrix>, par: Par) -> Result<Self, FactorError> {
         let mut info = FactorInfo::default();
         let t = Instant::now();
         // The structure for an ordering `forward[new] = old`.
@@ -163,7 +165,8 @@ impl SpdFactor {
         drop(a);
         let mut values =
             crate::core::memory::zeroed_f64(symbolic.len_val()).ok_or(FactorError::OutOfMemory)?;
-        multifrontal::factorize(supernodal, &tree, &lower, &mut values).map_err(front_error)?;
+        multifrontal::factorize(supernodal, &tree, &lower, &mut values, par)
+            .map_err(front_error)?;
         info.numeric_seconds = t.elapsed().as_secs_f64();
         Ok(SpdFactor {
             symbolic,
@@ -173,37 +176,12 @@ impl SpdFactor {
         })
     }
 
-    /// Order of the matrix.
-    pub fn n(&self) -> usize {
-        self.symbolic.nrows()
+    /// [`SymmetricFactor::solve_backward_in_place`] with up to `columns` columns per pass.
+    pub fn solve_backward_in_place_in_passes(&self, x: MatMut<'_, f64>, columns: usize, par: Par) {
+        self.sweeps(x, columns, multifrontal::Sweeps::Backward, par);
     }
 
-    /// `X ← A⁻¹ X`: independent subtrees of the factor on separate threads, up to
-    /// [`SOLVE_COLUMNS`] columns per pass over the factor.
-    pub fn solve_in_place(&self, x: MatMut<'_, f64>) {
-        self.solve_in_place_in_passes(x, SOLVE_COLUMNS);
-    }
-
-    /// [`Self::solve_in_place`] with up to `columns` columns per pass. A pass's work arrays
-    /// hold `2 n` values per column; in return every column beyond [`SOLVE_COLUMNS`] costs
-    /// less than its share of a pass, since a pass is bound by reading the factor.
-    pub fn solve_in_place_in_passes(&self, x: MatMut<'_, f64>, columns: usize) {
-        self.sweeps(x, columns, multifrontal::Sweeps::Both);
-    }
-
-    /// `X ← L⁻¹ Pᵀ X`, the forward half of [`Self::solve_in_place`]: the result is in the
-    /// factor's order, where `(L⁻¹ Pᵀ) A (L⁻¹ Pᵀ)ᵀ = I`.
-    pub fn solve_forward_in_place(&self, x: MatMut<'_, f64>) {
-        self.sweeps(x, SOLVE_COLUMNS, multifrontal::Sweeps::Forward);
-    }
-
-    /// `X ← P L⁻ᵀ X`, the backward half of [`Self::solve_in_place`], for `X` in the factor's
-    /// order, up to `columns` columns per pass.
-    pub fn solve_backward_in_place_in_passes(&self, x: MatMut<'_, f64>, columns: usize) {
-        self.sweeps(x, columns, multifrontal::Sweeps::Backward);
-    }
-
-    fn sweeps(&self, x: MatMut<'_, f64>, columns: usize, sweeps: multifrontal::Sweeps) {
+    fn sweeps(&self, x: MatMut<'_, f64>, columns: usize, sweeps: multifrontal::Sweeps, par: Par) {
         let supernodal = supernodes(&self.symbolic);
         let permutation = self.symbolic.perm().map(|p| p.arrays());
         multifrontal::solve(
@@ -214,6 +192,7 @@ impl SpdFactor {
             x,
             columns,
             sweeps,
+            par,
         );
     }
 
@@ -239,10 +218,33 @@ impl SpdFactor {
     }
 }
 
+/// Independent subtrees of the factor on separate threads (unless `par` is one thread), up to
+/// [`SOLVE_COLUMNS`] columns per pass over the factor.
+impl SparseSolve<f64> for SpdFactor {
+    fn n(&self) -> usize {
+        self.symbolic.nrows()
+    }
+
+    fn solve_in_place(&self, x: MatMut<'_, f64>, par: Par) {
+        self.sweeps(x, SOLVE_COLUMNS, multifrontal::Sweeps::Both, par);
+    }
+}
+
+/// `G = L⁻¹ Pᵀ`, so that `G A Gᵀ = I`.
+impl SymmetricFactor for SpdFactor {
+    fn solve_forward_in_place(&self, x: MatMut<'_, f64>, par: Par) {
+        self.sweeps(x, SOLVE_COLUMNS, multifrontal::Sweeps::Forward, par);
+    }
+
+    fn solve_backward_in_place(&self, x: MatMut<'_, f64>, par: Par) {
+        self.sweeps(x, SOLVE_COLUMNS, multifrontal::Sweeps::Backward, par);
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::fe::system::sparse_from_triplets;
+    use crate::core::sparse::sparse_from_triplets;
     use faer::Mat;
 
     /// A 2-D grid Laplacian plus identity (full storage), solved against a dense reference.
@@ -264,11 +266,11 @@ mod tests {
         }
         let n = nx * ny;
         let a = sparse_from_triplets("A", n, &t).unwrap();
-        let f = SpdFactor::new(&a).unwrap();
+        let f = SpdFactor::new(&a, Par::rayon(0)).unwrap();
         let b = Mat::from_fn(n, 5, |i, j| ((i * 7 + j * 3) % 11) as f64 - 5.0);
         let mut x = b.clone();
-        f.solve_in_place(x.as_mut());
-        let dense = crate::fe::system::sparse_to_dense(&a);
+        f.solve_in_place(x.as_mut(), Par::rayon(0));
+        let dense = crate::core::sparse::sparse_to_dense(&a);
         let r = &dense * &x - &b;
         assert!(r.norm_max() < 1e-12 * b.norm_max(), "{}", r.norm_max());
     }
@@ -280,18 +282,22 @@ mod tests {
     fn tree_parallel_solves_equal_faers_solves() {
         let a = super::multifrontal::grid_laplacian(28);
         let n = a.ncols();
-        let f = SpdFactor::new(&a).unwrap();
+        let f = SpdFactor::new(&a, Par::rayon(0)).unwrap();
         let b = Mat::from_fn(n, SOLVE_COLUMNS + 5, |i, j| {
             ((i * 7 + j * 3) % 11) as f64 - 5.0
         });
         let (mut ours, mut faers) = (b.clone(), b.clone());
-        f.solve_in_place(ours.as_mut());
+        f.solve_in_place(ours.as_mut(), Par::rayon(0));
         f.solve_by_faer(faers.as_mut());
         let scale = faers.norm_max();
         assert!((&ours - &faers).norm_max() < 1e-13 * scale);
+        // On one thread (no subtree split, no parallel copies): the same numbers, bit for bit.
+        let mut one_thread = b.clone();
+        f.solve_in_place(one_thread.as_mut(), Par::Seq);
+        assert_eq!(one_thread, ours);
         // And a single column, alone in its pass.
         let mut one = b.subcols(2, 1).to_owned();
-        f.solve_in_place(one.as_mut());
+        f.solve_in_place(one.as_mut(), Par::rayon(0));
         assert!((&one - faers.subcols(2, 1)).norm_max() < 1e-13 * scale);
     }
 
@@ -307,7 +313,7 @@ mod tests {
         let model = muffler(muffler_element_size(6_000, 2), 2);
         let (sys, _) = assemble_model(&model, MassKind::Consistent).unwrap();
         // Free-free: shift below zero.
-        let a = crate::fe::system::lower_combination(1.0, &sys.k, 1e3, &sys.m);
+        let a = crate::sparse::lower_combination(1.0, &sys.k, 1e3, &sys.m);
         let order = super::super::ordering::node_amd(&a).unwrap();
         let inverse = inverse_permutation(&order);
         let ordering = faer::perm::PermRef::new_checked(&order, &inverse, order.len());
@@ -316,7 +322,7 @@ mod tests {
             !multifrontal::Tree::new(supernodes(&amd)).is_postordered(),
             "the test needs a matrix whose AMD tree is not postordered"
         );
-        let f = SpdFactor::new(&a).unwrap();
+        let f = SpdFactor::new(&a, Par::rayon(0)).unwrap();
         assert!(f.tree.is_postordered());
         assert_eq!(f.info.factor_entries, amd.len_val());
         let n = a.ncols();
@@ -324,7 +330,7 @@ mod tests {
             ((i * 5 + j * 3) % 13) as f64 - 6.0
         });
         let (mut ours, mut faers) = (b.clone(), b.clone());
-        f.solve_in_place(ours.as_mut());
+        f.solve_in_place(ours.as_mut(), Par::rayon(0));
         f.solve_by_faer(faers.as_mut());
         assert!((&ours - &faers).norm_max() < 1e-12 * faers.norm_max());
         // A = K + 10³ M, applied through the fully stored K and M.
@@ -332,8 +338,8 @@ mod tests {
             Mat::<f64>::zeros(n, b.ncols()),
             Mat::<f64>::zeros(n, b.ncols()),
         );
-        crate::eigen::sparse::sym_matvec(&sys.k, ours.as_ref(), kx.as_mut());
-        crate::eigen::sparse::sym_matvec(&sys.m, ours.as_ref(), mx.as_mut());
+        crate::sparse::sym_matvec(&sys.k, ours.as_ref(), kx.as_mut(), Par::rayon(0));
+        crate::sparse::sym_matvec(&sys.m, ours.as_ref(), mx.as_mut(), Par::rayon(0));
         let residual = (&kx + faer::Scale(1e3) * &mx - &b).norm_max() / b.norm_max();
         assert!(residual < 1e-8, "relative residual {residual:e}");
     }
@@ -344,18 +350,18 @@ mod tests {
     fn half_solves_compose_to_the_solve_and_whiten_the_matrix() {
         let a = super::multifrontal::grid_laplacian(12);
         let n = a.ncols();
-        let f = SpdFactor::new(&a).unwrap();
+        let f = SpdFactor::new(&a, Par::rayon(0)).unwrap();
         let b = Mat::from_fn(n, 7, |i, j| ((i * 7 + j * 3) % 11) as f64 - 5.0);
         let (mut full, mut halves) = (b.clone(), b.clone());
-        f.solve_in_place(full.as_mut());
-        f.solve_forward_in_place(halves.as_mut());
-        f.solve_backward_in_place_in_passes(halves.as_mut(), 3);
+        f.solve_in_place(full.as_mut(), Par::rayon(0));
+        f.solve_forward_in_place(halves.as_mut(), Par::rayon(0));
+        f.solve_backward_in_place_in_passes(halves.as_mut(), 3, Par::rayon(0));
         assert!((&full - &halves).norm_max() < 1e-13 * full.norm_max());
         // Gᵀ e_j by the backward half; then G A Gᵀ e_j by A and the forward half.
         let mut g_t = Mat::<f64>::identity(n, n);
-        f.solve_backward_in_place_in_passes(g_t.as_mut(), SOLVE_COLUMNS);
-        let mut whitened = crate::fe::system::sparse_to_dense(&a) * &g_t;
-        f.solve_forward_in_place(whitened.as_mut());
+        f.solve_backward_in_place_in_passes(g_t.as_mut(), SOLVE_COLUMNS, Par::rayon(0));
+        let mut whitened = crate::core::sparse::sparse_to_dense(&a) * &g_t;
+        f.solve_forward_in_place(whitened.as_mut(), Par::rayon(0));
         let identity = Mat::<f64>::identity(n, n);
         assert!((&whitened - &identity).norm_max() < 1e-12);
     }
@@ -365,8 +371,65 @@ mod tests {
         let t = vec![(0, 0, 1.0), (1, 1, -1.0), (1, 0, 0.1), (0, 1, 0.1)];
         let a = sparse_from_triplets("A", 2, &t).unwrap();
         assert_eq!(
-            SpdFactor::new(&a).err(),
+            SpdFactor::new(&a, Par::rayon(0)).err(),
             Some(FactorError::NotPositiveDefinite)
         );
+    }
+
+    /// Factors and solves at the bounds of the multifrontal code and its kernels: a 1 × 1
+    /// matrix (one supernode of one column), a diagonal matrix (columns without entries below
+    /// the diagonal: supernodes with nothing to hand on), a dense matrix (one supernode holding
+    /// every column, the largest front), and a grid. Every column count from 0 to 17 (no pass,
+    /// each padded width of the thin kernels, faer's kernels past 16), each sweep, on one
+    /// thread and on two: the results are equal bit for bit, and the solves leave round-off.
+    #[test]
+    fn factors_and_solves_at_the_bounds_do_not_depend_on_the_threads() {
+        let diagonal: Vec<_> = (0..9).map(|j| (j, j, 1.0 + j as f64)).collect();
+        let n = 40;
+        let mut dense = Vec::new();
+        for j in 0..n {
+            for i in 0..n {
+                dense.push((
+                    i,
+                    j,
+                    if i == j {
+                        2.0 * n as f64
+                    } else {
+                        1.0 / (1 + i + j) as f64
+                    },
+                ));
+            }
+        }
+        let matrices = [
+            sparse_from_triplets("A", 1, &[(0, 0, 4.0)]).unwrap(),
+            sparse_from_triplets("A", 9, &diagonal).unwrap(),
+            sparse_from_triplets("A", n, &dense).unwrap(),
+            super::multifrontal::grid_laplacian(7),
+        ];
+        for a in &matrices {
+            let n = a.ncols();
+            let factors = [Par::Seq, Par::rayon(2)].map(|par| SpdFactor::new(a, par).unwrap());
+            assert_eq!(factors[0].values, factors[1].values);
+            assert_eq!(factors[0].n(), n);
+            let dense = crate::core::sparse::sparse_to_dense(a);
+            for columns in 0..=17 {
+                let b = Mat::from_fn(n, columns, |i, j| ((i * 7 + j * 3) % 11) as f64 - 5.0);
+                let solve = |f: &SpdFactor, par: Par| {
+                    let (mut x, mut fw, mut bw) = (b.clone(), b.clone(), b.clone());
+                    f.solve_in_place(x.as_mut(), par);
+                    f.solve_forward_in_place(fw.as_mut(), par);
+                    f.solve_backward_in_place(bw.as_mut(), par);
+                    [x, fw, bw]
+                };
+                let one = solve(&factors[0], Par::Seq);
+                let two = solve(&factors[1], Par::rayon(2));
+                assert_eq!(one, two, "{n} rows, {columns} columns");
+                let r = &dense * &one[0] - &b;
+                assert!(
+                    r.norm_max() <= 1e-12 * b.norm_max().max(1.0),
+                    "{n} rows, {columns}"
+                );
+            }
+        }
     }
 }

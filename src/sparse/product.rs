@@ -9,10 +9,12 @@
 //! (even and odd entries) so that consecutive entries do not wait on each other; elsewhere a
 //! portable loop runs. When `K` and `M` share their pattern (the assembly stores both on the
 //! union pattern), one pass reads the row indices and gathers `X` once for both products.
+//! `par` shares the rows among the threads; [`Par::Seq`] keeps them on the calling thread. Every
+//! row is summed in the same order either way.
 
 use super::layout::to_row_major;
-use crate::fe::system::SparseMatrix;
-use faer::{MatMut, MatRef};
+use crate::core::sparse::SparseMatrix;
+use faer::{MatMut, MatRef, Par};
 
 /// Most columns per pass over the matrix: with rows padded to a multiple of four, the
 /// accumulators of two products fit in the sixteen vector registers.
@@ -22,13 +24,13 @@ const PRODUCT_COLUMNS: usize = 16;
 const MIN_ROWS_PER_TASK: usize = 1024;
 
 /// `Y = A X` for a sparse symmetric `A` stored in full.
-pub fn sym_matvec(a: &SparseMatrix, x: MatRef<'_, f64>, y: MatMut<'_, f64>) {
+pub fn sym_matvec(a: &SparseMatrix, x: MatRef<'_, f64>, y: MatMut<'_, f64>, par: Par) {
     assert_eq!(
         (a.nrows(), a.ncols(), y.nrows(), y.ncols()),
         (x.nrows(), x.nrows(), x.nrows(), x.ncols()),
         "Y = A X needs a square A and X, Y of its rows and of equal width"
     );
-    in_passes(a, [a.val()], x, [y]);
+    in_passes(a, [a.val()], x, [y], par);
 }
 
 /// `KX = K X` and `MX = M X`, in one pass over the pattern when `K` and `M` share it.
@@ -38,10 +40,11 @@ pub fn sym_matvec_pair(
     x: MatRef<'_, f64>,
     mut kx: MatMut<'_, f64>,
     mut mx: MatMut<'_, f64>,
+    par: Par,
 ) {
     if !same_pattern(k, m) || !super::thin::available() {
-        sym_matvec(k, x, kx);
-        sym_matvec(m, x, mx);
+        sym_matvec(k, x, kx, par);
+        sym_matvec(m, x, mx, par);
         return;
     }
     assert_eq!(
@@ -63,7 +66,7 @@ pub fn sym_matvec_pair(
         ),
         "K X, M X need square K, M and X, KX, MX of their rows and of equal width"
     );
-    in_passes(k, [k.val(), m.val()], x, [kx.as_mut(), mx.as_mut()]);
+    in_passes(k, [k.val(), m.val()], x, [kx.as_mut(), mx.as_mut()], par);
 }
 
 /// Whether `a` and `b` store the same entries.
@@ -84,6 +87,7 @@ fn in_passes<const N: usize>(
     values: [&[f64]; N],
     x: MatRef<'_, f64>,
     mut ys: [MatMut<'_, f64>; N],
+    par: Par,
 ) {
     let b = x.ncols();
     if b == 0 || x.nrows() == 0 {
@@ -94,7 +98,7 @@ fn in_passes<const N: usize>(
     for c0 in (0..b).step_by(width) {
         let w = width.min(b - c0);
         let parts = ys.each_mut().map(|y| y.as_mut().subcols_mut(c0, w));
-        products(pattern, values, x.subcols(c0, w), parts);
+        products(pattern, values, x.subcols(c0, w), parts, par);
     }
 }
 
@@ -105,18 +109,20 @@ fn products<const N: usize>(
     values: [&[f64]; N],
     x: MatRef<'_, f64>,
     ys: [MatMut<'_, f64>; N],
+    par: Par,
 ) {
     let (n, b) = (x.nrows(), x.ncols());
     let fast = super::thin::available();
     let s = if fast { b.next_multiple_of(4) } else { b };
     let mut xt = vec![0.0; n * s];
-    to_row_major(x, &mut xt);
+    to_row_major(x, &mut xt, par);
     let ctx = RowProducts {
         pattern,
         values,
         xt: &xt,
         s,
         fast,
+        parallel: par.degree() > 1,
     };
     ctx.rows(0, ys);
 }
@@ -130,6 +136,8 @@ struct RowProducts<'a, const N: usize> {
     s: usize,
     /// Whether the AVX2 and FMA kernel runs.
     fast: bool,
+    /// Whether blocks of rows may run on separate threads.
+    parallel: bool,
 }
 
 impl<const N: usize> RowProducts<'_, N> {
@@ -138,7 +146,7 @@ impl<const N: usize> RowProducts<'_, N> {
     /// no row-major result is held beside them.
     fn rows(&self, first: usize, ys: [MatMut<'_, f64>; N]) {
         let rows = ys[0].nrows();
-        if rows > MIN_ROWS_PER_TASK {
+        if rows > MIN_ROWS_PER_TASK && self.parallel {
             let half = rows / 2;
             let mut top: [Option<MatMut<'_, f64>>; N] = [const { None }; N];
             let mut bottom: [Option<MatMut<'_, f64>>; N] = [const { None }; N];
@@ -162,8 +170,11 @@ impl<const N: usize> RowProducts<'_, N> {
             let vals = self.values.map(|v| &v[range.clone()]);
             if self.fast {
                 #[cfg(target_arch = "x86_64")]
-                // SAFETY: the machine has AVX2 and FMA (`fast`); rows of `xt` and `out` are
-                // `s = 4 V` values per product, and every row index is below `n`.
+                // SAFETY: `fast` is `thin::available()`: the machine has AVX2 and FMA, which is
+                // all `fma::row` needs beyond its arguments' lengths (it reads and writes
+                // through bounds-checked slices of them). `s` is 4, 8, 12 or 16: `b` is 1 to
+                // PRODUCT_COLUMNS (`in_passes`), rounded up to a multiple of four; `out` is
+                // `N s` long; and every row index is below `n`, the rows of `xt`.
                 unsafe {
                     fma::row(indices, vals, self.xt, out, s)
                 };
@@ -214,8 +225,9 @@ mod fma {
     /// The output rows of the `N` products for one pattern row, side by side in `out`.
     ///
     /// # Safety
-    /// The machine must have AVX2 and FMA; `s ∈ {4, 8, 12, 16}`, `out` holds `N s` values,
-    /// `xt` rows of `s`, and every index of `rows` is a row of `xt`.
+    /// The machine must have AVX2 and FMA. For the right result, `s ∈ {4, 8, 12, 16}`, `out`
+    /// holds `N s` values, `xt` rows of `s`, and every index of `rows` is a row of `xt`; the
+    /// accesses themselves are bounds-checked, so other lengths panic.
     #[target_feature(enable = "avx2,fma")]
     pub unsafe fn row<const N: usize>(
         rows: &[usize],
@@ -224,18 +236,23 @@ mod fma {
         out: &mut [f64],
         s: usize,
     ) {
-        // SAFETY: as the caller guarantees.
+        // SAFETY: `row_v` needs AVX2 and FMA, which this function's target features enable
+        // and its caller guarantees.
         unsafe {
             match s {
                 4 => row_v::<1, N>(rows, vals, xt, out),
                 8 => row_v::<2, N>(rows, vals, xt, out),
                 12 => row_v::<3, N>(rows, vals, xt, out),
-                _ => row_v::<4, N>(rows, vals, xt, out),
+                16 => row_v::<4, N>(rows, vals, xt, out),
+                _ => unreachable!("rows of 4, 8, 12 or 16 values"),
             }
         }
     }
 
     /// [`row`] for rows of `4 V` values: even and odd entries summed apart, then added.
+    ///
+    /// # Safety
+    /// The machine must have AVX2 and FMA (inlined into [`row`], which enables them).
     #[inline(always)]
     unsafe fn row_v<const V: usize, const N: usize>(
         rows: &[usize],
@@ -245,24 +262,26 @@ mod fma {
     ) {
         let s = 4 * V;
         debug_assert_eq!(out.len(), N * s);
-        // SAFETY: AVX2 is enabled by the caller's target features.
+        // SAFETY: AVX2, as the caller guarantees.
         let zero = unsafe { _mm256_setzero_pd() };
         let (mut even, mut odd) = ([[zero; V]; N], [[zero; V]; N]);
         let pairs = rows.len() / 2;
-        // SAFETY (all calls below): AVX2 and FMA are enabled by the caller's target features.
         for p in 0..pairs {
+            // SAFETY: AVX2 and FMA, as the caller guarantees; `2 p + 1 < rows.len()`.
             unsafe {
                 add_entry(&mut even, rows, vals, xt, 2 * p);
                 add_entry(&mut odd, rows, vals, xt, 2 * p + 1);
             }
         }
         if rows.len() % 2 == 1 {
+            // SAFETY: AVX2 and FMA, as the caller guarantees; the last entry, alone.
             unsafe { add_entry(&mut even, rows, vals, xt, rows.len() - 1) };
         }
         for q in 0..N {
             let o: &mut [f64] = &mut out[q * s..(q + 1) * s];
             for c in 0..V {
-                // SAFETY: `o` holds `4 V` values.
+                // SAFETY: AVX2, as the caller guarantees; `o` is a slice of `4 V` values (the
+                // range above is bounds-checked), so the store at `4 c` for `c < V` stays in it.
                 unsafe {
                     _mm256_storeu_pd(
                         o.as_mut_ptr().add(4 * c),
@@ -274,6 +293,10 @@ mod fma {
     }
 
     /// `acc_q += vals_q[t] · xt[rows[t]]` for every product `q`.
+    ///
+    /// # Safety
+    /// The machine must have AVX2 and FMA. `t`, `rows[t]` and the row's range of `xt` are
+    /// bounds-checked.
     #[inline(always)]
     unsafe fn add_entry<const V: usize, const N: usize>(
         acc: &mut [[__m256d; V]; N],
@@ -286,7 +309,8 @@ mod fma {
         let i = rows[t];
         let xi = &xt[i * s..i * s + s];
         for q in 0..N {
-            // SAFETY: AVX2 and FMA are enabled by the caller; `xi` holds `4 V` values.
+            // SAFETY: AVX2 and FMA, as the caller guarantees; `xi` is a bounds-checked slice of
+            // `4 V` values, so the loads at `4 c` for `c < V` stay in it.
             unsafe {
                 let v = _mm256_set1_pd(vals[q][t]);
                 for (c, a) in acc[q].iter_mut().enumerate() {
@@ -300,7 +324,7 @@ mod fma {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::fe::system::{sparse_from_triplets, sparse_to_dense};
+    use crate::core::sparse::{sparse_from_triplets, sparse_to_dense};
     use faer::Mat;
 
     /// A symmetric banded matrix stored in full, with `bands` off-diagonals and values
@@ -328,10 +352,13 @@ mod tests {
         let other = banded(n, 2, 0.9);
         let (kd, md) = (sparse_to_dense(&k), sparse_to_dense(&m));
         let od = sparse_to_dense(&other);
-        for b in [1, 4, 5, 13, 16, 17, 50] {
+        for (b, par) in [1, 4, 5, 13, 16, 17, 50]
+            .into_iter()
+            .flat_map(|b| [(b, Par::Seq), (b, Par::rayon(2))])
+        {
             let x = Mat::from_fn(n, b, |i, c| ((i * 31 + c * 17) % 97) as f64 / 97.0 - 0.5);
             let (mut kx, mut mx) = (Mat::zeros(n, b), Mat::zeros(n, b));
-            sym_matvec_pair(&k, &m, x.as_ref(), kx.as_mut(), mx.as_mut());
+            sym_matvec_pair(&k, &m, x.as_ref(), kx.as_mut(), mx.as_mut(), par);
             let close = |got: &Mat<f64>, want: Mat<f64>| {
                 let err = (got - &want).norm_max() / want.norm_max();
                 assert!(err < 1e-13, "{b} columns: {err:e}");
@@ -339,12 +366,52 @@ mod tests {
             close(&kx, &kd * &x);
             close(&mx, &md * &x);
             // Another pattern: the products are made one after the other.
-            sym_matvec_pair(&other, &m, x.as_ref(), kx.as_mut(), mx.as_mut());
+            sym_matvec_pair(&other, &m, x.as_ref(), kx.as_mut(), mx.as_mut(), par);
             close(&kx, &od * &x);
             close(&mx, &md * &x);
             let mut y = Mat::zeros(n, b);
-            sym_matvec(&m, x.as_ref(), y.as_mut());
+            sym_matvec(&m, x.as_ref(), y.as_mut(), par);
             close(&y, &md * &x);
+        }
+    }
+
+    /// The kernel's bounds: a 1 × 1 matrix, a matrix with an empty column (a row with no
+    /// entries), rows with one entry (an odd count: the last entry alone) and two, and the
+    /// last row of `X` gathered. Every width from 1 to 16 (each padded row width `4 V`), on
+    /// one thread and on two, bit for bit equal and equal to the dense product.
+    #[test]
+    fn products_at_the_kernel_bounds() {
+        let one = sparse_from_triplets("A", 1, &[(0, 0, 2.5)]).unwrap();
+        // Column 1 empty; column 0 holds one entry, column 2 two, the last row n − 1 is
+        // reached from column 0's mirror.
+        let n = 5;
+        let t = [
+            (0, 0, 1.5),
+            (4, 0, -0.5),
+            (0, 4, -0.5),
+            (2, 2, 3.0),
+            (3, 2, 0.25),
+            (2, 3, 0.25),
+            (4, 4, 2.0),
+        ];
+        let holes = sparse_from_triplets("A", n, &t).unwrap();
+        for a in [&one, &holes] {
+            let n = a.nrows();
+            let dense = sparse_to_dense(a);
+            for b in 1..=PRODUCT_COLUMNS {
+                let x = Mat::from_fn(n, b, |i, c| 1.0 + (i * 3 + c) as f64);
+                let mut results = Vec::new();
+                for par in [Par::Seq, Par::rayon(2)] {
+                    let mut y = Mat::from_fn(n, b, |_, _| f64::NAN);
+                    sym_matvec(a, x.as_ref(), y.as_mut(), par);
+                    assert_eq!(y, &dense * &x, "{n} rows, {b} columns");
+                    let (mut kx, mut mx) = (Mat::zeros(n, b), Mat::zeros(n, b));
+                    sym_matvec_pair(a, a, x.as_ref(), kx.as_mut(), mx.as_mut(), par);
+                    assert_eq!((&kx, &mx), (&y, &y));
+                    results.push(y);
+                }
+                assert_eq!(results[0], results[1]);
+            }
         }
     }
 }

@@ -1,0 +1,31 @@
+//! Sparse direct solvers behind one operator boundary, and the sparse products and
+//! combinations their users need (docs/theory.md §1).
+//!
+//! - [`SpdFactor`]: `A = P L Lᵀ Pᵀ` of a symmetric positive definite `A` by our multifrontal
+//!   Cholesky on a node-graph AMD ordering ([`factor`], [`multifrontal`], [`ordering`], with
+//!   the AVX2 kernels of [`thin`]). It serves the shift-invert Lanczos process of `eigen`
+//!   (through its two half sweeps, [`SymmetricFactor`]), the static constraint modes of
+//!   `reduction` and the static correction of `sensitivity`.
+//! - [`Lu`]: the LU factor of a general sparse matrix (faer's supernodal LU on a shared
+//!   [`SymbolicLu`]), for the complex dynamic stiffness of the direct FRF.
+//!
+//! Both solve through [`SparseSolve`], which takes the parallelism of every call explicitly
+//! (faer's [`Par`](faer::Par)): [`Par::Seq`](faer::Par::Seq) runs the call on the calling thread
+//! alone; `Par::Rayon(n)` shares it among the current rayon pool's threads, dense kernels split
+//! `n` ways. The arithmetic does not depend on the choice: results are identical.
+
+mod combination;
+mod factor;
+mod layout;
+mod lu;
+mod multifrontal;
+mod operator;
+mod ordering;
+mod product;
+mod thin;
+
+pub use combination::lower_combination;
+pub use factor::{FactorError, FactorInfo, SOLVE_COLUMNS, SpdFactor};
+pub use lu::{Lu, SymbolicLu};
+pub use operator::{SparseSolve, SymmetricFactor};
+pub use product::{sym_matvec, sym_matvec_pair};
