@@ -1,7 +1,7 @@
 //! Universal File Format writer: dataset 58 / 58b for FRF sets, dataset 2411 for nodes.
 //!
 //! Records 1–11 are written in their Fortran field widths (SDRC dataset 58 description), so
-//! fixed-column readers such as pyuff read the output, as does [`crate::model::import::uff`].
+//! fixed-column readers such as pyuff read the output, as does [the reader](super).
 //! FRF sets are written as function type 4, complex double (ordinate type 6), in SI units with
 //! their labels (record 8 `Hz`; record 9 `m`, `m/s`, `m/s^2`, or `rad…` on a rotation; record 10
 //! `N`, or `N*m` for a moment), positive directions ±1…±6 → 1…6. Three encodings of the data:
@@ -21,8 +21,8 @@
 //! `start + k·step` with `start` and `step` exact in record 7's 13 columns; otherwise each
 //! value carries its abscissa (uneven).
 
+use super::{Abscissa, ByteOrder, OrdinateType, Uff58};
 use crate::frf::FrfSet;
-use crate::model::import::uff::{Abscissa, ByteOrder, OrdinateType, Uff58};
 use std::fmt::Write as _;
 
 /// How record 12 (the data) is encoded.
