@@ -1,240 +1,37 @@
-//! Dataset 58 / 58b, one FRF record: checks of records 1–11, the data of record 12 (ASCII or
-//! binary), frequency lines, ordinate units and sign, non-finite values.
+//! Dataset 58 / 58b, one FRF record: the data of record 12 (ASCII or binary), frequency lines,
+//! ordinate units and sign, non-finite values. Records 1–11 are read in `header58`.
 
 use super::block::{Binary, Block, Ctx};
-use super::header58::{
-    ORDINATE_VALID, RECORDS, dof_of, parse_axis_record, parse_record_6, parse_record_7,
-};
+use super::header58::{Header58, at58, read_header};
 use super::lex::{At, parse_real, split_numbers, text};
 use super::units::{abscissa_factor, resolve_ordinate};
 use super::{Abscissa, ByteOrder, NonFiniteValue, OrdinateType, Uff58, UffError};
 use faer::c64;
 
+/// Reads one dataset 58 / 58b; `None` for a function other than an FRF (skipped and counted).
 pub(super) fn parse_58(b: &Block<'_>, ctx: &mut Ctx<'_>) -> Result<Option<Uff58>, UffError> {
     let file = ctx.file;
     ctx.frf_records += 1;
     let index = ctx.frf_records;
-    let at = |k: usize, line: usize| At {
-        file,
-        line,
-        dataset: 58,
-        record: RECORDS[k],
-    };
-    let record = |k: usize| {
-        b.lines.get(k - 1).copied().ok_or_else(|| {
-            at(k, b.end).err(
-                "the whole record",
-                "the closing `    -1`",
-                "records 1-11 (ID lines, DOF identification, data form, axis characteristics) before the data",
-            )
-        })
-    };
-    if b.binary.is_some() && b.lines.len() != 11 {
-        return Err(At {
-            file,
-            line: b.header_line,
-            dataset: 58,
-            record: "binary header",
-        }
-        .err(
-            "field 5 (number of ASCII lines)",
-            b.lines.len(),
-            "11 for dataset 58 (records 1-11)",
-        ));
-    }
-    let mut id_lines: [String; 5] = Default::default();
-    for (k, id) in id_lines.iter_mut().enumerate() {
-        *id = text(record(k + 1)?.1).trim_end().to_string();
-    }
-    let (l6, r6) = record(6)?;
-    let at6 = at(6, l6);
-    let dofs = parse_record_6(&at6, r6)?;
-    let (l7, r7) = record(7)?;
-    let at7 = at(7, l7);
-    let form = parse_record_7(&at7, r7)?;
-    let mut axes = Vec::with_capacity(4);
-    for k in 8..=11 {
-        let (l, r) = record(k)?;
-        axes.push(parse_axis_record(&at(k, l), r)?);
-    }
-    if dofs.function_type != 4 {
-        let e = ctx
-            .skipped_functions
-            .entry(dofs.function_type)
-            .or_insert((0, b.header_line));
-        e.0 += 1;
+    let Some(h) = read_header(b, ctx)? else {
         return Ok(None);
-    }
-
-    let ordinate = OrdinateType::from_code(form.ordinate).ok_or_else(|| {
-        at7.err(
-            "field 1 (ordinate data type)",
-            form.ordinate,
-            ORDINATE_VALID,
-        )
-    })?;
-    let even = match form.spacing {
-        1 => true,
-        0 => false,
-        s => return Err(at7.err("field 3 (abscissa spacing)", s, "0 (uneven) or 1 (even)")),
     };
-    let n = usize::try_from(form.points)
-        .ok()
-        .filter(|&n| n >= 1)
-        .ok_or_else(|| at7.err("field 2 (number of points)", form.points, "an integer >= 1"))?;
-    if even && form.step <= 0.0 {
-        return Err(at7.err(
-            "field 5 (abscissa increment)",
-            form.step,
-            "an increment > 0 for even spacing",
-        ));
-    }
-    let (response, response_direction) = dof_of(
-        &at6,
-        dofs.response_node,
-        dofs.response_direction,
-        "field 6 (response node)",
-        "field 7 (response direction)",
-    )?;
-    let (reference, reference_direction) = dof_of(
-        &at6,
-        dofs.reference_node,
-        dofs.reference_direction,
-        "field 9 (reference node)",
-        "field 10 (reference direction)",
-    )?;
-
-    // Record 12: the data.
-    let ky = if ordinate.is_complex() { 2 } else { 1 };
-    let per_point = ky + usize::from(!even);
-    let layout = format!(
-        "{n} points of {ordinate}{}",
-        if even {
-            ", even abscissa"
-        } else {
-            ", each with its abscissa"
-        }
-    );
-    let total = n.checked_mul(per_point).ok_or_else(|| {
-        at7.err(
-            "field 2 (number of points)",
-            n,
-            "a count that fits in memory",
-        )
-    })?;
-    // The first value that is not finite: its index among the data values and its line.
-    let mut first_bad: Option<(usize, usize)> = None;
-    let (xs, ys) = match &b.binary {
-        None => {
-            let mut vals: Vec<f64> = Vec::new();
-            for &(no, raw) in b.lines.get(11..).unwrap_or_default() {
-                let t = text(raw);
-                for tok in t.split_whitespace() {
-                    for part in split_numbers(tok) {
-                        let v = parse_real(part).ok_or_else(|| {
-                            at(12, no).err(
-                                format!("data value {}", vals.len() + 1),
-                                part,
-                                "a real number, e.g. -1.23456E-02",
-                            )
-                        })?;
-                        if vals.len() == total {
-                            return Err(at(12, no).err(
-                                "data values",
-                                format!("more than {total} values"),
-                                format!("{total} values: {layout} (record 7)"),
-                            ));
-                        }
-                        if !v.is_finite() && first_bad.is_none() {
-                            first_bad = Some((vals.len(), no));
-                        }
-                        vals.push(v);
-                    }
-                }
-            }
-            if vals.len() < total {
-                return Err(at(12, b.end).err(
-                    "data values",
-                    format!("{} values before the closing `    -1`", vals.len()),
-                    format!("{total} values: {layout} (record 7)"),
-                ));
-            }
-            if even {
-                (Vec::new(), vals)
-            } else {
-                let mut xs = Vec::new();
-                let mut ys = Vec::new();
-                for chunk in vals.chunks(per_point) {
-                    xs.push(chunk[0]);
-                    ys.extend_from_slice(&chunk[1..]);
-                }
-                (xs, ys)
-            }
-        }
-        Some(bin) => {
-            let (xs, ys) =
-                decode_binary(bin, n, ky, even, ordinate, &layout, &at(12, b.header_line))?;
-            // As the ASCII index: abscissa first when uneven, then the ordinate parts.
-            first_bad = (0..n).find_map(|k| {
-                let x = if even { None } else { Some(xs[k]) };
-                let parts = x
-                    .into_iter()
-                    .chain(ys[k * ky..(k + 1) * ky].iter().copied());
-                parts
-                    .enumerate()
-                    .find(|(_, v)| !v.is_finite())
-                    .map(|(r, _)| (k * per_point + r, b.header_line))
-            });
-            (xs, ys)
-        }
+    let layout = Layout::of(&h, file)?;
+    let data = match &b.binary {
+        None => ascii_data(b, file, &layout)?,
+        Some(bin) => binary_data(bin, b, file, &h, &layout)?,
     };
-
-    // Abscissa.
-    let (af, abscissa_note) = abscissa_factor(ctx, &axes[0], &at(8, axes[0].at_line))?;
+    let (response, response_direction) = h.response;
+    let (reference, reference_direction) = h.reference;
     let mut conversions = Vec::new();
     let loc = format!("{file}:{} H({response}, {reference})", b.header_line);
-    if let Some(note) = abscissa_note {
-        conversions.push(format!("{loc}: {note}"));
-    }
-    let freqs_hz: Vec<f64> = if even {
-        (0..n)
-            .map(|k| (form.start + k as f64 * form.step) * af)
-            .collect()
-    } else {
-        for (k, x) in xs.iter().enumerate() {
-            if !x.is_finite() {
-                return Err(at(12, b.header_line).err(
-                    format!("abscissa of point {}", k + 1),
-                    x,
-                    "a finite frequency",
-                ));
-            }
-        }
-        xs.iter().map(|x| x * af).collect()
-    };
-    if freqs_hz.iter().any(|f| !f.is_finite()) {
-        return Err(at7.err(
-            "fields 4-5 (abscissa minimum and increment)",
-            format!("{} + k·{}", form.start, form.step),
-            "values whose lines stay finite",
-        ));
-    }
-    let abscissa = if even {
-        Abscissa::Even {
-            start_hz: form.start * af,
-            step_hz: form.step * af,
-        }
-    } else {
-        Abscissa::Uneven
-    };
-
-    // Ordinate: quantity, units, sign.
+    let (freqs_hz, abscissa) = frequency_lines(ctx, b, &h, &data.xs, &loc, &mut conversions)?;
     let (quantity, factor, unit_note) = resolve_ordinate(
         ctx,
-        &axes[1],
-        &axes[2],
-        &at(9, axes[1].at_line),
-        &at(10, axes[2].at_line),
+        &h.axes[1],
+        &h.axes[2],
+        &at58(file, 9, h.axes[1].at_line),
+        &at58(file, 10, h.axes[2].at_line),
         response.comp.is_rotation(),
         reference.comp.is_rotation(),
     )?;
@@ -248,6 +45,213 @@ pub(super) fn parse_58(b: &Block<'_>, ctx: &mut Ctx<'_>) -> Result<Option<Uff58>
         ));
     }
     let scale = if sign_flipped { -factor } else { factor };
+    let record = Uff58 {
+        file: file.to_string(),
+        line: b.header_line,
+        binary: b.binary.as_ref().map(|bin| bin.order),
+        id_lines: h.id_lines,
+        function_id: h.function_id,
+        load_case: h.load_case,
+        response,
+        reference,
+        response_direction,
+        reference_direction,
+        sign_flipped,
+        ordinate: h.ordinate,
+        quantity,
+        abscissa,
+        freqs_hz,
+        values: ordinate_values(h.ordinate, &data.ys, scale),
+        conversions,
+    };
+    check_finite(&record, index, &layout, &data, scale)?;
+    Ok(Some(record))
+}
+
+/// How record 12 holds its values.
+struct Layout {
+    /// Number of points.
+    n: usize,
+    /// Ordinate values per point: 2 complex, 1 real.
+    ky: usize,
+    even: bool,
+    /// Values per point, the abscissa included when uneven.
+    per_point: usize,
+    /// Number of values in all.
+    total: usize,
+    /// The layout in words, for messages.
+    text: String,
+}
+
+impl Layout {
+    fn of(h: &Header58, file: &str) -> Result<Layout, UffError> {
+        let (n, even, ordinate) = (h.n, h.even, h.ordinate);
+        let ky = if ordinate.is_complex() { 2 } else { 1 };
+        let per_point = ky + usize::from(!even);
+        let text = format!(
+            "{n} points of {ordinate}{}",
+            if even {
+                ", even abscissa"
+            } else {
+                ", each with its abscissa"
+            }
+        );
+        let total = n.checked_mul(per_point).ok_or_else(|| {
+            at58(file, 7, h.form_line).err(
+                "field 2 (number of points)",
+                n,
+                "a count that fits in memory",
+            )
+        })?;
+        Ok(Layout {
+            n,
+            ky,
+            even,
+            per_point,
+            total,
+            text,
+        })
+    }
+}
+
+/// The values of record 12: abscissas (uneven only), ordinate parts, and the first value that
+/// is not finite as its index among the data values and its line.
+struct Data {
+    xs: Vec<f64>,
+    ys: Vec<f64>,
+    first_bad: Option<(usize, usize)>,
+}
+
+/// Record 12 in ASCII: every number of the lines after record 11, split into abscissas and
+/// ordinate parts.
+fn ascii_data(b: &Block<'_>, file: &str, layout: &Layout) -> Result<Data, UffError> {
+    let total = layout.total;
+    let mut first_bad = None;
+    let mut vals: Vec<f64> = Vec::new();
+    for &(no, raw) in b.lines.get(11..).unwrap_or_default() {
+        let t = text(raw);
+        for tok in t.split_whitespace() {
+            for part in split_numbers(tok) {
+                let v = parse_real(part).ok_or_else(|| {
+                    at58(file, 12, no).err(
+                        format!("data value {}", vals.len() + 1),
+                        part,
+                        "a real number, e.g. -1.23456E-02",
+                    )
+                })?;
+                if vals.len() == total {
+                    return Err(at58(file, 12, no).err(
+                        "data values",
+                        format!("more than {total} values"),
+                        format!("{total} values: {} (record 7)", layout.text),
+                    ));
+                }
+                if !v.is_finite() && first_bad.is_none() {
+                    first_bad = Some((vals.len(), no));
+                }
+                vals.push(v);
+            }
+        }
+    }
+    if vals.len() < total {
+        return Err(at58(file, 12, b.end).err(
+            "data values",
+            format!("{} values before the closing `    -1`", vals.len()),
+            format!("{total} values: {} (record 7)", layout.text),
+        ));
+    }
+    if layout.even {
+        return Ok(Data {
+            xs: Vec::new(),
+            ys: vals,
+            first_bad,
+        });
+    }
+    let mut xs = Vec::new();
+    let mut ys = Vec::new();
+    for chunk in vals.chunks(layout.per_point) {
+        xs.push(chunk[0]);
+        ys.extend_from_slice(&chunk[1..]);
+    }
+    Ok(Data { xs, ys, first_bad })
+}
+
+/// Record 12 in binary (58b), with the first value that is not finite indexed as in ASCII.
+fn binary_data(
+    bin: &Binary<'_>,
+    b: &Block<'_>,
+    file: &str,
+    h: &Header58,
+    layout: &Layout,
+) -> Result<Data, UffError> {
+    let (n, ky, even) = (layout.n, layout.ky, layout.even);
+    let at12 = at58(file, 12, b.header_line);
+    let (xs, ys) = decode_binary(bin, n, ky, even, h.ordinate, &layout.text, &at12)?;
+    // As the ASCII index: abscissa first when uneven, then the ordinate parts.
+    let first_bad = (0..n).find_map(|k| {
+        let x = if even { None } else { Some(xs[k]) };
+        let parts = x
+            .into_iter()
+            .chain(ys[k * ky..(k + 1) * ky].iter().copied());
+        parts
+            .enumerate()
+            .find(|(_, v)| !v.is_finite())
+            .map(|(r, _)| (k * layout.per_point + r, b.header_line))
+    });
+    Ok(Data { xs, ys, first_bad })
+}
+
+/// The frequency lines in Hz (record 8's unit converted, the conversion noted) and the spacing.
+fn frequency_lines(
+    ctx: &mut Ctx<'_>,
+    b: &Block<'_>,
+    h: &Header58,
+    xs: &[f64],
+    loc: &str,
+    conversions: &mut Vec<String>,
+) -> Result<(Vec<f64>, Abscissa), UffError> {
+    let file = ctx.file;
+    let form = &h.form;
+    let (af, abscissa_note) = abscissa_factor(ctx, &h.axes[0], &at58(file, 8, h.axes[0].at_line))?;
+    if let Some(note) = abscissa_note {
+        conversions.push(format!("{loc}: {note}"));
+    }
+    let freqs_hz: Vec<f64> = if h.even {
+        (0..h.n)
+            .map(|k| (form.start + k as f64 * form.step) * af)
+            .collect()
+    } else {
+        for (k, x) in xs.iter().enumerate() {
+            if !x.is_finite() {
+                return Err(at58(file, 12, b.header_line).err(
+                    format!("abscissa of point {}", k + 1),
+                    x,
+                    "a finite frequency",
+                ));
+            }
+        }
+        xs.iter().map(|x| x * af).collect()
+    };
+    if freqs_hz.iter().any(|f| !f.is_finite()) {
+        return Err(at58(file, 7, h.form_line).err(
+            "fields 4-5 (abscissa minimum and increment)",
+            format!("{} + k·{}", form.start, form.step),
+            "values whose lines stay finite",
+        ));
+    }
+    let abscissa = if h.even {
+        Abscissa::Even {
+            start_hz: form.start * af,
+            step_hz: form.step * af,
+        }
+    } else {
+        Abscissa::Uneven
+    };
+    Ok((freqs_hz, abscissa))
+}
+
+/// The ordinate parts as complex values, times `scale` (SI factor and sign).
+fn ordinate_values(ordinate: OrdinateType, ys: &[f64], scale: f64) -> Vec<c64> {
     let values: Vec<c64> = if ordinate.is_complex() {
         ys.chunks(2)
             .map(|c| c64::new(c[0], c.get(1).copied().unwrap_or(0.0)))
@@ -255,35 +259,50 @@ pub(super) fn parse_58(b: &Block<'_>, ctx: &mut Ctx<'_>) -> Result<Option<Uff58>
     } else {
         ys.iter().map(|&y| c64::new(y, 0.0)).collect()
     };
-    let values: Vec<c64> = if scale == 1.0 {
+    if scale == 1.0 {
         values
     } else {
         values.into_iter().map(|v| v * scale).collect()
-    };
+    }
+}
+
+/// Refuses a record with a value that is NaN or infinite as read, or infinite once converted to
+/// SI, naming the first such value.
+fn check_finite(
+    rec: &Uff58,
+    index: usize,
+    layout: &Layout,
+    data: &Data,
+    scale: f64,
+) -> Result<(), UffError> {
     let non_finite = |point: usize, line: usize, found: String| {
         UffError::NonFinite(Box::new(NonFiniteValue {
-            file: file.to_string(),
+            file: rec.file.clone(),
             line,
-            binary: if b.binary.is_some() { "b" } else { "" },
+            binary: if rec.binary.is_some() { "b" } else { "" },
             index,
-            header: b.header_line,
-            response,
-            reference,
+            header: rec.line,
+            response: rec.response,
+            reference: rec.reference,
             point: point + 1,
-            freq_hz: freqs_hz.get(point).copied().unwrap_or(f64::NAN),
+            freq_hz: rec.freqs_hz.get(point).copied().unwrap_or(f64::NAN),
             found,
         }))
     };
-    if let Some((i, line)) = first_bad {
-        let (point, r) = (i / per_point, i % per_point);
-        let found = match r.checked_sub(usize::from(!even)) {
+    if let Some((i, line)) = data.first_bad {
+        let (point, r) = (i / layout.per_point, i % layout.per_point);
+        let found = match r.checked_sub(usize::from(!layout.even)) {
             None => format!(
                 "{} in the abscissa",
-                xs.get(point).copied().unwrap_or(f64::NAN)
+                data.xs.get(point).copied().unwrap_or(f64::NAN)
             ),
             Some(part) => {
-                let v = ys.get(point * ky + part).copied().unwrap_or(f64::NAN);
-                let which = match (ordinate.is_complex(), part) {
+                let v = data
+                    .ys
+                    .get(point * layout.ky + part)
+                    .copied()
+                    .unwrap_or(f64::NAN);
+                let which = match (rec.ordinate.is_complex(), part) {
                     (false, _) => "",
                     (true, 0) => " in the real part",
                     (true, _) => " in the imaginary part",
@@ -293,35 +312,18 @@ pub(super) fn parse_58(b: &Block<'_>, ctx: &mut Ctx<'_>) -> Result<Option<Uff58>
         };
         return Err(non_finite(point, line, found));
     }
-    if let Some(k) = values
+    if let Some(k) = rec
+        .values
         .iter()
         .position(|v| !(v.re.is_finite() && v.im.is_finite()))
     {
         return Err(non_finite(
             k,
-            b.header_line,
+            rec.line,
             format!("infinite after conversion to SI (factor {scale:e})"),
         ));
     }
-    Ok(Some(Uff58 {
-        file: file.to_string(),
-        line: b.header_line,
-        binary: b.binary.as_ref().map(|bin| bin.order),
-        id_lines,
-        function_id: dofs.function_id,
-        load_case: dofs.load_case,
-        response,
-        reference,
-        response_direction,
-        reference_direction,
-        sign_flipped,
-        ordinate,
-        quantity,
-        abscissa,
-        freqs_hz,
-        values,
-        conversions,
-    }))
+    Ok(())
 }
 
 /// Reads the abscissa and ordinate values of 58b data.

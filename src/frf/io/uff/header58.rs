@@ -1,6 +1,8 @@
 //! Dataset 58, records 1–11: DOF identification (6), data form (7), axis characteristics
-//! (8–11), and the names of function and specific data type codes.
+//! (8–11), read and checked into a [`Header58`]; the names of function and specific data type
+//! codes.
 
+use super::block::{Block, Ctx};
 use super::lex::{At, col, fields, text};
 use super::{OrdinateType, UffError};
 use crate::core::{Component, DofId};
@@ -305,4 +307,142 @@ pub(super) fn dof_of(
         })?;
     // |dir| <= 6 here.
     Ok((DofId::new(node, comp), dir as i8))
+}
+
+/// Where record `k` of dataset 58 is, for messages.
+pub(super) fn at58(file: &str, k: usize, line: usize) -> At<'_> {
+    At {
+        file,
+        line,
+        dataset: 58,
+        record: RECORDS[k],
+    }
+}
+
+/// Records 1–11 of an FRF record (function type 4), checked.
+pub(super) struct Header58 {
+    /// Records 1–5, trailing blanks removed.
+    pub(super) id_lines: [String; 5],
+    /// Record 6: function identification number and load case.
+    pub(super) function_id: i64,
+    pub(super) load_case: i64,
+    /// Record 6: response and reference DOFs with their directions as written.
+    pub(super) response: (DofId, i8),
+    pub(super) reference: (DofId, i8),
+    /// Record 7 and its line.
+    pub(super) form: FormRecord,
+    pub(super) form_line: usize,
+    pub(super) ordinate: OrdinateType,
+    /// Even abscissa (record 7 field 3 = 1).
+    pub(super) even: bool,
+    /// Number of points, at least one.
+    pub(super) n: usize,
+    /// Records 8–11: abscissa, ordinate numerator and denominator, z axis.
+    pub(super) axes: Vec<AxisRecord>,
+}
+
+/// Reads records 1–11 of a dataset 58; `None` for a function type other than 4 (an FRF), which
+/// is counted in the file's skipped function types.
+pub(super) fn read_header(b: &Block<'_>, ctx: &mut Ctx<'_>) -> Result<Option<Header58>, UffError> {
+    let file = ctx.file;
+    let record = |k: usize| {
+        b.lines.get(k - 1).copied().ok_or_else(|| {
+            at58(file, k, b.end).err(
+                "the whole record",
+                "the closing `    -1`",
+                "records 1-11 (ID lines, DOF identification, data form, axis characteristics) before the data",
+            )
+        })
+    };
+    if b.binary.is_some() && b.lines.len() != 11 {
+        return Err(At {
+            file,
+            line: b.header_line,
+            dataset: 58,
+            record: "binary header",
+        }
+        .err(
+            "field 5 (number of ASCII lines)",
+            b.lines.len(),
+            "11 for dataset 58 (records 1-11)",
+        ));
+    }
+    let mut id_lines: [String; 5] = Default::default();
+    for (k, id) in id_lines.iter_mut().enumerate() {
+        *id = text(record(k + 1)?.1).trim_end().to_string();
+    }
+    let (l6, r6) = record(6)?;
+    let at6 = at58(file, 6, l6);
+    let dofs = parse_record_6(&at6, r6)?;
+    let (form_line, r7) = record(7)?;
+    let form = parse_record_7(&at58(file, 7, form_line), r7)?;
+    let mut axes = Vec::with_capacity(4);
+    for k in 8..=11 {
+        let (l, r) = record(k)?;
+        axes.push(parse_axis_record(&at58(file, k, l), r)?);
+    }
+    if dofs.function_type != 4 {
+        let e = ctx
+            .skipped_functions
+            .entry(dofs.function_type)
+            .or_insert((0, b.header_line));
+        e.0 += 1;
+        return Ok(None);
+    }
+    let (ordinate, even, n) = check_form(&at58(file, 7, form_line), &form)?;
+    let response = dof_of(
+        &at6,
+        dofs.response_node,
+        dofs.response_direction,
+        "field 6 (response node)",
+        "field 7 (response direction)",
+    )?;
+    let reference = dof_of(
+        &at6,
+        dofs.reference_node,
+        dofs.reference_direction,
+        "field 9 (reference node)",
+        "field 10 (reference direction)",
+    )?;
+    Ok(Some(Header58 {
+        id_lines,
+        function_id: dofs.function_id,
+        load_case: dofs.load_case,
+        response,
+        reference,
+        form,
+        form_line,
+        ordinate,
+        even,
+        n,
+        axes,
+    }))
+}
+
+/// Record 7 checked: the ordinate type, whether the abscissa is even, and the number of points.
+fn check_form(at7: &At<'_>, form: &FormRecord) -> Result<(OrdinateType, bool, usize), UffError> {
+    let ordinate = OrdinateType::from_code(form.ordinate).ok_or_else(|| {
+        at7.err(
+            "field 1 (ordinate data type)",
+            form.ordinate,
+            ORDINATE_VALID,
+        )
+    })?;
+    let even = match form.spacing {
+        1 => true,
+        0 => false,
+        s => return Err(at7.err("field 3 (abscissa spacing)", s, "0 (uneven) or 1 (even)")),
+    };
+    let n = usize::try_from(form.points)
+        .ok()
+        .filter(|&n| n >= 1)
+        .ok_or_else(|| at7.err("field 2 (number of points)", form.points, "an integer >= 1"))?;
+    if even && form.step <= 0.0 {
+        return Err(at7.err(
+            "field 5 (abscissa increment)",
+            form.step,
+            "an increment > 0 for even spacing",
+        ));
+    }
+    Ok((ordinate, even, n))
 }

@@ -218,34 +218,7 @@ pub(super) fn parse_elements_2412(
                 },
                 ..at1
             };
-            let want = (count - nodes.len()).min(8);
-            let t = text(nraw);
-            let toks: Vec<&str> = t.split_whitespace().collect();
-            let parsed = |v: &[String]| -> Option<Vec<u64>> {
-                v.iter().map(|s| s.parse::<u64>().ok()).collect()
-            };
-            let as_tokens: Vec<String> = toks.iter().map(|s| s.to_string()).collect();
-            let got = if toks.len() == want {
-                parsed(&as_tokens)
-            } else {
-                None
-            }
-            .or_else(|| parsed(&fields(nraw, &vec![10; want])).filter(|v| v.len() == want))
-            .or_else(|| {
-                parsed(&as_tokens).filter(|v| !v.is_empty() && v.len() <= count - nodes.len())
-            });
-            match got {
-                Some(v) => nodes.extend(v),
-                None => {
-                    return Err(at3.err(
-                        "node labels",
-                        t.trim(),
-                        format!(
-                            "{want} node labels (8I10 per line) of element {id}, which has {count} nodes"
-                        ),
-                    ));
-                }
-            }
+            nodes.extend(node_labels(&at3, nraw, count - nodes.len(), id, count)?);
         }
         out.elements.push(UffElement {
             id,
@@ -265,4 +238,36 @@ pub(super) fn take<'a>(lines: &[(usize, &'a [u8])], i: &mut usize) -> Option<(us
     let l = lines.get(*i).copied()?;
     *i += 1;
     Some(l)
+}
+
+/// One line of an element's node labels: up to 8 of the `left` still wanted, as
+/// whitespace-separated labels when the line holds exactly as many, else in `8I10` columns,
+/// else as many whitespace-separated labels as it holds (at most `left`).
+fn node_labels(
+    at: &At<'_>,
+    raw: &[u8],
+    left: usize,
+    id: u64,
+    count: usize,
+) -> Result<Vec<u64>, UffError> {
+    let want = left.min(8);
+    let t = text(raw);
+    let toks: Vec<&str> = t.split_whitespace().collect();
+    let parsed =
+        |v: &[String]| -> Option<Vec<u64>> { v.iter().map(|s| s.parse::<u64>().ok()).collect() };
+    let as_tokens: Vec<String> = toks.iter().map(|s| s.to_string()).collect();
+    if toks.len() == want {
+        parsed(&as_tokens)
+    } else {
+        None
+    }
+    .or_else(|| parsed(&fields(raw, &vec![10; want])).filter(|v| v.len() == want))
+    .or_else(|| parsed(&as_tokens).filter(|v| !v.is_empty() && v.len() <= left))
+    .ok_or_else(|| {
+        at.err(
+            "node labels",
+            t.trim(),
+            format!("{want} node labels (8I10 per line) of element {id}, which has {count} nodes"),
+        )
+    })
 }

@@ -205,174 +205,22 @@ pub(super) fn resolve_ordinate(
     rot_response: bool,
     rot_reference: bool,
 ) -> Result<(Quantity, f64, Option<String>), UffError> {
-    let type_kind = match num.specific_type {
-        8 => Some(Motion::Displacement),
-        11 => Some(Motion::Velocity),
-        12 => Some(Motion::Acceleration),
-        0 | 1 => None,
-        t => {
-            return Err(at9.err(
-                "field 1 (specific data type)",
-                format!("{t} ({})", specific_type_name(t)),
-                "8 (displacement), 11 (velocity) or 12 (acceleration) over force; 0 or 1 with a unit label",
-            ));
-        }
+    let o = Ordinate {
+        num,
+        den,
+        at9,
+        at10,
+        rot_response,
+        rot_reference,
     };
-    match den.specific_type {
-        13 | 9 | 0 | 1 => {}
-        t => {
-            return Err(at10.err(
-                "field 1 (specific data type)",
-                format!("{t} ({})", specific_type_name(t)),
-                "13 (excitation force) or 9 (reaction force); 0 or 1 with a force unit label",
-            ));
-        }
-    }
-    let num_label = frf_label(&num.unit)
-        .map_err(|()| at9.err("field 6 (units label)", &num.unit, MOTION_LABELS))?;
-    let den_label = match normalise_unit(&den.unit) {
-        None => None,
-        Some(n) => Some(
-            force_unit(&n)
-                .ok_or_else(|| at10.err("field 6 (units label)", &den.unit, FORCE_LABELS))?,
-        ),
-    };
-    let kind = match (type_kind, num_label.map(|(m, _)| m.kind)) {
-        (Some(t), Some(l)) if t != l => {
-            return Err(at9.err(
-                "field 6 (units label)",
-                format!("{} (a {} unit)", num.unit, l.name()),
-                format!(
-                    "a {} unit, as field 1 gives specific data type {} ({})",
-                    t.name(),
-                    num.specific_type,
-                    t.name()
-                ),
-            ));
-        }
-        (Some(t), _) => t,
-        (None, Some(l)) => l,
-        (None, None) => {
-            return Err(at9.err(
-                "field 1 (specific data type)",
-                format!(
-                    "{} ({}) with units label `{}`",
-                    num.specific_type,
-                    specific_type_name(num.specific_type),
-                    num.unit.trim()
-                ),
-                "8 (displacement), 11 (velocity) or 12 (acceleration), or a units label in field 6 that tells which",
-            ));
-        }
-    };
-    let sense = |rot: bool| if rot { "rotation" } else { "translation" };
-    if let Some((m, f)) = num_label {
-        if m.rotational != rot_response {
-            return Err(at9.err(
-                "field 6 (units label)",
-                format!("{} (a {} unit)", num.unit, sense(m.rotational)),
-                format!(
-                    "a {} unit, as the response direction is a {}",
-                    sense(rot_response),
-                    sense(rot_response)
-                ),
-            ));
-        }
-        if let Some(f) = f {
-            if f.moment != rot_reference {
-                return Err(at9.err(
-                    "field 6 (units label)",
-                    &num.unit,
-                    format!(
-                        "a label over a {}, as the reference direction is a {}",
-                        if rot_reference { "moment" } else { "force" },
-                        sense(rot_reference)
-                    ),
-                ));
-            }
-        }
-    }
-    if let Some(f) = den_label {
-        if f.moment != rot_reference {
-            return Err(at10.err(
-                "field 6 (units label)",
-                &den.unit,
-                format!(
-                    "a {} unit, as the reference direction is a {}",
-                    if rot_reference { "moment" } else { "force" },
-                    sense(rot_reference)
-                ),
-            ));
-        }
-    }
-
+    let (kind, num_label, den_label) = o.kind()?;
+    o.check_senses(num_label, den_label)?;
     let units = ctx.units.clone().filter(|u| !u.is_si());
     let mut sources: Vec<String> = Vec::new();
-    let mut unlabelled = false;
-    let num_factor = match (num_label, &units) {
-        (Some((m, _)), _) => {
-            sources.push(format!("record 9 label `{}`", num.unit.trim()));
-            m.factor
-        }
-        (None, Some(u)) => {
-            let (l, f) = if num.specific_type == 1 {
-                (num.length_exponent, num.force_exponent)
-            } else if rot_response {
-                (0, 0)
-            } else {
-                (1, 0)
-            };
-            sources.push(format!(
-                "dataset 164 units `{}` (line {}) with numerator exponents length {l}, force {f}",
-                u.description, u.line
-            ));
-            units_factor(u, l, f)
-        }
-        (None, None) => {
-            unlabelled = true;
-            1.0
-        }
-    };
+    let num_factor = o.numerator_factor(num_label, units.as_ref(), &mut sources);
     let label_force = num_label.and_then(|(_, f)| f);
-    let den_factor = match (label_force, den_label, &units) {
-        (Some(a), Some(b), _) => {
-            if (a.factor - b.factor).abs() > 1e-12 * a.factor.abs() {
-                return Err(at10.err(
-                    "field 6 (units label)",
-                    &den.unit,
-                    format!(
-                        "the force unit of record 9's label `{}`, or NONE",
-                        num.unit.trim()
-                    ),
-                ));
-            }
-            a.factor
-        }
-        (Some(a), None, _) => a.factor,
-        (None, Some(b), _) => {
-            sources.push(format!("record 10 label `{}`", den.unit.trim()));
-            b.factor
-        }
-        (None, None, Some(u)) => {
-            let (l, f) = if den.specific_type == 1 {
-                (den.length_exponent, den.force_exponent)
-            } else if rot_reference {
-                (1, 1)
-            } else {
-                (0, 1)
-            };
-            sources.push(format!(
-                "dataset 164 units `{}` with denominator exponents length {l}, force {f}",
-                u.description
-            ));
-            units_factor(u, l, f)
-        }
-        (None, None, None) => {
-            unlabelled = true;
-            1.0
-        }
-    };
-    if unlabelled {
+    let den_factor = o.denominator_factor(label_force, den_label, units.as_ref(), &mut sources)?;
+    if num_factor.is_none() || den_factor.is_none() {
         ctx.warn_once("unlabelled", format!(
             "{}: dataset 58 records without unit labels in records 9/10 (first at line {}), and no dataset 164 before them: their values are taken as SI",
             ctx.file, at9.line
@@ -384,7 +232,7 @@ pub(super) fn resolve_ordinate(
             ctx.file, at10.line
         ));
     }
-    let factor = num_factor / den_factor;
+    let factor = num_factor.unwrap_or(1.0) / den_factor.unwrap_or(1.0);
     if !(factor.is_finite() && factor > 0.0) {
         return Err(at9.err(
             "fields 2-3 (units exponents)",
@@ -400,6 +248,222 @@ pub(super) fn resolve_ordinate(
         )
     });
     Ok((kind.quantity(), factor, note))
+}
+
+/// The ordinate's numerator label: its motion unit and the force it may be over.
+type NumLabel = Option<(MotionUnit, Option<ForceUnit>)>;
+
+/// Records 9 and 10 of one FRF record, with where they are and the senses of its DOFs.
+struct Ordinate<'r> {
+    num: &'r AxisRecord,
+    den: &'r AxisRecord,
+    at9: &'r At<'r>,
+    at10: &'r At<'r>,
+    /// The response direction is a rotation.
+    rot_response: bool,
+    /// The reference direction is a rotation (the excitation a moment).
+    rot_reference: bool,
+}
+
+impl Ordinate<'_> {
+    /// The motion the numerator measures, from its specific data type or its label (which must
+    /// agree when both tell), and the labels of numerator and denominator.
+    fn kind(&self) -> Result<(Motion, NumLabel, Option<ForceUnit>), UffError> {
+        let (num, den, at9, at10) = (self.num, self.den, self.at9, self.at10);
+        let type_kind = match num.specific_type {
+            8 => Some(Motion::Displacement),
+            11 => Some(Motion::Velocity),
+            12 => Some(Motion::Acceleration),
+            0 | 1 => None,
+            t => {
+                return Err(at9.err(
+                    "field 1 (specific data type)",
+                    format!("{t} ({})", specific_type_name(t)),
+                    "8 (displacement), 11 (velocity) or 12 (acceleration) over force; 0 or 1 with a unit label",
+                ));
+            }
+        };
+        match den.specific_type {
+            13 | 9 | 0 | 1 => {}
+            t => {
+                return Err(at10.err(
+                    "field 1 (specific data type)",
+                    format!("{t} ({})", specific_type_name(t)),
+                    "13 (excitation force) or 9 (reaction force); 0 or 1 with a force unit label",
+                ));
+            }
+        }
+        let num_label = frf_label(&num.unit)
+            .map_err(|()| at9.err("field 6 (units label)", &num.unit, MOTION_LABELS))?;
+        let den_label = match normalise_unit(&den.unit) {
+            None => None,
+            Some(n) => Some(
+                force_unit(&n)
+                    .ok_or_else(|| at10.err("field 6 (units label)", &den.unit, FORCE_LABELS))?,
+            ),
+        };
+        let kind = match (type_kind, num_label.map(|(m, _)| m.kind)) {
+            (Some(t), Some(l)) if t != l => {
+                return Err(at9.err(
+                    "field 6 (units label)",
+                    format!("{} (a {} unit)", num.unit, l.name()),
+                    format!(
+                        "a {} unit, as field 1 gives specific data type {} ({})",
+                        t.name(),
+                        num.specific_type,
+                        t.name()
+                    ),
+                ));
+            }
+            (Some(t), _) => t,
+            (None, Some(l)) => l,
+            (None, None) => {
+                return Err(at9.err(
+                    "field 1 (specific data type)",
+                    format!(
+                        "{} ({}) with units label `{}`",
+                        num.specific_type,
+                        specific_type_name(num.specific_type),
+                        num.unit.trim()
+                    ),
+                    "8 (displacement), 11 (velocity) or 12 (acceleration), or a units label in field 6 that tells which",
+                ));
+            }
+        };
+        Ok((kind, num_label, den_label))
+    }
+
+    /// Refuses labels whose sense (translation or rotation, force or moment) is not the
+    /// directions' of record 6.
+    fn check_senses(
+        &self,
+        num_label: NumLabel,
+        den_label: Option<ForceUnit>,
+    ) -> Result<(), UffError> {
+        let (num, den, at9, at10) = (self.num, self.den, self.at9, self.at10);
+        let (rot_response, rot_reference) = (self.rot_response, self.rot_reference);
+        let sense = |rot: bool| if rot { "rotation" } else { "translation" };
+        let force = |rot: bool| if rot { "moment" } else { "force" };
+        if let Some((m, f)) = num_label {
+            if m.rotational != rot_response {
+                return Err(at9.err(
+                    "field 6 (units label)",
+                    format!("{} (a {} unit)", num.unit, sense(m.rotational)),
+                    format!(
+                        "a {} unit, as the response direction is a {}",
+                        sense(rot_response),
+                        sense(rot_response)
+                    ),
+                ));
+            }
+            if let Some(f) = f {
+                if f.moment != rot_reference {
+                    return Err(at9.err(
+                        "field 6 (units label)",
+                        &num.unit,
+                        format!(
+                            "a label over a {}, as the reference direction is a {}",
+                            force(rot_reference),
+                            sense(rot_reference)
+                        ),
+                    ));
+                }
+            }
+        }
+        if let Some(f) = den_label {
+            if f.moment != rot_reference {
+                return Err(at10.err(
+                    "field 6 (units label)",
+                    &den.unit,
+                    format!(
+                        "a {} unit, as the reference direction is a {}",
+                        force(rot_reference),
+                        sense(rot_reference)
+                    ),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// SI per file unit of the numerator, from its label, else from dataset 164 (`units`, not
+    /// SI) with the record's exponents; `None` when neither tells (SI assumed).
+    fn numerator_factor(
+        &self,
+        num_label: NumLabel,
+        units: Option<&UffUnits>,
+        sources: &mut Vec<String>,
+    ) -> Option<f64> {
+        let num = self.num;
+        match (num_label, units) {
+            (Some((m, _)), _) => {
+                sources.push(format!("record 9 label `{}`", num.unit.trim()));
+                Some(m.factor)
+            }
+            (None, Some(u)) => {
+                let (l, f) = if num.specific_type == 1 {
+                    (num.length_exponent, num.force_exponent)
+                } else if self.rot_response {
+                    (0, 0)
+                } else {
+                    (1, 0)
+                };
+                sources.push(format!(
+                    "dataset 164 units `{}` (line {}) with numerator exponents length {l}, force {f}",
+                    u.description, u.line
+                ));
+                Some(units_factor(u, l, f))
+            }
+            (None, None) => None,
+        }
+    }
+
+    /// SI per file unit of the denominator, from the force of the numerator's label or record
+    /// 10's label (which must agree), else from dataset 164; `None` when nothing tells.
+    fn denominator_factor(
+        &self,
+        label_force: Option<ForceUnit>,
+        den_label: Option<ForceUnit>,
+        units: Option<&UffUnits>,
+        sources: &mut Vec<String>,
+    ) -> Result<Option<f64>, UffError> {
+        let (num, den) = (self.num, self.den);
+        Ok(match (label_force, den_label, units) {
+            (Some(a), Some(b), _) => {
+                if (a.factor - b.factor).abs() > 1e-12 * a.factor.abs() {
+                    return Err(self.at10.err(
+                        "field 6 (units label)",
+                        &den.unit,
+                        format!(
+                            "the force unit of record 9's label `{}`, or NONE",
+                            num.unit.trim()
+                        ),
+                    ));
+                }
+                Some(a.factor)
+            }
+            (Some(a), None, _) => Some(a.factor),
+            (None, Some(b), _) => {
+                sources.push(format!("record 10 label `{}`", den.unit.trim()));
+                Some(b.factor)
+            }
+            (None, None, Some(u)) => {
+                let (l, f) = if den.specific_type == 1 {
+                    (den.length_exponent, den.force_exponent)
+                } else if self.rot_reference {
+                    (1, 1)
+                } else {
+                    (0, 1)
+                };
+                sources.push(format!(
+                    "dataset 164 units `{}` with denominator exponents length {l}, force {f}",
+                    u.description
+                ));
+                Some(units_factor(u, l, f))
+            }
+            (None, None, None) => None,
+        })
+    }
 }
 
 /// Factor from the file's abscissa unit to Hz (record 8), with a note when not one.
