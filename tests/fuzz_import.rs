@@ -6,7 +6,8 @@
 mod common;
 
 use common::root;
-use femu::model::import::{nastran, uff};
+use femu::frf::io::uff;
+use femu::model::import::nastran;
 use proptest::prelude::*;
 
 const DECK_NAME: &str = "fuzz-dir-that-does-not-exist/deck.bdf";
@@ -248,7 +249,7 @@ fn uff_ascii() -> Vec<u8> {
 fn uff_binary() -> Vec<u8> {
     let f = uff::read_uff(root().join("fixtures/uff/four_dof_receptance.uff")).unwrap();
     let set = uff::to_frf_set(&f.frfs).unwrap();
-    femu::model::export::uff::write_uff58(&set, true)
+    uff::write_uff58(&set, true)
 }
 
 fn config(cases: u32) -> ProptestConfig {

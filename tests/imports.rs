@@ -113,7 +113,7 @@ fn uff_measurements_feed_the_correlation() {
     for (name, binary, tol) in [("m.uff", true, 1e-15), ("a.uff", false, 1e-10)] {
         std::fs::write(
             dir.path().join(name),
-            femu::model::export::uff::write_uff58(&measured, binary),
+            femu::frf::io::uff::write_uff58(&measured, binary),
         )
         .unwrap();
         let text = std::fs::read_to_string(pipeline("four-dof")).unwrap().replace(
@@ -308,11 +308,11 @@ fn uff_with(bad: &str, binary: bool) -> Vec<u8> {
         let text = std::fs::read_to_string(&fixture).unwrap();
         return text.replacen("-1.751989356819E-05", bad, 1).into_bytes();
     }
-    let file = femu::model::import::uff::read_uff(&fixture).unwrap();
-    let mut set = femu::model::import::uff::to_frf_set(&file.frfs).unwrap();
+    let file = femu::frf::io::uff::read_uff(&fixture).unwrap();
+    let mut set = femu::frf::io::uff::to_frf_set(&file.frfs).unwrap();
     let v: f64 = bad.parse().unwrap();
     set.values[(3, 1)] = faer::c64::new(0.0, v);
-    femu::model::export::uff::write_uff58(&set, true)
+    femu::frf::io::uff::write_uff58(&set, true)
 }
 
 #[test]

@@ -2,6 +2,7 @@
 //! solution of the dynamic stiffness, and simulated measurement noise (docs/theory.md §1, §10).
 
 pub mod direct;
+pub mod io;
 pub mod modal;
 pub mod noise;
 pub mod smoothing;

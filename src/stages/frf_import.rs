@@ -7,7 +7,7 @@
 use crate::artefact::ArtefactKind;
 use crate::artefact::kinds::frf_to_artefact;
 use crate::frf::FrfSet;
-use crate::model::import::uff::{UffError, read_uff, to_frf_set};
+use crate::frf::io::uff::{UffError, read_uff, to_frf_set};
 use crate::pipeline::{
     CheckContext, ParamIssue, PortSpec, StageError, StageInputs, StageOutputs, TypedStage,
 };

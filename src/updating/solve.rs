@@ -3,7 +3,10 @@
 //! parameter weighting `W_φ` (4.22), and the diagnostics of `S` that expose non-uniqueness
 //! (§2.6: singular values, condition number, null-space directions).
 
-use faer::{Mat, MatRef};
+use faer::diag::Diag;
+use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::linalg::svd::{ComputeSvdVectors, svd, svd_scratch};
+use faer::{Mat, MatRef, Par};
 
 /// Singular values below this fraction of the largest count as zero (null space).
 pub const NULL_SPACE_TOLERANCE: f64 = 1e-8;
@@ -36,15 +39,15 @@ pub fn diagnostics(s: MatRef<'_, f64>) -> Diagnostics {
     } else {
         s
     };
-    let Ok(svd) = a.thin_svd() else {
+    let Some(svd) = thin_svd(a) else {
         return Diagnostics {
             singular_values: vec![f64::NAN; n],
             condition: f64::NAN,
             ..Default::default()
         };
     };
-    let sv: Vec<f64> = (0..n).map(|i| svd.S()[i]).collect();
-    let v = svd.V();
+    let sv: Vec<f64> = svd.s[..n].to_vec();
+    let v = svd.v.as_ref();
     let max = sv.first().copied().unwrap_or(0.0);
     let min = sv.last().copied().unwrap_or(0.0);
     let null_space = (0..n)
@@ -200,18 +203,18 @@ pub fn damped_step(
 /// `diag((SᵀS)⁻¹)` from the SVD of `S` (infinite where a direction is unseen).
 fn variances(s: MatRef<'_, f64>) -> Vec<f64> {
     let n = s.ncols();
-    let Ok(svd) = s.thin_svd() else {
+    let Some(svd) = thin_svd(s) else {
         return vec![f64::INFINITY; n];
     };
-    let smax = if n > 0 { svd.S()[0] } else { 0.0 };
+    let smax = if n > 0 { svd.s[0] } else { 0.0 };
     (0..n)
         .map(|i| {
             (0..n.min(s.nrows()))
                 .map(|k| {
-                    let sk = svd.S()[k];
+                    let sk = svd.s[k];
                     if sk > 1e-14 * smax {
-                        svd.V()[(i, k)].powi(2) / (sk * sk)
-                    } else if svd.V()[(i, k)] != 0.0 {
+                        svd.v[(i, k)].powi(2) / (sk * sk)
+                    } else if svd.v[(i, k)] != 0.0 {
                         f64::INFINITY
                     } else {
                         0.0
@@ -236,14 +239,14 @@ pub fn least_squares(a: MatRef<'_, f64>, b: &[f64], rcond: f64) -> Vec<f64> {
     } else {
         a
     };
-    let Ok(svd) = a.thin_svd() else {
+    let Some(svd) = thin_svd(a) else {
         return vec![0.0; n];
     };
-    let (u, v) = (svd.U(), svd.V());
-    let smax = svd.S()[0];
+    let (u, v) = (svd.u.as_ref(), svd.v.as_ref());
+    let smax = svd.s[0];
     let mut x = vec![0.0; n];
     for k in 0..n {
-        let sk = svd.S()[k];
+        let sk = svd.s[k];
         if !(sk > rcond * smax) {
             continue;
         }
@@ -255,9 +258,73 @@ pub fn least_squares(a: MatRef<'_, f64>, b: &[f64], rcond: f64) -> Vec<f64> {
     x
 }
 
+/// A thin SVD `A = U diag(s) Vᵀ`, singular values descending.
+struct ThinSvd {
+    u: Mat<f64>,
+    s: Vec<f64>,
+    v: Mat<f64>,
+}
+
+/// The thin SVD of `a` on one thread, `None` when it does not converge. (faer's `thin_svd` runs
+/// on every rayon thread, and for tall matrices, as sensitivity matrices are, its last bits
+/// then depend on the thread count; results must not.)
+fn thin_svd(a: MatRef<'_, f64>) -> Option<ThinSvd> {
+    let (m, n) = a.shape();
+    let size = m.min(n);
+    let (mut u, mut v, mut s) = (Mat::zeros(m, size), Mat::zeros(n, size), Diag::zeros(size));
+    let thin = ComputeSvdVectors::Thin;
+    let mut buf = MemBuffer::new(svd_scratch::<f64>(
+        m,
+        n,
+        thin,
+        thin,
+        Par::Seq,
+        Default::default(),
+    ));
+    svd(
+        a,
+        s.as_mut(),
+        Some(u.as_mut()),
+        Some(v.as_mut()),
+        Par::Seq,
+        MemStack::new(&mut buf),
+        Default::default(),
+    )
+    .ok()?;
+    let s = (0..size).map(|k| s[k]).collect();
+    Some(ThinSvd { u, s, v })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A tall sensitivity matrix (2000 equations, 9 parameters) gives the same diagnostics and
+    /// least-squares step to the last bit on one thread and on seven.
+    #[test]
+    fn tall_svds_do_not_depend_on_the_thread_count() {
+        let s = Mat::from_fn(2000, 9, |i, j| {
+            ((i * 7 + j * 13) as f64).sin() / (1.0 + j as f64)
+        });
+        let b: Vec<f64> = (0..2000).map(|i| (i as f64 * 0.37).cos()).collect();
+        let at = |n: usize| {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(n)
+                .build()
+                .unwrap();
+            pool.install(|| {
+                let d = diagnostics(s.as_ref());
+                let x = least_squares(s.as_ref(), &b, 1e-12);
+                let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+                (
+                    bits(&d.singular_values),
+                    bits(&d.weakest_direction),
+                    bits(&x),
+                )
+            })
+        };
+        assert_eq!(at(1), at(7));
+    }
 
     /// A matrix with a dependent column: the subset leaves one of the dependent pair out, the
     /// diagnostics name the dependency as the null space.

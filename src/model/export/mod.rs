@@ -1,4 +1,4 @@
-//! Writers of files for other tools: Nastran bulk data, UFF.
+//! Writers of model files for other tools: Nastran bulk data. (Universal files are written by
+//! `frf::io::uff::write`.)
 
 pub mod nastran;
-pub mod uff;

@@ -24,7 +24,7 @@
 //! - Non-finite values are written as `NaN`/`inf`, which the reader rejects.
 
 use crate::core::Component;
-use crate::model::structure::{BeamSection, Element, Model};
+use crate::model::structure::{BeamProperty, BeamSection, Element, Model};
 use std::collections::{BTreeMap, BTreeSet};
 use std::fmt::Write;
 
@@ -127,112 +127,8 @@ fn comps_text(comps: &BTreeSet<Component>) -> String {
 pub fn write_bulk(model: &Model) -> String {
     let mut out = String::new();
     out.push_str("$ Nastran bulk data written by femu\nBEGIN BULK\n");
-    for (&id, m) in &model.materials {
-        card(
-            &mut out,
-            "MAT1",
-            vec![
-                F::Int(id),
-                F::Real(m.e),
-                F::Blank,
-                F::Real(m.nu),
-                F::Real(m.rho),
-            ],
-        );
-    }
-    for (&id, p) in &model.shell_properties {
-        card(
-            &mut out,
-            "PSHELL",
-            vec![
-                F::Int(id),
-                F::Int(p.material),
-                F::Real(p.thickness),
-                F::Int(p.material),
-                F::Blank,
-                F::Blank,
-                F::Blank,
-                F::Real(p.nsm),
-            ],
-        );
-    }
-    for (&id, p) in &model.beam_properties {
-        let head = |kind: &str| {
-            vec![
-                F::Int(id),
-                F::Int(p.material),
-                F::Blank,
-                F::Text(kind.to_string()),
-                F::Blank,
-                F::Blank,
-                F::Blank,
-                F::Blank,
-            ]
-        };
-        match &p.section {
-            BeamSection::Rectangle { width, height } => {
-                let mut f = head("BAR");
-                f.extend([F::Real(*width), F::Real(*height), F::Real(p.nsm)]);
-                card(&mut out, "PBARL", f);
-            }
-            BeamSection::Circle { radius } => {
-                let mut f = head("ROD");
-                f.extend([F::Real(*radius), F::Real(p.nsm)]);
-                card(&mut out, "PBARL", f);
-            }
-            BeamSection::Tube {
-                outer_radius,
-                inner_radius,
-            } => {
-                let mut f = head("TUBE");
-                f.extend([
-                    F::Real(*outer_radius),
-                    F::Real(*inner_radius),
-                    F::Real(p.nsm),
-                ]);
-                card(&mut out, "PBARL", f);
-            }
-            BeamSection::General {
-                area,
-                iy,
-                iz,
-                j,
-                shear_y,
-                shear_z,
-            } => {
-                let mut f = vec![
-                    F::Int(id),
-                    F::Int(p.material),
-                    F::Real(*area),
-                    F::Real(*iz),
-                    F::Real(*iy),
-                    F::Real(*j),
-                    F::Real(p.nsm),
-                    F::Blank,
-                ];
-                f.extend((0..8).map(|_| F::Blank));
-                f.extend([F::Real(*shear_y), F::Real(*shear_z)]);
-                card(&mut out, "PBAR", f);
-            }
-        }
-    }
-    let max_pid = model
-        .shell_properties
-        .keys()
-        .chain(model.beam_properties.keys())
-        .max()
-        .copied()
-        .unwrap_or(0);
-    let mut bush_pid = BTreeMap::new();
-    for (&id, e) in &model.elements {
-        if let Element::Bush { k, .. } = e {
-            let pid = max_pid + 1 + bush_pid.len() as u64;
-            bush_pid.insert(id, pid);
-            let mut f = vec![F::Int(pid), F::Text("K".to_string())];
-            f.extend(k.iter().map(|v| F::Real(*v)));
-            card(&mut out, "PBUSH", f);
-        }
-    }
+    write_materials_and_properties(&mut out, model);
+    let bush_pid = write_bush_properties(&mut out, model);
     for (&id, x) in &model.nodes {
         card(
             &mut out,
@@ -247,74 +143,213 @@ pub fn write_bulk(model: &Model) -> String {
         );
     }
     for (&id, e) in &model.elements {
-        match e {
-            Element::Quad4 { nodes, property } => {
-                let mut f = vec![F::Int(id), F::Int(*property)];
-                f.extend(nodes.iter().map(|n| F::Int(*n)));
-                card(&mut out, "CQUAD4", f);
-            }
-            Element::Tria3 { nodes, property } => {
-                let mut f = vec![F::Int(id), F::Int(*property)];
-                f.extend(nodes.iter().map(|n| F::Int(*n)));
-                card(&mut out, "CTRIA3", f);
-            }
-            Element::Beam {
-                nodes,
-                property,
-                orientation,
-            } => {
-                let mut f = vec![
-                    F::Int(id),
-                    F::Int(*property),
-                    F::Int(nodes[0]),
-                    F::Int(nodes[1]),
-                ];
-                f.extend(orientation.iter().map(|v| F::Real(*v)));
-                card(&mut out, "CBAR", f);
-            }
-            Element::Bush { node, other, .. } => {
-                let pid = bush_pid.get(&id).copied().unwrap_or(0);
-                card(
-                    &mut out,
-                    "CBUSH",
-                    vec![
-                        F::Int(id),
-                        F::Int(pid),
-                        F::Int(*node),
-                        other.map_or(F::Blank, F::Int),
-                        F::Blank,
-                        F::Blank,
-                        F::Blank,
-                        F::Int(0),
-                    ],
-                );
-            }
-            Element::ScalarSpring { dof, other, k } => {
-                let mut f = vec![
-                    F::Int(id),
-                    F::Real(*k),
-                    F::Int(dof.node),
-                    F::Int(u64::from(dof.comp.nastran())),
-                ];
-                if let Some(o) = other {
-                    f.extend([F::Int(o.node), F::Int(u64::from(o.comp.nastran()))]);
-                }
-                card(&mut out, "CELAS2", f);
-            }
-            Element::Mass {
-                node,
-                mass,
-                inertia,
-                offset,
-            } => {
-                let mut f = vec![F::Int(id), F::Int(*node), F::Int(0), F::Real(*mass)];
-                f.extend(offset.iter().map(|v| F::Real(*v)));
-                f.push(F::Blank);
-                f.extend(inertia.iter().map(|v| F::Real(*v)));
-                card(&mut out, "CONM2", f);
-            }
+        write_element(&mut out, id, e, &bush_pid);
+    }
+    write_constraints(&mut out, model);
+    write_sets(&mut out, model);
+    for p in &model.parameters {
+        if let Ok(json) = serde_json::to_string(p) {
+            let _ = writeln!(out, "$femu-parameter {json}");
         }
     }
+    out.push_str("ENDDATA\n");
+    out
+}
+
+/// MAT1, PSHELL, and PBAR or PBARL cards, each group by ascending id.
+fn write_materials_and_properties(out: &mut String, model: &Model) {
+    for (&id, m) in &model.materials {
+        card(
+            out,
+            "MAT1",
+            vec![
+                F::Int(id),
+                F::Real(m.e),
+                F::Blank,
+                F::Real(m.nu),
+                F::Real(m.rho),
+            ],
+        );
+    }
+    for (&id, p) in &model.shell_properties {
+        card(
+            out,
+            "PSHELL",
+            vec![
+                F::Int(id),
+                F::Int(p.material),
+                F::Real(p.thickness),
+                F::Int(p.material),
+                F::Blank,
+                F::Blank,
+                F::Blank,
+                F::Real(p.nsm),
+            ],
+        );
+    }
+    for (&id, p) in &model.beam_properties {
+        write_beam_property(out, id, p);
+    }
+}
+
+/// A beam property: PBARL for the BAR, ROD and TUBE sections, PBAR for a general one.
+fn write_beam_property(out: &mut String, id: u64, p: &BeamProperty) {
+    let head = |kind: &str| {
+        vec![
+            F::Int(id),
+            F::Int(p.material),
+            F::Blank,
+            F::Text(kind.to_string()),
+            F::Blank,
+            F::Blank,
+            F::Blank,
+            F::Blank,
+        ]
+    };
+    match &p.section {
+        BeamSection::Rectangle { width, height } => {
+            let mut f = head("BAR");
+            f.extend([F::Real(*width), F::Real(*height), F::Real(p.nsm)]);
+            card(out, "PBARL", f);
+        }
+        BeamSection::Circle { radius } => {
+            let mut f = head("ROD");
+            f.extend([F::Real(*radius), F::Real(p.nsm)]);
+            card(out, "PBARL", f);
+        }
+        BeamSection::Tube {
+            outer_radius,
+            inner_radius,
+        } => {
+            let mut f = head("TUBE");
+            f.extend([
+                F::Real(*outer_radius),
+                F::Real(*inner_radius),
+                F::Real(p.nsm),
+            ]);
+            card(out, "PBARL", f);
+        }
+        BeamSection::General {
+            area,
+            iy,
+            iz,
+            j,
+            shear_y,
+            shear_z,
+        } => {
+            let mut f = vec![
+                F::Int(id),
+                F::Int(p.material),
+                F::Real(*area),
+                F::Real(*iz),
+                F::Real(*iy),
+                F::Real(*j),
+                F::Real(p.nsm),
+                F::Blank,
+            ];
+            f.extend((0..8).map(|_| F::Blank));
+            f.extend([F::Real(*shear_y), F::Real(*shear_z)]);
+            card(out, "PBAR", f);
+        }
+    }
+}
+
+/// One PBUSH per bush element, with ids above every property id; returns each bush's property
+/// id by element id.
+fn write_bush_properties(out: &mut String, model: &Model) -> BTreeMap<u64, u64> {
+    let max_pid = model
+        .shell_properties
+        .keys()
+        .chain(model.beam_properties.keys())
+        .max()
+        .copied()
+        .unwrap_or(0);
+    let mut bush_pid = BTreeMap::new();
+    for (&id, e) in &model.elements {
+        if let Element::Bush { k, .. } = e {
+            let pid = max_pid + 1 + bush_pid.len() as u64;
+            bush_pid.insert(id, pid);
+            let mut f = vec![F::Int(pid), F::Text("K".to_string())];
+            f.extend(k.iter().map(|v| F::Real(*v)));
+            card(out, "PBUSH", f);
+        }
+    }
+    bush_pid
+}
+
+/// One element card; a bush refers to its PBUSH id in `bush_pid`.
+fn write_element(out: &mut String, id: u64, e: &Element, bush_pid: &BTreeMap<u64, u64>) {
+    match e {
+        Element::Quad4 { nodes, property } => {
+            let mut f = vec![F::Int(id), F::Int(*property)];
+            f.extend(nodes.iter().map(|n| F::Int(*n)));
+            card(out, "CQUAD4", f);
+        }
+        Element::Tria3 { nodes, property } => {
+            let mut f = vec![F::Int(id), F::Int(*property)];
+            f.extend(nodes.iter().map(|n| F::Int(*n)));
+            card(out, "CTRIA3", f);
+        }
+        Element::Beam {
+            nodes,
+            property,
+            orientation,
+        } => {
+            let mut f = vec![
+                F::Int(id),
+                F::Int(*property),
+                F::Int(nodes[0]),
+                F::Int(nodes[1]),
+            ];
+            f.extend(orientation.iter().map(|v| F::Real(*v)));
+            card(out, "CBAR", f);
+        }
+        Element::Bush { node, other, .. } => {
+            let pid = bush_pid.get(&id).copied().unwrap_or(0);
+            card(
+                out,
+                "CBUSH",
+                vec![
+                    F::Int(id),
+                    F::Int(pid),
+                    F::Int(*node),
+                    other.map_or(F::Blank, F::Int),
+                    F::Blank,
+                    F::Blank,
+                    F::Blank,
+                    F::Int(0),
+                ],
+            );
+        }
+        Element::ScalarSpring { dof, other, k } => {
+            let mut f = vec![
+                F::Int(id),
+                F::Real(*k),
+                F::Int(dof.node),
+                F::Int(u64::from(dof.comp.nastran())),
+            ];
+            if let Some(o) = other {
+                f.extend([F::Int(o.node), F::Int(u64::from(o.comp.nastran()))]);
+            }
+            card(out, "CELAS2", f);
+        }
+        Element::Mass {
+            node,
+            mass,
+            inertia,
+            offset,
+        } => {
+            let mut f = vec![F::Int(id), F::Int(*node), F::Int(0), F::Real(*mass)];
+            f.extend(offset.iter().map(|v| F::Real(*v)));
+            f.push(F::Blank);
+            f.extend(inertia.iter().map(|v| F::Real(*v)));
+            card(out, "CONM2", f);
+        }
+    }
+}
+
+/// SPC1 cards (SID 1), one per component list, the nodes grouped by their constrained components.
+fn write_constraints(out: &mut String, model: &Model) {
     let mut by_node: BTreeMap<u64, BTreeSet<Component>> = BTreeMap::new();
     for d in &model.constraints {
         by_node.entry(d.node).or_default().insert(d.comp);
@@ -326,16 +361,8 @@ pub fn write_bulk(model: &Model) -> String {
     for (comps, nodes) in by_comps {
         let mut f = vec![F::Int(1), F::Text(comps)];
         f.extend(nodes.into_iter().map(F::Int));
-        card(&mut out, "SPC1", f);
+        card(out, "SPC1", f);
     }
-    write_sets(&mut out, model);
-    for p in &model.parameters {
-        if let Ok(json) = serde_json::to_string(p) {
-            let _ = writeln!(out, "$femu-parameter {json}");
-        }
-    }
-    out.push_str("ENDDATA\n");
-    out
 }
 
 /// The SID a set name stands for (`set<N>`, `N` > 0 written without leading zeros).

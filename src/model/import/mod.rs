@@ -1,4 +1,4 @@
-//! Readers of model and measurement files written by other tools: Nastran bulk data, UFF.
+//! Readers of model files written by other tools: Nastran bulk data. (Universal files, which
+//! hold measured FRFs, are read by `frf::io::uff`.)
 
 pub mod nastran;
-pub mod uff;

@@ -1,7 +1,7 @@
 //! Universal File Format writer: dataset 58 / 58b for FRF sets, dataset 2411 for nodes.
 //!
 //! Records 1–11 are written in their Fortran field widths (SDRC dataset 58 description), so
-//! fixed-column readers such as pyuff read the output, as does [`crate::model::import::uff`].
+//! fixed-column readers such as pyuff read the output, as does [the reader](super).
 //! FRF sets are written as function type 4, complex double (ordinate type 6), in SI units with
 //! their labels (record 8 `Hz`; record 9 `m`, `m/s`, `m/s^2`, or `rad…` on a rotation; record 10
 //! `N`, or `N*m` for a moment), positive directions ±1…±6 → 1…6. Three encodings of the data:
@@ -21,8 +21,8 @@
 //! `start + k·step` with `start` and `step` exact in record 7's 13 columns; otherwise each
 //! value carries its abscissa (uneven).
 
+use super::{Abscissa, ByteOrder, OrdinateType, Uff58};
 use crate::frf::FrfSet;
-use crate::model::import::uff::{Abscissa, ByteOrder, OrdinateType, Uff58};
 use std::fmt::Write as _;
 
 /// How record 12 (the data) is encoded.
@@ -214,6 +214,7 @@ fn id_line(s: &str) -> String {
     out
 }
 
+/// One FRF record as dataset 58 / 58b in `encoding`, appended to `out`.
 fn write_record(out: &mut Vec<u8>, rec: &Uff58, encoding: UffEncoding) {
     let n = rec.freqs_hz.len().min(rec.values.len());
     let freqs = &rec.freqs_hz[..n];
@@ -221,20 +222,8 @@ fn write_record(out: &mut Vec<u8>, rec: &Uff58, encoding: UffEncoding) {
         Abscissa::Even { .. } => even_spacing(freqs),
         Abscissa::Uneven => None,
     };
-    let ord = rec.ordinate;
-    let double = ord.is_double();
-    let complex = ord.is_complex();
-    let single = |v: f64| if double { v } else { f64::from(v as f32) };
-    let mut values = Vec::with_capacity(n * 3);
-    for (f, v) in freqs.iter().zip(&rec.values) {
-        if even.is_none() {
-            values.push(single(*f));
-        }
-        values.push(single(v.re));
-        if complex {
-            values.push(single(v.im));
-        }
-    }
+    let double = rec.ordinate.is_double();
+    let values = data_values(rec, n, even.is_none());
 
     let mut s = String::from("    -1\n");
     match encoding {
@@ -256,6 +245,66 @@ fn write_record(out: &mut Vec<u8>, rec: &Uff58, encoding: UffEncoding) {
         }
         UffEncoding::Ascii | UffEncoding::AsciiExact => s.push_str("    58\n"),
     }
+    write_records_1_to_11(&mut s, rec, n, even);
+
+    match encoding {
+        UffEncoding::Binary(order) => {
+            let mut bytes = s.into_bytes();
+            // Single-precision data keep an uneven abscissa in single precision too.
+            for v in &values {
+                match (double, order) {
+                    (true, ByteOrder::Little) => bytes.extend_from_slice(&v.to_le_bytes()),
+                    (true, ByteOrder::Big) => bytes.extend_from_slice(&v.to_be_bytes()),
+                    (false, ByteOrder::Little) => {
+                        bytes.extend_from_slice(&(*v as f32).to_le_bytes());
+                    }
+                    (false, ByteOrder::Big) => bytes.extend_from_slice(&(*v as f32).to_be_bytes()),
+                }
+            }
+            bytes.extend_from_slice(b"    -1\n");
+            out.extend_from_slice(&bytes);
+        }
+        UffEncoding::Ascii | UffEncoding::AsciiExact => {
+            let exact = encoding == UffEncoding::AsciiExact;
+            let complex = rec.ordinate.is_complex();
+            let pattern: Vec<usize> = match (exact, double, even.is_some(), complex) {
+                (true, true, false, true) => vec![25; 3],
+                (true, true, _, _) => vec![25; 4],
+                (true, false, _, _) => vec![16; 6],
+                (false, true, true, _) => vec![20; 4],
+                (false, true, false, false) => vec![13, 20, 13, 20],
+                (false, true, false, true) => vec![13, 20, 20],
+                (false, false, _, _) => vec![13; 6],
+            };
+            write_columns(&mut s, &values, &pattern);
+            s.push_str("    -1\n");
+            out.extend_from_slice(s.as_bytes());
+        }
+    }
+}
+
+/// The values of record 12 in file order: per line the abscissa (when `with_abscissa`), the
+/// real part and, for complex data, the imaginary part; rounded to `f32` for single data.
+fn data_values(rec: &Uff58, n: usize, with_abscissa: bool) -> Vec<f64> {
+    let double = rec.ordinate.is_double();
+    let complex = rec.ordinate.is_complex();
+    let single = |v: f64| if double { v } else { f64::from(v as f32) };
+    let mut values = Vec::with_capacity(n * 3);
+    for (f, v) in rec.freqs_hz[..n].iter().zip(&rec.values) {
+        if with_abscissa {
+            values.push(single(*f));
+        }
+        values.push(single(v.re));
+        if complex {
+            values.push(single(v.im));
+        }
+    }
+    values
+}
+
+/// Records 1–11: ID lines, DOF identification, data form (`n` points, `even` start and step),
+/// and the axis characteristics in SI units.
+fn write_records_1_to_11(s: &mut String, rec: &Uff58, n: usize, even: Option<(f64, f64)>) {
     for id in &rec.id_lines {
         s.push_str(&id_line(id));
         s.push('\n');
@@ -280,7 +329,7 @@ fn write_record(out: &mut Vec<u8>, rec: &Uff58, encoding: UffEncoding) {
     let _ = writeln!(
         s,
         "{:>10}{:>10}{:>10}{}{}{}",
-        ord.code(),
+        rec.ordinate.code(),
         n,
         u8::from(even.is_some()),
         fmt_e(start, 13),
@@ -302,40 +351,6 @@ fn write_record(out: &mut Vec<u8>, rec: &Uff58, encoding: UffEncoding) {
         s.push_str(&axis_line(13, 0, 1, "Force", "N"));
     }
     s.push_str(&axis_line(0, 0, 0, "NONE", "NONE"));
-
-    match encoding {
-        UffEncoding::Binary(order) => {
-            let mut bytes = s.into_bytes();
-            // Single-precision data keep an uneven abscissa in single precision too.
-            for v in &values {
-                match (double, order) {
-                    (true, ByteOrder::Little) => bytes.extend_from_slice(&v.to_le_bytes()),
-                    (true, ByteOrder::Big) => bytes.extend_from_slice(&v.to_be_bytes()),
-                    (false, ByteOrder::Little) => {
-                        bytes.extend_from_slice(&(*v as f32).to_le_bytes());
-                    }
-                    (false, ByteOrder::Big) => bytes.extend_from_slice(&(*v as f32).to_be_bytes()),
-                }
-            }
-            bytes.extend_from_slice(b"    -1\n");
-            out.extend_from_slice(&bytes);
-        }
-        UffEncoding::Ascii | UffEncoding::AsciiExact => {
-            let exact = encoding == UffEncoding::AsciiExact;
-            let pattern: Vec<usize> = match (exact, double, even.is_some(), complex) {
-                (true, true, false, true) => vec![25; 3],
-                (true, true, _, _) => vec![25; 4],
-                (true, false, _, _) => vec![16; 6],
-                (false, true, true, _) => vec![20; 4],
-                (false, true, false, false) => vec![13, 20, 13, 20],
-                (false, true, false, true) => vec![13, 20, 20],
-                (false, false, _, _) => vec![13; 6],
-            };
-            write_columns(&mut s, &values, &pattern);
-            s.push_str("    -1\n");
-            out.extend_from_slice(s.as_bytes());
-        }
-    }
 }
 
 /// Values in lines of fields of the widths of `pattern`, a new line after each full pattern.

@@ -1,0 +1,4 @@
+//! File formats of FRFs written by other tools: the Universal File Format (datasets 58 / 58b,
+//! with the nodes, elements and units a test system writes beside them).
+
+pub mod uff;
