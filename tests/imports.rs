@@ -379,7 +379,9 @@ fn cards_femu_does_not_read_fail_the_check_unless_ignored_and_are_recorded() {
     let (code, err) = validate(&p, &[]);
     assert_eq!(code, Some(2), "{err}");
     assert!(
-        err.contains(&format!("plate.bdf line {line}: RBE2 is not read by femu")),
+        err.contains("1 card(s) femu does not read may change the stiffness, mass or constraints")
+            && err.contains("RBE2 ×1 (first at ")
+            && err.contains(&format!("plate.bdf line {line})")),
         "{err}"
     );
     // Accepted on request: run, and the artefact's meta lists what was skipped and dropped.

@@ -1,17 +1,22 @@
 //! `mesh.import`: a model from Nastran bulk data (free, small and large field, continuations,
 //! INCLUDE). The file is parsed when the pipeline is checked, so a malformed card, a card femu
 //! does not read or a value its elements cannot take is reported with its file and line before
-//! anything runs; the cache key holds the digest of the imported model, not the path, so moving
-//! or renaming the file reuses the cache and editing it does not.
+//! anything runs. The cache key holds a digest of the bytes of the deck and of every file it
+//! INCLUDEs together with the digest of the imported artefact (model and notes), not the path:
+//! editing any of the files, or a note that would name another file, is never served from the
+//! cache.
 //!
-//! Cards femu does not read are errors, except loads, analysis and output cards (skipped and
-//! counted) and the cards listed in `ignore_cards` (dropped and counted). Both counts go into
-//! the artefact's meta (`skipped_cards`, `ignored_cards`) and onto the console.
+//! Cards femu does not read that may change the model are errors, all listed at once, except
+//! loads, analysis and output cards (skipped and counted), the cards listed in `ignore_cards`
+//! and, with `on_unsupported: warn`, all of them (dropped and counted). The counts go into the
+//! artefact's meta (`skipped_cards`, `ignored_cards`), and they and the import's warnings onto
+//! the console.
 
+use crate::artefact::Artefact;
 use crate::artefact::ArtefactKind;
 use crate::artefact::mesh::mesh_to_artefact;
 use crate::model::Model;
-use crate::model::import::nastran::{BulkOptions, READ_CARDS, read_bulk_with};
+use crate::model::import::nastran::{BulkOptions, READ_CARDS, Unsupported, read_bulk_with};
 use crate::pipeline::{
     CheckContext, ParamIssue, PortSpec, StageError, StageInputs, StageOutputs, TypedStage,
 };
@@ -32,9 +37,41 @@ pub struct Params {
     /// such a card is an error.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub ignore_cards: Vec<String>,
+    /// What to do with cards femu does not read that may change the stiffness, mass or
+    /// constraints: `error` (default) lists them all and stops; `warn` drops them, counts them
+    /// in the meta and says so on the console.
+    #[serde(default, skip_serializing_if = "OnUnsupported::is_error")]
+    pub on_unsupported: OnUnsupported,
     /// Digest of the imported model, filled in when the pipeline is checked (not for users).
     #[serde(default)]
     pub content_digest: Option<String>,
+}
+
+/// `on_unsupported` of `mesh.import`.
+#[derive(
+    Clone,
+    Copy,
+    Debug,
+    Default,
+    PartialEq,
+    Eq,
+    serde::Deserialize,
+    serde::Serialize,
+    schemars::JsonSchema,
+)]
+#[serde(rename_all = "snake_case")]
+pub enum OnUnsupported {
+    /// Refuse the deck, listing every such card with its count and first line.
+    #[default]
+    Error,
+    /// Drop them knowingly, with a warning.
+    Warn,
+}
+
+impl OnUnsupported {
+    fn is_error(&self) -> bool {
+        *self == OnUnsupported::Error
+    }
 }
 
 struct Imported {
@@ -42,6 +79,7 @@ struct Imported {
     skipped: BTreeMap<String, usize>,
     ignored: BTreeMap<String, usize>,
     warnings: Vec<String>,
+    source_digest: String,
 }
 
 /// The options from `ignore_cards`: names upper-cased, each a card name or `PARAM,NAME`, and
@@ -75,6 +113,10 @@ fn options(p: &Params) -> Result<BulkOptions, String> {
         }
         out.ignore_cards.insert(name);
     }
+    out.on_unsupported = match p.on_unsupported {
+        OnUnsupported::Error => Unsupported::Error,
+        OnUnsupported::Warn => Unsupported::Warn,
+    };
     Ok(out)
 }
 
@@ -86,7 +128,48 @@ fn import(base: &Path, p: &Params) -> Result<Imported, String> {
         skipped: b.skipped,
         ignored: b.ignored,
         warnings: b.warnings,
+        source_digest: b.source_digest,
     })
+}
+
+/// The mesh artefact with the import's notes in its meta, and the cache digest: the
+/// artefact's digest together with the digest of the files' bytes.
+fn artefact(p: &Params, i: &Imported) -> (Artefact, String) {
+    let mut a = mesh_to_artefact(&i.model);
+    let unused: Vec<&String> = p
+        .ignore_cards
+        .iter()
+        .filter(|c| {
+            let c = c.trim().to_ascii_uppercase();
+            !i.ignored
+                .keys()
+                .any(|k| *k == c || k.split(',').next() == Some(c.as_str()))
+        })
+        .collect();
+    let mut warnings = i.warnings.clone();
+    if !unused.is_empty() {
+        warnings.push(format!(
+            "ignore_cards lists {unused:?}, which the deck does not hold"
+        ));
+    }
+    a.meta.insert(
+        "skipped_cards".into(),
+        serde_json::to_value(&i.skipped).unwrap_or_default(),
+    );
+    a.meta.insert(
+        "ignored_cards".into(),
+        serde_json::to_value(&i.ignored).unwrap_or_default(),
+    );
+    a.meta.insert(
+        "ignore_cards".into(),
+        serde_json::to_value(&p.ignore_cards).unwrap_or_default(),
+    );
+    a.meta.insert("import_warnings".into(), warnings.into());
+    let mut h = blake3::Hasher::new();
+    h.update(a.digest().as_bytes());
+    h.update(i.source_digest.as_bytes());
+    let digest = h.finalize().to_hex().to_string();
+    (a, digest)
 }
 
 /// `NAME ×count` list for the console.
@@ -121,7 +204,7 @@ impl TypedStage for MeshImport {
         }
         match import(&ctx.base_dir, p) {
             Ok(i) => {
-                p.content_digest = Some(mesh_to_artefact(&i.model).digest());
+                p.content_digest = Some(artefact(p, &i).1);
                 Vec::new()
             }
             Err(e) => vec![ParamIssue::at("path", e)],
@@ -135,8 +218,8 @@ impl TypedStage for MeshImport {
     fn run(p: &Params, inputs: &StageInputs) -> Result<StageOutputs, StageError> {
         // Normally found when checking; here only when the file changed since.
         let i = import(&inputs.base_dir, p).map_err(StageError::input_at("path"))?;
-        let mut a = mesh_to_artefact(&i.model);
-        if p.content_digest.as_deref() != Some(a.digest().as_str()) {
+        let (a, digest) = artefact(p, &i);
+        if p.content_digest.as_deref() != Some(digest.as_str()) {
             return Err(StageError::input(
                 "path",
                 format!(
@@ -154,40 +237,16 @@ impl TypedStage for MeshImport {
         }
         if !i.ignored.is_empty() {
             tracing::warn!(
-                "mesh.import {}: cards dropped as `ignore_cards` asks (the model lacks what they define): {}",
+                "mesh.import {}: cards dropped as `ignore_cards` or `on_unsupported` asks (the model lacks what they define): {}",
                 p.path,
                 counts(&i.ignored)
             );
         }
-        let unused: Vec<&String> = p
-            .ignore_cards
-            .iter()
-            .filter(|c| {
-                let c = c.trim().to_ascii_uppercase();
-                !i.ignored
-                    .keys()
-                    .any(|k| *k == c || k.split(',').next() == Some(c.as_str()))
-            })
-            .collect();
-        let mut warnings = i.warnings;
-        if !unused.is_empty() {
-            warnings.push(format!(
-                "ignore_cards lists {unused:?}, which the deck does not hold"
-            ));
+        if let Some(serde_json::Value::Array(notes)) = a.meta.get("import_warnings") {
+            for note in notes.iter().filter_map(|n| n.as_str()) {
+                tracing::warn!("mesh.import {}: {note}", p.path);
+            }
         }
-        a.meta.insert(
-            "skipped_cards".into(),
-            serde_json::to_value(&i.skipped).unwrap_or_default(),
-        );
-        a.meta.insert(
-            "ignored_cards".into(),
-            serde_json::to_value(&i.ignored).unwrap_or_default(),
-        );
-        a.meta.insert(
-            "ignore_cards".into(),
-            serde_json::to_value(&p.ignore_cards).unwrap_or_default(),
-        );
-        a.meta.insert("import_warnings".into(), warnings.into());
         Ok(StageOutputs::from([("mesh".to_string(), a)]))
     }
 }

@@ -3,20 +3,6 @@
 
 use super::*;
 
-pub(super) struct GridIn {
-    pub(super) loc: Loc,
-    pub(super) cp: u64,
-    pub(super) x: [f64; 3],
-    pub(super) cd: i64,
-    pub(super) ps: Vec<Component>,
-}
-
-pub(super) struct CordIn {
-    pub(super) loc: Loc,
-    pub(super) rid: u64,
-    pub(super) points: [[f64; 3]; 3],
-}
-
 pub(super) enum Orient {
     Vector([f64; 3]),
     G0(u64),
@@ -38,6 +24,14 @@ pub(super) enum ElemIn {
         pid: u64,
         node: u64,
         other: Option<u64>,
+    },
+    /// CONM2 with CID > 0: offset and inertia along the system's directions at the grid.
+    MassInSystem {
+        node: u64,
+        mass: f64,
+        inertia: [f64; 6],
+        offset: [f64; 3],
+        cid: u64,
     },
     MassAbsolute {
         node: u64,
@@ -63,6 +57,13 @@ pub(super) struct Builder {
     pub(super) ignored: BTreeMap<String, usize>,
     pub(super) grids: BTreeMap<u64, GridIn>,
     pub(super) cords: BTreeMap<u64, CordIn>,
+    pub(super) grdset: Option<GridDefaults>,
+    /// PARAM,WTMASS: where, and the factor applied to every mass.
+    pub(super) wtmass: Option<(Loc, f64)>,
+    /// Cards femu does not read that may change the model: count and first place, by name.
+    pub(super) unsupported: BTreeMap<String, (usize, Loc)>,
+    /// What to do with them.
+    pub(super) on_unsupported: Unsupported,
     pub(super) materials: BTreeMap<u64, (Loc, Material)>,
     pub(super) shells: BTreeMap<u64, ShellProperty>,
     pub(super) beams: BTreeMap<u64, BeamProperty>,
@@ -70,9 +71,14 @@ pub(super) struct Builder {
     pub(super) pbush: BTreeMap<u64, [f64; 6]>,
     pub(super) pids: BTreeMap<u64, Loc>,
     pub(super) elements: BTreeMap<u64, (Loc, ElemIn)>,
-    pub(super) spcs: Vec<(Loc, DofId)>,
-    pub(super) spc_ranges: Vec<(Loc, Vec<Component>, u64, u64)>,
+    /// Single-point constraints with their set id (`None`: a GRID's PS, always applied).
+    pub(super) spcs: Vec<(Loc, Option<u64>, DofId)>,
+    pub(super) spc_ranges: Vec<(Loc, u64, Vec<Component>, u64, u64)>,
     pub(super) spc_sids: BTreeSet<u64>,
+    /// SPCADD: set id → (card, the SPC/SPC1 set ids it unites).
+    pub(super) spcadds: BTreeMap<u64, (Loc, Vec<u64>)>,
+    /// `SPC = n` selections of the case control.
+    pub(super) case_control: Vec<(Loc, u64)>,
     pub(super) sets: BTreeMap<u64, SetIn>,
 }
 
@@ -110,7 +116,9 @@ impl Builder {
     pub(super) fn card(&mut self, c: &Card) -> Result<(), NastranError> {
         match c.name.as_str() {
             "GRID" => self.grid(c),
-            "CORD2R" => self.cord2r(c),
+            "CORD2R" | "CORD2C" | "CORD2S" => self.cord2(c),
+            "CORD1R" | "CORD1C" | "CORD1S" => self.cord1(c),
+            "GRDSET" => self.grdset(c),
             "CQUAD4" | "CTRIA3" => self.shell_element(c),
             "CBAR" | "CBEAM" => self.beam_element(c),
             "PSHELL" => self.pshell(c),
@@ -125,6 +133,7 @@ impl Builder {
             "CONM2" => self.conm2(c),
             "SPC" => self.spc(c),
             "SPC1" => self.spc1(c),
+            "SPCADD" => self.spcadd(c),
             "SET1" => self.set1(c),
             "PARAM" => self.param(c),
             other if SKIPPED_CARDS.contains(&other) => {
@@ -144,25 +153,54 @@ impl Builder {
         if !(c.nastran_like || is_known_card(name)) {
             return Err(not_nastran(&c.loc.file, c.loc.line));
         }
-        Err(NastranError::Syntax {
-            file: c.loc.file.to_string().into(),
-            line: c.loc.line,
-            problem: format!(
-                "{} is not read by femu and may change the stiffness, mass or constraints, so the deck cannot be imported as it is",
-                q(key)
-            )
-            .into(),
+        let entry = self
+            .unsupported
+            .entry(key.to_string())
+            .or_insert_with(|| (0, c.loc.clone()));
+        entry.0 += 1;
+        Ok(())
+    }
+
+    /// After every card is read: the cards femu does not read that may change the stiffness,
+    /// mass or constraints, all listed with their counts and first lines, as one error; or, when
+    /// the user chose to proceed ([`Unsupported::Warn`]), dropped with one warning.
+    pub(super) fn check_unsupported(&mut self) -> Result<(), NastranError> {
+        if self.unsupported.is_empty() {
+            return Ok(());
+        }
+        let total: usize = self.unsupported.values().map(|(n, _)| n).sum();
+        let list: Vec<String> = self
+            .unsupported
+            .iter()
+            .map(|(k, (n, loc))| format!("{} ×{n} (first at {})", q(k), loc.place()))
+            .collect();
+        if self.on_unsupported == Unsupported::Warn {
+            for (k, (n, _)) in std::mem::take(&mut self.unsupported) {
+                *self.ignored.entry(k).or_insert(0) += n;
+            }
+            self.warnings.push(format!(
+                "{}: {total} card(s) femu does not read were dropped as `on_unsupported: warn` asks; the model lacks what they define: {}",
+                self.top_file,
+                list.join(", ")
+            ));
+            return Ok(());
+        }
+        Err(NastranError::Unsupported {
+            file: self.top_file.to_string().into(),
+            count: total,
+            cards: list.join(", ").into(),
             valid: format!(
-                "femu reads {}; it skips loads, analysis and output cards ({}, …) and PARAM {}; to drop {} knowingly, add it to the stage's `ignore_cards`",
+                "femu reads {}; it skips loads, analysis and output cards ({}, …) and PARAM {}; to drop cards knowingly, list them in the stage's `ignore_cards` or set `on_unsupported: warn`",
                 READ_CARDS.join(", "),
                 SKIPPED_CARDS[..6].join(", "),
                 SKIPPED_PARAMS.join(", "),
-                q(key)
             )
             .into(),
         })
     }
 
+    /// PARAM: WTMASS is applied, parameters whose effect femu reproduces or replaces are
+    /// accepted with a warning saying how, output-only ones are skipped, any other is unread.
     pub(super) fn param(&mut self, c: &Card) -> Result<(), NastranError> {
         let name = c.word(1);
         if !is_card_name(&name) {
@@ -174,18 +212,71 @@ impl Builder {
             ));
         }
         let key = format!("PARAM,{name}");
-        if name == "WTMASS" {
-            let w = c.real_or(2, "V1", 1.0)?;
-            if w != 1.0 {
-                return Err(c.err(
-                    2,
-                    "V1",
-                    format!("WTMASS {w} scales the mass matrix, which femu does not implement"),
-                    "remove PARAM,WTMASS and write masses and densities in consistent (SI) units, or set it to 1.0",
+        match name.as_str() {
+            "WTMASS" => {
+                let w = c.real_or(2, "V1", 1.0)?;
+                if !(w > 0.0 && w.is_finite()) {
+                    return Err(c.err(
+                        2,
+                        "V1",
+                        format!("WTMASS {w} is not a positive factor"),
+                        "a real number > 0 (the factor from the deck's mass units to consistent mass units)",
+                    ));
+                }
+                if let Some((first, _)) = &self.wtmass {
+                    return Err(c.err(
+                        1,
+                        "N",
+                        format!("WTMASS is given twice (first at {})", first.place()),
+                        "one PARAM,WTMASS per deck",
+                    ));
+                }
+                if w != 1.0 {
+                    self.warnings.push(format!(
+                        "{} line {}: PARAM,WTMASS,{w} is applied: every density, non-structural mass and CONM2 mass and inertia is multiplied by it",
+                        c.loc.file, c.loc.line
+                    ));
+                }
+                self.wtmass = Some((c.loc.clone(), w));
+            }
+            "COUPMASS" => {
+                let v = c.int(2, "V1")?.unwrap_or(-1);
+                let nastran = if v > 0 {
+                    "coupled (consistent)"
+                } else {
+                    "lumped"
+                };
+                self.warnings.push(format!(
+                    "{} line {}: PARAM,COUPMASS,{v}: Nastran would use {nastran} mass; femu uses the mass formulation named by the assembling stage's `mass` parameter (`consistent` or `lumped`)",
+                    c.loc.file, c.loc.line
                 ));
             }
-        } else if !SKIPPED_PARAMS.contains(&name.as_str()) {
-            return self.unread(c, &key, "PARAM");
+            "AUTOSPC" => {
+                if c.word(2) == "NO" {
+                    self.warnings.push(format!(
+                        "{} line {}: PARAM,AUTOSPC,NO: femu always constrains DOFs that no element stiffens (as AUTOSPC,YES does)",
+                        c.loc.file, c.loc.line
+                    ));
+                }
+            }
+            "K6ROT" => {
+                let v = c.real_or(2, "V1", 100.0)?;
+                self.warnings.push(format!(
+                    "{} line {}: PARAM,K6ROT,{v}: femu's shells tie the normal rotation by their own drilling penalty (docs/theory.md, shell element), not by K6ROT",
+                    c.loc.file, c.loc.line
+                ));
+            }
+            "G" => {
+                let v = c.real_or(2, "V1", 0.0)?;
+                if v != 0.0 {
+                    self.warnings.push(format!(
+                        "{} line {}: PARAM,G,{v} (structural damping) does not change the modes; for frequency responses set the synthesis stage's `damping` (e.g. a structural loss factor)",
+                        c.loc.file, c.loc.line
+                    ));
+                }
+            }
+            _ if SKIPPED_PARAMS.contains(&name.as_str()) => {}
+            _ => return self.unread(c, &key, "PARAM"),
         }
         *self.skipped.entry(key).or_insert(0) += 1;
         Ok(())

@@ -20,22 +20,26 @@ impl Builder {
     ) -> Result<BulkImport, NastranError> {
         let mut model = Model::default();
         let mut origins = Origins::default();
-        self.place_grids(&mut model)?;
+        let geo = self.geometry()?;
+        self.place_grids(&mut model, &geo)?;
         for (id, m) in &self.materials {
             model.materials.insert(*id, m.1.clone());
         }
         model.shell_properties = std::mem::take(&mut self.shells);
         model.beam_properties = std::mem::take(&mut self.beams);
         for (id, (loc, e)) in std::mem::take(&mut self.elements) {
-            let element = self.resolve_element(&model, &loc, e)?;
+            let element = self.resolve_element(&model, &geo, &loc, e)?;
             model.elements.insert(id, element);
             origins.elements.insert(id, loc);
         }
-        self.resolve_constraints(&mut model, &mut origins);
+        self.resolve_constraints(&mut model, &geo, &mut origins)?;
         self.resolve_sets(&mut model, &mut origins, set_names)?;
         for (loc, p) in parameters {
             origins.parameters.push((p.name.clone(), loc));
             model.parameters.push(p);
+        }
+        if let Some((_, w)) = &self.wtmass {
+            apply_wtmass(&mut model, *w);
         }
         model.add_property_sets();
         if let Err(e) = model.validate() {
@@ -67,42 +71,34 @@ impl Builder {
             skipped: self.skipped,
             ignored: self.ignored,
             warnings: self.warnings,
+            source_digest: String::new(),
         })
     }
 
-    /// Grid points in the basic system; PS components become constraints.
-    fn place_grids(&mut self, model: &mut Model) -> Result<(), NastranError> {
-        let frames = self.frames()?;
-        let mut cd_grids: Vec<(u64, i64, Loc)> = Vec::new();
+    /// Grid points in the basic system; PS components (in the grid's CD system) become
+    /// constraints.
+    fn place_grids(&mut self, model: &mut Model, geo: &Geometry) -> Result<(), NastranError> {
+        let mut ps = Vec::new();
         for (&id, g) in &self.grids {
-            let x = if g.cp == 0 {
-                g.x
-            } else if let Some(f) = frames.get(&g.cp) {
-                f.to_basic(g.x)
-            } else {
-                return Err(g.loc.field_err(
-                    2,
-                    "CP",
-                    format!("coordinate system {} is not a CORD2R of the deck", g.cp),
-                    "0 (basic) or the id of a CORD2R card (other coordinate system cards are not supported)",
+            model.nodes.insert(id, geo.positions[&id]);
+            let cd = self.grid_cd(g);
+            if cd != 0 && !geo.frames.contains_key(&cd) {
+                let loc = match (g.cd, &self.grdset) {
+                    (None, Some(d)) => &d.loc,
+                    _ => &g.loc,
+                };
+                return Err(loc.field_err(
+                    6,
+                    "CD",
+                    format!("coordinate system {cd} is not defined in the deck"),
+                    "0 or blank (basic) or the id of a CORD1R/C/S or CORD2R/C/S card",
                 ));
-            };
-            model.nodes.insert(id, x);
-            if g.cd != 0 {
-                cd_grids.push((id, g.cd, g.loc.clone()));
             }
-            for &comp in &g.ps {
-                self.spcs.push((g.loc.clone(), DofId::new(id, comp)));
+            for &comp in self.grid_ps(g) {
+                ps.push((g.loc.clone(), None, DofId::new(id, comp)));
             }
         }
-        if let Some((id, cd, loc)) = cd_grids.first() {
-            self.warnings.push(format!(
-                "{} line {}: GRID {id} has CD {cd} ({} grid(s) with CD != 0 in all); CD is ignored: displacements, PS/SPC components and spring directions are taken in the basic system",
-                loc.file,
-                loc.line,
-                cd_grids.len()
-            ));
-        }
+        self.spcs.extend(ps);
         Ok(())
     }
 
@@ -110,10 +106,15 @@ impl Builder {
     fn resolve_element(
         &self,
         model: &Model,
+        geo: &Geometry,
         loc: &Loc,
         e: ElemIn,
     ) -> Result<Element, NastranError> {
         Ok(match e {
+            ElemIn::Done(Element::ScalarSpring { dof, other, k }) => {
+                let (dof, other) = self.spring_in_basic(geo, loc, dof, other)?;
+                Element::ScalarSpring { dof, other, k }
+            }
             ElemIn::Done(e) => e,
             ElemIn::Beam {
                 nodes,
@@ -122,7 +123,12 @@ impl Builder {
             } => Element::Beam {
                 nodes,
                 property,
-                orientation: beam_orientation(model, loc, nodes, orient)?,
+                orientation: beam_orientation(
+                    model,
+                    loc,
+                    nodes,
+                    self.orient_in_basic(geo, nodes[0], orient),
+                )?,
             },
             ElemIn::Celas1 { pid, dof, other } => {
                 let Some(&k) = self.pelas.get(&pid) else {
@@ -133,6 +139,7 @@ impl Builder {
                         "the id of a PELAS card",
                     ));
                 };
+                let (dof, other) = self.spring_in_basic(geo, loc, dof, other)?;
                 Element::ScalarSpring { dof, other, k }
             }
             ElemIn::Bush { pid, node, other } => {
@@ -160,36 +167,203 @@ impl Builder {
                     offset: sub(cg, at),
                 }
             }
+            ElemIn::MassInSystem {
+                node,
+                mass,
+                inertia,
+                offset,
+                cid,
+            } => {
+                let (Some(frame), Some(at)) = (geo.frames.get(&cid), model.nodes.get(&node)) else {
+                    return Err(loc.field_err(
+                        3,
+                        "CID",
+                        format!("coordinate system {cid} is not defined in the deck"),
+                        "0 (basic), -1, or the id of a CORD1R/C/S or CORD2R/C/S card",
+                    ));
+                };
+                let d = frame.directions_at(*at);
+                Element::Mass {
+                    node,
+                    mass,
+                    inertia: rotate_inertia(&d, inertia),
+                    offset: combine(&d, offset),
+                }
+            }
         })
     }
 
-    /// SPC1 THRU ranges over the grids that exist, merged with SPC and PS into one sorted list.
-    fn resolve_constraints(&mut self, model: &mut Model, origins: &mut Origins) {
-        for (loc, comps, lo, hi) in &self.spc_ranges {
+    /// SPC1 THRU ranges over the grids that exist, merged with SPC and PS into one sorted list
+    /// of basic DOFs (components given in a grid's CD system mapped to the basic ones).
+    fn resolve_constraints(
+        &mut self,
+        model: &mut Model,
+        geo: &Geometry,
+        origins: &mut Origins,
+    ) -> Result<(), NastranError> {
+        let selected = self.selected_spc_sets()?;
+        let chosen = |sid: &Option<u64>| match (sid, &selected) {
+            (None, _) | (_, None) => true,
+            (Some(s), Some(set)) => set.contains(s),
+        };
+        for (loc, sid, comps, lo, hi) in &self.spc_ranges {
+            if !chosen(&Some(*sid)) {
+                continue;
+            }
             for &g in model.nodes.range(lo..=hi).map(|(g, _)| g) {
                 for &comp in comps {
-                    self.spcs.push((loc.clone(), DofId::new(g, comp)));
+                    self.spcs
+                        .push((loc.clone(), Some(*sid), DofId::new(g, comp)));
                 }
             }
         }
-        if self.spc_sids.len() > 1 {
-            let sids: Vec<String> = self.spc_sids.iter().map(u64::to_string).collect();
-            self.warnings.push(format!(
-                "{}: SPC/SPC1 sets {} are merged into one constraint list (there is no case control to choose one)",
-                self.top_file,
-                sids.join(", ")
-            ));
-        }
-        for (loc, d) in &self.spcs {
-            origins
-                .constraints
+        let mut by_grid: BTreeMap<u64, (Loc, BTreeSet<Component>)> = BTreeMap::new();
+        for (loc, _, d) in self.spcs.iter().filter(|(_, sid, _)| chosen(sid)) {
+            by_grid
                 .entry(d.node)
-                .or_insert_with(|| loc.clone());
+                .or_insert_with(|| (loc.clone(), BTreeSet::new()))
+                .1
+                .insert(d.comp);
         }
-        let mut constraints: Vec<DofId> = self.spcs.iter().map(|(_, d)| *d).collect();
+        let mut constraints = Vec::new();
+        for (g, (loc, comps)) in by_grid {
+            let cd = self.grids.get(&g).map_or(0, |grid| self.grid_cd(grid));
+            match geo.directions(cd, g) {
+                None => constraints.extend(comps.iter().map(|&c| DofId::new(g, c))),
+                Some(d) => {
+                    let basic = constraint_in_basic(&d, &comps).map_err(|local| {
+                        NastranError::Syntax {
+                            file: loc.file.to_string().into(),
+                            line: loc.line,
+                            problem: format!(
+                                "grid {g} is constrained in component {} of its displacement system {cd}, whose direction there is not along a basic axis",
+                                local.nastran()
+                            )
+                            .into(),
+                            valid: "constrain all three translations (or rotations) of such a grid, or give it a CD whose axes are parallel to the basic ones (a skewed single-point constraint is a multipoint constraint, which femu does not read)".into(),
+                        }
+                    })?;
+                    constraints.extend(basic.into_iter().map(|c| DofId::new(g, c)));
+                }
+            }
+            origins.constraints.insert(g, loc);
+        }
         constraints.sort();
         constraints.dedup();
         model.constraints = constraints;
+        Ok(())
+    }
+
+    /// The SPC/SPC1 set ids in force: those the case control's `SPC = n` selects (through an
+    /// SPCADD or directly), or `None` (all of them) for a deck without case control, with a
+    /// warning when it holds several.
+    fn selected_spc_sets(&mut self) -> Result<Option<BTreeSet<u64>>, NastranError> {
+        let Some((loc, sid)) = self.case_control.first().cloned() else {
+            if self.spc_sids.len() > 1 {
+                let sids: Vec<String> = self.spc_sids.iter().map(u64::to_string).collect();
+                self.warnings.push(format!(
+                    "{}: SPC/SPC1 sets {} are merged into one constraint list (the deck has no case control `SPC = n` to choose one)",
+                    self.top_file,
+                    sids.join(", ")
+                ));
+            }
+            return Ok(None);
+        };
+        let others: BTreeSet<u64> = self.case_control.iter().map(|(_, s)| *s).collect();
+        if others.len() > 1 {
+            let list: Vec<String> = others.iter().map(u64::to_string).collect();
+            self.warnings.push(format!(
+                "{} line {}: the case control selects SPC sets {}; femu builds one model, with SPC = {sid}, the first selection",
+                loc.file,
+                loc.line,
+                list.join(", ")
+            ));
+        }
+        let members = match self.spcadds.get(&sid) {
+            Some((add, members)) => {
+                if let Some(m) = members.iter().find(|m| !self.spc_sids.contains(m)) {
+                    return Err(NastranError::Syntax {
+                        file: add.file.to_string().into(),
+                        line: add.line,
+                        problem: format!(
+                            "SPCADD {sid} lists set {m}, which no SPC or SPC1 card defines"
+                        )
+                        .into(),
+                        valid: "the set ids of SPC or SPC1 cards of the deck".into(),
+                    });
+                }
+                members.iter().copied().collect()
+            }
+            None if self.spc_sids.contains(&sid) => BTreeSet::from([sid]),
+            None => {
+                return Err(NastranError::Syntax {
+                    file: loc.file.to_string().into(),
+                    line: loc.line,
+                    problem: format!("the case control selects SPC = {sid}, which no SPC, SPC1 or SPCADD card defines").into(),
+                    valid: "the set id of an SPC, SPC1 or SPCADD card of the bulk data".into(),
+                });
+            }
+        };
+        Ok(Some(members))
+    }
+
+    /// A scalar spring's DOFs in the basic system: each component given in its grid's CD
+    /// system must lie along a basic axis, with the same sense at both ends.
+    fn spring_in_basic(
+        &self,
+        geo: &Geometry,
+        loc: &Loc,
+        dof: DofId,
+        other: Option<DofId>,
+    ) -> Result<(DofId, Option<DofId>), NastranError> {
+        let map = |d: DofId, k: usize| -> Result<(DofId, f64), NastranError> {
+            let cd = self.grids.get(&d.node).map_or(0, |grid| self.grid_cd(grid));
+            let Some(dirs) = geo.directions(cd, d.node) else {
+                return Ok((d, 1.0));
+            };
+            aligned_component(&dirs, d.comp)
+                .map(|(c, sign)| (DofId::new(d.node, c), sign))
+                .ok_or_else(|| {
+                    loc.field_err(
+                        k,
+                        "C",
+                        format!(
+                            "component {} of grid {} in its displacement system {cd} is not along a basic axis",
+                            d.comp.nastran(),
+                            d.node
+                        ),
+                        "a spring on a component parallel to a basic axis (a skewed spring couples several basic DOFs: use a CBUSH or a CD parallel to the basic axes)",
+                    )
+                })
+        };
+        let (a, sa) = map(dof, 4)?;
+        let Some(o) = other else {
+            return Ok((a, None));
+        };
+        let (b, sb) = map(o, 6)?;
+        if sa != sb {
+            return Err(loc.field_err(
+                6,
+                "C2",
+                "the two components point in opposite basic directions",
+                "components of the same sense (a scalar spring with one end reversed is not a spring between basic DOFs)",
+            ));
+        }
+        Ok((a, Some(b)))
+    }
+
+    /// An orientation vector X1–X3 is given in the displacement system of GA (QRG CBAR/CBEAM).
+    fn orient_in_basic(&self, geo: &Geometry, ga: u64, orient: Orient) -> Orient {
+        match orient {
+            Orient::Vector(v) => {
+                let cd = self.grids.get(&ga).map_or(0, |grid| self.grid_cd(grid));
+                match geo.directions(cd, ga) {
+                    Some(d) => Orient::Vector(combine(&d, v)),
+                    None => Orient::Vector(v),
+                }
+            }
+            g0 => g0,
+        }
     }
 
     /// SET1 cards (THRU over existing elements) and `$femu-set` names become named sets.
@@ -382,4 +556,85 @@ fn beam_orientation(
         }
     }
     Ok(orientation)
+}
+
+/// The basic component along which local direction `comp` (rows of `d`: the local unit vectors
+/// of components 1–3, which also carry rotations 4–6) points, with its sense; `None` when it is
+/// not along a basic axis.
+fn aligned_component(d: &[[f64; 3]; 3], comp: Component) -> Option<(Component, f64)> {
+    let n = comp.nastran() as usize;
+    let (row, rotation) = if n <= 3 {
+        (n - 1, false)
+    } else {
+        (n - 4, true)
+    };
+    let j = (0..3).find(|&j| d[row][j].abs() >= 1.0 - 1e-9)?;
+    let basic = Component::ALL[j + if rotation { 3 } else { 0 }];
+    Some((basic, d[row][j].signum()))
+}
+
+/// Constrained components given in a local displacement system, as basic components: all
+/// three translations (or rotations) stay all three; a partial set must lie along basic axes.
+/// On failure, the first local component that does not.
+fn constraint_in_basic(
+    d: &[[f64; 3]; 3],
+    comps: &BTreeSet<Component>,
+) -> Result<Vec<Component>, Component> {
+    let mut out = Vec::new();
+    for group in [&Component::ALL[..3], &Component::ALL[3..]] {
+        let given: Vec<Component> = group
+            .iter()
+            .copied()
+            .filter(|c| comps.contains(c))
+            .collect();
+        if given.len() == 3 {
+            out.extend_from_slice(group);
+            continue;
+        }
+        for c in given {
+            out.push(aligned_component(d, c).ok_or(c)?.0);
+        }
+    }
+    Ok(out)
+}
+
+/// CONM2 inertia `[I11, I21, I22, I31, I32, I33]` given along local axes `d` (rows, basic), as
+/// the same six numbers along the basic axes: `J_b = Dᵀ J D` with `J = [[I11, −I21, −I31], …]`
+/// (the QRG's sign convention for the products of inertia).
+fn rotate_inertia(d: &[[f64; 3]; 3], i: [f64; 6]) -> [f64; 6] {
+    let [i11, i21, i22, i31, i32, i33] = i;
+    let j = [[i11, -i21, -i31], [-i21, i22, -i32], [-i31, -i32, i33]];
+    let mut b = [[0.0; 3]; 3];
+    for (r, row) in b.iter_mut().enumerate() {
+        for (c, v) in row.iter_mut().enumerate() {
+            *v = (0..3)
+                .flat_map(|k| (0..3).map(move |l| (k, l)))
+                .map(|(k, l)| d[k][r] * j[k][l] * d[l][c])
+                .sum();
+        }
+    }
+    [b[0][0], -b[1][0], b[1][1], -b[2][0], -b[2][1], b[2][2]]
+}
+
+/// PARAM,WTMASS: every mass input — densities, non-structural masses, lumped masses and
+/// inertias — times `w`, so that the mass matrix is `w` times the one the deck's numbers give,
+/// as Nastran forms it.
+fn apply_wtmass(model: &mut Model, w: f64) {
+    for m in model.materials.values_mut() {
+        m.rho *= w;
+    }
+    for p in model.shell_properties.values_mut() {
+        p.nsm *= w;
+    }
+    for p in model.beam_properties.values_mut() {
+        p.nsm *= w;
+    }
+    for e in model.elements.values_mut() {
+        if let Element::Mass { mass, inertia, .. } = e {
+            *mass *= w;
+            for i in inertia.iter_mut() {
+                *i *= w;
+            }
+        }
+    }
 }

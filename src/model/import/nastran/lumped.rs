@@ -202,12 +202,19 @@ impl Builder {
                 inertia,
                 cg: x,
             },
+            cid if cid > 0 => ElemIn::MassInSystem {
+                node,
+                mass,
+                inertia,
+                offset: x,
+                cid: cid as u64,
+            },
             _ => {
                 return Err(c.err(
                     3,
                     "CID",
-                    format!("coordinate system {cid} is not supported"),
-                    "0 (offset X1-X3 in the basic system) or -1 (X1-X3 are the basic coordinates of the centre of gravity)",
+                    format!("{cid} is not a coordinate system"),
+                    "0 (basic), -1 (X1-X3 are the basic coordinates of the centre of gravity) or a coordinate system id",
                 ));
             }
         };

@@ -11,13 +11,16 @@
 //! (anything after it is ignored), the real number shorthands `1.5-3`, `7.+4`, `.5`, `1+3`,
 //! `1.E3` and `1D3`, and blank fields taking the QRG defaults.
 //!
-//! Cards read: GRID, CORD2R, CQUAD4, CTRIA3, CBAR, CBEAM, PSHELL, PBAR, PBARL (BAR, ROD, TUBE),
-//! PBEAM, MAT1, CELAS1 with PELAS, CELAS2, CBUSH with PBUSH, CONM2, SPC, SPC1, SET1. Cards that
-//! change neither stiffness, mass nor constraints ([`SKIPPED_CARDS`], PARAMs of
-//! [`SKIPPED_PARAMS`], `PARAM,WTMASS,1.0`) are skipped and counted in [`BulkImport::skipped`];
-//! every other card is an error naming file, line and card unless the user lists it in
-//! [`BulkOptions::ignore_cards`] (then it is counted in [`BulkImport::ignored`]).
-//! `PARAM,WTMASS` ≠ 1 is an error. A deck without elements is an error.
+//! Cards read: GRID with GRDSET defaults, CORD1R/C/S and CORD2R/C/S (nested, in any order),
+//! CQUAD4, CTRIA3, CBAR, CBEAM, PSHELL, PBAR, PBARL (BAR, ROD, TUBE), PBEAM, MAT1, CELAS1 with
+//! PELAS, CELAS2, CBUSH with PBUSH, CONM2, SPC, SPC1, SPCADD, SET1, and PARAM WTMASS (applied to every
+//! mass), COUPMASS, AUTOSPC, K6ROT and G (accepted with a warning saying what femu does
+//! instead). Cards that change neither stiffness, mass nor constraints ([`SKIPPED_CARDS`],
+//! PARAMs of [`SKIPPED_PARAMS`]) are skipped and counted in [`BulkImport::skipped`]. Every other
+//! card may change the model: all of them are listed, with counts and first lines, in one
+//! error, unless the user lists them in [`BulkOptions::ignore_cards`] or sets
+//! [`BulkOptions::on_unsupported`] to [`Unsupported::Warn`] (then they are counted in
+//! [`BulkImport::ignored`]). A deck without elements is an error.
 //!
 //! Files are read through [`crate::core::input`] (regular files only, bounded size, optional
 //! confinement). Messages quote at most [`EXCERPT_CHARS`] characters of a line, and nothing of a
@@ -29,12 +32,18 @@
 //! mass ≥ 0. Every element is then checked as the assembly would check it, naming its card.
 //!
 //! Deviations from Nastran, each stated where it happens:
-//! - GRID: CP must be 0 or a CORD2R id. CD ≠ 0 is ignored with a warning: PS, SPC and spring
-//!   components are taken in the basic system. SEID is ignored.
-//! - CORD2R: RID must be 0 or another CORD2R (chains are resolved; cycles are errors).
+//! - GRID: positions are placed in the basic system from any CP. Components (PS, SPC, SPC1,
+//!   CELAS) are given in the grid's CD system, as in Nastran, and mapped to basic DOFs: all three
+//!   translations (or rotations) of a grid are exact in any system; a single component must lie
+//!   along a basic axis at the grid (else an error: it is a multipoint constraint), and a scalar
+//!   spring's two ends must have the same sense. Results are reported in the basic system, not
+//!   in CD. SEID is ignored; CD −1 (fluid grid) is an error.
+//! - CORD1x/CORD2x: references (RID, the CORD1 grids, a grid's CP) are followed in dependency
+//!   order; an undefined reference or a cycle is an error at the card. On the polar axis of a
+//!   cylindrical or spherical system the undefined angle is taken as 0.
 //! - CQUAD4/CTRIA3: ZOFFS ≠ 0 is an error; THETA/MCID is ignored (isotropic material);
 //!   corner thicknesses T1–T4 are ignored with a warning (the PSHELL T is used).
-//! - CBAR/CBEAM: the orientation is X1–X3 (taken in the basic system, as CD is ignored) or G0;
+//! - CBAR/CBEAM: the orientation is X1–X3 (in the displacement system of GA) or G0;
 //!   a blank orientation (BAROR/BEAMOR defaults) is an error. Pin flags PA/PB and offsets
 //!   W1A–W3B ≠ 0 are errors; CBEAM warping points SA/SB are ignored with a warning.
 //! - PSHELL: MID1 is the material for membrane and bending. MID2 blank (no bending in Nastran)
@@ -55,10 +64,14 @@
 //! - CBUSH/PBUSH: only the K line is used (B, GE, RCV, M… ignored with a warning); the element
 //!   system (CID ≠ 0, orientation vector or G0) is ignored with a warning — stiffness acts along
 //!   the basic axes. The spring location (S, OCID, S1–S3) is ignored with a warning.
-//! - CONM2: CID 0 (offset X1–X3) or −1 (X1–X3 are the basic coordinates of the centre of
-//!   gravity); any other CID is an error.
-//! - SPC: D must be 0. SPC and SPC1 of every SID are merged into one constraint list (there is no
-//!   case control to choose one); several SIDs give a warning. THRU ranges cover the grids that
+//! - CONM2: CID 0 (offset X1–X3 in basic), −1 (X1–X3 are the basic coordinates of the centre
+//!   of gravity) or a coordinate system (offset and inertia along its directions at the grid;
+//!   the inertia is rotated with the QRG's sign convention for I21, I31, I32).
+//! - SPC: a non-zero D is taken as 0 with a warning (it does not change the modes). The case
+//!   control's `SPC = n` (the lines after CEND and before BEGIN BULK of the top file) selects
+//!   an SPC/SPC1 set or an SPCADD of them; subcases that select different sets give a warning
+//!   and the first is used. Without case control, every set is merged into one constraint list
+//!   (several SIDs give a warning). GRID PS always applies. THRU ranges cover the grids that
 //!   exist. Constraints come back sorted and without repeats.
 //! - SET1: element ids (with THRU over existing elements, optional SKIN) → set `set<SID>`, ids
 //!   sorted without repeats.
@@ -105,43 +118,47 @@ use source::*;
 const MAX_INCLUDE_DEPTH: usize = 64;
 
 /// Cards femu reads.
-pub const READ_CARDS: [&str; 20] = [
-    "GRID", "CORD2R", "CQUAD4", "CTRIA3", "CBAR", "CBEAM", "PSHELL", "PBAR", "PBARL", "PBEAM",
-    "MAT1", "CELAS1", "CELAS2", "PELAS", "CBUSH", "PBUSH", "CONM2", "SPC", "SPC1", "SET1",
+pub const READ_CARDS: [&str; 27] = [
+    "GRID", "GRDSET", "CORD1R", "CORD1C", "CORD1S", "CORD2R", "CORD2C", "CORD2S", "CQUAD4",
+    "CTRIA3", "CBAR", "CBEAM", "PSHELL", "PBAR", "PBARL", "PBEAM", "MAT1", "CELAS1", "CELAS2",
+    "PELAS", "CBUSH", "PBUSH", "CONM2", "SPC", "SPC1", "SPCADD", "SET1",
 ];
 
 /// Cards skipped (counted) because they change neither stiffness, mass nor constraints: static
 /// and dynamic loads and their tables, temperatures (femu has no temperature-dependent
-/// material, and MATT1 is refused), eigenvalue and frequency-response control, plot elements,
-/// and coordinate systems other than CORD2R (a GRID or element that uses one is an error).
-pub const SKIPPED_CARDS: [&str; 46] = [
+/// material, and MATT1 is refused), eigenvalue and frequency-response control, plot elements.
+pub const SKIPPED_CARDS: [&str; 41] = [
     "FORCE", "FORCE1", "FORCE2", "MOMENT", "MOMENT1", "MOMENT2", "LOAD", "PLOAD", "PLOAD1",
     "PLOAD2", "PLOAD4", "GRAV", "RFORCE", "ACCEL", "ACCEL1", "LSEQ", "DAREA", "DLOAD", "RLOAD1",
     "RLOAD2", "TLOAD1", "TLOAD2", "DPHASE", "DELAY", "TABLED1", "TABLED2", "TABLED3", "TABLED4",
     "TEMP", "TEMPD", "EIGRL", "EIGR", "EIGC", "EIGB", "FREQ", "FREQ1", "FREQ2", "FREQ3", "FREQ4",
-    "TSTEP", "PLOTEL", "CORD1R", "CORD1C", "CORD1S", "CORD2C", "CORD2S",
+    "TSTEP", "PLOTEL",
 ];
 
-/// PARAM names skipped (counted): output and diagnostics only. `PARAM,WTMASS,1.0` is skipped
-/// too; any other WTMASS is an error (it scales the mass matrix, which femu does not do).
-pub const SKIPPED_PARAMS: [&str; 11] = [
+/// PARAM names skipped (counted): output and diagnostics only. WTMASS is applied; COUPMASS,
+/// AUTOSPC, K6ROT and G are accepted with a warning that says what femu does instead.
+pub const SKIPPED_PARAMS: [&str; 19] = [
     "POST", "POSTEXT", "PATVER", "PRGPST", "GRDPNT", "MAXRATIO", "BAILOUT", "NOCOMPS", "OGEOM",
-    "OUGCORD", "PRTMAXIM",
+    "OUGCORD", "PRTMAXIM", "NOELOF", "NOELOP", "NOGPF", "ELSUMOUT", "SRCOMPS", "OMACHPR", "DBALL",
+    "RESVEC",
 ];
+
+/// PARAM names with a meaning femu applies or replaces (see [`SKIPPED_PARAMS`]).
+pub const READ_PARAMS: [&str; 5] = ["WTMASS", "COUPMASS", "AUTOSPC", "K6ROT", "G"];
 
 /// Nastran cards femu does not read that change the stiffness, mass, damping or constraints;
 /// an error unless listed in [`BulkOptions::ignore_cards`] (the list only decides how messages
 /// name them: any other unread card is an error too).
-const REFUSED_CARDS: [&str; 83] = [
-    "RBE1", "RBE2", "RBE3", "RBAR", "RBAR1", "RROD", "RTRPLT", "RSPLINE", "MPC", "MPCADD",
-    "SPCADD", "SPCD", "SUPORT", "SUPORT1", "ASET", "ASET1", "OMIT", "OMIT1", "QSET", "QSET1",
-    "BSET", "BSET1", "CSET", "CSET1", "SPOINT", "EPOINT", "GRDSET", "CROD", "CONROD", "CTUBE",
-    "PROD", "PTUBE", "CQUAD8", "CQUADR", "CQUAD", "CTRIA6", "CTRIAR", "CSHEAR", "PSHEAR", "CHEXA",
-    "CPENTA", "CTETRA", "CPYRAM", "PSOLID", "PCOMP", "PCOMPG", "MAT2", "MAT8", "MAT9", "MAT10",
-    "MATT1", "MATS1", "CONM1", "CMASS1", "CMASS2", "CMASS3", "CMASS4", "PMASS", "CDAMP1", "CDAMP2",
-    "CDAMP3", "CDAMP4", "CDAMP5", "PDAMP", "CVISC", "PVISC", "CELAS3", "CELAS4", "CBUSH1D",
-    "PBUSH1D", "CGAP", "PGAP", "CWELD", "PWELD", "CFAST", "PFAST", "NSM", "NSM1", "NSML", "NSML1",
-    "DMIG", "GENEL", "PBEAML",
+const REFUSED_CARDS: [&str; 81] = [
+    "RBE1", "RBE2", "RBE3", "RBAR", "RBAR1", "RROD", "RTRPLT", "RSPLINE", "MPC", "MPCADD", "SPCD",
+    "SUPORT", "SUPORT1", "ASET", "ASET1", "OMIT", "OMIT1", "QSET", "QSET1", "BSET", "BSET1",
+    "CSET", "CSET1", "SPOINT", "EPOINT", "CROD", "CONROD", "CTUBE", "PROD", "PTUBE", "CQUAD8",
+    "CQUADR", "CQUAD", "CTRIA6", "CTRIAR", "CSHEAR", "PSHEAR", "CHEXA", "CPENTA", "CTETRA",
+    "CPYRAM", "PSOLID", "PCOMP", "PCOMPG", "MAT2", "MAT8", "MAT9", "MAT10", "MATT1", "MATS1",
+    "CONM1", "CMASS1", "CMASS2", "CMASS3", "CMASS4", "PMASS", "CDAMP1", "CDAMP2", "CDAMP3",
+    "CDAMP4", "CDAMP5", "PDAMP", "CVISC", "PVISC", "CELAS3", "CELAS4", "CBUSH1D", "PBUSH1D",
+    "CGAP", "PGAP", "CWELD", "PWELD", "CFAST", "PFAST", "NSM", "NSM1", "NSML", "NSML1", "DMIG",
+    "GENEL", "PBEAML",
 ];
 
 /// Whether `name` is a card name Nastran could have written: a letter, then letters or digits,
@@ -177,6 +194,9 @@ pub struct BulkImport {
     pub ignored: BTreeMap<String, usize>,
     /// Deviations from Nastran's meaning that did not stop the import, each naming file and line.
     pub warnings: Vec<String>,
+    /// blake3 of the bytes of the deck and every file it INCLUDEs, in reading order: changes
+    /// whenever any of them does.
+    pub source_digest: String,
 }
 
 /// Why a bulk data deck could not be read.
@@ -289,6 +309,20 @@ pub enum NastranError {
         /// What would be valid.
         valid: Box<str>,
     },
+    /// Cards femu does not read that may change the stiffness, mass or constraints.
+    #[error(
+        "{file}: {count} card(s) femu does not read may change the stiffness, mass or constraints, so the deck cannot be imported as it is: {cards}; {valid}"
+    )]
+    Unsupported {
+        /// The top file.
+        file: Box<str>,
+        /// How many such cards in all.
+        count: usize,
+        /// Each card name with its count and first place.
+        cards: Box<str>,
+        /// What would be valid.
+        valid: Box<str>,
+    },
     /// The deck is complete but inconsistent (a reference to something not defined).
     #[error("{file} line {line}: {source}; {valid}")]
     Model {
@@ -319,6 +353,19 @@ pub struct BulkOptions {
     /// Card names (upper case; `PARAM,NAME` for one PARAM) the user accepts to drop although
     /// they may change the stiffness, mass or constraints.
     pub ignore_cards: BTreeSet<String>,
+    /// What to do with cards femu does not read that may change the model.
+    pub on_unsupported: Unsupported,
+}
+
+/// What an import does with cards it does not read that may change the stiffness, mass or
+/// constraints.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Unsupported {
+    /// Refuse the deck, listing every such card with its count and first line.
+    #[default]
+    Error,
+    /// Drop them, count them in [`BulkImport::ignored`], and say so in one warning.
+    Warn,
 }
 
 /// Reads a bulk data file (and the files it includes) under the process-wide input policy,
@@ -379,8 +426,10 @@ fn parse_with_policy(
     let mut loader = Loader {
         policy,
         used,
+        job_dir: dir.clone(),
         ..Loader::default()
     };
+    loader.digest_source(text.as_bytes());
     loader
         .stack
         .push(std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf()));
@@ -390,10 +439,15 @@ fn parse_with_policy(
         top_file: Rc::from(file_name),
         warnings: std::mem::take(&mut loader.warnings),
         ignore: options.ignore_cards.clone(),
+        on_unsupported: options.on_unsupported,
         ..Builder::default()
     };
     for card in &cards {
         builder.card(card)?;
     }
-    builder.finish(loader.set_names, loader.parameters)
+    builder.check_unsupported()?;
+    builder.case_control = std::mem::take(&mut loader.case_control);
+    let mut import = builder.finish(loader.set_names, loader.parameters)?;
+    import.source_digest = loader.source.finalize().to_hex().to_string();
+    Ok(import)
 }

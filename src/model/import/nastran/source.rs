@@ -67,9 +67,52 @@ pub(super) struct Loader {
     pub(super) stack: Vec<PathBuf>,
     pub(super) set_names: Vec<(Loc, u64, String)>,
     pub(super) parameters: Vec<(Loc, Parameter)>,
+    /// `SPC = n` selections of the case control, in order (global first, then by subcase).
+    pub(super) case_control: Vec<(Loc, u64)>,
+    /// The top file's folder: INCLUDEs not found beside the including file are looked up here.
+    pub(super) job_dir: PathBuf,
+    /// Hash of the bytes of every file read, in reading order.
+    pub(super) source: blake3::Hasher,
+}
+
+/// The `SPC = n` selections of the case control section (the lines before `BEGIN BULK`, after
+/// `CEND` when present), each with its line.
+pub(super) fn case_control_spcs(lines: &[&str], file: &Rc<str>) -> Vec<(Loc, u64)> {
+    let start = lines
+        .iter()
+        .position(|l| starts_with_ci(strip_comment(l).trim(), "CEND"))
+        .map_or(0, |p| p + 1);
+    let mut out = Vec::new();
+    for (i, raw) in lines.iter().enumerate().skip(start) {
+        let text = strip_comment(raw).trim();
+        let Some((key, value)) = text.split_once('=') else {
+            continue;
+        };
+        if !key.trim().eq_ignore_ascii_case("SPC") {
+            continue;
+        }
+        if let Some(sid) = parse_int(value.trim()).filter(|v| *v > 0) {
+            out.push((
+                Loc {
+                    file: file.clone(),
+                    line: i + 1,
+                    card: Rc::from("SPC ="),
+                },
+                sid as u64,
+            ));
+        }
+    }
+    out
 }
 
 impl Loader {
+    /// Adds one file's bytes to the source digest (length-prefixed, so that the split between
+    /// files counts too).
+    pub(super) fn digest_source(&mut self, bytes: &[u8]) {
+        self.source.update(&(bytes.len() as u64).to_le_bytes());
+        self.source.update(bytes);
+    }
+
     /// Reads one file's lines (recursing into INCLUDEs); returns true once ENDDATA is seen.
     pub(super) fn load(
         &mut self,
@@ -82,6 +125,7 @@ impl Loader {
         let mut i = 0;
         if top {
             if let Some(begin) = raw.iter().position(|l| is_begin_bulk(l)) {
+                self.case_control = case_control_spcs(&raw[..begin], &file);
                 i = begin + 1;
             }
         }
@@ -207,10 +251,18 @@ impl Loader {
             problem: problem.into(),
             valid: valid.into(),
         };
+        // Relative to the including file, as Nastran does; failing that, to the job's folder
+        // (the top file's), where Nastran runs and so also looks.
         let target = if Path::new(name).is_absolute() {
             PathBuf::from(name)
         } else {
-            dir.join(name)
+            let beside = dir.join(name);
+            let in_job = self.job_dir.join(name);
+            if !beside.exists() && in_job.exists() {
+                in_job
+            } else {
+                beside
+            }
         };
         let budget = self.policy.max_bytes.saturating_sub(self.used);
         let bytes = read_input_with(&target, &self.policy, budget).map_err(|e| {
@@ -223,6 +275,7 @@ impl Loader {
             err(format!("of `{}` failed: {e}", q(name)), valid)
         })?;
         self.used += bytes.len() as u64;
+        self.digest_source(&bytes);
         let canonical = std::fs::canonicalize(&target).unwrap_or_else(|_| target.clone());
         if self.stack.contains(&canonical) {
             let chain: Vec<String> = self
