@@ -40,7 +40,7 @@ fn plate() -> femu::model::structure::Model {
 /// A sparse matrix as its pattern and the bits of its values.
 type SparseBits = (Vec<usize>, Vec<usize>, Vec<u64>);
 
-fn sparse_bits(a: &femu::fe::system::SparseMatrix) -> SparseBits {
+fn sparse_bits(a: &femu::core::sparse::SparseMatrix) -> SparseBits {
     let s = a.symbolic();
     (s.col_ptr().to_vec(), s.row_idx().to_vec(), bits(a.val()))
 }
