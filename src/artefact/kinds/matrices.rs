@@ -13,8 +13,8 @@ use super::{
 };
 use crate::artefact::{Artefact, ArtefactError, ArtefactKind, Column, Storage, Table};
 use crate::core::DofId;
-use crate::fe::SystemMatrices;
 use crate::core::sparse::{SparseMatrix, sparse_from_triplets};
+use crate::fe::SystemMatrices;
 
 /// The `matrices` kind.
 pub struct MatricesKind;

@@ -609,8 +609,9 @@ fn field_errors_name_file_line_card_and_field() {
         "{e}"
     );
     let e = error(&format!("{BASE}CONM2,9,1,2,1.\n"));
+    assert!(e.contains("line 7: CONM2 field 4 (CID)"), "{e}");
     assert!(
-        e.contains("CONM2 field 4 (CID): coordinate system 2 is not supported"),
+        e.contains("CONM2 field 4 (CID): coordinate system 2 is not defined in the deck"),
         "{e}"
     );
 }
