@@ -395,11 +395,7 @@ fn indexed_derivative(
     index: &DofIndex,
     mass: MassKind,
 ) -> Result<(SparseMatrix, SparseMatrix), ModelAssemblyError> {
-    use super::beam::{BeamParameter, beam2_derivative};
-    use super::lumped_elements::{MassParameter, conm2_derivative, spring6_derivative};
-    use super::shell::{ShellParameter, quad4_derivative, tria3_derivative};
     use crate::core::Component;
-    use crate::model::ParameterKind as P;
     let (mut kt, mut mt) = (Vec::new(), Vec::new());
     for id in ids {
         let Some(e) = model.elements.get(id) else {
@@ -408,118 +404,7 @@ fn indexed_derivative(
                 element: *id,
             }));
         };
-        let not_applicable = || ModelAssemblyError::NotApplicable {
-            parameter: parameter.name.clone(),
-            what: format!("{:?}", parameter.kind),
-            element: *id,
-            kind: e.type_name(),
-        };
-        let xyz = |n: &u64| model.nodes[n];
-        let err = |source| ModelAssemblyError::Element {
-            element: *id,
-            kind: e.type_name(),
-            source,
-        };
-        let shell = |kind: &P| match kind {
-            P::ShellThickness => Some(ShellParameter::Thickness),
-            P::YoungsModulus => Some(ShellParameter::YoungsModulus),
-            P::Density => Some(ShellParameter::Density),
-            _ => None,
-        };
-        let d = match e {
-            Element::Quad4 { nodes, property } => {
-                let p = shell(&parameter.kind).ok_or_else(not_applicable)?;
-                quad4_derivative(
-                    &nodes.each_ref().map(xyz),
-                    &shell_section(model, *property),
-                    mass,
-                    p,
-                )
-                .map_err(err)?
-            }
-            Element::Tria3 { nodes, property } => {
-                let p = shell(&parameter.kind).ok_or_else(not_applicable)?;
-                tria3_derivative(
-                    &nodes.each_ref().map(xyz),
-                    &shell_section(model, *property),
-                    mass,
-                    p,
-                )
-                .map_err(err)?
-            }
-            Element::Beam {
-                nodes,
-                property,
-                orientation,
-            } => {
-                let bp = &model.beam_properties[property];
-                let mat = &model.materials[&bp.material];
-                let section = kernel_section(&bp.section);
-                let p = match (&parameter.kind, &section) {
-                    (P::YoungsModulus, _) => BeamParameter::YoungsModulus,
-                    (P::Density, _) => BeamParameter::Density,
-                    (P::BeamWidth | P::BeamHeight, Section::Square { .. }) => BeamParameter::Side,
-                    (P::BeamWidth, _) => BeamParameter::Width,
-                    (P::BeamHeight, _) => BeamParameter::Height,
-                    _ => return Err(not_applicable()),
-                };
-                let d = BeamData {
-                    e: mat.e,
-                    nu: mat.nu,
-                    rho: mat.rho,
-                    nsm: bp.nsm,
-                    section,
-                };
-                beam2_derivative(xyz(&nodes[0]), xyz(&nodes[1]), *orientation, &d, mass, p)
-                    .map_err(err)?
-            }
-            Element::Bush { other, k, .. } => {
-                let P::SpringStiffness(c) = parameter.kind else {
-                    return Err(not_applicable());
-                };
-                spring6_derivative(
-                    k,
-                    if other.is_some() {
-                        SpringEnds::TwoNodes
-                    } else {
-                        SpringEnds::Ground
-                    },
-                    c,
-                )
-                .map_err(err)?
-            }
-            Element::ScalarSpring { dof, other, .. } => {
-                let P::SpringStiffness(_) = parameter.kind else {
-                    return Err(not_applicable());
-                };
-                // K is linear in k: the derivative is the unit spring, expanded like the stiffness.
-                let unit = Element::ScalarSpring {
-                    dof: *dof,
-                    other: *other,
-                    k: 1.0,
-                };
-                let m = element_matrices(model, &unit, mass).map_err(err)?;
-                super::element::ElementDerivative { dk: m.k, dm: m.m }
-            }
-            Element::Mass {
-                mass: m,
-                inertia,
-                offset,
-                ..
-            } => {
-                let P::LumpedMass(c) = parameter.kind else {
-                    return Err(not_applicable());
-                };
-                let p = match c {
-                    Component::Ux | Component::Uy | Component::Uz => MassParameter::Mass,
-                    Component::Rx => MassParameter::Ixx,
-                    Component::Ry => MassParameter::Iyy,
-                    Component::Rz => MassParameter::Izz,
-                };
-                conm2_derivative(&LumpedMass::from_nastran(*m, *offset, *inertia), p)
-                    .map_err(err)?
-            }
-        };
+        let d = element_derivative(model, parameter, *id, e, mass)?;
         let nodes = block_nodes(e);
         let map: Vec<Option<usize>> = nodes
             .iter()
@@ -554,6 +439,133 @@ fn indexed_derivative(
         })
     };
     Ok((build("dK", &kt)?, build("dM", &mt)?))
+}
+
+/// The derivative of element `id`'s stiffness and mass with respect to `parameter`, in the
+/// element's own DOF order; an error when the parameter does not apply to the element.
+fn element_derivative(
+    model: &Model,
+    parameter: &crate::model::Parameter,
+    id: u64,
+    e: &Element,
+    mass: MassKind,
+) -> Result<super::element::ElementDerivative, ModelAssemblyError> {
+    use super::beam::{BeamParameter, beam2_derivative};
+    use super::lumped_elements::{MassParameter, conm2_derivative, spring6_derivative};
+    use super::shell::{ShellParameter, quad4_derivative, tria3_derivative};
+    use crate::core::Component;
+    use crate::model::ParameterKind as P;
+    let not_applicable = || ModelAssemblyError::NotApplicable {
+        parameter: parameter.name.clone(),
+        what: format!("{:?}", parameter.kind),
+        element: id,
+        kind: e.type_name(),
+    };
+    let xyz = |n: &u64| model.nodes[n];
+    let err = |source| ModelAssemblyError::Element {
+        element: id,
+        kind: e.type_name(),
+        source,
+    };
+    let shell = |kind: &P| match kind {
+        P::ShellThickness => Some(ShellParameter::Thickness),
+        P::YoungsModulus => Some(ShellParameter::YoungsModulus),
+        P::Density => Some(ShellParameter::Density),
+        _ => None,
+    };
+    Ok(match e {
+        Element::Quad4 { nodes, property } => {
+            let p = shell(&parameter.kind).ok_or_else(not_applicable)?;
+            quad4_derivative(
+                &nodes.each_ref().map(xyz),
+                &shell_section(model, *property),
+                mass,
+                p,
+            )
+            .map_err(err)?
+        }
+        Element::Tria3 { nodes, property } => {
+            let p = shell(&parameter.kind).ok_or_else(not_applicable)?;
+            tria3_derivative(
+                &nodes.each_ref().map(xyz),
+                &shell_section(model, *property),
+                mass,
+                p,
+            )
+            .map_err(err)?
+        }
+        Element::Beam {
+            nodes,
+            property,
+            orientation,
+        } => {
+            let bp = &model.beam_properties[property];
+            let mat = &model.materials[&bp.material];
+            let section = kernel_section(&bp.section);
+            let p = match (&parameter.kind, &section) {
+                (P::YoungsModulus, _) => BeamParameter::YoungsModulus,
+                (P::Density, _) => BeamParameter::Density,
+                (P::BeamWidth | P::BeamHeight, Section::Square { .. }) => BeamParameter::Side,
+                (P::BeamWidth, _) => BeamParameter::Width,
+                (P::BeamHeight, _) => BeamParameter::Height,
+                _ => return Err(not_applicable()),
+            };
+            let d = BeamData {
+                e: mat.e,
+                nu: mat.nu,
+                rho: mat.rho,
+                nsm: bp.nsm,
+                section,
+            };
+            beam2_derivative(xyz(&nodes[0]), xyz(&nodes[1]), *orientation, &d, mass, p)
+                .map_err(err)?
+        }
+        Element::Bush { other, k, .. } => {
+            let P::SpringStiffness(c) = parameter.kind else {
+                return Err(not_applicable());
+            };
+            spring6_derivative(
+                k,
+                if other.is_some() {
+                    SpringEnds::TwoNodes
+                } else {
+                    SpringEnds::Ground
+                },
+                c,
+            )
+            .map_err(err)?
+        }
+        Element::ScalarSpring { dof, other, .. } => {
+            let P::SpringStiffness(_) = parameter.kind else {
+                return Err(not_applicable());
+            };
+            // K is linear in k: the derivative is the unit spring, expanded like the stiffness.
+            let unit = Element::ScalarSpring {
+                dof: *dof,
+                other: *other,
+                k: 1.0,
+            };
+            let m = element_matrices(model, &unit, mass).map_err(err)?;
+            super::element::ElementDerivative { dk: m.k, dm: m.m }
+        }
+        Element::Mass {
+            mass: m,
+            inertia,
+            offset,
+            ..
+        } => {
+            let P::LumpedMass(c) = parameter.kind else {
+                return Err(not_applicable());
+            };
+            let p = match c {
+                Component::Ux | Component::Uy | Component::Uz => MassParameter::Mass,
+                Component::Rx => MassParameter::Ixx,
+                Component::Ry => MassParameter::Iyy,
+                Component::Rz => MassParameter::Izz,
+            };
+            conm2_derivative(&LumpedMass::from_nastran(*m, *offset, *inertia), p).map_err(err)?
+        }
+    })
 }
 
 #[cfg(test)]
