@@ -9,5 +9,10 @@ fn main() -> std::process::ExitCode {
         libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
     femu::core::memory::keep_freed_memory();
+    // faer's dense kernels called without an explicit `Par` (reduced-model solves and
+    // eigenproblems, `*` products) use this global setting; parallel, their last bits depend
+    // on the thread count (tests/threads.rs). Sequential, results are the same on every
+    // machine; the large kernels (sparse factorisation, Lanczos) pass their own `Par`.
+    faer::set_global_parallelism(faer::Par::Seq);
     femu::cli::main()
 }
