@@ -236,18 +236,6 @@ pub(super) struct Geometry {
     pub(super) positions: BTreeMap<u64, [f64; 3]>,
 }
 
-impl Geometry {
-    /// The displacement directions of grid `g` (rows: components 1–3 in basic), or `None`
-    /// when its CD system is the basic one.
-    pub(super) fn directions(&self, cd: u64, g: u64) -> Option<[[f64; 3]; 3]> {
-        if cd == 0 {
-            return None;
-        }
-        let (frame, x) = (self.frames.get(&cd)?, self.positions.get(&g)?);
-        Some(frame.directions_at(*x))
-    }
-}
-
 /// Something whose basic position or frame is needed.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 enum Need {
@@ -417,6 +405,21 @@ impl Builder {
     pub(super) fn grid_cd(&self, g: &GridIn) -> u64 {
         g.cd.or_else(|| self.grdset.as_ref().and_then(|d| d.cd))
             .unwrap_or(0)
+    }
+
+    /// Grid `g`'s CD (GRDSET default applied) and, unless it is the basic system, the unit
+    /// vectors of its displacement components 1–3 (rows, in basic) at the grid.
+    pub(super) fn grid_directions(&self, geo: &Geometry, g: u64) -> (u64, Option<[[f64; 3]; 3]>) {
+        let cd = self.grids.get(&g).map_or(0, |grid| self.grid_cd(grid));
+        if cd == 0 {
+            return (0, None);
+        }
+        let dirs = geo
+            .frames
+            .get(&cd)
+            .zip(geo.positions.get(&g))
+            .map(|(frame, x)| frame.directions_at(*x));
+        (cd, dirs)
     }
 
     /// The PS of a grid with the GRDSET default applied.

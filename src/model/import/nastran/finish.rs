@@ -227,8 +227,8 @@ impl Builder {
         }
         let mut constraints = Vec::new();
         for (g, (loc, comps)) in by_grid {
-            let cd = self.grids.get(&g).map_or(0, |grid| self.grid_cd(grid));
-            match geo.directions(cd, g) {
+            let (cd, dirs) = self.grid_directions(geo, g);
+            match dirs {
                 None => constraints.extend(comps.iter().map(|&c| DofId::new(g, c))),
                 Some(d) => {
                     let basic = constraint_in_basic(&d, &comps).map_err(|local| {
@@ -317,8 +317,8 @@ impl Builder {
         other: Option<DofId>,
     ) -> Result<(DofId, Option<DofId>), NastranError> {
         let map = |d: DofId, k: usize| -> Result<(DofId, f64), NastranError> {
-            let cd = self.grids.get(&d.node).map_or(0, |grid| self.grid_cd(grid));
-            let Some(dirs) = geo.directions(cd, d.node) else {
+            let (cd, dirs) = self.grid_directions(geo, d.node);
+            let Some(dirs) = dirs else {
                 return Ok((d, 1.0));
             };
             aligned_component(&dirs, d.comp)
@@ -355,13 +355,10 @@ impl Builder {
     /// An orientation vector X1–X3 is given in the displacement system of GA (QRG CBAR/CBEAM).
     fn orient_in_basic(&self, geo: &Geometry, ga: u64, orient: Orient) -> Orient {
         match orient {
-            Orient::Vector(v) => {
-                let cd = self.grids.get(&ga).map_or(0, |grid| self.grid_cd(grid));
-                match geo.directions(cd, ga) {
-                    Some(d) => Orient::Vector(combine(&d, v)),
-                    None => Orient::Vector(v),
-                }
-            }
+            Orient::Vector(v) => match self.grid_directions(geo, ga).1 {
+                Some(d) => Orient::Vector(combine(&d, v)),
+                None => Orient::Vector(v),
+            },
             g0 => g0,
         }
     }
