@@ -78,6 +78,8 @@ pub enum ArtefactKind {
     Leverage,
     /// Eigenvalue sensitivities (5.3) of candidate parameters for chosen modes.
     EigenvalueSensitivity,
+    /// A Nastran bulk data deck (its files) with the record of what was changed.
+    NastranDeck,
 }
 
 impl ArtefactKind {

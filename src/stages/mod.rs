@@ -8,6 +8,7 @@ pub mod frf_import;
 pub mod frf_synthesise;
 pub mod localise_eigensensitivity;
 pub mod localise_leverage;
+pub mod mesh_export;
 pub mod mesh_generate;
 pub mod mesh_import;
 pub mod mesh_parameters;
@@ -37,6 +38,7 @@ static CORRELATE_FRF: Typed<correlate_frf::CorrelateFrf> = Typed::new();
 static CORRELATE_MODES: Typed<correlate_modes::CorrelateModes> = Typed::new();
 static MESH_GENERATE: Typed<mesh_generate::MeshGenerate> = Typed::new();
 static MESH_PARAMETERS: Typed<mesh_parameters::MeshParameters> = Typed::new();
+static MESH_EXPORT: Typed<mesh_export::MeshExport> = Typed::new();
 static PLOT_FRF: Typed<plot_frf::PlotFrf> = Typed::new();
 static PLOT_CONVERGENCE: Typed<plot_convergence::PlotConvergence> = Typed::new();
 static UPDATE: Typed<update::Update> = Typed::new();
@@ -53,6 +55,7 @@ pub fn registry() -> Registry {
         &MESH_GENERATE,
         &MESH_IMPORT,
         &MESH_PARAMETERS,
+        &MESH_EXPORT,
         &MODEL_LUMPED,
         &ASSEMBLE,
         &MODES,

@@ -24,6 +24,7 @@
 //! | `modal_correlation` | [`modal_correlation`] |
 //! | `leverage` | [`leverage`] |
 //! | `eigenvalue_sensitivity` | [`eigenvalue_sensitivity`] |
+//! | `nastran_deck` | [`nastran_deck`] |
 
 use super::{Artefact, ArtefactError, ArtefactKind, Column, Storage, Table};
 use crate::core::DofId;
@@ -38,6 +39,7 @@ pub mod matrices;
 pub mod mesh;
 pub mod modal_correlation;
 pub mod modes;
+pub mod nastran_deck;
 pub mod partition;
 pub mod plot;
 pub mod reduced_component;
@@ -137,6 +139,7 @@ registry! {
     ModalCorrelation => modal_correlation::ModalCorrelationKind,
     Leverage => leverage::LeverageKind,
     EigenvalueSensitivity => eigenvalue_sensitivity::EigenvalueSensitivityKind,
+    NastranDeck => nastran_deck::NastranDeckKind,
 }
 
 // ---------------------------------------------------------------------------------------------

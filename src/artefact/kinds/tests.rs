@@ -449,6 +449,32 @@ impl Example for eigenvalue_sensitivity::EigenvalueSensitivityKind {
     }
 }
 
+impl Example for nastran_deck::NastranDeckKind {
+    fn examples() -> Vec<nastran_deck::NastranDeck> {
+        vec![nastran_deck::NastranDeck {
+            files: vec![
+                (
+                    "wing.bdf".into(),
+                    b"BEGIN BULK\r\nINCLUDE 'props.bdf'\r\nENDDATA\r\n".to_vec(),
+                ),
+                (
+                    "props.bdf".into(),
+                    b"PSHELL*  1               1               .002\n".to_vec(),
+                ),
+            ],
+            changes: vec![crate::model::export::deck_update::DeckChange {
+                file: "in/props.bdf".into(),
+                line: 1,
+                card: "PSHELL 1".into(),
+                field: "T".into(),
+                old: ".0025".into(),
+                new: ".002".into(),
+            }],
+            source: "update_result 0123".into(),
+        }]
+    }
+}
+
 /// Beyond the digest: a reduced model reads back with its method, coordinates, `K`, interface
 /// modes, couplings (positional ones stay positional, as the lean interface route makes them)
 /// and transformations; a component with everything but its timing. (Moved from the reduction

@@ -73,6 +73,13 @@ pub(super) struct Loader {
     pub(super) job_dir: PathBuf,
     /// Hash of the bytes of every file read, in reading order.
     pub(super) source: blake3::Hasher,
+    /// Keep every file's bytes and INCLUDE statements ([`super::deck::read_deck`]).
+    pub(super) keep: bool,
+    /// Each INCLUDEd file's name (as in messages) and bytes, in reading order, when `keep`.
+    pub(super) files: Vec<(Rc<str>, Vec<u8>)>,
+    /// Each INCLUDE statement when `keep`: the including file, its first and last line, and
+    /// the included file's name.
+    pub(super) includes: Vec<(Rc<str>, usize, usize, Rc<str>)>,
 }
 
 /// The `SPC = n` selections of the case control section (the lines before `BEGIN BULK`, after
@@ -156,7 +163,7 @@ impl Loader {
                     .is_none_or(|c| c.is_whitespace() || c == '\'' || c == '"')
             {
                 let name = include_name(&raw, &mut i, &file)?;
-                if self.include(&name, &file, line_no, dir)? {
+                if self.include(&name, &file, (line_no, i + 1), dir)? {
                     return Ok(true);
                 }
                 i += 1;
@@ -242,7 +249,7 @@ impl Loader {
         &mut self,
         name: &str,
         file: &Rc<str>,
-        line: usize,
+        (line, last_line): (usize, usize),
         dir: &Path,
     ) -> Result<bool, NastranError> {
         let err = |problem: String, valid: &str| NastranError::Include {
@@ -305,12 +312,13 @@ impl Loader {
         let sub_dir = target.parent().map(Path::to_path_buf).unwrap_or_default();
         self.stack.push(canonical);
         let text = String::from_utf8_lossy(&bytes).into_owned();
-        let stop = self.load(
-            &text,
-            Rc::from(target.display().to_string()),
-            &sub_dir,
-            false,
-        )?;
+        let name: Rc<str> = Rc::from(target.display().to_string());
+        if self.keep {
+            self.includes
+                .push((file.clone(), line, last_line, name.clone()));
+            self.files.push((name.clone(), bytes));
+        }
+        let stop = self.load(&text, name, &sub_dir, false)?;
         self.stack.pop();
         Ok(stop)
     }
