@@ -440,3 +440,60 @@ fn a_material_femu_cannot_use_fails_the_check_at_its_card() {
         "{err}"
     );
 }
+
+/// `mesh.export` writes a parameter change back into the user's deck: the PSHELL thickness and
+/// the PBARL BAR height change, nothing else does, and the deck read back is the updated model.
+#[test]
+fn updated_values_go_back_into_the_users_deck() {
+    let dir = tempfile::tempdir().unwrap();
+    let deck = root().join("fixtures/nastran/plate_with_bar.bdf");
+    std::fs::copy(&deck, dir.path().join("plate.bdf")).unwrap();
+    let text = "name: export\nstages:\n  mesh:\n    kind: mesh.import\n    with: {path: plate.bdf}\n  updated:\n    kind: mesh.parameters\n    inputs: {mesh: mesh}\n    with:\n      declare:\n        - {name: t, kind: shell_thickness, set: pid1}\n        - {name: h, kind: beam_height, set: pid2}\n      values: {t: 0.0022, h: 0.025}\n  deck:\n    kind: mesh.export\n    inputs: {mesh: updated}\n    with: {path: plate.bdf}\n";
+    let file = dir.path().join("p.yaml");
+    std::fs::write(&file, text).unwrap();
+    let (_, report, cache) = run(&file, &dir.path().join("cache"), &[]);
+    let key = |name: &str| &report.stages.iter().find(|s| s.name == name).unwrap().key;
+    let a = cache
+        .read(
+            key("deck"),
+            "deck",
+            femu::artefact::ArtefactKind::NastranDeck,
+        )
+        .unwrap();
+    use femu::artefact::kinds::Kind;
+    let written = femu::artefact::kinds::nastran_deck::NastranDeckKind::from_artefact(&a).unwrap();
+    let changed: Vec<String> = written
+        .changes
+        .iter()
+        .map(|c| format!("{} {} {} -> {}", c.card, c.field, c.old, c.new))
+        .collect();
+    assert_eq!(
+        changed,
+        ["PSHELL 1 T 2.-3 -> .0022", "PBARL 2 DIM2 .02 -> .025"],
+        "{changed:?}"
+    );
+    let out = dir.path().join("out");
+    std::fs::create_dir(&out).unwrap();
+    for (name, bytes) in &written.files {
+        std::fs::write(out.join(name), bytes).unwrap();
+    }
+    let back = femu::model::import::nastran::read_bulk(out.join("plate.bdf"))
+        .unwrap()
+        .model;
+    let mesh = cache
+        .read(key("updated"), "mesh", femu::artefact::ArtefactKind::Mesh)
+        .unwrap();
+    let updated = femu::artefact::mesh::mesh_from_artefact(&mesh).unwrap();
+    assert_eq!(back.shell_properties, updated.shell_properties);
+    assert_eq!(back.beam_properties, updated.beam_properties);
+    assert_eq!(back.materials, updated.materials);
+    assert_eq!(back.elements, updated.elements);
+    // Every line of the original outside the two cards is in the written deck as it was.
+    let original = std::fs::read_to_string(dir.path().join("plate.bdf")).unwrap();
+    let new = String::from_utf8(written.files[0].1.clone()).unwrap();
+    let kept = original
+        .lines()
+        .filter(|l| !(l.starts_with("PSHELL") || l.starts_with("PBARL") || l.starts_with("+PB2")))
+        .all(|l| new.lines().any(|n| n == l));
+    assert!(kept, "{new}");
+}

@@ -374,6 +374,7 @@ pub(super) fn assemble(
     let mut last_cont = String::new();
     let mut beyond: BTreeMap<Rc<str>, (usize, usize)> = BTreeMap::new();
     let mut nastran_like: BTreeSet<Rc<str>> = BTreeSet::new();
+    let mut replication = super::replicate::Replication::default();
     for l in lines {
         let like = nastran_like.contains(&l.file);
         let syntax = |problem: String, valid: &str| NastranError::Syntax {
@@ -446,10 +447,15 @@ pub(super) fn assemble(
             last_cont = split.cont.clone();
             card.push(split, l.line);
         } else if first_char == '=' {
-            return Err(syntax(
-                "replication (`=`, `==`) is not supported".to_string(),
-                "write each card in full",
-            ));
+            let Some(prev) = cards.last() else {
+                return Err(syntax(
+                    "a replication line comes before any card".to_string(),
+                    "`=` repeats the entry just before it",
+                ));
+            };
+            let made = replication.apply(l, prev)?;
+            last_cont.clear();
+            cards.extend(made);
         } else if like {
             return Err(syntax(
                 format!("`{}` starts neither a card nor a continuation", q(&l.text)),

@@ -77,8 +77,10 @@
 //!   sorted without repeats.
 //! - Integers are accepted where a real is expected (Nastran wants a decimal point), except where
 //!   the type decides the meaning (CBAR/CBEAM/CBUSH X1 against G0).
-//! - Unsorted decks (continuations away from their parent) and replication (`=`) are not
-//!   supported; a free-field line may hold at most ten fields.
+//! - Replication (`=`, `==`, `*x`, `=n`) of single-line entries is read
+//!   ([`replicate`](self::replicate)); an entry with continuations cannot be replicated.
+//! - Unsorted decks (continuations away from their parent) are not supported; a free-field
+//!   line may hold at most ten fields.
 //! - femu extensions written by the exporter and read back: `$femu-set <sid> <name>` names the
 //!   SET1 `<sid>` (or an empty set), `$femu-parameter <json>` holds an updating parameter.
 //!
@@ -104,9 +106,12 @@ mod finish;
 mod lumped;
 mod numbers;
 mod properties;
+mod replicate;
 mod source;
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod tests_replicate;
 
 use builder::*;
 use card::*;
