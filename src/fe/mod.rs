@@ -5,6 +5,7 @@ pub mod beam;
 pub mod element;
 pub mod lumped;
 pub mod lumped_elements;
+pub mod mass_properties;
 pub mod model_assembly;
 pub mod shell;
 pub mod system;

@@ -15,6 +15,8 @@
 use crate::artefact::Artefact;
 use crate::artefact::ArtefactKind;
 use crate::artefact::mesh::mesh_to_artefact;
+use crate::fe::element::MassKind;
+use crate::fe::mass_properties::mass_properties;
 use crate::model::Model;
 use crate::model::import::nastran::{BulkOptions, READ_CARDS, Unsupported, read_bulk_with};
 use crate::pipeline::{
@@ -80,6 +82,7 @@ struct Imported {
     ignored: BTreeMap<String, usize>,
     warnings: Vec<String>,
     source_digest: String,
+    grdpnt: Option<[f64; 3]>,
 }
 
 /// The options from `ignore_cards`: names upper-cased, each a card name or `PARAM,NAME`, and
@@ -129,6 +132,7 @@ fn import(base: &Path, p: &Params) -> Result<Imported, String> {
         ignored: b.ignored,
         warnings: b.warnings,
         source_digest: b.source_digest,
+        grdpnt: b.grdpnt,
     })
 }
 
@@ -165,11 +169,24 @@ fn artefact(p: &Params, i: &Imported) -> (Artefact, String) {
         serde_json::to_value(&p.ignore_cards).unwrap_or_default(),
     );
     a.meta.insert("import_warnings".into(), warnings.into());
+    if let Some(reference) = i.grdpnt {
+        a.meta
+            .insert("weight_summary".into(), weight_summary(&i.model, reference));
+    }
     let mut h = blake3::Hasher::new();
     h.update(a.digest().as_bytes());
     h.update(i.source_digest.as_bytes());
     let digest = h.finalize().to_hex().to_string();
     (a, digest)
+}
+
+/// The rigid-body mass summary PARAM,GRDPNT asks for (lumped mass, Nastran's default), or
+/// why it could not be formed.
+fn weight_summary(model: &Model, reference: [f64; 3]) -> serde_json::Value {
+    match mass_properties(model, MassKind::Lumped, reference) {
+        Ok(p) => serde_json::to_value(p).unwrap_or_default(),
+        Err(e) => serde_json::json!({ "error": e.to_string() }),
+    }
 }
 
 /// `NAME ×count` list for the console.
@@ -240,6 +257,16 @@ impl TypedStage for MeshImport {
                 "mesh.import {}: cards dropped as `ignore_cards` or `on_unsupported` asks (the model lacks what they define): {}",
                 p.path,
                 counts(&i.ignored)
+            );
+        }
+        if let Some(summary) = a.meta.get("weight_summary") {
+            let get = |k: &str| summary.get(k).map(|v| v.to_string()).unwrap_or_default();
+            tracing::info!(
+                "mesh.import {}: weight summary (PARAM,GRDPNT): mass {} kg by direction, centre of gravity {} m, inertia about it {} kg*m^2",
+                p.path,
+                get("mass"),
+                get("centre_of_gravity"),
+                get("inertia")
             );
         }
         if let Some(serde_json::Value::Array(notes)) = a.meta.get("import_warnings") {

@@ -78,6 +78,10 @@ impl Kind for MeshKind {
                 meta_opt("ignored_cards", "deck cards left out on request"),
                 meta_opt("ignore_cards", "the cards requested to be left out"),
                 meta_opt("import_warnings", "what mesh.import warned about"),
+                meta_opt(
+                    "weight_summary",
+                    "rigid-body mass, centre of gravity and inertia (PARAM,GRDPNT)",
+                ),
             ],
             blobs: vec![],
         }

@@ -60,6 +60,8 @@ pub(super) struct Builder {
     pub(super) grdset: Option<GridDefaults>,
     /// PARAM,WTMASS: where, and the factor applied to every mass.
     pub(super) wtmass: Option<(Loc, f64)>,
+    /// PARAM,GRDPNT: where, and the reference grid (0: the basic origin).
+    pub(super) grdpnt: Option<(Loc, u64)>,
     /// Cards femu does not read that may change the model: count and first place, by name.
     pub(super) unsupported: BTreeMap<String, (usize, Loc)>,
     /// What to do with them.
@@ -238,6 +240,12 @@ impl Builder {
                     ));
                 }
                 self.wtmass = Some((c.loc.clone(), w));
+            }
+            "GRDPNT" => {
+                let v = c.int(2, "V1")?.unwrap_or(-1);
+                if v >= 0 {
+                    self.grdpnt = Some((c.loc.clone(), v as u64));
+                }
             }
             "COUPMASS" => {
                 let v = c.int(2, "V1")?.unwrap_or(-1);

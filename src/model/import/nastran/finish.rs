@@ -65,7 +65,20 @@ impl Builder {
         for (k, n) in &self.ignored {
             *unknown.entry(k.clone()).or_insert(0) += n;
         }
+        let grdpnt = match &self.grdpnt {
+            None => None,
+            Some((_, 0)) => Some([0.0; 3]),
+            Some((loc, g)) => Some(*model.nodes.get(g).ok_or_else(|| {
+                loc.field_err(
+                    2,
+                    "V1",
+                    format!("grid {g} is not defined"),
+                    "the reference grid of the weight summary: a GRID id, 0 for the basic origin, or -1 for none",
+                )
+            })?),
+        };
         Ok(BulkImport {
+            grdpnt,
             model,
             unknown,
             skipped: self.skipped,

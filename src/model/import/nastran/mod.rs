@@ -13,7 +13,8 @@
 //!
 //! Cards read: GRID with GRDSET defaults, CORD1R/C/S and CORD2R/C/S (nested, in any order),
 //! CQUAD4, CTRIA3, CBAR, CBEAM, PSHELL, PBAR, PBARL (BAR, ROD, TUBE), PBEAM, MAT1, CELAS1 with
-//! PELAS, CELAS2, CBUSH with PBUSH, CONM2, SPC, SPC1, SPCADD, SET1, and PARAM WTMASS (applied to every
+//! PELAS, CELAS2, CBUSH with PBUSH, CONM2, SPC, SPC1, SPCADD, SET1, PARAM GRDPNT (its reference
+//! point, for the weight summary mesh.import prints), and PARAM WTMASS (applied to every
 //! mass), COUPMASS, AUTOSPC, K6ROT and G (accepted with a warning saying what femu does
 //! instead). Cards that change neither stiffness, mass nor constraints ([`SKIPPED_CARDS`],
 //! PARAMs of [`SKIPPED_PARAMS`]) are skipped and counted in [`BulkImport::skipped`]. Every other
@@ -144,14 +145,13 @@ pub const SKIPPED_CARDS: [&str; 41] = [
 
 /// PARAM names skipped (counted): output and diagnostics only. WTMASS is applied; COUPMASS,
 /// AUTOSPC, K6ROT and G are accepted with a warning that says what femu does instead.
-pub const SKIPPED_PARAMS: [&str; 19] = [
-    "POST", "POSTEXT", "PATVER", "PRGPST", "GRDPNT", "MAXRATIO", "BAILOUT", "NOCOMPS", "OGEOM",
-    "OUGCORD", "PRTMAXIM", "NOELOF", "NOELOP", "NOGPF", "ELSUMOUT", "SRCOMPS", "OMACHPR", "DBALL",
-    "RESVEC",
+pub const SKIPPED_PARAMS: [&str; 18] = [
+    "POST", "POSTEXT", "PATVER", "PRGPST", "MAXRATIO", "BAILOUT", "NOCOMPS", "OGEOM", "OUGCORD",
+    "PRTMAXIM", "NOELOF", "NOELOP", "NOGPF", "ELSUMOUT", "SRCOMPS", "OMACHPR", "DBALL", "RESVEC",
 ];
 
 /// PARAM names with a meaning femu applies or replaces (see [`SKIPPED_PARAMS`]).
-pub const READ_PARAMS: [&str; 5] = ["WTMASS", "COUPMASS", "AUTOSPC", "K6ROT", "G"];
+pub const READ_PARAMS: [&str; 6] = ["WTMASS", "GRDPNT", "COUPMASS", "AUTOSPC", "K6ROT", "G"];
 
 /// Nastran cards femu does not read that change the stiffness, mass, damping or constraints;
 /// an error unless listed in [`BulkOptions::ignore_cards`] (the list only decides how messages
@@ -204,6 +204,9 @@ pub struct BulkImport {
     /// blake3 of the bytes of the deck and every file it INCLUDEs, in reading order: changes
     /// whenever any of them does.
     pub source_digest: String,
+    /// PARAM,GRDPNT's reference point (basic coordinates of its grid, or the origin for 0):
+    /// the deck asks for the rigid-body mass summary about it.
+    pub grdpnt: Option<[f64; 3]>,
 }
 
 /// Why a bulk data deck could not be read.

@@ -50,3 +50,20 @@ fn unreadable_replication_is_an_error_at_its_line() {
         assert!(e.contains(want), "{bad:?}: {e}");
     }
 }
+
+/// PARAM,GRDPNT names the weight summary's reference point: a grid's position, the origin for
+/// 0, nothing for −1; an undefined grid is an error at the card.
+#[test]
+fn grdpnt_gives_the_reference_point() {
+    let deck = |v: &str| {
+        format!(
+            "PARAM,GRDPNT,{v}\nGRID,101,,0.,0.,0.\nGRID,102,,1.,0.,0.\nGRID,103,,2.,0.,0.\nGRID,104,,3.,0.,0.\nGRID,105,,0.,1.,0.\nGRID,106,,1.,1.,0.\nGRID,107,,2.,1.,0.\nGRID,108,,3.,1.,5.\n{ELEMENTS}"
+        )
+    };
+    let at = |v: &str| parse_bulk(&deck(v), "g.bdf").map(|b| b.grdpnt);
+    assert_eq!(at("108").unwrap(), Some([3.0, 1.0, 5.0]));
+    assert_eq!(at("0").unwrap(), Some([0.0; 3]));
+    assert_eq!(at("-1").unwrap(), None);
+    let e = at("99").unwrap_err().to_string();
+    assert!(e.contains("grid 99 is not defined"), "{e}");
+}
