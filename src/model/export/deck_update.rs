@@ -168,6 +168,15 @@ pub fn real16(x: f64) -> String {
     exact
 }
 
+/// Elements whose stiffness lives on a property card: id, old and new stiffness.
+type SpringUsers = Vec<(u64, [f64; 6], [f64; 6])>;
+/// Field texts by QRG field number.
+type FieldTexts = BTreeMap<usize, String>;
+/// Per file: the first line of each rewritten card → the card and its changed fields.
+type Rewrites = BTreeMap<usize, (usize, FieldTexts)>;
+/// Per file: a line → copies of cards to insert after it.
+type Insertions = BTreeMap<usize, Vec<(usize, FieldTexts)>>;
+
 /// Pending edits of one card: new field texts by QRG field number, and an optional new id.
 #[derive(Clone, Debug, Default)]
 struct Edit {
@@ -635,7 +644,7 @@ fn elements(
     new_properties: &BTreeMap<u64, u64>,
 ) -> Result<(), DeckUpdateError> {
     // Springs whose property card holds the stiffness: (property card, field of K) → users' k.
-    let mut spring_groups: BTreeMap<(usize, usize), Vec<(u64, [f64; 6], [f64; 6])>> =
+    let mut spring_groups: BTreeMap<(usize, usize), SpringUsers> =
         BTreeMap::new();
     for (eid, e) in &updated.elements {
         let Some(e0) = original.elements.get(eid) else {
@@ -726,7 +735,7 @@ fn elements(
 /// copy for each group of elements with one new stiffness.
 fn springs(
     w: &mut Writer,
-    groups: BTreeMap<(usize, usize), Vec<(u64, [f64; 6], [f64; 6])>>,
+    groups: BTreeMap<(usize, usize), SpringUsers>,
 ) -> Result<(), DeckUpdateError> {
     for ((pi, k_field), users) in groups {
         let pid = if k_field == 6 {
@@ -921,10 +930,10 @@ fn render(w: &Writer, header: &[String]) -> Result<UpdatedDeck, DeckUpdateError>
     let mut changes = Vec::new();
     // Per file: first line of a rewritten card → its text; lines to drop; insertions after a
     // line; INCLUDE statements to rewrite.
-    let mut replace: Vec<BTreeMap<usize, (usize, BTreeMap<usize, String>)>> =
+    let mut replace: Vec<Rewrites> =
         vec![BTreeMap::new(); deck.files.len()];
     let mut drop: Vec<BTreeSet<usize>> = vec![BTreeSet::new(); deck.files.len()];
-    let mut after: Vec<BTreeMap<usize, Vec<(usize, BTreeMap<usize, String>)>>> =
+    let mut after: Vec<Insertions> =
         vec![BTreeMap::new(); deck.files.len()];
     for (&i, edit) in &w.edits {
         let c = w.card(i);
