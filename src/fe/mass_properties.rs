@@ -135,21 +135,14 @@ mod tests {
         let p = mass_properties(&m, MassKind::Consistent, [0.0; 3]).unwrap();
         assert_eq!(p.mass, [5.0; 3]);
         let want = [1.5, 1.75, 3.125];
-        for a in 0..3 {
-            assert!((p.centre_of_gravity[a] - want[a]).abs() < 1e-14);
+        for (got, want) in p.centre_of_gravity.iter().zip(want) {
+            assert!((got - want).abs() < 1e-14);
         }
         // The CONM2 inertia [I11, I21, I22, I31, I32, I33] with Nastran's sign convention:
         // the tensor's off-diagonal terms are −I21, −I31, −I32.
         let tensor = [[2.0, 0.1, -0.2], [0.1, 3.0, 0.3], [-0.2, 0.3, 4.0]];
-        for a in 0..3 {
-            for b in 0..3 {
-                assert!(
-                    (p.inertia[a][b] - tensor[a][b]).abs() < 1e-12,
-                    "{a}{b}: {} vs {}",
-                    p.inertia[a][b],
-                    tensor[a][b]
-                );
-            }
+        for (got, want) in p.inertia.iter().flatten().zip(tensor.iter().flatten()) {
+            assert!((got - want).abs() < 1e-12, "{got} vs {want}");
         }
         // About the origin: J₀ = J_c + m (|c|² I − c cᵀ).
         let c = want;
