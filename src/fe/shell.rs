@@ -93,6 +93,82 @@ pub struct ShellSection {
     /// Non-structural mass per unit area (kg/m²), ≥ 0, translational only.
     #[serde(default)]
     pub nsm: f64,
+    /// The parts of a shell that is not homogeneous (Nastran PSHELL with MID1 or MID2 blank,
+    /// other MID2/MID3 materials, 12I/T³ or TS/T); `None` is the homogeneous shell of `e`, `nu`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub layers: Option<ShellLayers>,
+}
+
+/// Which stiffness parts a shell has and of which material (Nastran PSHELL MID1, MID2, MID3,
+/// 12I/T³, TS/T). The membrane is always of the section's own `e`, `nu`.
+#[derive(
+    Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize, schemars::JsonSchema,
+)]
+pub struct ShellLayers {
+    /// Membrane and drilling stiffness present (MID1 given).
+    pub membrane: bool,
+    /// Bending material, or `None`: no bending, no transverse shear, no rotary inertia (MID2
+    /// blank).
+    pub bending: Option<LayerMaterial>,
+    /// Transverse shear material (MID3; used only with bending).
+    pub shear: LayerMaterial,
+    /// Bending stiffness ratio `12I/T³` (> 0): `D = (12I/T³) t³/12 C_b`.
+    pub bending_ratio: f64,
+    /// Transverse shear thickness ratio `TS/T` (> 0), the shear correction factor.
+    pub shear_ratio: f64,
+}
+
+/// The material of one stiffness part.
+#[derive(
+    Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize, schemars::JsonSchema,
+)]
+#[serde(rename_all = "snake_case")]
+pub enum LayerMaterial {
+    /// The section's own `e`, `nu` (it follows a Young's modulus parameter).
+    Own,
+    /// Another isotropic material.
+    Other {
+        /// Young's modulus (Pa), > 0.
+        e: f64,
+        /// Poisson's ratio, −1 < ν < 0.5.
+        nu: f64,
+    },
+}
+
+/// What a kernel forms of one section: per part its `(E, ν)`, whether it is the section's own
+/// material, and the factors of the bending and shear rigidities.
+struct Resolved {
+    membrane: bool,
+    bending: Option<(f64, f64, bool)>,
+    shear: (f64, f64, bool),
+    bending_ratio: f64,
+    shear_ratio: f64,
+}
+
+impl ShellSection {
+    fn resolved(&self) -> Resolved {
+        let own = (self.e, self.nu, true);
+        let of = |m: LayerMaterial| match m {
+            LayerMaterial::Own => own,
+            LayerMaterial::Other { e, nu } => (e, nu, false),
+        };
+        match self.layers {
+            None => Resolved {
+                membrane: true,
+                bending: Some(own),
+                shear: own,
+                bending_ratio: 1.0,
+                shear_ratio: SHEAR_CORRECTION,
+            },
+            Some(l) => Resolved {
+                membrane: l.membrane,
+                bending: l.bending.map(of),
+                shear: of(l.shear),
+                bending_ratio: l.bending_ratio,
+                shear_ratio: l.shear_ratio,
+            },
+        }
+    }
 }
 
 impl ShellSection {
@@ -109,6 +185,29 @@ impl ShellSection {
         }
         positive("rho", self.rho, true)?;
         positive("nsm", self.nsm, true)?;
+        if let Some(l) = &self.layers {
+            if !l.membrane && l.bending.is_none() {
+                return Err(ElementError::BadValue {
+                    field: "layers",
+                    value: 0.0,
+                    hint: "a shell needs membrane or bending stiffness (MID1 or MID2)",
+                });
+            }
+            positive("bending_ratio", l.bending_ratio, false)?;
+            positive("shear_ratio", l.shear_ratio, false)?;
+            for m in l.bending.iter().chain([&l.shear]) {
+                if let LayerMaterial::Other { e, nu } = *m {
+                    positive("e", e, false)?;
+                    if !(nu.is_finite() && nu > -1.0 && nu < 0.5) {
+                        return Err(ElementError::BadValue {
+                            field: "nu",
+                            value: nu,
+                            hint: "must be finite with -1 < nu < 0.5",
+                        });
+                    }
+                }
+            }
+        }
         Ok(())
     }
 
@@ -304,6 +403,11 @@ struct Parts<const N: usize, const D: usize> {
     k_b: [[f64; D]; D],
     /// `∫ Nᵢ Nⱼ dA`.
     m_geo: [[f64; N]; N],
+    /// Whether membrane, shear and bending are of the section's own `E` (for `∂K/∂E`).
+    own: [bool; 3],
+    /// Rotary inertia on θx, θy (bending present) and on θz (bending and membrane present: θz has
+    /// stiffness only through the membrane's drilling penalty).
+    rotary: [bool; 2],
 }
 
 impl<const N: usize, const D: usize> Parts<N, D> {
@@ -324,9 +428,9 @@ impl<const N: usize, const D: usize> Parts<N, D> {
                 dm: self.mass(s.rho, s.rho * t * t / 4.0, kind),
             },
             ShellParameter::YoungsModulus => {
-                let c = 1.0 / s.e;
+                let c = |own: bool| if own { 1.0 / s.e } else { 0.0 };
                 ElementDerivative {
-                    dk: self.stiffness(c, c, c),
+                    dk: self.stiffness(c(self.own[0]), c(self.own[1]), c(self.own[2])),
                     dm: zero(),
                 }
             }
@@ -352,8 +456,12 @@ impl<const N: usize, const D: usize> Parts<N, D> {
         transform(&kl, &self.frame.t, &self.frame.z)
     }
 
-    /// Mass with `mu` per area on translations and `inertia` per area on rotations.
+    /// Mass with `mu` per area on translations and `inertia` per area on rotations (those of
+    /// them the shell has, see `rotary`).
     fn mass(&self, mu: f64, inertia: f64, kind: MassKind) -> Mat<f64> {
+        if self.rotary != [true, true] {
+            return self.mass_in_local(mu, inertia, kind);
+        }
         match kind {
             MassKind::Lumped => {
                 let share = self.area / N as f64;
@@ -385,6 +493,35 @@ impl<const N: usize, const D: usize> Parts<N, D> {
                 }
             }
         }
+    }
+
+    /// Mass formed in the local frame with rotary inertia only where the shell has it, then
+    /// rotated (the rotational block is not isotropic then, so it is not frame independent).
+    fn mass_in_local(&self, mu: f64, inertia: f64, kind: MassKind) -> Mat<f64> {
+        let factor = |a: usize| match a {
+            0..=2 => mu,
+            3 | 4 if self.rotary[0] => inertia,
+            5 if self.rotary[1] => inertia,
+            _ => 0.0,
+        };
+        let mut ml = [[0.0; D]; D];
+        for i in 0..N {
+            for a in 0..6 {
+                let f = factor(a);
+                if f == 0.0 {
+                    continue;
+                }
+                match kind {
+                    MassKind::Lumped => ml[6 * i + a][6 * i + a] = self.area / N as f64 * f,
+                    MassKind::Consistent => {
+                        for j in 0..N {
+                            ml[6 * i + a][6 * j + a] = self.m_geo[i][j] * f;
+                        }
+                    }
+                }
+            }
+        }
+        transform(&ml, &self.frame.t, &self.frame.z)
     }
 
     fn check_finite(&self) -> Result<(), ElementError> {
@@ -722,10 +859,13 @@ fn quad4_parts(
     let (frame, _) = quad_frame(xyz)?;
     let (x, y) = (&frame.x, &frame.y);
     let t = s.thickness;
+    let r = s.resolved();
     let g_mod = s.shear_modulus();
     let dm = plane_stress(s.e, s.nu, t);
-    let db = plane_stress(s.e, s.nu, t * t * t / 12.0);
-    let ks_coef = SHEAR_CORRECTION * g_mod * t;
+    let (e_b, nu_b, own_b) = r.bending.unwrap_or((s.e, s.nu, true));
+    let db = plane_stress(e_b, nu_b, t * t * t / 12.0 * r.bending_ratio);
+    let (e_s, nu_s, own_s) = r.shear;
+    let ks_coef = r.shear_ratio * (e_s / (2.0 * (1.0 + nu_s))) * t;
     let ds = [[ks_coef, 0.0], [0.0, ks_coef]];
 
     // Centre Jacobian for the incompatible modes and the drilling rotation.
@@ -842,16 +982,22 @@ fn quad4_parts(
         dln_ks_dt: 1.0 / t,
         k_b: [[0.0; 24]; 24],
         m_geo,
+        own: [true, own_s, own_b],
+        rotary: [r.bending.is_some(), r.bending.is_some() && r.membrane],
     };
-    scatter_membrane(&mut parts.k_m, &kuu);
-    scatter_plate(&mut parts.k_b, &kbend);
-    scatter_plate(&mut parts.k_s, &kshear);
-    let mut nx0 = [0.0; 4];
-    let mut ny0 = [0.0; 4];
-    for i in 0..4 {
-        (nx0[i], ny0[i]) = cartesian(&j0, det0, dxi0[i], deta0[i]);
+    if r.bending.is_some() {
+        scatter_plate(&mut parts.k_b, &kbend);
+        scatter_plate(&mut parts.k_s, &kshear);
     }
-    add_drilling(&mut parts.k_m, &nx0, &ny0, drill * g_mod * t * area);
+    if r.membrane {
+        scatter_membrane(&mut parts.k_m, &kuu);
+        let mut nx0 = [0.0; 4];
+        let mut ny0 = [0.0; 4];
+        for i in 0..4 {
+            (nx0[i], ny0[i]) = cartesian(&j0, det0, dxi0[i], deta0[i]);
+        }
+        add_drilling(&mut parts.k_m, &nx0, &ny0, drill * g_mod * t * area);
+    }
     parts.check_finite()?;
     Ok(parts)
 }
@@ -1009,9 +1155,11 @@ fn tria3_parts(
     }
     let (x, y) = (frame.x, frame.y);
     let t = s.thickness;
+    let r = s.resolved();
     let g_mod = s.shear_modulus();
     let dm = plane_stress(s.e, s.nu, t);
-    let db = plane_stress(s.e, s.nu, t * t * t / 12.0);
+    let (e_b, nu_b, own_b) = r.bending.unwrap_or((s.e, s.nu, true));
+    let db = plane_stress(e_b, nu_b, t * t * t / 12.0 * r.bending_ratio);
     // Shape function derivatives (constant).
     let two_a = (x[1] - x[0]) * (y[2] - y[0]) - (x[2] - x[0]) * (y[1] - y[0]);
     let mut nx = [0.0; 3];
@@ -1051,7 +1199,8 @@ fn tria3_parts(
     let alpha_h2 = TRIA_SHEAR_STABILISATION * h2;
     let stab = t * t / (t * t + alpha_h2);
     let dln_ks_dt = 3.0 / t - 2.0 * t / (t * t + alpha_h2);
-    let ks_coef = SHEAR_CORRECTION * g_mod * t * stab;
+    let (e_s, nu_s, own_s) = r.shear;
+    let ks_coef = r.shear_ratio * (e_s / (2.0 * (1.0 + nu_s))) * t * stab;
     let ds = [[ks_coef, 0.0], [0.0, ks_coef]];
     let t12 = edge_shear3(&x, &y, 0, 1);
     let t13 = edge_shear3(&x, &y, 0, 2);
@@ -1088,11 +1237,17 @@ fn tria3_parts(
         dln_ks_dt,
         k_b: [[0.0; 18]; 18],
         m_geo,
+        own: [true, own_s, own_b],
+        rotary: [r.bending.is_some(), r.bending.is_some() && r.membrane],
     };
-    scatter_membrane(&mut parts.k_m, &kmem);
-    scatter_plate(&mut parts.k_b, &kbend);
-    scatter_plate(&mut parts.k_s, &kshear);
-    add_drilling(&mut parts.k_m, &nx, &ny, drill * g_mod * t * area);
+    if r.bending.is_some() {
+        scatter_plate(&mut parts.k_b, &kbend);
+        scatter_plate(&mut parts.k_s, &kshear);
+    }
+    if r.membrane {
+        scatter_membrane(&mut parts.k_m, &kmem);
+        add_drilling(&mut parts.k_m, &nx, &ny, drill * g_mod * t * area);
+    }
     parts.check_finite()?;
     Ok(parts)
 }
@@ -1114,6 +1269,7 @@ mod tests {
         nu: 0.3,
         rho: 7850.0,
         nsm: 3.0,
+        layers: None,
     };
     /// A general convex flat quad (no two sides parallel).
     const QUAD: [[f64; 3]; 4] = [
@@ -1567,6 +1723,7 @@ mod tests {
             nu: 0.25,
             rho: 1.0,
             nsm: 0.0,
+            layers: None,
         };
         let quads = patch();
         let trias = quads.split(1);
@@ -1699,6 +1856,7 @@ mod tests {
             nu: 0.3,
             rho: 8000.0,
             nsm: 0.0,
+            layers: None,
         };
         let mesh = Mesh::grid(10.0, 10.0, 6, 6);
         let (k1, m1) = mesh.assemble(&s, MassKind::Consistent, 1e-3);
@@ -1732,6 +1890,7 @@ mod tests {
             nu: 0.0,
             rho: 8000.0,
             nsm: 0.0,
+            layers: None,
         };
         let mesh = Mesh::grid(l, h, 10, 2);
         let couple = 1000.0;
@@ -1793,6 +1952,7 @@ mod tests {
             nu: 0.0,
             rho: 8000.0,
             nsm: 0.0,
+            layers: None,
         };
         let quads = Mesh::grid(l, b, nx, 1);
         let mesh = if tria { quads.split(nx) } else { quads };
@@ -1843,6 +2003,7 @@ mod tests {
         nu: 0.3,
         rho: 8000.0,
         nsm: 0.0,
+        layers: None,
     };
     /// FV12 free plate, elastic modes 4–9 of the three-rigid-mode model (Hz).
     const FV12: [f64; 6] = [1.622, 2.360, 2.922, 4.233, 4.233, 7.416];
@@ -2106,6 +2267,7 @@ mod tests {
                 nu: pick(&mut rng) * 0.4,
                 rho: pick(&mut rng).abs(),
                 nsm: pick(&mut rng).abs(),
+                layers: None,
             };
             for mass in [MassKind::Consistent, MassKind::Lumped] {
                 if let Ok(em) = quad4(&q, &s, mass) {

@@ -97,11 +97,7 @@ GRID    99              this is never read
     assert!(close(m.nodes[&4], [0.0, 1.0, 0.0]));
     assert_eq!(
         m.shell_properties[&10],
-        ShellProperty {
-            material: 1,
-            thickness: 0.002,
-            nsm: 0.5
-        }
+        ShellProperty::homogeneous(1, 0.002, 0.5)
     );
     assert_eq!(m.materials[&1].e, 2.1e11);
     assert_eq!(
