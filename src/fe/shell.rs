@@ -50,11 +50,22 @@
 //! rotation of every node (frame independent, hence also diagonal in the basic system). `A` is the
 //! area of the (projected) flat element. Non-structural mass carries no rotary inertia.
 //!
+//! **Parts of a Nastran PSHELL** ([`ShellLayers`]; `None` is the homogeneous shell above). The
+//! membrane is of the section's `E`, `ν` (MID1); bending of its own `(E_b, ν_b)` (MID2) with
+//! `D = (12I/T³) t³/12 C(E_b, ν_b)`; transverse shear `(TS/T) G_s t` (MID3; TS/T replaces
+//! `κ`). Without membrane (MID1 blank) there is no membrane and no drilling stiffness; without
+//! bending (MID2 blank) no bending, no transverse shear, no drilling stiffness and no rotary
+//! inertia, so the rotations of a membrane-only mesh get neither stiffness nor mass and the
+//! assembly drops them (as Nastran's AUTOSPC). θz carries rotary inertia only when the element
+//! has drilling stiffness (membrane and bending). The rotary inertia stays `ρ t³/12`, not
+//! scaled by 12I/T³ (Nastran derives no rotary inertia from 12I/T³ either; it is an O(t²) term).
+//! The mass is always `ρ t + nsm` of the section's density (MID1's, or MID2's when MID1 is blank).
+//!
 //! **Derivatives** (docs/theory.md §2, thesis 2.13–2.16: (2.13), (2.14), (2.15), (2.16); analytic
 //! where the element allows, so assembled `∂K/∂φ`, `∂M/∂φ` need no rebuild). The local stiffness is
 //! kept in three parts: membrane + drilling `K_m ∝ E t`, shear `K_s ∝ E t` (× the tria3
 //! stabilisation factor), bending `K_b ∝ E t³`, so `∂K/∂t = K_m/t + (∂ ln K_s/∂t) K_s + 3 K_b/t`,
-//! `∂K/∂E = K/E`, `∂K/∂ρ = 0`; the mass is `M = μ M_tr + I M_rot` with `∂μ/∂t = ρ`,
+//! `∂K/∂E = K/E` (the parts of the section's own material only), `∂K/∂ρ = 0`; the mass is `M = μ M_tr + I M_rot` with `∂μ/∂t = ρ`,
 //! `∂I/∂t = ρ t²/4`, `∂μ/∂ρ = t`, `∂I/∂ρ = t³/12`, `∂μ/∂nsm = 1`. All are exact;
 //! [`quad4_with_derivatives`] returns the matrices and any number of derivatives from one
 //! evaluation of the local parts.
@@ -406,7 +417,7 @@ struct Parts<const N: usize, const D: usize> {
     /// Whether membrane, shear and bending are of the section's own `E` (for `∂K/∂E`).
     own: [bool; 3],
     /// Rotary inertia on θx, θy (bending present) and on θz (bending and membrane present: θz has
-    /// stiffness only through the membrane's drilling penalty).
+    /// stiffness only through the drilling penalty, which a shell has only with both).
     rotary: [bool; 2],
 }
 
@@ -996,7 +1007,9 @@ fn quad4_parts(
         for i in 0..4 {
             (nx0[i], ny0[i]) = cartesian(&j0, det0, dxi0[i], deta0[i]);
         }
-        add_drilling(&mut parts.k_m, &nx0, &ny0, drill * g_mod * t * area);
+        if r.bending.is_some() {
+            add_drilling(&mut parts.k_m, &nx0, &ny0, drill * g_mod * t * area);
+        }
     }
     parts.check_finite()?;
     Ok(parts)
@@ -1246,7 +1259,9 @@ fn tria3_parts(
     }
     if r.membrane {
         scatter_membrane(&mut parts.k_m, &kmem);
-        add_drilling(&mut parts.k_m, &nx, &ny, drill * g_mod * t * area);
+        if r.bending.is_some() {
+            add_drilling(&mut parts.k_m, &nx, &ny, drill * g_mod * t * area);
+        }
     }
     parts.check_finite()?;
     Ok(parts)
@@ -1802,6 +1817,165 @@ mod tests {
                 assert_eq!(em2, em);
                 for (p, d) in PARAMS.iter().zip(ds) {
                     assert_eq!(d, derivative(&xyz, &STEEL, mass, *p));
+                }
+            }
+        }
+    }
+
+    /// Non-homogeneous sections (Nastran PSHELL variants) to test every combination with.
+    fn layered() -> Vec<(&'static str, ShellSection)> {
+        let other = LayerMaterial::Other {
+            e: 7.0e10,
+            nu: 0.33,
+        };
+        let with = |l: ShellLayers| ShellSection {
+            layers: Some(l),
+            ..STEEL
+        };
+        let full = ShellLayers {
+            membrane: true,
+            bending: Some(LayerMaterial::Own),
+            shear: LayerMaterial::Own,
+            bending_ratio: 1.0,
+            shear_ratio: SHEAR_CORRECTION,
+        };
+        vec![
+            (
+                "membrane only",
+                with(ShellLayers {
+                    bending: None,
+                    ..full
+                }),
+            ),
+            (
+                "bending only",
+                with(ShellLayers {
+                    membrane: false,
+                    ..full
+                }),
+            ),
+            (
+                "other bending material, 12I/T3 = 2.5",
+                with(ShellLayers {
+                    bending: Some(other),
+                    bending_ratio: 2.5,
+                    ..full
+                }),
+            ),
+            (
+                "other shear material, TS/T = 0.6",
+                with(ShellLayers {
+                    shear: other,
+                    shear_ratio: 0.6,
+                    ..full
+                }),
+            ),
+            (
+                "bending only of another material",
+                with(ShellLayers {
+                    membrane: false,
+                    bending: Some(other),
+                    shear: other,
+                    ..full
+                }),
+            ),
+        ]
+    }
+
+    /// Every parameter derivative of every PSHELL variant against central differences (as
+    /// `derivatives_match_central_differences`: relative step 1e-6, tolerance 1e-7 of the
+    /// derivative's scale), quad (warped, rotated) and triangle, both mass kinds. The Young's
+    /// modulus is the section's own: parts of another material do not follow it.
+    #[test]
+    fn layered_derivatives_match_central_differences() {
+        let mut rng = ChaCha8Rng::seed_from_u64(7);
+        let r = random_rotation(&mut rng);
+        for (name, s) in layered() {
+            for base in [&WARPED[..], &TRIA[..]] {
+                let xyz = moved(base, &r, [0.5, -1.0, 2.0]);
+                for mass in [MassKind::Consistent, MassKind::Lumped] {
+                    let em = element(&xyz, &s, mass).unwrap();
+                    for p in PARAMS {
+                        let d = derivative(&xyz, &s, mass, p);
+                        let v = s.parameter(p);
+                        let h = 1e-6 * v;
+                        let plus = element(&xyz, &s.with_parameter(p, v + h), mass).unwrap();
+                        let minus = element(&xyz, &s.with_parameter(p, v - h), mass).unwrap();
+                        let fd_k = (&plus.k - &minus.k) * (1.0 / (2.0 * h));
+                        let fd_m = (&plus.m - &minus.m) * (1.0 / (2.0 * h));
+                        let sk = max_abs(&d.dk).max(max_abs(&em.k) / v);
+                        let sm = max_abs(&d.dm).max(max_abs(&em.m) / v);
+                        let ek = max_diff(&fd_k, &d.dk) / sk;
+                        let emm = max_diff(&fd_m, &d.dm) / sm;
+                        assert!(
+                            ek < 1e-7,
+                            "{name} {} nodes {mass:?} {p:?}: dK {ek:e}",
+                            xyz.len()
+                        );
+                        assert!(
+                            emm < 1e-7,
+                            "{name} {} nodes {mass:?} {p:?}: dM {emm:e}",
+                            xyz.len()
+                        );
+                    }
+                }
+            }
+        }
+    }
+
+    /// A PSHELL whose parts all have their defaults gives bit-identical matrices to the
+    /// homogeneous section (so existing meshes keep their digests).
+    #[test]
+    fn default_layers_are_the_homogeneous_shell_bit_for_bit() {
+        let s = ShellSection {
+            layers: Some(ShellLayers {
+                membrane: true,
+                bending: Some(LayerMaterial::Own),
+                shear: LayerMaterial::Own,
+                bending_ratio: 1.0,
+                shear_ratio: SHEAR_CORRECTION,
+            }),
+            ..STEEL
+        };
+        for xyz in [&WARPED[..], &TRIA[..]] {
+            for mass in [MassKind::Consistent, MassKind::Lumped] {
+                assert_eq!(element(xyz, &s, mass), element(xyz, &STEEL, mass));
+            }
+        }
+    }
+
+    /// Membrane only: no stiffness on w, θx, θy, θz and no rotary inertia (the assembly drops
+    /// the rotations); bending only: no stiffness on u, v, θz and no θz inertia, translational
+    /// mass on all three translations. The flat quad lies in the basic x-y plane.
+    #[test]
+    fn membrane_only_and_bending_only_have_only_their_parts() {
+        let [mem, bend, ..] = &layered()[..] else {
+            unreachable!()
+        };
+        for mass in [MassKind::Consistent, MassKind::Lumped] {
+            for (s, no_k, no_m) in [
+                (&mem.1, vec![2, 3, 4, 5], vec![3, 4, 5]),
+                (&bend.1, vec![0, 1, 5], vec![5]),
+            ] {
+                for xyz in [&QUAD[..], &TRIA[..]] {
+                    let em = element(xyz, s, mass).unwrap();
+                    let n = em.k.nrows();
+                    for r in 0..n {
+                        for c in 0..n {
+                            if no_k.contains(&(r % 6)) || no_k.contains(&(c % 6)) {
+                                assert_eq!(em.k[(r, c)], 0.0, "K ({r},{c})");
+                            }
+                            if no_m.contains(&(r % 6)) || no_m.contains(&(c % 6)) {
+                                assert!(em.m[(r, c)].abs() < 1e-18, "M ({r},{c})");
+                            }
+                        }
+                        if r % 6 < 3 {
+                            assert!(em.m[(r, r)] > 0.0);
+                        }
+                        if !no_k.contains(&(r % 6)) {
+                            assert!(em.k[(r, r)] > 0.0, "{r}");
+                        }
+                    }
                 }
             }
         }

@@ -598,3 +598,88 @@ fn read_lumped(a: &Artefact, m: &mut Model) -> Result<(), ArtefactError> {
     }
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::{Material, ShellProperty};
+
+    fn rod_model() -> Model {
+        let mut m = Model::default();
+        for (i, x) in [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0]]
+            .iter()
+            .enumerate()
+        {
+            m.nodes.insert(i as u64 + 1, *x);
+        }
+        m.materials.insert(
+            1,
+            Material {
+                e: 7e10,
+                nu: 0.33,
+                rho: 2700.0,
+            },
+        );
+        let mut membrane = ShellProperty::homogeneous(1, 0.002, 0.0);
+        membrane.bending = false;
+        m.shell_properties.insert(2, membrane);
+        m.elements.insert(
+            1,
+            Element::Tria3 {
+                nodes: [1, 2, 3],
+                property: 2,
+            },
+        );
+        let section = RodProperty {
+            material: 1,
+            area: 1e-4,
+            j: 2e-9,
+            c: 0.01,
+            nsm: 0.3,
+        };
+        m.rod_properties.insert(5, section.clone());
+        m.elements.insert(
+            2,
+            Element::Rod {
+                nodes: [1, 2],
+                section: RodSection::Property(5),
+            },
+        );
+        m.elements.insert(
+            3,
+            Element::Rod {
+                nodes: [2, 3],
+                section: RodSection::Own(section),
+            },
+        );
+        m.add_property_sets();
+        m
+    }
+
+    /// Rods (by property and with their own section) and a membrane-only shell come back
+    /// exactly; a model without rods writes no rod metadata and a homogeneous shell property
+    /// serialises as before the optional PSHELL parts existed (digests unchanged).
+    #[test]
+    fn rods_and_shell_parts_round_trip_and_leave_other_meshes_alone() {
+        let m = rod_model();
+        let a = mesh_to_artefact(&m);
+        assert_eq!(mesh_from_artefact(&a).unwrap(), m);
+        assert_eq!(a.meta["rod_sections"]["3"]["area"], 1e-4);
+        let t = a.table("elements").unwrap();
+        assert_eq!(t.i64s("elements", "property").unwrap(), &[2, 5, -1]);
+        let mut plain = m.clone();
+        plain.elements.retain(|_, e| e.type_name() != "rod");
+        plain.rod_properties.clear();
+        plain
+            .shell_properties
+            .insert(2, ShellProperty::homogeneous(1, 0.002, 0.0));
+        plain.sets.clear();
+        let a = mesh_to_artefact(&plain);
+        assert!(!a.meta.contains_key("rod_properties") && !a.meta.contains_key("rod_sections"));
+        assert_eq!(
+            a.meta["shell_properties"],
+            serde_json::json!({"2": {"material": 1, "thickness": 0.002, "nsm": 0.0}})
+        );
+        assert_eq!(mesh_from_artefact(&a).unwrap(), plain);
+    }
+}

@@ -461,7 +461,7 @@ mod tests {
     use crate::core::DofId;
     use crate::model::import::nastran::{parse_bulk, parse_real};
     use crate::model::structure::{
-        BeamProperty, Material, Parameter, ParameterKind, ShellProperty,
+        BeamProperty, Material, Parameter, ParameterKind, RodProperty, ShellProperty,
     };
     use proptest::prelude::*;
 
@@ -570,6 +570,59 @@ mod tests {
                     nodes: [5, 6 + i % 2],
                     property: 20 + i,
                     orientation: [0.0, 0.0, 1.0 + i as f64],
+                },
+            );
+        }
+        // Rods: a PROD shared by id and a CONROD with its own section.
+        m.rod_properties.insert(
+            14,
+            RodProperty {
+                material: 2,
+                area: 3.0e-5,
+                j: 1.0e-9,
+                c: 0.004,
+                nsm: 0.02,
+            },
+        );
+        m.elements.insert(
+            15,
+            Element::Rod {
+                nodes: [5, 7],
+                section: RodSection::Property(14),
+            },
+        );
+        m.elements.insert(
+            16,
+            Element::Rod {
+                nodes: [6, 7],
+                section: RodSection::Own(RodProperty {
+                    material: 1,
+                    area: 1.0 / 3.0 * 1e-4,
+                    j: 0.0,
+                    c: 0.0,
+                    nsm: 0.0,
+                }),
+            },
+        );
+        // PSHELL variants: membrane only, bending only, other MID2/MID3 with 12I/T³ and TS/T.
+        let mut membrane = ShellProperty::homogeneous(1, 0.003, 0.0);
+        membrane.bending = false;
+        let mut bending = ShellProperty::homogeneous(2, 0.004, 0.1);
+        bending.membrane = false;
+        let mut layered = ShellProperty::homogeneous(1, 0.005, 0.0);
+        layered.bending_material = Some(2);
+        layered.shear_material = Some(1);
+        layered.bending_ratio = 2.5;
+        layered.shear_ratio = 0.7;
+        for (pid, p) in [(11, membrane), (12, bending), (13, layered)] {
+            m.shell_properties.insert(pid, p);
+        }
+        for (eid, pid) in [(17, 11), (18, 12), (19, 13)] {
+            m.elements.insert(
+                eid,
+                Element::Tria3 {
+                    nodes: [1, 2, 3],
+                    property: pid,
                 },
             );
         }

@@ -70,6 +70,8 @@ pub(super) struct Builder {
     /// PROD and PTUBE properties; the ids of the PTUBEs.
     pub(super) rods: BTreeMap<u64, crate::model::structure::RodProperty>,
     pub(super) tube_pids: BTreeSet<u64>,
+    /// Whether the PSHELL MID3-blank deviation has been stated (once per deck).
+    pub(super) mid3_blank_warned: bool,
     pub(super) pelas: BTreeMap<u64, f64>,
     pub(super) pbush: BTreeMap<u64, [f64; 6]>,
     pub(super) pids: BTreeMap<u64, Loc>,

@@ -12,7 +12,8 @@
 //! `1.E3` and `1D3`, and blank fields taking the QRG defaults.
 //!
 //! Cards read: GRID with GRDSET defaults, CORD1R/C/S and CORD2R/C/S (nested, in any order),
-//! CQUAD4, CTRIA3, CBAR, CBEAM, PSHELL, PBAR, PBARL (BAR, ROD, TUBE), PBEAM, MAT1, CELAS1 with
+//! CQUAD4, CTRIA3, CBAR, CBEAM, CROD, CONROD, CTUBE, PSHELL, PBAR, PBARL (BAR, ROD, TUBE),
+//! PBEAM, PROD, PTUBE, MAT1, CELAS1 with
 //! PELAS, CELAS2, CBUSH with PBUSH, CONM2, SPC, SPC1, SPCADD, SET1, and PARAM WTMASS (applied to every
 //! mass), COUPMASS, AUTOSPC, K6ROT and G (accepted with a warning saying what femu does
 //! instead). Cards that change neither stiffness, mass nor constraints ([`SKIPPED_CARDS`],
@@ -28,7 +29,8 @@
 //!
 //! Values femu's elements cannot take are refused at the card, so that `femu validate` finds
 //! them: MAT1 E > 0 (given or derived), G ≥ 0, −1 < NU ≤ 0.5 (< 0.5 for shells), RHO ≥ 0;
-//! PSHELL T > 0; PBAR/PBEAM A, I1, I2 > 0, J, K1, K2 ≥ 0; NSM ≥ 0; spring stiffnesses ≥ 0; CONM2
+//! PSHELL T, 12I/T³, TS/T > 0; PBAR/PBEAM A, I1, I2 > 0, J, K1, K2 ≥ 0; PROD/CONROD A > 0,
+//! J ≥ 0; PTUBE OD > 0, 0 ≤ T ≤ OD/2; NSM ≥ 0; spring stiffnesses ≥ 0; CONM2
 //! mass ≥ 0. Every element is then checked as the assembly would check it, naming its card.
 //!
 //! Deviations from Nastran, each stated where it happens:
@@ -46,9 +48,23 @@
 //! - CBAR/CBEAM: the orientation is X1–X3 (in the displacement system of GA) or G0;
 //!   a blank orientation (BAROR/BEAMOR defaults) is an error. Pin flags PA/PB and offsets
 //!   W1A–W3B ≠ 0 are errors; CBEAM warping points SA/SB are ignored with a warning.
-//! - PSHELL: MID1 is the material for membrane and bending. MID2 blank (no bending in Nastran)
-//!   or different from MID1, MID3 different from MID1, MID4 given or 12I/T³ ≠ 1 give warnings.
-//!   T must be given (> 0).
+//! - PSHELL (QRG meaning): MID1 the membrane material (blank: no membrane), MID2 the bending
+//!   material (blank: membrane only — no bending, transverse shear, drilling stiffness or rotary
+//!   inertia, so the rotations of a membrane-only mesh are dropped as AUTOSPC does), MID3 the
+//!   transverse shear material, 12I/T³ scales the bending stiffness (not the rotary inertia),
+//!   TS/T is the shear correction factor (0.833333 read as 5/6). The mass is ρ·T + NSM with
+//!   MID1's density (MID2's when MID1 is blank). Deviation: MID3 blank means no transverse
+//!   shear flexibility (Kirchhoff) to Nastran; femu keeps its Mindlin shear with MID2's G and
+//!   says so once per deck (an O((T/wavelength)²) effect: 4e-4 at T/span = 0.01). MID4
+//!   (membrane-bending coupling), MID2 = −1 (plane strain), MID3 without MID2 and MID1 and MID2
+//!   both blank are errors; Z1/Z2 (stress recovery) are ignored. T must be given (> 0).
+//! - CROD/PROD, CTUBE/PTUBE, CONROD: axial `EA/L` and torsional `GJ/L` stiffness; mass
+//!   (ρA + NSM)L, Nastran's lumped rod mass (half per end on the translations) or coupled mass
+//!   (`m/6 [[2, 1], [1, 2]]` on all three translations), no torsional inertia (as Nastran). C
+//!   (torsional stress coefficient) is kept for write-back only. PTUBE: A = π(OD − T)T,
+//!   J = π(OD⁴ − ID⁴)/32, T blank or 0 a solid rod; OD2 ≠ OD (tapered) is an error. CROD must
+//!   name a PROD and CTUBE a PTUBE (PID blank: the EID). CONROD has no property id: its section
+//!   is the element's own, so it is in no `pid<N>` set (name it in a SET1 to update it).
 //! - PBAR: I1 (plane 1) is the second moment about the element z axis, I2 about y; K1/K2 blank
 //!   or 0 mean no shear flexibility; I12 ≠ 0 is an error; stress points are ignored.
 //! - PBARL: GROUP must be blank or MSCBML0; TYPE BAR (DIM1 → `width`, DIM2 → `height`; the QRG
