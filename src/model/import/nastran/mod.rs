@@ -55,7 +55,7 @@
 //!   TS/T is the shear correction factor (0.833333 read as 5/6). The mass is ρ·T + NSM with
 //!   MID1's density (MID2's when MID1 is blank). Deviation: MID3 blank means no transverse
 //!   shear flexibility (Kirchhoff) to Nastran; femu keeps its Mindlin shear with MID2's G and
-//!   says so once per deck (an O((T/wavelength)²) effect: 4e-4 at T/span = 0.01). MID4
+//!   says so once per deck (an O((T/wavelength)²) effect: about 5e-4 at T/span = 0.01). MID4
 //!   (membrane-bending coupling), MID2 = −1 (plane strain), MID3 without MID2 and MID1 and MID2
 //!   both blank are errors; Z1/Z2 (stress recovery) are ignored. T must be given (> 0).
 //! - CROD/PROD, CTUBE/PTUBE, CONROD: axial `EA/L` and torsional `GJ/L` stiffness; mass

@@ -99,7 +99,7 @@ impl Builder {
                             self.warn(
                                 &c.loc,
                                 id,
-                                format!("MID3 is blank (Nastran: no transverse shear flexibility); femu's shell keeps Mindlin shear with MID2 {m2}'s G and TS/T = {shear_ratio}, which lowers thin-plate frequencies by O((T/wavelength)^2), e.g. 4e-4 for T/span = 0.01; the same holds for every later PSHELL with MID3 blank"),
+                                format!("MID3 is blank (Nastran: no transverse shear flexibility); femu's shell keeps Mindlin shear with MID2 {m2}'s G and TS/T = {shear_ratio}, which lowers thin-plate frequencies by O((T/wavelength)^2), about 5e-4 at T/span = 0.01; the same holds for every later PSHELL with MID3 blank"),
                             );
                         }
                         m2

@@ -20,7 +20,7 @@ fn frequencies(m: &Model, mass: MassKind, n: usize) -> (Vec<f64>, Vec<DofId>) {
         ModeSelection::Count(n),
         &SparseEigenParams::default(),
     )
-    .unwrap();
+    .unwrap_or_else(|e| panic!("{e} ({} DOFs, {mass:?})", sys.dofs.len()));
     (modes.frequencies_hz().to_vec(), sys.dofs)
 }
 
@@ -322,35 +322,37 @@ fn mid2_of_another_modulus_scales_the_bending_frequencies() {
     }
 }
 
-/// 12I/T³ = 2 doubles the bending stiffness only: a thin plate's (t/a = 0.005) bending
-/// frequencies rise by √2 up to its shear and rotary-inertia corrections, O((t/λ)²), which
-/// bound the tolerance at 5e-4 for the first four modes. MID3 blank (Nastran: no shear
-/// flexibility) keeps femu's Mindlin shear; against a nearly shear-rigid plate (TS/T = 1000)
-/// the difference is the same small O((t/λ)²) effect.
+/// 12I/T³ = 2 doubles the bending stiffness only: a thin plate's (t/a = 0.01) bending
+/// frequencies rise by √2 up to its shear and rotary-inertia corrections, O((t/λ)²), measured
+/// below 5e-4 for the first four modes (tolerance 1e-3). MID3 blank (Nastran: no shear
+/// flexibility) keeps femu's Mindlin shear; against a nearly shear-rigid plate (TS/T = 10, 12
+/// times stiffer in shear) the frequencies are lower by that same small effect, 1e-4 to 5e-4
+/// here (bound 1e-3).
 #[test]
 fn bending_ratio_and_mid3_blank_on_a_thin_plate() {
     let run = |pshell: &str| {
         let m = parse(&plate(8, &format!("{STEEL}{pshell}\n"), "126")).model;
         frequencies(&m, MassKind::Consistent, 4).0
     };
-    let f1 = run("PSHELL,1,1,.005,1,,1");
-    let f2 = run("PSHELL,1,1,.005,1,2.,1");
+    let f1 = run("PSHELL,1,1,.01,1,,1");
+    let f2 = run("PSHELL,1,1,.01,1,2.,1");
     for (a, b) in f2.iter().zip(&f1) {
-        assert!(rel(*a / *b, 2f64.sqrt()) < 5e-4, "{f2:?} vs {f1:?}");
+        assert!(rel(*a / *b, 2f64.sqrt()) < 1e-3, "{f2:?} vs {f1:?}");
     }
-    let blank = run("PSHELL,1,1,.005,1");
+    let blank = run("PSHELL,1,1,.01,1");
     assert_eq!(blank, f1, "MID3 blank is MID3 = MID2");
-    let rigid = run("PSHELL,1,1,.005,1,,1,1000.");
+    let rigid = run("PSHELL,1,1,.01,1,,1,10.");
     for (a, b) in blank.iter().zip(&rigid) {
         let d = (b - a) / b;
-        assert!(d > 0.0 && d < 5e-4, "{blank:?} vs {rigid:?}");
+        assert!(d > 0.0 && d < 1e-3, "{blank:?} vs {rigid:?}");
     }
 }
 
 #[test]
 fn pshell_fields_nastran_refuses_or_femu_cannot_take_are_named() {
-    let base =
-        format!("{STEEL}GRID,1,,0.,0.,0.\nGRID,2,,1.,0.,0.\nGRID,3,,1.,1.,0.\nCQUAD4,1,1,1,2,3\n");
+    let base = format!(
+        "{STEEL}GRID,1,,0.,0.,0.\nGRID,2,,1.,0.,0.\nGRID,3,,1.,1.,0.\nGRID,4,,0.,1.,0.\nCQUAD4,1,1,1,2,3,4\n"
+    );
     let cases = [
         (
             "PSHELL,1,1,.01,1,,1,,,\n,,,2\n",
@@ -468,4 +470,75 @@ SET1,7,1,2,3
                 || kind == ParameterKind::Density
         );
     }
+}
+
+/// The wing idea: a membrane-only CQUAD4 panel (PSHELL MID2 blank) with CROD spar caps
+/// along both edges, clamped at the root, held out of plane (PS 3). It imports without
+/// warnings, its rotations are dropped (nothing stiffens or loads them), and its first
+/// in-plane bending frequency lies between Dunkerley's lower bound (Euler–Bernoulli bending
+/// of caps and web combined with the web's shear beam, 1/f² = 1/f_b² + 1/f_s²) and 1.02 f_b
+/// (shear only lowers it; 2 % for the mesh). Without the caps it is lower.
+#[test]
+fn membrane_panel_stiffened_by_rods_gives_modes() {
+    let (span, chord, t, cap) = (1.0, 0.4, 0.001, 1.0e-4);
+    let (nx, ny) = (20, 8);
+    let id = |i: usize, j: usize| j * (nx + 1) + i + 1;
+    let mut deck = "MAT1,1,7.+10,,.33,2700.\nPSHELL,1,1,.001\nPROD,2,1,1.-4\n".to_string();
+    for j in 0..=ny {
+        for i in 0..=nx {
+            let ps = if i == 0 { "123456" } else { "3" };
+            deck += &format!(
+                "GRID,{},,{:.17e},{:.17e},0.,,{ps}\n",
+                id(i, j),
+                span * i as f64 / nx as f64,
+                chord * j as f64 / ny as f64
+            );
+        }
+    }
+    for j in 0..ny {
+        for i in 0..nx {
+            deck += &format!(
+                "CQUAD4,{},1,{},{},{},{}\n",
+                j * nx + i + 1,
+                id(i, j),
+                id(i + 1, j),
+                id(i + 1, j + 1),
+                id(i, j + 1)
+            );
+        }
+    }
+    let panel = parse(&deck).model;
+    for (k, j) in [0, ny].into_iter().enumerate() {
+        for i in 0..nx {
+            deck += &format!(
+                "CROD,{},2,{},{}\n",
+                1000 + 100 * k + i,
+                id(i, j),
+                id(i + 1, j)
+            );
+        }
+    }
+    let b = parse(&deck);
+    assert!(b.warnings.is_empty(), "{:?}", b.warnings);
+    let (sys, info) = assemble_model(&b.model, MassKind::Lumped).unwrap();
+    assert!(
+        sys.dofs
+            .iter()
+            .all(|d| matches!(d.comp, Component::Ux | Component::Uy))
+    );
+    assert_eq!(info.auto_constrained.len(), 3 * nx * (ny + 1));
+    let (f, _) = frequencies(&b.model, MassKind::Lumped, 3);
+    let (f0, _) = frequencies(&panel, MassKind::Lumped, 1);
+    let (e, g, rho) = (7.0e10, 7.0e10 / 2.66, 2700.0);
+    let ei = e * (2.0 * cap * (chord / 2.0f64).powi(2) + t * chord.powi(3) / 12.0);
+    let mu = rho * (t * chord + 2.0 * cap);
+    let fb = 1.875104f64.powi(2) / (2.0 * PI) * (ei / (mu * span.powi(4))).sqrt();
+    let fs = (g * t * chord / mu).sqrt() / (4.0 * span);
+    let dunkerley = 1.0 / (1.0 / (fb * fb) + 1.0 / (fs * fs)).sqrt();
+    assert!(
+        f[0] > dunkerley && f[0] < 1.02 * fb,
+        "{f:?}: {dunkerley} .. {fb}"
+    );
+    assert!(f0[0] < f[0], "{f0:?} vs {f:?}");
+    assert!(f.iter().all(|x| x.is_finite() && *x > 0.0));
 }
