@@ -1,5 +1,5 @@
-//! From a [`Model`] to `K` and `M`: each element's kernel (shell, beam, spring, mass) evaluated
-//! in parallel and scattered by [`assemble`](super::assembly::assemble).
+//! From a [`Model`] to `K` and `M`: each element's kernel (shell, beam, rod, spring, mass)
+//! evaluated in parallel and scattered by [`assemble`](super::assembly::assemble).
 
 use super::assembly::{AssemblyInfo, Contribution, assemble, node_index};
 use super::beam::{BeamData, Section, beam2};
