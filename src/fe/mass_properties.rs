@@ -182,14 +182,8 @@ mod tests {
                 rho,
             },
         );
-        m.shell_properties.insert(
-            1,
-            ShellProperty {
-                material: 1,
-                thickness: t,
-                nsm: 0.0,
-            },
-        );
+        m.shell_properties
+            .insert(1, ShellProperty::homogeneous(1, t, 0.0));
         let mut eid = 1;
         for j in 0..ny {
             for i in 0..nx {

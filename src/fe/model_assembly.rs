@@ -1,5 +1,5 @@
-//! From a [`Model`] to `K` and `M`: each element's kernel (shell, beam, spring, mass) evaluated
-//! in parallel and scattered by [`assemble`](super::assembly::assemble).
+//! From a [`Model`] to `K` and `M`: each element's kernel (shell, beam, rod, spring, mass)
+//! evaluated in parallel and scattered by [`assemble`](super::assembly::assemble).
 
 use super::assembly::{AssemblyInfo, Contribution, assemble, node_index};
 use super::beam::{BeamData, Section, beam2};
@@ -96,13 +96,46 @@ pub fn kernel_section(s: &BeamSection) -> Section {
 
 /// The kernel section of shell property `property` (references already validated).
 fn shell_section(model: &Model, property: u64) -> ShellSection {
+    use super::shell::{LayerMaterial, ShellLayers};
     let p = &model.shell_properties[&property];
     let mat = &model.materials[&p.material];
+    let layer = |mid: u64| {
+        if mid == p.material {
+            LayerMaterial::Own
+        } else {
+            let m = &model.materials[&mid];
+            LayerMaterial::Other { e: m.e, nu: m.nu }
+        }
+    };
     ShellSection {
         thickness: p.thickness,
         e: mat.e,
         nu: mat.nu,
         rho: mat.rho,
+        nsm: p.nsm,
+        layers: (!p.is_homogeneous()).then(|| ShellLayers {
+            membrane: p.membrane,
+            bending: p.bending.then(|| layer(p.bending_mid())),
+            shear: layer(p.shear_mid()),
+            bending_ratio: p.bending_ratio,
+            shear_ratio: p.shear_ratio,
+        }),
+    }
+}
+
+/// The kernel data of a rod of `model` (references already validated).
+fn rod_data(model: &Model, section: &crate::model::RodSection) -> super::rod::RodData {
+    let p = match section {
+        crate::model::RodSection::Property(id) => &model.rod_properties[id],
+        crate::model::RodSection::Own(p) => p,
+    };
+    let mat = &model.materials[&p.material];
+    super::rod::RodData {
+        e: mat.e,
+        nu: mat.nu,
+        rho: mat.rho,
+        area: p.area,
+        j: p.j,
         nsm: p.nsm,
     }
 }
@@ -141,6 +174,12 @@ pub fn element_matrices(
             };
             beam2(xyz(&nodes[0]), xyz(&nodes[1]), *orientation, &d, mass)
         }
+        Element::Rod { nodes, section } => super::rod::rod2(
+            xyz(&nodes[0]),
+            xyz(&nodes[1]),
+            &rod_data(model, section),
+            mass,
+        ),
         Element::Bush { other, k, .. } => spring6(
             k,
             if other.is_some() {
@@ -519,6 +558,22 @@ fn element_derivative(
             };
             beam2_derivative(xyz(&nodes[0]), xyz(&nodes[1]), *orientation, &d, mass, p)
                 .map_err(err)?
+        }
+        Element::Rod { nodes, section } => {
+            use super::rod::RodParameter;
+            let p = match parameter.kind {
+                P::YoungsModulus => RodParameter::YoungsModulus,
+                P::Density => RodParameter::Density,
+                _ => return Err(not_applicable()),
+            };
+            super::rod::rod2_derivative(
+                xyz(&nodes[0]),
+                xyz(&nodes[1]),
+                &rod_data(model, section),
+                mass,
+                p,
+            )
+            .map_err(err)?
         }
         Element::Bush { other, k, .. } => {
             let P::SpringStiffness(c) = parameter.kind else {

@@ -50,11 +50,22 @@
 //! rotation of every node (frame independent, hence also diagonal in the basic system). `A` is the
 //! area of the (projected) flat element. Non-structural mass carries no rotary inertia.
 //!
+//! **Parts of a Nastran PSHELL** ([`ShellLayers`]; `None` is the homogeneous shell above). The
+//! membrane is of the section's `E`, `ν` (MID1); bending of its own `(E_b, ν_b)` (MID2) with
+//! `D = (12I/T³) t³/12 C(E_b, ν_b)`; transverse shear `(TS/T) G_s t` (MID3; TS/T replaces
+//! `κ`). Without membrane (MID1 blank) there is no membrane and no drilling stiffness; without
+//! bending (MID2 blank) no bending, no transverse shear, no drilling stiffness and no rotary
+//! inertia, so the rotations of a membrane-only mesh get neither stiffness nor mass and the
+//! assembly drops them (as Nastran's AUTOSPC). θz carries rotary inertia only when the element
+//! has drilling stiffness (membrane and bending). The rotary inertia stays `ρ t³/12`, not
+//! scaled by 12I/T³ (Nastran derives no rotary inertia from 12I/T³ either; it is an O(t²) term).
+//! The mass is always `ρ t + nsm` of the section's density (MID1's, or MID2's when MID1 is blank).
+//!
 //! **Derivatives** (docs/theory.md §2, thesis 2.13–2.16: (2.13), (2.14), (2.15), (2.16); analytic
 //! where the element allows, so assembled `∂K/∂φ`, `∂M/∂φ` need no rebuild). The local stiffness is
 //! kept in three parts: membrane + drilling `K_m ∝ E t`, shear `K_s ∝ E t` (× the tria3
 //! stabilisation factor), bending `K_b ∝ E t³`, so `∂K/∂t = K_m/t + (∂ ln K_s/∂t) K_s + 3 K_b/t`,
-//! `∂K/∂E = K/E`, `∂K/∂ρ = 0`; the mass is `M = μ M_tr + I M_rot` with `∂μ/∂t = ρ`,
+//! `∂K/∂E = K/E` (the parts of the section's own material only), `∂K/∂ρ = 0`; the mass is `M = μ M_tr + I M_rot` with `∂μ/∂t = ρ`,
 //! `∂I/∂t = ρ t²/4`, `∂μ/∂ρ = t`, `∂I/∂ρ = t³/12`, `∂μ/∂nsm = 1`. All are exact;
 //! [`quad4_with_derivatives`] returns the matrices and any number of derivatives from one
 //! evaluation of the local parts.
@@ -93,6 +104,82 @@ pub struct ShellSection {
     /// Non-structural mass per unit area (kg/m²), ≥ 0, translational only.
     #[serde(default)]
     pub nsm: f64,
+    /// The parts of a shell that is not homogeneous (Nastran PSHELL with MID1 or MID2 blank,
+    /// other MID2/MID3 materials, 12I/T³ or TS/T); `None` is the homogeneous shell of `e`, `nu`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub layers: Option<ShellLayers>,
+}
+
+/// Which stiffness parts a shell has and of which material (Nastran PSHELL MID1, MID2, MID3,
+/// 12I/T³, TS/T). The membrane is always of the section's own `e`, `nu`.
+#[derive(
+    Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize, schemars::JsonSchema,
+)]
+pub struct ShellLayers {
+    /// Membrane and drilling stiffness present (MID1 given).
+    pub membrane: bool,
+    /// Bending material, or `None`: no bending, no transverse shear, no rotary inertia (MID2
+    /// blank).
+    pub bending: Option<LayerMaterial>,
+    /// Transverse shear material (MID3; used only with bending).
+    pub shear: LayerMaterial,
+    /// Bending stiffness ratio `12I/T³` (> 0): `D = (12I/T³) t³/12 C_b`.
+    pub bending_ratio: f64,
+    /// Transverse shear thickness ratio `TS/T` (> 0), the shear correction factor.
+    pub shear_ratio: f64,
+}
+
+/// The material of one stiffness part.
+#[derive(
+    Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize, schemars::JsonSchema,
+)]
+#[serde(rename_all = "snake_case")]
+pub enum LayerMaterial {
+    /// The section's own `e`, `nu` (it follows a Young's modulus parameter).
+    Own,
+    /// Another isotropic material.
+    Other {
+        /// Young's modulus (Pa), > 0.
+        e: f64,
+        /// Poisson's ratio, −1 < ν < 0.5.
+        nu: f64,
+    },
+}
+
+/// What a kernel forms of one section: per part its `(E, ν)`, whether it is the section's own
+/// material, and the factors of the bending and shear rigidities.
+struct Resolved {
+    membrane: bool,
+    bending: Option<(f64, f64, bool)>,
+    shear: (f64, f64, bool),
+    bending_ratio: f64,
+    shear_ratio: f64,
+}
+
+impl ShellSection {
+    fn resolved(&self) -> Resolved {
+        let own = (self.e, self.nu, true);
+        let of = |m: LayerMaterial| match m {
+            LayerMaterial::Own => own,
+            LayerMaterial::Other { e, nu } => (e, nu, false),
+        };
+        match self.layers {
+            None => Resolved {
+                membrane: true,
+                bending: Some(own),
+                shear: own,
+                bending_ratio: 1.0,
+                shear_ratio: SHEAR_CORRECTION,
+            },
+            Some(l) => Resolved {
+                membrane: l.membrane,
+                bending: l.bending.map(of),
+                shear: of(l.shear),
+                bending_ratio: l.bending_ratio,
+                shear_ratio: l.shear_ratio,
+            },
+        }
+    }
 }
 
 impl ShellSection {
@@ -109,6 +196,29 @@ impl ShellSection {
         }
         positive("rho", self.rho, true)?;
         positive("nsm", self.nsm, true)?;
+        if let Some(l) = &self.layers {
+            if !l.membrane && l.bending.is_none() {
+                return Err(ElementError::BadValue {
+                    field: "layers",
+                    value: 0.0,
+                    hint: "a shell needs membrane or bending stiffness (MID1 or MID2)",
+                });
+            }
+            positive("bending_ratio", l.bending_ratio, false)?;
+            positive("shear_ratio", l.shear_ratio, false)?;
+            for m in l.bending.iter().chain([&l.shear]) {
+                if let LayerMaterial::Other { e, nu } = *m {
+                    positive("e", e, false)?;
+                    if !(nu.is_finite() && nu > -1.0 && nu < 0.5) {
+                        return Err(ElementError::BadValue {
+                            field: "nu",
+                            value: nu,
+                            hint: "must be finite with -1 < nu < 0.5",
+                        });
+                    }
+                }
+            }
+        }
         Ok(())
     }
 
@@ -304,6 +414,11 @@ struct Parts<const N: usize, const D: usize> {
     k_b: [[f64; D]; D],
     /// `∫ Nᵢ Nⱼ dA`.
     m_geo: [[f64; N]; N],
+    /// Whether membrane, shear and bending are of the section's own `E` (for `∂K/∂E`).
+    own: [bool; 3],
+    /// Rotary inertia on θx, θy (bending present) and on θz (bending and membrane present: θz has
+    /// stiffness only through the drilling penalty, which a shell has only with both).
+    rotary: [bool; 2],
 }
 
 impl<const N: usize, const D: usize> Parts<N, D> {
@@ -324,9 +439,9 @@ impl<const N: usize, const D: usize> Parts<N, D> {
                 dm: self.mass(s.rho, s.rho * t * t / 4.0, kind),
             },
             ShellParameter::YoungsModulus => {
-                let c = 1.0 / s.e;
+                let c = |own: bool| if own { 1.0 / s.e } else { 0.0 };
                 ElementDerivative {
-                    dk: self.stiffness(c, c, c),
+                    dk: self.stiffness(c(self.own[0]), c(self.own[1]), c(self.own[2])),
                     dm: zero(),
                 }
             }
@@ -352,8 +467,12 @@ impl<const N: usize, const D: usize> Parts<N, D> {
         transform(&kl, &self.frame.t, &self.frame.z)
     }
 
-    /// Mass with `mu` per area on translations and `inertia` per area on rotations.
+    /// Mass with `mu` per area on translations and `inertia` per area on rotations (those of
+    /// them the shell has, see `rotary`).
     fn mass(&self, mu: f64, inertia: f64, kind: MassKind) -> Mat<f64> {
+        if self.rotary != [true, true] {
+            return self.mass_in_local(mu, inertia, kind);
+        }
         match kind {
             MassKind::Lumped => {
                 let share = self.area / N as f64;
@@ -385,6 +504,35 @@ impl<const N: usize, const D: usize> Parts<N, D> {
                 }
             }
         }
+    }
+
+    /// Mass formed in the local frame with rotary inertia only where the shell has it, then
+    /// rotated (the rotational block is not isotropic then, so it is not frame independent).
+    fn mass_in_local(&self, mu: f64, inertia: f64, kind: MassKind) -> Mat<f64> {
+        let factor = |a: usize| match a {
+            0..=2 => mu,
+            3 | 4 if self.rotary[0] => inertia,
+            5 if self.rotary[1] => inertia,
+            _ => 0.0,
+        };
+        let mut ml = [[0.0; D]; D];
+        for i in 0..N {
+            for a in 0..6 {
+                let f = factor(a);
+                if f == 0.0 {
+                    continue;
+                }
+                match kind {
+                    MassKind::Lumped => ml[6 * i + a][6 * i + a] = self.area / N as f64 * f,
+                    MassKind::Consistent => {
+                        for j in 0..N {
+                            ml[6 * i + a][6 * j + a] = self.m_geo[i][j] * f;
+                        }
+                    }
+                }
+            }
+        }
+        transform(&ml, &self.frame.t, &self.frame.z)
     }
 
     fn check_finite(&self) -> Result<(), ElementError> {
@@ -722,10 +870,13 @@ fn quad4_parts(
     let (frame, _) = quad_frame(xyz)?;
     let (x, y) = (&frame.x, &frame.y);
     let t = s.thickness;
+    let r = s.resolved();
     let g_mod = s.shear_modulus();
     let dm = plane_stress(s.e, s.nu, t);
-    let db = plane_stress(s.e, s.nu, t * t * t / 12.0);
-    let ks_coef = SHEAR_CORRECTION * g_mod * t;
+    let (e_b, nu_b, own_b) = r.bending.unwrap_or((s.e, s.nu, true));
+    let db = plane_stress(e_b, nu_b, t * t * t / 12.0 * r.bending_ratio);
+    let (e_s, nu_s, own_s) = r.shear;
+    let ks_coef = r.shear_ratio * (e_s / (2.0 * (1.0 + nu_s))) * t;
     let ds = [[ks_coef, 0.0], [0.0, ks_coef]];
 
     // Centre Jacobian for the incompatible modes and the drilling rotation.
@@ -842,16 +993,24 @@ fn quad4_parts(
         dln_ks_dt: 1.0 / t,
         k_b: [[0.0; 24]; 24],
         m_geo,
+        own: [true, own_s, own_b],
+        rotary: [r.bending.is_some(), r.bending.is_some() && r.membrane],
     };
-    scatter_membrane(&mut parts.k_m, &kuu);
-    scatter_plate(&mut parts.k_b, &kbend);
-    scatter_plate(&mut parts.k_s, &kshear);
-    let mut nx0 = [0.0; 4];
-    let mut ny0 = [0.0; 4];
-    for i in 0..4 {
-        (nx0[i], ny0[i]) = cartesian(&j0, det0, dxi0[i], deta0[i]);
+    if r.bending.is_some() {
+        scatter_plate(&mut parts.k_b, &kbend);
+        scatter_plate(&mut parts.k_s, &kshear);
     }
-    add_drilling(&mut parts.k_m, &nx0, &ny0, drill * g_mod * t * area);
+    if r.membrane {
+        scatter_membrane(&mut parts.k_m, &kuu);
+        let mut nx0 = [0.0; 4];
+        let mut ny0 = [0.0; 4];
+        for i in 0..4 {
+            (nx0[i], ny0[i]) = cartesian(&j0, det0, dxi0[i], deta0[i]);
+        }
+        if r.bending.is_some() {
+            add_drilling(&mut parts.k_m, &nx0, &ny0, drill * g_mod * t * area);
+        }
+    }
     parts.check_finite()?;
     Ok(parts)
 }
@@ -1009,9 +1168,11 @@ fn tria3_parts(
     }
     let (x, y) = (frame.x, frame.y);
     let t = s.thickness;
+    let r = s.resolved();
     let g_mod = s.shear_modulus();
     let dm = plane_stress(s.e, s.nu, t);
-    let db = plane_stress(s.e, s.nu, t * t * t / 12.0);
+    let (e_b, nu_b, own_b) = r.bending.unwrap_or((s.e, s.nu, true));
+    let db = plane_stress(e_b, nu_b, t * t * t / 12.0 * r.bending_ratio);
     // Shape function derivatives (constant).
     let two_a = (x[1] - x[0]) * (y[2] - y[0]) - (x[2] - x[0]) * (y[1] - y[0]);
     let mut nx = [0.0; 3];
@@ -1051,7 +1212,8 @@ fn tria3_parts(
     let alpha_h2 = TRIA_SHEAR_STABILISATION * h2;
     let stab = t * t / (t * t + alpha_h2);
     let dln_ks_dt = 3.0 / t - 2.0 * t / (t * t + alpha_h2);
-    let ks_coef = SHEAR_CORRECTION * g_mod * t * stab;
+    let (e_s, nu_s, own_s) = r.shear;
+    let ks_coef = r.shear_ratio * (e_s / (2.0 * (1.0 + nu_s))) * t * stab;
     let ds = [[ks_coef, 0.0], [0.0, ks_coef]];
     let t12 = edge_shear3(&x, &y, 0, 1);
     let t13 = edge_shear3(&x, &y, 0, 2);
@@ -1088,11 +1250,19 @@ fn tria3_parts(
         dln_ks_dt,
         k_b: [[0.0; 18]; 18],
         m_geo,
+        own: [true, own_s, own_b],
+        rotary: [r.bending.is_some(), r.bending.is_some() && r.membrane],
     };
-    scatter_membrane(&mut parts.k_m, &kmem);
-    scatter_plate(&mut parts.k_b, &kbend);
-    scatter_plate(&mut parts.k_s, &kshear);
-    add_drilling(&mut parts.k_m, &nx, &ny, drill * g_mod * t * area);
+    if r.bending.is_some() {
+        scatter_plate(&mut parts.k_b, &kbend);
+        scatter_plate(&mut parts.k_s, &kshear);
+    }
+    if r.membrane {
+        scatter_membrane(&mut parts.k_m, &kmem);
+        if r.bending.is_some() {
+            add_drilling(&mut parts.k_m, &nx, &ny, drill * g_mod * t * area);
+        }
+    }
     parts.check_finite()?;
     Ok(parts)
 }
@@ -1114,6 +1284,7 @@ mod tests {
         nu: 0.3,
         rho: 7850.0,
         nsm: 3.0,
+        layers: None,
     };
     /// A general convex flat quad (no two sides parallel).
     const QUAD: [[f64; 3]; 4] = [
@@ -1567,6 +1738,7 @@ mod tests {
             nu: 0.25,
             rho: 1.0,
             nsm: 0.0,
+            layers: None,
         };
         let quads = patch();
         let trias = quads.split(1);
@@ -1650,6 +1822,165 @@ mod tests {
         }
     }
 
+    /// Non-homogeneous sections (Nastran PSHELL variants) to test every combination with.
+    fn layered() -> Vec<(&'static str, ShellSection)> {
+        let other = LayerMaterial::Other {
+            e: 7.0e10,
+            nu: 0.33,
+        };
+        let with = |l: ShellLayers| ShellSection {
+            layers: Some(l),
+            ..STEEL
+        };
+        let full = ShellLayers {
+            membrane: true,
+            bending: Some(LayerMaterial::Own),
+            shear: LayerMaterial::Own,
+            bending_ratio: 1.0,
+            shear_ratio: SHEAR_CORRECTION,
+        };
+        vec![
+            (
+                "membrane only",
+                with(ShellLayers {
+                    bending: None,
+                    ..full
+                }),
+            ),
+            (
+                "bending only",
+                with(ShellLayers {
+                    membrane: false,
+                    ..full
+                }),
+            ),
+            (
+                "other bending material, 12I/T3 = 2.5",
+                with(ShellLayers {
+                    bending: Some(other),
+                    bending_ratio: 2.5,
+                    ..full
+                }),
+            ),
+            (
+                "other shear material, TS/T = 0.6",
+                with(ShellLayers {
+                    shear: other,
+                    shear_ratio: 0.6,
+                    ..full
+                }),
+            ),
+            (
+                "bending only of another material",
+                with(ShellLayers {
+                    membrane: false,
+                    bending: Some(other),
+                    shear: other,
+                    ..full
+                }),
+            ),
+        ]
+    }
+
+    /// Every parameter derivative of every PSHELL variant against central differences (as
+    /// `derivatives_match_central_differences`: relative step 1e-6, tolerance 1e-7 of the
+    /// derivative's scale), quad (warped, rotated) and triangle, both mass kinds. The Young's
+    /// modulus is the section's own: parts of another material do not follow it.
+    #[test]
+    fn layered_derivatives_match_central_differences() {
+        let mut rng = ChaCha8Rng::seed_from_u64(7);
+        let r = random_rotation(&mut rng);
+        for (name, s) in layered() {
+            for base in [&WARPED[..], &TRIA[..]] {
+                let xyz = moved(base, &r, [0.5, -1.0, 2.0]);
+                for mass in [MassKind::Consistent, MassKind::Lumped] {
+                    let em = element(&xyz, &s, mass).unwrap();
+                    for p in PARAMS {
+                        let d = derivative(&xyz, &s, mass, p);
+                        let v = s.parameter(p);
+                        let h = 1e-6 * v;
+                        let plus = element(&xyz, &s.with_parameter(p, v + h), mass).unwrap();
+                        let minus = element(&xyz, &s.with_parameter(p, v - h), mass).unwrap();
+                        let fd_k = (&plus.k - &minus.k) * (1.0 / (2.0 * h));
+                        let fd_m = (&plus.m - &minus.m) * (1.0 / (2.0 * h));
+                        let sk = max_abs(&d.dk).max(max_abs(&em.k) / v);
+                        let sm = max_abs(&d.dm).max(max_abs(&em.m) / v);
+                        let ek = max_diff(&fd_k, &d.dk) / sk;
+                        let emm = max_diff(&fd_m, &d.dm) / sm;
+                        assert!(
+                            ek < 1e-7,
+                            "{name} {} nodes {mass:?} {p:?}: dK {ek:e}",
+                            xyz.len()
+                        );
+                        assert!(
+                            emm < 1e-7,
+                            "{name} {} nodes {mass:?} {p:?}: dM {emm:e}",
+                            xyz.len()
+                        );
+                    }
+                }
+            }
+        }
+    }
+
+    /// A PSHELL whose parts all have their defaults gives bit-identical matrices to the
+    /// homogeneous section (so existing meshes keep their digests).
+    #[test]
+    fn default_layers_are_the_homogeneous_shell_bit_for_bit() {
+        let s = ShellSection {
+            layers: Some(ShellLayers {
+                membrane: true,
+                bending: Some(LayerMaterial::Own),
+                shear: LayerMaterial::Own,
+                bending_ratio: 1.0,
+                shear_ratio: SHEAR_CORRECTION,
+            }),
+            ..STEEL
+        };
+        for xyz in [&WARPED[..], &TRIA[..]] {
+            for mass in [MassKind::Consistent, MassKind::Lumped] {
+                assert_eq!(element(xyz, &s, mass), element(xyz, &STEEL, mass));
+            }
+        }
+    }
+
+    /// Membrane only: no stiffness on w, θx, θy, θz and no rotary inertia (the assembly drops
+    /// the rotations); bending only: no stiffness on u, v, θz and no θz inertia, translational
+    /// mass on all three translations. The flat quad lies in the basic x-y plane.
+    #[test]
+    fn membrane_only_and_bending_only_have_only_their_parts() {
+        let [mem, bend, ..] = &layered()[..] else {
+            unreachable!()
+        };
+        for mass in [MassKind::Consistent, MassKind::Lumped] {
+            for (s, no_k, no_m) in [
+                (&mem.1, vec![2, 3, 4, 5], vec![3, 4, 5]),
+                (&bend.1, vec![0, 1, 5], vec![5]),
+            ] {
+                for xyz in [&QUAD[..], &TRIA[..]] {
+                    let em = element(xyz, s, mass).unwrap();
+                    let n = em.k.nrows();
+                    for r in 0..n {
+                        for c in 0..n {
+                            if no_k.contains(&(r % 6)) || no_k.contains(&(c % 6)) {
+                                assert_eq!(em.k[(r, c)], 0.0, "K ({r},{c})");
+                            }
+                            if no_m.contains(&(r % 6)) || no_m.contains(&(c % 6)) {
+                                assert!(em.m[(r, c)].abs() < 1e-18, "M ({r},{c})");
+                            }
+                        }
+                        if r % 6 < 3 {
+                            assert!(em.m[(r, r)] > 0.0);
+                        }
+                        if !no_k.contains(&(r % 6)) {
+                            assert!(em.k[(r, r)] > 0.0, "{r}");
+                        }
+                    }
+                }
+            }
+        }
+    }
+
     /// With ρ = 0 (a massless stiffness element) the density derivative is still defined.
     #[test]
     fn density_derivative_at_zero_density() {
@@ -1699,6 +2030,7 @@ mod tests {
             nu: 0.3,
             rho: 8000.0,
             nsm: 0.0,
+            layers: None,
         };
         let mesh = Mesh::grid(10.0, 10.0, 6, 6);
         let (k1, m1) = mesh.assemble(&s, MassKind::Consistent, 1e-3);
@@ -1732,6 +2064,7 @@ mod tests {
             nu: 0.0,
             rho: 8000.0,
             nsm: 0.0,
+            layers: None,
         };
         let mesh = Mesh::grid(l, h, 10, 2);
         let couple = 1000.0;
@@ -1793,6 +2126,7 @@ mod tests {
             nu: 0.0,
             rho: 8000.0,
             nsm: 0.0,
+            layers: None,
         };
         let quads = Mesh::grid(l, b, nx, 1);
         let mesh = if tria { quads.split(nx) } else { quads };
@@ -1843,6 +2177,7 @@ mod tests {
         nu: 0.3,
         rho: 8000.0,
         nsm: 0.0,
+        layers: None,
     };
     /// FV12 free plate, elastic modes 4–9 of the three-rigid-mode model (Hz).
     const FV12: [f64; 6] = [1.622, 2.360, 2.922, 4.233, 4.233, 7.416];
@@ -2106,6 +2441,7 @@ mod tests {
                 nu: pick(&mut rng) * 0.4,
                 rho: pick(&mut rng).abs(),
                 nsm: pick(&mut rng).abs(),
+                layers: None,
             };
             for mass in [MassKind::Consistent, MassKind::Lumped] {
                 if let Ok(em) = quad4(&q, &s, mass) {

@@ -11,5 +11,5 @@ pub use lumped::{LumpedMass, LumpedModel, LumpedModelError, LumpedSpring};
 pub use parameters::ParameterValueError;
 pub use structure::{
     BeamProperty, BeamSection, Element, Material, Model, ModelError, Parameter, ParameterKind,
-    ShellProperty,
+    RodProperty, RodSection, ShellProperty,
 };

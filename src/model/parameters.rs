@@ -4,7 +4,7 @@
 //! properties and materials first, so elements outside the set never change with it; the
 //! connectivity never changes.
 
-use super::structure::{BeamSection, Element, Model, Parameter, ParameterKind};
+use super::structure::{BeamSection, Element, Model, Parameter, ParameterKind, RodSection};
 use crate::core::Component;
 
 /// Why a parameter's value could not be read or written.
@@ -96,6 +96,8 @@ enum Slot {
     ShellThickness(u64),
     ShellMaterial(u64, Field),
     BeamMaterial(u64, Field),
+    /// A rod's material, by element id (through its property or its own CONROD section).
+    RodMaterial(u64, Field),
     BeamDim(u64, Dim),
     Bush(u64, usize),
     Scalar(u64),
@@ -165,6 +167,10 @@ impl Model {
                     }
                     _ => return Err(not_applicable()),
                 },
+                (Element::Rod { .. }, ParameterKind::YoungsModulus) => {
+                    Slot::RodMaterial(id, Field::E)
+                }
+                (Element::Rod { .. }, ParameterKind::Density) => Slot::RodMaterial(id, Field::Rho),
                 (Element::Bush { .. }, ParameterKind::SpringStiffness(c)) => {
                     Slot::Bush(id, c.nastran() as usize - 1)
                 }
@@ -202,6 +208,7 @@ impl Model {
             Slot::ShellThickness(pid) => self.shell_properties.get(&pid).map(|p| p.thickness),
             Slot::ShellMaterial(pid, f) => material(self.shell_properties.get(&pid)?.material, f),
             Slot::BeamMaterial(pid, f) => material(self.beam_properties.get(&pid)?.material, f),
+            Slot::RodMaterial(id, f) => material(self.rod_material(id)?, f),
             Slot::BeamDim(pid, d) => match self.beam_properties.get(&pid)?.section {
                 BeamSection::Rectangle { width, height } => Some(match d {
                     Dim::Width => width,
@@ -284,6 +291,9 @@ impl Model {
         if matches!(slots[0].1, Slot::ShellMaterial(..) | Slot::BeamMaterial(..)) {
             self.own_materials(&in_set, shell);
         }
+        if matches!(slots[0].1, Slot::RodMaterial(..)) {
+            self.own_rod_materials(&in_set);
+        }
         // Slots again: the property ids may have changed.
         for (id, slot) in self.slots(p)? {
             let broken = || ParameterValueError::Broken {
@@ -304,6 +314,14 @@ impl Model {
                         self.beam_properties.get(&pid).map(|p| p.material)
                     }
                     .ok_or_else(broken)?;
+                    let m = self.materials.get_mut(&mid).ok_or_else(broken)?;
+                    match f {
+                        Field::E => m.e = value,
+                        Field::Rho => m.rho = value,
+                    }
+                }
+                Slot::RodMaterial(_, f) => {
+                    let mid = self.rod_material(id).ok_or_else(broken)?;
                     let m = self.materials.get_mut(&mid).ok_or_else(broken)?;
                     match f {
                         Field::E => m.e = value,
@@ -358,6 +376,7 @@ impl Model {
             .shell_properties
             .keys()
             .chain(self.beam_properties.keys())
+            .chain(self.rod_properties.keys())
             .max()
             .copied()
             .unwrap_or(0)
@@ -393,17 +412,144 @@ impl Model {
         }
     }
 
+    /// The material of rod `id` (through its property or its own section).
+    fn rod_material(&self, id: u64) -> Option<u64> {
+        match self.elements.get(&id)? {
+            Element::Rod {
+                section: RodSection::Property(pid),
+                ..
+            } => self.rod_properties.get(pid).map(|p| p.material),
+            Element::Rod {
+                section: RodSection::Own(p),
+                ..
+            } => Some(p.material),
+            _ => None,
+        }
+    }
+
+    /// Materials of the rods outside `in_set` (a shared rod property counts as outside when
+    /// any of its rods is).
+    fn rod_materials_outside(
+        &self,
+        in_set: &std::collections::BTreeSet<u64>,
+    ) -> std::collections::BTreeSet<u64> {
+        self.elements
+            .iter()
+            .filter(|(id, e)| !in_set.contains(id) && matches!(e, Element::Rod { .. }))
+            .filter_map(|(id, _)| self.rod_material(*id))
+            .collect()
+    }
+
+    /// Gives the rods of `in_set` materials (and rod properties) that nothing outside the set
+    /// uses: a rod property shared with rods outside is copied under a new id, then every
+    /// material the set's rods share with any other element or property is copied.
+    fn own_rod_materials(&mut self, in_set: &std::collections::BTreeSet<u64>) {
+        use std::collections::{BTreeMap, BTreeSet};
+        let mut pid_outside = BTreeSet::new();
+        for (id, e) in &self.elements {
+            if let (false, Some(pid)) = (in_set.contains(id), e.property()) {
+                pid_outside.insert(pid);
+            }
+        }
+        let mut next_pid = self
+            .shell_properties
+            .keys()
+            .chain(self.beam_properties.keys())
+            .chain(self.rod_properties.keys())
+            .max()
+            .copied()
+            .unwrap_or(0)
+            + 1;
+        let mut renamed: BTreeMap<u64, u64> = BTreeMap::new();
+        for id in in_set {
+            let Some(Element::Rod {
+                section: RodSection::Property(pid),
+                ..
+            }) = self.elements.get_mut(id)
+            else {
+                continue;
+            };
+            if !pid_outside.contains(pid) {
+                continue;
+            }
+            let new = *renamed.entry(*pid).or_insert_with(|| {
+                next_pid += 1;
+                next_pid - 1
+            });
+            if let Some(p) = self.rod_properties.get(pid).cloned() {
+                self.rod_properties.insert(new, p);
+            }
+            *pid = new;
+        }
+        // Materials used by anything outside the set's rods.
+        let mut outside = self.rod_materials_outside(in_set);
+        for p in self.shell_properties.values() {
+            outside.extend([p.material, p.bending_mid(), p.shear_mid()]);
+        }
+        outside.extend(self.beam_properties.values().map(|p| p.material));
+        let own_pids: BTreeSet<u64> = in_set
+            .iter()
+            .filter_map(|id| match self.elements.get(id) {
+                Some(Element::Rod {
+                    section: RodSection::Property(pid),
+                    ..
+                }) => Some(*pid),
+                _ => None,
+            })
+            .collect();
+        for (pid, p) in &self.rod_properties {
+            if !own_pids.contains(pid) {
+                outside.insert(p.material);
+            }
+        }
+        let mut next = self.materials.keys().max().copied().unwrap_or(0) + 1;
+        let mut copies: BTreeMap<u64, u64> = BTreeMap::new();
+        let mut copy = |materials: &mut BTreeMap<u64, crate::model::Material>, mid: &mut u64| {
+            if !outside.contains(mid) {
+                return;
+            }
+            let new = *copies.entry(*mid).or_insert_with(|| {
+                next += 1;
+                next - 1
+            });
+            if let Some(m) = materials.get(mid).cloned() {
+                materials.insert(new, m);
+            }
+            *mid = new;
+        };
+        for pid in &own_pids {
+            if let Some(p) = self.rod_properties.get_mut(pid) {
+                copy(&mut self.materials, &mut p.material);
+            }
+        }
+        for id in in_set {
+            if let Some(Element::Rod {
+                section: RodSection::Own(p),
+                ..
+            }) = self.elements.get_mut(id)
+            {
+                copy(&mut self.materials, &mut p.material);
+            }
+        }
+    }
+
     /// Gives the (now owned) properties of `in_set` material ids no other property uses.
     fn own_materials(&mut self, in_set: &std::collections::BTreeSet<u64>, shell: bool) {
         let own: std::collections::BTreeSet<u64> = in_set
             .iter()
             .filter_map(|id| self.elements.get(id)?.property())
             .collect();
-        let mut outside = std::collections::BTreeSet::new();
+        let mut outside = self.rod_materials_outside(&std::collections::BTreeSet::new());
         for (pid, p) in &self.shell_properties {
             if !(shell && own.contains(pid)) {
                 outside.insert(p.material);
             }
+            // Another part's material is outside what the parameter (the `material`) changes.
+            outside.extend(
+                [p.bending_mid(), p.shear_mid()]
+                    .into_iter()
+                    .filter(|m| *m != p.material),
+            );
         }
         for (pid, p) in &self.beam_properties {
             if shell || !own.contains(pid) {
@@ -427,10 +573,19 @@ impl Model {
                 next += 1;
                 n
             });
-            if let Some(m) = self.materials.get(material).cloned() {
+            let old = *material;
+            *material = new;
+            if let Some(m) = self.materials.get(&old).cloned() {
                 self.materials.insert(new, m);
             }
-            *material = new;
+            // A PSHELL part naming the same material (MID3 = MID1 with another MID2) follows it.
+            if let Some(p) = self.shell_properties.get_mut(&pid).filter(|_| shell) {
+                for part in [&mut p.bending_material, &mut p.shear_material] {
+                    if *part == Some(old) {
+                        *part = Some(new);
+                    }
+                }
+            }
         }
     }
 }

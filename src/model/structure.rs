@@ -24,15 +24,133 @@ impl Material {
     }
 }
 
-/// A shell property (Nastran PSHELL, membrane + bending of one material).
+/// A shell property (Nastran PSHELL): membrane, bending and transverse shear, by default all of
+/// one material. The optional parts follow the PSHELL fields (MID1 blank: no membrane; MID2
+/// blank: membrane only; MID2, MID3 other materials; 12I/T³; TS/T); their defaults are the
+/// homogeneous shell, and they are not serialised when default, so existing meshes keep their
+/// bytes.
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct ShellProperty {
-    /// Material id.
+    /// Material id: the membrane's (MID1) and the one whose density gives the mass; for a
+    /// bending-only shell (MID1 blank) the bending material.
     pub material: u64,
     /// Thickness, m.
     pub thickness: f64,
     /// Non-structural mass per area, kg/m².
     pub nsm: f64,
+    /// Whether the shell has membrane stiffness (Nastran: MID1 given).
+    #[serde(default = "yes", skip_serializing_if = "is_yes")]
+    pub membrane: bool,
+    /// Whether the shell has bending and transverse shear stiffness and rotary inertia
+    /// (Nastran: MID2 given).
+    #[serde(default = "yes", skip_serializing_if = "is_yes")]
+    pub bending: bool,
+    /// Bending material (MID2) when it is not `material`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub bending_material: Option<u64>,
+    /// Transverse shear material (MID3) when it is not the bending material.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub shear_material: Option<u64>,
+    /// Bending stiffness ratio `12I/T³` (1: a solid plate).
+    #[serde(default = "one", skip_serializing_if = "is_one")]
+    pub bending_ratio: f64,
+    /// Transverse shear thickness ratio `TS/T` (the shear correction factor, 5/6 by default).
+    #[serde(default = "five_sixths", skip_serializing_if = "is_five_sixths")]
+    pub shear_ratio: f64,
+}
+
+impl ShellProperty {
+    /// A homogeneous shell of one material (membrane, bending and shear), Nastran's default PSHELL.
+    pub fn homogeneous(material: u64, thickness: f64, nsm: f64) -> ShellProperty {
+        ShellProperty {
+            material,
+            thickness,
+            nsm,
+            membrane: true,
+            bending: true,
+            bending_material: None,
+            shear_material: None,
+            bending_ratio: 1.0,
+            shear_ratio: five_sixths(),
+        }
+    }
+
+    /// The bending material id (MID2).
+    pub fn bending_mid(&self) -> u64 {
+        self.bending_material.unwrap_or(self.material)
+    }
+
+    /// The transverse shear material id (MID3).
+    pub fn shear_mid(&self) -> u64 {
+        self.shear_material.unwrap_or_else(|| self.bending_mid())
+    }
+
+    /// Whether every optional part has its default (a homogeneous shell).
+    pub fn is_homogeneous(&self) -> bool {
+        self.membrane
+            && self.bending
+            && self.bending_material.is_none()
+            && self.shear_material.is_none()
+            && is_one(&self.bending_ratio)
+            && is_five_sixths(&self.shear_ratio)
+    }
+}
+
+fn yes() -> bool {
+    true
+}
+
+fn is_yes(v: &bool) -> bool {
+    *v
+}
+
+fn one() -> f64 {
+    1.0
+}
+
+fn is_one(v: &f64) -> bool {
+    *v == 1.0
+}
+
+/// The shear correction factor 5/6 of a homogeneous plate (Nastran's TS/T default 0.833333).
+pub fn five_sixths() -> f64 {
+    5.0 / 6.0
+}
+
+fn is_five_sixths(v: &f64) -> bool {
+    *v == five_sixths()
+}
+
+/// A rod property (Nastran PROD, or PTUBE converted to area and torsion constant; CONROD holds
+/// one inline): axial and torsional stiffness only.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct RodProperty {
+    /// Material id.
+    pub material: u64,
+    /// Cross-section area, m².
+    pub area: f64,
+    /// Torsion constant, m⁴ (0: no torsional stiffness).
+    pub j: f64,
+    /// Torsional stress coefficient `C` (stress recovery only; kept for write-back).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub c: f64,
+    /// Non-structural mass per length, kg/m.
+    pub nsm: f64,
+}
+
+fn is_zero(v: &f64) -> bool {
+    *v == 0.0
+}
+
+/// Where a rod's section is: a property shared by id (CROD, CTUBE), or the element's own (CONROD,
+/// which has no property id, so it belongs to no `pid<N>` set).
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum RodSection {
+    /// A rod property of the model by id.
+    Property(u64),
+    /// The element's own section (CONROD).
+    Own(RodProperty),
 }
 
 /// A beam cross-section.
@@ -113,6 +231,13 @@ pub enum Element {
         /// Orientation vector `v` in the basic system: local y lies in the plane of the axis and `v`.
         orientation: [f64; 3],
     },
+    /// Two-node rod (CROD, CONROD, CTUBE): axial and torsional stiffness only.
+    Rod {
+        /// End nodes.
+        nodes: [u64; 2],
+        /// Its section: a rod property id, or its own (CONROD).
+        section: RodSection,
+    },
     /// Six-DOF lumped spring (CBUSH; or a spring to ground when `nodes[1]` is `None`),
     /// stiffness per basic direction.
     Bush {
@@ -152,6 +277,7 @@ impl Element {
             Element::Quad4 { nodes, .. } => nodes.to_vec(),
             Element::Tria3 { nodes, .. } => nodes.to_vec(),
             Element::Beam { nodes, .. } => nodes.to_vec(),
+            Element::Rod { nodes, .. } => nodes.to_vec(),
             Element::Bush { node, other, .. } => std::iter::once(*node).chain(*other).collect(),
             Element::ScalarSpring { dof, other, .. } => std::iter::once(dof.node)
                 .chain(other.map(|d| d.node))
@@ -166,6 +292,10 @@ impl Element {
             Element::Quad4 { property, .. }
             | Element::Tria3 { property, .. }
             | Element::Beam { property, .. } => Some(*property),
+            Element::Rod {
+                section: RodSection::Property(p),
+                ..
+            } => Some(*p),
             _ => None,
         }
     }
@@ -176,6 +306,7 @@ impl Element {
             Element::Quad4 { .. } => "quad4",
             Element::Tria3 { .. } => "tria3",
             Element::Beam { .. } => "beam",
+            Element::Rod { .. } => "rod",
             Element::Bush { .. } => "bush",
             Element::ScalarSpring { .. } => "scalar_spring",
             Element::Mass { .. } => "mass",
@@ -229,6 +360,9 @@ pub struct Model {
     pub shell_properties: BTreeMap<u64, ShellProperty>,
     /// Beam properties by id.
     pub beam_properties: BTreeMap<u64, BeamProperty>,
+    /// Rod properties by id (PROD, PTUBE).
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub rod_properties: BTreeMap<u64, RodProperty>,
     /// Elements by id.
     pub elements: BTreeMap<u64, Element>,
     /// Constrained (zero) DOFs.
@@ -271,6 +405,14 @@ pub enum ModelError {
     MissingMaterial {
         /// Property id.
         property: u64,
+        /// Material id.
+        material: u64,
+    },
+    /// An element holding its own section (CONROD) names a material that does not exist.
+    #[error("element {element} refers to material {material}, which is not defined")]
+    MissingElementMaterial {
+        /// Element id.
+        element: u64,
         /// Material id.
         material: u64,
     },
@@ -323,6 +465,10 @@ impl Model {
                 Element::Beam { property, .. } => {
                     (self.beam_properties.contains_key(property), "beam")
                 }
+                Element::Rod {
+                    section: RodSection::Property(p),
+                    ..
+                } => (self.rod_properties.contains_key(p), "rod"),
                 _ => (true, ""),
             };
             if !ok {
@@ -335,11 +481,35 @@ impl Model {
             }
         }
         for (&id, p) in &self.shell_properties {
+            for material in [p.material, p.bending_mid(), p.shear_mid()] {
+                if !self.materials.contains_key(&material) {
+                    return Err(ModelError::MissingMaterial {
+                        property: id,
+                        material,
+                    });
+                }
+            }
+        }
+        for (&id, p) in &self.rod_properties {
             if !self.materials.contains_key(&p.material) {
                 return Err(ModelError::MissingMaterial {
                     property: id,
                     material: p.material,
                 });
+            }
+        }
+        for (&id, e) in &self.elements {
+            if let Element::Rod {
+                section: RodSection::Own(p),
+                ..
+            } = e
+            {
+                if !self.materials.contains_key(&p.material) {
+                    return Err(ModelError::MissingElementMaterial {
+                        element: id,
+                        material: p.material,
+                    });
+                }
             }
         }
         for (&id, p) in &self.beam_properties {

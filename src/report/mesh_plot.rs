@@ -172,7 +172,7 @@ fn items(model: &Model, view: View) -> Vec<Item> {
         let (nodes, face): (Vec<u64>, bool) = match e {
             Element::Quad4 { nodes, .. } => (nodes.to_vec(), true),
             Element::Tria3 { nodes, .. } => (nodes.to_vec(), true),
-            Element::Beam { nodes, .. } => (nodes.to_vec(), false),
+            Element::Beam { nodes, .. } | Element::Rod { nodes, .. } => (nodes.to_vec(), false),
             _ => continue,
         };
         let xyz: Vec<[f64; 3]> = nodes

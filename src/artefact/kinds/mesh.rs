@@ -8,12 +8,16 @@
 //! | `constraints` | `dof` |
 //! | `sets` | `set, element` |
 //!
-//! Materials, properties and parameters are small and go into `meta` as JSON.
+//! Materials, properties and parameters are small and go into `meta` as JSON. Rods (`type`
+//! `rod`) name their rod property in `property`, or hold −1 there when the element has its own
+//! section (a CONROD), which is then in `meta.rod_sections` under the element id; both rod
+//! metadata keys are written only when the model has rods, so meshes without them keep their
+//! bytes.
 
 use super::{ColumnLayout, Kind, Layout, col, meta, meta_opt, meta_value, table};
 use crate::artefact::{Artefact, ArtefactError, ArtefactKind, Column, Storage, Table};
 use crate::core::DofId;
-use crate::model::{Element, Model};
+use crate::model::{Element, Model, RodProperty, RodSection};
 
 const K: ArtefactKind = ArtefactKind::Mesh;
 
@@ -74,6 +78,11 @@ impl Kind for MeshKind {
                 meta("beam_properties", "beam properties by id"),
                 meta("parameters", "updating parameters of the model"),
                 meta("units", "unit of the columns that have one"),
+                meta_opt("rod_properties", "rod properties by id (only with rods)"),
+                meta_opt(
+                    "rod_sections",
+                    "sections of rods without a property (CONROD), by element id",
+                ),
                 meta_opt("skipped_cards", "deck cards mesh.import did not read"),
                 meta_opt("ignored_cards", "deck cards left out on request"),
                 meta_opt("ignore_cards", "the cards requested to be left out"),
@@ -99,8 +108,13 @@ impl Kind for MeshKind {
 fn element_columns() -> Vec<ColumnLayout> {
     vec![
         col("element", "int64", "", "element id"),
-        col("type", "string", "", "quad4, tria3 or beam"),
-        col("property", "int64", "", "property id"),
+        col("type", "string", "", "quad4, tria3, beam or rod"),
+        col(
+            "property",
+            "int64",
+            "",
+            "property id (-1: a rod with its own section)",
+        ),
         col("n1", "int64", "", "first node"),
         col("n2", "int64", "", "second node"),
         col("n3", "int64", "", "third node or -1"),
@@ -153,6 +167,7 @@ fn lumped_columns() -> Vec<ColumnLayout> {
 pub fn mesh_to_artefact(m: &Model) -> Artefact {
     let mut elements = ElementColumns::default();
     let mut lumped = LumpedColumns::default();
+    let mut rod_sections = std::collections::BTreeMap::new();
     for (&id, e) in &m.elements {
         match e {
             Element::Quad4 { nodes, property } => elements.push(id, e, nodes, *property, None),
@@ -162,10 +177,20 @@ pub fn mesh_to_artefact(m: &Model) -> Artefact {
                 property,
                 orientation,
             } => elements.push(id, e, nodes, *property, Some(*orientation)),
+            Element::Rod { nodes, section } => {
+                let pid = match section {
+                    RodSection::Property(p) => *p as i64,
+                    RodSection::Own(p) => {
+                        rod_sections.insert(id, p.clone());
+                        -1
+                    }
+                };
+                elements.push_row(id, e, nodes, pid, None);
+            }
             _ => lumped.push(id, e),
         }
     }
-    Artefact::new(K)
+    let mut a = Artefact::new(K)
         .with_meta("n_nodes", m.nodes.len().into())
         .with_meta("n_elements", m.elements.len().into())
         .with_meta("n_dofs", m.n_dofs().into())
@@ -178,7 +203,14 @@ pub fn mesh_to_artefact(m: &Model) -> Artefact {
         .with_table("elements", elements.into_table(), Storage::Parquet)
         .with_table("lumped", lumped.into_table(), Storage::Parquet)
         .with_table("constraints", constraints_table(m), Storage::Parquet)
-        .with_table("sets", sets_table(m), Storage::Parquet)
+        .with_table("sets", sets_table(m), Storage::Parquet);
+    if !m.rod_properties.is_empty() {
+        a = a.with_meta("rod_properties", to_json(&m.rod_properties));
+    }
+    if !rod_sections.is_empty() {
+        a = a.with_meta("rod_sections", to_json(&rod_sections));
+    }
+    a
 }
 
 fn nodes_table(m: &Model) -> Table {
@@ -221,9 +253,20 @@ struct ElementColumns {
 
 impl ElementColumns {
     fn push(&mut self, id: u64, e: &Element, nodes: &[u64], property: u64, v: Option<[f64; 3]>) {
+        self.push_row(id, e, nodes, property as i64, v);
+    }
+
+    fn push_row(
+        &mut self,
+        id: u64,
+        e: &Element,
+        nodes: &[u64],
+        property: i64,
+        v: Option<[f64; 3]>,
+    ) {
         self.id.push(id as i64);
         self.ty.push(e.type_name().to_string());
-        self.property.push(property as i64);
+        self.property.push(property);
         for (k, col) in self.nodes.iter_mut().enumerate() {
             col.push(nodes.get(k).map(|n| *n as i64).unwrap_or(-1));
         }
@@ -298,7 +341,10 @@ impl LumpedRow {
                 offset: *offset,
                 ..empty(*node)
             },
-            Element::Quad4 { .. } | Element::Tria3 { .. } | Element::Beam { .. } => return None,
+            Element::Quad4 { .. }
+            | Element::Tria3 { .. }
+            | Element::Beam { .. }
+            | Element::Rod { .. } => return None,
         })
     }
 }
@@ -385,6 +431,7 @@ pub fn mesh_from_artefact(a: &Artefact) -> Result<Model, ArtefactError> {
         shell_properties: meta_value(a, "shell_properties")?,
         beam_properties: meta_value(a, "beam_properties")?,
         parameters: meta_value(a, "parameters")?,
+        rod_properties: optional_meta(a, "rod_properties")?,
         ..Default::default()
     };
     read_nodes(a, &mut m)?;
@@ -423,7 +470,21 @@ fn read_nodes(a: &Artefact, m: &mut Model) -> Result<(), ArtefactError> {
     Ok(())
 }
 
+/// An optional metadata key's value, its default when absent.
+fn optional_meta<T: serde::de::DeserializeOwned + Default>(
+    a: &Artefact,
+    key: &str,
+) -> Result<T, ArtefactError> {
+    if a.meta.contains_key(key) {
+        meta_value(a, key)
+    } else {
+        Ok(T::default())
+    }
+}
+
 fn read_elements(a: &Artefact, m: &mut Model) -> Result<(), ArtefactError> {
+    let mut rod_sections: std::collections::BTreeMap<u64, RodProperty> =
+        optional_meta(a, "rod_sections")?;
     let n = "elements";
     let t = a.table(n)?;
     let (eid, ty, prop) = (
@@ -440,6 +501,26 @@ fn read_elements(a: &Artefact, m: &mut Model) -> Result<(), ArtefactError> {
     let vs = [t.f64s(n, "v_x")?, t.f64s(n, "v_y")?, t.f64s(n, "v_z")?];
     for r in 0..eid.len() {
         let node = |k: usize| id(ns[k][r], n, r);
+        let eid = id(eid[r], n, r)?;
+        if ty[r] == "rod" {
+            let section = if prop[r] == -1 {
+                RodSection::Own(rod_sections.remove(&eid).ok_or_else(|| {
+                    bad(format!(
+                        "elements row {r}: rod {eid} has property -1 but no entry in metadata `rod_sections`"
+                    ))
+                })?)
+            } else {
+                RodSection::Property(id(prop[r], n, r)?)
+            };
+            m.elements.insert(
+                eid,
+                Element::Rod {
+                    nodes: [node(0)?, node(1)?],
+                    section,
+                },
+            );
+            continue;
+        }
         let p = id(prop[r], n, r)?;
         let e = match ty[r].as_str() {
             "quad4" => Element::Quad4 {
@@ -457,11 +538,11 @@ fn read_elements(a: &Artefact, m: &mut Model) -> Result<(), ArtefactError> {
             },
             other => {
                 return Err(bad(format!(
-                    "elements row {r}: type `{other}` is not quad4, tria3 or beam"
+                    "elements row {r}: type `{other}` is not quad4, tria3, beam or rod"
                 )));
             }
         };
-        m.elements.insert(id(eid[r], n, r)?, e);
+        m.elements.insert(eid, e);
     }
     Ok(())
 }
@@ -520,4 +601,89 @@ fn read_lumped(a: &Artefact, m: &mut Model) -> Result<(), ArtefactError> {
         m.elements.insert(id(lid[r], n, r)?, e);
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::{Material, ShellProperty};
+
+    fn rod_model() -> Model {
+        let mut m = Model::default();
+        for (i, x) in [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0]]
+            .iter()
+            .enumerate()
+        {
+            m.nodes.insert(i as u64 + 1, *x);
+        }
+        m.materials.insert(
+            1,
+            Material {
+                e: 7e10,
+                nu: 0.33,
+                rho: 2700.0,
+            },
+        );
+        let mut membrane = ShellProperty::homogeneous(1, 0.002, 0.0);
+        membrane.bending = false;
+        m.shell_properties.insert(2, membrane);
+        m.elements.insert(
+            1,
+            Element::Tria3 {
+                nodes: [1, 2, 3],
+                property: 2,
+            },
+        );
+        let section = RodProperty {
+            material: 1,
+            area: 1e-4,
+            j: 2e-9,
+            c: 0.01,
+            nsm: 0.3,
+        };
+        m.rod_properties.insert(5, section.clone());
+        m.elements.insert(
+            2,
+            Element::Rod {
+                nodes: [1, 2],
+                section: RodSection::Property(5),
+            },
+        );
+        m.elements.insert(
+            3,
+            Element::Rod {
+                nodes: [2, 3],
+                section: RodSection::Own(section),
+            },
+        );
+        m.add_property_sets();
+        m
+    }
+
+    /// Rods (by property and with their own section) and a membrane-only shell come back
+    /// exactly; a model without rods writes no rod metadata and a homogeneous shell property
+    /// serialises as before the optional PSHELL parts existed (digests unchanged).
+    #[test]
+    fn rods_and_shell_parts_round_trip_and_leave_other_meshes_alone() {
+        let m = rod_model();
+        let a = mesh_to_artefact(&m);
+        assert_eq!(mesh_from_artefact(&a).unwrap(), m);
+        assert_eq!(a.meta["rod_sections"]["3"]["area"], 1e-4);
+        let t = a.table("elements").unwrap();
+        assert_eq!(t.i64s("elements", "property").unwrap(), &[2, 5, -1]);
+        let mut plain = m.clone();
+        plain.elements.retain(|_, e| e.type_name() != "rod");
+        plain.rod_properties.clear();
+        plain
+            .shell_properties
+            .insert(2, ShellProperty::homogeneous(1, 0.002, 0.0));
+        plain.sets.clear();
+        let a = mesh_to_artefact(&plain);
+        assert!(!a.meta.contains_key("rod_properties") && !a.meta.contains_key("rod_sections"));
+        assert_eq!(
+            a.meta["shell_properties"],
+            serde_json::json!({"2": {"material": 1, "thickness": 0.002, "nsm": 0.0}})
+        );
+        assert_eq!(mesh_from_artefact(&a).unwrap(), plain);
+    }
 }

@@ -2,7 +2,8 @@
 //! changed are rewritten, every other line of every file keeps its bytes.
 //!
 //! What changes, by the parameter kinds of docs/theory.md §2:
-//! - shell thickness → PSHELL `T`; Young's modulus and density → MAT1 `E` and `RHO` (with `G`
+//! - shell thickness → PSHELL `T`; Young's modulus and density (of shells, beams, rods) → MAT1
+//!   `E` and `RHO` (with `G`
 //!   kept consistent, `E = 2(1 + ν)G`, when the card gives it; `RHO` divided by `PARAM,WTMASS`);
 //!   beam width and height → PBARL/PBEAML `BAR` `DIM1`/`DIM2`;
 //! - bush stiffness → PBUSH `K1`–`K6`, scalar spring stiffness → CELAS2 `K` or PELAS `K1`/`K2`;
@@ -23,7 +24,7 @@
 
 use crate::model::export::nastran::format_real;
 use crate::model::import::nastran::{Deck, DeckCard, parse_real};
-use crate::model::structure::{BeamSection, Element, Material, Model};
+use crate::model::structure::{BeamSection, Element, Material, Model, RodSection};
 use std::collections::{BTreeMap, BTreeSet};
 
 /// One field changed (or one card added), for the comment block and the stage's record.
@@ -404,7 +405,12 @@ pub fn update_deck(
     let mut w = Writer::new(deck);
     let new_material_ids = materials(&mut w, original, updated)?;
     let new_property_ids = properties(&mut w, original, updated, &new_material_ids)?;
-    elements(&mut w, original, updated, &new_property_ids)?;
+    elements(
+        &mut w,
+        original,
+        updated,
+        (&new_material_ids, &new_property_ids),
+    )?;
     render(&w, header)
 }
 
@@ -455,23 +461,16 @@ fn materials(
     original: &Model,
     updated: &Model,
 ) -> Result<BTreeMap<u64, u64>, DeckUpdateError> {
-    // A new material is a copy of the one its property used in the original model.
+    // A new material is a copy of the one its element used in the original model.
     let mut source_of: BTreeMap<u64, u64> = BTreeMap::new();
-    let material_of = |m: &Model, pid: u64| {
-        m.shell_properties
-            .get(&pid)
-            .map(|p| p.material)
-            .or_else(|| m.beam_properties.get(&pid).map(|p| p.material))
-    };
     for (eid, e) in &updated.elements {
-        let (Some(pid), Some(e0)) = (e.property(), original.elements.get(eid)) else {
+        let Some(e0) = original.elements.get(eid) else {
             continue;
         };
-        let (Some(mid), Some(pid0)) = (material_of(updated, pid), e0.property()) else {
-            continue;
-        };
-        if !original.materials.contains_key(&mid) {
-            if let Some(mid0) = material_of(original, pid0) {
+        if let (Some(mid), Some(mid0)) =
+            (element_material(updated, e), element_material(original, e0))
+        {
+            if !original.materials.contains_key(&mid) {
                 source_of.insert(mid, mid0);
             }
         }
@@ -489,6 +488,7 @@ fn materials(
             continue;
         }
         let Some(mid0) = source_of.get(mid) else {
+            // A material no element uses: nothing in the deck refers to it.
             continue;
         };
         let i = *w.materials.get(mid0).ok_or(DeckUpdateError::Missing {
@@ -515,6 +515,23 @@ fn materials(
     Ok(ids)
 }
 
+/// The material an element's stiffness comes from (shell, beam and rod properties, CONROD).
+fn element_material(m: &Model, e: &Element) -> Option<u64> {
+    if let Element::Rod {
+        section: RodSection::Own(p),
+        ..
+    } = e
+    {
+        return Some(p.material);
+    }
+    let pid = e.property()?;
+    m.shell_properties
+        .get(&pid)
+        .map(|p| p.material)
+        .or_else(|| m.beam_properties.get(&pid).map(|p| p.material))
+        .or_else(|| m.rod_properties.get(&pid).map(|p| p.material))
+}
+
 /// Property changes; returns the deck id given to each property id new in `updated`.
 fn properties(
     w: &mut Writer,
@@ -539,6 +556,7 @@ fn properties(
         .shell_properties
         .keys()
         .chain(updated.beam_properties.keys())
+        .chain(updated.rod_properties.keys())
         .copied()
         .collect();
     for pid in pids {
@@ -581,6 +599,16 @@ fn properties(
             }
             if p.section != p0.section {
                 beam_section(w, i, &p0.section, &p.section)?;
+            }
+        } else if let (Some(p), Some(p0)) = (
+            updated.rod_properties.get(&pid),
+            original.rod_properties.get(&pid0),
+        ) {
+            if p.material != p0.material {
+                w.set(i, 2, "MID", mid_text(p.material));
+            }
+            if (p.area, p.j, p.nsm) != (p0.area, p0.j, p0.nsm) {
+                return Err(w.unsupported(i, "rod sections cannot be written back"));
             }
         }
         if is_new {
@@ -641,11 +669,10 @@ fn elements(
     w: &mut Writer,
     original: &Model,
     updated: &Model,
-    new_properties: &BTreeMap<u64, u64>,
+    (new_materials, new_properties): (&BTreeMap<u64, u64>, &BTreeMap<u64, u64>),
 ) -> Result<(), DeckUpdateError> {
     // Springs whose property card holds the stiffness: (property card, field of K) → users' k.
-    let mut spring_groups: BTreeMap<(usize, usize), SpringUsers> =
-        BTreeMap::new();
+    let mut spring_groups: BTreeMap<(usize, usize), SpringUsers> = BTreeMap::new();
     for (eid, e) in &updated.elements {
         let Some(e0) = original.elements.get(eid) else {
             continue;
@@ -664,6 +691,26 @@ fn elements(
             }
         }
         match (e, e0) {
+            (
+                Element::Rod {
+                    section: RodSection::Own(p),
+                    ..
+                },
+                Element::Rod {
+                    section: RodSection::Own(p0),
+                    ..
+                },
+            ) if p != p0 => {
+                if (p.area, p.j, p.nsm) != (p0.area, p0.j, p0.nsm) {
+                    return Err(w.unsupported(i, "rod sections cannot be written back"));
+                }
+                let text = new_materials
+                    .get(&p.material)
+                    .copied()
+                    .unwrap_or(p.material)
+                    .to_string();
+                w.set(i, 4, "MID", text);
+            }
             (Element::Bush { k, .. }, Element::Bush { k: k0, .. }) if k != k0 => {
                 let pid = card_id(w.card(i), 2).unwrap_or(*eid);
                 let pi = *w.properties.get(&pid).ok_or(DeckUpdateError::Missing {
@@ -930,11 +977,9 @@ fn render(w: &Writer, header: &[String]) -> Result<UpdatedDeck, DeckUpdateError>
     let mut changes = Vec::new();
     // Per file: first line of a rewritten card → its text; lines to drop; insertions after a
     // line; INCLUDE statements to rewrite.
-    let mut replace: Vec<Rewrites> =
-        vec![BTreeMap::new(); deck.files.len()];
+    let mut replace: Vec<Rewrites> = vec![BTreeMap::new(); deck.files.len()];
     let mut drop: Vec<BTreeSet<usize>> = vec![BTreeSet::new(); deck.files.len()];
-    let mut after: Vec<Insertions> =
-        vec![BTreeMap::new(); deck.files.len()];
+    let mut after: Vec<Insertions> = vec![BTreeMap::new(); deck.files.len()];
     for (&i, edit) in &w.edits {
         let c = w.card(i);
         for (&k, (label, new)) in &edit.fields {
@@ -1092,15 +1137,15 @@ mod tests {
         main.push_str("SPC1,1,123456,1,4,7\n");
         main.push_str(&small(&["CONM2", "10", "9", "", "2.0"]));
         main.push('\n');
-        main.push_str(&small(&["CBUSH", "11", "3", "7"]));
+        main.push_str(&small(&["CBUSH", "11", "21", "7"]));
         main.push('\n');
-        main.push_str("CELAS2,12,1.+4,8,3\nSET1,5,10\nSET1,6,11\nSET1,7,12\nSET1,8,1\nENDDATA\n");
+        main.push_str("CELAS2,12,1.+4,8,3\nPROD,20,1,1.-4,0.\nCROD,21,20,2,3\nCONROD,22,5,6,1,2.-4,0.\nSET1,5,10\nSET1,6,11\nSET1,7,12\nSET1,8,1\nSET1,9,22\nENDDATA\n");
         std::fs::write(dir.join("main.bdf"), main).unwrap();
         let props = format!(
             "{}\r\n{}\r\n$ steel\r\nMAT1,1,2.1+11,,.3,7850.\r\n{}\r\n",
             small(&["PSHELL", "1", "1", ".002", "1"]),
             small(&["PSHELL", "2", "1", t2, "1"]),
-            small(&["PBUSH", "3", "K", "1.+5", "2.+5", "3.+5"])
+            small(&["PBUSH", "21", "K", "1.+5", "2.+5", "3.+5"])
         );
         std::fs::write(dir.join("props.bdf"), props).unwrap();
     }
@@ -1115,14 +1160,18 @@ mod tests {
         }
     }
 
-    /// The deck's model with new values: element 1's thickness (a copy of PSHELL 1, whose id
-    /// 3 is the PBUSH's in the deck, so 4), pid2's thickness and modulus (MAT1 1 is shared
+    /// The deck's model with new values: element 1's thickness (a copy of PSHELL 1, which the
+    /// model numbers 21 after PROD 20, but 21 is the PBUSH's in the deck, so 22), pid2's thickness and modulus (MAT1 1 is shared
     /// with pid1, so a copy), the CONM2's mass, the bush's y stiffness and the CELAS2's k.
     fn updated(model: &Model) -> Model {
         let mut m = model.clone();
         let values = [
             (param("t1", ParameterKind::ShellThickness, "set8"), 0.0015),
             (param("t2", ParameterKind::ShellThickness, "pid2"), 0.0031),
+            (
+                param("e_conrod", ParameterKind::YoungsModulus, "set9"),
+                7e10,
+            ),
             (param("e2", ParameterKind::YoungsModulus, "pid2"), 1.9e11),
             (param("rho2", ParameterKind::Density, "pid2"), 7700.0),
             (
@@ -1190,9 +1239,17 @@ mod tests {
         assert_eq!(back.materials[&q2.material].e, 1.9e11);
         assert_eq!(back.materials[&q2.material].rho, 7700.0);
         assert_eq!(back.materials[&1].e, 2.1e11, "pid1 keeps its material");
-        assert_eq!(back.elements[&1].property(), Some(4));
-        assert_eq!(back.shell_properties[&4].thickness, 0.0015);
+        assert_eq!(back.elements[&1].property(), Some(22));
+        assert_eq!(back.shell_properties[&22].thickness, 0.0015);
         assert_eq!(back.shell_properties[&1].thickness, 0.002);
+        let Element::Rod {
+            section: RodSection::Own(conrod),
+            ..
+        } = &back.elements[&22]
+        else {
+            panic!("{:?}", back.elements[&22])
+        };
+        assert_eq!(back.materials[&conrod.material].e, 7e10);
         let Element::Mass { mass, .. } = back.elements[&10] else {
             panic!()
         };
@@ -1202,9 +1259,17 @@ mod tests {
         let main_in = std::fs::read_to_string(&top).unwrap();
         let main_out = String::from_utf8(out.files[0].1.clone()).unwrap();
         for line in main_in.lines() {
-            let changed = ["CONM2", "CBUSH", "CELAS2", "CQUAD4", "*       9", "INCLUDE"]
-                .iter()
-                .any(|c| line.starts_with(c));
+            let changed = [
+                "CONM2",
+                "CBUSH",
+                "CELAS2",
+                "CQUAD4",
+                "CONROD",
+                "*       9",
+                "INCLUDE",
+            ]
+            .iter()
+            .any(|c| line.starts_with(c));
             if !changed {
                 assert!(main_out.lines().any(|l| l == line), "`{line}` lost");
             }
@@ -1226,12 +1291,13 @@ mod tests {
             "PSHELL 2 T",
             "CONM2 10 M",
             "CELAS2 12 K",
-            "PBUSH 3 K2",
+            "PBUSH 21 K2",
             "PSHELL 2 MID1",
             "PSHELL 2 MID2",
             "MAT1 2 new card",
-            "PSHELL 4 new card",
+            "PSHELL 22 new card",
             "CQUAD4 1 PID",
+            "CONROD 22 MID",
         ] {
             assert!(fields.contains(want), "{want} missing from {fields:?}");
         }

@@ -2,10 +2,14 @@
 //! [`crate::model::import::nastran::parse_bulk`] reads back to the same model.
 //!
 //! Cards written, in this order, each group by ascending id: MAT1, PSHELL, PBAR (general
-//! sections) and PBARL (BAR, ROD, TUBE), PBUSH (one per bush, ids above every property id),
-//! GRID (basic coordinates), CQUAD4, CTRIA3, CBAR (orientation X1–X3), CBUSH (CID 0), CELAS2,
-//! CONM2 (CID 0), SPC1 (SID 1, one card per component list), SET1, between `BEGIN BULK` and
-//! `ENDDATA`.
+//! sections) and PBARL (BAR, ROD, TUBE), PROD, PBUSH (one per bush, ids above every property
+//! id), GRID (basic coordinates), CQUAD4, CTRIA3, CBAR (orientation X1–X3), CROD (a rod with a
+//! property) or CONROD (a rod with its own section), CBUSH (CID 0), CELAS2, CONM2 (CID 0), SPC1
+//! (SID 1, one card per component list), SET1, between `BEGIN BULK` and `ENDDATA`.
+//!
+//! PSHELL: MID1 blank for a shell without membrane, MID2 and MID3 blank for one without
+//! bending, else MID2 and MID3 written out (MID3 blank would mean no transverse shear
+//! flexibility to Nastran); 12I/T³ and TS/T only when not the defaults 1 and 5/6.
 //!
 //! Cards are in large-field format. A real is written in the shortest form that reads back to
 //! the same `f64` (`2.1+11`, `.3`, `-1.5-3`); when one field of a card needs more than 16
@@ -24,7 +28,7 @@
 //! - Non-finite values are written as `NaN`/`inf`, which the reader rejects.
 
 use crate::core::Component;
-use crate::model::structure::{BeamProperty, BeamSection, Element, Model};
+use crate::model::structure::{BeamProperty, BeamSection, Element, Model, RodSection};
 use std::collections::{BTreeMap, BTreeSet};
 use std::fmt::Write;
 
@@ -172,23 +176,41 @@ fn write_materials_and_properties(out: &mut String, model: &Model) {
         );
     }
     for (&id, p) in &model.shell_properties {
+        let mid = |on: bool, m: u64| if on { F::Int(m) } else { F::Blank };
+        let ratio = |v: f64, default: f64| {
+            if v == default { F::Blank } else { F::Real(v) }
+        };
         card(
             out,
             "PSHELL",
             vec![
                 F::Int(id),
-                F::Int(p.material),
+                mid(p.membrane, p.material),
                 F::Real(p.thickness),
-                F::Int(p.material),
-                F::Blank,
-                F::Blank,
-                F::Blank,
+                mid(p.bending, p.bending_mid()),
+                ratio(p.bending_ratio, 1.0),
+                mid(p.bending, p.shear_mid()),
+                ratio(p.shear_ratio, crate::model::structure::five_sixths()),
                 F::Real(p.nsm),
             ],
         );
     }
     for (&id, p) in &model.beam_properties {
         write_beam_property(out, id, p);
+    }
+    for (&id, p) in &model.rod_properties {
+        card(
+            out,
+            "PROD",
+            vec![
+                F::Int(id),
+                F::Int(p.material),
+                F::Real(p.area),
+                F::Real(p.j),
+                F::Real(p.c),
+                F::Real(p.nsm),
+            ],
+        );
     }
 }
 
@@ -261,6 +283,7 @@ fn write_bush_properties(out: &mut String, model: &Model) -> BTreeMap<u64, u64> 
         .shell_properties
         .keys()
         .chain(model.beam_properties.keys())
+        .chain(model.rod_properties.keys())
         .max()
         .copied()
         .unwrap_or(0);
@@ -304,6 +327,27 @@ fn write_element(out: &mut String, id: u64, e: &Element, bush_pid: &BTreeMap<u64
             f.extend(orientation.iter().map(|v| F::Real(*v)));
             card(out, "CBAR", f);
         }
+        Element::Rod { nodes, section } => match section {
+            RodSection::Property(pid) => card(
+                out,
+                "CROD",
+                vec![F::Int(id), F::Int(*pid), F::Int(nodes[0]), F::Int(nodes[1])],
+            ),
+            RodSection::Own(p) => card(
+                out,
+                "CONROD",
+                vec![
+                    F::Int(id),
+                    F::Int(nodes[0]),
+                    F::Int(nodes[1]),
+                    F::Int(p.material),
+                    F::Real(p.area),
+                    F::Real(p.j),
+                    F::Real(p.c),
+                    F::Real(p.nsm),
+                ],
+            ),
+        },
         Element::Bush { node, other, .. } => {
             let pid = bush_pid.get(&id).copied().unwrap_or(0);
             card(
@@ -417,7 +461,7 @@ mod tests {
     use crate::core::DofId;
     use crate::model::import::nastran::{parse_bulk, parse_real};
     use crate::model::structure::{
-        BeamProperty, Material, Parameter, ParameterKind, ShellProperty,
+        BeamProperty, Material, Parameter, ParameterKind, RodProperty, ShellProperty,
     };
     use proptest::prelude::*;
 
@@ -474,14 +518,8 @@ mod tests {
                 rho: 2700.0,
             },
         );
-        m.shell_properties.insert(
-            10,
-            ShellProperty {
-                material: 1,
-                thickness: 0.002,
-                nsm: 0.5,
-            },
-        );
+        m.shell_properties
+            .insert(10, ShellProperty::homogeneous(1, 0.002, 0.5));
         let sections = [
             BeamSection::Rectangle {
                 width: 0.01,
@@ -532,6 +570,59 @@ mod tests {
                     nodes: [5, 6 + i % 2],
                     property: 20 + i,
                     orientation: [0.0, 0.0, 1.0 + i as f64],
+                },
+            );
+        }
+        // Rods: a PROD shared by id and a CONROD with its own section.
+        m.rod_properties.insert(
+            14,
+            RodProperty {
+                material: 2,
+                area: 3.0e-5,
+                j: 1.0e-9,
+                c: 0.004,
+                nsm: 0.02,
+            },
+        );
+        m.elements.insert(
+            15,
+            Element::Rod {
+                nodes: [5, 7],
+                section: RodSection::Property(14),
+            },
+        );
+        m.elements.insert(
+            16,
+            Element::Rod {
+                nodes: [6, 7],
+                section: RodSection::Own(RodProperty {
+                    material: 1,
+                    area: 1.0 / 3.0 * 1e-4,
+                    j: 0.0,
+                    c: 0.0,
+                    nsm: 0.0,
+                }),
+            },
+        );
+        // PSHELL variants: membrane only, bending only, other MID2/MID3 with 12I/T³ and TS/T.
+        let mut membrane = ShellProperty::homogeneous(1, 0.003, 0.0);
+        membrane.bending = false;
+        let mut bending = ShellProperty::homogeneous(2, 0.004, 0.1);
+        bending.membrane = false;
+        let mut layered = ShellProperty::homogeneous(1, 0.005, 0.0);
+        layered.bending_material = Some(2);
+        layered.shear_material = Some(1);
+        layered.bending_ratio = 2.5;
+        layered.shear_ratio = 0.7;
+        for (pid, p) in [(11, membrane), (12, bending), (13, layered)] {
+            m.shell_properties.insert(pid, p);
+        }
+        for (eid, pid) in [(17, 11), (18, 12), (19, 13)] {
+            m.elements.insert(
+                eid,
+                Element::Tria3 {
+                    nodes: [1, 2, 3],
+                    property: pid,
                 },
             );
         }

@@ -56,14 +56,8 @@ pub fn bent_plate(p: &BentPlate) -> Model {
     let (nx, ny) = (14 * n, 7 * n); // elements along the developed length and across the width
     let mut m = Model::default();
     m.materials.insert(1, steel());
-    m.shell_properties.insert(
-        1,
-        ShellProperty {
-            material: 1,
-            thickness: p.thickness,
-            nsm: 0.0,
-        },
-    );
+    m.shell_properties
+        .insert(1, ShellProperty::homogeneous(1, p.thickness, 0.0));
     let angle = p.bend_deg.to_radians();
     let lx = p.plate_length / (7 * n) as f64;
     let point = |i: usize, j: usize| -> [f64; 3] {

@@ -55,14 +55,8 @@ pub fn flat_plate(p: &FlatPlate) -> Model {
         }
     }
     m.materials.insert(1, p.material.clone());
-    m.shell_properties.insert(
-        1,
-        ShellProperty {
-            material: 1,
-            thickness: p.thickness,
-            nsm: 0.0,
-        },
-    );
+    m.shell_properties
+        .insert(1, ShellProperty::homogeneous(1, p.thickness, 0.0));
     let mut eid = 1;
     for j in 0..p.ny {
         for i in 0..p.nx {

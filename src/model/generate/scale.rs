@@ -104,14 +104,9 @@ impl Builder {
 pub fn three_plate_two_beam(h: f64) -> Model {
     let mut b = Builder::new(h);
     for (p, t) in [(1u64, 3e-3), (2, 2e-3), (3, 3e-3)] {
-        b.model.shell_properties.insert(
-            p,
-            ShellProperty {
-                material: 1,
-                thickness: t,
-                nsm: 0.0,
-            },
-        );
+        b.model
+            .shell_properties
+            .insert(p, ShellProperty::homogeneous(1, t, 0.0));
     }
     b.model.beam_properties.insert(
         10,
@@ -167,30 +162,15 @@ pub fn three_plate_two_beam(h: f64) -> Model {
 /// element size `h`. Free-free. Sets: `shell`, `baffles`, `tubes`.
 pub fn muffler(h: f64, baffles: usize) -> Model {
     let mut b = Builder::new(h);
-    b.model.shell_properties.insert(
-        1,
-        ShellProperty {
-            material: 1,
-            thickness: 1.5e-3,
-            nsm: 0.0,
-        },
-    );
-    b.model.shell_properties.insert(
-        2,
-        ShellProperty {
-            material: 1,
-            thickness: 1.0e-3,
-            nsm: 0.0,
-        },
-    );
-    b.model.shell_properties.insert(
-        3,
-        ShellProperty {
-            material: 1,
-            thickness: 2.0e-3,
-            nsm: 0.0,
-        },
-    );
+    b.model
+        .shell_properties
+        .insert(1, ShellProperty::homogeneous(1, 1.5e-3, 0.0));
+    b.model
+        .shell_properties
+        .insert(2, ShellProperty::homogeneous(1, 1.0e-3, 0.0));
+    b.model
+        .shell_properties
+        .insert(3, ShellProperty::homogeneous(1, 2.0e-3, 0.0));
     let (lx, ly, lz) = (0.8, 0.3, 0.2);
     let (nx, ny, nz) = (b.divisions(lx), b.divisions(ly), b.divisions(lz));
     // Outer skin: four sides and two ends.

@@ -69,6 +69,11 @@ pub(super) struct Builder {
     pub(super) materials: BTreeMap<u64, (Loc, Material)>,
     pub(super) shells: BTreeMap<u64, ShellProperty>,
     pub(super) beams: BTreeMap<u64, BeamProperty>,
+    /// PROD and PTUBE properties; the ids of the PTUBEs.
+    pub(super) rods: BTreeMap<u64, crate::model::structure::RodProperty>,
+    pub(super) tube_pids: BTreeSet<u64>,
+    /// Whether the PSHELL MID3-blank deviation has been stated (once per deck).
+    pub(super) mid3_blank_warned: bool,
     pub(super) pelas: BTreeMap<u64, f64>,
     pub(super) pbush: BTreeMap<u64, [f64; 6]>,
     pub(super) pids: BTreeMap<u64, Loc>,
@@ -127,6 +132,10 @@ impl Builder {
             "PBAR" => self.pbar(c),
             "PBARL" => self.pbarl(c),
             "PBEAM" => self.pbeam(c),
+            "CROD" | "CTUBE" => self.rod_element(c),
+            "CONROD" => self.conrod(c),
+            "PROD" => self.prod(c),
+            "PTUBE" => self.ptube(c),
             "MAT1" => self.mat1(c),
             "CELAS1" | "CELAS2" => self.celas(c),
             "PELAS" => self.pelas_card(c),

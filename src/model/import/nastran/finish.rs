@@ -27,6 +27,8 @@ impl Builder {
         }
         model.shell_properties = std::mem::take(&mut self.shells);
         model.beam_properties = std::mem::take(&mut self.beams);
+        self.check_rod_properties()?;
+        model.rod_properties = std::mem::take(&mut self.rods);
         for (id, (loc, e)) in std::mem::take(&mut self.elements) {
             let element = self.resolve_element(&model, &geo, &loc, e)?;
             model.elements.insert(id, element);
@@ -445,6 +447,10 @@ impl Builder {
             ModelError::MissingMaterial { property, material } => {
                 (pid_loc(property), format!("add MAT1 {material}"))
             }
+            ModelError::MissingElementMaterial { element, material } => (
+                origins.elements.get(element).cloned(),
+                format!("add MAT1 {material}"),
+            ),
             ModelError::MissingSetElement { set, element } => (
                 origins.sets.get(set).cloned(),
                 format!(
@@ -512,7 +518,8 @@ impl Builder {
             .shell_properties
             .get(&p)
             .map(|s| s.material)
-            .or_else(|| model.beam_properties.get(&p).map(|b| b.material));
+            .or_else(|| model.beam_properties.get(&p).map(|b| b.material))
+            .or_else(|| model.rod_properties.get(&p).map(|r| r.material));
         let at = |l: Option<&Loc>| l.map_or(String::new(), |l| format!(" at {}", l.place()));
         let mat = mid.map_or(String::new(), |m| {
             format!(", material {m}{}", at(self.materials.get(&m).map(|x| &x.0)))
@@ -639,12 +646,22 @@ fn apply_wtmass(model: &mut Model, w: f64) {
     for p in model.beam_properties.values_mut() {
         p.nsm *= w;
     }
+    for p in model.rod_properties.values_mut() {
+        p.nsm *= w;
+    }
     for e in model.elements.values_mut() {
         if let Element::Mass { mass, inertia, .. } = e {
             *mass *= w;
             for i in inertia.iter_mut() {
                 *i *= w;
             }
+        }
+        if let Element::Rod {
+            section: crate::model::structure::RodSection::Own(p),
+            ..
+        } = e
+        {
+            p.nsm *= w;
         }
     }
 }

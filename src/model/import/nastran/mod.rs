@@ -12,9 +12,10 @@
 //! `1.E3` and `1D3`, and blank fields taking the QRG defaults.
 //!
 //! Cards read: GRID with GRDSET defaults, CORD1R/C/S and CORD2R/C/S (nested, in any order),
-//! CQUAD4, CTRIA3, CBAR, CBEAM, PSHELL, PBAR, PBARL (BAR, ROD, TUBE), PBEAM, MAT1, CELAS1 with
-//! PELAS, CELAS2, CBUSH with PBUSH, CONM2, SPC, SPC1, SPCADD, SET1, PARAM GRDPNT (its reference
-//! point, for the weight summary mesh.import prints), and PARAM WTMASS (applied to every
+//! CQUAD4, CTRIA3, CBAR, CBEAM, CROD, CONROD, CTUBE, PSHELL, PBAR, PBARL (BAR, ROD, TUBE),
+//! PBEAM, PROD, PTUBE, MAT1, CELAS1 with PELAS, CELAS2, CBUSH with PBUSH, CONM2, SPC, SPC1,
+//! SPCADD, SET1, PARAM GRDPNT (its reference point, for the weight summary mesh.import
+//! prints), and PARAM WTMASS (applied to every
 //! mass), COUPMASS, AUTOSPC, K6ROT and G (accepted with a warning saying what femu does
 //! instead). Cards that change neither stiffness, mass nor constraints ([`SKIPPED_CARDS`],
 //! PARAMs of [`SKIPPED_PARAMS`]) are skipped and counted in [`BulkImport::skipped`]. Every other
@@ -29,7 +30,8 @@
 //!
 //! Values femu's elements cannot take are refused at the card, so that `femu validate` finds
 //! them: MAT1 E > 0 (given or derived), G ≥ 0, −1 < NU ≤ 0.5 (< 0.5 for shells), RHO ≥ 0;
-//! PSHELL T > 0; PBAR/PBEAM A, I1, I2 > 0, J, K1, K2 ≥ 0; NSM ≥ 0; spring stiffnesses ≥ 0; CONM2
+//! PSHELL T, 12I/T³, TS/T > 0; PBAR/PBEAM A, I1, I2 > 0, J, K1, K2 ≥ 0; PROD/CONROD A > 0,
+//! J ≥ 0; PTUBE OD > 0, 0 ≤ T ≤ OD/2; NSM ≥ 0; spring stiffnesses ≥ 0; CONM2
 //! mass ≥ 0. Every element is then checked as the assembly would check it, naming its card.
 //!
 //! Deviations from Nastran, each stated where it happens:
@@ -47,9 +49,23 @@
 //! - CBAR/CBEAM: the orientation is X1–X3 (in the displacement system of GA) or G0;
 //!   a blank orientation (BAROR/BEAMOR defaults) is an error. Pin flags PA/PB and offsets
 //!   W1A–W3B ≠ 0 are errors; CBEAM warping points SA/SB are ignored with a warning.
-//! - PSHELL: MID1 is the material for membrane and bending. MID2 blank (no bending in Nastran)
-//!   or different from MID1, MID3 different from MID1, MID4 given or 12I/T³ ≠ 1 give warnings.
-//!   T must be given (> 0).
+//! - PSHELL (QRG meaning): MID1 the membrane material (blank: no membrane), MID2 the bending
+//!   material (blank: membrane only — no bending, transverse shear, drilling stiffness or rotary
+//!   inertia, so the rotations of a membrane-only mesh are dropped as AUTOSPC does), MID3 the
+//!   transverse shear material, 12I/T³ scales the bending stiffness (not the rotary inertia),
+//!   TS/T is the shear correction factor (0.833333 read as 5/6). The mass is ρ·T + NSM with
+//!   MID1's density (MID2's when MID1 is blank). Deviation: MID3 blank means no transverse
+//!   shear flexibility (Kirchhoff) to Nastran; femu keeps its Mindlin shear with MID2's G and
+//!   says so once per deck (an O((T/wavelength)²) effect: about 5e-4 at T/span = 0.01). MID4
+//!   (membrane-bending coupling), MID2 = −1 (plane strain), MID3 without MID2 and MID1 and MID2
+//!   both blank are errors; Z1/Z2 (stress recovery) are ignored. T must be given (> 0).
+//! - CROD/PROD, CTUBE/PTUBE, CONROD: axial `EA/L` and torsional `GJ/L` stiffness; mass
+//!   (ρA + NSM)L, Nastran's lumped rod mass (half per end on the translations) or coupled mass
+//!   (`m/6 [[2, 1], [1, 2]]` on all three translations), no torsional inertia (as Nastran). C
+//!   (torsional stress coefficient) is kept for write-back only. PTUBE: A = π(OD − T)T,
+//!   J = π(OD⁴ − ID⁴)/32, T blank or 0 a solid rod; OD2 ≠ OD (tapered) is an error. CROD must
+//!   name a PROD and CTUBE a PTUBE (PID blank: the EID). CONROD has no property id: its section
+//!   is the element's own, so it is in no `pid<N>` set (name it in a SET1 to update it).
 //! - PBAR: I1 (plane 1) is the second moment about the element z axis, I2 about y; K1/K2 blank
 //!   or 0 mean no shear flexibility; I12 ≠ 0 is an error; stress points are ignored.
 //! - PBARL: GROUP must be blank or MSCBML0; TYPE BAR (DIM1 → `width`, DIM2 → `height`; the QRG
@@ -108,11 +124,14 @@ mod lumped;
 mod numbers;
 mod properties;
 mod replicate;
+mod rods;
 mod source;
 #[cfg(test)]
 mod tests;
 #[cfg(test)]
 mod tests_replicate;
+#[cfg(test)]
+mod tests_rods;
 
 use builder::*;
 use card::*;
@@ -126,10 +145,11 @@ use source::*;
 const MAX_INCLUDE_DEPTH: usize = 64;
 
 /// Cards femu reads.
-pub const READ_CARDS: [&str; 27] = [
+pub const READ_CARDS: [&str; 32] = [
     "GRID", "GRDSET", "CORD1R", "CORD1C", "CORD1S", "CORD2R", "CORD2C", "CORD2S", "CQUAD4",
     "CTRIA3", "CBAR", "CBEAM", "PSHELL", "PBAR", "PBARL", "PBEAM", "MAT1", "CELAS1", "CELAS2",
-    "PELAS", "CBUSH", "PBUSH", "CONM2", "SPC", "SPC1", "SPCADD", "SET1",
+    "PELAS", "CBUSH", "PBUSH", "CONM2", "SPC", "SPC1", "SPCADD", "SET1", "CROD", "CONROD", "CTUBE",
+    "PROD", "PTUBE",
 ];
 
 /// Cards skipped (counted) because they change neither stiffness, mass nor constraints: static
@@ -156,16 +176,15 @@ pub const READ_PARAMS: [&str; 6] = ["WTMASS", "GRDPNT", "COUPMASS", "AUTOSPC", "
 /// Nastran cards femu does not read that change the stiffness, mass, damping or constraints;
 /// an error unless listed in [`BulkOptions::ignore_cards`] (the list only decides how messages
 /// name them: any other unread card is an error too).
-const REFUSED_CARDS: [&str; 81] = [
+const REFUSED_CARDS: [&str; 76] = [
     "RBE1", "RBE2", "RBE3", "RBAR", "RBAR1", "RROD", "RTRPLT", "RSPLINE", "MPC", "MPCADD", "SPCD",
     "SUPORT", "SUPORT1", "ASET", "ASET1", "OMIT", "OMIT1", "QSET", "QSET1", "BSET", "BSET1",
-    "CSET", "CSET1", "SPOINT", "EPOINT", "CROD", "CONROD", "CTUBE", "PROD", "PTUBE", "CQUAD8",
-    "CQUADR", "CQUAD", "CTRIA6", "CTRIAR", "CSHEAR", "PSHEAR", "CHEXA", "CPENTA", "CTETRA",
-    "CPYRAM", "PSOLID", "PCOMP", "PCOMPG", "MAT2", "MAT8", "MAT9", "MAT10", "MATT1", "MATS1",
-    "CONM1", "CMASS1", "CMASS2", "CMASS3", "CMASS4", "PMASS", "CDAMP1", "CDAMP2", "CDAMP3",
-    "CDAMP4", "CDAMP5", "PDAMP", "CVISC", "PVISC", "CELAS3", "CELAS4", "CBUSH1D", "PBUSH1D",
-    "CGAP", "PGAP", "CWELD", "PWELD", "CFAST", "PFAST", "NSM", "NSM1", "NSML", "NSML1", "DMIG",
-    "GENEL", "PBEAML",
+    "CSET", "CSET1", "SPOINT", "EPOINT", "CQUAD8", "CQUADR", "CQUAD", "CTRIA6", "CTRIAR", "CSHEAR",
+    "PSHEAR", "CHEXA", "CPENTA", "CTETRA", "CPYRAM", "PSOLID", "PCOMP", "PCOMPG", "MAT2", "MAT8",
+    "MAT9", "MAT10", "MATT1", "MATS1", "CONM1", "CMASS1", "CMASS2", "CMASS3", "CMASS4", "PMASS",
+    "CDAMP1", "CDAMP2", "CDAMP3", "CDAMP4", "CDAMP5", "PDAMP", "CVISC", "PVISC", "CELAS3",
+    "CELAS4", "CBUSH1D", "PBUSH1D", "CGAP", "PGAP", "CWELD", "PWELD", "CFAST", "PFAST", "NSM",
+    "NSM1", "NSML", "NSML1", "DMIG", "GENEL", "PBEAML",
 ];
 
 /// Whether `name` is a card name Nastran could have written: a letter, then letters or digits,

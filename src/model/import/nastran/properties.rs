@@ -1,77 +1,114 @@
 //! Property and material cards: PSHELL, PBAR, PBARL, PBEAM, MAT1.
 
 use super::*;
+use crate::model::structure::five_sixths;
 
 impl Builder {
+    /// PSHELL with the QRG's meaning: MID1 the membrane material (blank: no membrane), MID2 the
+    /// bending material (blank: membrane only — no bending, transverse shear or rotary inertia),
+    /// MID3 the transverse shear material, 12I/T³ scaling the bending stiffness, TS/T the shear
+    /// thickness ratio; MID4 (membrane-bending coupling) is refused; Z1/Z2 (stress recovery) are
+    /// ignored. The mass uses MID1's density (MID2's when MID1 is blank).
     pub(super) fn pshell(&mut self, c: &Card) -> Result<(), NastranError> {
         let id = c.id(1, "PID")?;
-        let Some(mid1) = c.int(2, "MID1")? else {
+        let mid = |k: usize, label: &str| -> Result<Option<u64>, NastranError> {
+            match c.int(k, label)? {
+                None | Some(0) => Ok(None),
+                Some(m) if m > 0 => Ok(Some(m as u64)),
+                Some(m) => Err(c.err(
+                    k,
+                    label,
+                    format!("{m} is not a material id"),
+                    if label == "MID2" {
+                        "a MAT1 id (integer > 0) or blank; MID2 = -1 (plane strain) is not supported"
+                    } else {
+                        "a MAT1 id (integer > 0) or blank"
+                    },
+                )),
+            }
+        };
+        let mid1 = mid(2, "MID1")?;
+        let thickness = c.positive(3, "T")?;
+        let mid2 = mid(4, "MID2")?;
+        let bending_ratio = c.real_or(5, "12I/T**3", 1.0)?;
+        if bending_ratio <= 0.0 {
+            return Err(c.err(
+                5,
+                "12I/T**3",
+                format!("{bending_ratio} is not positive"),
+                "a real number > 0 (blank: 1.0, a solid plate)",
+            ));
+        }
+        let mid3 = mid(6, "MID3")?;
+        let shear_ratio = c.real_or(7, "TS/T", five_sixths())?;
+        if shear_ratio <= 0.0 {
+            return Err(c.err(
+                7,
+                "TS/T",
+                format!("{shear_ratio} is not positive"),
+                "a real number > 0 (blank: 0.833333)",
+            ));
+        }
+        // Nastran's default written with six digits means 5/6.
+        let shear_ratio = if (shear_ratio - five_sixths()).abs() <= 1e-6 {
+            five_sixths()
+        } else {
+            shear_ratio
+        };
+        let nsm = c.nonneg_real(8, "NSM", 0.0)?;
+        c.real(9, "Z1")?;
+        c.real(10, "Z2")?;
+        if let Some(m) = c.int(11, "MID4")?.filter(|m| *m != 0) {
+            return Err(c.err(
+                11,
+                "MID4",
+                format!("membrane-bending coupling material {m} is not supported"),
+                "leave MID4 blank (femu's shells have no membrane-bending coupling)",
+            ));
+        }
+        let Some(material) = mid1.or(mid2) else {
             return Err(c.err(
                 2,
                 "MID1",
-                "the field is blank (a shell without membrane material)",
-                "femu needs MID1, a MAT1 id used for membrane and bending",
+                "MID1 and MID2 are both blank (a shell without membrane or bending)",
+                "a MAT1 id in MID1 (membrane), MID2 (bending) or both",
             ));
         };
-        if mid1 <= 0 {
+        if let (Some(m3), None) = (mid3, mid2) {
             return Err(c.err(
-                2,
-                "MID1",
-                format!("{mid1} is not a material id"),
-                "a MAT1 id (integer > 0)",
+                6,
+                "MID3",
+                format!("MID3 {m3} is given without MID2"),
+                "MID3 must be blank unless MID2 is given (QRG PSHELL)",
             ));
         }
-        let material = mid1 as u64;
-        let thickness = c.positive(3, "T")?;
-        let mid2 = c.int(4, "MID2")?;
-        let bending = c.real_or(5, "12I/T**3", 1.0)?;
-        let mid3 = c.int(6, "MID3")?;
-        c.real(7, "TS/T")?;
-        let nsm = c.nonneg_real(8, "NSM", 0.0)?;
-        let mid4 = c.int(11, "MID4")?;
         self.new_property(c, 1, "PID", id)?;
+        let mut p = ShellProperty::homogeneous(material, thickness, nsm);
+        p.membrane = mid1.is_some();
         match mid2 {
-            None => self.warn(
-                &c.loc,
-                id,
-                format!("MID2 is blank (no bending stiffness in Nastran); femu's shell uses MID1 {material} for bending too"),
-            ),
-            Some(m) if m != mid1 => self.warn(
-                &c.loc,
-                id,
-                format!("MID2 {m} differs from MID1; MID1 {material} is used for bending"),
-            ),
-            _ => {}
+            None => p.bending = false,
+            Some(m2) => {
+                p.bending_material = (m2 != material).then_some(m2);
+                p.bending_ratio = bending_ratio;
+                p.shear_ratio = shear_ratio;
+                let m3 = match mid3 {
+                    Some(m3) => m3,
+                    None => {
+                        if !self.mid3_blank_warned {
+                            self.mid3_blank_warned = true;
+                            self.warn(
+                                &c.loc,
+                                id,
+                                format!("MID3 is blank (Nastran: no transverse shear flexibility); femu's shell keeps Mindlin shear with MID2 {m2}'s G and TS/T = {shear_ratio}, which lowers thin-plate frequencies by O((T/wavelength)^2), about 5e-4 at T/span = 0.01; the same holds for every later PSHELL with MID3 blank"),
+                            );
+                        }
+                        m2
+                    }
+                };
+                p.shear_material = (m3 != m2).then_some(m3);
+            }
         }
-        if let Some(m) = mid3.filter(|m| *m != mid1) {
-            self.warn(
-                &c.loc,
-                id,
-                format!("MID3 {m} differs from MID1; MID1 {material} is used for transverse shear"),
-            );
-        }
-        if let Some(m) = mid4 {
-            self.warn(
-                &c.loc,
-                id,
-                format!("MID4 {m} (membrane-bending coupling) is ignored"),
-            );
-        }
-        if bending != 1.0 {
-            self.warn(
-                &c.loc,
-                id,
-                format!("12I/T**3 = {bending} is ignored; the bending stiffness is that of a solid plate of thickness T"),
-            );
-        }
-        self.shells.insert(
-            id,
-            ShellProperty {
-                material,
-                thickness,
-                nsm,
-            },
-        );
+        self.shells.insert(id, p);
         Ok(())
     }
 
