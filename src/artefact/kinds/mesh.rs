@@ -8,12 +8,15 @@
 //! | `constraints` | `dof` |
 //! | `sets` | `set, element` |
 //!
-//! Materials, properties and parameters are small and go into `meta` as JSON.
+//! Materials, properties and parameters are small and go into `meta` as JSON, as do the offsets
+//! and pin flags of the beams that have them (`beam_ends`, element id → ends; absent when no beam
+//! has any, so plain meshes keep their bytes).
 
 use super::{ColumnLayout, Kind, Layout, col, meta, meta_opt, meta_value, table};
 use crate::artefact::{Artefact, ArtefactError, ArtefactKind, Column, Storage, Table};
 use crate::core::DofId;
-use crate::model::{Element, Model};
+use crate::model::{BeamEnds, Element, Model};
+use std::collections::BTreeMap;
 
 const K: ArtefactKind = ArtefactKind::Mesh;
 
@@ -78,6 +81,10 @@ impl Kind for MeshKind {
                 meta_opt("ignored_cards", "deck cards left out on request"),
                 meta_opt("ignore_cards", "the cards requested to be left out"),
                 meta_opt("import_warnings", "what mesh.import warned about"),
+                meta_opt(
+                    "beam_ends",
+                    "offsets (basic, m) and pin flags of the beams that have them, by element id",
+                ),
             ],
             blobs: vec![],
         }
@@ -149,6 +156,7 @@ fn lumped_columns() -> Vec<ColumnLayout> {
 pub fn mesh_to_artefact(m: &Model) -> Artefact {
     let mut elements = ElementColumns::default();
     let mut lumped = LumpedColumns::default();
+    let mut beam_ends = std::collections::BTreeMap::new();
     for (&id, e) in &m.elements {
         match e {
             Element::Quad4 { nodes, property } => elements.push(id, e, nodes, *property, None),
@@ -157,12 +165,23 @@ pub fn mesh_to_artefact(m: &Model) -> Artefact {
                 nodes,
                 property,
                 orientation,
-            } => elements.push(id, e, nodes, *property, Some(*orientation)),
+                ends,
+            } => {
+                if !ends.is_plain() {
+                    beam_ends.insert(id, ends.clone());
+                }
+                elements.push(id, e, nodes, *property, Some(*orientation))
+            }
             _ => lumped.push(id, e),
         }
     }
-    Artefact::new(K)
-        .with_meta("n_nodes", m.nodes.len().into())
+    let a = Artefact::new(K);
+    let a = if beam_ends.is_empty() {
+        a
+    } else {
+        a.with_meta("beam_ends", to_json(&beam_ends))
+    };
+    a.with_meta("n_nodes", m.nodes.len().into())
         .with_meta("n_elements", m.elements.len().into())
         .with_meta("n_dofs", m.n_dofs().into())
         .with_meta("materials", to_json(&m.materials))
@@ -385,6 +404,17 @@ pub fn mesh_from_artefact(a: &Artefact) -> Result<Model, ArtefactError> {
     };
     read_nodes(a, &mut m)?;
     read_elements(a, &mut m)?;
+    let ends: Option<BTreeMap<u64, BeamEnds>> = meta_value(a, "beam_ends")?;
+    for (eid, e) in ends.unwrap_or_default() {
+        match m.elements.get_mut(&eid) {
+            Some(Element::Beam { ends, .. }) => *ends = e,
+            _ => {
+                return Err(bad(format!(
+                    "beam_ends names element {eid}, which is not a beam of the elements table"
+                )));
+            }
+        }
+    }
     read_lumped(a, &mut m)?;
     let t = a.table("constraints")?;
     for (r, d) in t.strs("constraints", "dof")?.iter().enumerate() {
@@ -450,6 +480,7 @@ fn read_elements(a: &Artefact, m: &mut Model) -> Result<(), ArtefactError> {
                 nodes: [node(0)?, node(1)?],
                 property: p,
                 orientation: [vs[0][r], vs[1][r], vs[2][r]],
+                ends: BeamEnds::default(),
             },
             other => {
                 return Err(bad(format!(

@@ -14,6 +14,7 @@ pub(super) enum ElemIn {
         nodes: [u64; 2],
         property: u64,
         orient: Orient,
+        ends: BeamEndsIn,
     },
     Celas1 {
         pid: u64,
@@ -39,6 +40,15 @@ pub(super) enum ElemIn {
         inertia: [f64; 6],
         cg: [f64; 3],
     },
+}
+
+/// CBAR/CBEAM offsets and pins as the card gives them: OFFT (`b"GGG"` when blank), WA, WB in
+/// the systems OFFT names, PA/PB digit codes.
+pub(super) struct BeamEndsIn {
+    pub(super) offt: [u8; 3],
+    pub(super) wa: [f64; 3],
+    pub(super) wb: [f64; 3],
+    pub(super) pins: [u32; 2],
 }
 
 pub(super) struct SetIn {
@@ -67,6 +77,8 @@ pub(super) struct Builder {
     pub(super) materials: BTreeMap<u64, (Loc, Material)>,
     pub(super) shells: BTreeMap<u64, ShellProperty>,
     pub(super) beams: BTreeMap<u64, BeamProperty>,
+    /// PBARL/PBEAML turned to principal axes: property id → angle (rad) of the elements' turn.
+    pub(super) beam_turns: BTreeMap<u64, f64>,
     pub(super) pelas: BTreeMap<u64, f64>,
     pub(super) pbush: BTreeMap<u64, [f64; 6]>,
     pub(super) pids: BTreeMap<u64, Loc>,
@@ -103,8 +115,6 @@ pub(super) fn duplicate(
     }
 }
 
-pub(super) const OFFSET_HELP: &str = "offsets and pin flags are not supported: leave them blank or 0 and place the grid points on the axis";
-
 impl Builder {
     pub(super) fn warn(&mut self, loc: &Loc, id: u64, text: impl std::fmt::Display) {
         self.warnings.push(format!(
@@ -125,6 +135,7 @@ impl Builder {
             "PBAR" => self.pbar(c),
             "PBARL" => self.pbarl(c),
             "PBEAM" => self.pbeam(c),
+            "PBEAML" => self.pbeaml(c),
             "MAT1" => self.mat1(c),
             "CELAS1" | "CELAS2" => self.celas(c),
             "PELAS" => self.pelas_card(c),

@@ -1,6 +1,9 @@
-//! Shell and beam element cards: CQUAD4, CTRIA3, CBAR, CBEAM and their orientation.
+//! Shell and beam element cards: CQUAD4, CTRIA3, CBAR, CBEAM with their orientation, offsets
+//! (OFFT, WA, WB) and pin flags (PA, PB).
 
 use super::*;
+use super::finish::beam_orientation;
+use super::sections::{turned_orientation, unit};
 
 impl Builder {
     pub(super) fn shell_element(&mut self, c: &Card) -> Result<(), NastranError> {
@@ -111,32 +114,39 @@ impl Builder {
             ));
         };
         let offt = c.word(8);
-        if !offt.is_empty() {
-            let valid_offt = ["GGG", "BGG", "GGO", "BGO", "GOG", "BOG", "GOO", "BOO"];
-            if !(valid_offt.contains(&offt.as_str()) || beam && parse_real(&offt).is_some()) {
-                return Err(c.err(
-                    8,
-                    if beam { "OFFT/BIT" } else { "OFFT" },
-                    format!("`{}` is not an offset flag", q(&offt)),
-                    "one of GGG, BGG, GGO, BGO, GOG, BOG, GOO, BOO (or a real BIT on CBEAM)",
-                ));
-            }
-        }
-        for (k, label) in [(9, "PA"), (10, "PB")] {
-            if c.nonneg(k, label, "a pin flag")? != 0 {
+        let valid_offt = ["GGG", "BGG", "GGO", "BGO", "GOG", "BOG", "GOO", "BOO"];
+        let offt = if offt.is_empty() || beam && parse_real(&offt).is_some() {
+            // CBEAM's real BIT (built-in twist, p-elements only) leaves the offsets in GGG.
+            "GGG".to_string()
+        } else if valid_offt.contains(&offt.as_str()) {
+            offt
+        } else {
+            return Err(c.err(
+                8,
+                if beam { "OFFT/BIT" } else { "OFFT" },
+                format!("`{}` is not an offset flag", q(&offt)),
+                "one of GGG, BGG, GGO, BGO, GOG, BOG, GOO, BOO (or a real BIT on CBEAM)",
+            ));
+        };
+        let mut pins = [0u32; 2];
+        for (j, (k, label)) in [(9, "PA"), (10, "PB")].into_iter().enumerate() {
+            let code = c.nonneg(k, label, "a pin flag")?;
+            if code > 0 && (code > 654_321 || BeamEnds::released(code as u32).is_none()) {
                 return Err(c.err(
                     k,
                     label,
-                    format!("pin flag {} is not supported", c.text(k)),
-                    OFFSET_HELP,
+                    format!("pin flag {code} is not a set of DOFs"),
+                    "up to five distinct digits 1-6 (DOFs of the element system released at that end)",
                 ));
             }
+            pins[j] = code as u32;
         }
+        let mut w = [0.0; 6];
         for (j, label) in ["W1A", "W2A", "W3A", "W1B", "W2B", "W3B"]
             .iter()
             .enumerate()
         {
-            c.zero(11 + j, label, OFFSET_HELP)?;
+            w[j] = c.real_or(11 + j, label, 0.0)?;
         }
         if beam
             && (c.nonneg(17, "SA", "a scalar point id")? != 0
@@ -151,7 +161,88 @@ impl Builder {
                 nodes: [ga, gb],
                 property,
                 orient,
+                ends: BeamEndsIn {
+                    offt: offt.into_bytes().try_into().unwrap_or(*b"GGG"),
+                    wa: [w[0], w[1], w[2]],
+                    wb: [w[3], w[4], w[5]],
+                    pins,
+                },
             },
         )
     }
+}
+
+impl Builder {
+    /// A CBAR/CBEAM in the model's terms: orientation vector and offsets in the basic system
+    /// (OFFT: first letter, `v` in GA's displacement system `G` or basic `B`; second and third,
+    /// WA and WB in the displacement system of GA/GB `G` or the element system `O`, whose `x`
+    /// runs from GA to GB and whose `y` lies in the plane of `x` and `v`), the section's turn to
+    /// principal axes applied to `v`, and the pin codes.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn beam_in_basic(
+        &self,
+        model: &Model,
+        geo: &Geometry,
+        loc: &Loc,
+        nodes: [u64; 2],
+        property: u64,
+        orient: Orient,
+        ends: BeamEndsIn,
+    ) -> Result<Element, NastranError> {
+        let orient = match (ends.offt[0], orient) {
+            (b'B', Orient::Vector(v)) => Orient::Vector(v),
+            (_, o) => self.orient_in_basic(geo, nodes[0], o),
+        };
+        let v = beam_orientation(model, loc, nodes, orient)?;
+        let (xa, xb) = (model.nodes[&nodes[0]], model.nodes[&nodes[1]]);
+        let ex = unit(sub(xb, xa));
+        let ez = unit(cross(ex, v));
+        let element = [ex, cross(ez, ex), ez];
+        let place = |code: u8, g: u64, w: [f64; 3]| {
+            if w == [0.0; 3] {
+                return w;
+            }
+            if code == b'O' {
+                return combine(&element, w);
+            }
+            match self.grid_directions(geo, g).1 {
+                Some(d) => combine(&d, w),
+                None => w,
+            }
+        };
+        let ends = BeamEnds {
+            offset_a: place(ends.offt[1], nodes[0], ends.wa),
+            offset_b: place(ends.offt[2], nodes[1], ends.wb),
+            pin_a: ends.pins[0],
+            pin_b: ends.pins[1],
+        };
+        let turn = self.beam_turns.get(&property).copied().unwrap_or(0.0);
+        if turn != 0.0 {
+            for (code, label) in [(ends.pin_a, 9), (ends.pin_b, 10)] {
+                let r = BeamEnds::released(code).unwrap_or_default();
+                if r[1] != r[2] || r[4] != r[5] {
+                    return Err(loc.field_err(
+                        label,
+                        ["PA", "PB"][label - 9],
+                        format!("pin flag {code} releases one bending direction of a section femu turned by {:.6} rad to its principal axes (I12 ≠ 0)", turn),
+                        "release both or neither of 2 and 3 (and of 5 and 6) for an unsymmetric section",
+                    ));
+                }
+            }
+        }
+        let axis = [
+            add(xa, ends.offset_a),
+            add(xb, ends.offset_b),
+        ];
+        Ok(Element::Beam {
+            nodes,
+            property,
+            orientation: turned_orientation(axis, v, turn),
+            ends,
+        })
+    }
+}
+
+fn add(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
 }

@@ -88,7 +88,7 @@
 use crate::core::input::{EXCERPT_CHARS, InputError, InputPolicy, excerpt, read_input_with};
 use crate::core::{Component, DofId};
 use crate::model::structure::{
-    BeamProperty, BeamSection, Element, Material, Model, ModelError, Parameter, ShellProperty,
+    BeamEnds, BeamProperty, BeamSection, Element, Material, Model, ModelError, Parameter, ShellProperty,
 };
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
@@ -103,9 +103,12 @@ mod finish;
 mod lumped;
 mod numbers;
 mod properties;
+mod sections;
 mod source;
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod tests_beams;
 
 use builder::*;
 use card::*;
@@ -118,10 +121,10 @@ use source::*;
 const MAX_INCLUDE_DEPTH: usize = 64;
 
 /// Cards femu reads.
-pub const READ_CARDS: [&str; 27] = [
+pub const READ_CARDS: [&str; 28] = [
     "GRID", "GRDSET", "CORD1R", "CORD1C", "CORD1S", "CORD2R", "CORD2C", "CORD2S", "CQUAD4",
     "CTRIA3", "CBAR", "CBEAM", "PSHELL", "PBAR", "PBARL", "PBEAM", "MAT1", "CELAS1", "CELAS2",
-    "PELAS", "CBUSH", "PBUSH", "CONM2", "SPC", "SPC1", "SPCADD", "SET1",
+    "PELAS", "CBUSH", "PBUSH", "CONM2", "SPC", "SPC1", "SPCADD", "SET1", "PBEAML",
 ];
 
 /// Cards skipped (counted) because they change neither stiffness, mass nor constraints: static
@@ -149,7 +152,7 @@ pub const READ_PARAMS: [&str; 5] = ["WTMASS", "COUPMASS", "AUTOSPC", "K6ROT", "G
 /// Nastran cards femu does not read that change the stiffness, mass, damping or constraints;
 /// an error unless listed in [`BulkOptions::ignore_cards`] (the list only decides how messages
 /// name them: any other unread card is an error too).
-const REFUSED_CARDS: [&str; 81] = [
+const REFUSED_CARDS: [&str; 80] = [
     "RBE1", "RBE2", "RBE3", "RBAR", "RBAR1", "RROD", "RTRPLT", "RSPLINE", "MPC", "MPCADD", "SPCD",
     "SUPORT", "SUPORT1", "ASET", "ASET1", "OMIT", "OMIT1", "QSET", "QSET1", "BSET", "BSET1",
     "CSET", "CSET1", "SPOINT", "EPOINT", "CROD", "CONROD", "CTUBE", "PROD", "PTUBE", "CQUAD8",
@@ -158,7 +161,7 @@ const REFUSED_CARDS: [&str; 81] = [
     "CONM1", "CMASS1", "CMASS2", "CMASS3", "CMASS4", "PMASS", "CDAMP1", "CDAMP2", "CDAMP3",
     "CDAMP4", "CDAMP5", "PDAMP", "CVISC", "PVISC", "CELAS3", "CELAS4", "CBUSH1D", "PBUSH1D",
     "CGAP", "PGAP", "CWELD", "PWELD", "CFAST", "PFAST", "NSM", "NSM1", "NSML", "NSML1", "DMIG",
-    "GENEL", "PBEAML",
+    "GENEL",
 ];
 
 /// Whether `name` is a card name Nastran could have written: a letter, then letters or digits,

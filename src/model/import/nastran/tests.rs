@@ -123,7 +123,8 @@ GRID    99              this is never read
         Element::Beam {
             nodes: [1, 2],
             property: 20,
-            orientation: [0.0, 0.0, 1.0]
+            orientation: [0.0, 0.0, 1.0],
+            ends: Default::default(),
         }
     );
     // G0 = 1: the orientation is x(G0) - x(GA).
@@ -985,7 +986,8 @@ fn fixture_plate_with_bar() {
             Element::Beam {
                 nodes: [a, a + 1],
                 property: 2,
-                orientation: [0.0, 0.0, 1.0]
+                orientation: [0.0, 0.0, 1.0],
+                ends: Default::default(),
             }
         );
     }
