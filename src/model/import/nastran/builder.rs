@@ -3,6 +3,7 @@
 
 use super::*;
 
+#[derive(Clone, Copy)]
 pub(super) enum Orient {
     Vector([f64; 3]),
     G0(u64),
@@ -10,10 +11,13 @@ pub(super) enum Orient {
 
 pub(super) enum ElemIn {
     Done(Element),
+    /// CBAR/CBEAM; a blank PID, orientation or OFFT takes the BAROR/BEAMOR default.
     Beam {
+        eid: u64,
+        beam: bool,
         nodes: [u64; 2],
-        property: u64,
-        orient: Orient,
+        property: Option<u64>,
+        orient: Option<Orient>,
         ends: BeamEndsIn,
     },
     Celas1 {
@@ -42,13 +46,21 @@ pub(super) enum ElemIn {
     },
 }
 
-/// CBAR/CBEAM offsets and pins as the card gives them: OFFT (`b"GGG"` when blank), WA, WB in
+/// CBAR/CBEAM offsets and pins as the card gives them: OFFT (`None` when blank), WA, WB in
 /// the systems OFFT names, PA/PB digit codes.
 pub(super) struct BeamEndsIn {
-    pub(super) offt: [u8; 3],
+    pub(super) offt: Option<[u8; 3]>,
     pub(super) wa: [f64; 3],
     pub(super) wb: [f64; 3],
     pub(super) pins: [u32; 2],
+}
+
+/// BAROR/BEAMOR: defaults for blank CBAR/CBEAM PID, orientation and OFFT.
+pub(super) struct BeamDefaults {
+    pub(super) loc: Loc,
+    pub(super) pid: Option<u64>,
+    pub(super) orient: Option<Orient>,
+    pub(super) offt: Option<[u8; 3]>,
 }
 
 pub(super) struct SetIn {
@@ -79,6 +91,9 @@ pub(super) struct Builder {
     pub(super) beams: BTreeMap<u64, BeamProperty>,
     /// PBARL/PBEAML turned to principal axes: property id → angle (rad) of the elements' turn.
     pub(super) beam_turns: BTreeMap<u64, f64>,
+    /// BAROR and BEAMOR defaults.
+    pub(super) baror: Option<BeamDefaults>,
+    pub(super) beamor: Option<BeamDefaults>,
     pub(super) pelas: BTreeMap<u64, f64>,
     pub(super) pbush: BTreeMap<u64, [f64; 6]>,
     pub(super) pids: BTreeMap<u64, Loc>,
@@ -131,6 +146,7 @@ impl Builder {
             "GRDSET" => self.grdset(c),
             "CQUAD4" | "CTRIA3" => self.shell_element(c),
             "CBAR" | "CBEAM" => self.beam_element(c),
+            "BAROR" | "BEAMOR" => self.beam_defaults(c),
             "PSHELL" => self.pshell(c),
             "PBAR" => self.pbar(c),
             "PBARL" => self.pbarl(c),

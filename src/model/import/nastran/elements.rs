@@ -91,10 +91,65 @@ impl Builder {
         ])))
     }
 
+    /// OFFT (field 8) of a CBAR/CBEAM/BAROR/BEAMOR; `None` when blank, and on CBEAM/BEAMOR when
+    /// it holds a real BIT (built-in twist, p-elements only).
+    fn offt(c: &Card, beam: bool) -> Result<Option<[u8; 3]>, NastranError> {
+        let offt = c.word(8);
+        if offt.is_empty() || beam && parse_real(&offt).is_some() {
+            return Ok(None);
+        }
+        let valid = ["GGG", "BGG", "GGO", "BGO", "GOG", "BOG", "GOO", "BOO"];
+        match valid.iter().find(|v| **v == offt) {
+            Some(v) => Ok(Some(v.as_bytes().try_into().unwrap_or(*b"GGG"))),
+            None => Err(c.err(
+                8,
+                if beam { "OFFT/BIT" } else { "OFFT" },
+                format!("`{}` is not an offset flag", q(&offt)),
+                "one of GGG, BGG, GGO, BGO, GOG, BOG, GOO, BOO (or a real BIT on CBEAM)",
+            )),
+        }
+    }
+
+    /// BAROR/BEAMOR: the PID, orientation (X1–X3 or G0) and OFFT that CBAR/CBEAM cards with
+    /// those fields blank take (QRG BAROR, BEAMOR); one of each per deck.
+    pub(super) fn beam_defaults(&mut self, c: &Card) -> Result<(), NastranError> {
+        let beam = c.name == "BEAMOR";
+        let pid = if c.blank(2) {
+            None
+        } else {
+            Some(c.id(2, "PID")?)
+        };
+        let d = BeamDefaults {
+            loc: c.loc.clone(),
+            pid,
+            orient: Self::orientation(c, 5)?,
+            offt: Self::offt(c, beam)?,
+        };
+        let slot = if beam {
+            &mut self.beamor
+        } else {
+            &mut self.baror
+        };
+        if let Some(first) = slot {
+            return Err(c.err(
+                1,
+                &c.name,
+                format!("{} is given twice (first at {})", c.name, first.loc.place()),
+                format!("one {} per deck", c.name),
+            ));
+        }
+        *slot = Some(d);
+        Ok(())
+    }
+
     pub(super) fn beam_element(&mut self, c: &Card) -> Result<(), NastranError> {
         let beam = c.name == "CBEAM";
         let id = c.id(1, "EID")?;
-        let property = c.id_or(2, "PID", id)?;
+        let property = if c.blank(2) {
+            None
+        } else {
+            Some(c.id(2, "PID")?)
+        };
         let ga = c.id(3, "GA")?;
         let gb = c.id(4, "GB")?;
         if ga == gb {
@@ -105,29 +160,8 @@ impl Builder {
                 "the two end grids must differ",
             ));
         }
-        let Some(orient) = Self::orientation(c, 5)? else {
-            return Err(c.err(
-                5,
-                "X1/G0",
-                "no orientation vector or G0 is given",
-                "give X1-X3 (reals) or a grid id G0; BAROR/BEAMOR defaults are not supported",
-            ));
-        };
-        let offt = c.word(8);
-        let valid_offt = ["GGG", "BGG", "GGO", "BGO", "GOG", "BOG", "GOO", "BOO"];
-        let offt = if offt.is_empty() || beam && parse_real(&offt).is_some() {
-            // CBEAM's real BIT (built-in twist, p-elements only) leaves the offsets in GGG.
-            "GGG".to_string()
-        } else if valid_offt.contains(&offt.as_str()) {
-            offt
-        } else {
-            return Err(c.err(
-                8,
-                if beam { "OFFT/BIT" } else { "OFFT" },
-                format!("`{}` is not an offset flag", q(&offt)),
-                "one of GGG, BGG, GGO, BGO, GOG, BOG, GOO, BOO (or a real BIT on CBEAM)",
-            ));
-        };
+        let orient = Self::orientation(c, 5)?;
+        let offt = Self::offt(c, beam)?;
         let mut pins = [0u32; 2];
         for (j, (k, label)) in [(9, "PA"), (10, "PB")].into_iter().enumerate() {
             let code = c.nonneg(k, label, "a pin flag")?;
@@ -158,11 +192,13 @@ impl Builder {
             c,
             id,
             ElemIn::Beam {
+                eid: id,
+                beam,
                 nodes: [ga, gb],
                 property,
                 orient,
                 ends: BeamEndsIn {
-                    offt: offt.into_bytes().try_into().unwrap_or(*b"GGG"),
+                    offt,
                     wa: [w[0], w[1], w[2]],
                     wb: [w[3], w[4], w[5]],
                     pins,
@@ -185,11 +221,29 @@ impl Builder {
         geo: &Geometry,
         loc: &Loc,
         nodes: [u64; 2],
-        property: u64,
-        orient: Orient,
+        (eid, beam): (u64, bool),
+        property: Option<u64>,
+        orient: Option<Orient>,
         ends: BeamEndsIn,
     ) -> Result<Element, NastranError> {
-        let orient = match (ends.offt[0], orient) {
+        let defaults = if beam { &self.beamor } else { &self.baror };
+        let property = property
+            .or_else(|| defaults.as_ref().and_then(|d| d.pid))
+            .unwrap_or(eid);
+        let Some(orient) = orient.or_else(|| defaults.as_ref().and_then(|d| d.orient)) else {
+            let name = if beam { "BEAMOR" } else { "BAROR" };
+            return Err(loc.field_err(
+                5,
+                "X1/G0",
+                format!("no orientation vector or G0 is given, on the card or a {name}"),
+                format!("give X1-X3 (reals) or a grid id G0 here or on a {name} card"),
+            ));
+        };
+        let offt = ends
+            .offt
+            .or_else(|| defaults.as_ref().and_then(|d| d.offt))
+            .unwrap_or(*b"GGG");
+        let orient = match (offt[0], orient) {
             (b'B', Orient::Vector(v)) => Orient::Vector(v),
             (_, o) => self.orient_in_basic(geo, nodes[0], o),
         };
@@ -211,8 +265,8 @@ impl Builder {
             }
         };
         let ends = BeamEnds {
-            offset_a: place(ends.offt[1], nodes[0], ends.wa),
-            offset_b: place(ends.offt[2], nodes[1], ends.wb),
+            offset_a: place(offt[1], nodes[0], ends.wa),
+            offset_b: place(offt[2], nodes[1], ends.wb),
             pin_a: ends.pins[0],
             pin_b: ends.pins[1],
         };

@@ -117,11 +117,13 @@ impl Builder {
             }
             ElemIn::Done(e) => e,
             ElemIn::Beam {
+                eid,
+                beam,
                 nodes,
                 property,
                 orient,
                 ends,
-            } => self.beam_in_basic(model, geo, loc, nodes, property, orient, ends)?,
+            } => self.beam_in_basic(model, geo, loc, nodes, (eid, beam), property, orient, ends)?,
             ElemIn::Celas1 { pid, dof, other } => {
                 let Some(&k) = self.pelas.get(&pid) else {
                     return Err(loc.field_err(

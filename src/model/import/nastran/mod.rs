@@ -12,7 +12,8 @@
 //! `1.E3` and `1D3`, and blank fields taking the QRG defaults.
 //!
 //! Cards read: GRID with GRDSET defaults, CORD1R/C/S and CORD2R/C/S (nested, in any order),
-//! CQUAD4, CTRIA3, CBAR, CBEAM, PSHELL, PBAR, PBARL (BAR, ROD, TUBE), PBEAM, MAT1, CELAS1 with
+//! CQUAD4, CTRIA3, CBAR, CBEAM (offsets, pin flags), BAROR, BEAMOR, PSHELL, PBAR, PBARL and
+//! PBEAML (the beam library, see below), PBEAM, MAT1, CELAS1 with
 //! PELAS, CELAS2, CBUSH with PBUSH, CONM2, SPC, SPC1, SPCADD, SET1, and PARAM WTMASS (applied to every
 //! mass), COUPMASS, AUTOSPC, K6ROT and G (accepted with a warning saying what femu does
 //! instead). Cards that change neither stiffness, mass nor constraints ([`SKIPPED_CARDS`],
@@ -43,9 +44,16 @@
 //!   cylindrical or spherical system the undefined angle is taken as 0.
 //! - CQUAD4/CTRIA3: ZOFFS ≠ 0 is an error; THETA/MCID is ignored (isotropic material);
 //!   corner thicknesses T1–T4 are ignored with a warning (the PSHELL T is used).
-//! - CBAR/CBEAM: the orientation is X1–X3 (in the displacement system of GA) or G0;
-//!   a blank orientation (BAROR/BEAMOR defaults) is an error. Pin flags PA/PB and offsets
-//!   W1A–W3B ≠ 0 are errors; CBEAM warping points SA/SB are ignored with a warning.
+//! - CBAR/CBEAM: the orientation is X1–X3 or G0 (from GA); blank PID, orientation and OFFT
+//!   take the BAROR (CBAR) or BEAMOR (CBEAM) values, a blank PID without them the EID, a blank
+//!   orientation without them is an error. OFFT as the QRG: `v` in GA's displacement system
+//!   (G) or basic (B); WA, WB in GA's/GB's displacement system (G) or the element system (O),
+//!   whose `x` is taken from GA to GB (not from the offset ends) and `y` in the plane of `x` and
+//!   `v`. Offsets are rigid links; pin flags PA/PB (element-system DOFs at the offset end) are
+//!   condensed statically with the mass made consistent with the condensed motion
+//!   (`src/fe/beam.rs`); releases leaving a mechanism are errors. The model holds offsets in
+//!   basic. CBEAM: a real BIT in OFFT is ignored (p-elements only); warping points SA/SB are
+//!   ignored with a warning; its shear centre is on the axis (see PBEAML).
 //! - PSHELL: MID1 is the material for membrane and bending. MID2 blank (no bending in Nastran)
 //!   or different from MID1, MID3 different from MID1, MID4 given or 12I/T³ ≠ 1 give warnings.
 //!   T must be given (> 0).
@@ -53,7 +61,21 @@
 //!   or 0 mean no shear flexibility; I12 ≠ 0 is an error; stress points are ignored.
 //! - PBARL: GROUP must be blank or MSCBML0; TYPE BAR (DIM1 → `width`, DIM2 → `height`; the QRG
 //!   figure puts DIM1 along element z and DIM2 along element y, so I1 = DIM1·DIM2³/12), ROD
-//!   (DIM1 radius) and TUBE (DIM1 outer, DIM2 inner radius) only.
+//!   (DIM1 radius), TUBE (DIM1 outer, DIM2 inner radius) and TUBE2 (DIM2 wall thickness) keep
+//!   femu's own sections (Saint-Venant J of the rectangle, Cowper shear factors); I, I1, T, T1,
+//!   T2, L, CHAN, CHAN1, CHAN2, BOX, BOX1, H, CROSS, Z, HAT become general sections with the
+//!   values of [`crate::model::sections`] (exact A, I1, I2, I12; thin-walled J on wall
+//!   centrelines, Bredt–Batho for boxes; shear factors from the web and flange areas). The QRG
+//!   gives figures, not formulas: where Nastran's own J differs at O(t/b), femu's is the
+//!   documented thin-walled value. HEXA, HAT1, DBOX and the other types are errors. A section
+//!   with I12 ≠ 0 (L, Z, BOX1 with unequal walls) is turned to principal axes: the elements'
+//!   orientation vectors turn by the same angle, and it has no shear flexibility (PBAR remark
+//!   4: K1/K2 are ignored when I12 ≠ 0); a pin releasing one bending direction of such an
+//!   element is an error. Like Nastran, PBARL puts the neutral axis on the shear centre.
+//! - PBEAML: the end-A dimensions and NSM; later stations must repeat them (blank or equal) —
+//!   a tapered beam is an error. Only sections whose shear centre is the centroid (doubly
+//!   symmetric, and Z) are read: Nastran's CBEAM offsets the neutral axis from the shear centre
+//!   on the grid line, which femu's beam does not; others are errors.
 //! - PBEAM: end A only; stations must repeat the end-A values (blank or equal) — a tapered beam
 //!   is an error. K1/K2 default 1.0 (0 = no shear flexibility). I12 ≠ 0 is an error; NSI, CW and
 //!   the M/N offsets are ignored with a warning.
@@ -121,10 +143,11 @@ use source::*;
 const MAX_INCLUDE_DEPTH: usize = 64;
 
 /// Cards femu reads.
-pub const READ_CARDS: [&str; 28] = [
+pub const READ_CARDS: [&str; 30] = [
     "GRID", "GRDSET", "CORD1R", "CORD1C", "CORD1S", "CORD2R", "CORD2C", "CORD2S", "CQUAD4",
     "CTRIA3", "CBAR", "CBEAM", "PSHELL", "PBAR", "PBARL", "PBEAM", "MAT1", "CELAS1", "CELAS2",
     "PELAS", "CBUSH", "PBUSH", "CONM2", "SPC", "SPC1", "SPCADD", "SET1", "PBEAML",
+    "BAROR", "BEAMOR",
 ];
 
 /// Cards skipped (counted) because they change neither stiffness, mass nor constraints: static
