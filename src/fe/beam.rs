@@ -243,7 +243,10 @@ impl EndConditions {
     }
 
     fn has_offset(&self) -> bool {
-        self.offset_a.iter().chain(&self.offset_b).any(|x| *x != 0.0)
+        self.offset_a
+            .iter()
+            .chain(&self.offset_b)
+            .any(|x| *x != 0.0)
     }
 }
 
@@ -1022,6 +1025,9 @@ fn scalars_f64(d: &BeamData, p: &SectionProperties) -> Scalars<f64> {
     }
 }
 
+/// A local stiffness and mass pair.
+type LocalPair<T> = ([[T; 12]; 12], [[T; 12]; 12]);
+
 /// Static condensation of the released local DOFs `p` (see the module doc): `K_c`, `Tᵀ M T`.
 /// `K_pp` is symmetric positive definite when the releases leave no mechanism, so elimination
 /// without pivoting is stable; a pivot at or below `1e-10` of the largest diagonal entry of the
@@ -1031,7 +1037,7 @@ fn condense<T: Scalar>(
     m: &[[T; 12]; 12],
     p: &[usize],
     value: impl Fn(T) -> f64,
-) -> Result<([[T; 12]; 12], [[T; 12]; 12]), ElementError> {
+) -> Result<LocalPair<T>, ElementError> {
     if p.is_empty() {
         return Ok((*k, *m));
     }
@@ -1064,11 +1070,12 @@ fn condense<T: Scalar>(
                 "the pin flags release a mechanism inside the element (e.g. the same DOF at both ends); release fewer DOFs".into(),
             ));
         }
-        for row in c + 1..np {
-            let f = a[row][c] / piv;
-            for col in c..width {
-                let t = a[c][col];
-                a[row][col] = a[row][col] - f * t;
+        let (top, below) = a.split_at_mut(c + 1);
+        let pivot_row = &top[c];
+        for row in below.iter_mut() {
+            let f = row[c] / piv;
+            for (x, t) in row[c..width].iter_mut().zip(&pivot_row[c..width]) {
+                *x = *x - f * *t;
             }
         }
     }
@@ -2313,8 +2320,7 @@ mod tests {
             let d = steel(s);
             for kind in [MassKind::Consistent, MassKind::Lumped] {
                 let got = beam2_with_ends(x1, x2, v, &d, kind, &e).unwrap();
-                let plain =
-                    beam2(add(x1, e.offset_a), add(x2, e.offset_b), v, &d, kind).unwrap();
+                let plain = beam2(add(x1, e.offset_a), add(x2, e.offset_b), v, &d, kind).unwrap();
                 for (g, p) in [(&got.k, &plain.k), (&got.m, &plain.m)] {
                     let want = t.transpose() * p * &t;
                     let err = max_abs((g - &want).as_ref()) / max_abs(want.as_ref());
@@ -2369,8 +2375,8 @@ mod tests {
         }
         // With offsets as well, grid rigid-body motions remain free of strain energy.
         let (x1, x2, v) = LONG;
-        let got = beam2_with_ends(x1, x2, v, &steel(sections()[0]), MassKind::Lumped, &ends())
-            .unwrap();
+        let got =
+            beam2_with_ends(x1, x2, v, &steel(sections()[0]), MassKind::Lumped, &ends()).unwrap();
         let kmax = max_abs(got.k.as_ref());
         for rb in rigid_body_vectors(x1, x2) {
             assert!(quad(&got.k, &rb, &rb).abs() < 1e-10 * kmax);
@@ -2423,7 +2429,10 @@ mod tests {
                     let ek = max_abs((&fd_k - &exact.dk).as_ref()) * x / kmax;
                     let em = max_abs((&fd_m - &exact.dm).as_ref()) * x / mmax;
                     worst = worst.max(ek).max(em);
-                    assert!(ek < 1e-6 && em < 1e-6, "{s:?} {kind:?} {p:?}: {ek:e} {em:e}");
+                    assert!(
+                        ek < 1e-6 && em < 1e-6,
+                        "{s:?} {kind:?} {p:?}: {ek:e} {em:e}"
+                    );
                 }
             }
         }

@@ -166,8 +166,12 @@ pub fn i1_section(d: [f64; 4]) -> Result<SectionValues, SectionError> {
 pub fn t_section(d: [f64; 4]) -> Result<SectionValues, SectionError> {
     positive(&d)?;
     let [b, h, tf, tw] = d;
-    check(h > tf, || format!("DIM2 = {h} is not greater than DIM3 = {tf}"))?;
-    check(b > tw, || format!("DIM1 = {b} is not greater than DIM4 = {tw}"))?;
+    check(h > tf, || {
+        format!("DIM2 = {h} is not greater than DIM3 = {tf}")
+    })?;
+    check(b > tw, || {
+        format!("DIM1 = {b} is not greater than DIM4 = {tw}")
+    })?;
     let parts = [
         rect(-tw / 2.0, tw / 2.0, 0.0, h - tf),
         rect(-b / 2.0, b / 2.0, h - tf, h),
@@ -182,7 +186,9 @@ pub fn t_section(d: [f64; 4]) -> Result<SectionValues, SectionError> {
 pub fn t1_section(d: [f64; 4]) -> Result<SectionValues, SectionError> {
     positive(&d)?;
     let [hf, lw, tf, tw] = d;
-    check(hf > tw, || format!("DIM1 = {hf} is not greater than DIM4 = {tw}"))?;
+    check(hf > tw, || {
+        format!("DIM1 = {hf} is not greater than DIM4 = {tw}")
+    })?;
     let parts = [
         rect(0.0, tf, -hf / 2.0, hf / 2.0),
         rect(-lw, 0.0, -tw / 2.0, tw / 2.0),
@@ -204,8 +210,12 @@ pub fn t2_section(d: [f64; 4]) -> Result<SectionValues, SectionError> {
 pub fn l_section(d: [f64; 4]) -> Result<SectionValues, SectionError> {
     positive(&d)?;
     let [b, h, t1, t2] = d;
-    check(h > t1, || format!("DIM2 = {h} is not greater than DIM3 = {t1}"))?;
-    check(b > t2, || format!("DIM1 = {b} is not greater than DIM4 = {t2}"))?;
+    check(h > t1, || {
+        format!("DIM2 = {h} is not greater than DIM3 = {t1}")
+    })?;
+    check(b > t2, || {
+        format!("DIM1 = {b} is not greater than DIM4 = {t2}")
+    })?;
     let parts = [rect(0.0, b, 0.0, t1), rect(0.0, t2, t1, h)];
     let j = ((b - t2 / 2.0) * t1.powi(3) + (h - t1 / 2.0) * t2.powi(3)) / 3.0;
     Ok(finish(&parts, j, (t2 * (h - t1), t1 * (b - t2))))
@@ -220,14 +230,20 @@ pub fn chan_section(d: [f64; 4]) -> Result<SectionValues, SectionError> {
     check(h > 2.0 * tf, || {
         format!("DIM2 = {h} is not greater than 2·DIM4 = {}", 2.0 * tf)
     })?;
-    check(b > tw, || format!("DIM1 = {b} is not greater than DIM3 = {tw}"))?;
+    check(b > tw, || {
+        format!("DIM1 = {b} is not greater than DIM3 = {tw}")
+    })?;
     let parts = [
         rect(0.0, tw, 0.0, h),
         rect(tw, b, 0.0, tf),
         rect(tw, b, h - tf, h),
     ];
     let j = (2.0 * (b - tw / 2.0) * tf.powi(3) + (h - tf) * tw.powi(3)) / 3.0;
-    Ok(finish(&parts, j, (tw * (h - 2.0 * tf), 2.0 * tf * (b - tw))))
+    Ok(finish(
+        &parts,
+        j,
+        (tw * (h - 2.0 * tf), 2.0 * tf * (b - tw)),
+    ))
 }
 
 /// PBARL `CHAN1`: `DIM1` flange width beyond the web, `DIM2` web thickness, `DIM3` web height
@@ -236,7 +252,9 @@ pub fn chan_section(d: [f64; 4]) -> Result<SectionValues, SectionError> {
 pub fn chan1_section(d: [f64; 4]) -> Result<SectionValues, SectionError> {
     positive(&d)?;
     let [bf, tw, hw, h] = d;
-    check(h > hw, || format!("DIM4 = {h} is not greater than DIM3 = {hw}"))?;
+    check(h > hw, || {
+        format!("DIM4 = {h} is not greater than DIM3 = {hw}")
+    })?;
     let t = (h - hw) / 2.0;
     let parts = [
         rect(0.0, tw, 0.0, h),
@@ -254,7 +272,9 @@ pub fn chan1_section(d: [f64; 4]) -> Result<SectionValues, SectionError> {
 pub fn chan2_section(d: [f64; 4]) -> Result<SectionValues, SectionError> {
     positive(&d)?;
     let [tl, tb, h, b] = d;
-    check(h > tb, || format!("DIM3 = {h} is not greater than DIM2 = {tb}"))?;
+    check(h > tb, || {
+        format!("DIM3 = {h} is not greater than DIM2 = {tb}")
+    })?;
     check(b > 2.0 * tl, || {
         format!("DIM4 = {b} is not greater than 2·DIM1 = {}", 2.0 * tl)
     })?;
@@ -296,10 +316,16 @@ pub fn box1_section(d: [f64; 6]) -> Result<SectionValues, SectionError> {
     positive(&d)?;
     let [b, h, tt, tb, tr, tl] = d;
     check(h > tt + tb, || {
-        format!("the height {h} is not greater than the top and bottom walls {}", tt + tb)
+        format!(
+            "the height {h} is not greater than the top and bottom walls {}",
+            tt + tb
+        )
     })?;
     check(b > tr + tl, || {
-        format!("the width {b} is not greater than the side walls {}", tr + tl)
+        format!(
+            "the width {b} is not greater than the side walls {}",
+            tr + tl
+        )
     })?;
     let parts = [
         rect(0.0, b, 0.0, tb),
@@ -321,7 +347,9 @@ pub fn box1_section(d: [f64; 6]) -> Result<SectionValues, SectionError> {
 pub fn h_section(d: [f64; 4]) -> Result<SectionValues, SectionError> {
     positive(&d)?;
     let [lw, tf2, hf, tw] = d;
-    check(hf > tw, || format!("DIM3 = {hf} is not greater than DIM4 = {tw}"))?;
+    check(hf > tw, || {
+        format!("DIM3 = {hf} is not greater than DIM4 = {tw}")
+    })?;
     let tf = tf2 / 2.0;
     let parts = [
         rect(0.0, tf, -hf / 2.0, hf / 2.0),
@@ -339,7 +367,9 @@ pub fn h_section(d: [f64; 4]) -> Result<SectionValues, SectionError> {
 pub fn cross_section(d: [f64; 4]) -> Result<SectionValues, SectionError> {
     positive(&d)?;
     let [la, tv, hv, ta] = d;
-    check(hv > ta, || format!("DIM3 = {hv} is not greater than DIM4 = {ta}"))?;
+    check(hv > ta, || {
+        format!("DIM3 = {hv} is not greater than DIM4 = {ta}")
+    })?;
     let parts = [
         rect(-tv / 2.0 - la / 2.0, -tv / 2.0, -ta / 2.0, ta / 2.0),
         rect(-tv / 2.0, tv / 2.0, -hv / 2.0, hv / 2.0),
@@ -356,7 +386,9 @@ pub fn cross_section(d: [f64; 4]) -> Result<SectionValues, SectionError> {
 pub fn z_section(d: [f64; 4]) -> Result<SectionValues, SectionError> {
     positive(&d)?;
     let [bf, tw, hw, h] = d;
-    check(h > hw, || format!("DIM4 = {h} is not greater than DIM3 = {hw}"))?;
+    check(h > hw, || {
+        format!("DIM4 = {h} is not greater than DIM3 = {hw}")
+    })?;
     let t = (h - hw) / 2.0;
     let parts = [
         rect(-bf, 0.0, h - t, h),
@@ -468,7 +500,12 @@ mod tests {
     /// Agreement to 1e-12 relative (both are exact; round-off of sums of cubes of ~0.1 m).
     fn assert_same(name: &str, s: &SectionValues, p: (f64, f64, f64, f64)) {
         let scale = s.i1.abs().max(s.i2.abs());
-        assert!((s.area - p.0).abs() <= 1e-12 * p.0, "{name} A {} {}", s.area, p.0);
+        assert!(
+            (s.area - p.0).abs() <= 1e-12 * p.0,
+            "{name} A {} {}",
+            s.area,
+            p.0
+        );
         for (what, got, want) in [("I1", s.i1, p.1), ("I2", s.i2, p.2), ("I12", s.i12, p.3)] {
             assert!(
                 (got - want).abs() <= 1e-12 * scale,
@@ -524,7 +561,11 @@ mod tests {
             (-tw / 2.0, tf),
             (-b / 2.0, tf),
         ];
-        assert_same("T2", &t2_section([b, h, tf, tw]).unwrap(), polygon(&[bottom]));
+        assert_same(
+            "T2",
+            &t2_section([b, h, tf, tw]).unwrap(),
+            polygon(&[bottom]),
+        );
 
         let (b, h, t1, t2) = (0.1, 0.15, 0.01, 0.008);
         let l = l_section([b, h, t1, t2]).unwrap();
@@ -544,7 +585,7 @@ mod tests {
             (b, h),
             (0.0, h),
         ];
-        assert_same("CHAN", &chan, polygon(&[outline.clone()]));
+        assert_same("CHAN", &chan, polygon(std::slice::from_ref(&outline)));
         // CHAN1 of the same shape: flange beyond the web b − tw, web height h − 2 tf.
         let chan1 = chan1_section([b - tw, tw, h - 2.0 * tf, h]).unwrap();
         assert_same("CHAN1", &chan1, polygon(&[outline]));
@@ -560,12 +601,20 @@ mod tests {
             (tl, h),
             (0.0, h),
         ];
-        assert_same("CHAN2", &chan2_section([tl, tb, h, b]).unwrap(), polygon(&[outline]));
+        assert_same(
+            "CHAN2",
+            &chan2_section([tl, tb, h, b]).unwrap(),
+            polygon(&[outline]),
+        );
 
         let (b, h, th, tv) = (0.2, 0.1, 0.01, 0.02);
         let outer = rectangle(0.0, b, 0.0, h);
         let inner = reversed(rectangle(tv, b - tv, th, h - th));
-        assert_same("BOX", &box_section([b, h, th, tv]).unwrap(), polygon(&[outer.clone(), inner]));
+        assert_same(
+            "BOX",
+            &box_section([b, h, th, tv]).unwrap(),
+            polygon(&[outer.clone(), inner]),
+        );
         let (tt, tb, tr, tl) = (0.01, 0.02, 0.005, 0.015);
         let inner = reversed(rectangle(tl, b - tr, tb, h - tt));
         let box1 = box1_section([b, h, tt, tb, tr, tl]).unwrap();
@@ -588,7 +637,11 @@ mod tests {
             (tf, hf / 2.0),
             (0.0, hf / 2.0),
         ];
-        assert_same("H", &h_section([lw, tf2, hf, tw]).unwrap(), polygon(&[outline]));
+        assert_same(
+            "H",
+            &h_section([lw, tf2, hf, tw]).unwrap(),
+            polygon(&[outline]),
+        );
 
         let (la, tv, hv, ta) = (0.12, 0.02, 0.18, 0.015);
         let (u, w) = (tv / 2.0, tv / 2.0 + la / 2.0);
@@ -606,7 +659,11 @@ mod tests {
             (-w, -ta / 2.0),
             (-u, -ta / 2.0),
         ];
-        assert_same("CROSS", &cross_section([la, tv, hv, ta]).unwrap(), polygon(&[outline]));
+        assert_same(
+            "CROSS",
+            &cross_section([la, tv, hv, ta]).unwrap(),
+            polygon(&[outline]),
+        );
 
         let (bf, tw, hw, h) = (0.06, 0.008, 0.18, 0.2);
         let t = (h - hw) / 2.0;
@@ -638,7 +695,11 @@ mod tests {
             (-tw / 2.0, t),
             (-w / 2.0, t),
         ];
-        assert_same("I1", &i1_section([bf, tw, hw, h]).unwrap(), polygon(&[outline]));
+        assert_same(
+            "I1",
+            &i1_section([bf, tw, hw, h]).unwrap(),
+            polygon(&[outline]),
+        );
 
         let (hf, lw, tf, tw) = (0.2, 0.1, 0.012, 0.01);
         let outline = vec![
@@ -651,7 +712,11 @@ mod tests {
             (-lw, -tw / 2.0),
             (0.0, -tw / 2.0),
         ];
-        assert_same("T1", &t1_section([hf, lw, tf, tw]).unwrap(), polygon(&[outline]));
+        assert_same(
+            "T1",
+            &t1_section([hf, lw, tf, tw]).unwrap(),
+            polygon(&[outline]),
+        );
 
         let (h, t, wd, brim) = (0.1, 0.004, 0.08, 0.03);
         let x = wd / 2.0;
@@ -669,7 +734,11 @@ mod tests {
             (-x, t),
             (-x - brim, t),
         ];
-        assert_same("HAT", &hat_section([h, t, wd, brim]).unwrap(), polygon(&[outline]));
+        assert_same(
+            "HAT",
+            &hat_section([h, t, wd, brim]).unwrap(),
+            polygon(&[outline]),
+        );
     }
 
     /// Torsion constants against hand evaluations of the thin-walled formulas, and BOX against
@@ -709,7 +778,7 @@ mod tests {
     #[test]
     fn principal_axes_diagonalise_the_section() {
         let (b, h, t1, t2) = (0.1, 0.15, 0.01, 0.008);
-        let outline = vec![(0.0, 0.0), (b, 0.0), (b, t1), (t2, t1), (t2, h), (0.0, h)];
+        let outline = [(0.0, 0.0), (b, 0.0), (b, t1), (t2, t1), (t2, h), (0.0, h)];
         let l = l_section([b, h, t1, t2]).unwrap();
         let (p, theta) = principal(&l);
         assert!(theta.abs() <= std::f64::consts::FRAC_PI_4);

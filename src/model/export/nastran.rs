@@ -307,9 +307,18 @@ fn write_element(out: &mut String, id: u64, e: &Element, bush_pid: &BTreeMap<u64
                 // OFFT BGG: orientation and offsets in the basic system, as the model holds them.
                 f.push(F::Text("BGG".into()));
                 for pin in [ends.pin_a, ends.pin_b] {
-                    f.push(if pin == 0 { F::Blank } else { F::Int(pin as u64) });
+                    f.push(if pin == 0 {
+                        F::Blank
+                    } else {
+                        F::Int(pin as u64)
+                    });
                 }
-                f.extend(ends.offset_a.iter().chain(&ends.offset_b).map(|v| F::Real(*v)));
+                f.extend(
+                    ends.offset_a
+                        .iter()
+                        .chain(&ends.offset_b)
+                        .map(|v| F::Real(*v)),
+                );
             }
             card(out, "CBAR", f);
         }

@@ -1,9 +1,9 @@
 //! Shell and beam element cards: CQUAD4, CTRIA3, CBAR, CBEAM with their orientation, offsets
 //! (OFFT, WA, WB) and pin flags (PA, PB).
 
-use super::*;
 use super::finish::beam_orientation;
 use super::sections::{turned_orientation, unit};
+use super::*;
 
 impl Builder {
     pub(super) fn shell_element(&mut self, c: &Card) -> Result<(), NastranError> {
@@ -284,10 +284,7 @@ impl Builder {
                 }
             }
         }
-        let axis = [
-            add(xa, ends.offset_a),
-            add(xb, ends.offset_b),
-        ];
+        let axis = [add(xa, ends.offset_a), add(xb, ends.offset_b)];
         Ok(Element::Beam {
             nodes,
             property,

@@ -110,7 +110,8 @@
 use crate::core::input::{EXCERPT_CHARS, InputError, InputPolicy, excerpt, read_input_with};
 use crate::core::{Component, DofId};
 use crate::model::structure::{
-    BeamEnds, BeamProperty, BeamSection, Element, Material, Model, ModelError, Parameter, ShellProperty,
+    BeamEnds, BeamProperty, BeamSection, Element, Material, Model, ModelError, Parameter,
+    ShellProperty,
 };
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
@@ -146,8 +147,8 @@ const MAX_INCLUDE_DEPTH: usize = 64;
 pub const READ_CARDS: [&str; 30] = [
     "GRID", "GRDSET", "CORD1R", "CORD1C", "CORD1S", "CORD2R", "CORD2C", "CORD2S", "CQUAD4",
     "CTRIA3", "CBAR", "CBEAM", "PSHELL", "PBAR", "PBARL", "PBEAM", "MAT1", "CELAS1", "CELAS2",
-    "PELAS", "CBUSH", "PBUSH", "CONM2", "SPC", "SPC1", "SPCADD", "SET1", "PBEAML",
-    "BAROR", "BEAMOR",
+    "PELAS", "CBUSH", "PBUSH", "CONM2", "SPC", "SPC1", "SPCADD", "SET1", "PBEAML", "BAROR",
+    "BEAMOR",
 ];
 
 /// Cards skipped (counted) because they change neither stiffness, mass nor constraints: static

@@ -67,10 +67,7 @@ pub(super) fn library_type(c: &Card) -> Result<(String, usize), NastranError> {
             4,
             "TYPE",
             format!("section type `{}` is not supported", q(&kind)),
-            format!(
-                "{} (or give the properties on a PBAR/PBEAM)",
-                type_list()
-            ),
+            format!("{} (or give the properties on a PBAR/PBEAM)", type_list()),
         ));
     };
     Ok((kind, n))
@@ -88,7 +85,10 @@ pub(super) fn library_section(
         c.err(
             k,
             "DIM1",
-            format!("the {kind} dimensions {d:?} do not describe the section: {}", e.what),
+            format!(
+                "the {kind} dimensions {d:?} do not describe the section: {}",
+                e.what
+            ),
             format!("dimensions of the {kind} section as the QRG's PBARL figure draws them"),
         )
     };
@@ -232,13 +232,12 @@ impl Builder {
                 ));
             }
             c.real(k + 1, "X/XB")?;
-            for i in 0..=n {
+            for (i, end_a) in d.iter().copied().chain([nsm]).enumerate() {
                 let label = if i < n {
                     format!("DIM{}", i + 1)
                 } else {
                     "NSM".to_string()
                 };
-                let end_a = if i < n { d[i] } else { nsm };
                 if let Some(v) = c.real(k + 2 + i, &label)?.filter(|v| !same(*v, end_a)) {
                     return Err(c.err(
                         k + 2 + i,

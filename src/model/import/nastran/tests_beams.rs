@@ -71,7 +71,8 @@ fn pbarl_i_beam_is_the_pbar_of_its_library_values() {
     let (ka, ma, dofs) = system(&cantilever(&pbarl));
     let (kb, mb, _) = system(&cantilever(&pbar));
     assert_eq!((ka.clone(), ma.clone()), (kb, mb));
-    let modes = dense_generalized(ka.as_ref(), ma.as_ref(), &dofs, ModeSelection::Count(4)).unwrap();
+    let modes =
+        dense_generalized(ka.as_ref(), ma.as_ref(), &dofs, ModeSelection::Count(4)).unwrap();
     assert!(modes.eigenvalues[0] > 0.0);
 }
 
@@ -125,7 +126,10 @@ fn every_library_type_reads_with_its_dimension_count() {
         );
     }
     let e = error(&cantilever("PBARL,7,1,,HEXA\n,.1,.2,.1\n"));
-    assert!(e.contains("field 5 (TYPE)") && e.contains("HEXA") && e.contains("CHAN2"), "{e}");
+    assert!(
+        e.contains("field 5 (TYPE)") && e.contains("HEXA") && e.contains("CHAN2"),
+        "{e}"
+    );
     let e = error(&cantilever("PBARL,7,1,,I\n,.03,.16,.12,.01,.02,.015\n"));
     assert!(e.contains("DIM1") && e.contains("DIM5 + DIM6"), "{e}");
     let e = error(&cantilever("PBARL,7,1,,L\n,.1,.15,.01,.008,.5,3.\n"));
@@ -154,7 +158,10 @@ fn l_section_turned_to_principal_axes_bends_as_the_unsymmetric_section() {
     let det = s.i1 * s.i2 - s.i12 * s.i12;
     let c = 8.0 / (3.0 * E);
     let want = [c * s.i2 / det, -c * s.i12 / det];
-    let got = [at(&dofs, &u, 2, Component::Uy), at(&dofs, &u, 2, Component::Uz)];
+    let got = [
+        at(&dofs, &u, 2, Component::Uy),
+        at(&dofs, &u, 2, Component::Uz),
+    ];
     for i in 0..2 {
         assert!(
             (got[i] - want[i]).abs() < 1e-9 * want[0].abs(),
@@ -193,7 +200,10 @@ fn pbeaml_reads_constant_sections_and_refuses_tapers() {
 #[test]
 fn pinned_joint_deflects_as_the_hand_hinge() {
     let (a, l, i) = (0.8, 2.0, 3e-7);
-    for pins in ["CBAR,1,7,1,2,0.,1.,0.\n,,6\nCBAR,2,7,2,3,0.,1.,0.\n", "CBAR,1,7,1,2,0.,1.,0.\nCBAR,2,7,2,3,0.,1.,0.\n,6\n"] {
+    for pins in [
+        "CBAR,1,7,1,2,0.,1.,0.\n,,6\nCBAR,2,7,2,3,0.,1.,0.\n",
+        "CBAR,1,7,1,2,0.,1.,0.\nCBAR,2,7,2,3,0.,1.,0.\n,6\n",
+    ] {
         let deck = format!(
             "MAT1,1,2.1+11,,.3,7850.\nPBAR,7,1,1.-3,{},{},1.-7\nGRID,1,,0.,0.,0.,,123456\nGRID,2,,{},0.,0.,,345\nGRID,3,,{},0.,0.,,123456\n{pins}",
             r(i),
@@ -241,7 +251,11 @@ fn offset_member_stiffens_the_cantilever_as_the_composite_section() {
         );
         for g in 0..=n {
             let ps = if g == 0 { "123456" } else { "345" };
-            s += &format!("GRID,{},,{},0.,0.,,{ps}\n", g + 1, r(l * g as f64 / n as f64));
+            s += &format!(
+                "GRID,{},,{},0.,0.,,{ps}\n",
+                g + 1,
+                r(l * g as f64 / n as f64)
+            );
         }
         for e in 0..n {
             let (ga, gb) = (e + 1, e + 2);
@@ -270,15 +284,23 @@ fn offset_member_stiffens_the_cantilever_as_the_composite_section() {
         (f1(20, off) / hz(ic) - 1.0).abs(),
         (f1(40, off) / hz(ic) - 1.0).abs(),
     );
-    assert!(e40 < 4e-4 && (3.5..4.5).contains(&(e20 / e40)), "{e20:e} {e40:e}");
+    assert!(
+        e40 < 4e-4 && (3.5..4.5).contains(&(e20 / e40)),
+        "{e20:e} {e40:e}"
+    );
     let plain = (f1(20, 0.0) / hz(i1 + i2) - 1.0).abs();
     assert!(plain < 1e-4, "{plain:e}");
-    eprintln!("offset composite cantilever: error {e20:e} (20 elements), {e40:e} (40); no offset {plain:e}");
+    eprintln!(
+        "offset composite cantilever: error {e20:e} (20 elements), {e40:e} (40); no offset {plain:e}"
+    );
     let m = parse(&deck(2, off)).model;
     let Element::Beam { ends, .. } = &m.elements[&1001] else {
         panic!()
     };
-    assert_eq!((ends.offset_a, ends.offset_b), ([0.0, off, 0.0], [0.0, off, 0.0]));
+    assert_eq!(
+        (ends.offset_a, ends.offset_b),
+        ([0.0, off, 0.0], [0.0, off, 0.0])
+    );
 }
 
 /// OFFT: offsets in the grids' displacement systems (G), or the element system (O); the
@@ -302,10 +324,16 @@ fn offt_codes_place_offsets_and_orientation() {
     let close = |a: [f64; 3], b: [f64; 3]| (0..3).all(|i| (a[i] - b[i]).abs() < 1e-12);
     // GGG: A in basic (grid 1 has CD 0), B in system 5 (x → basic y, y → basic −x).
     let (a, b, _) = ends("", "0.,1.,0.");
-    assert!(close(a, [0.1, 0.2, 0.3]) && close(b, [-0.5, 0.4, 0.6]), "{a:?} {b:?}");
+    assert!(
+        close(a, [0.1, 0.2, 0.3]) && close(b, [-0.5, 0.4, 0.6]),
+        "{a:?} {b:?}"
+    );
     // GOO with v = y: the element system is basic, so both offsets read as given.
     let (a, b, _) = ends("GOO", "0.,1.,0.");
-    assert!(close(a, [0.1, 0.2, 0.3]) && close(b, [0.4, 0.5, 0.6]), "{a:?} {b:?}");
+    assert!(
+        close(a, [0.1, 0.2, 0.3]) && close(b, [0.4, 0.5, 0.6]),
+        "{a:?} {b:?}"
+    );
     // Element system with v = z: element y = basic z, z = −basic y.
     let (_, b, _) = ends("GGO", "0.,0.,1.");
     assert!(close(b, [0.4, -0.6, 0.5]), "{b:?}");
@@ -363,8 +391,13 @@ fn baror_and_beamor_fill_blank_fields() {
     // Element 3 (CBEAM): BEAMOR's PID and G0 = 3 (v from GA towards grid 3).
     assert_eq!((beam(3).0, beam(3).1), (8, [1.0, 1.0, 0.0]));
     let e = error(&format!("{base}BEAMOR,,8,,,3\nCBAR,1,7,1,2\n"));
-    assert!(e.contains("CBAR field 6 (X1/G0)") && e.contains("BAROR"), "{e}");
-    let e = error(&format!("{base}BAROR,,7\nBAROR,,8\nCBAR,1,7,1,2,0.,1.,0.\n"));
+    assert!(
+        e.contains("CBAR field 6 (X1/G0)") && e.contains("BAROR"),
+        "{e}"
+    );
+    let e = error(&format!(
+        "{base}BAROR,,7\nBAROR,,8\nCBAR,1,7,1,2,0.,1.,0.\n"
+    ));
     assert!(e.contains("BAROR is given twice"), "{e}");
     // Blank PID without BAROR PID: the element id, as in Nastran.
     let m = parse(&format!("{base}CBAR,7,,1,2,0.,1.,0.\n")).model;
