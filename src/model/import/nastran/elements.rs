@@ -248,7 +248,16 @@ impl Builder {
             (_, o) => self.orient_in_basic(geo, nodes[0], o),
         };
         let v = beam_orientation(model, loc, nodes, orient)?;
-        let (xa, xb) = (model.nodes[&nodes[0]], model.nodes[&nodes[1]]);
+        // An undefined grid is reported by the model check that follows; place nothing here.
+        let (Some(&xa), Some(&xb)) = (model.nodes.get(&nodes[0]), model.nodes.get(&nodes[1]))
+        else {
+            return Ok(Element::Beam {
+                nodes,
+                property,
+                orientation: v,
+                ends: BeamEnds::default(),
+            });
+        };
         let ex = unit(sub(xb, xa));
         let ez = unit(cross(ex, v));
         let element = [ex, cross(ez, ex), ez];
