@@ -47,6 +47,19 @@
 //! A [`Section::General`] section takes `A`, `I_y`, `I_z`, `J` and the shear coefficients directly
 //! (`None` = shear-rigid, Euler–Bernoulli, as a blank K1/K2 on Nastran's PBAR).
 //!
+//! **Pin flags** (Nastran CBAR/CBEAM PA, PB): released DOFs `p` of the element system at an end
+//! are condensed out statically, `K_c = K_rr − K_rp K_pp⁻¹ K_pr` on the retained DOFs `r` (zero
+//! rows and columns at `p`): the released DOFs follow the retained ones as `u_p = −X u_r` with
+//! `X = K_pp⁻¹ K_pr`, the end forces at `p` vanish. The mass is made consistent with that motion,
+//! `M_c = Tᵀ M T` with `T = [I; −X]` (for either mass kind), so the kinetic energy is that of the
+//! condensed displacement field. A singular `K_pp` (the releases leave a mechanism inside the
+//! element, e.g. torsion released at both ends) or all six DOFs of an end released is an error.
+//!
+//! **Offsets** (CBAR/CBEAM WA, WB): the element runs between the offset ends
+//! `x_e = x_grid + w`, joined rigidly to the grids: `u_e = u_g + θ_g × w`, `θ_e = θ_g`, i.e.
+//! `[u_e; θ_e] = [[I, −[w]×], [0, I]] [u_g; θ_g]` per end, and with that `12 × 12` transform `T_w`
+//! the grid matrices are `T_wᵀ K T_w`, `T_wᵀ M T_w` (Przemieniecki 1968, §5.8 rigid offsets).
+//!
 //! **Derivatives** (docs/theory.md §2): every entry of `K_ℓ`, `M_ℓ` is a rational function of
 //! `E, G, ρ, nsm, A, I_y, I_z, J, I_p, 1/κ_y, 1/κ_z`. The local kernel is written once over a scalar
 //! type and evaluated either with `f64` or with dual numbers `a + b ε` (`ε² = 0`) seeded with the
@@ -200,6 +213,40 @@ impl BeamParameter {
                 | BeamParameter::Density
                 | BeamParameter::NonStructuralMass
         )
+    }
+}
+
+/// Offsets and pin flags of a beam's ends (zero and none by default: the plain beam).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct EndConditions {
+    /// Offset from node 1 to end A in the basic system, m.
+    pub offset_a: [f64; 3],
+    /// Offset from node 2 to end B in the basic system, m.
+    pub offset_b: [f64; 3],
+    /// Element-system DOFs `[ux uy uz rx ry rz]` released at end A.
+    pub released_a: [bool; 6],
+    /// Released at end B.
+    pub released_b: [bool; 6],
+}
+
+impl EndConditions {
+    fn released(&self) -> Vec<usize> {
+        (0..12)
+            .filter(|&i| {
+                if i < 6 {
+                    self.released_a[i]
+                } else {
+                    self.released_b[i - 6]
+                }
+            })
+            .collect()
+    }
+
+    fn has_offset(&self) -> bool {
+        self.offset_a
+            .iter()
+            .chain(&self.offset_b)
+            .any(|x| *x != 0.0)
     }
 }
 
@@ -978,6 +1025,136 @@ fn scalars_f64(d: &BeamData, p: &SectionProperties) -> Scalars<f64> {
     }
 }
 
+/// A local stiffness and mass pair.
+type LocalPair<T> = ([[T; 12]; 12], [[T; 12]; 12]);
+
+/// Static condensation of the released local DOFs `p` (see the module doc): `K_c`, `Tᵀ M T`.
+/// `K_pp` is symmetric positive definite when the releases leave no mechanism, so elimination
+/// without pivoting is stable; a pivot at or below `1e-10` of the largest diagonal entry of the
+/// (value of the) stiffness means a mechanism.
+fn condense<T: Scalar>(
+    k: &[[T; 12]; 12],
+    m: &[[T; 12]; 12],
+    p: &[usize],
+    value: impl Fn(T) -> f64,
+) -> Result<LocalPair<T>, ElementError> {
+    if p.is_empty() {
+        return Ok((*k, *m));
+    }
+    for end in [0..6, 6..12] {
+        if end.clone().all(|i| p.contains(&i)) {
+            return Err(ElementError::Degenerate(
+                "the pin flags release all six DOFs of an end: the element transmits nothing (a mechanism)".into(),
+            ));
+        }
+    }
+    let r: Vec<usize> = (0..12).filter(|i| !p.contains(i)).collect();
+    let np = p.len();
+    let scale = (0..12).map(|i| value(k[i][i]).abs()).fold(0.0, f64::max);
+    // Solve K_pp X = K_pr by Gauss elimination on [K_pp | K_pr].
+    let zero = T::cst(0.0);
+    let mut a: Vec<Vec<T>> = p
+        .iter()
+        .map(|&i| {
+            p.iter()
+                .map(|&j| k[i][j])
+                .chain(r.iter().map(|&j| k[i][j]))
+                .collect()
+        })
+        .collect();
+    let width = np + r.len();
+    for c in 0..np {
+        let piv = a[c][c];
+        if !(value(piv) > 1e-10 * scale) {
+            return Err(ElementError::Degenerate(
+                "the pin flags release a mechanism inside the element (e.g. the same DOF at both ends); release fewer DOFs".into(),
+            ));
+        }
+        let (top, below) = a.split_at_mut(c + 1);
+        let pivot_row = &top[c];
+        for row in below.iter_mut() {
+            let f = row[c] / piv;
+            for (x, t) in row[c..width].iter_mut().zip(&pivot_row[c..width]) {
+                *x = *x - f * *t;
+            }
+        }
+    }
+    let mut x = vec![vec![zero; r.len()]; np];
+    for c in (0..np).rev() {
+        for q in 0..r.len() {
+            let mut v = a[c][np + q];
+            for s in c + 1..np {
+                v = v - a[c][s] * x[s][q];
+            }
+            x[c][q] = v / a[c][c];
+        }
+    }
+    // T (12 × |r|): identity on r, −X on p.
+    let mut t = [[zero; 12]; 12];
+    for (q, &j) in r.iter().enumerate() {
+        t[j][j] = T::cst(1.0);
+        for (c, &i) in p.iter().enumerate() {
+            t[i][j] = -x[c][q];
+        }
+    }
+    let congruence = |a: &[[T; 12]; 12]| {
+        let mut at = [[zero; 12]; 12];
+        for i in 0..12 {
+            for &j in &r {
+                let mut v = zero;
+                for s in 0..12 {
+                    v = v + a[i][s] * t[s][j];
+                }
+                at[i][j] = v;
+            }
+        }
+        let mut out = [[zero; 12]; 12];
+        for &i in &r {
+            for &j in &r {
+                let mut v = zero;
+                for s in 0..12 {
+                    v = v + t[s][i] * at[s][j];
+                }
+                out[i][j] = v;
+            }
+        }
+        out
+    };
+    Ok((congruence(k), congruence(m)))
+}
+
+/// `T_wᵀ A T_w` for the rigid offsets of the ends (see the module doc); `A` as it is when both
+/// offsets are zero.
+fn offset_grid(a: Mat<f64>, ends: &EndConditions) -> Mat<f64> {
+    if !ends.has_offset() {
+        return a;
+    }
+    let mut t = Mat::<f64>::identity(12, 12);
+    for (base, w) in [(0, ends.offset_a), (6, ends.offset_b)] {
+        // u_e = u_g − [w]× θ_g, [w]× = [[0, −w3, w2], [w3, 0, −w1], [−w2, w1, 0]].
+        let wx = [[0.0, -w[2], w[1]], [w[2], 0.0, -w[0]], [-w[1], w[0], 0.0]];
+        for i in 0..3 {
+            for j in 0..3 {
+                t[(base + i, base + 3 + j)] = -wx[i][j];
+            }
+        }
+    }
+    let out = t.transpose() * &a * &t;
+    Mat::from_fn(12, 12, |i, j| 0.5 * (out[(i, j)] + out[(j, i)]))
+}
+
+fn ends_frame(
+    x1: [f64; 3],
+    x2: [f64; 3],
+    v: [f64; 3],
+    ends: &EndConditions,
+) -> Result<BeamFrame, ElementError> {
+    finite3("offset_a", ends.offset_a)?;
+    finite3("offset_b", ends.offset_b)?;
+    let add = |x: [f64; 3], w: [f64; 3]| [x[0] + w[0], x[1] + w[1], x[2] + w[2]];
+    beam_frame(add(x1, ends.offset_a), add(x2, ends.offset_b), v)
+}
+
 /// Stiffness and mass (12 × 12, basic system) of a 2-node Timoshenko beam from node 1 at `x1` to
 /// node 2 at `x2`, with orientation vector `v` in the local `x–y` plane.
 pub fn beam2(
@@ -987,12 +1164,25 @@ pub fn beam2(
     d: &BeamData,
     mass: MassKind,
 ) -> Result<ElementMatrices, ElementError> {
-    let frame = beam_frame(x1, x2, v)?;
+    beam2_with_ends(x1, x2, v, d, mass, &EndConditions::default())
+}
+
+/// [`beam2`] with offset ends and pin flags (see the module doc).
+pub fn beam2_with_ends(
+    x1: [f64; 3],
+    x2: [f64; 3],
+    v: [f64; 3],
+    d: &BeamData,
+    mass: MassKind,
+    ends: &EndConditions,
+) -> Result<ElementMatrices, ElementError> {
+    let frame = ends_frame(x1, x2, v, ends)?;
     let props = d.validate()?;
     let (k, m) = local_matrices(frame.length, &scalars_f64(d, &props), mass);
+    let (k, m) = condense(&k, &m, &ends.released(), |x| x)?;
     Ok(ElementMatrices {
-        k: to_basic(&k, &frame.axes)?,
-        m: to_basic(&m, &frame.axes)?,
+        k: offset_grid(to_basic(&k, &frame.axes)?, ends),
+        m: offset_grid(to_basic(&m, &frame.axes)?, ends),
     })
 }
 
@@ -1005,7 +1195,21 @@ pub fn beam2_derivative(
     mass: MassKind,
     p: BeamParameter,
 ) -> Result<ElementDerivative, ElementError> {
-    let frame = beam_frame(x1, x2, v)?;
+    beam2_derivative_with_ends(x1, x2, v, d, mass, p, &EndConditions::default())
+}
+
+/// Exact `∂K/∂φ`, `∂M/∂φ` of [`beam2_with_ends`]: the condensation is carried out in dual
+/// numbers, the offset transform is constant.
+pub fn beam2_derivative_with_ends(
+    x1: [f64; 3],
+    x2: [f64; 3],
+    v: [f64; 3],
+    d: &BeamData,
+    mass: MassKind,
+    p: BeamParameter,
+    ends: &EndConditions,
+) -> Result<ElementDerivative, ElementError> {
+    let frame = ends_frame(x1, x2, v, ends)?;
     d.validate()?;
     let (props, dprops) = d.section.evaluate(d.nu, Some(p))?;
     let s = scalars_f64(d, &props);
@@ -1040,6 +1244,7 @@ pub fn beam2_derivative(
         inv_kappa_z: dual(s.inv_kappa_z, inv_kappa(props.kappa_z, dprops.kappa_z)),
     };
     let (k, m) = local_matrices(frame.length, &sd, mass);
+    let (k, m) = condense(&k, &m, &ends.released(), |x: Dual| x.v)?;
     let tangent = |a: &[[Dual; 12]; 12]| {
         let mut out = [[0.0f64; 12]; 12];
         for (o, row) in out.iter_mut().zip(a) {
@@ -1050,8 +1255,8 @@ pub fn beam2_derivative(
         out
     };
     Ok(ElementDerivative {
-        dk: to_basic(&tangent(&k), &frame.axes)?,
-        dm: to_basic(&tangent(&m), &frame.axes)?,
+        dk: offset_grid(to_basic(&tangent(&k), &frame.axes)?, ends),
+        dm: offset_grid(to_basic(&tangent(&m), &frame.axes)?, ends),
     })
 }
 
@@ -2069,5 +2274,168 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// Offsets and pins of the tests: both ends offset, torsion and one bending rotation
+    /// released at A, the other bending rotation at B.
+    fn ends() -> EndConditions {
+        EndConditions {
+            offset_a: [0.01, -0.02, 0.015],
+            offset_b: [-0.005, 0.03, 0.01],
+            released_a: [false, false, false, true, false, true],
+            released_b: [false, false, false, false, true, false],
+        }
+    }
+
+    /// The rigid link of the offsets, built column by column from its definition
+    /// `u_end = u_grid + θ_grid × w` (the column of `θ_j` is `e_j × w`).
+    fn rigid_link(wa: [f64; 3], wb: [f64; 3]) -> Mat<f64> {
+        let mut t = Mat::<f64>::identity(12, 12);
+        for (base, w) in [(0, wa), (6, wb)] {
+            for j in 0..3 {
+                let mut e = [0.0; 3];
+                e[j] = 1.0;
+                let c = cross(e, w);
+                for i in 0..3 {
+                    t[(base + i, base + 3 + j)] = c[i];
+                }
+            }
+        }
+        t
+    }
+
+    /// An offset beam is the plain beam between the offset points seen through a rigid link
+    /// built independently here: `Tᵀ K T`, `Tᵀ M T` to round-off (1e-13 of the largest entry).
+    #[test]
+    fn offsets_are_a_rigid_link_to_the_plain_beam_between_the_offset_points() {
+        let (x1, x2, v) = LONG;
+        let e = EndConditions {
+            released_a: [false; 6],
+            released_b: [false; 6],
+            ..ends()
+        };
+        let add = |x: [f64; 3], w: [f64; 3]| [x[0] + w[0], x[1] + w[1], x[2] + w[2]];
+        let t = rigid_link(e.offset_a, e.offset_b);
+        for s in sections() {
+            let d = steel(s);
+            for kind in [MassKind::Consistent, MassKind::Lumped] {
+                let got = beam2_with_ends(x1, x2, v, &d, kind, &e).unwrap();
+                let plain = beam2(add(x1, e.offset_a), add(x2, e.offset_b), v, &d, kind).unwrap();
+                for (g, p) in [(&got.k, &plain.k), (&got.m, &plain.m)] {
+                    let want = t.transpose() * p * &t;
+                    let err = max_abs((g - &want).as_ref()) / max_abs(want.as_ref());
+                    assert!(err < 1e-13, "{s:?} {kind:?}: {err:e}");
+                }
+            }
+        }
+    }
+
+    /// Pins: the condensed stiffness is the Schur complement computed here with faer's LU,
+    /// `K_rr − K_rp K_pp⁻¹ K_pr`, with zero rows and columns at the released DOFs; the mass is
+    /// `Tᵀ M T` with `T = [I; −K_pp⁻¹ K_pr]`; rigid-body motions of the grids still cost no
+    /// strain energy. Element along basic x with `v = y`, so local DOFs are basic DOFs.
+    #[test]
+    fn pins_condense_the_released_dofs_statically() {
+        let (x1, x2, v) = ([0.0, 0.0, 0.0], [0.7, 0.0, 0.0], [0.0, 1.0, 0.0]);
+        let e = EndConditions {
+            offset_a: [0.0; 3],
+            offset_b: [0.0; 3],
+            ..ends()
+        };
+        let p = [3usize, 5, 10];
+        let r: Vec<usize> = (0..12).filter(|i| !p.contains(i)).collect();
+        for s in sections() {
+            let d = steel(s);
+            let plain = beam2(x1, x2, v, &d, MassKind::Consistent).unwrap();
+            let got = beam2_with_ends(x1, x2, v, &d, MassKind::Consistent, &e).unwrap();
+            let kpp = Mat::from_fn(3, 3, |i, j| plain.k[(p[i], p[j])]);
+            let kpr = Mat::from_fn(3, 9, |i, j| plain.k[(p[i], r[j])]);
+            let x = kpp.partial_piv_lu().solve(&kpr);
+            let mut t = Mat::<f64>::zeros(12, 12);
+            for (q, &j) in r.iter().enumerate() {
+                t[(j, j)] = 1.0;
+                for (c, &i) in p.iter().enumerate() {
+                    t[(i, j)] = -x[(c, q)];
+                }
+            }
+            for (g, full) in [(&got.k, &plain.k), (&got.m, &plain.m)] {
+                let want = t.transpose() * full * &t;
+                let err = max_abs((g - &want).as_ref()) / max_abs(want.as_ref());
+                assert!(err < 1e-12, "{s:?}: {err:e}");
+                for &i in &p {
+                    for j in 0..12 {
+                        assert_eq!(g[(i, j)], 0.0);
+                    }
+                }
+            }
+            let kmax = max_abs(got.k.as_ref());
+            for rb in rigid_body_vectors(x1, x2) {
+                assert!(quad(&got.k, &rb, &rb).abs() < 1e-10 * kmax);
+            }
+        }
+        // With offsets as well, grid rigid-body motions remain free of strain energy.
+        let (x1, x2, v) = LONG;
+        let got =
+            beam2_with_ends(x1, x2, v, &steel(sections()[0]), MassKind::Lumped, &ends()).unwrap();
+        let kmax = max_abs(got.k.as_ref());
+        for rb in rigid_body_vectors(x1, x2) {
+            assert!(quad(&got.k, &rb, &rb).abs() < 1e-10 * kmax);
+        }
+    }
+
+    /// Releases that leave a mechanism inside the element (torsion at both ends) or free a
+    /// whole end are refused.
+    #[test]
+    fn mechanisms_from_pin_flags_are_refused() {
+        let (x1, x2, v) = LONG;
+        let d = steel(sections()[0]);
+        let mut e = EndConditions::default();
+        e.released_a[3] = true;
+        e.released_b[3] = true;
+        let err = beam2_with_ends(x1, x2, v, &d, MassKind::Consistent, &e).unwrap_err();
+        assert!(err.to_string().contains("mechanism"), "{err}");
+        let e = EndConditions {
+            released_a: [true; 6],
+            ..EndConditions::default()
+        };
+        let err = beam2_with_ends(x1, x2, v, &d, MassKind::Consistent, &e).unwrap_err();
+        assert!(err.to_string().contains("all six"), "{err}");
+    }
+
+    /// The exact derivatives with pins and offsets against central differences (step 1e-6 of
+    /// the value; agreement to 1e-6 of the largest entry, the differences' truncation level).
+    #[test]
+    fn derivatives_with_ends_match_central_differences() {
+        let mut worst = 0.0f64;
+        let (x1, x2, v) = LONG;
+        for s in sections() {
+            let mut d = steel(s);
+            d.nsm = 0.25;
+            for kind in [MassKind::Consistent, MassKind::Lumped] {
+                let base = beam2_with_ends(x1, x2, v, &d, kind, &ends()).unwrap();
+                let (kmax, mmax) = (max_abs(base.k.as_ref()), max_abs(base.m.as_ref()));
+                for p in parameters(&s) {
+                    let x = d.parameter(p).unwrap();
+                    let h = 1e-6 * x;
+                    let at = |y: f64| {
+                        beam2_with_ends(x1, x2, v, &d.with_parameter(p, y).unwrap(), kind, &ends())
+                            .unwrap()
+                    };
+                    let (plus, minus) = (at(x + h), at(x - h));
+                    let exact =
+                        beam2_derivative_with_ends(x1, x2, v, &d, kind, p, &ends()).unwrap();
+                    let fd_k = (&plus.k - &minus.k) * faer::Scale(1.0 / (2.0 * h));
+                    let fd_m = (&plus.m - &minus.m) * faer::Scale(1.0 / (2.0 * h));
+                    let ek = max_abs((&fd_k - &exact.dk).as_ref()) * x / kmax;
+                    let em = max_abs((&fd_m - &exact.dm).as_ref()) * x / mmax;
+                    worst = worst.max(ek).max(em);
+                    assert!(
+                        ek < 1e-6 && em < 1e-6,
+                        "{s:?} {kind:?} {p:?}: {ek:e} {em:e}"
+                    );
+                }
+            }
+        }
+        eprintln!("beam-with-ends derivatives vs central differences: worst {worst:e}");
     }
 }

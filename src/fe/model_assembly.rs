@@ -2,13 +2,13 @@
 //! evaluated in parallel and scattered by [`assemble`](super::assembly::assemble).
 
 use super::assembly::{AssemblyInfo, Contribution, assemble, node_index};
-use super::beam::{BeamData, Section, beam2};
+use super::beam::{BeamData, EndConditions, Section, beam2_with_ends};
 use super::element::{ElementError, ElementMatrices, MassKind};
 use super::lumped_elements::{LumpedMass, SpringEnds, conm2, scalar_spring, spring6};
 use super::shell::{ShellSection, quad4, tria3};
 use super::system::SystemMatrices;
 use crate::core::sparse::SparseMatrix;
-use crate::model::{BeamSection, Element, Model, ModelError};
+use crate::model::{BeamEnds, BeamSection, Element, Model, ModelError};
 use faer::Mat;
 use std::collections::BTreeSet;
 
@@ -94,6 +94,23 @@ pub fn kernel_section(s: &BeamSection) -> Section {
     }
 }
 
+/// The kernel's end conditions of a model beam's ends (pin codes such as 456 → released DOFs).
+pub fn kernel_ends(e: &BeamEnds) -> Result<EndConditions, ElementError> {
+    let pins = |code: u32| {
+        BeamEnds::released(code).ok_or(ElementError::BadValue {
+            field: "pin flag",
+            value: code as f64,
+            hint: "digits 1-6, each at most once",
+        })
+    };
+    Ok(EndConditions {
+        offset_a: e.offset_a,
+        offset_b: e.offset_b,
+        released_a: pins(e.pin_a)?,
+        released_b: pins(e.pin_b)?,
+    })
+}
+
 /// The kernel section of shell property `property` (references already validated).
 fn shell_section(model: &Model, property: u64) -> ShellSection {
     use super::shell::{LayerMaterial, ShellLayers};
@@ -162,6 +179,7 @@ pub fn element_matrices(
             nodes,
             property,
             orientation,
+            ends,
         } => {
             let p = &model.beam_properties[property];
             let mat = &model.materials[&p.material];
@@ -172,7 +190,14 @@ pub fn element_matrices(
                 nsm: p.nsm,
                 section: kernel_section(&p.section),
             };
-            beam2(xyz(&nodes[0]), xyz(&nodes[1]), *orientation, &d, mass)
+            beam2_with_ends(
+                xyz(&nodes[0]),
+                xyz(&nodes[1]),
+                *orientation,
+                &d,
+                mass,
+                &kernel_ends(ends)?,
+            )
         }
         Element::Rod { nodes, section } => super::rod::rod2(
             xyz(&nodes[0]),
@@ -489,7 +514,7 @@ fn element_derivative(
     e: &Element,
     mass: MassKind,
 ) -> Result<super::element::ElementDerivative, ModelAssemblyError> {
-    use super::beam::{BeamParameter, beam2_derivative};
+    use super::beam::{BeamParameter, beam2_derivative_with_ends};
     use super::lumped_elements::{MassParameter, conm2_derivative, spring6_derivative};
     use super::shell::{ShellParameter, quad4_derivative, tria3_derivative};
     use crate::core::Component;
@@ -537,6 +562,7 @@ fn element_derivative(
             nodes,
             property,
             orientation,
+            ends,
         } => {
             let bp = &model.beam_properties[property];
             let mat = &model.materials[&bp.material];
@@ -556,8 +582,16 @@ fn element_derivative(
                 nsm: bp.nsm,
                 section,
             };
-            beam2_derivative(xyz(&nodes[0]), xyz(&nodes[1]), *orientation, &d, mass, p)
-                .map_err(err)?
+            beam2_derivative_with_ends(
+                xyz(&nodes[0]),
+                xyz(&nodes[1]),
+                *orientation,
+                &d,
+                mass,
+                p,
+                &kernel_ends(ends).map_err(err)?,
+            )
+            .map_err(err)?
         }
         Element::Rod { nodes, section } => {
             use super::rod::RodParameter;

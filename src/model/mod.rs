@@ -5,11 +5,12 @@ pub mod generate;
 pub mod import;
 pub mod lumped;
 pub mod parameters;
+pub mod sections;
 pub mod structure;
 
 pub use lumped::{LumpedMass, LumpedModel, LumpedModelError, LumpedSpring};
 pub use parameters::ParameterValueError;
 pub use structure::{
-    BeamProperty, BeamSection, Element, Material, Model, ModelError, Parameter, ParameterKind,
-    RodProperty, RodSection, ShellProperty,
+    BeamEnds, BeamProperty, BeamSection, Element, Material, Model, ModelError, Parameter,
+    ParameterKind, RodProperty, RodSection, ShellProperty,
 };

@@ -204,6 +204,55 @@ pub struct BeamProperty {
     pub nsm: f64,
 }
 
+/// Offsets and pin flags of a beam's two ends (Nastran CBAR/CBEAM WA, WB, PA, PB).
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct BeamEnds {
+    /// Offset from node A to end A in the basic system, m: the element runs between the offset
+    /// ends, joined rigidly to the nodes.
+    #[serde(default, skip_serializing_if = "is_zero3")]
+    pub offset_a: [f64; 3],
+    /// Offset from node B to end B in the basic system, m.
+    #[serde(default, skip_serializing_if = "is_zero3")]
+    pub offset_b: [f64; 3],
+    /// DOFs released at end A, in the element system, as Nastran's PA digits (e.g. 456); 0: none.
+    #[serde(default, skip_serializing_if = "is_zero_u32")]
+    pub pin_a: u32,
+    /// DOFs released at end B (Nastran PB); 0: none.
+    #[serde(default, skip_serializing_if = "is_zero_u32")]
+    pub pin_b: u32,
+}
+
+fn is_zero3(v: &[f64; 3]) -> bool {
+    v.iter().all(|x| *x == 0.0)
+}
+
+fn is_zero_u32(v: &u32) -> bool {
+    *v == 0
+}
+
+impl BeamEnds {
+    /// No offset and no pin: the plain beam between its nodes.
+    pub fn is_plain(&self) -> bool {
+        *self == BeamEnds::default()
+    }
+
+    /// The released element-system DOFs (0-based, `[ux uy uz rx ry rz]`) of a pin code such as
+    /// 456; `None` when the code holds a digit outside 1–6 or a repeated one.
+    pub fn released(code: u32) -> Option<[bool; 6]> {
+        let mut out = [false; 6];
+        let mut c = code;
+        while c > 0 {
+            let d = (c % 10) as usize;
+            if !(1..=6).contains(&d) || out[d - 1] {
+                return None;
+            }
+            out[d - 1] = true;
+            c /= 10;
+        }
+        Some(out)
+    }
+}
+
 /// One element.
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(tag = "type", rename_all = "snake_case")]
@@ -230,6 +279,10 @@ pub enum Element {
         property: u64,
         /// Orientation vector `v` in the basic system: local y lies in the plane of the axis and `v`.
         orientation: [f64; 3],
+        /// Offsets and pin flags of the ends (none by default; absent from the serialised form
+        /// when none).
+        #[serde(default, skip_serializing_if = "BeamEnds::is_plain")]
+        ends: BeamEnds,
     },
     /// Two-node rod (CROD, CONROD, CTUBE): axial and torsional stiffness only.
     Rod {

@@ -12,12 +12,14 @@
 //! `rod`) name their rod property in `property`, or hold −1 there when the element has its own
 //! section (a CONROD), which is then in `meta.rod_sections` under the element id; both rod
 //! metadata keys are written only when the model has rods, so meshes without them keep their
-//! bytes.
+//! bytes. The offsets and pin flags of the beams that have them are in `beam_ends` (element
+//! id → ends; absent when no beam has any).
 
 use super::{ColumnLayout, Kind, Layout, col, meta, meta_opt, meta_value, table};
 use crate::artefact::{Artefact, ArtefactError, ArtefactKind, Column, Storage, Table};
 use crate::core::DofId;
-use crate::model::{Element, Model, RodProperty, RodSection};
+use crate::model::{BeamEnds, Element, Model, RodProperty, RodSection};
+use std::collections::BTreeMap;
 
 const K: ArtefactKind = ArtefactKind::Mesh;
 
@@ -90,6 +92,10 @@ impl Kind for MeshKind {
                 meta_opt(
                     "weight_summary",
                     "rigid-body mass, centre of gravity and inertia (PARAM,GRDPNT)",
+                ),
+                meta_opt(
+                    "beam_ends",
+                    "offsets (basic, m) and pin flags of the beams that have them, by element id",
                 ),
             ],
             blobs: vec![],
@@ -168,6 +174,7 @@ pub fn mesh_to_artefact(m: &Model) -> Artefact {
     let mut elements = ElementColumns::default();
     let mut lumped = LumpedColumns::default();
     let mut rod_sections = std::collections::BTreeMap::new();
+    let mut beam_ends = std::collections::BTreeMap::new();
     for (&id, e) in &m.elements {
         match e {
             Element::Quad4 { nodes, property } => elements.push(id, e, nodes, *property, None),
@@ -176,7 +183,13 @@ pub fn mesh_to_artefact(m: &Model) -> Artefact {
                 nodes,
                 property,
                 orientation,
-            } => elements.push(id, e, nodes, *property, Some(*orientation)),
+                ends,
+            } => {
+                if !ends.is_plain() {
+                    beam_ends.insert(id, ends.clone());
+                }
+                elements.push(id, e, nodes, *property, Some(*orientation))
+            }
             Element::Rod { nodes, section } => {
                 let pid = match section {
                     RodSection::Property(p) => *p as i64,
@@ -190,7 +203,13 @@ pub fn mesh_to_artefact(m: &Model) -> Artefact {
             _ => lumped.push(id, e),
         }
     }
-    let mut a = Artefact::new(K)
+    let a = Artefact::new(K);
+    let a = if beam_ends.is_empty() {
+        a
+    } else {
+        a.with_meta("beam_ends", to_json(&beam_ends))
+    };
+    let mut a = a
         .with_meta("n_nodes", m.nodes.len().into())
         .with_meta("n_elements", m.elements.len().into())
         .with_meta("n_dofs", m.n_dofs().into())
@@ -436,6 +455,17 @@ pub fn mesh_from_artefact(a: &Artefact) -> Result<Model, ArtefactError> {
     };
     read_nodes(a, &mut m)?;
     read_elements(a, &mut m)?;
+    let ends: Option<BTreeMap<u64, BeamEnds>> = meta_value(a, "beam_ends")?;
+    for (eid, e) in ends.unwrap_or_default() {
+        match m.elements.get_mut(&eid) {
+            Some(Element::Beam { ends, .. }) => *ends = e,
+            _ => {
+                return Err(bad(format!(
+                    "beam_ends names element {eid}, which is not a beam of the elements table"
+                )));
+            }
+        }
+    }
     read_lumped(a, &mut m)?;
     let t = a.table("constraints")?;
     for (r, d) in t.strs("constraints", "dof")?.iter().enumerate() {
@@ -535,6 +565,7 @@ fn read_elements(a: &Artefact, m: &mut Model) -> Result<(), ArtefactError> {
                 nodes: [node(0)?, node(1)?],
                 property: p,
                 orientation: [vs[0][r], vs[1][r], vs[2][r]],
+                ends: BeamEnds::default(),
             },
             other => {
                 return Err(bad(format!(

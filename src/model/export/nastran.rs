@@ -317,6 +317,7 @@ fn write_element(out: &mut String, id: u64, e: &Element, bush_pid: &BTreeMap<u64
             nodes,
             property,
             orientation,
+            ends,
         } => {
             let mut f = vec![
                 F::Int(id),
@@ -325,6 +326,23 @@ fn write_element(out: &mut String, id: u64, e: &Element, bush_pid: &BTreeMap<u64
                 F::Int(nodes[1]),
             ];
             f.extend(orientation.iter().map(|v| F::Real(*v)));
+            if !ends.is_plain() {
+                // OFFT BGG: orientation and offsets in the basic system, as the model holds them.
+                f.push(F::Text("BGG".into()));
+                for pin in [ends.pin_a, ends.pin_b] {
+                    f.push(if pin == 0 {
+                        F::Blank
+                    } else {
+                        F::Int(pin as u64)
+                    });
+                }
+                f.extend(
+                    ends.offset_a
+                        .iter()
+                        .chain(&ends.offset_b)
+                        .map(|v| F::Real(*v)),
+                );
+            }
             card(out, "CBAR", f);
         }
         Element::Rod { nodes, section } => match section {
@@ -570,6 +588,7 @@ mod tests {
                     nodes: [5, 6 + i % 2],
                     property: 20 + i,
                     orientation: [0.0, 0.0, 1.0 + i as f64],
+                    ends: Default::default(),
                 },
             );
         }

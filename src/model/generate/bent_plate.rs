@@ -146,6 +146,7 @@ pub fn bent_plate(p: &BentPlate) -> Model {
                     nodes: [prev, node],
                     property: 2,
                     orientation: v,
+                    ends: Default::default(),
                 },
             );
             bar.push(e);

@@ -147,6 +147,7 @@ pub fn three_plate_two_beam(h: f64) -> Model {
                     nodes: [prev, n],
                     property: 10,
                     orientation: [1.0, 0.0, 0.0],
+                    ends: Default::default(),
                 },
             );
             columns.push(e);

@@ -89,6 +89,7 @@ pub fn three_beam(p: &ThreeBeam) -> Model {
                         nodes: [base + k as u64 - 1, base + k as u64],
                         property: 1,
                         orientation: *v,
+                        ends: Default::default(),
                     },
                 );
                 ids.push(e);

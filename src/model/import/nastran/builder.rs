@@ -3,6 +3,7 @@
 
 use super::*;
 
+#[derive(Clone, Copy)]
 pub(super) enum Orient {
     Vector([f64; 3]),
     G0(u64),
@@ -10,10 +11,14 @@ pub(super) enum Orient {
 
 pub(super) enum ElemIn {
     Done(Element),
+    /// CBAR/CBEAM; a blank PID, orientation or OFFT takes the BAROR/BEAMOR default.
     Beam {
+        eid: u64,
+        beam: bool,
         nodes: [u64; 2],
-        property: u64,
-        orient: Orient,
+        property: Option<u64>,
+        orient: Option<Orient>,
+        ends: BeamEndsIn,
     },
     Celas1 {
         pid: u64,
@@ -39,6 +44,23 @@ pub(super) enum ElemIn {
         inertia: [f64; 6],
         cg: [f64; 3],
     },
+}
+
+/// CBAR/CBEAM offsets and pins as the card gives them: OFFT (`None` when blank), WA, WB in
+/// the systems OFFT names, PA/PB digit codes.
+pub(super) struct BeamEndsIn {
+    pub(super) offt: Option<[u8; 3]>,
+    pub(super) wa: [f64; 3],
+    pub(super) wb: [f64; 3],
+    pub(super) pins: [u32; 2],
+}
+
+/// BAROR/BEAMOR: defaults for blank CBAR/CBEAM PID, orientation and OFFT.
+pub(super) struct BeamDefaults {
+    pub(super) loc: Loc,
+    pub(super) pid: Option<u64>,
+    pub(super) orient: Option<Orient>,
+    pub(super) offt: Option<[u8; 3]>,
 }
 
 pub(super) struct SetIn {
@@ -74,6 +96,11 @@ pub(super) struct Builder {
     pub(super) tube_pids: BTreeSet<u64>,
     /// Whether the PSHELL MID3-blank deviation has been stated (once per deck).
     pub(super) mid3_blank_warned: bool,
+    /// PBARL/PBEAML turned to principal axes: property id → angle (rad) of the elements' turn.
+    pub(super) beam_turns: BTreeMap<u64, f64>,
+    /// BAROR and BEAMOR defaults.
+    pub(super) baror: Option<BeamDefaults>,
+    pub(super) beamor: Option<BeamDefaults>,
     pub(super) pelas: BTreeMap<u64, f64>,
     pub(super) pbush: BTreeMap<u64, [f64; 6]>,
     pub(super) pids: BTreeMap<u64, Loc>,
@@ -110,8 +137,6 @@ pub(super) fn duplicate(
     }
 }
 
-pub(super) const OFFSET_HELP: &str = "offsets and pin flags are not supported: leave them blank or 0 and place the grid points on the axis";
-
 impl Builder {
     pub(super) fn warn(&mut self, loc: &Loc, id: u64, text: impl std::fmt::Display) {
         self.warnings.push(format!(
@@ -128,6 +153,7 @@ impl Builder {
             "GRDSET" => self.grdset(c),
             "CQUAD4" | "CTRIA3" => self.shell_element(c),
             "CBAR" | "CBEAM" => self.beam_element(c),
+            "BAROR" | "BEAMOR" => self.beam_defaults(c),
             "PSHELL" => self.pshell(c),
             "PBAR" => self.pbar(c),
             "PBARL" => self.pbarl(c),
@@ -136,6 +162,7 @@ impl Builder {
             "CONROD" => self.conrod(c),
             "PROD" => self.prod(c),
             "PTUBE" => self.ptube(c),
+            "PBEAML" => self.pbeaml(c),
             "MAT1" => self.mat1(c),
             "CELAS1" | "CELAS2" => self.celas(c),
             "PELAS" => self.pelas_card(c),

@@ -132,19 +132,13 @@ impl Builder {
             }
             ElemIn::Done(e) => e,
             ElemIn::Beam {
+                eid,
+                beam,
                 nodes,
                 property,
                 orient,
-            } => Element::Beam {
-                nodes,
-                property,
-                orientation: beam_orientation(
-                    model,
-                    loc,
-                    nodes,
-                    self.orient_in_basic(geo, nodes[0], orient),
-                )?,
-            },
+                ends,
+            } => self.beam_in_basic(model, geo, loc, nodes, (eid, beam), property, orient, ends)?,
             ElemIn::Celas1 { pid, dof, other } => {
                 let Some(&k) = self.pelas.get(&pid) else {
                     return Err(loc.field_err(
@@ -368,7 +362,7 @@ impl Builder {
     }
 
     /// An orientation vector X1–X3 is given in the displacement system of GA (QRG CBAR/CBEAM).
-    fn orient_in_basic(&self, geo: &Geometry, ga: u64, orient: Orient) -> Orient {
+    pub(super) fn orient_in_basic(&self, geo: &Geometry, ga: u64, orient: Orient) -> Orient {
         match orient {
             Orient::Vector(v) => match self.grid_directions(geo, ga).1 {
                 Some(d) => Orient::Vector(combine(&d, v)),
@@ -530,7 +524,7 @@ impl Builder {
 
 /// A beam's orientation vector: X1–X3 as given, or from GA towards G0; refused when zero or
 /// parallel to the axis, or when the grids coincide.
-fn beam_orientation(
+pub(super) fn beam_orientation(
     model: &Model,
     loc: &Loc,
     nodes: [u64; 2],

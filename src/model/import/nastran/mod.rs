@@ -12,10 +12,10 @@
 //! `1.E3` and `1D3`, and blank fields taking the QRG defaults.
 //!
 //! Cards read: GRID with GRDSET defaults, CORD1R/C/S and CORD2R/C/S (nested, in any order),
-//! CQUAD4, CTRIA3, CBAR, CBEAM, CROD, CONROD, CTUBE, PSHELL, PBAR, PBARL (BAR, ROD, TUBE),
-//! PBEAM, PROD, PTUBE, MAT1, CELAS1 with PELAS, CELAS2, CBUSH with PBUSH, CONM2, SPC, SPC1,
-//! SPCADD, SET1, PARAM GRDPNT (its reference point, for the weight summary mesh.import
-//! prints), and PARAM WTMASS (applied to every
+//! CQUAD4, CTRIA3, CBAR, CBEAM (offsets, pin flags), BAROR, BEAMOR, CROD, CONROD, CTUBE,
+//! PSHELL, PBAR, PBARL and PBEAML (the beam library, see below), PBEAM, PROD, PTUBE, MAT1,
+//! CELAS1 with PELAS, CELAS2, CBUSH with PBUSH, CONM2, SPC, SPC1, SPCADD, SET1, PARAM GRDPNT
+//! (its reference point, for the weight summary mesh.import prints), and PARAM WTMASS (applied to every
 //! mass), COUPMASS, AUTOSPC, K6ROT and G (accepted with a warning saying what femu does
 //! instead). Cards that change neither stiffness, mass nor constraints ([`SKIPPED_CARDS`],
 //! PARAMs of [`SKIPPED_PARAMS`]) are skipped and counted in [`BulkImport::skipped`]. Every other
@@ -46,9 +46,16 @@
 //!   cylindrical or spherical system the undefined angle is taken as 0.
 //! - CQUAD4/CTRIA3: ZOFFS ≠ 0 is an error; THETA/MCID is ignored (isotropic material);
 //!   corner thicknesses T1–T4 are ignored with a warning (the PSHELL T is used).
-//! - CBAR/CBEAM: the orientation is X1–X3 (in the displacement system of GA) or G0;
-//!   a blank orientation (BAROR/BEAMOR defaults) is an error. Pin flags PA/PB and offsets
-//!   W1A–W3B ≠ 0 are errors; CBEAM warping points SA/SB are ignored with a warning.
+//! - CBAR/CBEAM: the orientation is X1–X3 or G0 (from GA); blank PID, orientation and OFFT
+//!   take the BAROR (CBAR) or BEAMOR (CBEAM) values, a blank PID without them the EID, a blank
+//!   orientation without them is an error. OFFT as the QRG: `v` in GA's displacement system
+//!   (G) or basic (B); WA, WB in GA's/GB's displacement system (G) or the element system (O),
+//!   whose `x` is taken from GA to GB (not from the offset ends) and `y` in the plane of `x` and
+//!   `v`. Offsets are rigid links; pin flags PA/PB (element-system DOFs at the offset end) are
+//!   condensed statically with the mass made consistent with the condensed motion
+//!   (`src/fe/beam.rs`); releases leaving a mechanism are errors. The model holds offsets in
+//!   basic. CBEAM: a real BIT in OFFT is ignored (p-elements only); warping points SA/SB are
+//!   ignored with a warning; its shear centre is on the axis (see PBEAML).
 //! - PSHELL (QRG meaning): MID1 the membrane material (blank: no membrane), MID2 the bending
 //!   material (blank: membrane only — no bending, transverse shear, drilling stiffness or rotary
 //!   inertia, so the rotations of a membrane-only mesh are dropped as AUTOSPC does), MID3 the
@@ -70,7 +77,21 @@
 //!   or 0 mean no shear flexibility; I12 ≠ 0 is an error; stress points are ignored.
 //! - PBARL: GROUP must be blank or MSCBML0; TYPE BAR (DIM1 → `width`, DIM2 → `height`; the QRG
 //!   figure puts DIM1 along element z and DIM2 along element y, so I1 = DIM1·DIM2³/12), ROD
-//!   (DIM1 radius) and TUBE (DIM1 outer, DIM2 inner radius) only.
+//!   (DIM1 radius), TUBE (DIM1 outer, DIM2 inner radius) and TUBE2 (DIM2 wall thickness) keep
+//!   femu's own sections (Saint-Venant J of the rectangle, Cowper shear factors); I, I1, T, T1,
+//!   T2, L, CHAN, CHAN1, CHAN2, BOX, BOX1, H, CROSS, Z, HAT become general sections with the
+//!   values of [`crate::model::sections`] (exact A, I1, I2, I12; thin-walled J on wall
+//!   centrelines, Bredt–Batho for boxes; shear factors from the web and flange areas). The QRG
+//!   gives figures, not formulas: where Nastran's own J differs at O(t/b), femu's is the
+//!   documented thin-walled value. HEXA, HAT1, DBOX and the other types are errors. A section
+//!   with I12 ≠ 0 (L, Z, BOX1 with unequal walls) is turned to principal axes: the elements'
+//!   orientation vectors turn by the same angle, and it has no shear flexibility (PBAR remark
+//!   4: K1/K2 are ignored when I12 ≠ 0); a pin releasing one bending direction of such an
+//!   element is an error. Like Nastran, PBARL puts the neutral axis on the shear centre.
+//! - PBEAML: the end-A dimensions and NSM; later stations must repeat them (blank or equal) —
+//!   a tapered beam is an error. Only sections whose shear centre is the centroid (doubly
+//!   symmetric, and Z) are read: Nastran's CBEAM offsets the neutral axis from the shear centre
+//!   on the grid line, which femu's beam does not; others are errors.
 //! - PBEAM: end A only; stations must repeat the end-A values (blank or equal) — a tapered beam
 //!   is an error. K1/K2 default 1.0 (0 = no shear flexibility). I12 ≠ 0 is an error; NSI, CW and
 //!   the M/N offsets are ignored with a warning.
@@ -107,7 +128,8 @@
 use crate::core::input::{EXCERPT_CHARS, InputError, InputPolicy, excerpt, read_input_with};
 use crate::core::{Component, DofId};
 use crate::model::structure::{
-    BeamProperty, BeamSection, Element, Material, Model, ModelError, Parameter, ShellProperty,
+    BeamEnds, BeamProperty, BeamSection, Element, Material, Model, ModelError, Parameter,
+    ShellProperty,
 };
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
@@ -125,9 +147,12 @@ mod numbers;
 mod properties;
 mod replicate;
 mod rods;
+mod sections;
 mod source;
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod tests_beams;
 #[cfg(test)]
 mod tests_replicate;
 #[cfg(test)]
@@ -145,11 +170,11 @@ use source::*;
 const MAX_INCLUDE_DEPTH: usize = 64;
 
 /// Cards femu reads.
-pub const READ_CARDS: [&str; 32] = [
+pub const READ_CARDS: [&str; 35] = [
     "GRID", "GRDSET", "CORD1R", "CORD1C", "CORD1S", "CORD2R", "CORD2C", "CORD2S", "CQUAD4",
     "CTRIA3", "CBAR", "CBEAM", "PSHELL", "PBAR", "PBARL", "PBEAM", "MAT1", "CELAS1", "CELAS2",
     "PELAS", "CBUSH", "PBUSH", "CONM2", "SPC", "SPC1", "SPCADD", "SET1", "CROD", "CONROD", "CTUBE",
-    "PROD", "PTUBE",
+    "PROD", "PTUBE", "PBEAML", "BAROR", "BEAMOR",
 ];
 
 /// Cards skipped (counted) because they change neither stiffness, mass nor constraints: static
@@ -176,7 +201,7 @@ pub const READ_PARAMS: [&str; 6] = ["WTMASS", "GRDPNT", "COUPMASS", "AUTOSPC", "
 /// Nastran cards femu does not read that change the stiffness, mass, damping or constraints;
 /// an error unless listed in [`BulkOptions::ignore_cards`] (the list only decides how messages
 /// name them: any other unread card is an error too).
-const REFUSED_CARDS: [&str; 76] = [
+const REFUSED_CARDS: [&str; 75] = [
     "RBE1", "RBE2", "RBE3", "RBAR", "RBAR1", "RROD", "RTRPLT", "RSPLINE", "MPC", "MPCADD", "SPCD",
     "SUPORT", "SUPORT1", "ASET", "ASET1", "OMIT", "OMIT1", "QSET", "QSET1", "BSET", "BSET1",
     "CSET", "CSET1", "SPOINT", "EPOINT", "CQUAD8", "CQUADR", "CQUAD", "CTRIA6", "CTRIAR", "CSHEAR",
@@ -184,7 +209,7 @@ const REFUSED_CARDS: [&str; 76] = [
     "MAT9", "MAT10", "MATT1", "MATS1", "CONM1", "CMASS1", "CMASS2", "CMASS3", "CMASS4", "PMASS",
     "CDAMP1", "CDAMP2", "CDAMP3", "CDAMP4", "CDAMP5", "PDAMP", "CVISC", "PVISC", "CELAS3",
     "CELAS4", "CBUSH1D", "PBUSH1D", "CGAP", "PGAP", "CWELD", "PWELD", "CFAST", "PFAST", "NSM",
-    "NSM1", "NSML", "NSML1", "DMIG", "GENEL", "PBEAML",
+    "NSM1", "NSML", "NSML1", "DMIG", "GENEL",
 ];
 
 /// Whether `name` is a card name Nastran could have written: a letter, then letters or digits,

@@ -1,4 +1,4 @@
-//! Property and material cards: PSHELL, PBAR, PBARL, PBEAM, MAT1.
+//! Property and material cards: PSHELL, PBAR, PBEAM, MAT1 (PBARL and PBEAML: `sections.rs`).
 
 use super::*;
 use crate::model::structure::five_sixths;
@@ -146,75 +146,6 @@ impl Builder {
                     shear_y: k1,
                     shear_z: k2,
                 },
-                nsm,
-            },
-        );
-        Ok(())
-    }
-
-    pub(super) fn pbarl(&mut self, c: &Card) -> Result<(), NastranError> {
-        let id = c.id(1, "PID")?;
-        let material = c.id(2, "MID")?;
-        let group = c.word(3);
-        if !(group.is_empty() || group == "MSCBML0") {
-            return Err(c.err(
-                3,
-                "GROUP",
-                format!("cross-section library `{}` is not supported", q(&group)),
-                "leave GROUP blank or MSCBML0",
-            ));
-        }
-        let kind = c.word(4);
-        let n = match kind.as_str() {
-            "BAR" | "TUBE" => 2,
-            "ROD" => 1,
-            "" => {
-                return Err(c.err(
-                    4,
-                    "TYPE",
-                    "the field is blank",
-                    "a section type: BAR, ROD or TUBE",
-                ));
-            }
-            _ => {
-                return Err(c.err(
-                    4,
-                    "TYPE",
-                    format!("section type `{}` is not supported", q(&kind)),
-                    "BAR, ROD or TUBE (or give the properties on a PBAR)",
-                ));
-            }
-        };
-        let dim1 = c.positive(9, "DIM1")?;
-        let section = match kind.as_str() {
-            "BAR" => BeamSection::Rectangle {
-                width: dim1,
-                height: c.positive(10, "DIM2")?,
-            },
-            "ROD" => BeamSection::Circle { radius: dim1 },
-            _ => {
-                let inner = c.req_real(10, "DIM2")?;
-                if !(0.0..dim1).contains(&inner) {
-                    return Err(c.err(
-                        10,
-                        "DIM2",
-                        format!("inner radius {inner} is not in [0, outer radius {dim1})"),
-                        "0 <= DIM2 < DIM1",
-                    ));
-                }
-                BeamSection::Tube {
-                    outer_radius: dim1,
-                    inner_radius: inner,
-                }
-            }
-        };
-        let nsm = c.nonneg_real(9 + n, "NSM", 0.0)?;
-        self.new_property(c, 1, "PID", id)?;
-        self.beams.insert(
-            id,
-            BeamProperty {
-                material,
-                section,
                 nsm,
             },
         );

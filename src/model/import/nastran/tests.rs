@@ -119,7 +119,8 @@ GRID    99              this is never read
         Element::Beam {
             nodes: [1, 2],
             property: 20,
-            orientation: [0.0, 0.0, 1.0]
+            orientation: [0.0, 0.0, 1.0],
+            ends: Default::default(),
         }
     );
     // G0 = 1: the orientation is x(G0) - x(GA).
@@ -549,11 +550,11 @@ fn field_errors_name_file_line_card_and_field() {
         "{e}"
     );
     let e = error(&format!(
-        "{BASE}PBARL,20,1,,BAR\n,.01,.02\nCBAR,5,20,1,2,0.,0.,1.\n,,,.5\n"
+        "{BASE}PBARL,20,1,,BAR\n,.01,.02\nCBAR,5,20,1,2,0.,0.,1.\n,7\n"
     ));
     assert_eq!(
         e,
-        "t.bdf line 9: CBAR field 4 (W1A) of continuation 1 (line 10): 0.5 is not supported; offsets and pin flags are not supported: leave them blank or 0 and place the grid points on the axis"
+        "t.bdf line 9: CBAR field 2 (PA) of continuation 1 (line 10): pin flag 7 is not a set of DOFs; up to five distinct digits 1-6 (DOFs of the element system released at that end)"
     );
     let e = error(&format!("{BASE}PBAR,10,1,1.,1.,1.\n"));
     assert_eq!(
@@ -597,9 +598,9 @@ fn field_errors_name_file_line_card_and_field() {
         e.contains("CBAR field 6 (X1/G0): no orientation vector or G0 is given"),
         "{e}"
     );
-    let e = error(&format!("{BASE}PBARL,20,1,,I\n,.1,.1,.01,.01,.01,.01\n"));
+    let e = error(&format!("{BASE}PBARL,20,1,,HEXA\n,.1,.1,.01\n"));
     assert!(
-        e.contains("PBARL field 5 (TYPE): section type `I` is not supported; BAR, ROD or TUBE"),
+        e.contains("PBARL field 5 (TYPE): section type `HEXA` is not supported; BAR, ROD, TUBE"),
         "{e}"
     );
     let e = error(&format!("{BASE}CONM2,9,1,2,1.\n"));
@@ -978,7 +979,8 @@ fn fixture_plate_with_bar() {
             Element::Beam {
                 nodes: [a, a + 1],
                 property: 2,
-                orientation: [0.0, 0.0, 1.0]
+                orientation: [0.0, 0.0, 1.0],
+                ends: Default::default(),
             }
         );
     }

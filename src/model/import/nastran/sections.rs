@@ -1,0 +1,302 @@
+//! PBARL and PBEAML: cross-sections of Nastran's beam library by their dimensions.
+//!
+//! BAR, ROD, TUBE and TUBE2 become femu's own rectangle, circle and tube sections (so that their
+//! dimensions stay updating parameters); every other type becomes a general section with the
+//! properties of [`crate::model::sections`]. A section whose product of inertia is not zero (L,
+//! Z, BOX1 with unequal walls) is turned to its principal axes: the property holds the principal
+//! values and every element using it has its orientation vector turned by the same angle about
+//! its axis (the stiffness is that of Nastran's bar with `I12`, which ignores K1/K2 then).
+
+use super::*;
+use crate::model::sections::{self as lib, SectionError, SectionValues};
+
+/// Library types read, with their number of dimensions.
+const TYPES: [(&str, usize); 19] = [
+    ("BAR", 2),
+    ("ROD", 1),
+    ("TUBE", 2),
+    ("TUBE2", 2),
+    ("I", 6),
+    ("I1", 4),
+    ("T", 4),
+    ("T1", 4),
+    ("T2", 4),
+    ("L", 4),
+    ("CHAN", 4),
+    ("CHAN1", 4),
+    ("CHAN2", 4),
+    ("BOX", 4),
+    ("BOX1", 6),
+    ("H", 4),
+    ("CROSS", 4),
+    ("Z", 4),
+    ("HAT", 4),
+];
+
+/// The number of dimensions of a library type femu reads.
+pub(super) fn dim_count(kind: &str) -> Option<usize> {
+    TYPES.iter().find(|(k, _)| *k == kind).map(|(_, n)| *n)
+}
+
+fn type_list() -> String {
+    TYPES.iter().map(|(k, _)| *k).collect::<Vec<_>>().join(", ")
+}
+
+/// Reads GROUP (field 3) and TYPE (field 4) of a PBARL/PBEAML; the type and its dimension count.
+pub(super) fn library_type(c: &Card) -> Result<(String, usize), NastranError> {
+    let group = c.word(3);
+    if !(group.is_empty() || group == "MSCBML0") {
+        return Err(c.err(
+            3,
+            "GROUP",
+            format!("cross-section library `{}` is not supported", q(&group)),
+            "leave GROUP blank or MSCBML0",
+        ));
+    }
+    let kind = c.word(4);
+    if kind.is_empty() {
+        return Err(c.err(
+            4,
+            "TYPE",
+            "the field is blank",
+            format!("a section type: {}", type_list()),
+        ));
+    }
+    let Some(n) = dim_count(&kind) else {
+        return Err(c.err(
+            4,
+            "TYPE",
+            format!("section type `{}` is not supported", q(&kind)),
+            format!("{} (or give the properties on a PBAR/PBEAM)", type_list()),
+        ));
+    };
+    Ok((kind, n))
+}
+
+/// The section of library type `kind` with dimensions `d` (data fields `k`, `k+1`, … of `c`),
+/// and the angle (rad) by which the elements' orientation turns to the principal axes.
+pub(super) fn library_section(
+    c: &Card,
+    kind: &str,
+    k: usize,
+    d: &[f64],
+) -> Result<(BeamSection, f64), NastranError> {
+    let bad = |e: SectionError| {
+        c.err(
+            k,
+            "DIM1",
+            format!(
+                "the {kind} dimensions {d:?} do not describe the section: {}",
+                e.what
+            ),
+            format!("dimensions of the {kind} section as the QRG's PBARL figure draws them"),
+        )
+    };
+    let four = || [d[0], d[1], d[2], d[3]];
+    let six = || [d[0], d[1], d[2], d[3], d[4], d[5]];
+    let values: SectionValues = match kind {
+        "BAR" => {
+            return Ok((
+                BeamSection::Rectangle {
+                    width: d[0],
+                    height: d[1],
+                },
+                0.0,
+            ));
+        }
+        "ROD" => return Ok((BeamSection::Circle { radius: d[0] }, 0.0)),
+        "TUBE" | "TUBE2" => {
+            let inner = if kind == "TUBE" { d[1] } else { d[0] - d[1] };
+            if !(0.0..d[0]).contains(&inner) {
+                return Err(c.err(
+                    k + 1,
+                    "DIM2",
+                    format!("inner radius {inner} is not in [0, outer radius {})", d[0]),
+                    if kind == "TUBE" {
+                        "0 <= DIM2 < DIM1"
+                    } else {
+                        "0 < DIM2 (wall thickness) <= DIM1"
+                    },
+                ));
+            }
+            return Ok((
+                BeamSection::Tube {
+                    outer_radius: d[0],
+                    inner_radius: inner,
+                },
+                0.0,
+            ));
+        }
+        "I" => lib::i_section(six()),
+        "I1" => lib::i1_section(four()),
+        "T" => lib::t_section(four()),
+        "T1" => lib::t1_section(four()),
+        "T2" => lib::t2_section(four()),
+        "L" => lib::l_section(four()),
+        "CHAN" => lib::chan_section(four()),
+        "CHAN1" => lib::chan1_section(four()),
+        "CHAN2" => lib::chan2_section(four()),
+        "BOX" => lib::box_section(four()),
+        "BOX1" => lib::box1_section(six()),
+        "H" => lib::h_section(four()),
+        "CROSS" => lib::cross_section(four()),
+        "Z" => lib::z_section(four()),
+        "HAT" => lib::hat_section(four()),
+        _ => unreachable!("library_type admits only the types of TYPES"),
+    }
+    .map_err(bad)?;
+    let (p, theta) = lib::principal(&values);
+    Ok((
+        BeamSection::General {
+            area: p.area,
+            iy: p.i2,
+            iz: p.i1,
+            j: p.j,
+            shear_y: p.k1,
+            shear_z: p.k2,
+        },
+        theta,
+    ))
+}
+
+/// Whether Nastran's CBEAM would put the section's shear centre and centroid at the same point
+/// (both axes of symmetry, or the point symmetry of Z): only then is femu's beam, whose axis
+/// carries both, the beam PBEAML describes.
+pub(super) fn centroid_is_shear_centre(kind: &str, d: &[f64]) -> bool {
+    match kind {
+        "BAR" | "ROD" | "TUBE" | "TUBE2" | "I1" | "BOX" | "H" | "CROSS" | "Z" => true,
+        "I" => d[1] == d[2] && d[4] == d[5],
+        "BOX1" => d[2] == d[3] && d[4] == d[5],
+        _ => false,
+    }
+}
+
+/// The dimensions and NSM of a PBARL (DIM1 at data field 9, NSM after the last).
+fn pbarl_values(c: &Card, n: usize) -> Result<(Vec<f64>, f64), NastranError> {
+    let mut d = Vec::with_capacity(n);
+    for i in 0..n {
+        d.push(c.positive(9 + i, &format!("DIM{}", i + 1))?);
+    }
+    Ok((d, c.nonneg_real(9 + n, "NSM", 0.0)?))
+}
+
+impl Builder {
+    pub(super) fn pbarl(&mut self, c: &Card) -> Result<(), NastranError> {
+        let id = c.id(1, "PID")?;
+        let material = c.id(2, "MID")?;
+        let (kind, n) = library_type(c)?;
+        let (d, nsm) = pbarl_values(c, n)?;
+        for k in 10 + n..=c.fields.len() {
+            if !c.blank(k) {
+                return Err(c.err(
+                    k,
+                    "?",
+                    format!("`{}` follows NSM", q(c.text(k))),
+                    format!("a {kind} section has {n} dimensions and then NSM"),
+                ));
+            }
+        }
+        let (section, theta) = library_section(c, &kind, 9, &d)?;
+        self.new_property(c, 1, "PID", id)?;
+        if theta != 0.0 {
+            self.beam_turns.insert(id, theta);
+        }
+        self.beams.insert(
+            id,
+            BeamProperty {
+                material,
+                section,
+                nsm,
+            },
+        );
+        Ok(())
+    }
+
+    /// PBEAML: the end-A section; later stations (SO, X/XB, DIMi, NSM) must repeat it (blank
+    /// or equal), else the beam is tapered, which femu does not support.
+    pub(super) fn pbeaml(&mut self, c: &Card) -> Result<(), NastranError> {
+        let id = c.id(1, "PID")?;
+        let material = c.id(2, "MID")?;
+        let (kind, n) = library_type(c)?;
+        let (d, nsm) = pbarl_values(c, n)?;
+        let same = |a: f64, b: f64| (a - b).abs() <= 1e-9 * a.abs().max(b.abs());
+        let mut k = 10 + n;
+        while k <= c.fields.len() {
+            let so = c.word(k);
+            if !(so.is_empty() || matches!(so.as_str(), "YES" | "YESA" | "NO")) {
+                return Err(c.err(
+                    k,
+                    "SO",
+                    format!("`{}` is not a stress output flag", q(&so)),
+                    "YES, YESA or NO",
+                ));
+            }
+            c.real(k + 1, "X/XB")?;
+            for (i, end_a) in d.iter().copied().chain([nsm]).enumerate() {
+                let label = if i < n {
+                    format!("DIM{}", i + 1)
+                } else {
+                    "NSM".to_string()
+                };
+                if let Some(v) = c.real(k + 2 + i, &label)?.filter(|v| !same(*v, end_a)) {
+                    return Err(c.err(
+                        k + 2 + i,
+                        &label,
+                        format!("{label} = {v} differs from {end_a} at end A (a tapered beam)"),
+                        "tapered beams are not supported: repeat the end-A values or leave the station fields blank",
+                    ));
+                }
+            }
+            k += n + 3;
+        }
+        if !centroid_is_shear_centre(&kind, &d) {
+            return Err(c.err(
+                4,
+                "TYPE",
+                format!(
+                    "a {kind} section of dimensions {d:?} has its shear centre away from its centroid; Nastran's CBEAM puts the shear centre on the grid line and offsets the neutral axis, femu's beam has both on its axis"
+                ),
+                "a doubly symmetric section (BAR, ROD, TUBE, TUBE2, I with equal flanges, I1, BOX, BOX1 with equal opposite walls, H, CROSS) or Z; or a PBARL (where Nastran also puts both on the axis)",
+            ));
+        }
+        let (section, theta) = library_section(c, &kind, 9, &d)?;
+        self.new_property(c, 1, "PID", id)?;
+        if theta != 0.0 {
+            self.beam_turns.insert(id, theta);
+        }
+        self.beams.insert(
+            id,
+            BeamProperty {
+                material,
+                section,
+                nsm,
+            },
+        );
+        Ok(())
+    }
+}
+
+/// The orientation vector of a beam (axis from `axis[0]` to `axis[1]`) whose section was
+/// turned by `turn` rad to its principal axes: the element's `y` axis turned about `x` towards
+/// `z`, `y' = cos θ y + sin θ z` (with `z = x × v / |x × v|`, `y = z × x`), which lies in the
+/// new `x–y` plane; `v` itself when `turn` is 0.
+pub(super) fn turned_orientation(axis: [[f64; 3]; 2], v: [f64; 3], turn: f64) -> [f64; 3] {
+    if turn == 0.0 {
+        return v;
+    }
+    let x = unit(sub(axis[1], axis[0]));
+    let z = unit(cross(x, v));
+    let y = cross(z, x);
+    let (s, c) = turn.sin_cos();
+    [
+        c * y[0] + s * z[0],
+        c * y[1] + s * z[1],
+        c * y[2] + s * z[2],
+    ]
+}
+
+/// `v / |v|`.
+pub(super) fn unit(v: [f64; 3]) -> [f64; 3] {
+    let n = norm(v);
+    [v[0] / n, v[1] / n, v[2] / n]
+}
