@@ -6,6 +6,7 @@ pub mod element;
 pub mod lumped;
 pub mod lumped_elements;
 pub mod model_assembly;
+pub mod multipoint;
 pub mod shell;
 pub mod system;
 

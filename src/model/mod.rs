@@ -10,6 +10,6 @@ pub mod structure;
 pub use lumped::{LumpedMass, LumpedModel, LumpedModelError, LumpedSpring};
 pub use parameters::ParameterValueError;
 pub use structure::{
-    BeamProperty, BeamSection, Element, Material, Model, ModelError, Parameter, ParameterKind,
-    ShellProperty,
+    BeamProperty, BeamSection, Element, Material, Model, ModelError, MultipointConstraint,
+    Parameter, ParameterKind, ShellProperty,
 };

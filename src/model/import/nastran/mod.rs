@@ -103,9 +103,12 @@ mod finish;
 mod lumped;
 mod numbers;
 mod properties;
+mod rigid;
 mod source;
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod tests_rigid;
 
 use builder::*;
 use card::*;
@@ -118,10 +121,11 @@ use source::*;
 const MAX_INCLUDE_DEPTH: usize = 64;
 
 /// Cards femu reads.
-pub const READ_CARDS: [&str; 27] = [
+pub const READ_CARDS: [&str; 33] = [
     "GRID", "GRDSET", "CORD1R", "CORD1C", "CORD1S", "CORD2R", "CORD2C", "CORD2S", "CQUAD4",
     "CTRIA3", "CBAR", "CBEAM", "PSHELL", "PBAR", "PBARL", "PBEAM", "MAT1", "CELAS1", "CELAS2",
-    "PELAS", "CBUSH", "PBUSH", "CONM2", "SPC", "SPC1", "SPCADD", "SET1",
+    "PELAS", "CBUSH", "PBUSH", "CONM2", "SPC", "SPC1", "SPCADD", "SET1", "RBE2", "RBAR", "RROD",
+    "RBE3", "MPC", "MPCADD",
 ];
 
 /// Cards skipped (counted) because they change neither stiffness, mass nor constraints: static
@@ -149,16 +153,15 @@ pub const READ_PARAMS: [&str; 5] = ["WTMASS", "COUPMASS", "AUTOSPC", "K6ROT", "G
 /// Nastran cards femu does not read that change the stiffness, mass, damping or constraints;
 /// an error unless listed in [`BulkOptions::ignore_cards`] (the list only decides how messages
 /// name them: any other unread card is an error too).
-const REFUSED_CARDS: [&str; 81] = [
-    "RBE1", "RBE2", "RBE3", "RBAR", "RBAR1", "RROD", "RTRPLT", "RSPLINE", "MPC", "MPCADD", "SPCD",
-    "SUPORT", "SUPORT1", "ASET", "ASET1", "OMIT", "OMIT1", "QSET", "QSET1", "BSET", "BSET1",
-    "CSET", "CSET1", "SPOINT", "EPOINT", "CROD", "CONROD", "CTUBE", "PROD", "PTUBE", "CQUAD8",
-    "CQUADR", "CQUAD", "CTRIA6", "CTRIAR", "CSHEAR", "PSHEAR", "CHEXA", "CPENTA", "CTETRA",
-    "CPYRAM", "PSOLID", "PCOMP", "PCOMPG", "MAT2", "MAT8", "MAT9", "MAT10", "MATT1", "MATS1",
-    "CONM1", "CMASS1", "CMASS2", "CMASS3", "CMASS4", "PMASS", "CDAMP1", "CDAMP2", "CDAMP3",
-    "CDAMP4", "CDAMP5", "PDAMP", "CVISC", "PVISC", "CELAS3", "CELAS4", "CBUSH1D", "PBUSH1D",
-    "CGAP", "PGAP", "CWELD", "PWELD", "CFAST", "PFAST", "NSM", "NSM1", "NSML", "NSML1", "DMIG",
-    "GENEL", "PBEAML",
+const REFUSED_CARDS: [&str; 75] = [
+    "RBE1", "RBAR1", "RTRPLT", "RSPLINE", "SPCD", "SUPORT", "SUPORT1", "ASET", "ASET1", "OMIT",
+    "OMIT1", "QSET", "QSET1", "BSET", "BSET1", "CSET", "CSET1", "SPOINT", "EPOINT", "CROD",
+    "CONROD", "CTUBE", "PROD", "PTUBE", "CQUAD8", "CQUADR", "CQUAD", "CTRIA6", "CTRIAR", "CSHEAR",
+    "PSHEAR", "CHEXA", "CPENTA", "CTETRA", "CPYRAM", "PSOLID", "PCOMP", "PCOMPG", "MAT2", "MAT8",
+    "MAT9", "MAT10", "MATT1", "MATS1", "CONM1", "CMASS1", "CMASS2", "CMASS3", "CMASS4", "PMASS",
+    "CDAMP1", "CDAMP2", "CDAMP3", "CDAMP4", "CDAMP5", "PDAMP", "CVISC", "PVISC", "CELAS3",
+    "CELAS4", "CBUSH1D", "PBUSH1D", "CGAP", "PGAP", "CWELD", "PWELD", "CFAST", "PFAST", "NSM",
+    "NSM1", "NSML", "NSML1", "DMIG", "GENEL", "PBEAML",
 ];
 
 /// Whether `name` is a card name Nastran could have written: a letter, then letters or digits,
@@ -447,6 +450,8 @@ fn parse_with_policy(
     }
     builder.check_unsupported()?;
     builder.case_control = std::mem::take(&mut loader.case_control);
+    builder.rigid.case_control = std::mem::take(&mut loader.case_control_mpc);
+    builder.rigid.has_case_control = loader.has_case_control;
     let mut import = builder.finish(loader.set_names, loader.parameters)?;
     import.source_digest = loader.source.finalize().to_hex().to_string();
     Ok(import)
