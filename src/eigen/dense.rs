@@ -509,20 +509,23 @@ mod tests {
         assert!(e.to_string().contains("7:rz"), "{e}");
     }
 
-    /// A chain of springs whose every second DOF is massless equals, by hand, the chain of the
-    /// massive DOFs joined by the series springs `k₁k₂/(k₁+k₂)` (static condensation is exact
-    /// here): the same eigenvalues to 1e-12 relative, on the dense path (condensation) and on
-    /// the sparse shift-invert Lanczos path (singular `M`, the infinite eigenvalues never
-    /// wanted); the shapes at the massless DOFs are the static interpolation
-    /// `φ_b = (k₁ φ_a + k₂ φ_c)/(k₁ + k₂)`.
-    #[test]
-    fn massless_dofs_are_condensed_exactly() {
+    /// A chain of springs whose every second DOF is massless: `(K, M, DOFs)` and the chain of
+    /// the massive DOFs joined by the series springs `k₁k₂/(k₁+k₂)`, condensed by hand.
+    #[allow(clippy::type_complexity)]
+    fn half_massless_chain(
+        nm: usize,
+        k1: f64,
+        k2: f64,
+    ) -> (
+        crate::core::sparse::SparseMatrix,
+        crate::core::sparse::SparseMatrix,
+        Vec<DofId>,
+        Mat<f64>,
+        Mat<f64>,
+    ) {
         use crate::core::sparse::sparse_from_triplets;
-        use crate::eigen::{SparseEigenParams, lowest_modes};
-        let masses = [1.0, 2.0, 1.5, 0.7, 3.0, 1.1, 0.9, 2.2, 1.3, 0.8];
-        let (k1, k2) = (1.0e4, 3.0e4);
-        // Full chain: ground –k1– m0 –k1– b0 –k2– m1 –k1– b1 –k2– m2 … –k1– ground.
-        let nm = masses.len();
+        let masses: Vec<f64> = (0..nm).map(|i| 1.0 + 0.5 * (i as f64).sin()).collect();
+        // ground –k1– m0 –k1– b0 –k2– m1 –k1– b1 –k2– m2 … –k1– ground.
         let n = 2 * nm - 1;
         let mut kt = Vec::new();
         let mut spring = |a: Option<usize>, b: Option<usize>, s: f64| {
@@ -544,7 +547,6 @@ mod tests {
         let dofs: Vec<DofId> = (0..n)
             .map(|i| DofId::new(i as u64 + 1, crate::core::Component::Ux))
             .collect();
-        // Condensed by hand.
         let ks = k1 * k2 / (k1 + k2);
         let kh = Mat::from_fn(nm, nm, |i, j| {
             if i == j {
@@ -556,30 +558,53 @@ mod tests {
             }
         });
         let mh = Mat::from_fn(nm, nm, |i, j| if i == j { masses[i] } else { 0.0 });
-        let hand =
-            dense_generalized(kh.as_ref(), mh.as_ref(), &dofs[..nm], ModeSelection::All).unwrap();
-        let dense = dense_generalized(
-            crate::core::sparse::sparse_to_dense(&k).as_ref(),
-            crate::core::sparse::sparse_to_dense(&m).as_ref(),
-            &dofs,
-            ModeSelection::All,
-        )
-        .unwrap();
-        assert_eq!(dense.len(), nm);
-        let params = SparseEigenParams {
-            dense_limit: 0,
-            ..Default::default()
-        };
-        let (sparse, info) = lowest_modes(&k, &m, &dofs, ModeSelection::Count(4), &params).unwrap();
-        assert!(!info.dense);
-        for (name, modes, count) in [("dense", &dense, nm), ("sparse", &sparse, 4)] {
+        (k, m, dofs, kh, mh)
+    }
+
+    /// Massless DOFs condensed out: the same eigenvalues (1e-12 relative) as the chain condensed
+    /// by hand, on the dense path (static condensation), the sparse path's pencil on the few
+    /// massive DOFs (10 of 19) and its shift-invert Lanczos (1100 of 2199: singular `M`, the
+    /// infinite eigenvalues, `ν = 0` of the operator, are never wanted);
+    /// the shapes at the massless DOFs are the static interpolation
+    /// `φ_b = (k₁ φ_a + k₂ φ_c)/(k₁ + k₂)`, and every residual is at round-off.
+    #[test]
+    fn massless_dofs_are_condensed_exactly() {
+        use crate::eigen::{SparseEigenParams, lowest_modes};
+        let (k1, k2) = (1.0e4, 3.0e4);
+        for (nm, sparse_path) in [(10, false), (10, true), (1100, true)] {
+            let (k, m, dofs, kh, mh) = half_massless_chain(nm, k1, k2);
+            let hand = dense_generalized(kh.as_ref(), mh.as_ref(), &dofs[..nm], ModeSelection::All)
+                .unwrap();
+            let (modes, count) = if sparse_path {
+                let params = SparseEigenParams {
+                    dense_limit: 0,
+                    ..Default::default()
+                };
+                let (modes, info) =
+                    lowest_modes(&k, &m, &dofs, ModeSelection::Count(4), &params).unwrap();
+                assert!(!info.dense);
+                (modes, 4)
+            } else {
+                let modes = dense_generalized(
+                    crate::core::sparse::sparse_to_dense(&k).as_ref(),
+                    crate::core::sparse::sparse_to_dense(&m).as_ref(),
+                    &dofs,
+                    ModeSelection::All,
+                )
+                .unwrap();
+                (modes, nm)
+            };
+            assert_eq!(modes.len(), count);
             for r in 0..count {
                 let (a, b) = (modes.eigenvalues[r], hand.eigenvalues[r]);
-                assert!(((a - b) / b).abs() < 1e-12, "{name} mode {r}: {a} vs {b}");
+                // 1e-12 relative, 1e-9 for the long chain (λ_max/λ_1 ≈ 10⁶ costs that much
+                // round-off in the hand reference's dense solve and in the Lanczos path).
+                let tol = if nm > 100 { 1e-9 } else { 1e-12 };
+                assert!(((a - b) / b).abs() < tol, "{nm}: mode {r}: {a} vs {b}");
             }
             assert!(
                 modes.residuals.iter().all(|r| *r < 1e-10),
-                "{name}: {:?}",
+                "{:?}",
                 modes.residuals
             );
             for r in 0..count {
@@ -588,7 +613,7 @@ mod tests {
                     let interp = (k1 * s[2 * i] + k2 * s[2 * i + 2]) / (k1 + k2);
                     assert!(
                         (s[2 * i + 1] - interp).abs() < 1e-10 * s.norm_max(),
-                        "{name} mode {r}"
+                        "{nm}: mode {r}"
                     );
                 }
             }

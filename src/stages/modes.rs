@@ -5,8 +5,8 @@ use super::params::{Count, Modes, Positive};
 use crate::artefact::ArtefactKind;
 use crate::artefact::kinds::modes::dependent_shapes_table;
 use crate::artefact::kinds::{matrices_from_artefact, modes_to_artefact};
-use crate::fe::multipoint::recover;
 use crate::eigen::{ModeSelection, SparseEigenParams, lowest_modes};
+use crate::fe::multipoint::recover;
 use crate::pipeline::{
     CheckContext, ParamIssue, PortSpec, StageError, StageInputs, StageOutputs, TypedStage,
 };

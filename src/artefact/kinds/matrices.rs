@@ -63,7 +63,12 @@ impl Kind for MatricesKind {
                     Storage::Parquet,
                     false,
                     vec![
-                        col("dof", "string", "", "DOF eliminated by a rigid element or MPC"),
+                        col(
+                            "dof",
+                            "string",
+                            "",
+                            "DOF eliminated by a rigid element or MPC",
+                        ),
                         col(
                             "independent",
                             "string",

@@ -13,7 +13,8 @@
 //!
 //! Cards read: GRID with GRDSET defaults, CORD1R/C/S and CORD2R/C/S (nested, in any order),
 //! CQUAD4, CTRIA3, CBAR, CBEAM, PSHELL, PBAR, PBARL (BAR, ROD, TUBE), PBEAM, MAT1, CELAS1 with
-//! PELAS, CELAS2, CBUSH with PBUSH, CONM2, SPC, SPC1, SPCADD, SET1, and PARAM WTMASS (applied to every
+//! PELAS, CELAS2, CBUSH with PBUSH, CONM2, SPC, SPC1, SPCADD, SET1, the rigid elements RBE2, RBAR,
+//! RROD, RBE3 and MPC, MPCADD (as multipoint constraints, see `rigid.rs`), and PARAM WTMASS (applied to every
 //! mass), COUPMASS, AUTOSPC, K6ROT and G (accepted with a warning saying what femu does
 //! instead). Cards that change neither stiffness, mass nor constraints ([`SKIPPED_CARDS`],
 //! PARAMs of [`SKIPPED_PARAMS`]) are skipped and counted in [`BulkImport::skipped`]. Every other
@@ -73,6 +74,15 @@
 //!   and the first is used. Without case control, every set is merged into one constraint list
 //!   (several SIDs give a warning). GRID PS always applies. THRU ranges cover the grids that
 //!   exist. Constraints come back sorted and without repeats.
+//! - RBE2, RBAR, RROD, RBE3, MPC, MPCADD: multipoint constraints `u_d = Σ cᵢ uᵢ` in basic DOFs
+//!   (small rotations; components in each grid's CD); the assembly eliminates them exactly. The
+//!   case control's `MPC = n` selects the MPC set (none selected in a deck with case control: no
+//!   MPC applies, with a warning; no case control: every set, with a warning when several).
+//!   A DOF dependent twice, dependent and in the SPC set, or a cycle of dependencies is an
+//!   error naming the cards. RBE3 UM fields, RBE1, RBAR1, RSPLINE and scalar points in MPC are
+//!   not read (errors). With a CD not parallel to basic and only some components of a grid
+//!   dependent, the dependent basic components are chosen by pivoting (the constraint is the
+//!   same; the DOF labelled dependent may differ from Nastran's). ALPHA/TREF are ignored.
 //! - SET1: element ids (with THRU over existing elements, optional SKIN) → set `set<SID>`, ids
 //!   sorted without repeats.
 //! - Integers are accepted where a real is expected (Nastran wants a decimal point), except where
