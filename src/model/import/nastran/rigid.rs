@@ -70,13 +70,19 @@ pub(super) struct RigidIn {
     elements: Vec<(Loc, u64, RigidCard)>,
     ids: BTreeMap<u64, Loc>,
     /// MPC equations: set id, card, terms (grid, component, coefficient).
-    mpcs: Vec<(u64, Loc, Vec<(u64, Component, f64)>)>,
+    mpcs: Vec<(u64, Loc, MpcTerms)>,
     mpcadds: BTreeMap<u64, (Loc, Vec<u64>)>,
     /// `MPC = n` selections of the case control.
     pub(super) case_control: Vec<(Loc, u64)>,
     /// Whether the deck has a case control section.
     pub(super) has_case_control: bool,
 }
+
+/// The terms of one MPC card: grid, component, coefficient.
+type MpcTerms = Vec<(u64, Component, f64)>;
+
+/// Terms over basic DOFs.
+type Terms = Vec<(DofId, f64)>;
 
 /// One equation `a · u_{node, triple} = Σ rhs` for the dependent component `comp` (in CD).
 struct Equation {
@@ -165,11 +171,12 @@ fn inverse(a: &[Vec<f64>]) -> Option<Vec<Vec<f64>>> {
         for v in &mut m[c] {
             *v /= pivot;
         }
-        for r in 0..n {
-            if r != c && m[r][c] != 0.0 {
-                let f = m[r][c];
-                for k in 0..2 * n {
-                    m[r][k] -= f * m[c][k];
+        let pivot_row = m[c].clone();
+        for (r, row) in m.iter_mut().enumerate() {
+            if r != c && row[c] != 0.0 {
+                let f = row[c];
+                for (x, p) in row.iter_mut().zip(&pivot_row) {
+                    *x -= f * p;
                 }
             }
         }
@@ -625,7 +632,7 @@ impl Builder {
                     groups,
                 } => {
                     let xr = pos(loc, *reference)?;
-                    let mut obs: Vec<([f64; 6], f64, Vec<(DofId, f64)>)> = Vec::new();
+                    let mut obs: Vec<([f64; 6], f64, Terms)> = Vec::new();
                     let mut dist = Vec::new();
                     for (_, _, grids) in groups {
                         for &g in grids {
