@@ -602,8 +602,10 @@ mod tests {
                 let tol = if nm > 100 { 1e-9 } else { 1e-12 };
                 assert!(((a - b) / b).abs() < tol, "{nm}: mode {r}: {a} vs {b}");
             }
+            // The long chain's residuals carry its conditioning (λ_max/λ_1 ≈ 10⁶): 1e-9.
+            let rtol = if nm > 100 { 1e-9 } else { 1e-10 };
             assert!(
-                modes.residuals.iter().all(|r| *r < 1e-10),
+                modes.residuals.iter().all(|r| *r < rtol),
                 "{:?}",
                 modes.residuals
             );
