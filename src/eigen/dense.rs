@@ -8,8 +8,16 @@
 //! themselves, not to the stiffest mode. The shapes come out mass-normalised, `Φᵀ M Φ = I`,
 //! `Φᵀ K Φ = Λ`. Rigid-body modes (`|λ| ≤ 10⁻⁶ |σ|`) are kept and set to `λ = 0`. Each shape's sign is fixed so that its
 //! largest-magnitude entry is positive, which makes results reproducible run to run.
+//!
+//! Massless DOFs (zero row and column of `M` with stiffness, e.g. rotations under lumped mass or
+//! the independent grid of a rigid element) are condensed out statically, as Nastran does:
+//! with `0` the massless and `m` the other DOFs, `K̂ = K_mm − K_m0 K_00⁻¹ K_0m` (exact for the
+//! eigenproblem since `M_0· = 0`: the massless rows read `K_0m φ_m + K_00 φ_0 = 0`), the reduced
+//! pencil `(K̂, M_mm)` is solved, and `φ_0 = −K_00⁻¹ K_0m φ_m` completes each shape. The
+//! infinite eigenvalues of the singular pencil are thereby left out.
 
 use crate::core::DofId;
+use faer::linalg::solvers::Solve;
 use faer::linalg::triangular_solve::{
     solve_lower_triangular_in_place, solve_upper_triangular_in_place,
 };
@@ -138,6 +146,14 @@ pub enum EigenError {
         /// Restarts done.
         restarts: usize,
     },
+    /// Massless DOFs that cannot be condensed: they form a mechanism among themselves.
+    #[error(
+        "DOF {dof} has no mass and the massless DOFs have no stiffness of their own to condense them out (K_00 is singular there); give it a mass or support it"
+    )]
+    MasslessMechanism {
+        /// A DOF of the singular massless block.
+        dof: DofId,
+    },
     /// "All modes" of a large model.
     #[error("all {n} modes of a sparse model were asked for; give a count or a frequency limit")]
     AllModesOfLargeModel {
@@ -151,6 +167,7 @@ impl crate::core::InputFault for EigenError {
         matches!(
             self,
             EigenError::MasslessDof { .. }
+                | EigenError::MasslessMechanism { .. }
                 | EigenError::IndefiniteMass
                 | EigenError::AllModesOfLargeModel { .. }
         )
@@ -172,13 +189,22 @@ pub fn dense_generalized(
             dofs: n,
         });
     }
+    let mut massless = Vec::new();
     for (i, dof) in dofs.iter().enumerate() {
+        let row_zero = (0..n).all(|j| m[(i, j)] == 0.0 && m[(j, i)] == 0.0);
+        if m[(i, i)] == 0.0 && row_zero && k[(i, i)] > 0.0 {
+            massless.push(i);
+            continue;
+        }
         if m[(i, i)].partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
             return Err(EigenError::MasslessDof {
                 dof: *dof,
                 value: m[(i, i)],
             });
         }
+    }
+    if !massless.is_empty() {
+        return condensed(k, m, dofs, selection, &massless);
     }
     // Shift-invert: with σ < 0 below every eigenvalue, A = K − σM = L Lᵀ and the symmetric
     // C = L⁻¹ M L⁻ᵀ has eigenvalues ν = 1/(λ − σ), largest for the lowest modes. Its
@@ -300,6 +326,85 @@ pub fn dense_generalized(
     })
 }
 
+/// [`dense_generalized`] with the `massless` DOFs condensed out statically (module doc): the
+/// reduced pencil's modes, completed at the massless DOFs, with residuals and orthogonality of
+/// the full problem.
+fn condensed(
+    k: MatRef<'_, f64>,
+    m: MatRef<'_, f64>,
+    dofs: &[DofId],
+    selection: ModeSelection,
+    massless: &[usize],
+) -> Result<Modes, EigenError> {
+    let n = dofs.len();
+    let mut is_zero = vec![false; n];
+    for &i in massless {
+        is_zero[i] = true;
+    }
+    let kept: Vec<usize> = (0..n).filter(|&i| !is_zero[i]).collect();
+    let (nz, nk) = (massless.len(), kept.len());
+    let k00 = Mat::from_fn(nz, nz, |i, j| k[(massless[i], massless[j])]);
+    let k0m = Mat::from_fn(nz, nk, |i, j| k[(massless[i], kept[j])]);
+    let llt = k00
+        .llt(Side::Lower)
+        .map_err(|_| EigenError::MasslessMechanism {
+            dof: dofs[massless[0]],
+        })?;
+    // G = K_00⁻¹ K_0m, so φ_0 = −G φ_m and K̂ = K_mm − K_m0 G.
+    let g = llt.solve(&k0m);
+    let kh = Mat::from_fn(nk, nk, |i, j| {
+        let mut v = k[(kept[i], kept[j])];
+        for p in 0..nz {
+            v -= k0m[(p, i)] * g[(p, j)];
+        }
+        v
+    });
+    let kh = Mat::from_fn(nk, nk, |i, j| 0.5 * (kh[(i, j)] + kh[(j, i)]));
+    let mm = Mat::from_fn(nk, nk, |i, j| m[(kept[i], kept[j])]);
+    let kept_dofs: Vec<DofId> = kept.iter().map(|&i| dofs[i]).collect();
+    let reduced = dense_generalized(kh.as_ref(), mm.as_ref(), &kept_dofs, selection)?;
+    let c = reduced.len();
+    let full_from = g * &reduced.shapes;
+    let mut shapes = Mat::zeros(n, c);
+    for j in 0..c {
+        for (r, &i) in kept.iter().enumerate() {
+            shapes[(i, j)] = reduced.shapes[(r, j)];
+        }
+        for (p, &i) in massless.iter().enumerate() {
+            shapes[(i, j)] = -full_from[(p, j)];
+        }
+        fix_sign(shapes.as_mut().col_mut(j));
+    }
+    let kphi = k * &shapes;
+    let mphi = m * &shapes;
+    let k_norm = crate::core::dense::max_abs(k) * (n as f64).sqrt();
+    let residuals = (0..c)
+        .map(|j| {
+            let lam = reduced.eigenvalues[j];
+            let (mut r2, mut k2, mut p2) = (0.0, 0.0, 0.0);
+            for i in 0..n {
+                let r = kphi[(i, j)] - lam * mphi[(i, j)];
+                r2 += r * r;
+                k2 += kphi[(i, j)] * kphi[(i, j)];
+                p2 += shapes[(i, j)] * shapes[(i, j)];
+            }
+            let denom = if lam == 0.0 {
+                k_norm * p2.sqrt()
+            } else {
+                k2.sqrt()
+            };
+            if denom > 0.0 { r2.sqrt() / denom } else { 0.0 }
+        })
+        .collect();
+    Ok(Modes {
+        eigenvalues: reduced.eigenvalues,
+        shapes,
+        residuals,
+        orthogonality_error: reduced.orthogonality_error,
+        rigid_body_modes: reduced.rigid_body_modes,
+    })
+}
+
 /// Median of `K_jj / M_jj` over DOFs with mass and stiffness: the scale of the eigenvalues.
 pub fn diagonal_scale(k: MatRef<'_, f64>, m: MatRef<'_, f64>) -> f64 {
     median_ratio((0..k.nrows()).map(|j| (k[(j, j)], m[(j, j)])))
@@ -393,10 +498,128 @@ mod tests {
     #[test]
     fn massless_dof_is_named() {
         let dofs: Vec<DofId> = vec!["1:ux".parse().unwrap(), "7:rz".parse().unwrap()];
-        let k = Mat::<f64>::identity(2, 2);
+        // Without stiffness it cannot be condensed; with a negative mass it is no mass at all.
+        let k = Mat::from_fn(2, 2, |i, j| if i == j && i == 0 { 1.0 } else { 0.0 });
         let m = Mat::from_fn(2, 2, |i, j| if i == j && i == 0 { 1.0 } else { 0.0 });
         let e = dense_generalized(k.as_ref(), m.as_ref(), &dofs, ModeSelection::All).unwrap_err();
         assert!(e.to_string().contains("7:rz"), "{e}");
+        let m = Mat::from_fn(2, 2, |i, j| if i == j { 1.0 - 2.0 * i as f64 } else { 0.0 });
+        let k = Mat::<f64>::identity(2, 2);
+        let e = dense_generalized(k.as_ref(), m.as_ref(), &dofs, ModeSelection::All).unwrap_err();
+        assert!(e.to_string().contains("7:rz"), "{e}");
+    }
+
+    /// A chain of springs whose every second DOF is massless: `(K, M, DOFs)` and the chain of
+    /// the massive DOFs joined by the series springs `k₁k₂/(k₁+k₂)`, condensed by hand.
+    #[allow(clippy::type_complexity)]
+    fn half_massless_chain(
+        nm: usize,
+        k1: f64,
+        k2: f64,
+    ) -> (
+        crate::core::sparse::SparseMatrix,
+        crate::core::sparse::SparseMatrix,
+        Vec<DofId>,
+        Mat<f64>,
+        Mat<f64>,
+    ) {
+        use crate::core::sparse::sparse_from_triplets;
+        let masses: Vec<f64> = (0..nm).map(|i| 1.0 + 0.5 * (i as f64).sin()).collect();
+        // ground –k1– m0 –k1– b0 –k2– m1 –k1– b1 –k2– m2 … –k1– ground.
+        let n = 2 * nm - 1;
+        let mut kt = Vec::new();
+        let mut spring = |a: Option<usize>, b: Option<usize>, s: f64| {
+            for (x, y, v) in [(a, a, s), (b, b, s), (a, b, -s), (b, a, -s)] {
+                if let (Some(x), Some(y)) = (x, y) {
+                    kt.push((x, y, v));
+                }
+            }
+        };
+        spring(None, Some(0), k1);
+        for i in 0..nm - 1 {
+            spring(Some(2 * i), Some(2 * i + 1), k1);
+            spring(Some(2 * i + 1), Some(2 * i + 2), k2);
+        }
+        spring(Some(n - 1), None, k1);
+        let mt: Vec<(usize, usize, f64)> = (0..nm).map(|i| (2 * i, 2 * i, masses[i])).collect();
+        let k = sparse_from_triplets("K", n, &kt).unwrap();
+        let m = sparse_from_triplets("M", n, &mt).unwrap();
+        let dofs: Vec<DofId> = (0..n)
+            .map(|i| DofId::new(i as u64 + 1, crate::core::Component::Ux))
+            .collect();
+        let ks = k1 * k2 / (k1 + k2);
+        let kh = Mat::from_fn(nm, nm, |i, j| {
+            if i == j {
+                (if i == 0 { k1 } else { ks }) + (if i == nm - 1 { k1 } else { ks })
+            } else if i.abs_diff(j) == 1 {
+                -ks
+            } else {
+                0.0
+            }
+        });
+        let mh = Mat::from_fn(nm, nm, |i, j| if i == j { masses[i] } else { 0.0 });
+        (k, m, dofs, kh, mh)
+    }
+
+    /// Massless DOFs condensed out: the same eigenvalues (1e-12 relative) as the chain condensed
+    /// by hand, on the dense path (static condensation), the sparse path's pencil on the few
+    /// massive DOFs (10 of 19) and its shift-invert Lanczos (1100 of 2199: singular `M`, the
+    /// infinite eigenvalues, `ν = 0` of the operator, are never wanted);
+    /// the shapes at the massless DOFs are the static interpolation
+    /// `φ_b = (k₁ φ_a + k₂ φ_c)/(k₁ + k₂)`, and every residual is at round-off.
+    #[test]
+    fn massless_dofs_are_condensed_exactly() {
+        use crate::eigen::{SparseEigenParams, lowest_modes};
+        let (k1, k2) = (1.0e4, 3.0e4);
+        for (nm, sparse_path) in [(10, false), (10, true), (1100, true)] {
+            let (k, m, dofs, kh, mh) = half_massless_chain(nm, k1, k2);
+            let hand = dense_generalized(kh.as_ref(), mh.as_ref(), &dofs[..nm], ModeSelection::All)
+                .unwrap();
+            let (modes, count) = if sparse_path {
+                let params = SparseEigenParams {
+                    dense_limit: 0,
+                    ..Default::default()
+                };
+                let (modes, info) =
+                    lowest_modes(&k, &m, &dofs, ModeSelection::Count(4), &params).unwrap();
+                assert!(!info.dense);
+                (modes, 4)
+            } else {
+                let modes = dense_generalized(
+                    crate::core::sparse::sparse_to_dense(&k).as_ref(),
+                    crate::core::sparse::sparse_to_dense(&m).as_ref(),
+                    &dofs,
+                    ModeSelection::All,
+                )
+                .unwrap();
+                (modes, nm)
+            };
+            assert_eq!(modes.len(), count);
+            for r in 0..count {
+                let (a, b) = (modes.eigenvalues[r], hand.eigenvalues[r]);
+                // 1e-12 relative, 1e-9 for the long chain (λ_max/λ_1 ≈ 10⁶ costs that much
+                // round-off in the hand reference's dense solve and in the Lanczos path).
+                let tol = if nm > 100 { 1e-9 } else { 1e-12 };
+                assert!(((a - b) / b).abs() < tol, "{nm}: mode {r}: {a} vs {b}");
+            }
+            // The long chain's residuals carry its conditioning (λ_max/λ_1 ≈ 10⁶): 1e-9.
+            let rtol = if nm > 100 { 1e-9 } else { 1e-10 };
+            assert!(
+                modes.residuals.iter().all(|r| *r < rtol),
+                "{:?}",
+                modes.residuals
+            );
+            for r in 0..count {
+                let s = modes.shapes.col(r);
+                for i in 0..nm - 1 {
+                    let interp = (k1 * s[2 * i] + k2 * s[2 * i + 2]) / (k1 + k2);
+                    assert!(
+                        (s[2 * i + 1] - interp).abs() < 1e-10 * s.norm_max(),
+                        "{nm}: mode {r}"
+                    );
+                }
+            }
+        }
     }
 
     #[test]

@@ -23,6 +23,14 @@
 //! convergence and made the shift useless to the static correction. The final eigenvalues are
 //! Rayleigh quotients `φᵀKφ` (`φᵀMφ = 1`), and every mode reports its relative residual. "All modes
 //! below f" enlarges the request until a mode above `f` is found.
+//!
+//! Massless DOFs (stiffness, no mass) make `M` singular; `C` then has the eigenvalue `ν = 0` (the
+//! infinite `λ`) on them, which is never wanted, and the start block `C X` and the refinement
+//! `A⁻¹ M Φ` keep the basis in the range of `M` (purification). When few DOFs carry mass
+//! (at most [`FEW_MASSIVE`], fewer than all), the Krylov space would be exhausted; the pencil is
+//! then solved exactly on those DOFs `m` instead: with `G = (A⁻¹)_mm` (one solve per massive
+//! DOF with the same factor) and `M_mm = L_m L_mᵀ`, the symmetric `L_mᵀ G L_m y = ν y` holds
+//! every finite eigenvalue, and `φ = A⁻¹ E_m L_m y / ν` (`φᵀMφ = yᵀy = 1`).
 
 use super::dense::{EigenError, ModeSelection, Modes, dense_generalized, fix_sign, median_ratio};
 use crate::core::DofId;
@@ -128,6 +136,93 @@ impl std::fmt::Debug for ShiftedFactor {
     }
 }
 
+/// Most DOFs with mass for which the eigenproblem is solved on them (module doc), rather than by
+/// Lanczos, when other DOFs are massless.
+pub const FEW_MASSIVE: usize = 1000;
+
+/// The modes of `K φ = λ M φ` when only the `massive` DOFs carry mass: the dense pencil on them
+/// through the factor of `A = K − σM` (module doc), in the order and count `selection` asks.
+fn few_massive_modes(
+    llt: &SpdFactor,
+    k: &SparseMatrix,
+    m: &SparseMatrix,
+    massive: &[usize],
+    selection: ModeSelection,
+    shift: f64,
+    par: Par,
+) -> Result<RefinedModes, EigenError> {
+    let n = k.nrows();
+    let nm = massive.len();
+    let solve = |mut x: Mat<f64>| {
+        llt.solve_forward_in_place(x.as_mut(), par);
+        llt.solve_backward_in_place(x.as_mut(), par);
+        x
+    };
+    // G = E_mᵀ A⁻¹ E_m, by blocks of unit columns.
+    let mut g = Mat::<f64>::zeros(nm, nm);
+    let width = crate::sparse::SOLVE_COLUMNS;
+    for start in (0..nm).step_by(width) {
+        let w = width.min(nm - start);
+        let mut e = Mat::<f64>::zeros(n, w);
+        for c in 0..w {
+            e[(massive[start + c], c)] = 1.0;
+        }
+        let x = solve(e);
+        for c in 0..w {
+            for (r, &i) in massive.iter().enumerate() {
+                g[(r, start + c)] = x[(i, c)];
+            }
+        }
+    }
+    let mut mm = Mat::<f64>::zeros(nm, nm);
+    for (c, &j) in massive.iter().enumerate() {
+        for (&i, &v) in m.row_idx_of_col_raw(j).iter().zip(m.val_of_col(j)) {
+            if let Ok(r) = massive.binary_search(&i) {
+                mm[(r, c)] += v;
+            }
+        }
+    }
+    let mm = Mat::from_fn(nm, nm, |i, j| 0.5 * (mm[(i, j)] + mm[(j, i)]));
+    let lm = mm
+        .llt(Side::Lower)
+        .map_err(|_| EigenError::IndefiniteMass)?;
+    let l = lm.L().to_owned();
+    let s = l.transpose() * &g * &l;
+    let s = Mat::from_fn(nm, nm, |i, j| 0.5 * (s[(i, j)] + s[(j, i)]));
+    let evd = s
+        .self_adjoint_eigen(Side::Lower)
+        .map_err(|_| EigenError::NoConvergence)?;
+    // Largest ν first = lowest λ first; ν ≤ 0 beyond round-off: no finite eigenvalue left.
+    let nu: Vec<f64> = (0..nm).rev().map(|i| evd.S()[i]).collect();
+    let nu_max = nu.first().copied().unwrap_or(0.0);
+    let finite = nu.iter().take_while(|v| **v > 1e-12 * nu_max).count();
+    let lambdas_all: Vec<f64> = nu[..finite].iter().map(|v| shift + 1.0 / v).collect();
+    let keep = match selection {
+        ModeSelection::All => finite,
+        ModeSelection::Count(c) => c.min(finite),
+        ModeSelection::BelowHz(f) => {
+            let limit = (2.0 * std::f64::consts::PI * f).powi(2);
+            lambdas_all.iter().take_while(|l| **l <= limit).count()
+        }
+    };
+    let mut rhs = Mat::<f64>::zeros(n, keep);
+    for j in 0..keep {
+        let col = nm - 1 - j;
+        for (r, &i) in massive.iter().enumerate() {
+            // (L_m y)_r, L_m lower triangular.
+            let mut lv = 0.0;
+            for c in 0..=r {
+                lv += l[(r, c)] * evd.U()[(c, col)];
+            }
+            rhs[(i, j)] = lv / nu[j];
+        }
+    }
+    let shapes = solve(rhs);
+    let (mut kphi, mut mphi) = (Mat::<f64>::zeros(n, keep), Mat::<f64>::zeros(n, keep));
+    sym_matvec_pair(k, m, shapes.as_ref(), kphi.as_mut(), mphi.as_mut(), par);
+    Ok((lambdas_all[..keep].to_vec(), shapes, kphi, mphi))
+}
+
 /// Lowest modes of `K φ = λ M φ`; `dofs` labels the rows.
 pub fn lowest_modes(
     k: &SparseMatrix,
@@ -207,6 +302,19 @@ pub fn lowest_modes_keeping_factor(
     crate::core::memory::release_freed_memory();
     info.factor = llt.info;
     info.factor_seconds = t0.elapsed().as_secs_f64();
+    let massive: Vec<usize> = (0..n)
+        .filter(|&j| m.val_of_col(j).iter().any(|v| *v != 0.0))
+        .collect();
+    if massive.len() < n && massive.len() <= FEW_MASSIVE {
+        let t = Instant::now();
+        let (lambdas, vecs, kphi, mphi) =
+            few_massive_modes(&llt, k, m, &massive, selection, shift, params.par)?;
+        info.solves += massive.len() + lambdas.len();
+        let modes = finish(k, lambdas, vecs, kphi, mphi, shift, scale)?;
+        info.refinement_seconds = t.elapsed().as_secs_f64();
+        let factor = ShiftedFactor { factor: llt, shift };
+        return Ok((modes, info, Some(factor)));
+    }
 
     let (mut lambdas, mut ritz_images, counted) = match selection {
         ModeSelection::All => return Err(EigenError::AllModesOfLargeModel { n }),

@@ -40,6 +40,10 @@ pub struct AssemblyInfo {
     pub colours: usize,
     /// DOFs removed because nothing gives them stiffness or mass.
     pub auto_constrained: Vec<DofId>,
+    /// DOFs eliminated by multipoint constraints, each over the free DOFs (recovery of
+    /// results at every physical DOF).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub dependent: Vec<super::multipoint::DependentDof>,
 }
 
 /// Greedy colouring of elements (given as node lists) in order: no two elements of one colour
@@ -88,6 +92,29 @@ pub fn assemble<E, F>(
     node_ids: &[u64],
     elements: &[Vec<usize>],
     constraints: &BTreeSet<DofId>,
+    contribution: F,
+) -> Result<(SystemMatrices, AssemblyInfo), E>
+where
+    F: Fn(usize) -> Result<Contribution, E> + Sync,
+    E: Send,
+{
+    assemble_keeping(
+        node_ids,
+        elements,
+        constraints,
+        &BTreeSet::new(),
+        contribution,
+    )
+}
+
+/// [`assemble`], keeping the unconstrained DOFs of `keep` even when no element gives them
+/// stiffness or mass (independent DOFs of multipoint constraints, which receive theirs from the
+/// dependent DOFs).
+pub fn assemble_keeping<E, F>(
+    node_ids: &[u64],
+    elements: &[Vec<usize>],
+    constraints: &BTreeSet<DofId>,
+    keep_dofs: &BTreeSet<DofId>,
     contribution: F,
 ) -> Result<(SystemMatrices, AssemblyInfo), E>
 where
@@ -158,7 +185,7 @@ where
         if constraints.contains(&d) {
             continue;
         }
-        if diag(&kv, j) == 0.0 && diag(&mv, j) == 0.0 {
+        if diag(&kv, j) == 0.0 && diag(&mv, j) == 0.0 && !keep_dofs.contains(&d) {
             auto.push(d);
             continue;
         }
@@ -208,6 +235,7 @@ where
         nnz: k.compute_nnz(),
         colours: colours.len(),
         auto_constrained: auto,
+        dependent: Vec::new(),
     };
     Ok((
         SystemMatrices {

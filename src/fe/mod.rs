@@ -7,6 +7,7 @@ pub mod lumped;
 pub mod lumped_elements;
 pub mod mass_properties;
 pub mod model_assembly;
+pub mod multipoint;
 pub mod rod;
 pub mod shell;
 pub mod system;

@@ -1,16 +1,17 @@
 //! From a [`Model`] to `K` and `M`: each element's kernel (shell, beam, rod, spring, mass)
 //! evaluated in parallel and scattered by [`assemble`](super::assembly::assemble).
 
-use super::assembly::{AssemblyInfo, Contribution, assemble, node_index};
+use super::assembly::{AssemblyInfo, Contribution, assemble_keeping, node_index};
 use super::beam::{BeamData, EndConditions, Section, beam2_with_ends};
 use super::element::{ElementError, ElementMatrices, MassKind};
 use super::lumped_elements::{LumpedMass, SpringEnds, conm2, scalar_spring, spring6};
+use super::multipoint::{DependentDof, MultipointError, eliminate, independent_dofs, resolve};
 use super::shell::{ShellSection, quad4, tria3};
 use super::system::SystemMatrices;
 use crate::core::sparse::SparseMatrix;
 use crate::model::{BeamEnds, BeamSection, Element, Model, ModelError};
 use faer::Mat;
-use std::collections::BTreeSet;
+use std::collections::{BTreeMap, BTreeSet};
 
 /// Why a model could not be assembled.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
@@ -31,6 +32,9 @@ pub enum ModelAssemblyError {
     /// The model has no element.
     #[error("the model has no elements")]
     Empty,
+    /// Multipoint constraints could not be eliminated.
+    #[error(transparent)]
+    Multipoint(#[from] MultipointError),
     /// Every DOF that an element reaches is constrained.
     #[error(
         "the model has no free DOFs: its {constrained} constrained DOFs include every DOF its elements reach; remove constraints (SPC, `constraints:`) so that something can move"
@@ -284,7 +288,9 @@ pub fn assemble_model(
         .map(|(_, e)| block_nodes(e).iter().map(|n| index[n]).collect())
         .collect();
     let constraints: BTreeSet<_> = model.constraints.iter().copied().collect();
-    let (sys, info) = assemble(&node_ids, &lists, &constraints, |i| {
+    let dependents = resolve(&model.mpcs, &constraints)?;
+    let keep = independent_dofs(&dependents);
+    let (sys, info) = assemble_keeping(&node_ids, &lists, &constraints, &keep, |i| {
         let (id, e) = elements[i];
         let matrices =
             element_matrices(model, e, mass).map_err(|source| ModelAssemblyError::Element {
@@ -297,12 +303,35 @@ pub fn assemble_model(
             matrices,
         })
     })?;
+    let nodes: BTreeSet<u64> = node_ids.iter().copied().collect();
+    let (sys, info) = without_dependent(sys, info, &dependents, &nodes)?;
     if sys.dofs.is_empty() {
         return Err(ModelAssemblyError::NoFreeDofs {
             constrained: constraints.len(),
         });
     }
     Ok((sys, info))
+}
+
+/// The assembled system with the dependent DOFs of multipoint constraints eliminated
+/// ([`eliminate`], `K̃ = Tᵀ K T`), the expansion of the dependent DOFs of `nodes` recorded in the
+/// info; unchanged without constraints.
+fn without_dependent(
+    sys: SystemMatrices,
+    mut info: AssemblyInfo,
+    dependents: &BTreeMap<crate::core::DofId, DependentDof>,
+    nodes: &BTreeSet<u64>,
+) -> Result<(SystemMatrices, AssemblyInfo), ModelAssemblyError> {
+    if dependents.is_empty() {
+        return Ok((sys, info));
+    }
+    let e = eliminate(&sys, dependents, nodes)?;
+    info.auto_constrained.extend(e.dropped);
+    info.auto_constrained.sort();
+    info.free_dofs = e.system.n();
+    info.nnz = e.system.k.compute_nnz();
+    info.dependent = e.dependent;
+    Ok((e.system, info))
 }
 
 /// The DOFs to which element `e` gives stiffness or mass (non-zero diagonal), unconstrained or
@@ -369,7 +398,10 @@ pub fn assemble_elements(
         .filter(|d| index.contains_key(&d.node))
         .copied()
         .collect();
-    assemble(&node_ids, &lists, &constraints, |i| {
+    let all_constraints: BTreeSet<_> = model.constraints.iter().copied().collect();
+    let dependents = resolve(&model.mpcs, &all_constraints)?;
+    let keep = independent_dofs(&dependents);
+    let (sys, info) = assemble_keeping(&node_ids, &lists, &constraints, &keep, |i| {
         let (id, e) = elements[i];
         let matrices =
             element_matrices(model, e, mass).map_err(|source| ModelAssemblyError::Element {
@@ -377,11 +409,13 @@ pub fn assemble_elements(
                 kind: e.type_name(),
                 source,
             })?;
-        Ok(Contribution {
+        Ok::<_, ModelAssemblyError>(Contribution {
             nodes: lists[i].clone(),
             matrices,
         })
-    })
+    })?;
+    let nodes: BTreeSet<u64> = node_ids.iter().copied().collect();
+    without_dependent(sys, info, &dependents, &nodes)
 }
 
 /// `∂K/∂φ` and `∂M/∂φ` of one updating parameter over the free DOFs `dofs` of an assembled
@@ -396,7 +430,16 @@ pub fn parameter_derivative(
     mass: MassKind,
 ) -> Result<(SparseMatrix, SparseMatrix), ModelAssemblyError> {
     let index: DofIndex = dofs.iter().enumerate().map(|(i, d)| (*d, i)).collect();
-    set_derivative(model, parameter, &index, mass)
+    let dependents = model_dependents(model)?;
+    set_derivative(model, parameter, &index, &dependents, mass)
+}
+
+/// The model's dependent DOFs over independent ones (empty without multipoint constraints).
+fn model_dependents(
+    model: &Model,
+) -> Result<BTreeMap<crate::core::DofId, DependentDof>, ModelAssemblyError> {
+    let spc: BTreeSet<_> = model.constraints.iter().copied().collect();
+    Ok(resolve(&model.mpcs, &spc)?)
 }
 
 /// The derivative over all elements of the parameter's set, or an error naming the known sets.
@@ -404,6 +447,7 @@ fn set_derivative(
     model: &Model,
     parameter: &crate::model::Parameter,
     index: &DofIndex,
+    dependents: &BTreeMap<crate::core::DofId, DependentDof>,
     mass: MassKind,
 ) -> Result<(SparseMatrix, SparseMatrix), ModelAssemblyError> {
     let ids = model.sets.get(&parameter.set).ok_or_else(|| {
@@ -413,7 +457,7 @@ fn set_derivative(
             known: model.sets.keys().cloned().collect::<Vec<_>>().join(", "),
         })
     })?;
-    indexed_derivative(model, parameter, ids, index, mass)
+    indexed_derivative(model, parameter, ids, index, dependents, mass)
 }
 
 /// Row of each free DOF of an assembled system.
@@ -429,9 +473,10 @@ pub fn parameter_derivatives(
 ) -> Result<Vec<(SparseMatrix, SparseMatrix)>, ModelAssemblyError> {
     use rayon::prelude::*;
     let index: DofIndex = dofs.iter().enumerate().map(|(i, d)| (*d, i)).collect();
+    let dependents = model_dependents(model)?;
     parameters
         .par_iter()
-        .map(|parameter| set_derivative(model, parameter, &index, mass))
+        .map(|parameter| set_derivative(model, parameter, &index, &dependents, mass))
         .collect::<Vec<_>>()
         .into_iter()
         // The first failing parameter's error in declaration order, whatever the threads did.
@@ -448,15 +493,18 @@ pub fn elements_parameter_derivative(
     mass: MassKind,
 ) -> Result<(SparseMatrix, SparseMatrix), ModelAssemblyError> {
     let index: DofIndex = dofs.iter().enumerate().map(|(i, d)| (*d, i)).collect();
-    indexed_derivative(model, parameter, ids, &index, mass)
+    let dependents = model_dependents(model)?;
+    indexed_derivative(model, parameter, ids, &index, &dependents, mass)
 }
 
-/// [`elements_parameter_derivative`] over the DOFs of `index` (its rows `0..index.len()`).
+/// [`elements_parameter_derivative`] over the DOFs of `index` (its rows `0..index.len()`): an
+/// element DOF that is dependent enters through its independent DOFs, `∂K̃/∂φ = Tᵀ (∂K/∂φ) T`.
 fn indexed_derivative(
     model: &Model,
     parameter: &crate::model::Parameter,
     ids: &[u64],
     index: &DofIndex,
+    dependents: &BTreeMap<crate::core::DofId, DependentDof>,
     mass: MassKind,
 ) -> Result<(SparseMatrix, SparseMatrix), ModelAssemblyError> {
     use crate::core::Component;
@@ -470,23 +518,37 @@ fn indexed_derivative(
         };
         let d = element_derivative(model, parameter, *id, e, mass)?;
         let nodes = block_nodes(e);
-        let map: Vec<Option<usize>> = nodes
+        let map: Vec<Vec<(usize, f64)>> = nodes
             .iter()
             .flat_map(|n| {
                 Component::ALL
                     .iter()
                     .map(move |c| crate::core::DofId::new(*n, *c))
             })
-            .map(|d| index.get(&d).copied())
+            .map(|d| match (index.get(&d), dependents.get(&d)) {
+                (Some(&i), _) => vec![(i, 1.0)],
+                (None, Some(dep)) => dep
+                    .terms
+                    .iter()
+                    .filter_map(|(t, c)| index.get(t).map(|&i| (i, *c)))
+                    .collect(),
+                (None, None) => Vec::new(),
+            })
             .collect();
         for (a, ra) in map.iter().enumerate() {
             for (b, rb) in map.iter().enumerate() {
-                if let (Some(i), Some(j)) = (ra, rb) {
-                    if d.dk[(a, b)] != 0.0 {
-                        kt.push((*i, *j, d.dk[(a, b)]));
-                    }
-                    if d.dm[(a, b)] != 0.0 {
-                        mt.push((*i, *j, d.dm[(a, b)]));
+                let (k, m) = (d.dk[(a, b)], d.dm[(a, b)]);
+                if k == 0.0 && m == 0.0 {
+                    continue;
+                }
+                for &(i, ci) in ra {
+                    for &(j, cj) in rb {
+                        if k != 0.0 {
+                            kt.push((i, j, ci * cj * k));
+                        }
+                        if m != 0.0 {
+                            mt.push((i, j, ci * cj * m));
+                        }
                     }
                 }
             }

@@ -11,6 +11,6 @@ pub mod structure;
 pub use lumped::{LumpedMass, LumpedModel, LumpedModelError, LumpedSpring};
 pub use parameters::ParameterValueError;
 pub use structure::{
-    BeamEnds, BeamProperty, BeamSection, Element, Material, Model, ModelError, Parameter,
-    ParameterKind, RodProperty, RodSection, ShellProperty,
+    BeamEnds, BeamProperty, BeamSection, Element, Material, Model, ModelError,
+    MultipointConstraint, Parameter, ParameterKind, RodProperty, RodSection, ShellProperty,
 };

@@ -402,6 +402,19 @@ pub struct Parameter {
     pub upper: f64,
 }
 
+/// A linear multipoint constraint in the basic system (rigid elements, MPC cards):
+/// `u_dependent = Σ cᵢ uᵢ` over the `terms` `(uᵢ, cᵢ)` (docs/theory.md §2). A term may itself be
+/// a dependent DOF of another constraint (a chain); the assembly substitutes in dependency order.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct MultipointConstraint {
+    /// The DOF the constraint eliminates.
+    pub dependent: DofId,
+    /// Independent DOFs and their coefficients.
+    pub terms: Vec<(DofId, f64)>,
+    /// The card it comes from (`RBE2 12`, `MPC 3`), for messages.
+    pub origin: String,
+}
+
 /// A whole model.
 #[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Model {
@@ -424,6 +437,9 @@ pub struct Model {
     pub sets: BTreeMap<String, Vec<u64>>,
     /// Updating parameters.
     pub parameters: Vec<Parameter>,
+    /// Multipoint constraints (rigid elements, MPC), each eliminating one dependent DOF.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub mpcs: Vec<MultipointConstraint>,
 }
 
 /// Why a model is inconsistent.
@@ -490,6 +506,44 @@ pub enum ModelError {
     /// A constraint names a node that does not exist.
     #[error("a constraint refers to node {0}, which is not defined")]
     ConstraintNode(u64),
+    /// A multipoint constraint names a node that does not exist.
+    #[error("{origin} refers to node {node}, which is not defined")]
+    MpcNode {
+        /// The constraint's card.
+        origin: String,
+        /// Node id.
+        node: u64,
+    },
+    /// A DOF is the dependent DOF of two multipoint constraints.
+    #[error(
+        "DOF {dof} is dependent in both {first} and {second}; a DOF may be dependent in one rigid element or MPC only"
+    )]
+    MpcDependentTwice {
+        /// The DOF.
+        dof: DofId,
+        /// The first constraint's card.
+        first: String,
+        /// The second.
+        second: String,
+    },
+    /// A dependent DOF is also constrained to zero (Nastran's fatal "dependent DOF in SPC set").
+    #[error(
+        "DOF {dof} is dependent in {origin} and also constrained by an SPC; remove it from one of them"
+    )]
+    MpcConstrained {
+        /// The DOF.
+        dof: DofId,
+        /// The constraint's card.
+        origin: String,
+    },
+    /// Multipoint constraints depend on each other in a cycle.
+    #[error(
+        "multipoint constraints form a cycle: {cycle}; a dependent DOF cannot depend on itself"
+    )]
+    MpcCycle {
+        /// The chain, `DOF (card) -> …`.
+        cycle: String,
+    },
 }
 
 impl crate::core::InputFault for ModelError {
@@ -595,6 +649,89 @@ impl Model {
         for d in &self.constraints {
             if !self.nodes.contains_key(&d.node) {
                 return Err(ModelError::ConstraintNode(d.node));
+            }
+        }
+        self.validate_mpcs()
+    }
+
+    /// Multipoint constraints: nodes exist, each dependent DOF once, none constrained, no cycle.
+    fn validate_mpcs(&self) -> Result<(), ModelError> {
+        if self.mpcs.is_empty() {
+            return Ok(());
+        }
+        let mut by_dep: BTreeMap<DofId, usize> = BTreeMap::new();
+        for (i, c) in self.mpcs.iter().enumerate() {
+            for d in std::iter::once(&c.dependent).chain(c.terms.iter().map(|t| &t.0)) {
+                if !self.nodes.contains_key(&d.node) {
+                    return Err(ModelError::MpcNode {
+                        origin: c.origin.clone(),
+                        node: d.node,
+                    });
+                }
+            }
+            if let Some(&j) = by_dep.get(&c.dependent) {
+                return Err(ModelError::MpcDependentTwice {
+                    dof: c.dependent,
+                    first: self.mpcs[j].origin.clone(),
+                    second: c.origin.clone(),
+                });
+            }
+            by_dep.insert(c.dependent, i);
+        }
+        let spc: std::collections::BTreeSet<DofId> = self.constraints.iter().copied().collect();
+        for c in &self.mpcs {
+            if spc.contains(&c.dependent) {
+                return Err(ModelError::MpcConstrained {
+                    dof: c.dependent,
+                    origin: c.origin.clone(),
+                });
+            }
+        }
+        // Depth-first search over dependent → dependent terms (0 new, 1 on the path, 2 done).
+        let mut state = vec![0u8; self.mpcs.len()];
+        for start in 0..self.mpcs.len() {
+            if state[start] != 0 {
+                continue;
+            }
+            let mut path: Vec<(usize, usize)> = vec![(start, 0)];
+            state[start] = 1;
+            while let Some(&mut (i, ref mut next)) = path.last_mut() {
+                let terms = &self.mpcs[i].terms;
+                let child = terms[*next..]
+                    .iter()
+                    .position(|t| by_dep.contains_key(&t.0))
+                    .map(|p| *next + p);
+                match child {
+                    Some(k) => {
+                        *next = k + 1;
+                        let j = by_dep[&terms[k].0];
+                        match state[j] {
+                            0 => {
+                                state[j] = 1;
+                                path.push((j, 0));
+                            }
+                            1 => {
+                                let from = path.iter().position(|p| p.0 == j).unwrap_or(0);
+                                let mut names: Vec<String> = path[from..]
+                                    .iter()
+                                    .map(|p| {
+                                        let c = &self.mpcs[p.0];
+                                        format!("{} ({})", c.dependent, c.origin)
+                                    })
+                                    .collect();
+                                names.push(self.mpcs[j].dependent.to_string());
+                                return Err(ModelError::MpcCycle {
+                                    cycle: names.join(" -> "),
+                                });
+                            }
+                            _ => {}
+                        }
+                    }
+                    None => {
+                        state[i] = 2;
+                        path.pop();
+                    }
+                }
             }
         }
         Ok(())

@@ -72,6 +72,14 @@ impl TypedStage for Assemble {
                 );
             }
         }
+        if !info.dependent.is_empty() {
+            // How each DOF a rigid element or MPC eliminated follows from the free DOFs.
+            a = a.with_table(
+                "dependent",
+                crate::artefact::kinds::matrices::dependent_table(&info.dependent),
+                Storage::Parquet,
+            );
+        }
         a.meta.insert("total_dofs".into(), info.total_dofs.into());
         a.meta.insert(
             "auto_constrained".into(),

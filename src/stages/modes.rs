@@ -3,8 +3,10 @@
 
 use super::params::{Count, Modes, Positive};
 use crate::artefact::ArtefactKind;
+use crate::artefact::kinds::modes::dependent_shapes_table;
 use crate::artefact::kinds::{matrices_from_artefact, modes_to_artefact};
 use crate::eigen::{ModeSelection, SparseEigenParams, lowest_modes};
+use crate::fe::multipoint::recover;
 use crate::pipeline::{
     CheckContext, ParamIssue, PortSpec, StageError, StageInputs, StageOutputs, TypedStage,
 };
@@ -102,7 +104,9 @@ impl TypedStage for ModesStage {
         if let Some(r) = inputs.get("reduced") {
             return run_reduced(p, r);
         }
-        let sys = matrices_from_artefact(inputs.require("model")?)?;
+        let matrices = inputs.require("model")?;
+        let sys = matrices_from_artefact(matrices)?;
+        let dependent = crate::artefact::kinds::matrices::dependent_from_matrices(matrices)?;
         if sys.n() > DENSE_LIMIT && p.count.is_none() && p.max_freq_hz.is_none() {
             return Err(StageError::input(
                 "",
@@ -134,10 +138,18 @@ impl TypedStage for ModesStage {
                     .map_err(StageError::from_numerics(""))?;
             return Err(no_mode_below(p, &first.frequencies_hz()));
         }
-        Ok(StageOutputs::from([(
-            "modes".to_string(),
-            modes_to_artefact(&sys.dofs, &modes),
-        )]))
+        let mut a = modes_to_artefact(&sys.dofs, &modes);
+        if !dependent.is_empty() {
+            // Shapes at the DOFs rigid elements and MPCs eliminated: u_d = Σ c u.
+            let shapes = recover(&dependent, &sys.dofs, modes.shapes.as_ref());
+            let dofs: Vec<crate::core::DofId> = dependent.iter().map(|d| d.dof).collect();
+            a = a.with_table(
+                "dependent_shapes",
+                dependent_shapes_table(&dofs, shapes.as_ref()),
+                crate::artefact::Storage::Ipc,
+            );
+        }
+        Ok(StageOutputs::from([("modes".to_string(), a)]))
     }
 }
 

@@ -6,6 +6,7 @@
 //! |---|---|
 //! | `dofs` (Parquet) | `index, dof, node, comp` |
 //! | `K`, `M`, `C`, `D`, `dK__<p>`, `dM__<p>` (IPC) | `row, col, value` |
+//! | `dependent` (Parquet; written by `assemble` for a model with rigid elements or MPCs) | `dof, independent, coefficient, origin`: each DOF eliminated by a multipoint constraint as `Σ coefficient · u_independent` over DOFs of `dofs`, one row per term (none: one row with an empty `independent`) |
 
 use super::{
     Kind, Layout, col, expect_kind, meta, meta_opt, parse_dofs, read_sparse, table, triplet_layout,
@@ -15,6 +16,7 @@ use crate::artefact::{Artefact, ArtefactError, ArtefactKind, Column, Storage, Ta
 use crate::core::DofId;
 use crate::core::sparse::{SparseMatrix, sparse_from_triplets};
 use crate::fe::SystemMatrices;
+use crate::fe::multipoint::DependentDof;
 
 /// The `matrices` kind.
 pub struct MatricesKind;
@@ -55,6 +57,27 @@ impl Kind for MatricesKind {
                     "dofs",
                     "",
                     "dM/dp of updating parameter p (2.13); duplicates sum",
+                ),
+                table(
+                    "dependent",
+                    Storage::Parquet,
+                    false,
+                    vec![
+                        col(
+                            "dof",
+                            "string",
+                            "",
+                            "DOF eliminated by a rigid element or MPC",
+                        ),
+                        col(
+                            "independent",
+                            "string",
+                            "",
+                            "a DOF of `dofs` it depends on (empty: none)",
+                        ),
+                        col("coefficient", "float64", "", "its coefficient"),
+                        col("origin", "string", "", "the card, e.g. RBE2 12"),
+                    ],
                 ),
             ],
             meta: vec![
@@ -121,6 +144,66 @@ fn dof_table(dofs: &[DofId]) -> Table {
             "comp",
             Column::Str(dofs.iter().map(|d| d.comp.name().to_string()).collect()),
         )
+}
+
+/// The `dependent` table: each dependent DOF's terms, one row per term.
+pub fn dependent_table(dependent: &[DependentDof]) -> Table {
+    let (mut dof, mut ind, mut coef, mut origin) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    for d in dependent {
+        let rows: Vec<(String, f64)> = if d.terms.is_empty() {
+            vec![(String::new(), 0.0)]
+        } else {
+            d.terms.iter().map(|(t, c)| (t.to_string(), *c)).collect()
+        };
+        for (t, c) in rows {
+            dof.push(d.dof.to_string());
+            ind.push(t);
+            coef.push(c);
+            origin.push(d.origin.clone());
+        }
+    }
+    Table::new()
+        .with("dof", Column::Str(dof))
+        .with("independent", Column::Str(ind))
+        .with("coefficient", Column::F64(coef))
+        .with("origin", Column::Str(origin))
+}
+
+/// The dependent DOFs a matrices artefact records (none without a `dependent` table).
+pub fn dependent_from_matrices(a: &Artefact) -> Result<Vec<DependentDof>, ArtefactError> {
+    let kind = ArtefactKind::Matrices;
+    let n = "dependent";
+    if !a.tables.contains_key(n) {
+        return Ok(Vec::new());
+    }
+    let t = a.table(n)?;
+    let (dof, ind, coef, origin) = (
+        t.strs(n, "dof")?,
+        t.strs(n, "independent")?,
+        t.f64s(n, "coefficient")?,
+        t.strs(n, "origin")?,
+    );
+    let parse = |s: &str, r: usize| -> Result<DofId, ArtefactError> {
+        s.parse()
+            .map_err(|e| ArtefactError::schema(kind, format!("dependent row {r}: {e}")))
+    };
+    let mut out: Vec<DependentDof> = Vec::new();
+    for r in 0..dof.len() {
+        if r == 0 || dof[r] != dof[r - 1] {
+            out.push(DependentDof {
+                dof: parse(&dof[r], r)?,
+                terms: Vec::new(),
+                origin: origin[r].clone(),
+            });
+        }
+        if !ind[r].is_empty() {
+            let term = parse(&ind[r], r)?;
+            if let Some(d) = out.last_mut() {
+                d.terms.push((term, coef[r]));
+            }
+        }
+    }
+    Ok(out)
 }
 
 /// System matrices as an artefact.

@@ -7,6 +7,7 @@
 //! | `lumped` | `element, type, node, comp, other, other_comp, k_1 … k_6, mass_kg, i11, i21, i22, i31, i32, i33, off_x, off_y, off_z` |
 //! | `constraints` | `dof` |
 //! | `sets` | `set, element` |
+//! | `mpcs` (only when the model has multipoint constraints) | `dependent, independent, coefficient, origin`: one row per term of `u_dependent = Σ coefficient · u_independent` (a constraint without terms: one row with an empty `independent`) |
 //!
 //! Materials, properties and parameters are small and go into `meta` as JSON. Rods (`type`
 //! `rod`) name their rod property in `property`, or hold −1 there when the element has its own
@@ -68,6 +69,22 @@ impl Kind for MeshKind {
                     vec![
                         col("set", "string", "", "set name"),
                         col("element", "int64", "", "element id"),
+                    ],
+                ),
+                table(
+                    "mpcs",
+                    s,
+                    false,
+                    vec![
+                        col("dependent", "string", "", "dependent DOF node:comp"),
+                        col(
+                            "independent",
+                            "string",
+                            "",
+                            "independent DOF node:comp, empty for a constraint without terms",
+                        ),
+                        col("coefficient", "float64", "", "its coefficient"),
+                        col("origin", "string", "", "the card, e.g. RBE2 12"),
                     ],
                 ),
             ],
@@ -229,7 +246,71 @@ pub fn mesh_to_artefact(m: &Model) -> Artefact {
     if !rod_sections.is_empty() {
         a = a.with_meta("rod_sections", to_json(&rod_sections));
     }
-    a
+    if m.mpcs.is_empty() {
+        a
+    } else {
+        a.with_table("mpcs", mpcs_table(m), Storage::Parquet)
+    }
+}
+
+fn mpcs_table(m: &Model) -> Table {
+    let (mut dep, mut ind, mut coef, mut origin) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    for c in &m.mpcs {
+        let rows: Vec<(String, f64)> = if c.terms.is_empty() {
+            vec![(String::new(), 0.0)]
+        } else {
+            c.terms.iter().map(|(d, v)| (d.to_string(), *v)).collect()
+        };
+        for (d, v) in rows {
+            dep.push(c.dependent.to_string());
+            ind.push(d);
+            coef.push(v);
+            origin.push(c.origin.clone());
+        }
+    }
+    Table::new()
+        .with("dependent", Column::Str(dep))
+        .with("independent", Column::Str(ind))
+        .with("coefficient", Column::F64(coef))
+        .with("origin", Column::Str(origin))
+}
+
+/// The `mpcs` table's constraints: consecutive rows of one dependent DOF form one constraint.
+fn read_mpcs(a: &Artefact, m: &mut Model) -> Result<(), ArtefactError> {
+    let n = "mpcs";
+    let Ok(t) = a.table(n) else {
+        return Ok(());
+    };
+    let (dep, ind, coef, origin) = (
+        t.strs(n, "dependent")?,
+        t.strs(n, "independent")?,
+        t.f64s(n, "coefficient")?,
+        t.strs(n, "origin")?,
+    );
+    let parse = |s: &str, r: usize| -> Result<DofId, ArtefactError> {
+        s.parse().map_err(|e| bad(format!("mpcs row {r}: {e}")))
+    };
+    for r in 0..dep.len() {
+        let d = parse(&dep[r], r)?;
+        let same = m
+            .mpcs
+            .last()
+            .is_some_and(|c| c.dependent == d && r > 0 && dep[r - 1] == dep[r]);
+        if !same {
+            m.mpcs.push(crate::model::MultipointConstraint {
+                dependent: d,
+                terms: Vec::new(),
+                origin: origin[r].clone(),
+            });
+        }
+        if !ind[r].is_empty() {
+            let term = parse(&ind[r], r)?;
+            if let Some(c) = m.mpcs.last_mut() {
+                c.terms.push((term, coef[r]));
+            }
+        }
+    }
+    Ok(())
 }
 
 fn nodes_table(m: &Model) -> Table {
@@ -467,6 +548,7 @@ pub fn mesh_from_artefact(a: &Artefact) -> Result<Model, ArtefactError> {
         }
     }
     read_lumped(a, &mut m)?;
+    read_mpcs(a, &mut m)?;
     let t = a.table("constraints")?;
     for (r, d) in t.strs("constraints", "dof")?.iter().enumerate() {
         m.constraints.push(

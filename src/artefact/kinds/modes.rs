@@ -4,6 +4,7 @@
 //! |---|---|
 //! | `frequencies` (Parquet) | `mode, freq_hz, eigenvalue_rad2_s2, residual` |
 //! | `shapes` (IPC) | `dof, phi_1 … phi_m` |
+//! | `dependent_shapes` (IPC; when the model has rigid elements or MPCs) | `dof, phi_1 … phi_m`: the shapes at the DOFs the constraints eliminated, recovered as `u_d = Σ c u` |
 
 use super::{Kind, Layout, col, expect_kind, meta, meta_opt, parse_dofs, table};
 use crate::artefact::{Artefact, ArtefactError, ArtefactKind, Column, Storage, Table};
@@ -63,6 +64,20 @@ impl Kind for ModesKind {
                             "float64",
                             "1/sqrt(kg)",
                             "mass-normalised shape of mode r, one column per mode",
+                        ),
+                    ],
+                ),
+                table(
+                    "dependent_shapes",
+                    Storage::Ipc,
+                    false,
+                    vec![
+                        col("dof", "string", "", "dependent DOF label node:comp"),
+                        col(
+                            "phi_{r}",
+                            "float64",
+                            "1/sqrt(kg)",
+                            "shape of mode r at the dependent DOF",
                         ),
                     ],
                 ),
@@ -148,6 +163,18 @@ fn write(dofs: &[DofId], modes: &Modes) -> Artefact {
         .with_meta("units", serde_json::json!({"freq_hz": "Hz", "eigenvalue_rad2_s2": "rad^2/s^2", "phi": "1/sqrt(kg)"}))
         .with_table("frequencies", freqs, Storage::Parquet)
         .with_table("shapes", shapes, Storage::Ipc)
+}
+
+/// The `dependent_shapes` table: shapes (one column per mode) at the dependent DOFs `dofs`.
+pub fn dependent_shapes_table(dofs: &[DofId], shapes: faer::MatRef<'_, f64>) -> Table {
+    let mut t = Table::new().with("dof", super::dof_strs(dofs));
+    for r in 0..shapes.ncols() {
+        t = t.with(
+            format!("phi_{}", r + 1),
+            Column::F64((0..dofs.len()).map(|i| shapes[(i, r)]).collect()),
+        );
+    }
+    t
 }
 
 /// Modes as an artefact.

@@ -210,6 +210,28 @@ impl Example for mesh::MeshKind {
                 k: 1e5,
             },
         );
+        // Multipoint constraints (table `mpcs`): one with terms, one without.
+        let free: Vec<u64> = lumped
+            .nodes
+            .keys()
+            .copied()
+            .filter(|n| !lumped.constraints.iter().any(|d| d.node == *n))
+            .collect();
+        lumped.mpcs = vec![
+            crate::model::MultipointConstraint {
+                dependent: dof(&format!("{}:ux", free[1])),
+                terms: vec![
+                    (dof(&format!("{}:ux", free[0])), 1.0),
+                    (dof(&format!("{}:rz", free[0])), -0.5),
+                ],
+                origin: "RBE2 7".into(),
+            },
+            crate::model::MultipointConstraint {
+                dependent: dof(&format!("{}:uy", free[2])),
+                terms: vec![],
+                origin: "MPC 1".into(),
+            },
+        ];
         vec![bent_plate(&Default::default()), lumped]
     }
 }

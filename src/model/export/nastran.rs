@@ -5,7 +5,9 @@
 //! sections) and PBARL (BAR, ROD, TUBE), PROD, PBUSH (one per bush, ids above every property
 //! id), GRID (basic coordinates), CQUAD4, CTRIA3, CBAR (orientation X1–X3), CROD (a rod with a
 //! property) or CONROD (a rod with its own section), CBUSH (CID 0), CELAS2, CONM2 (CID 0), SPC1
-//! (SID 1, one card per component list), SET1, between `BEGIN BULK` and `ENDDATA`.
+//! (SID 1, one card per component list), MPC (SID 1, one card per multipoint constraint
+//! `u_d = Σ cᵢ uᵢ` as `1·u_d − Σ cᵢ uᵢ = 0`, preceded by a comment naming the card it came
+//! from; re-read, its origin becomes `MPC 1`), SET1, between `BEGIN BULK` and `ENDDATA`.
 //!
 //! PSHELL: MID1 blank for a shell without membrane, MID2 and MID3 blank for one without
 //! bending, else MID2 and MID3 written out (MID3 blank would mean no transverse shear
@@ -150,6 +152,7 @@ pub fn write_bulk(model: &Model) -> String {
         write_element(&mut out, id, e, &bush_pid);
     }
     write_constraints(&mut out, model);
+    write_mpcs(&mut out, model);
     write_sets(&mut out, model);
     for p in &model.parameters {
         if let Ok(json) = serde_json::to_string(p) {
@@ -424,6 +427,28 @@ fn write_constraints(out: &mut String, model: &Model) {
         let mut f = vec![F::Int(1), F::Text(comps)];
         f.extend(nodes.into_iter().map(F::Int));
         card(out, "SPC1", f);
+    }
+}
+
+/// MPC cards (SID 1): `G1 C1 1.0` for the dependent DOF, then `Gi Ci −cᵢ`, two terms per line
+/// after the first (fields 3–8 and, on continuations, 3–8 after a blank field 2).
+fn write_mpcs(out: &mut String, model: &Model) {
+    for c in &model.mpcs {
+        let _ = writeln!(out, "$ {}", c.origin.replace('\n', " "));
+        let mut f = vec![F::Int(1)];
+        let terms =
+            std::iter::once((c.dependent, 1.0)).chain(c.terms.iter().map(|&(d, v)| (d, -v)));
+        for (i, (d, v)) in terms.enumerate() {
+            // Fields per line: SID + two triples + blank; continuations: blank + two triples + blank.
+            if i >= 2 && i % 2 == 0 {
+                f.push(F::Blank);
+                f.push(F::Blank);
+            }
+            f.push(F::Int(d.node));
+            f.push(F::Int(d.comp.nastran() as u64));
+            f.push(F::Real(v));
+        }
+        card(out, "MPC", f);
     }
 }
 

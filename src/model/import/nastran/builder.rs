@@ -114,6 +114,8 @@ pub(super) struct Builder {
     /// `SPC = n` selections of the case control.
     pub(super) case_control: Vec<(Loc, u64)>,
     pub(super) sets: BTreeMap<u64, SetIn>,
+    /// Rigid elements and MPC cards (rigid.rs).
+    pub(super) rigid: super::rigid::RigidIn,
 }
 
 /// The error for an id (data field `k`, always on the card's first line) defined twice.
@@ -173,6 +175,7 @@ impl Builder {
             "SPC1" => self.spc1(c),
             "SPCADD" => self.spcadd(c),
             "SET1" => self.set1(c),
+            "RBE2" | "RBAR" | "RROD" | "RBE3" | "MPC" | "MPCADD" => self.rigid_card(c),
             "PARAM" => self.param(c),
             other if SKIPPED_CARDS.contains(&other) => {
                 *self.skipped.entry(other.to_string()).or_insert(0) += 1;

@@ -35,6 +35,7 @@ impl Builder {
             origins.elements.insert(id, loc);
         }
         self.resolve_constraints(&mut model, &geo, &mut origins)?;
+        self.resolve_rigid(&mut model, &geo)?;
         self.resolve_sets(&mut model, &mut origins, set_names)?;
         for (loc, p) in parameters {
             origins.parameters.push((p.name.clone(), loc));
@@ -462,6 +463,13 @@ impl Builder {
             ModelError::ConstraintNode(node) => (
                 origins.constraints.get(node).cloned(),
                 format!("add GRID {node} or remove it from the SPC/SPC1"),
+            ),
+            ModelError::MpcNode { .. }
+            | ModelError::MpcDependentTwice { .. }
+            | ModelError::MpcConstrained { .. }
+            | ModelError::MpcCycle { .. } => (
+                None,
+                "correct the rigid elements and MPC cards named".to_string(),
             ),
         };
         let (file, line) = loc.map_or((self.top_file.to_string(), 0), |l| {

@@ -14,8 +14,10 @@
 //! Cards read: GRID with GRDSET defaults, CORD1R/C/S and CORD2R/C/S (nested, in any order),
 //! CQUAD4, CTRIA3, CBAR, CBEAM (offsets, pin flags), BAROR, BEAMOR, CROD, CONROD, CTUBE,
 //! PSHELL, PBAR, PBARL and PBEAML (the beam library, see below), PBEAM, PROD, PTUBE, MAT1,
-//! CELAS1 with PELAS, CELAS2, CBUSH with PBUSH, CONM2, SPC, SPC1, SPCADD, SET1, PARAM GRDPNT
-//! (its reference point, for the weight summary mesh.import prints), and PARAM WTMASS (applied to every
+//! CELAS1 with PELAS, CELAS2, CBUSH with PBUSH, CONM2, SPC, SPC1, SPCADD, SET1, the rigid
+//! elements RBE2, RBAR, RROD, RBE3 and MPC, MPCADD (as multipoint constraints, see `rigid.rs`),
+//! PARAM GRDPNT (its reference point, for the weight summary mesh.import prints), and PARAM
+//! WTMASS (applied to every
 //! mass), COUPMASS, AUTOSPC, K6ROT and G (accepted with a warning saying what femu does
 //! instead). Cards that change neither stiffness, mass nor constraints ([`SKIPPED_CARDS`],
 //! PARAMs of [`SKIPPED_PARAMS`]) are skipped and counted in [`BulkImport::skipped`]. Every other
@@ -111,6 +113,15 @@
 //!   and the first is used. Without case control, every set is merged into one constraint list
 //!   (several SIDs give a warning). GRID PS always applies. THRU ranges cover the grids that
 //!   exist. Constraints come back sorted and without repeats.
+//! - RBE2, RBAR, RROD, RBE3, MPC, MPCADD: multipoint constraints `u_d = Σ cᵢ uᵢ` in basic DOFs
+//!   (small rotations; components in each grid's CD); the assembly eliminates them exactly. The
+//!   case control's `MPC = n` selects the MPC set (none selected in a deck with case control: no
+//!   MPC applies, with a warning; no case control: every set, with a warning when several).
+//!   A DOF dependent twice, dependent and in the SPC set, or a cycle of dependencies is an
+//!   error naming the cards. RBE3 UM fields, RBE1, RBAR1, RSPLINE and scalar points in MPC are
+//!   not read (errors). With a CD not parallel to basic and only some components of a grid
+//!   dependent, the dependent basic components are chosen by pivoting (the constraint is the
+//!   same; the DOF labelled dependent may differ from Nastran's). ALPHA/TREF are ignored.
 //! - SET1: element ids (with THRU over existing elements, optional SKIN) → set `set<SID>`, ids
 //!   sorted without repeats.
 //! - Integers are accepted where a real is expected (Nastran wants a decimal point), except where
@@ -146,6 +157,7 @@ mod lumped;
 mod numbers;
 mod properties;
 mod replicate;
+mod rigid;
 mod rods;
 mod sections;
 mod source;
@@ -155,6 +167,8 @@ mod tests;
 mod tests_beams;
 #[cfg(test)]
 mod tests_replicate;
+#[cfg(test)]
+mod tests_rigid;
 #[cfg(test)]
 mod tests_rods;
 
@@ -170,11 +184,11 @@ use source::*;
 const MAX_INCLUDE_DEPTH: usize = 64;
 
 /// Cards femu reads.
-pub const READ_CARDS: [&str; 35] = [
+pub const READ_CARDS: [&str; 41] = [
     "GRID", "GRDSET", "CORD1R", "CORD1C", "CORD1S", "CORD2R", "CORD2C", "CORD2S", "CQUAD4",
     "CTRIA3", "CBAR", "CBEAM", "PSHELL", "PBAR", "PBARL", "PBEAM", "MAT1", "CELAS1", "CELAS2",
     "PELAS", "CBUSH", "PBUSH", "CONM2", "SPC", "SPC1", "SPCADD", "SET1", "CROD", "CONROD", "CTUBE",
-    "PROD", "PTUBE", "PBEAML", "BAROR", "BEAMOR",
+    "PROD", "PTUBE", "PBEAML", "BAROR", "BEAMOR", "RBE2", "RBAR", "RROD", "RBE3", "MPC", "MPCADD",
 ];
 
 /// Cards skipped (counted) because they change neither stiffness, mass nor constraints: static
@@ -201,15 +215,15 @@ pub const READ_PARAMS: [&str; 6] = ["WTMASS", "GRDPNT", "COUPMASS", "AUTOSPC", "
 /// Nastran cards femu does not read that change the stiffness, mass, damping or constraints;
 /// an error unless listed in [`BulkOptions::ignore_cards`] (the list only decides how messages
 /// name them: any other unread card is an error too).
-const REFUSED_CARDS: [&str; 75] = [
-    "RBE1", "RBE2", "RBE3", "RBAR", "RBAR1", "RROD", "RTRPLT", "RSPLINE", "MPC", "MPCADD", "SPCD",
-    "SUPORT", "SUPORT1", "ASET", "ASET1", "OMIT", "OMIT1", "QSET", "QSET1", "BSET", "BSET1",
-    "CSET", "CSET1", "SPOINT", "EPOINT", "CQUAD8", "CQUADR", "CQUAD", "CTRIA6", "CTRIAR", "CSHEAR",
-    "PSHEAR", "CHEXA", "CPENTA", "CTETRA", "CPYRAM", "PSOLID", "PCOMP", "PCOMPG", "MAT2", "MAT8",
-    "MAT9", "MAT10", "MATT1", "MATS1", "CONM1", "CMASS1", "CMASS2", "CMASS3", "CMASS4", "PMASS",
-    "CDAMP1", "CDAMP2", "CDAMP3", "CDAMP4", "CDAMP5", "PDAMP", "CVISC", "PVISC", "CELAS3",
-    "CELAS4", "CBUSH1D", "PBUSH1D", "CGAP", "PGAP", "CWELD", "PWELD", "CFAST", "PFAST", "NSM",
-    "NSM1", "NSML", "NSML1", "DMIG", "GENEL",
+const REFUSED_CARDS: [&str; 69] = [
+    "RBE1", "RBAR1", "RTRPLT", "RSPLINE", "SPCD", "SUPORT", "SUPORT1", "ASET", "ASET1", "OMIT",
+    "OMIT1", "QSET", "QSET1", "BSET", "BSET1", "CSET", "CSET1", "SPOINT", "EPOINT", "CQUAD8",
+    "CQUADR", "CQUAD", "CTRIA6", "CTRIAR", "CSHEAR", "PSHEAR", "CHEXA", "CPENTA", "CTETRA",
+    "CPYRAM", "PSOLID", "PCOMP", "PCOMPG", "MAT2", "MAT8", "MAT9", "MAT10", "MATT1", "MATS1",
+    "CONM1", "CMASS1", "CMASS2", "CMASS3", "CMASS4", "PMASS", "CDAMP1", "CDAMP2", "CDAMP3",
+    "CDAMP4", "CDAMP5", "PDAMP", "CVISC", "PVISC", "CELAS3", "CELAS4", "CBUSH1D", "PBUSH1D",
+    "CGAP", "PGAP", "CWELD", "PWELD", "CFAST", "PFAST", "NSM", "NSM1", "NSML", "NSML1", "DMIG",
+    "GENEL",
 ];
 
 /// Whether `name` is a card name Nastran could have written: a letter, then letters or digits,
@@ -501,6 +515,8 @@ fn parse_with_policy(
     }
     builder.check_unsupported()?;
     builder.case_control = std::mem::take(&mut loader.case_control);
+    builder.rigid.case_control = std::mem::take(&mut loader.case_control_mpc);
+    builder.rigid.has_case_control = loader.has_case_control;
     let mut import = builder.finish(loader.set_names, loader.parameters)?;
     import.source_digest = loader.source.finalize().to_hex().to_string();
     Ok(import)

@@ -69,6 +69,10 @@ pub(super) struct Loader {
     pub(super) parameters: Vec<(Loc, Parameter)>,
     /// `SPC = n` selections of the case control, in order (global first, then by subcase).
     pub(super) case_control: Vec<(Loc, u64)>,
+    /// `MPC = n` selections of the case control, likewise.
+    pub(super) case_control_mpc: Vec<(Loc, u64)>,
+    /// Whether the top file has a case control section (a CEND before BEGIN BULK).
+    pub(super) has_case_control: bool,
     /// The top file's folder: INCLUDEs not found beside the including file are looked up here.
     pub(super) job_dir: PathBuf,
     /// Hash of the bytes of every file read, in reading order.
@@ -85,6 +89,15 @@ pub(super) struct Loader {
 /// The `SPC = n` selections of the case control section (the lines before `BEGIN BULK`, after
 /// `CEND` when present), each with its line.
 pub(super) fn case_control_spcs(lines: &[&str], file: &Rc<str>) -> Vec<(Loc, u64)> {
+    case_control_selections(lines, file, "SPC")
+}
+
+/// The `<key> = n` selections of the case control section (as [`case_control_spcs`]).
+pub(super) fn case_control_selections(
+    lines: &[&str],
+    file: &Rc<str>,
+    key_name: &str,
+) -> Vec<(Loc, u64)> {
     let start = lines
         .iter()
         .position(|l| starts_with_ci(strip_comment(l).trim(), "CEND"))
@@ -95,7 +108,7 @@ pub(super) fn case_control_spcs(lines: &[&str], file: &Rc<str>) -> Vec<(Loc, u64
         let Some((key, value)) = text.split_once('=') else {
             continue;
         };
-        if !key.trim().eq_ignore_ascii_case("SPC") {
+        if !key.trim().eq_ignore_ascii_case(key_name) {
             continue;
         }
         if let Some(sid) = parse_int(value.trim()).filter(|v| *v > 0) {
@@ -103,7 +116,7 @@ pub(super) fn case_control_spcs(lines: &[&str], file: &Rc<str>) -> Vec<(Loc, u64
                 Loc {
                     file: file.clone(),
                     line: i + 1,
-                    card: Rc::from("SPC ="),
+                    card: Rc::from(format!("{key_name} =")),
                 },
                 sid as u64,
             ));
@@ -133,6 +146,10 @@ impl Loader {
         if top {
             if let Some(begin) = raw.iter().position(|l| is_begin_bulk(l)) {
                 self.case_control = case_control_spcs(&raw[..begin], &file);
+                self.case_control_mpc = case_control_selections(&raw[..begin], &file, "MPC");
+                self.has_case_control = raw[..begin]
+                    .iter()
+                    .any(|l| starts_with_ci(strip_comment(l).trim(), "CEND"));
                 i = begin + 1;
             }
         }
