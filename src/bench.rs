@@ -73,6 +73,67 @@ pub enum BenchModel {
     Muffler,
 }
 
+/// One Nastran import timing.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct ImportBench {
+    /// Free DOFs of the model.
+    pub dofs: usize,
+    /// GRID cards.
+    pub grids: usize,
+    /// Element cards.
+    pub elements: usize,
+    /// Size of the deck.
+    pub deck_bytes: u64,
+    /// `read_bulk` wall time.
+    pub import_seconds: f64,
+    /// Peak resident memory during the import, MiB (Linux).
+    pub peak_rss_mib: Option<f64>,
+}
+
+/// Writes the clamped plate of about `target_dofs` DOFs as a deck (large field, as
+/// [`crate::model::export::nastran::write_bulk`] writes) and times reading it back.
+pub fn import_bench(target_dofs: usize) -> Result<ImportBench, String> {
+    let side = ((target_dofs as f64 / 6.0).sqrt().round() as usize).max(2);
+    let model = flat_plate(&FlatPlate {
+        a: 1.0,
+        b: 1.0,
+        nx: side,
+        ny: side,
+        thickness: 0.005,
+        material: steel(),
+        support: PlateSupport::ClampedEdge,
+    });
+    let dofs = model.n_dofs();
+    let (grids, elements) = (model.nodes.len(), model.elements.len());
+    let text = crate::model::export::nastran::write_bulk(&model);
+    drop(model);
+    let path = std::env::temp_dir().join(format!("femu-bench-import-{}.bdf", std::process::id()));
+    std::fs::write(&path, &text).map_err(|e| format!("{}: {e}", path.display()))?;
+    let deck_bytes = text.len() as u64;
+    drop(text);
+    reset_peak_rss();
+    let t = Instant::now();
+    let read = crate::model::import::nastran::read_bulk(&path);
+    let import_seconds = t.elapsed().as_secs_f64();
+    let peak_rss_mib = peak_rss_mib();
+    let _ = std::fs::remove_file(&path);
+    let b = read.map_err(|e| e.to_string())?;
+    if b.model.elements.len() != elements {
+        return Err(format!(
+            "the import read {} elements of {elements}",
+            b.model.elements.len()
+        ));
+    }
+    Ok(ImportBench {
+        dofs,
+        grids,
+        elements,
+        deck_bytes,
+        import_seconds,
+        peak_rss_mib,
+    })
+}
+
 /// Benchmarks a clamped 1 m × 1 m × 5 mm steel plate of about `target_dofs` free DOFs.
 pub fn plate_bench(target_dofs: usize, mode_counts: &[usize]) -> Result<PlateBench, String> {
     model_bench(BenchModel::Plate, target_dofs, mode_counts)

@@ -1,17 +1,56 @@
 //! `femu bench`: time assembly and the lowest modes of a plate or the muffler box, one P-C
-//! iteration, or component mode synthesis; print the figures and write them as JSON.
+//! iteration, component mode synthesis, or the Nastran import; print the figures and write them
+//! as JSON.
 
 use super::{BenchArgs, Failure};
 
 /// `femu bench`: `--cms`, `--pc-iteration` or the model benchmark, in that precedence.
 pub(super) fn run(a: BenchArgs) -> Result<u8, Failure> {
-    if a.cms {
+    if a.import {
+        import(a)
+    } else if a.cms {
         cms(a)
     } else if a.pc_iteration {
         pc_iteration(a)
     } else {
         models(a)
     }
+}
+
+/// `femu bench --import`.
+fn import(a: BenchArgs) -> Result<u8, Failure> {
+    let dofs = if a.dofs.is_empty() {
+        vec![100_000, 1_000_000]
+    } else {
+        a.dofs
+    };
+    println!("Nastran import of a clamped plate deck (GRID, CQUAD4, SPC1; large field)");
+    println!(
+        "{:>9} {:>9} {:>9} {:>10} {:>9} {:>9}",
+        "dofs", "grids", "elements", "deck MiB", "import s", "peak MiB"
+    );
+    let mut all = Vec::new();
+    for n in dofs {
+        let b = crate::bench::import_bench(n).map_err(|e| anyhow::anyhow!(e))?;
+        println!(
+            "{:>9} {:>9} {:>9} {:>10.1} {:>9.2} {:>9.0}",
+            b.dofs,
+            b.grids,
+            b.elements,
+            b.deck_bytes as f64 / (1024.0 * 1024.0),
+            b.import_seconds,
+            b.peak_rss_mib.unwrap_or(f64::NAN)
+        );
+        all.push(b);
+    }
+    if let Some(path) = a.json {
+        std::fs::write(
+            &path,
+            serde_json::to_string_pretty(&all).unwrap_or_default(),
+        )
+        .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+    }
+    Ok(0)
 }
 
 /// `femu bench --cms`.

@@ -187,6 +187,10 @@ struct BenchArgs {
     /// Substructure counts for `--cms` (repeatable).
     #[arg(long = "parts", value_name = "K")]
     parts: Vec<usize>,
+    /// Time the Nastran import instead: the plate of each `--dofs` size (default 100000 and
+    /// 1000000) written as a deck and read back.
+    #[arg(long)]
+    import: bool,
 }
 
 /// Entry point of the binary.
