@@ -530,3 +530,24 @@ fn reduced_models_read_back_their_structure() {
         *p
     );
 }
+
+/// Beam offsets and pins go into the mesh artefact's `beam_ends` meta and back; a mesh whose
+/// beams have none writes no such key (so plain meshes keep their bytes).
+#[test]
+fn beam_ends_round_trip_through_the_mesh_artefact() {
+    use crate::model::import::nastran::parse_bulk;
+    let deck = "MAT1,1,2.1+11,,.3,7850.\nPBAR,7,1,1.-3,3.-7,3.-7,1.-7\nGRID,1,,0.,0.,0.\nGRID,2,,1.,0.,0.\nGRID,3,,2.,0.,0.\n\
+                CBAR,1,7,1,2,0.,1.,0.\n,5,46,.1,.2,.3,.4,.5,.6\nCBAR,2,7,2,3,0.,1.,0.\n";
+    let m = parse_bulk(deck, "ends.bdf").unwrap().model;
+    let a = mesh::mesh_to_artefact(&m);
+    assert!(a.meta.contains_key("beam_ends"));
+    assert_eq!(mesh::mesh_from_artefact(&a).unwrap().elements, m.elements);
+    let plain = parse_bulk(&deck.replace(",5,46,.1,.2,.3,.4,.5,.6\n", ""), "plain.bdf")
+        .unwrap()
+        .model;
+    assert!(
+        !mesh::mesh_to_artefact(&plain)
+            .meta
+            .contains_key("beam_ends")
+    );
+}

@@ -383,6 +383,27 @@ impl<'a> Writer<'a> {
         self.set_real(i, 5, "RHO", old.rho, new.rho, w, 0.0)
     }
 
+    /// Starts a copy of card `i`: its own pending edits are set aside, so that the edits made
+    /// next describe the copy ([`Writer::finish_copy`]).
+    fn begin_copy(&mut self, i: usize) -> Option<Edit> {
+        self.edits.remove(&i)
+    }
+
+    /// Moves the edits made on card `i` since [`Writer::begin_copy`] to a copy with id `id`,
+    /// and gives `i` its own edits back.
+    fn finish_copy(&mut self, i: usize, own: Option<Edit>, id: u64, why: String) {
+        let mut fields: FieldTexts = self
+            .edits
+            .remove(&i)
+            .map(|e| e.fields.into_iter().map(|(k, (_, t))| (k, t)).collect())
+            .unwrap_or_default();
+        if let Some(e) = own {
+            self.edits.insert(i, e);
+        }
+        fields.insert(1, id.to_string());
+        self.copy(i, fields, why);
+    }
+
     fn copy(&mut self, source: usize, fields: BTreeMap<usize, String>, why: String) {
         self.copies.push(CardCopy {
             source,
@@ -497,20 +518,10 @@ fn materials(
         })?;
         let id = Writer::fresh(&mut w.used_materials, *mid);
         ids.insert(*mid, id);
-        // Edit the copy by staging the changes on the source, then moving them to the copy.
-        let staged = w.edits.remove(&i);
+        let own = w.begin_copy(i);
         w.material(i, &original.materials[mid0], m)?;
-        let mut fields: BTreeMap<usize, String> = w
-            .edits
-            .remove(&i)
-            .map(|e| e.fields.into_iter().map(|(k, (_, t))| (k, t)).collect())
-            .unwrap_or_default();
-        if let Some(s) = staged {
-            w.edits.insert(i, s);
-        }
-        fields.insert(1, id.to_string());
         let why = format!("copy of MAT1 {mid0} for the updated elements");
-        w.copy(i, fields, why);
+        w.finish_copy(i, own, id, why);
     }
     Ok(ids)
 }
@@ -573,7 +584,7 @@ fn properties(
             what: "property",
             id: pid0,
         })?;
-        let staged = if is_new { w.edits.remove(&i) } else { None };
+        let own = if is_new { w.begin_copy(i) } else { None };
         if let (Some(p), Some(p0)) = (
             updated.shell_properties.get(&pid),
             original.shell_properties.get(&pid0),
@@ -614,17 +625,8 @@ fn properties(
         if is_new {
             let id = Writer::fresh(&mut w.used_properties, pid);
             ids.insert(pid, id);
-            let mut fields: BTreeMap<usize, String> = w
-                .edits
-                .remove(&i)
-                .map(|e| e.fields.into_iter().map(|(k, (_, t))| (k, t)).collect())
-                .unwrap_or_default();
-            if let Some(s) = staged {
-                w.edits.insert(i, s);
-            }
-            fields.insert(1, id.to_string());
             let why = format!("copy of {} {pid0} for the updated elements", w.card(i).name);
-            w.copy(i, fields, why);
+            w.finish_copy(i, own, id, why);
         }
     }
     Ok(ids)
@@ -887,29 +889,16 @@ fn spring_fields(
     Ok(out)
 }
 
-/// A card in large-field format (`NAME*` and `*` continuation lines, 4 fields of 16 each).
-fn large_card(name: &str, texts: &[String], eol: &str) -> String {
-    let mut texts = texts.to_vec();
-    while texts.last().is_some_and(String::is_empty) {
-        texts.pop();
-    }
+/// A card in large-field format (its texts are at most 16 characters, see [`card_texts`]) with
+/// the file's line ending.
+fn large_card(name: &str, texts: Vec<String>, eol: &str) -> String {
     let mut out = String::new();
-    if texts.is_empty() {
-        out.push_str(&format!("{name}*{eol}"));
+    crate::model::export::nastran::card_texts(&mut out, name, texts);
+    if eol == "\n" {
+        out
+    } else {
+        out.replace('\n', eol)
     }
-    for (i, chunk) in texts.chunks(4).enumerate() {
-        let mut line = if i == 0 {
-            format!("{:<8}", format!("{name}*"))
-        } else {
-            "*       ".to_string()
-        };
-        for t in chunk {
-            line.push_str(&format!("{t:<16}"));
-        }
-        out.push_str(line.trim_end());
-        out.push_str(eol);
-    }
-    out
 }
 
 /// The field texts of card `i` with `changes`, each at most 16 characters.
@@ -1069,7 +1058,7 @@ fn render(w: &Writer, header: &[String]) -> Result<UpdatedDeck, DeckUpdateError>
             }
             if let Some((i, fields)) = replace[f].get(&n) {
                 let texts = card_texts(w, *i, fields)?;
-                out.extend_from_slice(large_card(&w.card(*i).name, &texts, eol).as_bytes());
+                out.extend_from_slice(large_card(&w.card(*i).name, texts, eol).as_bytes());
             } else if !drop[f].contains(&n) {
                 out.extend_from_slice(line);
                 if !line.ends_with(b"\n") && after[f].contains_key(&n) {
@@ -1078,7 +1067,7 @@ fn render(w: &Writer, header: &[String]) -> Result<UpdatedDeck, DeckUpdateError>
             }
             for (source, fields) in after[f].get(&n).into_iter().flatten() {
                 let texts = card_texts(w, *source, fields)?;
-                out.extend_from_slice(large_card(&w.card(*source).name, &texts, eol).as_bytes());
+                out.extend_from_slice(large_card(&w.card(*source).name, texts, eol).as_bytes());
             }
         }
         files.push((names[f].clone(), out));

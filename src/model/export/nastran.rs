@@ -92,11 +92,17 @@ fn text_of(f: &F) -> String {
 }
 
 /// Appends one card: large field when every field fits 16 characters, else free field.
-fn card(out: &mut String, name: &str, mut fields: Vec<F>) {
-    while matches!(fields.last(), Some(F::Blank)) {
-        fields.pop();
-    }
+fn card(out: &mut String, name: &str, fields: Vec<F>) {
     let texts: Vec<String> = fields.iter().map(text_of).collect();
+    card_texts(out, name, texts);
+}
+
+/// Appends one card from its field texts (trailing blanks dropped): large field when every
+/// field fits 16 characters, else free field.
+pub(crate) fn card_texts(out: &mut String, name: &str, mut texts: Vec<String>) {
+    while texts.last().is_some_and(String::is_empty) {
+        texts.pop();
+    }
     if texts.iter().all(|t| t.len() <= 16) {
         for (i, chunk) in texts.chunks(4).enumerate() {
             let mut line = if i == 0 {
