@@ -161,8 +161,76 @@ fn rod_data(model: &Model, section: &crate::model::RodSection) -> super::rod::Ro
     }
 }
 
-/// Element matrices of one element of `model` (references already validated).
+/// Element matrices of one element of `model` (references already validated), over the DOFs of
+/// its nodes' displacement systems.
 pub fn element_matrices(
+    model: &Model,
+    e: &Element,
+    mass: MassKind,
+) -> Result<ElementMatrices, ElementError> {
+    let mut m = basic_element_matrices(model, e, mass)?;
+    to_displacement_systems(model, e, &mut m.k);
+    to_displacement_systems(model, e, &mut m.m);
+    Ok(m)
+}
+
+/// Whether an element's matrix is already over the DOFs it names (a scalar element joins
+/// components of the grids' displacement systems, as Nastran's CELAS do), rather than over
+/// basic components at its nodes.
+fn acts_on_named_dofs(e: &Element) -> bool {
+    matches!(e, Element::ScalarSpring { .. })
+}
+
+/// Turns an element matrix over basic components at its nodes into one over the components of
+/// the nodes' displacement systems: `A ← T A Tᵀ` with `T` block-diagonal, `R` (rows: the local
+/// axes in basic) on the translations and on the rotations of each node that has a system
+/// (`u_local = R u_basic`), the identity elsewhere. Symmetric in, symmetric out (the two
+/// triangles are averaged so that round-off keeps no asymmetry).
+fn to_displacement_systems(model: &Model, e: &Element, a: &mut Mat<f64>) {
+    if model.displacement_systems.is_empty() || acts_on_named_dofs(e) {
+        return;
+    }
+    let systems: Vec<(usize, &[[f64; 3]; 3])> = block_nodes(e)
+        .iter()
+        .enumerate()
+        .filter_map(|(b, n)| model.displacement_systems.get(n).map(|r| (b, r)))
+        .collect();
+    if systems.is_empty() {
+        return;
+    }
+    let n = a.nrows();
+    for &(b, r) in &systems {
+        for start in [6 * b, 6 * b + 3] {
+            if start + 3 > n {
+                continue;
+            }
+            // Rows: A[start..start+3, :] ← R A[start..start+3, :].
+            for j in 0..n {
+                let v = [a[(start, j)], a[(start + 1, j)], a[(start + 2, j)]];
+                for (i, row) in r.iter().enumerate() {
+                    a[(start + i, j)] = row[0] * v[0] + row[1] * v[1] + row[2] * v[2];
+                }
+            }
+            // Columns: A[:, start..start+3] ← A[:, start..start+3] Rᵀ.
+            for i in 0..n {
+                let v = [a[(i, start)], a[(i, start + 1)], a[(i, start + 2)]];
+                for (j, row) in r.iter().enumerate() {
+                    a[(i, start + j)] = row[0] * v[0] + row[1] * v[1] + row[2] * v[2];
+                }
+            }
+        }
+    }
+    for i in 0..n {
+        for j in 0..i {
+            let s = 0.5 * (a[(i, j)] + a[(j, i)]);
+            a[(i, j)] = s;
+            a[(j, i)] = s;
+        }
+    }
+}
+
+/// [`element_matrices`] over basic components at the element's nodes.
+fn basic_element_matrices(
     model: &Model,
     e: &Element,
     mass: MassKind,
@@ -516,7 +584,9 @@ fn indexed_derivative(
                 element: *id,
             }));
         };
-        let d = element_derivative(model, parameter, *id, e, mass)?;
+        let mut d = element_derivative(model, parameter, *id, e, mass)?;
+        to_displacement_systems(model, e, &mut d.dk);
+        to_displacement_systems(model, e, &mut d.dm);
         let nodes = block_nodes(e);
         let map: Vec<Vec<(usize, f64)>> = nodes
             .iter()

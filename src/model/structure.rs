@@ -402,7 +402,7 @@ pub struct Parameter {
     pub upper: f64,
 }
 
-/// A linear multipoint constraint in the basic system (rigid elements, MPC cards):
+/// A linear multipoint constraint over the model's DOFs (rigid elements, MPC cards):
 /// `u_dependent = Σ cᵢ uᵢ` over the `terms` `(uᵢ, cᵢ)` (docs/theory.md §2). A term may itself be
 /// a dependent DOF of another constraint (a chain); the assembly substitutes in dependency order.
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -440,11 +440,45 @@ pub struct Model {
     /// Multipoint constraints (rigid elements, MPC), each eliminating one dependent DOF.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub mpcs: Vec<MultipointConstraint>,
+    /// Displacement systems of the grid points whose DOFs are not along the basic axes
+    /// (Nastran GRID CD): per grid, the rows are the unit vectors (in basic) of its components
+    /// 1–3, which also carry the rotations 4–6. Every DOF of such a grid — constraints,
+    /// springs, multipoint constraints, mode shapes, responses — is a component along these
+    /// axes, `u_local = R u_basic`; the assembly turns element matrices into them
+    /// (`K_local = R K_basic Rᵀ` per 3 × 3 block). Grids not listed are in basic.
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub displacement_systems: BTreeMap<u64, [[f64; 3]; 3]>,
+}
+
+/// Whether the rows of `r` are orthonormal and right-handed, to 1e-9.
+fn is_rotation(r: &[[f64; 3]; 3]) -> bool {
+    let dot = |a: &[f64; 3], b: &[f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    let orthonormal = (0..3).all(|i| {
+        (0..3).all(|j| {
+            let want = if i == j { 1.0 } else { 0.0 };
+            (dot(&r[i], &r[j]) - want).abs() <= 1e-9
+        })
+    });
+    let [a, b, c] = r;
+    let cross = [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ];
+    orthonormal && r.iter().flatten().all(|v| v.is_finite()) && dot(&cross, c) > 0.0
 }
 
 /// Why a model is inconsistent.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum ModelError {
+    /// A displacement system names no node or is not a rotation.
+    #[error("the displacement system of node {node} is invalid: {problem}")]
+    BadDisplacementSystem {
+        /// Node id.
+        node: u64,
+        /// What is wrong.
+        problem: String,
+    },
     /// An element names a node that does not exist.
     #[error("element {element} ({kind}) refers to node {node}, which is not defined")]
     MissingNode {
@@ -555,6 +589,22 @@ impl crate::core::InputFault for ModelError {
 impl Model {
     /// Checks every reference.
     pub fn validate(&self) -> Result<(), ModelError> {
+        for (&node, r) in &self.displacement_systems {
+            if !self.nodes.contains_key(&node) {
+                return Err(ModelError::BadDisplacementSystem {
+                    node,
+                    problem: "the node is not defined".into(),
+                });
+            }
+            if !is_rotation(r) {
+                return Err(ModelError::BadDisplacementSystem {
+                    node,
+                    problem: format!(
+                        "its axes {r:?} are not orthonormal and right-handed (rows must be unit vectors, mutually perpendicular, with row 3 = row 1 × row 2, to 1e-9)"
+                    ),
+                });
+            }
+        }
         for (&id, e) in &self.elements {
             for n in e.nodes() {
                 if !self.nodes.contains_key(&n) {

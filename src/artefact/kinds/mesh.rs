@@ -7,6 +7,7 @@
 //! | `lumped` | `element, type, node, comp, other, other_comp, k_1 … k_6, mass_kg, i11, i21, i22, i31, i32, i33, off_x, off_y, off_z` |
 //! | `constraints` | `dof` |
 //! | `sets` | `set, element` |
+//! | `displacement_systems` (only when some grid has one) | `node, r11, r12, r13, r21, …, r33`: the rows of `R`, the unit vectors (basic) of the grid's components 1–3 (4–6); its DOFs are along them |
 //! | `mpcs` (only when the model has multipoint constraints) | `dependent, independent, coefficient, origin`: one row per term of `u_dependent = Σ coefficient · u_independent` (a constraint without terms: one row with an empty `independent`) |
 //!
 //! Materials, properties and parameters are small and go into `meta` as JSON. Rods (`type`
@@ -26,6 +27,10 @@ const K: ArtefactKind = ArtefactKind::Mesh;
 
 /// Names of the inertia columns of `lumped`.
 const INERTIA: [&str; 6] = ["i11", "i21", "i22", "i31", "i32", "i33"];
+/// Names of the columns of `displacement_systems`: `R` row by row.
+const R_COLUMNS: [&str; 9] = [
+    "r11", "r12", "r13", "r21", "r22", "r23", "r31", "r32", "r33",
+];
 /// Names of the offset columns of `lumped`.
 const OFFSET: [&str; 3] = ["off_x", "off_y", "off_z"];
 /// Names of the stiffness columns of `lumped`.
@@ -70,6 +75,21 @@ impl Kind for MeshKind {
                         col("set", "string", "", "set name"),
                         col("element", "int64", "", "element id"),
                     ],
+                ),
+                table(
+                    "displacement_systems",
+                    s,
+                    false,
+                    std::iter::once(col("node", "int64", "", "grid id"))
+                        .chain(R_COLUMNS.iter().map(|c| {
+                            col(
+                                c,
+                                "float64",
+                                "",
+                                "component of R (row: local axis, column: basic)",
+                            )
+                        }))
+                        .collect(),
                 ),
                 table(
                     "mpcs",
@@ -246,11 +266,52 @@ pub fn mesh_to_artefact(m: &Model) -> Artefact {
     if !rod_sections.is_empty() {
         a = a.with_meta("rod_sections", to_json(&rod_sections));
     }
+    if !m.displacement_systems.is_empty() {
+        a = a.with_table(
+            "displacement_systems",
+            displacement_systems_table(m),
+            Storage::Parquet,
+        );
+    }
     if m.mpcs.is_empty() {
         a
     } else {
         a.with_table("mpcs", mpcs_table(m), Storage::Parquet)
     }
+}
+
+fn displacement_systems_table(m: &Model) -> Table {
+    let s = &m.displacement_systems;
+    let mut t = Table::new().with("node", Column::I64(s.keys().map(|&n| n as i64).collect()));
+    for (k, name) in R_COLUMNS.iter().enumerate() {
+        t = t.with(
+            *name,
+            Column::F64(s.values().map(|r| r[k / 3][k % 3]).collect()),
+        );
+    }
+    t
+}
+
+/// The `displacement_systems` table, when present.
+fn read_displacement_systems(a: &Artefact, m: &mut Model) -> Result<(), ArtefactError> {
+    let n = "displacement_systems";
+    if !a.tables.contains_key(n) {
+        return Ok(());
+    }
+    let t = a.table(n)?;
+    let nodes = t.i64s(n, "node")?;
+    let cols = R_COLUMNS
+        .iter()
+        .map(|c| t.f64s(n, c))
+        .collect::<Result<Vec<_>, _>>()?;
+    for (r, node) in nodes.iter().enumerate() {
+        let mut rot = [[0.0; 3]; 3];
+        for (k, c) in cols.iter().enumerate() {
+            rot[k / 3][k % 3] = c[r];
+        }
+        m.displacement_systems.insert(id(*node, n, r)?, rot);
+    }
+    Ok(())
 }
 
 fn mpcs_table(m: &Model) -> Table {
@@ -549,6 +610,7 @@ pub fn mesh_from_artefact(a: &Artefact) -> Result<Model, ArtefactError> {
     }
     read_lumped(a, &mut m)?;
     read_mpcs(a, &mut m)?;
+    read_displacement_systems(a, &mut m)?;
     let t = a.table("constraints")?;
     for (r, d) in t.strs("constraints", "dof")?.iter().enumerate() {
         m.constraints.push(

@@ -3,7 +3,7 @@
 //!
 //! Cards written, in this order, each group by ascending id: MAT1, PSHELL, PBAR (general
 //! sections) and PBARL (BAR, ROD, TUBE), PROD, PBUSH (one per bush, ids above every property
-//! id), GRID (basic coordinates), CQUAD4, CTRIA3, CBAR (orientation X1–X3), CROD (a rod with a
+//! id), CORD2R (one per distinct displacement system), GRID (basic coordinates, CD), CQUAD4, CTRIA3, CBAR (orientation X1–X3), CROD (a rod with a
 //! property) or CONROD (a rod with its own section), CBUSH (CID 0), CELAS2, CONM2 (CID 0), SPC1
 //! (SID 1, one card per component list), MPC (SID 1, one card per multipoint constraint
 //! `u_d = Σ cᵢ uᵢ` as `1·u_d − Σ cᵢ uᵢ = 0`, preceded by a comment naming the card it came
@@ -141,18 +141,19 @@ pub fn write_bulk(model: &Model) -> String {
     out.push_str("$ Nastran bulk data written by femu\nBEGIN BULK\n");
     write_materials_and_properties(&mut out, model);
     let bush_pid = write_bush_properties(&mut out, model);
+    let systems = write_displacement_systems(&mut out, model);
     for (&id, x) in &model.nodes {
-        card(
-            &mut out,
-            "GRID",
-            vec![
-                F::Int(id),
-                F::Blank,
-                F::Real(x[0]),
-                F::Real(x[1]),
-                F::Real(x[2]),
-            ],
-        );
+        let mut fields = vec![
+            F::Int(id),
+            F::Blank,
+            F::Real(x[0]),
+            F::Real(x[1]),
+            F::Real(x[2]),
+        ];
+        if let Some(cd) = systems.get(&id) {
+            fields.push(F::Int(*cd));
+        }
+        card(&mut out, "GRID", fields);
     }
     for (&id, e) in &model.elements {
         write_element(&mut out, id, e, &bush_pid);
@@ -167,6 +168,40 @@ pub fn write_bulk(model: &Model) -> String {
     }
     out.push_str("ENDDATA\n");
     out
+}
+
+/// One CORD2R per distinct displacement system (ids from 1, in order of first use by grid id:
+/// origin at the basic origin, `B` on its z axis, `C` on its x axis), and the CD of each grid
+/// that has one.
+fn write_displacement_systems(out: &mut String, model: &Model) -> BTreeMap<u64, u64> {
+    let mut ids: BTreeMap<[u64; 9], u64> = BTreeMap::new();
+    let mut cd = BTreeMap::new();
+    for (&node, r) in &model.displacement_systems {
+        let key: [u64; 9] = std::array::from_fn(|k| r[k / 3][k % 3].to_bits());
+        let next = ids.len() as u64 + 1;
+        let id = *ids.entry(key).or_insert_with(|| {
+            card(
+                out,
+                "CORD2R",
+                vec![
+                    F::Int(next),
+                    F::Int(0),
+                    F::Real(0.0),
+                    F::Real(0.0),
+                    F::Real(0.0),
+                    F::Real(r[2][0]),
+                    F::Real(r[2][1]),
+                    F::Real(r[2][2]),
+                    F::Real(r[0][0]),
+                    F::Real(r[0][1]),
+                    F::Real(r[0][2]),
+                ],
+            );
+            next
+        });
+        cd.insert(node, id);
+    }
+    cd
 }
 
 /// MAT1, PSHELL, and PBAR or PBARL cards, each group by ascending id.

@@ -34,7 +34,7 @@ impl Builder {
             model.elements.insert(id, element);
             origins.elements.insert(id, loc);
         }
-        self.resolve_constraints(&mut model, &geo, &mut origins)?;
+        self.resolve_constraints(&mut model, &mut origins)?;
         self.resolve_rigid(&mut model, &geo)?;
         self.resolve_sets(&mut model, &mut origins, set_names)?;
         for (loc, p) in parameters {
@@ -91,8 +91,8 @@ impl Builder {
         })
     }
 
-    /// Grid points in the basic system; PS components (in the grid's CD system) become
-    /// constraints.
+    /// Grid points in the basic system, the displacement systems of those whose CD axes are not
+    /// the basic ones; PS components (in the grid's CD system) become constraints.
     fn place_grids(&mut self, model: &mut Model, geo: &Geometry) -> Result<(), NastranError> {
         let mut ps = Vec::new();
         for (&id, g) in &self.grids {
@@ -109,6 +109,11 @@ impl Builder {
                     format!("coordinate system {cd} is not defined in the deck"),
                     "0 or blank (basic) or the id of a CORD1R/C/S or CORD2R/C/S card",
                 ));
+            }
+            if let (_, Some(dirs)) = self.grid_directions(geo, id) {
+                if dirs != IDENTITY {
+                    model.displacement_systems.insert(id, dirs);
+                }
             }
             for &comp in self.grid_ps(g) {
                 ps.push((g.loc.clone(), None, DofId::new(id, comp)));
@@ -127,10 +132,6 @@ impl Builder {
         e: ElemIn,
     ) -> Result<Element, NastranError> {
         Ok(match e {
-            ElemIn::Done(Element::ScalarSpring { dof, other, k }) => {
-                let (dof, other) = self.spring_in_basic(geo, loc, dof, other)?;
-                Element::ScalarSpring { dof, other, k }
-            }
             ElemIn::Done(e) => e,
             ElemIn::Beam {
                 eid,
@@ -149,7 +150,6 @@ impl Builder {
                         "the id of a PELAS card",
                     ));
                 };
-                let (dof, other) = self.spring_in_basic(geo, loc, dof, other)?;
                 Element::ScalarSpring { dof, other, k }
             }
             ElemIn::Bush { pid, node, other } => {
@@ -204,11 +204,10 @@ impl Builder {
     }
 
     /// SPC1 THRU ranges over the grids that exist, merged with SPC and PS into one sorted list
-    /// of basic DOFs (components given in a grid's CD system mapped to the basic ones).
+    /// of DOFs (components of each grid's displacement system, as Nastran constrains them).
     fn resolve_constraints(
         &mut self,
         model: &mut Model,
-        geo: &Geometry,
         origins: &mut Origins,
     ) -> Result<(), NastranError> {
         let selected = self.selected_spc_sets()?;
@@ -237,25 +236,8 @@ impl Builder {
         }
         let mut constraints = Vec::new();
         for (g, (loc, comps)) in by_grid {
-            let (cd, dirs) = self.grid_directions(geo, g);
-            match dirs {
-                None => constraints.extend(comps.iter().map(|&c| DofId::new(g, c))),
-                Some(d) => {
-                    let basic = constraint_in_basic(&d, &comps).map_err(|local| {
-                        NastranError::Syntax {
-                            file: loc.file.to_string().into(),
-                            line: loc.line,
-                            problem: format!(
-                                "grid {g} is constrained in component {} of its displacement system {cd}, whose direction there is not along a basic axis",
-                                local.nastran()
-                            )
-                            .into(),
-                            valid: "constrain all three translations (or rotations) of such a grid, or give it a CD whose axes are parallel to the basic ones (a skewed single-point constraint is a multipoint constraint, which femu does not read)".into(),
-                        }
-                    })?;
-                    constraints.extend(basic.into_iter().map(|c| DofId::new(g, c)));
-                }
-            }
+            // Components of the grid's displacement system, as the model's DOFs are.
+            constraints.extend(comps.iter().map(|&c| DofId::new(g, c)));
             origins.constraints.insert(g, loc);
         }
         constraints.sort();
@@ -315,51 +297,6 @@ impl Builder {
             }
         };
         Ok(Some(members))
-    }
-
-    /// A scalar spring's DOFs in the basic system: each component given in its grid's CD
-    /// system must lie along a basic axis, with the same sense at both ends.
-    fn spring_in_basic(
-        &self,
-        geo: &Geometry,
-        loc: &Loc,
-        dof: DofId,
-        other: Option<DofId>,
-    ) -> Result<(DofId, Option<DofId>), NastranError> {
-        let map = |d: DofId, k: usize| -> Result<(DofId, f64), NastranError> {
-            let (cd, dirs) = self.grid_directions(geo, d.node);
-            let Some(dirs) = dirs else {
-                return Ok((d, 1.0));
-            };
-            aligned_component(&dirs, d.comp)
-                .map(|(c, sign)| (DofId::new(d.node, c), sign))
-                .ok_or_else(|| {
-                    loc.field_err(
-                        k,
-                        "C",
-                        format!(
-                            "component {} of grid {} in its displacement system {cd} is not along a basic axis",
-                            d.comp.nastran(),
-                            d.node
-                        ),
-                        "a spring on a component parallel to a basic axis (a skewed spring couples several basic DOFs: use a CBUSH or a CD parallel to the basic axes)",
-                    )
-                })
-        };
-        let (a, sa) = map(dof, 4)?;
-        let Some(o) = other else {
-            return Ok((a, None));
-        };
-        let (b, sb) = map(o, 6)?;
-        if sa != sb {
-            return Err(loc.field_err(
-                6,
-                "C2",
-                "the two components point in opposite basic directions",
-                "components of the same sense (a scalar spring with one end reversed is not a spring between basic DOFs)",
-            ));
-        }
-        Ok((a, Some(b)))
     }
 
     /// An orientation vector X1–X3 is given in the displacement system of GA (QRG CBAR/CBEAM).
@@ -463,6 +400,10 @@ impl Builder {
             ModelError::ConstraintNode(node) => (
                 origins.constraints.get(node).cloned(),
                 format!("add GRID {node} or remove it from the SPC/SPC1"),
+            ),
+            ModelError::BadDisplacementSystem { node, .. } => (
+                self.grids.get(node).map(|g| g.loc.clone()),
+                "a CD naming a coordinate system defined by a CORD card".to_string(),
             ),
             ModelError::MpcNode { .. }
             | ModelError::MpcDependentTwice { .. }
@@ -577,45 +518,8 @@ pub(super) fn beam_orientation(
     Ok(orientation)
 }
 
-/// The basic component along which local direction `comp` (rows of `d`: the local unit vectors
-/// of components 1–3, which also carry rotations 4–6) points, with its sense; `None` when it is
-/// not along a basic axis.
-fn aligned_component(d: &[[f64; 3]; 3], comp: Component) -> Option<(Component, f64)> {
-    let n = comp.nastran() as usize;
-    let (row, rotation) = if n <= 3 {
-        (n - 1, false)
-    } else {
-        (n - 4, true)
-    };
-    let j = (0..3).find(|&j| d[row][j].abs() >= 1.0 - 1e-9)?;
-    let basic = Component::ALL[j + if rotation { 3 } else { 0 }];
-    Some((basic, d[row][j].signum()))
-}
-
-/// Constrained components given in a local displacement system, as basic components: all
-/// three translations (or rotations) stay all three; a partial set must lie along basic axes.
-/// On failure, the first local component that does not.
-fn constraint_in_basic(
-    d: &[[f64; 3]; 3],
-    comps: &BTreeSet<Component>,
-) -> Result<Vec<Component>, Component> {
-    let mut out = Vec::new();
-    for group in [&Component::ALL[..3], &Component::ALL[3..]] {
-        let given: Vec<Component> = group
-            .iter()
-            .copied()
-            .filter(|c| comps.contains(c))
-            .collect();
-        if given.len() == 3 {
-            out.extend_from_slice(group);
-            continue;
-        }
-        for c in given {
-            out.push(aligned_component(d, c).ok_or(c)?.0);
-        }
-    }
-    Ok(out)
-}
+/// The basic axes as a displacement system.
+const IDENTITY: [[f64; 3]; 3] = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
 
 /// CONM2 inertia `[I11, I21, I22, I31, I32, I33]` given along local axes `d` (rows, basic), as
 /// the same six numbers along the basic axes: `J_b = Dᵀ J D` with `J = [[I11, −I21, −I31], …]`

@@ -166,6 +166,8 @@ mod tests;
 #[cfg(test)]
 mod tests_beams;
 #[cfg(test)]
+mod tests_cd;
+#[cfg(test)]
 mod tests_replicate;
 #[cfg(test)]
 mod tests_rigid;
