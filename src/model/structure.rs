@@ -216,6 +216,38 @@ impl SolidKind {
         }
     }
 
+    /// The faces of the element as lists of corner positions (0-based, into its nodes), each
+    /// ordered round the face.
+    pub fn corner_faces(self) -> &'static [&'static [usize]] {
+        match self {
+            SolidKind::Hexa8 | SolidKind::Hexa20 => &[
+                &[0, 1, 2, 3],
+                &[4, 5, 6, 7],
+                &[0, 1, 5, 4],
+                &[1, 2, 6, 5],
+                &[2, 3, 7, 6],
+                &[3, 0, 4, 7],
+            ],
+            SolidKind::Penta6 | SolidKind::Penta15 => &[
+                &[0, 1, 2],
+                &[3, 4, 5],
+                &[0, 1, 4, 3],
+                &[1, 2, 5, 4],
+                &[2, 0, 3, 5],
+            ],
+            SolidKind::Tetra4 | SolidKind::Tetra10 => {
+                &[&[0, 1, 2], &[0, 1, 3], &[1, 2, 3], &[2, 0, 3]]
+            }
+            SolidKind::Pyram5 => &[
+                &[0, 1, 2, 3],
+                &[0, 1, 4],
+                &[1, 2, 4],
+                &[2, 3, 4],
+                &[3, 0, 4],
+            ],
+        }
+    }
+
     /// Short type name (`hexa8`, …).
     pub fn name(self) -> &'static str {
         match self {

@@ -236,8 +236,8 @@ pub fn shape(kind: SolidKind, p: [f64; 3]) -> (Vec<f64>, Vec<[f64; 3]>) {
             let mut dn = Vec::with_capacity(5);
             for c in &HEX[..4] {
                 let (a, b, d) = (1.0 + c[0] * x, 1.0 + c[1] * y, 1.0 - z);
-                n.push(a * b * d / 4.0);
-                dn.push([c[0] * b * d / 4.0, a * c[1] * d / 4.0, -a * b / 4.0]);
+                n.push(a * b * d / 8.0);
+                dn.push([c[0] * b * d / 8.0, a * c[1] * d / 8.0, -a * b / 8.0]);
             }
             n.push((1.0 + z) / 2.0);
             dn.push([0.0, 0.0, 0.5]);
