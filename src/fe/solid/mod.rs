@@ -1,6 +1,6 @@
 //! Isoparametric solid elements (Nastran CHEXA, CPENTA, CTETRA, CPYRAM): HEXA8, HEXA20,
 //! PENTA6, PENTA15, TETRA4, TETRA10 and PYRAM5, with three translations per node
-//! (docs/theory.md §3).
+//! (docs/theory.md §1; derivatives §2, (2.13)–(2.16)).
 //!
 //! **Stiffness.** `K = ∫ Bᵀ D B dV` with the strain `ε = [εxx, εyy, εzz, γxy, γyz, γzx] = B u`
 //! (engineering shear, the MAT9 order) and `D` the elasticity matrix in the basic system: the

@@ -1,4 +1,4 @@
-//! Shape functions and integration rules of the isoparametric solids (docs/theory.md §3).
+//! Shape functions and integration rules of the isoparametric solids (docs/theory.md §1).
 //!
 //! Natural coordinates: hexahedra `ξ, η, ζ ∈ [−1, 1]`; tetrahedra the volume coordinates
 //! `(r, s, t)` with `L₁ = 1 − r − s − t`; pentahedra the triangle coordinates `(r, s)` times
@@ -324,7 +324,7 @@ fn prism(tri: Vec<([f64; 2], f64)>, n: usize) -> Vec<Point> {
     out
 }
 
-/// The stiffness rule (full integration, docs/theory.md §3): HEXA8 2×2×2 (with incompatible
+/// The stiffness rule (full integration): HEXA8 2×2×2 (with incompatible
 /// modes), HEXA20 3×3×3, PENTA6 3-point triangle × 2, PENTA15 9-point triangle × 3, TETRA4 the
 /// centroid, TETRA10 the 4-point degree-2 rule, PYRAM5 3×3×3 on the collapsed cube.
 pub fn stiffness_rule(kind: SolidKind) -> Vec<Point> {

@@ -161,7 +161,7 @@ fn quadratic_shapes_and_defaults() {
     // A pyramid on the top face, apex 200.
     d += "CPYRAM,8,3,105,106,107,108,200\n";
     // A 10-node tetrahedron on corners 101, 102, 104, 105 with the matching midsides.
-    d += "CTETRA,9,3,101,102,104,105,109,301,112\n,113,302,303\n";
+    d += "CTETRA,9,3,101,102,104,105,109,301\n,112,113,302,303\n";
     d += "GRID,301,,.5,.5,0.\nGRID,302,,.5,0.,.5\nGRID,303,,0.,.5,.5\n";
     let b = parse(&d);
     let m = &b.model;
@@ -318,7 +318,9 @@ fn solid_errors_name_the_card() {
         e.starts_with("t.bdf line 15: CTETRA field 7 (G4)") && e.contains("appears twice"),
         "{e}"
     );
-    let e = error(&format!("{base}CPYRAM,1,5,1,2,5,4,7,1,2\n,3,4,5,6,7,8\n"));
+    let e = error(&format!(
+        "{base}CPYRAM,1,5,1,2,5,4,7,8\n,9,10,11,12,13,14,15,16\n"
+    ));
     assert!(e.contains("CPYRAM field") && e.contains("13-node"), "{e}");
     let g: Vec<String> = (0..21)
         .map(|k| {
