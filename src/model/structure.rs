@@ -168,14 +168,11 @@ impl AnisotropicMaterial {
     /// The full symmetric 6×6 matrix.
     pub fn matrix(&self) -> [[f64; 6]; 6] {
         let mut d = [[0.0; 6]; 6];
-        let mut k = 0;
-        for i in 0..6 {
-            for j in i..6 {
-                let v = self.g.get(k).copied().unwrap_or(0.0);
-                d[i][j] = v;
-                d[j][i] = v;
-                k += 1;
-            }
+        let upper = (0..6).flat_map(|i| (i..6).map(move |j| (i, j)));
+        for (k, (i, j)) in upper.enumerate() {
+            let v = self.g.get(k).copied().unwrap_or(0.0);
+            d[i][j] = v;
+            d[j][i] = v;
         }
         d
     }

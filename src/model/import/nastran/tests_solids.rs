@@ -226,10 +226,8 @@ fn quadratic_shapes_and_defaults() {
 fn mat9_equals_mat1_and_takes_its_cordm() {
     let d = crate::fe::solid::isotropic(2.1e11, 0.3).unwrap();
     let mut g = Vec::new();
-    for i in 0..6 {
-        for j in i..6 {
-            g.push(crate::model::export::nastran::format_real(d[i][j]));
-        }
+    for (i, j) in (0..6).flat_map(|i| (i..6).map(move |j| (i, j))) {
+        g.push(crate::model::export::nastran::format_real(d[i][j]));
     }
     // The CHEXA's 8 grids need a continuation: fields 3–8 then 9–10.
     let hexa = {
