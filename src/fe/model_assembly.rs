@@ -161,6 +161,30 @@ fn rod_data(model: &Model, section: &crate::model::RodSection) -> super::rod::Ro
     }
 }
 
+/// The kernel material of solid property `property` (references already validated): a MAT1's
+/// isotropic `D`, or a MAT9's `G` turned from the property's material axes to basic.
+pub fn solid_material(
+    model: &Model,
+    property: u64,
+) -> Result<super::solid::SolidMaterial, ElementError> {
+    let p = &model.solid_properties[&property];
+    if let Some(m) = model.materials.get(&p.material) {
+        return Ok(super::solid::SolidMaterial {
+            d: super::solid::isotropic(m.e, m.nu)?,
+            rho: m.rho,
+        });
+    }
+    let m = &model.anisotropic_materials[&p.material];
+    let g = m.matrix();
+    Ok(super::solid::SolidMaterial {
+        d: match &p.axes {
+            Some(axes) => super::solid::rotate_to_basic(&g, axes),
+            None => g,
+        },
+        rho: m.rho,
+    })
+}
+
 /// Element matrices of one element of `model` (references already validated), over the DOFs of
 /// its nodes' displacement systems.
 pub fn element_matrices(
@@ -277,6 +301,14 @@ fn basic_element_matrices(
             &rod_data(model, section),
             mass,
         ),
+        Element::Solid {
+            kind,
+            nodes,
+            property,
+        } => {
+            let xyz: Vec<[f64; 3]> = nodes.iter().map(xyz).collect();
+            super::solid::solid(*kind, &xyz, &solid_material(model, *property)?, mass)
+        }
         Element::Bush { other, k, .. } => spring6(
             k,
             if other.is_some() {
@@ -740,6 +772,22 @@ fn element_derivative(
                 p,
             )
             .map_err(err)?
+        }
+        Element::Solid {
+            kind,
+            nodes,
+            property,
+        } => {
+            use super::solid::SolidParameter;
+            let mid = model.solid_properties[property].material;
+            let p = match (&parameter.kind, model.materials.get(&mid)) {
+                (P::YoungsModulus, Some(m)) => SolidParameter::YoungsModulus { e: m.e },
+                (P::Density, _) => SolidParameter::Density,
+                _ => return Err(not_applicable()),
+            };
+            let xyz: Vec<[f64; 3]> = nodes.iter().map(xyz).collect();
+            let mat = solid_material(model, *property).map_err(err)?;
+            super::solid::solid_derivative(*kind, &xyz, &mat, mass, p).map_err(err)?
         }
         Element::Bush { other, k, .. } => {
             let P::SpringStiffness(c) = parameter.kind else {

@@ -98,6 +98,8 @@ enum Slot {
     BeamMaterial(u64, Field),
     /// A rod's material, by element id (through its property or its own CONROD section).
     RodMaterial(u64, Field),
+    /// A solid's material, by solid property id (MAT1 `E`, `ρ`; MAT9 `ρ`).
+    SolidMaterial(u64, Field),
     BeamDim(u64, Dim),
     Bush(u64, usize),
     Scalar(u64),
@@ -171,6 +173,17 @@ impl Model {
                     Slot::RodMaterial(id, Field::E)
                 }
                 (Element::Rod { .. }, ParameterKind::Density) => Slot::RodMaterial(id, Field::Rho),
+                (Element::Solid { property, .. }, ParameterKind::YoungsModulus) => {
+                    // Only an isotropic (MAT1) material has one modulus.
+                    let sp = self.solid_properties.get(property).ok_or_else(broken)?;
+                    if !self.materials.contains_key(&sp.material) {
+                        return Err(not_applicable());
+                    }
+                    Slot::SolidMaterial(*property, Field::E)
+                }
+                (Element::Solid { property, .. }, ParameterKind::Density) => {
+                    Slot::SolidMaterial(*property, Field::Rho)
+                }
                 (Element::Bush { .. }, ParameterKind::SpringStiffness(c)) => {
                     Slot::Bush(id, c.nastran() as usize - 1)
                 }
@@ -209,6 +222,14 @@ impl Model {
             Slot::ShellMaterial(pid, f) => material(self.shell_properties.get(&pid)?.material, f),
             Slot::BeamMaterial(pid, f) => material(self.beam_properties.get(&pid)?.material, f),
             Slot::RodMaterial(id, f) => material(self.rod_material(id)?, f),
+            Slot::SolidMaterial(pid, f) => {
+                let mid = self.solid_properties.get(&pid)?.material;
+                match (self.anisotropic_materials.get(&mid), f) {
+                    (Some(m), Field::Rho) => Some(m.rho),
+                    (Some(_), Field::E) => None,
+                    (None, f) => material(mid, f),
+                }
+            }
             Slot::BeamDim(pid, d) => match self.beam_properties.get(&pid)?.section {
                 BeamSection::Rectangle { width, height } => Some(match d {
                     Dim::Width => width,
@@ -294,6 +315,9 @@ impl Model {
         if matches!(slots[0].1, Slot::RodMaterial(..)) {
             self.own_rod_materials(&in_set);
         }
+        if matches!(slots[0].1, Slot::SolidMaterial(..)) {
+            self.own_solid_materials(&in_set);
+        }
         // Slots again: the property ids may have changed.
         for (id, slot) in self.slots(p)? {
             let broken = || ParameterValueError::Broken {
@@ -326,6 +350,18 @@ impl Model {
                     match f {
                         Field::E => m.e = value,
                         Field::Rho => m.rho = value,
+                    }
+                }
+                Slot::SolidMaterial(pid, f) => {
+                    let mid = self.solid_properties.get(&pid).ok_or_else(broken)?.material;
+                    if let Some(m) = self.anisotropic_materials.get_mut(&mid) {
+                        m.rho = value;
+                    } else {
+                        let m = self.materials.get_mut(&mid).ok_or_else(broken)?;
+                        match f {
+                            Field::E => m.e = value,
+                            Field::Rho => m.rho = value,
+                        }
                     }
                 }
                 Slot::BeamDim(pid, d) => {
@@ -377,6 +413,7 @@ impl Model {
             .keys()
             .chain(self.beam_properties.keys())
             .chain(self.rod_properties.keys())
+            .chain(self.solid_properties.keys())
             .max()
             .copied()
             .unwrap_or(0)
@@ -456,6 +493,7 @@ impl Model {
             .keys()
             .chain(self.beam_properties.keys())
             .chain(self.rod_properties.keys())
+            .chain(self.solid_properties.keys())
             .max()
             .copied()
             .unwrap_or(0)
@@ -487,6 +525,7 @@ impl Model {
             outside.extend([p.material, p.bending_mid(), p.shear_mid()]);
         }
         outside.extend(self.beam_properties.values().map(|p| p.material));
+        outside.extend(self.solid_properties.values().map(|p| p.material));
         let own_pids: BTreeSet<u64> = in_set
             .iter()
             .filter_map(|id| match self.elements.get(id) {
@@ -502,7 +541,14 @@ impl Model {
                 outside.insert(p.material);
             }
         }
-        let mut next = self.materials.keys().max().copied().unwrap_or(0) + 1;
+        let mut next = self
+            .materials
+            .keys()
+            .chain(self.anisotropic_materials.keys())
+            .max()
+            .copied()
+            .unwrap_or(0)
+            + 1;
         let mut copies: BTreeMap<u64, u64> = BTreeMap::new();
         let mut copy = |materials: &mut BTreeMap<u64, crate::model::Material>, mid: &mut u64| {
             if !outside.contains(mid) {
@@ -533,6 +579,86 @@ impl Model {
         }
     }
 
+    /// Gives the solids of `in_set` solid properties and materials (MAT1 or MAT9) that nothing
+    /// outside the set uses: a shared solid property is copied under a new id, then every
+    /// material the set's properties share with any other property or element is copied.
+    fn own_solid_materials(&mut self, in_set: &std::collections::BTreeSet<u64>) {
+        use std::collections::{BTreeMap, BTreeSet};
+        let mut pid_outside = BTreeSet::new();
+        for (id, e) in &self.elements {
+            if let (false, Some(pid)) = (in_set.contains(id), e.property()) {
+                pid_outside.insert(pid);
+            }
+        }
+        let mut next_pid = self
+            .shell_properties
+            .keys()
+            .chain(self.beam_properties.keys())
+            .chain(self.rod_properties.keys())
+            .chain(self.solid_properties.keys())
+            .max()
+            .copied()
+            .unwrap_or(0)
+            + 1;
+        let mut renamed: BTreeMap<u64, u64> = BTreeMap::new();
+        let mut own_pids = BTreeSet::new();
+        for id in in_set {
+            let Some(Element::Solid { property, .. }) = self.elements.get_mut(id) else {
+                continue;
+            };
+            if pid_outside.contains(property) {
+                let new = *renamed.entry(*property).or_insert_with(|| {
+                    next_pid += 1;
+                    next_pid - 1
+                });
+                if let Some(p) = self.solid_properties.get(property).cloned() {
+                    self.solid_properties.insert(new, p);
+                }
+                *property = new;
+            }
+            own_pids.insert(*property);
+        }
+        let mut outside = self.rod_materials_outside(&BTreeSet::new());
+        for p in self.shell_properties.values() {
+            outside.extend([p.material, p.bending_mid(), p.shear_mid()]);
+        }
+        outside.extend(self.beam_properties.values().map(|p| p.material));
+        for (pid, p) in &self.solid_properties {
+            if !own_pids.contains(pid) {
+                outside.insert(p.material);
+            }
+        }
+        let mut next = self
+            .materials
+            .keys()
+            .chain(self.anisotropic_materials.keys())
+            .max()
+            .copied()
+            .unwrap_or(0)
+            + 1;
+        let mut copies: BTreeMap<u64, u64> = BTreeMap::new();
+        for pid in &own_pids {
+            let Some(p) = self.solid_properties.get_mut(pid) else {
+                continue;
+            };
+            if !outside.contains(&p.material) {
+                continue;
+            }
+            let old = p.material;
+            let new = *copies.entry(old).or_insert_with(|| {
+                next += 1;
+                next - 1
+            });
+            if let Some(m) = self.materials.get(&old).cloned() {
+                self.materials.insert(new, m);
+            }
+            if let Some(m) = self.anisotropic_materials.get(&old).cloned() {
+                self.anisotropic_materials.insert(new, m);
+            }
+            p.material = new;
+        }
+    }
+
     /// Gives the (now owned) properties of `in_set` material ids no other property uses.
     fn own_materials(&mut self, in_set: &std::collections::BTreeSet<u64>, shell: bool) {
         let own: std::collections::BTreeSet<u64> = in_set
@@ -540,6 +666,7 @@ impl Model {
             .filter_map(|id| self.elements.get(id)?.property())
             .collect();
         let mut outside = self.rod_materials_outside(&std::collections::BTreeSet::new());
+        outside.extend(self.solid_properties.values().map(|p| p.material));
         for (pid, p) in &self.shell_properties {
             if !(shell && own.contains(pid)) {
                 outside.insert(p.material);
@@ -556,7 +683,14 @@ impl Model {
                 outside.insert(p.material);
             }
         }
-        let mut next = self.materials.keys().max().copied().unwrap_or(0) + 1;
+        let mut next = self
+            .materials
+            .keys()
+            .chain(self.anisotropic_materials.keys())
+            .max()
+            .copied()
+            .unwrap_or(0)
+            + 1;
         let mut renamed = std::collections::BTreeMap::new();
         for pid in own {
             let material = if shell {

@@ -153,6 +153,124 @@ pub enum RodSection {
     Own(RodProperty),
 }
 
+/// A general anisotropic material for solids (Nastran MAT9): the 6×6 symmetric elasticity
+/// matrix in the material system, Voigt order `[xx, yy, zz, xy, yz, zx]` with engineering shear
+/// strains, given by its upper triangle row by row (`G11 G12 … G16 G22 … G66`, 21 values).
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct AnisotropicMaterial {
+    /// `G_ij` (i ≤ j), row by row, Pa.
+    pub g: Vec<f64>,
+    /// Density, kg/m³.
+    pub rho: f64,
+}
+
+impl AnisotropicMaterial {
+    /// The full symmetric 6×6 matrix.
+    pub fn matrix(&self) -> [[f64; 6]; 6] {
+        let mut d = [[0.0; 6]; 6];
+        let upper = (0..6).flat_map(|i| (i..6).map(move |j| (i, j)));
+        for (k, (i, j)) in upper.enumerate() {
+            let v = self.g.get(k).copied().unwrap_or(0.0);
+            d[i][j] = v;
+            d[j][i] = v;
+        }
+        d
+    }
+}
+
+/// The isoparametric solid element shapes (Nastran CHEXA, CPENTA, CTETRA, CPYRAM), by node
+/// count; nodes in the QRG's order, corners first, then midside nodes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SolidKind {
+    /// 8-node hexahedron.
+    Hexa8,
+    /// 20-node serendipity hexahedron.
+    Hexa20,
+    /// 6-node pentahedron (wedge).
+    Penta6,
+    /// 15-node pentahedron.
+    Penta15,
+    /// 4-node tetrahedron.
+    Tetra4,
+    /// 10-node tetrahedron.
+    Tetra10,
+    /// 5-node pyramid.
+    Pyram5,
+}
+
+impl SolidKind {
+    /// Number of nodes.
+    pub fn n_nodes(self) -> usize {
+        match self {
+            SolidKind::Hexa8 => 8,
+            SolidKind::Hexa20 => 20,
+            SolidKind::Penta6 => 6,
+            SolidKind::Penta15 => 15,
+            SolidKind::Tetra4 => 4,
+            SolidKind::Tetra10 => 10,
+            SolidKind::Pyram5 => 5,
+        }
+    }
+
+    /// The faces of the element as lists of corner positions (0-based, into its nodes), each
+    /// ordered round the face.
+    pub fn corner_faces(self) -> &'static [&'static [usize]] {
+        match self {
+            SolidKind::Hexa8 | SolidKind::Hexa20 => &[
+                &[0, 1, 2, 3],
+                &[4, 5, 6, 7],
+                &[0, 1, 5, 4],
+                &[1, 2, 6, 5],
+                &[2, 3, 7, 6],
+                &[3, 0, 4, 7],
+            ],
+            SolidKind::Penta6 | SolidKind::Penta15 => &[
+                &[0, 1, 2],
+                &[3, 4, 5],
+                &[0, 1, 4, 3],
+                &[1, 2, 5, 4],
+                &[2, 0, 3, 5],
+            ],
+            SolidKind::Tetra4 | SolidKind::Tetra10 => {
+                &[&[0, 1, 2], &[0, 1, 3], &[1, 2, 3], &[2, 0, 3]]
+            }
+            SolidKind::Pyram5 => &[
+                &[0, 1, 2, 3],
+                &[0, 1, 4],
+                &[1, 2, 4],
+                &[2, 3, 4],
+                &[3, 0, 4],
+            ],
+        }
+    }
+
+    /// Short type name (`hexa8`, …).
+    pub fn name(self) -> &'static str {
+        match self {
+            SolidKind::Hexa8 => "hexa8",
+            SolidKind::Hexa20 => "hexa20",
+            SolidKind::Penta6 => "penta6",
+            SolidKind::Penta15 => "penta15",
+            SolidKind::Tetra4 => "tetra4",
+            SolidKind::Tetra10 => "tetra10",
+            SolidKind::Pyram5 => "pyram5",
+        }
+    }
+}
+
+/// A solid property (Nastran PSOLID): the material (a MAT1 of `materials` or a MAT9 of
+/// `anisotropic_materials`) and, for an anisotropic one, its material axes.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct SolidProperty {
+    /// Material id.
+    pub material: u64,
+    /// Material axes in the basic system (rows: the material x, y, z directions), for a MAT9
+    /// given in a rectangular CORDM; `None`: the basic axes.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub axes: Option<[[f64; 3]; 3]>,
+}
+
 /// A beam cross-section.
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(tag = "shape", rename_all = "snake_case")]
@@ -291,6 +409,15 @@ pub enum Element {
         /// Its section: a rod property id, or its own (CONROD).
         section: RodSection,
     },
+    /// Isoparametric solid (CHEXA, CPENTA, CTETRA, CPYRAM): three translations per node.
+    Solid {
+        /// Its shape.
+        kind: SolidKind,
+        /// Nodes in the QRG's order.
+        nodes: Vec<u64>,
+        /// Solid property id.
+        property: u64,
+    },
     /// Six-DOF lumped spring (CBUSH; or a spring to ground when `nodes[1]` is `None`),
     /// stiffness per basic direction.
     Bush {
@@ -331,6 +458,7 @@ impl Element {
             Element::Tria3 { nodes, .. } => nodes.to_vec(),
             Element::Beam { nodes, .. } => nodes.to_vec(),
             Element::Rod { nodes, .. } => nodes.to_vec(),
+            Element::Solid { nodes, .. } => nodes.clone(),
             Element::Bush { node, other, .. } => std::iter::once(*node).chain(*other).collect(),
             Element::ScalarSpring { dof, other, .. } => std::iter::once(dof.node)
                 .chain(other.map(|d| d.node))
@@ -344,7 +472,8 @@ impl Element {
         match self {
             Element::Quad4 { property, .. }
             | Element::Tria3 { property, .. }
-            | Element::Beam { property, .. } => Some(*property),
+            | Element::Beam { property, .. }
+            | Element::Solid { property, .. } => Some(*property),
             Element::Rod {
                 section: RodSection::Property(p),
                 ..
@@ -360,6 +489,7 @@ impl Element {
             Element::Tria3 { .. } => "tria3",
             Element::Beam { .. } => "beam",
             Element::Rod { .. } => "rod",
+            Element::Solid { kind, .. } => kind.name(),
             Element::Bush { .. } => "bush",
             Element::ScalarSpring { .. } => "scalar_spring",
             Element::Mass { .. } => "mass",
@@ -429,6 +559,12 @@ pub struct Model {
     /// Rod properties by id (PROD, PTUBE).
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
     pub rod_properties: BTreeMap<u64, RodProperty>,
+    /// Solid properties by id (PSOLID).
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub solid_properties: BTreeMap<u64, SolidProperty>,
+    /// Anisotropic solid materials by id (MAT9); ids share one space with `materials`.
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub anisotropic_materials: BTreeMap<u64, AnisotropicMaterial>,
     /// Elements by id.
     pub elements: BTreeMap<u64, Element>,
     /// Constrained (zero) DOFs.
@@ -626,6 +762,9 @@ impl Model {
                     section: RodSection::Property(p),
                     ..
                 } => (self.rod_properties.contains_key(p), "rod"),
+                Element::Solid { property, .. } => {
+                    (self.solid_properties.contains_key(property), "solid")
+                }
                 _ => (true, ""),
             };
             if !ok {
@@ -645,6 +784,16 @@ impl Model {
                         material,
                     });
                 }
+            }
+        }
+        for (&id, p) in &self.solid_properties {
+            if !self.materials.contains_key(&p.material)
+                && !self.anisotropic_materials.contains_key(&p.material)
+            {
+                return Err(ModelError::MissingMaterial {
+                    property: id,
+                    material: p.material,
+                });
             }
         }
         for (&id, p) in &self.rod_properties {

@@ -15,7 +15,9 @@
 //! section (a CONROD), which is then in `meta.rod_sections` under the element id; both rod
 //! metadata keys are written only when the model has rods, so meshes without them keep their
 //! bytes. The offsets and pin flags of the beams that have them are in `beam_ends` (element
-//! id → ends; absent when no beam has any).
+//! id → ends; absent when no beam has any). Solid elements (up to 20 nodes) are in
+//! `solid_elements` (element id → `{type: solid, kind, nodes, property}`), with
+//! `solid_properties` and the MAT9 `anisotropic_materials`; all three are absent without solids.
 
 use super::{ColumnLayout, Kind, Layout, col, meta, meta_opt, meta_value, table};
 use crate::artefact::{Artefact, ArtefactError, ArtefactKind, Column, Storage, Table};
@@ -131,6 +133,18 @@ impl Kind for MeshKind {
                     "rigid-body mass, centre of gravity and inertia (PARAM,GRDPNT)",
                 ),
                 meta_opt(
+                    "solid_elements",
+                    "solid elements by id: kind, nodes (QRG order), property (only with solids)",
+                ),
+                meta_opt(
+                    "solid_properties",
+                    "solid properties by id (only with solids)",
+                ),
+                meta_opt(
+                    "anisotropic_materials",
+                    "MAT9 anisotropic materials by id (only when the model has them)",
+                ),
+                meta_opt(
                     "beam_ends",
                     "offsets (basic, m) and pin flags of the beams that have them, by element id",
                 ),
@@ -212,8 +226,12 @@ pub fn mesh_to_artefact(m: &Model) -> Artefact {
     let mut lumped = LumpedColumns::default();
     let mut rod_sections = std::collections::BTreeMap::new();
     let mut beam_ends = std::collections::BTreeMap::new();
+    let mut solids = std::collections::BTreeMap::new();
     for (&id, e) in &m.elements {
         match e {
+            Element::Solid { .. } => {
+                solids.insert(id, e.clone());
+            }
             Element::Quad4 { nodes, property } => elements.push(id, e, nodes, *property, None),
             Element::Tria3 { nodes, property } => elements.push(id, e, nodes, *property, None),
             Element::Beam {
@@ -272,6 +290,15 @@ pub fn mesh_to_artefact(m: &Model) -> Artefact {
             displacement_systems_table(m),
             Storage::Parquet,
         );
+    }
+    if !solids.is_empty() {
+        a = a.with_meta("solid_elements", to_json(&solids));
+    }
+    if !m.solid_properties.is_empty() {
+        a = a.with_meta("solid_properties", to_json(&m.solid_properties));
+    }
+    if !m.anisotropic_materials.is_empty() {
+        a = a.with_meta("anisotropic_materials", to_json(&m.anisotropic_materials));
     }
     if m.mpcs.is_empty() {
         a
@@ -505,7 +532,8 @@ impl LumpedRow {
             Element::Quad4 { .. }
             | Element::Tria3 { .. }
             | Element::Beam { .. }
-            | Element::Rod { .. } => return None,
+            | Element::Rod { .. }
+            | Element::Solid { .. } => return None,
         })
     }
 }
@@ -593,6 +621,8 @@ pub fn mesh_from_artefact(a: &Artefact) -> Result<Model, ArtefactError> {
         beam_properties: meta_value(a, "beam_properties")?,
         parameters: meta_value(a, "parameters")?,
         rod_properties: optional_meta(a, "rod_properties")?,
+        solid_properties: optional_meta(a, "solid_properties")?,
+        anisotropic_materials: optional_meta(a, "anisotropic_materials")?,
         ..Default::default()
     };
     read_nodes(a, &mut m)?;
@@ -607,6 +637,15 @@ pub fn mesh_from_artefact(a: &Artefact) -> Result<Model, ArtefactError> {
                 )));
             }
         }
+    }
+    let solids: BTreeMap<u64, Element> = optional_meta(a, "solid_elements")?;
+    for (eid, e) in solids {
+        if !matches!(e, Element::Solid { .. }) || m.elements.contains_key(&eid) {
+            return Err(bad(format!(
+                "solid_elements names element {eid}, which is not a solid or is also in the elements table"
+            )));
+        }
+        m.elements.insert(eid, e);
     }
     read_lumped(a, &mut m)?;
     read_mpcs(a, &mut m)?;

@@ -2,8 +2,8 @@
 //! changed are rewritten, every other line of every file keeps its bytes.
 //!
 //! What changes, by the parameter kinds of docs/theory.md §2:
-//! - shell thickness → PSHELL `T`; Young's modulus and density (of shells, beams, rods) → MAT1
-//!   `E` and `RHO` (with `G`
+//! - shell thickness → PSHELL `T`; Young's modulus and density (of shells, beams, rods, solids)
+//!   → MAT1 `E` and `RHO`, density of a solid's MAT9 → MAT9 `RHO` (with `G`
 //!   kept consistent, `E = 2(1 + ν)G`, when the card gives it; `RHO` divided by `PARAM,WTMASS`);
 //!   beam width and height → PBARL/PBEAML `BAR` `DIM1`/`DIM2`;
 //! - bush stiffness → PBUSH `K1`–`K6`, scalar spring stiffness → CELAS2 `K` or PELAS `K1`/`K2`;
@@ -424,7 +424,8 @@ pub fn update_deck(
 ) -> Result<UpdatedDeck, DeckUpdateError> {
     same_structure(original, updated)?;
     let mut w = Writer::new(deck);
-    let new_material_ids = materials(&mut w, original, updated)?;
+    let mut new_material_ids = materials(&mut w, original, updated)?;
+    new_material_ids.extend(anisotropic_materials(&mut w, original, updated)?);
     let new_property_ids = properties(&mut w, original, updated, &new_material_ids)?;
     elements(
         &mut w,
@@ -526,6 +527,62 @@ fn materials(
     Ok(ids)
 }
 
+/// MAT9 changes (density only); returns the deck id given to each MAT9 id new in `updated`.
+fn anisotropic_materials(
+    w: &mut Writer,
+    original: &Model,
+    updated: &Model,
+) -> Result<BTreeMap<u64, u64>, DeckUpdateError> {
+    let mut source_of: BTreeMap<u64, u64> = BTreeMap::new();
+    for (eid, e) in &updated.elements {
+        let Some(e0) = original.elements.get(eid) else {
+            continue;
+        };
+        if let (Some(mid), Some(mid0)) =
+            (element_material(updated, e), element_material(original, e0))
+        {
+            if !original.anisotropic_materials.contains_key(&mid) {
+                source_of.insert(mid, mid0);
+            }
+        }
+    }
+    let mut ids = BTreeMap::new();
+    for (mid, m) in &updated.anisotropic_materials {
+        let (mid0, is_new) = match original.anisotropic_materials.get(mid) {
+            Some(_) => (*mid, false),
+            None => match source_of.get(mid) {
+                Some(m0) => (*m0, true),
+                None => continue,
+            },
+        };
+        let m0 = &original.anisotropic_materials[&mid0];
+        if !is_new && m0 == m {
+            continue;
+        }
+        let i = *w.materials.get(&mid0).ok_or(DeckUpdateError::Missing {
+            what: "material",
+            id: mid0,
+        })?;
+        if m.g != m0.g {
+            return Err(w.unsupported(i, "MAT9 stiffness values cannot be written back"));
+        }
+        let own = if is_new { w.begin_copy(i) } else { None };
+        let scale = w.wtmass;
+        w.set_real(i, 23, "RHO", m0.rho, m.rho, scale, 0.0)?;
+        if is_new {
+            let id = Writer::fresh(&mut w.used_materials, *mid);
+            ids.insert(*mid, id);
+            w.finish_copy(
+                i,
+                own,
+                id,
+                format!("copy of MAT9 {mid0} for the updated elements"),
+            );
+        }
+    }
+    Ok(ids)
+}
+
 /// The material an element's stiffness comes from (shell, beam and rod properties, CONROD).
 fn element_material(m: &Model, e: &Element) -> Option<u64> {
     if let Element::Rod {
@@ -541,6 +598,7 @@ fn element_material(m: &Model, e: &Element) -> Option<u64> {
         .map(|p| p.material)
         .or_else(|| m.beam_properties.get(&pid).map(|p| p.material))
         .or_else(|| m.rod_properties.get(&pid).map(|p| p.material))
+        .or_else(|| m.solid_properties.get(&pid).map(|p| p.material))
 }
 
 /// Property changes; returns the deck id given to each property id new in `updated`.
@@ -568,13 +626,15 @@ fn properties(
         .keys()
         .chain(updated.beam_properties.keys())
         .chain(updated.rod_properties.keys())
+        .chain(updated.solid_properties.keys())
         .copied()
         .collect();
     for pid in pids {
         let (pid0, is_new) = match source_of.get(&pid) {
             Some(p0)
                 if !original.shell_properties.contains_key(&pid)
-                    && !original.beam_properties.contains_key(&pid) =>
+                    && !original.beam_properties.contains_key(&pid)
+                    && !original.solid_properties.contains_key(&pid) =>
             {
                 (*p0, true)
             }
@@ -620,6 +680,16 @@ fn properties(
             }
             if (p.area, p.j, p.nsm) != (p0.area, p0.j, p0.nsm) {
                 return Err(w.unsupported(i, "rod sections cannot be written back"));
+            }
+        } else if let (Some(p), Some(p0)) = (
+            updated.solid_properties.get(&pid),
+            original.solid_properties.get(&pid0),
+        ) {
+            if p.material != p0.material {
+                w.set(i, 2, "MID", mid_text(p.material));
+            }
+            if p.axes != p0.axes {
+                return Err(w.unsupported(i, "solid material axes cannot be written back"));
             }
         }
         if is_new {

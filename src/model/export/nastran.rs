@@ -1,9 +1,10 @@
 //! Nastran bulk data export: writes a [`Model`] as a deck that
 //! [`crate::model::import::nastran::parse_bulk`] reads back to the same model.
 //!
-//! Cards written, in this order, each group by ascending id: MAT1, PSHELL, PBAR (general
-//! sections) and PBARL (BAR, ROD, TUBE), PROD, PBUSH (one per bush, ids above every property
-//! id), CORD2R (one per distinct displacement system), GRID (basic coordinates, CD), CQUAD4, CTRIA3, CBAR (orientation X1–X3), CROD (a rod with a
+//! Cards written, in this order, each group by ascending id: MAT1, MAT9, PSHELL, PBAR (general
+//! sections) and PBARL (BAR, ROD, TUBE), PROD, PSOLID (each with material axes preceded by a
+//! CORD2R of a fresh id holding them, named in CORDM), PBUSH (one per bush, ids above every property
+//! id), CORD2R (one per distinct displacement system), GRID (basic coordinates, CD), CQUAD4, CTRIA3, CHEXA, CPENTA, CTETRA, CPYRAM, CBAR (orientation X1–X3), CROD (a rod with a
 //! property) or CONROD (a rod with its own section), CBUSH (CID 0), CELAS2, CONM2 (CID 0), SPC1
 //! (SID 1, one card per component list), MPC (SID 1, one card per multipoint constraint
 //! `u_d = Σ cᵢ uᵢ` as `1·u_d − Σ cᵢ uᵢ = 0`, preceded by a comment naming the card it came
@@ -219,6 +220,12 @@ fn write_materials_and_properties(out: &mut String, model: &Model) {
             ],
         );
     }
+    for (&id, m) in &model.anisotropic_materials {
+        let mut f = vec![F::Int(id)];
+        f.extend(m.g.iter().map(|v| F::Real(*v)));
+        f.push(F::Real(m.rho));
+        card(out, "MAT9", f);
+    }
     for (&id, p) in &model.shell_properties {
         let mid = |on: bool, m: u64| if on { F::Int(m) } else { F::Blank };
         let ratio = |v: f64, default: f64| {
@@ -255,6 +262,22 @@ fn write_materials_and_properties(out: &mut String, model: &Model) {
                 F::Real(p.nsm),
             ],
         );
+    }
+    let mut cid = 0;
+    for (&id, p) in &model.solid_properties {
+        let cordm = match &p.axes {
+            Some(axes) => {
+                // CORD2R: origin A = 0, B on the z axis, C in the x-z plane (on x).
+                cid += 1;
+                let mut f = vec![F::Int(cid), F::Int(0), F::Real(0.0), F::Real(0.0)];
+                f.push(F::Real(0.0));
+                f.extend(axes[2].iter().chain(&axes[0]).map(|v| F::Real(*v)));
+                card(out, "CORD2R", f);
+                F::Int(cid)
+            }
+            None => F::Blank,
+        };
+        card(out, "PSOLID", vec![F::Int(id), F::Int(p.material), cordm]);
     }
 }
 
@@ -328,6 +351,7 @@ fn write_bush_properties(out: &mut String, model: &Model) -> BTreeMap<u64, u64> 
         .keys()
         .chain(model.beam_properties.keys())
         .chain(model.rod_properties.keys())
+        .chain(model.solid_properties.keys())
         .max()
         .copied()
         .unwrap_or(0);
@@ -410,6 +434,22 @@ fn write_element(out: &mut String, id: u64, e: &Element, bush_pid: &BTreeMap<u64
                 ],
             ),
         },
+        Element::Solid {
+            kind,
+            nodes,
+            property,
+        } => {
+            use crate::model::SolidKind as S;
+            let name = match kind {
+                S::Hexa8 | S::Hexa20 => "CHEXA",
+                S::Penta6 | S::Penta15 => "CPENTA",
+                S::Tetra4 | S::Tetra10 => "CTETRA",
+                S::Pyram5 => "CPYRAM",
+            };
+            let mut f = vec![F::Int(id), F::Int(*property)];
+            f.extend(nodes.iter().map(|n| F::Int(*n)));
+            card(out, name, f);
+        }
         Element::Bush { node, other, .. } => {
             let pid = bush_pid.get(&id).copied().unwrap_or(0);
             card(

@@ -94,6 +94,9 @@ pub(super) struct Builder {
     /// PROD and PTUBE properties; the ids of the PTUBEs.
     pub(super) rods: BTreeMap<u64, crate::model::structure::RodProperty>,
     pub(super) tube_pids: BTreeSet<u64>,
+    /// PSOLID cards and MAT9 materials (solids.rs).
+    pub(super) solids: BTreeMap<u64, super::solids::SolidIn>,
+    pub(super) mat9s: BTreeMap<u64, (Loc, crate::model::structure::AnisotropicMaterial)>,
     /// Whether the PSHELL MID3-blank deviation has been stated (once per deck).
     pub(super) mid3_blank_warned: bool,
     /// PBARL/PBEAML turned to principal axes: property id → angle (rad) of the elements' turn.
@@ -165,6 +168,9 @@ impl Builder {
             "PROD" => self.prod(c),
             "PTUBE" => self.ptube(c),
             "PBEAML" => self.pbeaml(c),
+            "CHEXA" | "CPENTA" | "CTETRA" | "CPYRAM" => self.solid_element(c),
+            "PSOLID" => self.psolid(c),
+            "MAT9" => self.mat9(c),
             "MAT1" => self.mat1(c),
             "CELAS1" | "CELAS2" => self.celas(c),
             "PELAS" => self.pelas_card(c),

@@ -29,6 +29,8 @@ impl Builder {
         model.beam_properties = std::mem::take(&mut self.beams);
         self.check_rod_properties()?;
         model.rod_properties = std::mem::take(&mut self.rods);
+        model.solid_properties = self.resolve_solid_properties(&geo)?;
+        model.anisotropic_materials = self.mat9s.iter().map(|(k, v)| (*k, v.1.clone())).collect();
         for (id, (loc, e)) in std::mem::take(&mut self.elements) {
             let element = self.resolve_element(&model, &geo, &loc, e)?;
             model.elements.insert(id, element);
@@ -462,10 +464,15 @@ impl Builder {
             .get(&p)
             .map(|s| s.material)
             .or_else(|| model.beam_properties.get(&p).map(|b| b.material))
-            .or_else(|| model.rod_properties.get(&p).map(|r| r.material));
+            .or_else(|| model.rod_properties.get(&p).map(|r| r.material))
+            .or_else(|| model.solid_properties.get(&p).map(|r| r.material));
         let at = |l: Option<&Loc>| l.map_or(String::new(), |l| format!(" at {}", l.place()));
         let mat = mid.map_or(String::new(), |m| {
-            format!(", material {m}{}", at(self.materials.get(&m).map(|x| &x.0)))
+            let loc = self.materials.get(&m).map(|x| &x.0);
+            format!(
+                ", material {m}{}",
+                at(loc.or(self.mat9s.get(&m).map(|x| &x.0)))
+            )
         });
         format!(" (property {p}{}{mat})", at(self.pids.get(&p)))
     }
@@ -544,6 +551,9 @@ fn rotate_inertia(d: &[[f64; 3]; 3], i: [f64; 6]) -> [f64; 6] {
 /// as Nastran forms it.
 fn apply_wtmass(model: &mut Model, w: f64) {
     for m in model.materials.values_mut() {
+        m.rho *= w;
+    }
+    for m in model.anisotropic_materials.values_mut() {
         m.rho *= w;
     }
     for p in model.shell_properties.values_mut() {

@@ -13,6 +13,7 @@
 //!
 //! Cards read: GRID with GRDSET defaults, CORD1R/C/S and CORD2R/C/S (nested, in any order),
 //! CQUAD4, CTRIA3, CBAR, CBEAM (offsets, pin flags), BAROR, BEAMOR, CROD, CONROD, CTUBE,
+//! CHEXA, CPENTA, CTETRA, CPYRAM with PSOLID and MAT9 (see below),
 //! PSHELL, PBAR, PBARL and PBEAML (the beam library, see below), PBEAM, PROD, PTUBE, MAT1,
 //! CELAS1 with PELAS, CELAS2, CBUSH with PBUSH, CONM2, SPC, SPC1, SPCADD, SET1, the rigid
 //! elements RBE2, RBAR, RROD, RBE3 and MPC, MPCADD (as multipoint constraints, see `rigid.rs`),
@@ -101,6 +102,18 @@
 //!   NU = 0 (Nastran sets G = 0; femu's isotropic material has G = E/2) with a warning. When all
 //!   three are given and inconsistent, E and NU are kept and a warning names the G used.
 //! - CELAS1/CELAS2/PELAS: grid points only (no scalar points); GE and S are ignored (GE ≠ 0 warns).
+//! - CHEXA/CPENTA/CTETRA/CPYRAM, PSOLID, MAT9 (`solids.rs`, kernels in `src/fe/solid/`):
+//!   HEXA8 (2×2×2 Gauss with Wilson–Taylor incompatible modes, close to MSC's default
+//!   bubble-enhanced CHEXA but not digit for digit), HEXA20, PENTA6, PENTA15, TETRA4, TETRA10
+//!   and PYRAM5 fully integrated; PSOLID IN/ISOP other than blank are read as that formulation
+//!   with a warning. Midside grids all given or all blank (Nastran also accepts a partial set:
+//!   an error in femu); PYRAM13, repeated grids, FCTN other than SMECH, a MAT9 in the element
+//!   system (CORDM −1) or in a cylindrical/spherical CORDM are errors; CORDM is ignored for a
+//!   MAT1 (isotropic). A zero or negative Jacobian at an integration point is an error naming
+//!   the element card and the node order the QRG asks for. Solids carry no rotational
+//!   stiffness or mass: their grids' rotations are dropped unless other elements reach them
+//!   (AUTOSPC). Consistent mass, or with `mass: lumped` the HRZ diagonal (Nastran's lumped
+//!   solid mass is the same `ρV` spread by other weights for quadratic shapes).
 //! - CBUSH/PBUSH: only the K line is used (B, GE, RCV, M… ignored with a warning); the element
 //!   system (CID ≠ 0, orientation vector or G0) is ignored with a warning — stiffness acts along
 //!   the basic axes. The spring location (S, OCID, S1–S3) is ignored with a warning.
@@ -160,6 +173,7 @@ mod replicate;
 mod rigid;
 mod rods;
 mod sections;
+mod solids;
 mod source;
 #[cfg(test)]
 mod tests;
@@ -173,6 +187,8 @@ mod tests_replicate;
 mod tests_rigid;
 #[cfg(test)]
 mod tests_rods;
+#[cfg(test)]
+mod tests_solids;
 
 use builder::*;
 use card::*;
@@ -186,11 +202,12 @@ use source::*;
 const MAX_INCLUDE_DEPTH: usize = 64;
 
 /// Cards femu reads.
-pub const READ_CARDS: [&str; 41] = [
+pub const READ_CARDS: [&str; 47] = [
     "GRID", "GRDSET", "CORD1R", "CORD1C", "CORD1S", "CORD2R", "CORD2C", "CORD2S", "CQUAD4",
     "CTRIA3", "CBAR", "CBEAM", "PSHELL", "PBAR", "PBARL", "PBEAM", "MAT1", "CELAS1", "CELAS2",
     "PELAS", "CBUSH", "PBUSH", "CONM2", "SPC", "SPC1", "SPCADD", "SET1", "CROD", "CONROD", "CTUBE",
     "PROD", "PTUBE", "PBEAML", "BAROR", "BEAMOR", "RBE2", "RBAR", "RROD", "RBE3", "MPC", "MPCADD",
+    "CHEXA", "CPENTA", "CTETRA", "CPYRAM", "PSOLID", "MAT9",
 ];
 
 /// Cards skipped (counted) because they change neither stiffness, mass nor constraints: static
@@ -217,15 +234,14 @@ pub const READ_PARAMS: [&str; 6] = ["WTMASS", "GRDPNT", "COUPMASS", "AUTOSPC", "
 /// Nastran cards femu does not read that change the stiffness, mass, damping or constraints;
 /// an error unless listed in [`BulkOptions::ignore_cards`] (the list only decides how messages
 /// name them: any other unread card is an error too).
-const REFUSED_CARDS: [&str; 69] = [
+const REFUSED_CARDS: [&str; 63] = [
     "RBE1", "RBAR1", "RTRPLT", "RSPLINE", "SPCD", "SUPORT", "SUPORT1", "ASET", "ASET1", "OMIT",
     "OMIT1", "QSET", "QSET1", "BSET", "BSET1", "CSET", "CSET1", "SPOINT", "EPOINT", "CQUAD8",
-    "CQUADR", "CQUAD", "CTRIA6", "CTRIAR", "CSHEAR", "PSHEAR", "CHEXA", "CPENTA", "CTETRA",
-    "CPYRAM", "PSOLID", "PCOMP", "PCOMPG", "MAT2", "MAT8", "MAT9", "MAT10", "MATT1", "MATS1",
-    "CONM1", "CMASS1", "CMASS2", "CMASS3", "CMASS4", "PMASS", "CDAMP1", "CDAMP2", "CDAMP3",
-    "CDAMP4", "CDAMP5", "PDAMP", "CVISC", "PVISC", "CELAS3", "CELAS4", "CBUSH1D", "PBUSH1D",
-    "CGAP", "PGAP", "CWELD", "PWELD", "CFAST", "PFAST", "NSM", "NSM1", "NSML", "NSML1", "DMIG",
-    "GENEL",
+    "CQUADR", "CQUAD", "CTRIA6", "CTRIAR", "CSHEAR", "PSHEAR", "PCOMP", "PCOMPG", "MAT2", "MAT8",
+    "MAT10", "MATT1", "MATS1", "CONM1", "CMASS1", "CMASS2", "CMASS3", "CMASS4", "PMASS", "CDAMP1",
+    "CDAMP2", "CDAMP3", "CDAMP4", "CDAMP5", "PDAMP", "CVISC", "PVISC", "CELAS3", "CELAS4",
+    "CBUSH1D", "PBUSH1D", "CGAP", "PGAP", "CWELD", "PWELD", "CFAST", "PFAST", "NSM", "NSM1",
+    "NSML", "NSML1", "DMIG", "GENEL",
 ];
 
 /// Whether `name` is a card name Nastran could have written: a letter, then letters or digits,
