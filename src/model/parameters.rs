@@ -199,10 +199,18 @@ impl Model {
 
     fn slot_value(&self, slot: Slot) -> Option<f64> {
         let material = |id: u64, f: Field| {
-            self.materials.get(&id).map(|m| match f {
-                Field::E => m.e,
-                Field::Rho => m.rho,
-            })
+            self.materials
+                .get(&id)
+                .map(|m| match f {
+                    Field::E => m.e,
+                    Field::Rho => m.rho,
+                })
+                .or_else(|| {
+                    self.shell_materials.get(&id).map(|m| match f {
+                        Field::E => m.modulus(),
+                        Field::Rho => m.rho(),
+                    })
+                })
         };
         match slot {
             Slot::ShellThickness(pid) => self.shell_properties.get(&pid).map(|p| p.thickness),
@@ -305,7 +313,7 @@ impl Model {
                     self.shell_properties
                         .get_mut(&pid)
                         .ok_or_else(broken)?
-                        .thickness = value;
+                        .set_thickness(value);
                 }
                 Slot::ShellMaterial(pid, f) | Slot::BeamMaterial(pid, f) => {
                     let mid = if shell {
@@ -314,6 +322,14 @@ impl Model {
                         self.beam_properties.get(&pid).map(|p| p.material)
                     }
                     .ok_or_else(broken)?;
+                    if let Some(m) = self.shell_materials.get_mut(&mid).filter(|_| shell) {
+                        // MAT8/MAT2: every modulus in proportion (see `ShellMaterial`).
+                        match f {
+                            Field::E => m.set_modulus(value),
+                            Field::Rho => *m.rho_mut() = value,
+                        }
+                        continue;
+                    }
                     let m = self.materials.get_mut(&mid).ok_or_else(broken)?;
                     match f {
                         Field::E => m.e = value,
@@ -484,7 +500,7 @@ impl Model {
         // Materials used by anything outside the set's rods.
         let mut outside = self.rod_materials_outside(in_set);
         for p in self.shell_properties.values() {
-            outside.extend([p.material, p.bending_mid(), p.shear_mid()]);
+            outside.extend(p.material_ids());
         }
         outside.extend(self.beam_properties.values().map(|p| p.material));
         let own_pids: BTreeSet<u64> = in_set
@@ -502,7 +518,14 @@ impl Model {
                 outside.insert(p.material);
             }
         }
-        let mut next = self.materials.keys().max().copied().unwrap_or(0) + 1;
+        let mut next = self
+            .materials
+            .keys()
+            .chain(self.shell_materials.keys())
+            .max()
+            .copied()
+            .unwrap_or(0)
+            + 1;
         let mut copies: BTreeMap<u64, u64> = BTreeMap::new();
         let mut copy = |materials: &mut BTreeMap<u64, crate::model::Material>, mid: &mut u64| {
             if !outside.contains(mid) {
@@ -545,18 +568,21 @@ impl Model {
                 outside.insert(p.material);
             }
             // Another part's material is outside what the parameter (the `material`) changes.
-            outside.extend(
-                [p.bending_mid(), p.shear_mid()]
-                    .into_iter()
-                    .filter(|m| *m != p.material),
-            );
+            outside.extend(p.material_ids().into_iter().filter(|m| *m != p.material));
         }
         for (pid, p) in &self.beam_properties {
             if shell || !own.contains(pid) {
                 outside.insert(p.material);
             }
         }
-        let mut next = self.materials.keys().max().copied().unwrap_or(0) + 1;
+        let mut next = self
+            .materials
+            .keys()
+            .chain(self.shell_materials.keys())
+            .max()
+            .copied()
+            .unwrap_or(0)
+            + 1;
         let mut renamed = std::collections::BTreeMap::new();
         for pid in own {
             let material = if shell {
@@ -577,12 +603,26 @@ impl Model {
             *material = new;
             if let Some(m) = self.materials.get(&old).cloned() {
                 self.materials.insert(new, m);
+            } else if let Some(m) = self.shell_materials.get(&old).cloned() {
+                self.shell_materials.insert(new, m);
             }
-            // A PSHELL part naming the same material (MID3 = MID1 with another MID2) follows it.
+            // A PSHELL part naming the same material (MID3 = MID1 with another MID2) follows it,
+            // and so do a laminate's plies of it.
             if let Some(p) = self.shell_properties.get_mut(&pid).filter(|_| shell) {
-                for part in [&mut p.bending_material, &mut p.shear_material] {
+                for part in [
+                    &mut p.bending_material,
+                    &mut p.shear_material,
+                    &mut p.coupling_material,
+                ] {
                     if *part == Some(old) {
                         *part = Some(new);
+                    }
+                }
+                if let Some(l) = &mut p.laminate {
+                    for ply in &mut l.plies {
+                        if ply.material == old {
+                            ply.material = new;
+                        }
                     }
                 }
             }

@@ -197,26 +197,51 @@ impl Builder {
                 None => last_mid,
                 Some(m) if m > 0 => Some(m as u64),
                 Some(m) => {
-                    return Err(c.err(k, "MIDi", format!("{m} is not a material id"), "a MAT1, MAT2 or MAT8 id (integer > 0)"));
+                    return Err(c.err(
+                        k,
+                        "MIDi",
+                        format!("{m} is not a material id"),
+                        "a MAT1, MAT2 or MAT8 id (integer > 0)",
+                    ));
                 }
             };
             let Some(mid) = mid else {
-                return Err(c.err(k, "MID1", "the first ply's material is blank", "MID1 is required (later blank MIDi repeat the previous one)"));
+                return Err(c.err(
+                    k,
+                    "MID1",
+                    "the first ply's material is blank",
+                    "MID1 is required (later blank MIDi repeat the previous one)",
+                ));
             };
             let t = match c.real(k + 1, "Ti")? {
                 None => last_t,
                 Some(t) if t > 0.0 => Some(t),
                 Some(t) => {
-                    return Err(c.err(k + 1, "Ti", format!("ply thickness {t} is not positive"), "a real number > 0 (blank: the previous ply's)"));
+                    return Err(c.err(
+                        k + 1,
+                        "Ti",
+                        format!("ply thickness {t} is not positive"),
+                        "a real number > 0 (blank: the previous ply's)",
+                    ));
                 }
             };
             let Some(t) = t else {
-                return Err(c.err(k + 1, "T1", "the first ply's thickness is blank", "T1 > 0 is required (later blank Ti repeat the previous one)"));
+                return Err(c.err(
+                    k + 1,
+                    "T1",
+                    "the first ply's thickness is blank",
+                    "T1 > 0 is required (later blank Ti repeat the previous one)",
+                ));
             };
             let theta = c.real_or(k + 2, "THETAi", 0.0)?;
             let sout = c.word(k + 3);
             if !matches!(sout.as_str(), "" | "YES" | "NO") {
-                return Err(c.err(k + 3, "SOUTi", format!("`{}` is not YES or NO", q(&sout)), "YES, NO or blank"));
+                return Err(c.err(
+                    k + 3,
+                    "SOUTi",
+                    format!("`{}` is not YES or NO", q(&sout)),
+                    "YES, NO or blank",
+                ));
             }
             (last_mid, last_t) = (Some(mid), Some(t));
             plies.push(Ply {
@@ -226,7 +251,12 @@ impl Builder {
             });
         }
         if plies.is_empty() {
-            return Err(c.err(9, "MID1", "the laminate has no ply", "at least one ply: MID1 T1 THETA1 SOUT1 on the continuation"));
+            return Err(c.err(
+                9,
+                "MID1",
+                "the laminate has no ply",
+                "at least one ply: MID1 T1 THETA1 SOUT1 on the continuation",
+            ));
         }
         let lam = Laminate {
             plies,
@@ -307,7 +337,10 @@ impl Builder {
                 return Err(loc.field_err(
                     1,
                     "MID",
-                    format!("material {id} is also defined by the MAT1 at {}", first.place()),
+                    format!(
+                        "material {id} is also defined by the MAT1 at {}",
+                        first.place()
+                    ),
                     "one material card per id",
                 ));
             }
@@ -323,7 +356,10 @@ impl Builder {
                 None => Vec::new(),
             };
             if let Some(mid) = shear_mids.into_iter().find(|m| {
-                matches!(model.shell_materials.get(m), Some(ShellMaterial::Anisotropic { .. }))
+                matches!(
+                    model.shell_materials.get(m),
+                    Some(ShellMaterial::Anisotropic { .. })
+                )
             }) {
                 noted.get_or_insert((*pid, mid));
             }
