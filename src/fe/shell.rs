@@ -70,6 +70,20 @@
 //! [`quad4_with_derivatives`] returns the matrices and any number of derivatives from one
 //! evaluation of the local parts.
 //!
+//! **General law** ([`quad4_general`], [`tria3_general`]; laminates, MAT2/MAT8 parts, MID4,
+//! offsets). The same elements with the resultants `N = A ε0 + B κ`, `M = B ε0 + D κ`,
+//! `Q = G_s γ` of a [`ShellLaw`] (`super::laminate`), given in the material axes and rotated
+//! into the element's by `φ = ψ + THETA` (`ψ` the angle of the projected G1→G2 edge from `e1`,
+//! which for quad4 is `∂x/∂ξ`, not G1→G2) or by the projection of an MCID axis; an offset `z0`
+//! (ZOFFS) enters as `B + z0 A`, `D + 2 z0 B + z0² A` (tested against the element on rigid
+//! links). quad4 condenses its incompatible modes from the coupled membrane–bending system; the
+//! drilling penalty is `α_d Ā66 A_e` with the rotation-invariant `Ā66 = (A11 + A22 − 2 A12 +
+//! 4 A33)/8` (`G t` for an isotropic shell); tria3's shear stabilisation uses the total
+//! thickness. The mass is `μ + nsm` on translations, `S` coupling `u–θy` (and `−S` `v–θx`), `I`
+//! on the rotations (θz with bending and membrane). Derivatives take the law's derivative
+//! ([`quad4_general_derivative`]): exact, the condensation's included. The homogeneous kernel
+//! above stays the one for PSHELLs without offset or MAT2/MAT8/MID4 (its bits unchanged).
+//!
 //! **Cost.** Everything is on the stack (`[[f64; 24]; 24]`) until the final conversion to
 //! [`faer::Mat`]; no heap allocation in the integration loops.
 
@@ -1424,7 +1438,11 @@ fn law_mass<const N: usize, const D: usize>(
             }
         }
     }
-    transform(&ml, &frame.t, &frame.z)
+    match kind {
+        // As the homogeneous kernel: the lumped mass is not carried through the warping links.
+        MassKind::Lumped => transform(&ml, &frame.t, &[0.0; N]),
+        MassKind::Consistent => transform(&ml, &frame.t, &frame.z),
+    }
 }
 
 /// Local stiffness (24 × 24) of a general quad4 for law `l` (element axes) and, with `dl`, its
@@ -1988,6 +2006,159 @@ mod tests {
     /// 1e-8 λ_max (the smallest elastic one, drilling/bending, is ~1e-6 λ_max here); M positive
     /// definite (Cholesky and a positive smallest eigenvalue). Three random orientations and
     /// positions each for a flat quad, a warped quad and a triangle.
+    /// The isotropic law of `STEEL` (thickness, E, ν, ρ, nsm) as a general law.
+    fn steel_law() -> ShellLaw {
+        let s = STEEL;
+        let ply = crate::fe::laminate::Ply {
+            material: crate::fe::laminate::PlyMaterial::Isotropic { e: s.e, nu: s.nu },
+            thickness: s.thickness,
+            theta: 0.0,
+            rho: s.rho,
+        };
+        crate::fe::laminate::laminate(&[ply], -0.5 * s.thickness, s.nsm).unwrap()
+    }
+
+    /// The general kernel with the homogeneous isotropic law is the homogeneous kernel (1e-12
+    /// of the largest entry: only the order of the arithmetic differs), warped quads included,
+    /// for any material axis.
+    #[test]
+    fn general_law_of_an_isotropic_plate_is_the_homogeneous_element() {
+        let law = steel_law();
+        for axis in [
+            MaterialAxis::Theta(0.0),
+            MaterialAxis::Theta(1.1),
+            MaterialAxis::Direction([0.3, -1.0, 0.2]),
+        ] {
+            let o = ShellOrientation { axis, offset: 0.0 };
+            for mass in [MassKind::Consistent, MassKind::Lumped] {
+                for xyz in [&QUAD, &WARPED] {
+                    let a = quad4(xyz, &STEEL, mass).unwrap();
+                    let b = quad4_general(xyz, &law, &o, mass).unwrap();
+                    let (dk, dm) = (max_diff(&a.k, &b.k), max_diff(&a.m, &b.m));
+                    let msg = format!(
+                        "{axis:?} {mass:?} {xyz:?}: dK {dk:e} of {:e}, dM {dm:e} of {:e}",
+                        max_abs(&a.k),
+                        max_abs(&a.m)
+                    );
+                    assert!(dk <= 1e-12 * max_abs(&a.k), "{msg}");
+                    assert!(dm <= 1e-12 * max_abs(&a.m), "{msg}");
+                }
+                let a = tria3(&TRIA, &STEEL, mass).unwrap();
+                let b = tria3_general(&TRIA, &law, &o, mass).unwrap();
+                assert!(max_diff(&a.k, &b.k) <= 1e-12 * max_abs(&a.k));
+                assert!(max_diff(&a.m, &b.m) <= 1e-12 * max_abs(&a.m));
+            }
+        }
+    }
+
+    /// ZOFFS as a constitutive offset (`B' = B + z0 A`, `D' = D + 2 z0 B + z0² A`, mass
+    /// moments likewise) equals the element formed on its reference plane and joined to the
+    /// grids by rigid links (the warping offsets of `transform`), for an unsymmetric laminate:
+    /// exactly the same energy, so 1e-12, without the drilling penalty (which ties θz to the
+    /// membrane rotation of the grid plane in the first and of the reference plane in the
+    /// second). The mass agrees but for the θz inertia, which femu takes about the grid plane.
+    #[test]
+    fn zoffs_is_the_element_on_rigid_links() {
+        use crate::fe::laminate::{Ply, PlyMaterial, laminate};
+        let carbon = PlyMaterial::Orthotropic {
+            e1: 140e9,
+            e2: 10e9,
+            nu12: 0.3,
+            g12: 5e9,
+            g1z: 5e9,
+            g2z: 3.5e9,
+        };
+        let ply = |deg: f64, rho: f64| Ply {
+            material: carbon,
+            thickness: 0.5e-3,
+            theta: deg.to_radians(),
+            rho,
+        };
+        let law = laminate(&[ply(0.0, 1500.0), ply(60.0, 1800.0)], -0.4e-3, 0.0).unwrap();
+        let z0 = 2.0e-3;
+        let (frame, _) = quad_frame(&QUAD).unwrap();
+        let l = law.rotated(0.3);
+        let (k_off, _, area, m_geo) = quad4_law_local(&frame, &l.offset(z0), None, 0.0).unwrap();
+        let k1 = transform(&k_off, &frame.t, &frame.z);
+        let (k_ref, _, _, _) = quad4_law_local(&frame, &l, None, 0.0).unwrap();
+        let k2 = transform(&k_ref, &frame.t, &[-z0; 4]);
+        assert!(
+            max_diff(&k1, &k2) <= 1e-12 * max_abs(&k1),
+            "{:e}",
+            max_diff(&k1, &k2)
+        );
+        // (The lumped mass has the same node blocks; it is not carried through warping links.)
+        for mass in [MassKind::Consistent] {
+            let m1 = law_mass::<4, 24>(&frame, area, &m_geo, &l.offset(z0), mass);
+            let ref_frame = Frame {
+                z: [-z0; 4],
+                ..frame
+            };
+            let m2 = law_mass::<4, 24>(&ref_frame, area, &m_geo, &l, mass);
+            let big = max_abs(&m1);
+            for r in 0..24 {
+                for c in 0..24 {
+                    if r % 6 == 5 && c % 6 == 5 {
+                        continue;
+                    }
+                    assert!(
+                        (m1[(r, c)] - m2[(r, c)]).abs() <= 1e-12 * big,
+                        "{mass:?} {r} {c}"
+                    );
+                }
+            }
+        }
+        // With the drilling penalty the two differ only at O(α_d).
+        let (kd, _, _, _) = quad4_law_local(&frame, &l.offset(z0), None, DRILLING_FACTOR).unwrap();
+        let kd = transform(&kd, &frame.t, &frame.z);
+        assert!(max_diff(&kd, &k1) <= 1e-2 * max_abs(&k1));
+    }
+
+    /// Rotating the material axis by 90° is swapping E1 and E2 (element level, quad and tria).
+    #[test]
+    fn a_quarter_turn_of_the_material_axis_swaps_e1_and_e2() {
+        use crate::fe::laminate::{Ply, PlyMaterial, laminate};
+        let ply = |e1: f64, e2: f64, nu12: f64, g1z: f64, g2z: f64| Ply {
+            material: PlyMaterial::Orthotropic {
+                e1,
+                e2,
+                nu12,
+                g12: 5e9,
+                g1z,
+                g2z,
+            },
+            thickness: 1e-3,
+            theta: 0.2,
+            rho: 1600.0,
+        };
+        let a = laminate(&[ply(140e9, 10e9, 0.3, 5e9, 3.5e9)], -0.3e-3, 0.0).unwrap();
+        let mut pb = ply(10e9, 140e9, 0.3 * 10.0 / 140.0, 3.5e9, 5e9);
+        pb.theta = 0.2;
+        let b = laminate(&[pb], -0.3e-3, 0.0).unwrap();
+        let turned = ShellOrientation {
+            axis: MaterialAxis::Theta(std::f64::consts::FRAC_PI_2),
+            offset: 0.001,
+        };
+        let plain = ShellOrientation {
+            offset: 0.001,
+            ..Default::default()
+        };
+        let ka = quad4_general(&QUAD, &a, &turned, MassKind::Consistent)
+            .unwrap()
+            .k;
+        let kb = quad4_general(&QUAD, &b, &plain, MassKind::Consistent)
+            .unwrap()
+            .k;
+        assert!(max_diff(&ka, &kb) <= 1e-12 * max_abs(&ka));
+        let ka = tria3_general(&TRIA, &a, &turned, MassKind::Consistent)
+            .unwrap()
+            .k;
+        let kb = tria3_general(&TRIA, &b, &plain, MassKind::Consistent)
+            .unwrap()
+            .k;
+        assert!(max_diff(&ka, &kb) <= 1e-12 * max_abs(&ka));
+    }
+
     #[test]
     fn six_rigid_body_modes_in_any_orientation_and_positive_definite_mass() {
         let mut rng = ChaCha8Rng::seed_from_u64(7);

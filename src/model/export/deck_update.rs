@@ -7,7 +7,10 @@
 //!   kept consistent, `E = 2(1 + ν)G`, when the card gives it; `RHO` divided by `PARAM,WTMASS`);
 //!   beam width and height → PBARL/PBEAML `BAR` `DIM1`/`DIM2`;
 //! - bush stiffness → PBUSH `K1`–`K6`, scalar spring stiffness → CELAS2 `K` or PELAS `K1`/`K2`;
-//! - lumped mass → CONM2 `M` and `I11`/`I22`/`I33` (divided by WTMASS).
+//! - lumped mass → CONM2 `M` and `I11`/`I22`/`I33` (divided by WTMASS);
+//! - laminates: shell thickness → every ply's `Ti` (and an explicit `Z0`) of the PCOMP/PCOMPG,
+//!   scaled together; Young's modulus and density of a MAT8/MAT2 → `E1`, `E2`, `G12`, `G1Z`,
+//!   `G2Z` (blank ones stay blank) or `G11`–`G33` in proportion, and `RHO`.
 //!
 //! When an update gave part of a shared property (or material, PBUSH, PELAS) its own value, the
 //! model holds a copy under a new id: the deck gets a copy of the original card, placed right
