@@ -37,6 +37,9 @@
 //! `S' = S + z0 μ`, `I' = I + 2 z0 S + z0² μ` (the parallel-axis terms; rotary inertia is about
 //! the grid plane, on θx, θy and, by femu's convention, θz).
 
+// Index loops follow the index notation of the formulas (Q, A, B, D over strain components).
+#![allow(clippy::needless_range_loop)]
+
 use super::element::ElementError;
 
 /// The material of one ply (or of one PSHELL part), in its own axes.
