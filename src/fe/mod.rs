@@ -3,6 +3,7 @@
 pub mod assembly;
 pub mod beam;
 pub mod element;
+pub mod laminate;
 pub mod lumped;
 pub mod lumped_elements;
 pub mod mass_properties;

@@ -185,14 +185,36 @@ pub fn solid_material(
     })
 }
 
+/// Element matrices of element `id` of `model` (references already validated), with its
+/// shell placement (THETA/MCID, ZOFFS) if it has one, over the DOFs of its nodes' displacement
+/// systems.
+pub fn element_matrices_with_id(
+    model: &Model,
+    id: u64,
+    e: &Element,
+    mass: MassKind,
+) -> Result<ElementMatrices, ElementError> {
+    element_matrices_at(model, Some(id), e, mass)
+}
+
 /// Element matrices of one element of `model` (references already validated), over the DOFs of
-/// its nodes' displacement systems.
+/// its nodes' displacement systems. A shell of a model with shell placements needs its id:
+/// [`element_matrices_with_id`].
 pub fn element_matrices(
     model: &Model,
     e: &Element,
     mass: MassKind,
 ) -> Result<ElementMatrices, ElementError> {
-    let mut m = basic_element_matrices(model, e, mass)?;
+    element_matrices_at(model, None, e, mass)
+}
+
+fn element_matrices_at(
+    model: &Model,
+    id: Option<u64>,
+    e: &Element,
+    mass: MassKind,
+) -> Result<ElementMatrices, ElementError> {
+    let mut m = basic_element_matrices(model, id, e, mass)?;
     to_displacement_systems(model, e, &mut m.k);
     to_displacement_systems(model, e, &mut m.m);
     Ok(m)
@@ -256,10 +278,23 @@ fn to_displacement_systems(model: &Model, e: &Element, a: &mut Mat<f64>) {
 /// [`element_matrices`] over basic components at the element's nodes.
 fn basic_element_matrices(
     model: &Model,
+    id: Option<u64>,
     e: &Element,
     mass: MassKind,
 ) -> Result<ElementMatrices, ElementError> {
     let xyz = |n: &u64| model.nodes[n];
+    if let Element::Quad4 { property, .. } | Element::Tria3 { property, .. } = e {
+        if id.is_none() && !model.shell_placements.is_empty() {
+            return Err(ElementError::Degenerate(
+                "internal: a shell of a model with THETA/MCID/ZOFFS placements is formed without its element id (use element_matrices_with_id)".into(),
+            ));
+        }
+        let p = &model.shell_properties[property];
+        if super::laminate::uses_general(model, id, p) {
+            let xyz: Vec<[f64; 3]> = e.nodes().iter().map(xyz).collect();
+            return super::laminate::general_shell_matrices(model, id, &xyz, *property, mass);
+        }
+    }
     match e {
         Element::Quad4 { nodes, property } => quad4(
             &nodes.each_ref().map(xyz),
@@ -392,12 +427,13 @@ pub fn assemble_model(
     let keep = independent_dofs(&dependents);
     let (sys, info) = assemble_keeping(&node_ids, &lists, &constraints, &keep, |i| {
         let (id, e) = elements[i];
-        let matrices =
-            element_matrices(model, e, mass).map_err(|source| ModelAssemblyError::Element {
+        let matrices = element_matrices_with_id(model, id, e, mass).map_err(|source| {
+            ModelAssemblyError::Element {
                 element: id,
                 kind: e.type_name(),
                 source,
-            })?;
+            }
+        })?;
         Ok::<_, ModelAssemblyError>(Contribution {
             nodes: lists[i].clone(),
             matrices,
@@ -442,10 +478,12 @@ pub fn element_dofs(
     e: &Element,
     mass: MassKind,
 ) -> Result<Vec<crate::core::DofId>, ModelAssemblyError> {
-    let m = element_matrices(model, e, mass).map_err(|source| ModelAssemblyError::Element {
-        element: id,
-        kind: e.type_name(),
-        source,
+    let m = element_matrices_with_id(model, id, e, mass).map_err(|source| {
+        ModelAssemblyError::Element {
+            element: id,
+            kind: e.type_name(),
+            source,
+        }
     })?;
     let mut out = Vec::new();
     for (b, node) in block_nodes(e).into_iter().enumerate() {
@@ -503,12 +541,13 @@ pub fn assemble_elements(
     let keep = independent_dofs(&dependents);
     let (sys, info) = assemble_keeping(&node_ids, &lists, &constraints, &keep, |i| {
         let (id, e) = elements[i];
-        let matrices =
-            element_matrices(model, e, mass).map_err(|source| ModelAssemblyError::Element {
+        let matrices = element_matrices_with_id(model, id, e, mass).map_err(|source| {
+            ModelAssemblyError::Element {
                 element: id,
                 kind: e.type_name(),
                 source,
-            })?;
+            }
+        })?;
         Ok::<_, ModelAssemblyError>(Contribution {
             nodes: lists[i].clone(),
             matrices,
@@ -701,6 +740,15 @@ fn element_derivative(
         P::Density => Some(ShellParameter::Density),
         _ => None,
     };
+    if let Element::Quad4 { property, .. } | Element::Tria3 { property, .. } = e {
+        let sp = &model.shell_properties[property];
+        if super::laminate::uses_general(model, Some(id), sp) {
+            let p = shell(&parameter.kind).ok_or_else(not_applicable)?;
+            let xyz: Vec<[f64; 3]> = e.nodes().iter().map(xyz).collect();
+            return super::laminate::general_shell_derivative(model, id, &xyz, *property, mass, p)
+                .map_err(err);
+        }
+    }
     Ok(match e {
         Element::Quad4 { nodes, property } => {
             let p = shell(&parameter.kind).ok_or_else(not_applicable)?;

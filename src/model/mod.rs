@@ -3,6 +3,7 @@
 pub mod export;
 pub mod generate;
 pub mod import;
+pub mod laminates;
 pub mod lumped;
 pub mod parameters;
 pub mod sections;

@@ -212,10 +212,18 @@ impl Model {
 
     fn slot_value(&self, slot: Slot) -> Option<f64> {
         let material = |id: u64, f: Field| {
-            self.materials.get(&id).map(|m| match f {
-                Field::E => m.e,
-                Field::Rho => m.rho,
-            })
+            self.materials
+                .get(&id)
+                .map(|m| match f {
+                    Field::E => m.e,
+                    Field::Rho => m.rho,
+                })
+                .or_else(|| {
+                    self.shell_materials.get(&id).map(|m| match f {
+                        Field::E => m.modulus(),
+                        Field::Rho => m.rho(),
+                    })
+                })
         };
         match slot {
             Slot::ShellThickness(pid) => self.shell_properties.get(&pid).map(|p| p.thickness),
@@ -329,7 +337,7 @@ impl Model {
                     self.shell_properties
                         .get_mut(&pid)
                         .ok_or_else(broken)?
-                        .thickness = value;
+                        .set_thickness(value);
                 }
                 Slot::ShellMaterial(pid, f) | Slot::BeamMaterial(pid, f) => {
                     let mid = if shell {
@@ -338,6 +346,14 @@ impl Model {
                         self.beam_properties.get(&pid).map(|p| p.material)
                     }
                     .ok_or_else(broken)?;
+                    if let Some(m) = self.shell_materials.get_mut(&mid).filter(|_| shell) {
+                        // MAT8/MAT2: every modulus in proportion (see `ShellMaterial`).
+                        match f {
+                            Field::E => m.set_modulus(value),
+                            Field::Rho => *m.rho_mut() = value,
+                        }
+                        continue;
+                    }
                     let m = self.materials.get_mut(&mid).ok_or_else(broken)?;
                     match f {
                         Field::E => m.e = value,
@@ -522,7 +538,7 @@ impl Model {
         // Materials used by anything outside the set's rods.
         let mut outside = self.rod_materials_outside(in_set);
         for p in self.shell_properties.values() {
-            outside.extend([p.material, p.bending_mid(), p.shear_mid()]);
+            outside.extend(p.material_ids());
         }
         outside.extend(self.beam_properties.values().map(|p| p.material));
         outside.extend(self.solid_properties.values().map(|p| p.material));
@@ -545,6 +561,7 @@ impl Model {
             .materials
             .keys()
             .chain(self.anisotropic_materials.keys())
+            .chain(self.shell_materials.keys())
             .max()
             .copied()
             .unwrap_or(0)
@@ -672,11 +689,7 @@ impl Model {
                 outside.insert(p.material);
             }
             // Another part's material is outside what the parameter (the `material`) changes.
-            outside.extend(
-                [p.bending_mid(), p.shear_mid()]
-                    .into_iter()
-                    .filter(|m| *m != p.material),
-            );
+            outside.extend(p.material_ids().into_iter().filter(|m| *m != p.material));
         }
         for (pid, p) in &self.beam_properties {
             if shell || !own.contains(pid) {
@@ -687,6 +700,7 @@ impl Model {
             .materials
             .keys()
             .chain(self.anisotropic_materials.keys())
+            .chain(self.shell_materials.keys())
             .max()
             .copied()
             .unwrap_or(0)
@@ -711,12 +725,26 @@ impl Model {
             *material = new;
             if let Some(m) = self.materials.get(&old).cloned() {
                 self.materials.insert(new, m);
+            } else if let Some(m) = self.shell_materials.get(&old).cloned() {
+                self.shell_materials.insert(new, m);
             }
-            // A PSHELL part naming the same material (MID3 = MID1 with another MID2) follows it.
+            // A PSHELL part naming the same material (MID3 = MID1 with another MID2) follows it,
+            // and so do a laminate's plies of it.
             if let Some(p) = self.shell_properties.get_mut(&pid).filter(|_| shell) {
-                for part in [&mut p.bending_material, &mut p.shear_material] {
+                for part in [
+                    &mut p.bending_material,
+                    &mut p.shear_material,
+                    &mut p.coupling_material,
+                ] {
                     if *part == Some(old) {
                         *part = Some(new);
+                    }
+                }
+                if let Some(l) = &mut p.laminate {
+                    for ply in &mut l.plies {
+                        if ply.material == old {
+                            ply.material = new;
+                        }
                     }
                 }
             }

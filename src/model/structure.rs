@@ -57,6 +57,13 @@ pub struct ShellProperty {
     /// Transverse shear thickness ratio `TS/T` (the shear correction factor, 5/6 by default).
     #[serde(default = "five_sixths", skip_serializing_if = "is_five_sixths")]
     pub shear_ratio: f64,
+    /// Membrane–bending coupling material (PSHELL MID4): `B = T² G4`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub coupling_material: Option<u64>,
+    /// The plies of a laminate (PCOMP, PCOMPG); then `material` is the first ply's, `thickness`
+    /// the laminate's total and the PSHELL parts above are unused.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub laminate: Option<crate::model::laminates::Laminate>,
 }
 
 impl ShellProperty {
@@ -72,6 +79,8 @@ impl ShellProperty {
             shear_material: None,
             bending_ratio: 1.0,
             shear_ratio: five_sixths(),
+            coupling_material: None,
+            laminate: None,
         }
     }
 
@@ -93,6 +102,8 @@ impl ShellProperty {
             && self.shear_material.is_none()
             && is_one(&self.bending_ratio)
             && is_five_sixths(&self.shear_ratio)
+            && self.coupling_material.is_none()
+            && self.laminate.is_none()
     }
 }
 
@@ -576,6 +587,13 @@ pub struct Model {
     /// Multipoint constraints (rigid elements, MPC), each eliminating one dependent DOF.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub mpcs: Vec<MultipointConstraint>,
+    /// Orthotropic and anisotropic shell materials by id (MAT8, MAT2), beside the isotropic
+    /// `materials` (ids are shared: one id is in one of the two).
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub shell_materials: BTreeMap<u64, crate::model::laminates::ShellMaterial>,
+    /// Material axis and offset of the shell elements that have them, by element id.
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub shell_placements: BTreeMap<u64, crate::model::laminates::ShellPlacement>,
     /// Displacement systems of the grid points whose DOFs are not along the basic axes
     /// (Nastran GRID CD): per grid, the rows are the unit vectors (in basic) of its components
     /// 1–3, which also carry the rotations 4–6. Every DOF of such a grid — constraints,
@@ -777,8 +795,10 @@ impl Model {
             }
         }
         for (&id, p) in &self.shell_properties {
-            for material in [p.material, p.bending_mid(), p.shear_mid()] {
-                if !self.materials.contains_key(&material) {
+            for material in p.material_ids() {
+                if !self.materials.contains_key(&material)
+                    && !self.shell_materials.contains_key(&material)
+                {
                     return Err(ModelError::MissingMaterial {
                         property: id,
                         material,

@@ -18,6 +18,9 @@
 //! id → ends; absent when no beam has any). Solid elements (up to 20 nodes) are in
 //! `solid_elements` (element id → `{type: solid, kind, nodes, property}`), with
 //! `solid_properties` and the MAT9 `anisotropic_materials`; all three are absent without solids.
+//! MAT8/MAT2 materials are in `shell_materials` and
+//! the shell elements' THETA/MCID/ZOFFS in `shell_placements` (element id → placement), each
+//! only when the model has any; laminates (PCOMP) are shell properties with `laminate` plies.
 
 use super::{ColumnLayout, Kind, Layout, col, meta, meta_opt, meta_value, table};
 use crate::artefact::{Artefact, ArtefactError, ArtefactKind, Column, Storage, Table};
@@ -120,6 +123,14 @@ impl Kind for MeshKind {
                 meta("parameters", "updating parameters of the model"),
                 meta("units", "unit of the columns that have one"),
                 meta_opt("rod_properties", "rod properties by id (only with rods)"),
+                meta_opt(
+                    "shell_materials",
+                    "MAT8/MAT2 shell materials by id (only when the model has them)",
+                ),
+                meta_opt(
+                    "shell_placements",
+                    "shell material axes (THETA/MCID) and offsets (ZOFFS) by element id (only when some element has one)",
+                ),
                 meta_opt(
                     "rod_sections",
                     "sections of rods without a property (CONROD), by element id",
@@ -280,6 +291,12 @@ pub fn mesh_to_artefact(m: &Model) -> Artefact {
         .with_table("sets", sets_table(m), Storage::Parquet);
     if !m.rod_properties.is_empty() {
         a = a.with_meta("rod_properties", to_json(&m.rod_properties));
+    }
+    if !m.shell_materials.is_empty() {
+        a = a.with_meta("shell_materials", to_json(&m.shell_materials));
+    }
+    if !m.shell_placements.is_empty() {
+        a = a.with_meta("shell_placements", to_json(&m.shell_placements));
     }
     if !rod_sections.is_empty() {
         a = a.with_meta("rod_sections", to_json(&rod_sections));
@@ -623,6 +640,8 @@ pub fn mesh_from_artefact(a: &Artefact) -> Result<Model, ArtefactError> {
         rod_properties: optional_meta(a, "rod_properties")?,
         solid_properties: optional_meta(a, "solid_properties")?,
         anisotropic_materials: optional_meta(a, "anisotropic_materials")?,
+        shell_materials: optional_meta(a, "shell_materials")?,
+        shell_placements: optional_meta(a, "shell_placements")?,
         ..Default::default()
     };
     read_nodes(a, &mut m)?;

@@ -7,7 +7,10 @@
 //!   kept consistent, `E = 2(1 + ν)G`, when the card gives it; `RHO` divided by `PARAM,WTMASS`);
 //!   beam width and height → PBARL/PBEAML `BAR` `DIM1`/`DIM2`;
 //! - bush stiffness → PBUSH `K1`–`K6`, scalar spring stiffness → CELAS2 `K` or PELAS `K1`/`K2`;
-//! - lumped mass → CONM2 `M` and `I11`/`I22`/`I33` (divided by WTMASS).
+//! - lumped mass → CONM2 `M` and `I11`/`I22`/`I33` (divided by WTMASS);
+//! - laminates: shell thickness → every ply's `Ti` (and an explicit `Z0`) of the PCOMP/PCOMPG,
+//!   scaled together; Young's modulus and density of a MAT8/MAT2 → `E1`, `E2`, `G12`, `G1Z`,
+//!   `G2Z` (blank ones stay blank) or `G11`–`G33` in proportion, and `RHO`.
 //!
 //! When an update gave part of a shared property (or material, PBUSH, PELAS) its own value, the
 //! model holds a copy under a new id: the deck gets a copy of the original card, placed right
@@ -24,7 +27,8 @@
 
 use crate::model::export::nastran::format_real;
 use crate::model::import::nastran::{Deck, DeckCard, parse_real};
-use crate::model::structure::{BeamSection, Element, Material, Model, RodSection};
+use crate::model::laminates::{Laminate, ShellMaterial};
+use crate::model::structure::{BeamSection, Element, Material, Model, RodSection, ShellProperty};
 use std::collections::{BTreeMap, BTreeSet};
 
 /// One field changed (or one card added), for the comment block and the stage's record.
@@ -383,6 +387,68 @@ impl<'a> Writer<'a> {
         self.set_real(i, 5, "RHO", old.rho, new.rho, w, 0.0)
     }
 
+    /// MAT8 `E1`, `E2`, `G12`, `G1Z`, `G2Z` (blank ones stay blank: they read as `G12`, which
+    /// scales with them), MAT2 `G11`–`G33`, and `RHO` (divided by WTMASS).
+    fn shell_material(
+        &mut self,
+        i: usize,
+        old: &ShellMaterial,
+        new: &ShellMaterial,
+    ) -> Result<(), DeckUpdateError> {
+        let name = self.card(i).name.clone();
+        let w = self.wtmass;
+        match (old, new) {
+            (
+                ShellMaterial::Orthotropic {
+                    e1: a1,
+                    e2: a2,
+                    nu12: n0,
+                    g12: s0,
+                    g1z: x0,
+                    g2z: y0,
+                    rho: r0,
+                },
+                ShellMaterial::Orthotropic {
+                    e1,
+                    e2,
+                    nu12,
+                    g12,
+                    g1z,
+                    g2z,
+                    rho,
+                },
+            ) if name == "MAT8" => {
+                if n0 != nu12 {
+                    return Err(self.unsupported(i, "a changed NU12 cannot be written back"));
+                }
+                for (k, label, o, n) in [
+                    (2, "E1", a1, e1),
+                    (3, "E2", a2, e2),
+                    (5, "G12", s0, g12),
+                    (6, "G1Z", x0, g1z),
+                    (7, "G2Z", y0, g2z),
+                ] {
+                    if k >= 6 && self.card(i).field(k).is_empty() {
+                        continue;
+                    }
+                    self.set_real(i, k, label, *o, *n, 1.0, f64::NAN)?;
+                }
+                self.set_real(i, 8, "RHO", *r0, *rho, w, 0.0)
+            }
+            (
+                ShellMaterial::Anisotropic { g: g0, rho: r0 },
+                ShellMaterial::Anisotropic { g, rho },
+            ) if name == "MAT2" => {
+                let labels = ["G11", "G12", "G13", "G22", "G23", "G33"];
+                for (j, label) in labels.iter().enumerate() {
+                    self.set_real(i, 2 + j, label, g0[j], g[j], 1.0, 0.0)?;
+                }
+                self.set_real(i, 8, "RHO", *r0, *rho, w, 0.0)
+            }
+            _ => Err(self.unsupported(i, format!("{name} values cannot be written back"))),
+        }
+    }
+
     /// Starts a copy of card `i`: its own pending edits are set aside, so that the edits made
     /// next describe the copy ([`Writer::finish_copy`]).
     fn begin_copy(&mut self, i: usize) -> Option<Edit> {
@@ -498,6 +564,35 @@ fn materials(
         }
     }
     let mut ids = BTreeMap::new();
+    for (mid, m) in &updated.shell_materials {
+        if let Some(m0) = original.shell_materials.get(mid) {
+            if m0 != m {
+                let i = *w.materials.get(mid).ok_or(DeckUpdateError::Missing {
+                    what: "material",
+                    id: *mid,
+                })?;
+                w.shell_material(i, m0, m)?;
+            }
+            continue;
+        }
+        let Some(m0) = source_of
+            .get(mid)
+            .and_then(|mid0| original.shell_materials.get(mid0).map(|m0| (*mid0, m0)))
+        else {
+            continue;
+        };
+        let (mid0, m0) = m0;
+        let i = *w.materials.get(&mid0).ok_or(DeckUpdateError::Missing {
+            what: "material",
+            id: mid0,
+        })?;
+        let id = Writer::fresh(&mut w.used_materials, *mid);
+        ids.insert(*mid, id);
+        let own = w.begin_copy(i);
+        w.shell_material(i, m0, m)?;
+        let why = format!("copy of {} {mid0} for the updated elements", w.card(i).name);
+        w.finish_copy(i, own, id, why);
+    }
     for (mid, m) in &updated.materials {
         if let Some(m0) = original.materials.get(mid) {
             if m0 != m {
@@ -649,15 +744,18 @@ fn properties(
             updated.shell_properties.get(&pid),
             original.shell_properties.get(&pid0),
         ) {
-            if w.card(i).name != "PSHELL" {
+            if let (Some(l), Some(l0)) = (&p.laminate, &p0.laminate) {
+                laminate(w, i, (p0, l0), (p, l), &mid_text)?;
+            } else if w.card(i).name != "PSHELL" || p.laminate.is_some() {
                 return Err(w.unsupported(i, "shell properties are written to PSHELL only"));
-            }
-            w.set_real(i, 3, "T", p0.thickness, p.thickness, 1.0, f64::NAN)?;
-            if p.material != p0.material {
-                // Every MID field that named the old material names the new one.
-                for (k, label) in [(2, "MID1"), (4, "MID2"), (6, "MID3"), (7, "MID4")] {
-                    if card_id(w.card(i), k) == Some(p0.material) {
-                        w.set(i, k, label, mid_text(p.material));
+            } else {
+                w.set_real(i, 3, "T", p0.thickness, p.thickness, 1.0, f64::NAN)?;
+                if p.material != p0.material {
+                    // Every MID field that named the old material names the new one.
+                    for (k, label) in [(2, "MID1"), (4, "MID2"), (6, "MID3"), (11, "MID4")] {
+                        if card_id(w.card(i), k) == Some(p0.material) {
+                            w.set(i, k, label, mid_text(p.material));
+                        }
                     }
                 }
             }
@@ -700,6 +798,75 @@ fn properties(
         }
     }
     Ok(ids)
+}
+
+/// The MID field of each ply of a PCOMP/PCOMPG card, bottom to top (as the importer reads it).
+fn ply_fields(c: &DeckCard) -> Vec<usize> {
+    let global = c.name == "PCOMPG";
+    let step = if global { 8 } else { 4 };
+    let mut out = Vec::new();
+    let mut k0 = 9;
+    while k0 <= c.fields.len() {
+        let k = if global { k0 + 1 } else { k0 };
+        if (k0..k + 4).any(|j| !c.field(j).is_empty()) {
+            out.push(k);
+        }
+        k0 += step;
+    }
+    out
+}
+
+/// A laminate's changes on its PCOMP/PCOMPG: ply thicknesses (every ply's `Ti` written, so a
+/// blank one no longer repeats the one before), an explicit `Z0`, `NSM`, and ply materials
+/// renamed by a material copy. Other changes are errors.
+fn laminate(
+    w: &mut Writer,
+    i: usize,
+    (p0, l0): (&ShellProperty, &Laminate),
+    (p, l): (&ShellProperty, &Laminate),
+    mid_text: &dyn Fn(u64) -> String,
+) -> Result<(), DeckUpdateError> {
+    if !matches!(w.card(i).name.as_str(), "PCOMP" | "PCOMPG") {
+        return Err(w.unsupported(i, "a laminate is written to PCOMP/PCOMPG only"));
+    }
+    let fields = ply_fields(w.card(i));
+    let same_shape = fields.len() == l0.plies.len()
+        && l.plies.len() == l0.plies.len()
+        && l.symmetric == l0.symmetric
+        && l.global_ids == l0.global_ids
+        && l.z0.is_some() == l0.z0.is_some()
+        && l.plies
+            .iter()
+            .zip(&l0.plies)
+            .all(|(a, b)| a.theta_deg == b.theta_deg);
+    if !same_shape {
+        return Err(w.unsupported(
+            i,
+            "only ply thicknesses, Z0, NSM and ply materials of a laminate can be written back",
+        ));
+    }
+    if let (Some(z0), Some(z)) = (l0.z0, l.z0) {
+        w.set_real(i, 2, "Z0", z0, z, 1.0, f64::NAN)?;
+    }
+    w.set_real(i, 3, "NSM", p0.nsm, p.nsm, w.wtmass, 0.0)?;
+    for ((k, ply), ply0) in fields.into_iter().zip(&l.plies).zip(&l0.plies) {
+        if ply.thickness != ply0.thickness {
+            // A blank Ti reads as the previous ply's, which the model holds.
+            w.set_real(
+                i,
+                k + 1,
+                "Ti",
+                ply0.thickness,
+                ply.thickness,
+                1.0,
+                ply0.thickness,
+            )?;
+        }
+        if ply.material != ply0.material {
+            w.set(i, k, "MIDi", mid_text(ply.material));
+        }
+    }
+    Ok(())
 }
 
 /// PBARL/PBEAML BAR dimensions.

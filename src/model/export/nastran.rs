@@ -142,7 +142,16 @@ pub fn write_bulk(model: &Model) -> String {
     out.push_str("$ Nastran bulk data written by femu\nBEGIN BULK\n");
     write_materials_and_properties(&mut out, model);
     let bush_pid = write_bush_properties(&mut out, model);
-    let systems = write_displacement_systems(&mut out, model);
+    // Coordinate system ids: the solids' material axes first (1…), then the displacement
+    // systems, then the shells' material axes.
+    let solid_axes = model
+        .solid_properties
+        .values()
+        .filter(|p| p.axes.is_some())
+        .count() as u64;
+    let systems = write_displacement_systems(&mut out, model, solid_axes + 1);
+    let first = solid_axes + 1 + systems.values().collect::<BTreeSet<_>>().len() as u64;
+    let axes = write_material_axes(&mut out, model, first);
     for (&id, x) in &model.nodes {
         let mut fields = vec![
             F::Int(id),
@@ -157,7 +166,10 @@ pub fn write_bulk(model: &Model) -> String {
         card(&mut out, "GRID", fields);
     }
     for (&id, e) in &model.elements {
-        write_element(&mut out, id, e, &bush_pid);
+        match model.shell_placements.get(&id) {
+            Some(pl) => write_placed_shell(&mut out, id, e, pl, &axes),
+            None => write_element(&mut out, id, e, &bush_pid),
+        }
     }
     write_constraints(&mut out, model);
     write_mpcs(&mut out, model);
@@ -171,15 +183,15 @@ pub fn write_bulk(model: &Model) -> String {
     out
 }
 
-/// One CORD2R per distinct displacement system (ids from 1, in order of first use by grid id:
+/// One CORD2R per distinct displacement system (ids from `first`, in order of first use by grid id:
 /// origin at the basic origin, `B` on its z axis, `C` on its x axis), and the CD of each grid
 /// that has one.
-fn write_displacement_systems(out: &mut String, model: &Model) -> BTreeMap<u64, u64> {
+fn write_displacement_systems(out: &mut String, model: &Model, first: u64) -> BTreeMap<u64, u64> {
     let mut ids: BTreeMap<[u64; 9], u64> = BTreeMap::new();
     let mut cd = BTreeMap::new();
     for (&node, r) in &model.displacement_systems {
         let key: [u64; 9] = std::array::from_fn(|k| r[k / 3][k % 3].to_bits());
-        let next = ids.len() as u64 + 1;
+        let next = ids.len() as u64 + first;
         let id = *ids.entry(key).or_insert_with(|| {
             card(
                 out,
@@ -226,7 +238,12 @@ fn write_materials_and_properties(out: &mut String, model: &Model) {
         f.push(F::Real(m.rho));
         card(out, "MAT9", f);
     }
+    write_shell_materials(out, model);
     for (&id, p) in &model.shell_properties {
+        if let Some(l) = &p.laminate {
+            write_laminate(out, id, p, l);
+            continue;
+        }
         let mid = |on: bool, m: u64| if on { F::Int(m) } else { F::Blank };
         let ratio = |v: f64, default: f64| {
             if v == default { F::Blank } else { F::Real(v) }
@@ -243,7 +260,15 @@ fn write_materials_and_properties(out: &mut String, model: &Model) {
                 mid(p.bending, p.shear_mid()),
                 ratio(p.shear_ratio, crate::model::structure::five_sixths()),
                 F::Real(p.nsm),
-            ],
+            ]
+            .into_iter()
+            .chain(
+                p.coupling_material
+                    .map(|m| [F::Blank, F::Blank, F::Int(m)])
+                    .into_iter()
+                    .flatten(),
+            )
+            .collect(),
         );
     }
     for (&id, p) in &model.beam_properties {
@@ -279,6 +304,140 @@ fn write_materials_and_properties(out: &mut String, model: &Model) {
         };
         card(out, "PSOLID", vec![F::Int(id), F::Int(p.material), cordm]);
     }
+}
+
+/// MAT8 and MAT2 cards by ascending id.
+fn write_shell_materials(out: &mut String, model: &Model) {
+    use crate::model::laminates::ShellMaterial;
+    for (&id, m) in &model.shell_materials {
+        match m {
+            ShellMaterial::Orthotropic {
+                e1,
+                e2,
+                nu12,
+                g12,
+                g1z,
+                g2z,
+                rho,
+            } => card(
+                out,
+                "MAT8",
+                [*e1, *e2, *nu12, *g12, *g1z, *g2z, *rho]
+                    .into_iter()
+                    .map(F::Real)
+                    .fold(vec![F::Int(id)], |mut v, f| {
+                        v.push(f);
+                        v
+                    }),
+            ),
+            ShellMaterial::Anisotropic { g, rho } => {
+                let mut f = vec![F::Int(id)];
+                f.extend(g.iter().map(|v| F::Real(*v)));
+                f.push(F::Real(*rho));
+                card(out, "MAT2", f);
+            }
+        }
+    }
+}
+
+/// A PCOMP (or PCOMPG with its global ply ids) with every ply's MID, T and THETA given.
+fn write_laminate(
+    out: &mut String,
+    id: u64,
+    p: &crate::model::ShellProperty,
+    l: &crate::model::laminates::Laminate,
+) {
+    let global = !l.global_ids.is_empty();
+    let mut f = vec![
+        F::Int(id),
+        l.z0.map_or(F::Blank, F::Real),
+        F::Real(p.nsm),
+        F::Blank,
+        F::Blank,
+        F::Blank,
+        F::Blank,
+        if l.symmetric {
+            F::Text("SYM".into())
+        } else {
+            F::Blank
+        },
+    ];
+    for (j, ply) in l.plies.iter().enumerate() {
+        if global {
+            f.push(F::Int(l.global_ids[j]));
+        }
+        f.extend([
+            F::Int(ply.material),
+            F::Real(ply.thickness),
+            F::Real(ply.theta_deg),
+            F::Blank,
+        ]);
+        if global {
+            f.extend([F::Blank, F::Blank, F::Blank]);
+        }
+    }
+    card(out, if global { "PCOMPG" } else { "PCOMP" }, f);
+}
+
+/// One CORD2R per distinct MCID axis of the shell placements (ids from `first`, in first-use
+/// order: the model holds every position in basic, so no other system is written); returns
+/// each axis' id by its bits.
+fn write_material_axes(out: &mut String, model: &Model, first: u64) -> BTreeMap<[u64; 3], u64> {
+    let mut ids = BTreeMap::new();
+    for pl in model.shell_placements.values() {
+        let Some(v) = pl.axis else { continue };
+        let key = v.map(f64::to_bits);
+        if ids.contains_key(&key) {
+            continue;
+        }
+        let id = ids.len() as u64 + first;
+        ids.insert(key, id);
+        // z normal to v: v × (the basic axis least along v); x in the plane of z and C = v.
+        let k = (0..3)
+            .min_by(|&a, &b| v[a].abs().total_cmp(&v[b].abs()))
+            .unwrap_or(0);
+        let mut w = [0.0; 3];
+        w[k] = 1.0;
+        let z = [
+            v[1] * w[2] - v[2] * w[1],
+            v[2] * w[0] - v[0] * w[2],
+            v[0] * w[1] - v[1] * w[0],
+        ];
+        let mut f = vec![
+            F::Int(id),
+            F::Blank,
+            F::Real(0.0),
+            F::Real(0.0),
+            F::Real(0.0),
+        ];
+        f.extend(z.iter().map(|c| F::Real(*c)));
+        f.extend(v.iter().map(|c| F::Real(*c)));
+        card(out, "CORD2R", f);
+    }
+    ids
+}
+
+/// A CQUAD4/CTRIA3 with its THETA (or MCID) and ZOFFS.
+fn write_placed_shell(
+    out: &mut String,
+    id: u64,
+    e: &Element,
+    pl: &crate::model::laminates::ShellPlacement,
+    axes: &BTreeMap<[u64; 3], u64>,
+) {
+    let (name, nodes, property) = match e {
+        Element::Quad4 { nodes, property } => ("CQUAD4", nodes.to_vec(), property),
+        Element::Tria3 { nodes, property } => ("CTRIA3", nodes.to_vec(), property),
+        _ => return,
+    };
+    let mut f = vec![F::Int(id), F::Int(*property)];
+    f.extend(nodes.iter().map(|n| F::Int(*n)));
+    f.push(match pl.axis {
+        Some(v) => F::Int(axes[&v.map(f64::to_bits)]),
+        None => F::Real(pl.theta_deg),
+    });
+    f.push(F::Real(pl.offset));
+    card(out, name, f);
 }
 
 /// A beam property: PBARL for the BAR, ROD and TUBE sections, PBAR for a general one.

@@ -119,6 +119,8 @@ pub(super) struct Builder {
     pub(super) sets: BTreeMap<u64, SetIn>,
     /// Rigid elements and MPC cards (rigid.rs).
     pub(super) rigid: super::rigid::RigidIn,
+    /// MAT2/MAT8 and shell placements (laminates.rs).
+    pub(super) laminates: super::laminates::LaminatesIn,
 }
 
 /// The error for an id (data field `k`, always on the card's first line) defined twice.
@@ -156,7 +158,10 @@ impl Builder {
             "CORD2R" | "CORD2C" | "CORD2S" => self.cord2(c),
             "CORD1R" | "CORD1C" | "CORD1S" => self.cord1(c),
             "GRDSET" => self.grdset(c),
-            "CQUAD4" | "CTRIA3" => self.shell_element(c),
+            "CQUAD4" | "CTRIA3" | "CQUADR" | "CTRIAR" => self.shell_element(c),
+            "PCOMP" | "PCOMPG" => self.pcomp(c),
+            "MAT2" => self.mat2(c),
+            "MAT8" => self.mat8(c),
             "CBAR" | "CBEAM" => self.beam_element(c),
             "BAROR" | "BEAMOR" => self.beam_defaults(c),
             "PSHELL" => self.pshell(c),

@@ -26,6 +26,7 @@ impl Builder {
             model.materials.insert(*id, m.1.clone());
         }
         model.shell_properties = std::mem::take(&mut self.shells);
+        self.finish_laminates(&mut model, &geo)?;
         model.beam_properties = std::mem::take(&mut self.beams);
         self.check_rod_properties()?;
         model.rod_properties = std::mem::take(&mut self.rods);
@@ -430,8 +431,9 @@ impl Builder {
     /// when the pipeline is checked, at the card that holds it.
     fn check_elements(&self, model: &Model, origins: &Origins) -> Result<(), NastranError> {
         for (id, e) in &model.elements {
-            let Err(err) = crate::fe::model_assembly::element_matrices(
+            let Err(err) = crate::fe::model_assembly::element_matrices_with_id(
                 model,
+                *id,
                 e,
                 crate::fe::element::MassKind::Consistent,
             ) else {

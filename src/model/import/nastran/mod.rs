@@ -12,9 +12,10 @@
 //! `1.E3` and `1D3`, and blank fields taking the QRG defaults.
 //!
 //! Cards read: GRID with GRDSET defaults, CORD1R/C/S and CORD2R/C/S (nested, in any order),
-//! CQUAD4, CTRIA3, CBAR, CBEAM (offsets, pin flags), BAROR, BEAMOR, CROD, CONROD, CTUBE,
-//! CHEXA, CPENTA, CTETRA, CPYRAM with PSOLID and MAT9 (see below),
-//! PSHELL, PBAR, PBARL and PBEAML (the beam library, see below), PBEAM, PROD, PTUBE, MAT1,
+//! CQUAD4, CTRIA3, CQUADR, CTRIAR, CBAR, CBEAM (offsets, pin flags), BAROR, BEAMOR, CROD,
+//! CONROD, CTUBE, CHEXA, CPENTA, CTETRA, CPYRAM with PSOLID and MAT9 (see below), PSHELL,
+//! PCOMP, PCOMPG, PBAR, PBARL and PBEAML (the beam library, see below), PBEAM, PROD, PTUBE,
+//! MAT1, MAT2, MAT8,
 //! CELAS1 with PELAS, CELAS2, CBUSH with PBUSH, CONM2, SPC, SPC1, SPCADD, SET1, the rigid
 //! elements RBE2, RBAR, RROD, RBE3 and MPC, MPCADD (as multipoint constraints, see `rigid.rs`),
 //! PARAM GRDPNT (its reference point, for the weight summary mesh.import prints), and PARAM
@@ -47,8 +48,27 @@
 //! - CORD1x/CORD2x: references (RID, the CORD1 grids, a grid's CP) are followed in dependency
 //!   order; an undefined reference or a cycle is an error at the card. On the polar axis of a
 //!   cylindrical or spherical system the undefined angle is taken as 0.
-//! - CQUAD4/CTRIA3: ZOFFS ≠ 0 is an error; THETA/MCID is ignored (isotropic material);
-//!   corner thicknesses T1–T4 are ignored with a warning (the PSHELL T is used).
+//! - CQUAD4/CTRIA3 (and CQUADR/CTRIAR, `laminates.rs`): THETA is the material axis' angle from
+//!   the G1→G2 edge projected on the element, MCID (an integer) a rectangular system whose x
+//!   axis is projected on the element (MCID 0: basic x; a cylindrical or spherical MCID, or one
+//!   normal to the element, is an error); they orient MAT2/MAT8 materials and do not change an
+//!   isotropic shell. ZOFFS offsets the reference plane along the element normal, as Nastran's
+//!   constitutive offset (`B + z0 A`, `D + 2 z0 B + z0² A`, mass moments alike; the rotary
+//!   inertia is about the grid plane, θz included); non-structural mass stays on the grid
+//!   plane. Corner thicknesses T1–T4 are ignored with a warning (the PSHELL T is used).
+//!   CQUADR/CTRIAR are formed as femu's quad4/tria3 (which have a drilling penalty), not
+//!   Nastran's drilling formulation: a warning once per deck.
+//! - PCOMP/PCOMPG: classical lamination theory (`crate::fe::laminate`) of MAT1, MAT2 or MAT8
+//!   plies, bottom to top from Z0 (blank: −T/2); blank MIDi/Ti repeat the previous ply's; LAM
+//!   blank or SYM (MEM, BEND, SMEAR, SMCORE and the sandwich options are errors); NSM per area.
+//!   Deviation: the transverse shear stiffness is `5/6 Σ Ḡ_k t_k` (first-order shear theory),
+//!   not Nastran's equilibrium-based laminate shear (equal for one material; O((T/λ)²) on
+//!   frequencies otherwise). SB, FT, TREF, SOUT are not used; GE ≠ 0 is not applied (warning).
+//!   PCOMPG reads one ply per line (GPLYID MID T THETA SOUT); the DS/NRPT lines are errors.
+//! - MAT8: E1, E2, NU12, G12 (> 0, NU12² < E1/E2), G1Z/G2Z, RHO; G1Z/G2Z blank (Nastran: rigid
+//!   in transverse shear) take G12, with a warning once per deck. MAT2: G11–G33 (positive
+//!   definite) and RHO; as a ply or MID3 its transverse shear moduli are G33 (MAT2 has none),
+//!   with a warning. Expansion coefficients, allowables, TREF, GE and MCSID are not used.
 //! - CBAR/CBEAM: the orientation is X1–X3 or G0 (from GA); blank PID, orientation and OFFT
 //!   take the BAROR (CBAR) or BEAMOR (CBEAM) values, a blank PID without them the EID, a blank
 //!   orientation without them is an error. OFFT as the QRG: `v` in GA's displacement system
@@ -67,7 +87,8 @@
 //!   MID1's density (MID2's when MID1 is blank). Deviation: MID3 blank means no transverse
 //!   shear flexibility (Kirchhoff) to Nastran; femu keeps its Mindlin shear with MID2's G and
 //!   says so once per deck (an O((T/wavelength)²) effect: about 5e-4 at T/span = 0.01). MID4
-//!   (membrane-bending coupling), MID2 = −1 (plane strain), MID3 without MID2 and MID1 and MID2
+//!   (membrane–bending coupling, `B = T² G4`) and MAT2/MAT8 parts are read through the general
+//!   law of `crate::fe::laminate`. MID2 = −1 (plane strain), MID3 without MID2 and MID1 and MID2
 //!   both blank are errors; Z1/Z2 (stress recovery) are ignored. T must be given (> 0).
 //! - CROD/PROD, CTUBE/PTUBE, CONROD: axial `EA/L` and torsional `GJ/L` stiffness; mass
 //!   (ρA + NSM)L, Nastran's lumped rod mass (half per end on the translations) or coupled mass
@@ -166,6 +187,7 @@ mod coords;
 mod deck;
 mod elements;
 mod finish;
+mod laminates;
 mod lumped;
 mod numbers;
 mod properties;
@@ -181,6 +203,8 @@ mod tests;
 mod tests_beams;
 #[cfg(test)]
 mod tests_cd;
+#[cfg(test)]
+mod tests_laminates;
 #[cfg(test)]
 mod tests_replicate;
 #[cfg(test)]
@@ -202,12 +226,13 @@ use source::*;
 const MAX_INCLUDE_DEPTH: usize = 64;
 
 /// Cards femu reads.
-pub const READ_CARDS: [&str; 47] = [
+pub const READ_CARDS: [&str; 53] = [
     "GRID", "GRDSET", "CORD1R", "CORD1C", "CORD1S", "CORD2R", "CORD2C", "CORD2S", "CQUAD4",
     "CTRIA3", "CBAR", "CBEAM", "PSHELL", "PBAR", "PBARL", "PBEAM", "MAT1", "CELAS1", "CELAS2",
     "PELAS", "CBUSH", "PBUSH", "CONM2", "SPC", "SPC1", "SPCADD", "SET1", "CROD", "CONROD", "CTUBE",
     "PROD", "PTUBE", "PBEAML", "BAROR", "BEAMOR", "RBE2", "RBAR", "RROD", "RBE3", "MPC", "MPCADD",
-    "CHEXA", "CPENTA", "CTETRA", "CPYRAM", "PSOLID", "MAT9",
+    "CHEXA", "CPENTA", "CTETRA", "CPYRAM", "PSOLID", "MAT9", "CQUADR", "CTRIAR", "PCOMP", "PCOMPG",
+    "MAT2", "MAT8",
 ];
 
 /// Cards skipped (counted) because they change neither stiffness, mass nor constraints: static
@@ -234,14 +259,13 @@ pub const READ_PARAMS: [&str; 6] = ["WTMASS", "GRDPNT", "COUPMASS", "AUTOSPC", "
 /// Nastran cards femu does not read that change the stiffness, mass, damping or constraints;
 /// an error unless listed in [`BulkOptions::ignore_cards`] (the list only decides how messages
 /// name them: any other unread card is an error too).
-const REFUSED_CARDS: [&str; 63] = [
+const REFUSED_CARDS: [&str; 57] = [
     "RBE1", "RBAR1", "RTRPLT", "RSPLINE", "SPCD", "SUPORT", "SUPORT1", "ASET", "ASET1", "OMIT",
     "OMIT1", "QSET", "QSET1", "BSET", "BSET1", "CSET", "CSET1", "SPOINT", "EPOINT", "CQUAD8",
-    "CQUADR", "CQUAD", "CTRIA6", "CTRIAR", "CSHEAR", "PSHEAR", "PCOMP", "PCOMPG", "MAT2", "MAT8",
-    "MAT10", "MATT1", "MATS1", "CONM1", "CMASS1", "CMASS2", "CMASS3", "CMASS4", "PMASS", "CDAMP1",
-    "CDAMP2", "CDAMP3", "CDAMP4", "CDAMP5", "PDAMP", "CVISC", "PVISC", "CELAS3", "CELAS4",
-    "CBUSH1D", "PBUSH1D", "CGAP", "PGAP", "CWELD", "PWELD", "CFAST", "PFAST", "NSM", "NSM1",
-    "NSML", "NSML1", "DMIG", "GENEL",
+    "CQUAD", "CTRIA6", "CSHEAR", "PSHEAR", "MAT10", "MATT1", "MATS1", "CONM1", "CMASS1", "CMASS2",
+    "CMASS3", "CMASS4", "PMASS", "CDAMP1", "CDAMP2", "CDAMP3", "CDAMP4", "CDAMP5", "PDAMP",
+    "CVISC", "PVISC", "CELAS3", "CELAS4", "CBUSH1D", "PBUSH1D", "CGAP", "PGAP", "CWELD", "PWELD",
+    "CFAST", "PFAST", "NSM", "NSM1", "NSML", "NSML1", "DMIG", "GENEL",
 ];
 
 /// Whether `name` is a card name Nastran could have written: a letter, then letters or digits,

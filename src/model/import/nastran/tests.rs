@@ -174,6 +174,7 @@ fn cards_that_change_the_model_are_errors_unless_ignored() {
         "CVISC,5,1,1,2",
         "CWELD,5,1",
         "PCOMP,20",
+        "CQUAD,5,10,1,2,3,4",
         "CONM1,5,1,1.",
         "CMASS1,5,5,1,1",
         "CDAMP1,5,5,1,1",
@@ -909,11 +910,9 @@ CQUAD4,1,10,1,2,3,4
     let w = b.warnings.join("\n");
     assert!(w.contains("PSHELL 11: MID3 is blank"), "{w}");
     assert!(w.contains("CQUAD4 1: corner thicknesses"), "{w}");
-    let e = error(&format!("{BASE}CQUAD4,1,10,1,2,3,4,,.001\n"));
-    assert!(
-        e.contains("CQUAD4 field 9 (ZOFFS): 0.001 is not supported"),
-        "{e}"
-    );
+    // ZOFFS is read (tests_laminates.rs): the element's offset, no warning.
+    let b = parse(&format!("{BASE}CQUAD4,1,10,1,2,3,4,,.001\n"));
+    assert_eq!(b.model.shell_placements[&1].offset, 0.001);
 }
 
 #[test]
