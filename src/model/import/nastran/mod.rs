@@ -39,12 +39,11 @@
 //! mass ≥ 0. Every element is then checked as the assembly would check it, naming its card.
 //!
 //! Deviations from Nastran, each stated where it happens:
-//! - GRID: positions are placed in the basic system from any CP. Components (PS, SPC, SPC1,
-//!   CELAS) are given in the grid's CD system, as in Nastran, and mapped to basic DOFs: all three
-//!   translations (or rotations) of a grid are exact in any system; a single component must lie
-//!   along a basic axis at the grid (else an error: it is a multipoint constraint), and a scalar
-//!   spring's two ends must have the same sense. Results are reported in the basic system, not
-//!   in CD. SEID is ignored; CD −1 (fluid grid) is an error.
+//! - GRID: positions are placed in the basic system from any CP. A grid whose CD axes are not
+//!   the basic ones has a displacement system in the model ([`Model::displacement_systems`]):
+//!   its DOFs — PS, SPC, SPC1, CELAS, MPC and rigid-element components, mode shapes and
+//!   responses — are components along the CD axes at the grid, as in Nastran, and the assembly
+//!   turns element matrices into them. SEID is ignored; CD −1 (fluid grid) is an error.
 //! - CORD1x/CORD2x: references (RID, the CORD1 grids, a grid's CP) are followed in dependency
 //!   order; an undefined reference or a cycle is an error at the card. On the polar axis of a
 //!   cylindrical or spherical system the undefined angle is taken as 0.
@@ -147,8 +146,8 @@
 //!   and the first is used. Without case control, every set is merged into one constraint list
 //!   (several SIDs give a warning). GRID PS always applies. THRU ranges cover the grids that
 //!   exist. Constraints come back sorted and without repeats.
-//! - RBE2, RBAR, RROD, RBE3, MPC, MPCADD: multipoint constraints `u_d = Σ cᵢ uᵢ` in basic DOFs
-//!   (small rotations; components in each grid's CD); the assembly eliminates them exactly. The
+//! - RBE2, RBAR, RROD, RBE3, MPC, MPCADD: multipoint constraints `u_d = Σ cᵢ uᵢ` over the
+//!   grids' own DOFs (small rotations; components in each grid's CD); the assembly eliminates them exactly. The
 //!   case control's `MPC = n` selects the MPC set (none selected in a deck with case control: no
 //!   MPC applies, with a warning; no case control: every set, with a warning when several).
 //!   A DOF dependent twice, dependent and in the SPC set, or a cycle of dependencies is an
