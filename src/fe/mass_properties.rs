@@ -59,6 +59,9 @@ pub fn mass_properties(
                 Component::Rx => [0.0, 0.0, 0.0, 1.0, 0.0, 0.0],
                 Component::Ry => [0.0, 0.0, 0.0, 0.0, 1.0, 0.0],
                 Component::Rz => [0.0, 0.0, 0.0, 0.0, 0.0, 1.0],
+                // A scalar point has no position: no rigid-body motion moves it (Nastran's
+                // weight generator covers grid points only).
+                Component::Scalar => [0.0; 6],
             }
         })
         .collect();
@@ -130,6 +133,8 @@ mod tests {
                 node: 1,
                 other: Some(2),
                 k: [1.0; 6],
+                axes: None,
+                b: [0.0; 6],
             },
         );
         let p = mass_properties(&m, MassKind::Consistent, [0.0; 3]).unwrap();

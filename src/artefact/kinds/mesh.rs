@@ -14,7 +14,10 @@
 //! section (a CONROD), which is then in `meta.rod_sections` under the element id; both rod
 //! metadata keys are written only when the model has rods, so meshes without them keep their
 //! bytes. The offsets and pin flags of the beams that have them are in `beam_ends` (element
-//! id → ends; absent when no beam has any).
+//! id → ends; absent when no beam has any). Scalar points are in `scalar_points`, the
+//! element systems and damping of the bushes that have them in `bush_systems` (element id →
+//! `{axes, b}`), and scalar masses, general (CONM1) masses and dampers in `lumped_extra`
+//! (element id → element, JSON); each key is written only when the model has such things.
 
 use super::{ColumnLayout, Kind, Layout, col, meta, meta_opt, meta_value, table};
 use crate::artefact::{Artefact, ArtefactError, ArtefactKind, Column, Storage, Table};
@@ -114,6 +117,15 @@ impl Kind for MeshKind {
                     "beam_ends",
                     "offsets (basic, m) and pin flags of the beams that have them, by element id",
                 ),
+                meta_opt("scalar_points", "scalar point ids (SPOINT, EPOINT)"),
+                meta_opt(
+                    "bush_systems",
+                    "element axes (rows, basic) and damping b_1..b_6 of the bushes that have them, by element id",
+                ),
+                meta_opt(
+                    "lumped_extra",
+                    "scalar masses, general masses (CONM1) and dampers, by element id",
+                ),
             ],
             blobs: vec![],
         }
@@ -192,8 +204,20 @@ pub fn mesh_to_artefact(m: &Model) -> Artefact {
     let mut lumped = LumpedColumns::default();
     let mut rod_sections = std::collections::BTreeMap::new();
     let mut beam_ends = std::collections::BTreeMap::new();
+    let mut bush_systems = std::collections::BTreeMap::new();
+    let mut lumped_extra = std::collections::BTreeMap::new();
     for (&id, e) in &m.elements {
         match e {
+            Element::Bush { axes, b, .. } if axes.is_some() || b.iter().any(|v| *v != 0.0) => {
+                bush_systems.insert(id, serde_json::json!({"axes": axes, "b": b}));
+                lumped.push(id, e);
+            }
+            Element::ScalarMass { .. }
+            | Element::GeneralMass { .. }
+            | Element::ScalarDamper { .. }
+            | Element::Viscous { .. } => {
+                lumped_extra.insert(id, e.clone());
+            }
             Element::Quad4 { nodes, property } => elements.push(id, e, nodes, *property, None),
             Element::Tria3 { nodes, property } => elements.push(id, e, nodes, *property, None),
             Element::Beam {
@@ -245,6 +269,15 @@ pub fn mesh_to_artefact(m: &Model) -> Artefact {
     }
     if !rod_sections.is_empty() {
         a = a.with_meta("rod_sections", to_json(&rod_sections));
+    }
+    if !m.scalar_points.is_empty() {
+        a = a.with_meta("scalar_points", to_json(&m.scalar_points));
+    }
+    if !bush_systems.is_empty() {
+        a = a.with_meta("bush_systems", to_json(&bush_systems));
+    }
+    if !lumped_extra.is_empty() {
+        a = a.with_meta("lumped_extra", to_json(&lumped_extra));
     }
     if m.mpcs.is_empty() {
         a
@@ -418,7 +451,7 @@ impl LumpedRow {
             offset: [0.0; 3],
         };
         Some(match e {
-            Element::Bush { node, other, k } => LumpedRow {
+            Element::Bush { node, other, k, .. } => LumpedRow {
                 other: other.map(|o| o as i64).unwrap_or(-1),
                 k: *k,
                 ..empty(*node)
@@ -444,7 +477,11 @@ impl LumpedRow {
             Element::Quad4 { .. }
             | Element::Tria3 { .. }
             | Element::Beam { .. }
-            | Element::Rod { .. } => return None,
+            | Element::Rod { .. }
+            | Element::ScalarMass { .. }
+            | Element::GeneralMass { .. }
+            | Element::ScalarDamper { .. }
+            | Element::Viscous { .. } => return None,
         })
     }
 }
@@ -548,6 +585,7 @@ pub fn mesh_from_artefact(a: &Artefact) -> Result<Model, ArtefactError> {
         }
     }
     read_lumped(a, &mut m)?;
+    read_lumped_extras(a, &mut m)?;
     read_mpcs(a, &mut m)?;
     let t = a.table("constraints")?;
     for (r, d) in t.strs("constraints", "dof")?.iter().enumerate() {
@@ -660,6 +698,39 @@ fn read_elements(a: &Artefact, m: &mut Model) -> Result<(), ArtefactError> {
     Ok(())
 }
 
+/// Scalar points, bush systems and the lumped elements kept as JSON.
+fn read_lumped_extras(a: &Artefact, m: &mut Model) -> Result<(), ArtefactError> {
+    m.scalar_points = optional_meta(a, "scalar_points")?;
+    #[derive(serde::Deserialize)]
+    struct BushSystem {
+        axes: Option<[[f64; 3]; 3]>,
+        b: [f64; 6],
+    }
+    let systems: BTreeMap<u64, BushSystem> = optional_meta(a, "bush_systems")?;
+    for (eid, s) in systems {
+        match m.elements.get_mut(&eid) {
+            Some(Element::Bush { axes, b, .. }) => {
+                *axes = s.axes;
+                *b = s.b;
+            }
+            _ => {
+                return Err(bad(format!(
+                    "bush_systems names element {eid}, which is not a bush of the lumped table"
+                )));
+            }
+        }
+    }
+    let extra: BTreeMap<u64, Element> = optional_meta(a, "lumped_extra")?;
+    for (eid, e) in extra {
+        if m.elements.insert(eid, e).is_some() {
+            return Err(bad(format!(
+                "lumped_extra defines element {eid}, which another table defines too"
+            )));
+        }
+    }
+    Ok(())
+}
+
 fn read_lumped(a: &Artefact, m: &mut Model) -> Result<(), ArtefactError> {
     let n = "lumped";
     let t = a.table(n)?;
@@ -693,6 +764,8 @@ fn read_lumped(a: &Artefact, m: &mut Model) -> Result<(), ArtefactError> {
                 node,
                 other,
                 k: std::array::from_fn(|i| k[i][r]),
+                axes: None,
+                b: [0.0; 6],
             },
             "scalar_spring" => Element::ScalarSpring {
                 dof: dof(node, &lcomp[r])?,

@@ -7,7 +7,9 @@
 //!   kept consistent, `E = 2(1 + ν)G`, when the card gives it; `RHO` divided by `PARAM,WTMASS`);
 //!   beam width and height → PBARL/PBEAML `BAR` `DIM1`/`DIM2`;
 //! - bush stiffness → PBUSH `K1`–`K6`, scalar spring stiffness → CELAS2 `K` or PELAS `K1`/`K2`;
-//! - lumped mass → CONM2 `M` and `I11`/`I22`/`I33` (divided by WTMASS).
+//! - lumped mass → CONM2 `M` and `I11`/`I22`/`I33` (divided by WTMASS); scalar mass → CMASS2/
+//!   CMASS4 `M`, or the PMASS `Mi` of a CMASS1/CMASS3 when every element using it changed
+//!   alike (divided by WTMASS; else an error: a PMASS copy is not written).
 //!
 //! When an update gave part of a shared property (or material, PBUSH, PELAS) its own value, the
 //! model holds a copy under a new id: the deck gets a copy of the original card, placed right
@@ -235,7 +237,11 @@ impl<'a> Writer<'a> {
                     w.used_materials.insert(id);
                 }
             } else if is_property(name) {
-                let ks: &[usize] = if name == "PELAS" { &[1, 5] } else { &[1] };
+                let ks: &[usize] = match name {
+                    "PELAS" => &[1, 5],
+                    "PMASS" | "PDAMP" => &[1, 3, 5, 7],
+                    _ => &[1],
+                };
                 for &k in ks {
                     if let Some(id) = card_id(c, k) {
                         w.properties.insert(id, i);
@@ -675,6 +681,7 @@ fn elements(
 ) -> Result<(), DeckUpdateError> {
     // Springs whose property card holds the stiffness: (property card, field of K) → users' k.
     let mut spring_groups: BTreeMap<(usize, usize), SpringUsers> = BTreeMap::new();
+    let mut mass_groups: BTreeMap<u64, Vec<(u64, f64, f64)>> = BTreeMap::new();
     for (eid, e) in &updated.elements {
         let Some(e0) = original.elements.get(eid) else {
             continue;
@@ -774,10 +781,59 @@ fn elements(
                     }
                 }
             }
+            (Element::ScalarMass { m, .. }, Element::ScalarMass { m: m0, .. }) if m != m0 => {
+                let wt = w.wtmass;
+                if matches!(w.card(i).name.as_str(), "CMASS2" | "CMASS4") {
+                    w.set_real(i, 2, "M", *m0, *m, wt, 0.0)?;
+                } else {
+                    let pid = card_id(w.card(i), 2).unwrap_or(*eid);
+                    mass_groups.entry(pid).or_default().push((*eid, *m0, *m));
+                }
+            }
             _ => {}
         }
     }
+    scalar_masses(w, mass_groups)?;
     springs(w, spring_groups)
+}
+
+/// PMASS masses of CMASS1/CMASS3 elements: the property's field when every element using it
+/// changed to one value, else an error naming the card.
+fn scalar_masses(
+    w: &mut Writer,
+    groups: BTreeMap<u64, Vec<(u64, f64, f64)>>,
+) -> Result<(), DeckUpdateError> {
+    for (pid, users) in groups {
+        let pi = *w.properties.get(&pid).ok_or(DeckUpdateError::Missing {
+            what: "property",
+            id: pid,
+        })?;
+        let all_users = w
+            .elements
+            .iter()
+            .filter(|(eid, ci)| {
+                let c = w.card(**ci);
+                matches!(c.name.as_str(), "CMASS1" | "CMASS3")
+                    && card_id(c, 2).unwrap_or(**eid) == pid
+            })
+            .count();
+        let (m0, m) = (users[0].1, users[0].2);
+        if users.len() != all_users || users.iter().any(|u| u.2.to_bits() != m.to_bits()) {
+            return Err(w.unsupported(
+                pi,
+                format!("the elements using PMASS {pid} were updated to different masses; give them their own PMASS (a PMASS copy is not written)"),
+            ));
+        }
+        let Some(k) = [1, 3, 5, 7]
+            .into_iter()
+            .find(|&k| card_id(w.card(pi), k) == Some(pid))
+        else {
+            continue;
+        };
+        let wt = w.wtmass;
+        w.set_real(pi, k + 1, "M", m0, m, wt, 0.0)?;
+    }
+    Ok(())
 }
 
 /// PBUSH/PELAS stiffnesses: the card itself when every element using it changed alike, else a

@@ -22,6 +22,7 @@ impl Builder {
         let mut origins = Origins::default();
         let geo = self.geometry()?;
         self.place_grids(&mut model, &geo)?;
+        self.place_scalar_points(&mut model)?;
         for (id, m) in &self.materials {
             model.materials.insert(*id, m.1.clone());
         }
@@ -34,6 +35,7 @@ impl Builder {
             model.elements.insert(id, element);
             origins.elements.insert(id, loc);
         }
+        self.scalar_constraints()?;
         self.resolve_constraints(&mut model, &geo, &mut origins)?;
         self.resolve_rigid(&mut model, &geo)?;
         self.resolve_sets(&mut model, &mut origins, set_names)?;
@@ -140,29 +142,7 @@ impl Builder {
                 orient,
                 ends,
             } => self.beam_in_basic(model, geo, loc, nodes, (eid, beam), property, orient, ends)?,
-            ElemIn::Celas1 { pid, dof, other } => {
-                let Some(&k) = self.pelas.get(&pid) else {
-                    return Err(loc.field_err(
-                        2,
-                        "PID",
-                        format!("property {pid} is not a PELAS"),
-                        "the id of a PELAS card",
-                    ));
-                };
-                let (dof, other) = self.spring_in_basic(geo, loc, dof, other)?;
-                Element::ScalarSpring { dof, other, k }
-            }
-            ElemIn::Bush { pid, node, other } => {
-                let Some(&k) = self.pbush.get(&pid) else {
-                    return Err(loc.field_err(
-                        2,
-                        "PID",
-                        format!("property {pid} is not a PBUSH"),
-                        "the id of a PBUSH card",
-                    ));
-                };
-                Element::Bush { node, other, k }
-            }
+            ElemIn::Scalar(e) => self.resolve_scalar(model, geo, loc, e)?,
             ElemIn::MassAbsolute {
                 node,
                 mass,
@@ -317,9 +297,9 @@ impl Builder {
         Ok(Some(members))
     }
 
-    /// A scalar spring's DOFs in the basic system: each component given in its grid's CD
+    /// A scalar element's DOFs in the basic system: each component given in its grid's CD
     /// system must lie along a basic axis, with the same sense at both ends.
-    fn spring_in_basic(
+    pub(super) fn spring_in_basic(
         &self,
         geo: &Geometry,
         loc: &Loc,
@@ -459,6 +439,10 @@ impl Builder {
                     .find(|(n, _)| n == parameter)
                     .map(|(_, l)| l.clone()),
                 "name a set defined by SET1 or a `pid<N>` property set".to_string(),
+            ),
+            ModelError::ScalarPointIsGrid(_) | ModelError::ComponentMismatch { .. } => (
+                None,
+                "grid components are 1-6, a scalar point's 0 or blank; ids are unique".to_string(),
             ),
             ModelError::ConstraintNode(node) => (
                 origins.constraints.get(node).cloned(),
@@ -652,6 +636,7 @@ fn apply_wtmass(model: &mut Model, w: f64) {
         p.nsm *= w;
     }
     for e in model.elements.values_mut() {
+        super::scalars::wtmass_scalars(e, w);
         if let Element::Mass { mass, inertia, .. } = e {
             *mass *= w;
             for i in inertia.iter_mut() {

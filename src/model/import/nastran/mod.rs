@@ -159,6 +159,7 @@ mod properties;
 mod replicate;
 mod rigid;
 mod rods;
+mod scalars;
 mod sections;
 mod source;
 #[cfg(test)]
@@ -171,6 +172,8 @@ mod tests_replicate;
 mod tests_rigid;
 #[cfg(test)]
 mod tests_rods;
+#[cfg(test)]
+mod tests_scalars;
 
 use builder::*;
 use card::*;
@@ -184,11 +187,13 @@ use source::*;
 const MAX_INCLUDE_DEPTH: usize = 64;
 
 /// Cards femu reads.
-pub const READ_CARDS: [&str; 41] = [
+pub const READ_CARDS: [&str; 58] = [
     "GRID", "GRDSET", "CORD1R", "CORD1C", "CORD1S", "CORD2R", "CORD2C", "CORD2S", "CQUAD4",
     "CTRIA3", "CBAR", "CBEAM", "PSHELL", "PBAR", "PBARL", "PBEAM", "MAT1", "CELAS1", "CELAS2",
     "PELAS", "CBUSH", "PBUSH", "CONM2", "SPC", "SPC1", "SPCADD", "SET1", "CROD", "CONROD", "CTUBE",
     "PROD", "PTUBE", "PBEAML", "BAROR", "BEAMOR", "RBE2", "RBAR", "RROD", "RBE3", "MPC", "MPCADD",
+    "SPOINT", "EPOINT", "CELAS3", "CELAS4", "CMASS1", "CMASS2", "CMASS3", "CMASS4", "PMASS",
+    "CONM1", "CDAMP1", "CDAMP2", "CDAMP3", "CDAMP4", "PDAMP", "CVISC", "PVISC",
 ];
 
 /// Cards skipped (counted) because they change neither stiffness, mass nor constraints: static
@@ -215,15 +220,13 @@ pub const READ_PARAMS: [&str; 6] = ["WTMASS", "GRDPNT", "COUPMASS", "AUTOSPC", "
 /// Nastran cards femu does not read that change the stiffness, mass, damping or constraints;
 /// an error unless listed in [`BulkOptions::ignore_cards`] (the list only decides how messages
 /// name them: any other unread card is an error too).
-const REFUSED_CARDS: [&str; 69] = [
+const REFUSED_CARDS: [&str; 52] = [
     "RBE1", "RBAR1", "RTRPLT", "RSPLINE", "SPCD", "SUPORT", "SUPORT1", "ASET", "ASET1", "OMIT",
-    "OMIT1", "QSET", "QSET1", "BSET", "BSET1", "CSET", "CSET1", "SPOINT", "EPOINT", "CQUAD8",
-    "CQUADR", "CQUAD", "CTRIA6", "CTRIAR", "CSHEAR", "PSHEAR", "CHEXA", "CPENTA", "CTETRA",
-    "CPYRAM", "PSOLID", "PCOMP", "PCOMPG", "MAT2", "MAT8", "MAT9", "MAT10", "MATT1", "MATS1",
-    "CONM1", "CMASS1", "CMASS2", "CMASS3", "CMASS4", "PMASS", "CDAMP1", "CDAMP2", "CDAMP3",
-    "CDAMP4", "CDAMP5", "PDAMP", "CVISC", "PVISC", "CELAS3", "CELAS4", "CBUSH1D", "PBUSH1D",
-    "CGAP", "PGAP", "CWELD", "PWELD", "CFAST", "PFAST", "NSM", "NSM1", "NSML", "NSML1", "DMIG",
-    "GENEL",
+    "OMIT1", "QSET", "QSET1", "BSET", "BSET1", "CSET", "CSET1", "CQUAD8", "CQUADR", "CQUAD",
+    "CTRIA6", "CTRIAR", "CSHEAR", "PSHEAR", "CHEXA", "CPENTA", "CTETRA", "CPYRAM", "PSOLID",
+    "PCOMP", "PCOMPG", "MAT2", "MAT8", "MAT9", "MAT10", "MATT1", "MATS1", "CDAMP5", "CBUSH1D",
+    "PBUSH1D", "CGAP", "PGAP", "CWELD", "PWELD", "CFAST", "PFAST", "NSM", "NSM1", "NSML", "NSML1",
+    "DMIG", "GENEL",
 ];
 
 /// Whether `name` is a card name Nastran could have written: a letter, then letters or digits,
