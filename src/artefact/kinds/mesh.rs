@@ -846,6 +846,38 @@ mod tests {
         m
     }
 
+    /// Scalar points, a bush with an element system and damping, and the scalar family come
+    /// back exactly; a model without them writes none of their keys.
+    #[test]
+    fn scalar_points_and_dampers_round_trip() {
+        use crate::core::Component;
+        let mut m = rod_model();
+        let plain = mesh_to_artefact(&m);
+        for key in ["scalar_points", "bush_systems", "lumped_extra"] {
+            assert!(!plain.meta.contains_key(key), "{key}");
+        }
+        m.scalar_points.extend([7, 8]);
+        let s = |n| DofId::new(n, Component::Scalar);
+        m.elements.insert(
+            10,
+            Element::Bush {
+                node: 1,
+                other: Some(2),
+                k: [1.0, 2.0, 3.0, 4.0, 5.0, 6.0],
+                axes: Some([[0.0, 1.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 0.0, 1.0]]),
+                b: [0.5, 0.0, 0.0, 0.0, 0.0, 0.0],
+            },
+        );
+        m.elements.insert(11, Element::ScalarMass { dof: s(7), other: Some(s(8)), m: 2.0 });
+        m.elements.insert(12, Element::ScalarDamper { dof: s(7), other: None, c: 3.0 });
+        m.elements.insert(13, Element::ScalarSpring { dof: s(8), other: Some(DofId::new(3, Component::Uz)), k: 4.0 });
+        m.elements.insert(14, Element::GeneralMass { node: 3, m: [1.0; 21] });
+        m.elements.insert(15, Element::Viscous { nodes: [1, 3], axial: 1.0, torsional: 0.5 });
+        m.constraints.push(s(8));
+        let back = mesh_from_artefact(&mesh_to_artefact(&m)).unwrap();
+        assert_eq!(back, m);
+    }
+
     /// Rods (by property and with their own section) and a membrane-only shell come back
     /// exactly; a model without rods writes no rod metadata and a homogeneous shell property
     /// serialises as before the optional PSHELL parts existed (digests unchanged).

@@ -14,7 +14,8 @@
 //! Cards read: GRID with GRDSET defaults, CORD1R/C/S and CORD2R/C/S (nested, in any order),
 //! CQUAD4, CTRIA3, CBAR, CBEAM (offsets, pin flags), BAROR, BEAMOR, CROD, CONROD, CTUBE,
 //! PSHELL, PBAR, PBARL and PBEAML (the beam library, see below), PBEAM, PROD, PTUBE, MAT1,
-//! CELAS1 with PELAS, CELAS2, CBUSH with PBUSH, CONM2, SPC, SPC1, SPCADD, SET1, the rigid
+//! SPOINT, EPOINT, CELAS1–4 with PELAS, CMASS1–4 with PMASS, CDAMP1–4 with PDAMP, CVISC with
+//! PVISC, CBUSH with PBUSH, CONM1, CONM2, SPC, SPC1, SPCADD, SET1, the rigid
 //! elements RBE2, RBAR, RROD, RBE3 and MPC, MPCADD (as multipoint constraints, see `rigid.rs`),
 //! PARAM GRDPNT (its reference point, for the weight summary mesh.import prints), and PARAM
 //! WTMASS (applied to every
@@ -100,10 +101,26 @@
 //! - MAT1: a blank E, G or NU is derived from the other two (E = 2(1+NU)G). With only E given,
 //!   NU = 0 (Nastran sets G = 0; femu's isotropic material has G = E/2) with a warning. When all
 //!   three are given and inconsistent, E and NU are kept and a warning names the G used.
-//! - CELAS1/CELAS2/PELAS: grid points only (no scalar points); GE and S are ignored (GE ≠ 0 warns).
-//! - CBUSH/PBUSH: only the K line is used (B, GE, RCV, M… ignored with a warning); the element
-//!   system (CID ≠ 0, orientation vector or G0) is ignored with a warning — stiffness acts along
-//!   the basic axes. The spring location (S, OCID, S1–S3) is ignored with a warning.
+//! - SPOINT/EPOINT (with THRU): scalar points, one DOF `id:s` each without position; ids
+//!   shared with a GRID are an error. An EPOINT (extra point) only matters to transfer
+//!   functions and direct-response equations, which femu does not read, so it is a scalar
+//!   point that nothing connects unless an element names it, and such a DOF is dropped like an
+//!   unconnected rotation. SPC/SPC1 constrain a scalar point with component 0 or blank.
+//! - CELAS1–4, CMASS1–4, CDAMP1–4 (scalar elements, `scalars.rs`): CxxxS1/2 connect grid
+//!   components (1–6) or scalar points (0 or blank), CxxxS3/4 scalar points only; a mass or
+//!   damper between two DOFs is `v [[1, −1], [−1, 1]]` (the QRG's "between two points"). GE and
+//!   S of CELAS are ignored (GE ≠ 0 warns). CDAMP5 (heat transfer) is an error. The masses are
+//!   multiplied by WTMASS; dampers give the viscous `C` of direct FRFs (not the modes).
+//! - CVISC/PVISC: axial damping CE along G1→G2 and torsional CR about it.
+//! - CONM1: the 6×6 symmetric mass M11…M66 at the grid, given in CID's directions at the grid
+//!   (CID blank or 0: basic) and rotated to basic, `M_b = Tᵀ M T`; multiplied by WTMASS.
+//! - CBUSH/PBUSH: the K and B (viscous damping) lines are used (GE, RCV, M… ignored with a
+//!   warning). Element system as the QRG: CID ≥ 0 its axes (a cylindrical or spherical CID
+//!   evaluated at GA); CID blank: x from GA to GB, y in the plane of x and the orientation
+//!   vector (X1–X3 in GA's displacement system, or G0); CID blank with GB blank or within 1e-4
+//!   of GA is an error (Nastran requires CID). Deviation: CID and orientation both blank between
+//!   distinct grids take the basic axes, with a warning. The spring location (S, OCID, S1–S3) is
+//!   ignored with a warning (no lever arm is modelled).
 //! - CONM2: CID 0 (offset X1–X3 in basic), −1 (X1–X3 are the basic coordinates of the centre
 //!   of gravity) or a coordinate system (offset and inertia along its directions at the grid;
 //!   the inertia is rotated with the QRG's sign convention for I21, I31, I32).
