@@ -209,9 +209,7 @@ pub fn element_matrices(
             &rod_data(model, section),
             mass,
         ),
-        Element::Bush {
-            other, k, axes, ..
-        } => {
+        Element::Bush { other, k, axes, .. } => {
             let ends = if other.is_some() {
                 SpringEnds::TwoNodes
             } else {
@@ -770,9 +768,7 @@ fn element_derivative(
             )
             .map_err(err)?
         }
-        Element::Bush {
-            other, k, axes, ..
-        } => {
+        Element::Bush { other, k, axes, .. } => {
             let P::SpringStiffness(c) = parameter.kind else {
                 return Err(not_applicable());
             };

@@ -120,8 +120,9 @@ fn rotated_block(d: &[f64; 6], axes: &[[f64; 3]; 3]) -> [[f64; 6]; 6] {
     for half in 0..2 {
         for r in 0..3 {
             for c in 0..3 {
-                out[3 * half + r][3 * half + c] =
-                    (0..3).map(|k| axes[k][r] * d[3 * half + k] * axes[k][c]).sum();
+                out[3 * half + r][3 * half + c] = (0..3)
+                    .map(|k| axes[k][r] * d[3 * half + k] * axes[k][c])
+                    .sum();
             }
         }
     }
@@ -208,7 +209,11 @@ mod tests {
     #[test]
     fn a_rotated_bush_keeps_its_invariants() {
         let (c, s) = (0.3f64.cos(), 0.3f64.sin());
-        let axes = [[c, s, 0.0], [-s * 0.6, c * 0.6, 0.8], [s * 0.8, -c * 0.8, 0.6]];
+        let axes = [
+            [c, s, 0.0],
+            [-s * 0.6, c * 0.6, 0.8],
+            [s * 0.8, -c * 0.8, 0.6],
+        ];
         let k = [1.0, 2.0, 3.0, 4.0, 5.0, 6.0];
         let m = bush_matrix(&k, Some(&axes), SpringEnds::Ground).unwrap();
         let tr_t: f64 = (0..3).map(|i| m[(i, i)]).sum();

@@ -791,8 +791,12 @@ impl Model {
     /// A DOF's component fits its point: `s` on a scalar point, `ux`…`rz` on a grid.
     fn check_component(&self, d: DofId, origin: impl Fn() -> String) -> Result<(), ModelError> {
         let problem = match (self.is_scalar_point(d.node), d.comp.is_scalar()) {
-            (true, false) => "it is a scalar point, whose one DOF is component s (Nastran 0 or blank)",
-            (false, true) => "it is a grid point, whose components are ux uy uz rx ry rz (Nastran 1-6)",
+            (true, false) => {
+                "it is a scalar point, whose one DOF is component s (Nastran 0 or blank)"
+            }
+            (false, true) => {
+                "it is a grid point, whose components are ux uy uz rx ry rz (Nastran 1-6)"
+            }
             _ => return Ok(()),
         };
         Err(ModelError::ComponentMismatch {

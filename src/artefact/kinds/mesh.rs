@@ -868,11 +868,45 @@ mod tests {
                 b: [0.5, 0.0, 0.0, 0.0, 0.0, 0.0],
             },
         );
-        m.elements.insert(11, Element::ScalarMass { dof: s(7), other: Some(s(8)), m: 2.0 });
-        m.elements.insert(12, Element::ScalarDamper { dof: s(7), other: None, c: 3.0 });
-        m.elements.insert(13, Element::ScalarSpring { dof: s(8), other: Some(DofId::new(3, Component::Uz)), k: 4.0 });
-        m.elements.insert(14, Element::GeneralMass { node: 3, m: [1.0; 21] });
-        m.elements.insert(15, Element::Viscous { nodes: [1, 3], axial: 1.0, torsional: 0.5 });
+        m.elements.insert(
+            11,
+            Element::ScalarMass {
+                dof: s(7),
+                other: Some(s(8)),
+                m: 2.0,
+            },
+        );
+        m.elements.insert(
+            12,
+            Element::ScalarDamper {
+                dof: s(7),
+                other: None,
+                c: 3.0,
+            },
+        );
+        m.elements.insert(
+            13,
+            Element::ScalarSpring {
+                dof: s(8),
+                other: Some(DofId::new(3, Component::Uz)),
+                k: 4.0,
+            },
+        );
+        m.elements.insert(
+            14,
+            Element::GeneralMass {
+                node: 3,
+                m: [1.0; 21],
+            },
+        );
+        m.elements.insert(
+            15,
+            Element::Viscous {
+                nodes: [1, 3],
+                axial: 1.0,
+                torsional: 0.5,
+            },
+        );
         m.constraints.push(s(8));
         let back = mesh_from_artefact(&mesh_to_artefact(&m)).unwrap();
         assert_eq!(back, m);

@@ -1182,7 +1182,7 @@ mod tests {
         main.push_str("SPC1,1,123456,1,4,7\n");
         main.push_str(&small(&["CONM2", "10", "9", "", "2.0"]));
         main.push('\n');
-        main.push_str(&small(&["CBUSH", "11", "21", "7"]));
+        main.push_str(&small(&["CBUSH", "11", "21", "7", "", "", "", "", "0"]));
         main.push('\n');
         main.push_str("CELAS2,12,1.+4,8,3\nPROD,20,1,1.-4,0.\nCROD,21,20,2,3\nCONROD,22,5,6,1,2.-4,0.\nSET1,5,10\nSET1,6,11\nSET1,7,12\nSET1,8,1\nSET1,9,22\nENDDATA\n");
         std::fs::write(dir.join("main.bdf"), main).unwrap();
@@ -1245,6 +1245,44 @@ mod tests {
             std::fs::write(out_dir.join(name), bytes).unwrap();
         }
         out_dir.join(&out.files[0].0)
+    }
+
+    /// Updated scalar masses go back into CMASS2 `M` and into the PMASS `M2` of a CMASS1 (the
+    /// only user of that property), divided by WTMASS; re-imported they are the updated ones
+    /// exactly. A PMASS whose users were updated apart is an error naming it.
+    #[test]
+    fn scalar_masses_are_written_back() {
+        let dir = tempfile::tempdir().unwrap();
+        let top = dir.path().join("main.bdf");
+        let text = "PARAM,WTMASS,.5\nSPOINT,1,2\nCELAS4,1,1.+4,1,2\nCMASS2,2,4.,1\nCMASS1,3,8,2\nCMASS1,4,7,2\nPMASS,7,1.,8,6.\nENDDATA\n";
+        std::fs::write(&top, text).unwrap();
+        let model = read_bulk(&top).unwrap().model;
+        let mut new = model.clone();
+        for (id, v) in [(2, 2.5), (3, 1.25)] {
+            if let Some(Element::ScalarMass { m, .. }) = new.elements.get_mut(&id) {
+                *m = v;
+            }
+        }
+        let deck = read_deck(&top).unwrap();
+        let out = update_deck(&deck, &model, &new, &["test".to_string()]).unwrap();
+        let back = read_bulk(written(dir.path(), &out)).unwrap().model;
+        assert_eq!(back, new);
+        let written_text = String::from_utf8_lossy(&out.files[0].1).to_string();
+        assert!(written_text.contains("CMASS2*"), "{written_text}");
+        assert!(written_text.contains("5."), "{written_text}");
+        // Elements 3 and 4 share nothing, but two users of one PMASS updated apart are refused.
+        let shared = "SPOINT,1,2\nCMASS1,3,8,1\nCMASS1,4,8,2\nPMASS,8,6.\nENDDATA\n";
+        std::fs::write(&top, shared).unwrap();
+        let model = read_bulk(&top).unwrap().model;
+        let mut new = model.clone();
+        if let Some(Element::ScalarMass { m, .. }) = new.elements.get_mut(&3) {
+            *m = 1.0;
+        }
+        let deck = read_deck(&top).unwrap();
+        let e = update_deck(&deck, &model, &new, &["test".to_string()])
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("PMASS 8") && e.contains("own PMASS"), "{e}");
     }
 
     /// Re-importing the written deck gives the updated model's K and M: the exactly written

@@ -160,7 +160,11 @@ pub fn write_bulk(model: &Model) -> String {
     if !model.scalar_points.is_empty() {
         let ids: Vec<u64> = model.scalar_points.iter().copied().collect();
         for chunk in ids.chunks(8) {
-            card(&mut out, "SPOINT", chunk.iter().map(|i| F::Int(*i)).collect());
+            card(
+                &mut out,
+                "SPOINT",
+                chunk.iter().map(|i| F::Int(*i)).collect(),
+            );
         }
     }
     for (&id, e) in &model.elements {
@@ -313,16 +317,22 @@ fn write_bush_properties(out: &mut String, model: &Model) -> BTreeMap<u64, (u64,
             let mut f = vec![F::Int(pid), F::Text("K".to_string())];
             f.extend(k.iter().map(|v| F::Real(*v)));
             if b.iter().any(|v| *v != 0.0) {
-                f.extend([F::Blank, F::Blank, F::Text("B".to_string())]);
+                // The continuation: a blank field 2, then the B flag and B1–B6.
+                f.extend([F::Blank, F::Text("B".to_string())]);
                 f.extend(b.iter().map(|v| F::Real(*v)));
             }
             card(out, "PBUSH", f);
             // The element system as a CORD2R: origin at basic 0, A the origin, B on z, C on x.
             let system = axes.map(|a| {
                 cid += 1;
-                let mut f = vec![F::Int(cid), F::Int(0), F::Real(0.0), F::Real(0.0), F::Real(0.0)];
+                let mut f = vec![
+                    F::Int(cid),
+                    F::Int(0),
+                    F::Real(0.0),
+                    F::Real(0.0),
+                    F::Real(0.0),
+                ];
                 f.extend(a[2].iter().map(|v| F::Real(*v)));
-                f.push(F::Blank);
                 f.extend(a[0].iter().map(|v| F::Real(*v)));
                 card(out, "CORD2R", f);
                 cid
@@ -787,7 +797,13 @@ mod tests {
             32,
             Element::GeneralMass {
                 node: 5,
-                m: std::array::from_fn(|i| if [0, 2, 5, 9, 14, 20].contains(&i) { 1.0 + i as f64 } else { 0.01 * i as f64 }),
+                m: std::array::from_fn(|i| {
+                    if [0, 2, 5, 9, 14, 20].contains(&i) {
+                        1.0 + i as f64
+                    } else {
+                        0.01 * i as f64
+                    }
+                }),
             },
         );
         m.elements.insert(

@@ -87,7 +87,12 @@ impl Builder {
     pub(super) fn spoint(&mut self, c: &Card) -> Result<(), NastranError> {
         let (ids, ranges) = c.id_list(1, "IDi")?;
         if ids.is_empty() && ranges.is_empty() {
-            return Err(c.err(1, "ID1", "no point is listed", "scalar point ids, optionally with THRU"));
+            return Err(c.err(
+                1,
+                "ID1",
+                "no point is listed",
+                "scalar point ids, optionally with THRU",
+            ));
         }
         if let Some((lo, hi)) = ranges.iter().find(|(lo, hi)| hi - lo > 10_000_000) {
             return Err(c.err(
@@ -101,7 +106,10 @@ impl Builder {
             .into_iter()
             .chain(ranges.into_iter().flat_map(|(lo, hi)| lo..=hi));
         for id in all {
-            self.scalars.points.entry(id).or_insert_with(|| c.loc.clone());
+            self.scalars
+                .points
+                .entry(id)
+                .or_insert_with(|| c.loc.clone());
         }
         Ok(())
     }
@@ -131,7 +139,11 @@ impl Builder {
     }
 
     /// SPC/SPC1 components: digits 1–6 for grids, 0 or blank for a scalar point.
-    pub(super) fn spc_comps(c: &Card, k: usize, label: &str) -> Result<Vec<Component>, NastranError> {
+    pub(super) fn spc_comps(
+        c: &Card,
+        k: usize,
+        label: &str,
+    ) -> Result<Vec<Component>, NastranError> {
         if c.blank(k) || c.text(k) == "0" {
             return Ok(vec![Component::Scalar]);
         }
@@ -373,8 +385,7 @@ impl Builder {
                 if cid == 0 {
                     return Ok(Element::GeneralMass { node, m });
                 }
-                let (Some(frame), Some(at)) = (geo.frames.get(&cid), model.nodes.get(&node))
-                else {
+                let (Some(frame), Some(at)) = (geo.frames.get(&cid), model.nodes.get(&node)) else {
                     return Err(loc.field_err(
                         3,
                         "CID",
@@ -545,10 +556,9 @@ impl Builder {
                     d.node,
                     d.comp.nastran()
                 ),
-                (false, true) if self.grids.contains_key(&d.node) => format!(
-                    "grid {} is constrained with component 0 or blank",
-                    d.node
-                ),
+                (false, true) if self.grids.contains_key(&d.node) => {
+                    format!("grid {} is constrained with component 0 or blank", d.node)
+                }
                 _ => continue,
             };
             let k = if &*loc.card == "SPC1" { 2 } else { 3 };
@@ -605,11 +615,7 @@ fn rotate_general_mass(d: &[[f64; 3]; 3], lower: &[f64; 21]) -> [f64; 21] {
         }
     }
     let t = |r: usize, c: usize| {
-        if r / 3 == c / 3 {
-            d[r % 3][c % 3]
-        } else {
-            0.0
-        }
+        if r / 3 == c / 3 { d[r % 3][c % 3] } else { 0.0 }
     };
     let mut out = [0.0; 21];
     let mut k = 0;

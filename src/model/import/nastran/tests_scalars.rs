@@ -93,7 +93,10 @@ PMASS,8,1.
     let (sys, _) = assemble_model(&m, MassKind::Consistent).unwrap();
     assert_eq!(
         sys.dofs,
-        [DofId::new(1, Component::Uz), DofId::new(5, Component::Scalar)]
+        [
+            DofId::new(1, Component::Uz),
+            DofId::new(5, Component::Scalar)
+        ]
     );
 }
 
@@ -129,11 +132,15 @@ fn conm1_equals_the_conm2_it_writes_out() {
         let (b, _) = assemble_model(&m2, MassKind::Consistent).unwrap();
         // The GRDPNT weight summary counts the CONM1 as the CONM2.
         let mp = |m: &Model| {
-            crate::fe::mass_properties::mass_properties(m, MassKind::Consistent, [0.0; 3])
-                .unwrap()
+            crate::fe::mass_properties::mass_properties(m, MassKind::Consistent, [0.0; 3]).unwrap()
         };
         let (p1, p2) = (mp(&m1), mp(&m2));
-        for (x, y) in p1.rigid_body_mass.iter().flatten().zip(p2.rigid_body_mass.iter().flatten()) {
+        for (x, y) in p1
+            .rigid_body_mass
+            .iter()
+            .flatten()
+            .zip(p2.rigid_body_mass.iter().flatten())
+        {
             assert!((x - y).abs() < 1e-12 * 30.0, "{x} vs {y}");
         }
         assert_eq!(a.dofs, b.dofs);
@@ -216,7 +223,10 @@ CDAMP2,3,12.,1,1
         let w = 2.0 * std::f64::consts::PI * f;
         let want = faer::c64::new(1.0, 0.0) / faer::c64::new(4e4 - w * w * 1.5, w * 12.0);
         let got = set.values[(r, 0)];
-        assert!((got - want).norm() < 1e-12 * want.norm(), "{f} Hz: {got} vs {want}");
+        assert!(
+            (got - want).norm() < 1e-12 * want.norm(),
+            "{f} Hz: {got} vs {want}"
+        );
     }
     let grids = "GRID,1,,0.,0.,0.\nGRID,2,,2.,0.,0.\nCMASS2,9,1.,1,1\nCMASS2,10,1.,2,1\n";
     let visc = format!("{grids}CVISC,1,5,1,2\nPVISC,5,7.,0.\n");
@@ -224,7 +234,9 @@ CDAMP2,3,12.,1,1
     let c_of = |deck: &str| {
         let m = parse(deck).model;
         let (s, _) = assemble_model(&m, MassKind::Consistent).unwrap();
-        let c = crate::fe::damping::damping_matrix(&m, &s.dofs).unwrap().unwrap();
+        let c = crate::fe::damping::damping_matrix(&m, &s.dofs)
+            .unwrap()
+            .unwrap();
         (s.dofs, crate::core::sparse::sparse_to_dense(&c))
     };
     let (da, ca) = c_of(&visc);
@@ -234,7 +246,11 @@ CDAMP2,3,12.,1,1
     // A model without dampers has no C.
     let m = parse(grids).model;
     let (s, _) = assemble_model(&m, MassKind::Consistent).unwrap();
-    assert!(crate::fe::damping::damping_matrix(&m, &s.dofs).unwrap().is_none());
+    assert!(
+        crate::fe::damping::damping_matrix(&m, &s.dofs)
+            .unwrap()
+            .is_none()
+    );
 }
 
 /// `∂M/∂m` of a CMASS set equals the central difference of the assembled `M` (M is linear in
@@ -261,23 +277,34 @@ $femu-set 5 cm
     });
     assert_eq!(model.parameter_value(&model.parameters[0]).unwrap(), 2.0);
     let (sys, _) = assemble_model(&model, MassKind::Consistent).unwrap();
-    let (dk, dm) =
-        parameter_derivative(&model, &model.parameters[0], &sys.dofs, MassKind::Consistent)
-            .unwrap();
+    let (dk, dm) = parameter_derivative(
+        &model,
+        &model.parameters[0],
+        &sys.dofs,
+        MassKind::Consistent,
+    )
+    .unwrap();
     assert_eq!(dk.compute_nnz(), 0);
     let h = 1e-3;
     let at = |v: f64| {
         let mut m = model.clone();
         let p = m.parameters[0].clone();
         m.set_parameter_value(&p, v).unwrap();
-        assemble_model(&m, MassKind::Consistent).unwrap().0.m_dense()
+        assemble_model(&m, MassKind::Consistent)
+            .unwrap()
+            .0
+            .m_dense()
     };
     let (mp, mm) = (at(2.0 + h), at(2.0 - h));
     let d = crate::core::sparse::sparse_to_dense(&dm);
     for r in 0..2 {
         for c in 0..2 {
             let fd = (mp[(r, c)] - mm[(r, c)]) / (2.0 * h);
-            assert!((d[(r, c)] - fd).abs() < 1e-9, "({r}, {c}): {} vs {fd}", d[(r, c)]);
+            assert!(
+                (d[(r, c)] - fd).abs() < 1e-9,
+                "({r}, {c}): {} vs {fd}",
+                d[(r, c)]
+            );
         }
     }
     assert_eq!(d[(0, 1)], -1.0);
