@@ -46,7 +46,7 @@ fn a_modal_frf_with_element_dampers_is_refused() {
     let dir = tempfile::tempdir().unwrap();
     let file = write_pipeline(dir.path(), "modal", "{model: matrices, modes: modes}");
     let plan = load(&file, &[]);
-    let cache = femu::cache::Cache::open(dir.path().join("cache")).unwrap();
+    let cache = femu::cache::Cache::open(&dir.path().join("cache")).unwrap();
     let opts = femu::pipeline::RunOptions {
         progress: femu::pipeline::ProgressMode::Quiet,
         ..Default::default()

@@ -604,6 +604,7 @@ pub(super) fn wtmass_scalars(e: &mut Element, w: f64) {
 
 /// A CONM1 matrix given along local directions `d` (rows, basic) at the grid, in basic:
 /// `M_b = Tᵀ M T` with `T = diag(D, D)` (`u_local = D u_basic`).
+#[allow(clippy::needless_range_loop)] // index arithmetic over the lower triangle
 fn rotate_general_mass(d: &[[f64; 3]; 3], lower: &[f64; 21]) -> [f64; 21] {
     let mut m = [[0.0; 6]; 6];
     let mut k = 0;
