@@ -59,9 +59,13 @@ pub fn mass_properties(
                 Component::Rx => [0.0, 0.0, 0.0, 1.0, 0.0, 0.0],
                 Component::Ry => [0.0, 0.0, 0.0, 0.0, 1.0, 0.0],
                 Component::Rz => [0.0, 0.0, 0.0, 0.0, 0.0, 1.0],
+                // A scalar point has no position: no rigid-body motion moves it (Nastran's
+                // weight generator covers grid points only).
+                Component::Scalar => [0.0; 6],
             };
             // A component of a displacement system is `Σ_j R[k][j]` times the basic ones.
-            let Some(rot) = model.displacement_systems.get(&d.node) else {
+            let system = model.displacement_systems.get(&d.node);
+            let Some(rot) = system.filter(|_| d.comp != Component::Scalar) else {
                 return basic(d.comp);
             };
             let k = d.comp as usize;
@@ -144,6 +148,8 @@ mod tests {
                 node: 1,
                 other: Some(2),
                 k: [1.0; 6],
+                axes: None,
+                b: [0.0; 6],
             },
         );
         let p = mass_properties(&m, MassKind::Consistent, [0.0; 3]).unwrap();

@@ -2,6 +2,7 @@
 
 pub mod assembly;
 pub mod beam;
+pub mod damping;
 pub mod element;
 pub mod laminate;
 pub mod lumped;
@@ -10,6 +11,7 @@ pub mod mass_properties;
 pub mod model_assembly;
 pub mod multipoint;
 pub mod rod;
+pub mod scalar_elements;
 pub mod shell;
 pub mod solid;
 pub mod system;

@@ -196,7 +196,8 @@ impl LocalDerivative {
                 ))
             })?;
             for node in e.nodes() {
-                for c in Component::ALL {
+                // A scalar point's one DOF is `node:s`.
+                for c in Component::ALL.into_iter().chain([Component::Scalar]) {
                     if let Some(&r) = index.get(&DofId::new(node, c)) {
                         rows.push(r);
                     }

@@ -103,6 +103,8 @@ enum Slot {
     BeamDim(u64, Dim),
     Bush(u64, usize),
     Scalar(u64),
+    /// A scalar mass (CMASS) by element id.
+    ScalarMass(u64),
     Mass(u64),
     Inertia(u64, usize),
 }
@@ -184,8 +186,8 @@ impl Model {
                 (Element::Solid { property, .. }, ParameterKind::Density) => {
                     Slot::SolidMaterial(*property, Field::Rho)
                 }
-                (Element::Bush { .. }, ParameterKind::SpringStiffness(c)) => {
-                    Slot::Bush(id, c.nastran() as usize - 1)
+                (Element::Bush { .. }, ParameterKind::SpringStiffness(c)) if !c.is_scalar() => {
+                    Slot::Bush(id, c.slot())
                 }
                 (Element::ScalarSpring { .. }, ParameterKind::SpringStiffness(_)) => {
                     Slot::Scalar(id)
@@ -195,7 +197,9 @@ impl Model {
                     Component::Rx => Slot::Inertia(id, 0),
                     Component::Ry => Slot::Inertia(id, 2),
                     Component::Rz => Slot::Inertia(id, 5),
+                    Component::Scalar => return Err(not_applicable()),
                 },
+                (Element::ScalarMass { .. }, ParameterKind::LumpedMass(_)) => Slot::ScalarMass(id),
                 _ => return Err(not_applicable()),
             };
             out.push((id, slot));
@@ -251,6 +255,10 @@ impl Model {
             },
             Slot::Scalar(id) => match self.elements.get(&id)? {
                 Element::ScalarSpring { k, .. } => Some(*k),
+                _ => None,
+            },
+            Slot::ScalarMass(id) => match self.elements.get(&id)? {
+                Element::ScalarMass { m, .. } => Some(*m),
                 _ => None,
             },
             Slot::Mass(id) => match self.elements.get(&id)? {
@@ -397,6 +405,11 @@ impl Model {
                 Slot::Scalar(_) => {
                     if let Some(Element::ScalarSpring { k, .. }) = self.elements.get_mut(&id) {
                         *k = value;
+                    }
+                }
+                Slot::ScalarMass(_) => {
+                    if let Some(Element::ScalarMass { m, .. }) = self.elements.get_mut(&id) {
+                        *m = value;
                     }
                 }
                 Slot::Mass(_) => {

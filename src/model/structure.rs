@@ -430,7 +430,8 @@ pub enum Element {
         property: u64,
     },
     /// Six-DOF lumped spring (CBUSH; or a spring to ground when `nodes[1]` is `None`),
-    /// stiffness per basic direction.
+    /// stiffness (and viscous damping) per direction of its element system: the basic axes, or
+    /// `axes` when given (`K = Rᵀ diag(k) R` per node block with `R` the rows of `axes`).
     Bush {
         /// First node.
         node: u64,
@@ -438,8 +439,15 @@ pub enum Element {
         other: Option<u64>,
         /// Stiffness `[kx, ky, kz, krx, kry, krz]` (N/m, N·m/rad).
         k: [f64; 6],
+        /// The element system's unit axes x, y, z in the basic system (rows); `None`: basic.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        axes: Option<[[f64; 3]; 3]>,
+        /// Viscous damping `[bx, by, bz, brx, bry, brz]` (N·s/m, N·m·s/rad; PBUSH B).
+        #[serde(default, skip_serializing_if = "is_zero6")]
+        b: [f64; 6],
     },
-    /// Scalar spring between two DOFs, or one DOF and ground (CELAS1/2).
+    /// Scalar spring between two DOFs, or one DOF and ground (CELAS1–4); a DOF may be a
+    /// scalar point's.
     ScalarSpring {
         /// First DOF.
         dof: DofId,
@@ -459,9 +467,62 @@ pub enum Element {
         /// Centre of gravity relative to the node, m.
         offset: [f64; 3],
     },
+    /// Scalar mass between two DOFs (`m [[1, −1], [−1, 1]]`), or on one DOF (CMASS1–4).
+    ScalarMass {
+        /// First DOF.
+        dof: DofId,
+        /// Second DOF, or ground.
+        other: Option<DofId>,
+        /// Mass, kg (or kg·m² on rotations).
+        m: f64,
+    },
+    /// A symmetric 6×6 mass matrix at a node in the basic system (CONM1), lower triangle by
+    /// rows: `M11, M21, M22, M31, …, M66`.
+    GeneralMass {
+        /// The node.
+        node: u64,
+        /// The 21 entries of the lower triangle, row by row.
+        m: [f64; 21],
+    },
+    /// Scalar viscous damper between two DOFs, or one DOF and ground (CDAMP1–4).
+    ScalarDamper {
+        /// First DOF.
+        dof: DofId,
+        /// Second DOF, or ground.
+        other: Option<DofId>,
+        /// Damping, N·s/m (or N·m·s/rad).
+        c: f64,
+    },
+    /// Viscous damper between two grids (CVISC): axial along the line between them and
+    /// torsional about it.
+    Viscous {
+        /// The two grids.
+        nodes: [u64; 2],
+        /// Axial damping, N·s/m.
+        axial: f64,
+        /// Torsional damping, N·m·s/rad.
+        torsional: f64,
+    },
+}
+
+fn is_zero6(v: &[f64; 6]) -> bool {
+    v.iter().all(|x| *x == 0.0)
 }
 
 impl Element {
+    /// Whether the element only damps (no stiffness, no mass).
+    pub fn is_damper(&self) -> bool {
+        matches!(self, Element::ScalarDamper { .. } | Element::Viscous { .. })
+    }
+
+    /// Whether the element adds viscous damping `C` (dampers, bushes with B).
+    pub fn has_damping(&self) -> bool {
+        match self {
+            Element::Bush { b, .. } => !is_zero6(b),
+            e => e.is_damper(),
+        }
+    }
+
     /// Grid points the element connects.
     pub fn nodes(&self) -> Vec<u64> {
         match self {
@@ -474,7 +535,23 @@ impl Element {
             Element::ScalarSpring { dof, other, .. } => std::iter::once(dof.node)
                 .chain(other.map(|d| d.node))
                 .collect(),
-            Element::Mass { node, .. } => vec![*node],
+            Element::Mass { node, .. } | Element::GeneralMass { node, .. } => vec![*node],
+            Element::ScalarMass { dof, other, .. } | Element::ScalarDamper { dof, other, .. } => {
+                std::iter::once(dof.node)
+                    .chain(other.map(|d| d.node))
+                    .collect()
+            }
+            Element::Viscous { nodes, .. } => nodes.to_vec(),
+        }
+    }
+
+    /// The DOFs of a scalar element (spring, mass, damper): its first DOF and the other one.
+    pub fn scalar_dofs(&self) -> Option<(DofId, Option<DofId>)> {
+        match self {
+            Element::ScalarSpring { dof, other, .. }
+            | Element::ScalarMass { dof, other, .. }
+            | Element::ScalarDamper { dof, other, .. } => Some((*dof, *other)),
+            _ => None,
         }
     }
 
@@ -504,6 +581,10 @@ impl Element {
             Element::Bush { .. } => "bush",
             Element::ScalarSpring { .. } => "scalar_spring",
             Element::Mass { .. } => "mass",
+            Element::ScalarMass { .. } => "scalar_mass",
+            Element::GeneralMass { .. } => "general_mass",
+            Element::ScalarDamper { .. } => "scalar_damper",
+            Element::Viscous { .. } => "viscous",
         }
     }
 }
@@ -587,6 +668,10 @@ pub struct Model {
     /// Multipoint constraints (rigid elements, MPC), each eliminating one dependent DOF.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub mpcs: Vec<MultipointConstraint>,
+    /// Scalar points (Nastran SPOINT, EPOINT): one DOF each (`id:s`), no position; ids distinct
+    /// from the grids'.
+    #[serde(default, skip_serializing_if = "std::collections::BTreeSet::is_empty")]
+    pub scalar_points: std::collections::BTreeSet<u64>,
     /// Orthotropic and anisotropic shell materials by id (MAT8, MAT2), beside the isotropic
     /// `materials` (ids are shared: one id is in one of the two).
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
@@ -694,6 +779,22 @@ pub enum ModelError {
     /// A constraint names a node that does not exist.
     #[error("a constraint refers to node {0}, which is not defined")]
     ConstraintNode(u64),
+    /// An id is both a grid's and a scalar point's.
+    #[error(
+        "id {0} is both a grid point and a scalar point; grid and scalar point ids must be unique"
+    )]
+    ScalarPointIsGrid(u64),
+    /// A DOF whose component does not fit its point: a grid component (1–6) of a scalar
+    /// point, or the scalar component (0) of a grid.
+    #[error("{origin} names DOF {dof}, but {problem}")]
+    ComponentMismatch {
+        /// Where (`element 12`, `a constraint`).
+        origin: String,
+        /// The DOF.
+        dof: DofId,
+        /// What is wrong and what would be valid.
+        problem: &'static str,
+    },
     /// A multipoint constraint names a node that does not exist.
     #[error("{origin} refers to node {node}, which is not defined")]
     MpcNode {
@@ -743,6 +844,13 @@ impl crate::core::InputFault for ModelError {
 impl Model {
     /// Checks every reference.
     pub fn validate(&self) -> Result<(), ModelError> {
+        if let Some(&g) = self
+            .scalar_points
+            .iter()
+            .find(|s| self.nodes.contains_key(s))
+        {
+            return Err(ModelError::ScalarPointIsGrid(g));
+        }
         for (&node, r) in &self.displacement_systems {
             if !self.nodes.contains_key(&node) {
                 return Err(ModelError::BadDisplacementSystem {
@@ -761,7 +869,7 @@ impl Model {
         }
         for (&id, e) in &self.elements {
             for n in e.nodes() {
-                if !self.nodes.contains_key(&n) {
+                if !self.has_point(n) {
                     return Err(ModelError::MissingNode {
                         element: id,
                         kind: e.type_name(),
@@ -866,11 +974,55 @@ impl Model {
             }
         }
         for d in &self.constraints {
-            if !self.nodes.contains_key(&d.node) {
+            if !self.has_point(d.node) {
                 return Err(ModelError::ConstraintNode(d.node));
+            }
+            self.check_component(*d, || "a constraint".to_string())?;
+        }
+        for (&id, e) in &self.elements {
+            if let Some((a, b)) = e.scalar_dofs() {
+                for d in std::iter::once(a).chain(b) {
+                    self.check_component(d, || format!("element {id} ({})", e.type_name()))?;
+                }
+            } else if !self.scalar_points.is_empty() {
+                if let Some(n) = e.nodes().into_iter().find(|n| self.is_scalar_point(*n)) {
+                    return Err(ModelError::ComponentMismatch {
+                        origin: format!("element {id} ({})", e.type_name()),
+                        dof: DofId::new(n, Component::Scalar),
+                        problem: "only scalar elements (springs, masses, dampers) connect scalar points",
+                    });
+                }
             }
         }
         self.validate_mpcs()
+    }
+
+    /// Whether `id` is a grid point or a scalar point of the model.
+    pub fn has_point(&self, id: u64) -> bool {
+        self.nodes.contains_key(&id) || self.scalar_points.contains(&id)
+    }
+
+    /// Whether `id` is a scalar point.
+    pub fn is_scalar_point(&self, id: u64) -> bool {
+        self.scalar_points.contains(&id)
+    }
+
+    /// A DOF's component fits its point: `s` on a scalar point, `ux`…`rz` on a grid.
+    fn check_component(&self, d: DofId, origin: impl Fn() -> String) -> Result<(), ModelError> {
+        let problem = match (self.is_scalar_point(d.node), d.comp.is_scalar()) {
+            (true, false) => {
+                "it is a scalar point, whose one DOF is component s (Nastran 0 or blank)"
+            }
+            (false, true) => {
+                "it is a grid point, whose components are ux uy uz rx ry rz (Nastran 1-6)"
+            }
+            _ => return Ok(()),
+        };
+        Err(ModelError::ComponentMismatch {
+            origin: origin(),
+            dof: d,
+            problem,
+        })
     }
 
     /// Multipoint constraints: nodes exist, each dependent DOF once, none constrained, no cycle.
@@ -881,7 +1033,7 @@ impl Model {
         let mut by_dep: BTreeMap<DofId, usize> = BTreeMap::new();
         for (i, c) in self.mpcs.iter().enumerate() {
             for d in std::iter::once(&c.dependent).chain(c.terms.iter().map(|t| &t.0)) {
-                if !self.nodes.contains_key(&d.node) {
+                if !self.has_point(d.node) {
                     return Err(ModelError::MpcNode {
                         origin: c.origin.clone(),
                         node: d.node,
@@ -969,8 +1121,8 @@ impl Model {
         }
     }
 
-    /// Total count of DOFs before constraints: six per node.
+    /// Total count of DOFs before constraints: six per node, one per scalar point.
     pub fn n_dofs(&self) -> usize {
-        6 * self.nodes.len()
+        6 * self.nodes.len() + self.scalar_points.len()
     }
 }

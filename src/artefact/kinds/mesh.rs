@@ -20,7 +20,10 @@
 //! `solid_properties` and the MAT9 `anisotropic_materials`; all three are absent without solids.
 //! MAT8/MAT2 materials are in `shell_materials` and
 //! the shell elements' THETA/MCID/ZOFFS in `shell_placements` (element id → placement), each
-//! only when the model has any; laminates (PCOMP) are shell properties with `laminate` plies.
+//! only when the model has any; laminates (PCOMP) are shell properties with `laminate` plies. //! Scalar points are in `scalar_points`, the
+//! element systems and damping of the bushes that have them in `bush_systems` (element id →
+//! `{axes, b}`), and scalar masses, general (CONM1) masses and dampers in `lumped_extra`
+//! (element id → element, JSON); each key is written only when the model has such things.
 
 use super::{ColumnLayout, Kind, Layout, col, meta, meta_opt, meta_value, table};
 use crate::artefact::{Artefact, ArtefactError, ArtefactKind, Column, Storage, Table};
@@ -159,6 +162,15 @@ impl Kind for MeshKind {
                     "beam_ends",
                     "offsets (basic, m) and pin flags of the beams that have them, by element id",
                 ),
+                meta_opt("scalar_points", "scalar point ids (SPOINT, EPOINT)"),
+                meta_opt(
+                    "bush_systems",
+                    "element axes (rows, basic) and damping b_1..b_6 of the bushes that have them, by element id",
+                ),
+                meta_opt(
+                    "lumped_extra",
+                    "scalar masses, general masses (CONM1) and dampers, by element id",
+                ),
             ],
             blobs: vec![],
         }
@@ -238,10 +250,22 @@ pub fn mesh_to_artefact(m: &Model) -> Artefact {
     let mut rod_sections = std::collections::BTreeMap::new();
     let mut beam_ends = std::collections::BTreeMap::new();
     let mut solids = std::collections::BTreeMap::new();
+    let mut bush_systems = std::collections::BTreeMap::new();
+    let mut lumped_extra = std::collections::BTreeMap::new();
     for (&id, e) in &m.elements {
         match e {
             Element::Solid { .. } => {
                 solids.insert(id, e.clone());
+            }
+            Element::Bush { axes, b, .. } if axes.is_some() || b.iter().any(|v| *v != 0.0) => {
+                bush_systems.insert(id, serde_json::json!({"axes": axes, "b": b}));
+                lumped.push(id, e);
+            }
+            Element::ScalarMass { .. }
+            | Element::GeneralMass { .. }
+            | Element::ScalarDamper { .. }
+            | Element::Viscous { .. } => {
+                lumped_extra.insert(id, e.clone());
             }
             Element::Quad4 { nodes, property } => elements.push(id, e, nodes, *property, None),
             Element::Tria3 { nodes, property } => elements.push(id, e, nodes, *property, None),
@@ -316,6 +340,15 @@ pub fn mesh_to_artefact(m: &Model) -> Artefact {
     }
     if !m.anisotropic_materials.is_empty() {
         a = a.with_meta("anisotropic_materials", to_json(&m.anisotropic_materials));
+    }
+    if !m.scalar_points.is_empty() {
+        a = a.with_meta("scalar_points", to_json(&m.scalar_points));
+    }
+    if !bush_systems.is_empty() {
+        a = a.with_meta("bush_systems", to_json(&bush_systems));
+    }
+    if !lumped_extra.is_empty() {
+        a = a.with_meta("lumped_extra", to_json(&lumped_extra));
     }
     if m.mpcs.is_empty() {
         a
@@ -523,7 +556,7 @@ impl LumpedRow {
             offset: [0.0; 3],
         };
         Some(match e {
-            Element::Bush { node, other, k } => LumpedRow {
+            Element::Bush { node, other, k, .. } => LumpedRow {
                 other: other.map(|o| o as i64).unwrap_or(-1),
                 k: *k,
                 ..empty(*node)
@@ -550,7 +583,11 @@ impl LumpedRow {
             | Element::Tria3 { .. }
             | Element::Beam { .. }
             | Element::Rod { .. }
-            | Element::Solid { .. } => return None,
+            | Element::Solid { .. }
+            | Element::ScalarMass { .. }
+            | Element::GeneralMass { .. }
+            | Element::ScalarDamper { .. }
+            | Element::Viscous { .. } => return None,
         })
     }
 }
@@ -667,6 +704,7 @@ pub fn mesh_from_artefact(a: &Artefact) -> Result<Model, ArtefactError> {
         m.elements.insert(eid, e);
     }
     read_lumped(a, &mut m)?;
+    read_lumped_extras(a, &mut m)?;
     read_mpcs(a, &mut m)?;
     read_displacement_systems(a, &mut m)?;
     let t = a.table("constraints")?;
@@ -780,6 +818,39 @@ fn read_elements(a: &Artefact, m: &mut Model) -> Result<(), ArtefactError> {
     Ok(())
 }
 
+/// Scalar points, bush systems and the lumped elements kept as JSON.
+fn read_lumped_extras(a: &Artefact, m: &mut Model) -> Result<(), ArtefactError> {
+    m.scalar_points = optional_meta(a, "scalar_points")?;
+    #[derive(serde::Deserialize)]
+    struct BushSystem {
+        axes: Option<[[f64; 3]; 3]>,
+        b: [f64; 6],
+    }
+    let systems: BTreeMap<u64, BushSystem> = optional_meta(a, "bush_systems")?;
+    for (eid, s) in systems {
+        match m.elements.get_mut(&eid) {
+            Some(Element::Bush { axes, b, .. }) => {
+                *axes = s.axes;
+                *b = s.b;
+            }
+            _ => {
+                return Err(bad(format!(
+                    "bush_systems names element {eid}, which is not a bush of the lumped table"
+                )));
+            }
+        }
+    }
+    let extra: BTreeMap<u64, Element> = optional_meta(a, "lumped_extra")?;
+    for (eid, e) in extra {
+        if m.elements.insert(eid, e).is_some() {
+            return Err(bad(format!(
+                "lumped_extra defines element {eid}, which another table defines too"
+            )));
+        }
+    }
+    Ok(())
+}
+
 fn read_lumped(a: &Artefact, m: &mut Model) -> Result<(), ArtefactError> {
     let n = "lumped";
     let t = a.table(n)?;
@@ -813,6 +884,8 @@ fn read_lumped(a: &Artefact, m: &mut Model) -> Result<(), ArtefactError> {
                 node,
                 other,
                 k: std::array::from_fn(|i| k[i][r]),
+                axes: None,
+                b: [0.0; 6],
             },
             "scalar_spring" => Element::ScalarSpring {
                 dof: dof(node, &lcomp[r])?,
@@ -891,6 +964,72 @@ mod tests {
         );
         m.add_property_sets();
         m
+    }
+
+    /// Scalar points, a bush with an element system and damping, and the scalar family come
+    /// back exactly; a model without them writes none of their keys.
+    #[test]
+    fn scalar_points_and_dampers_round_trip() {
+        use crate::core::Component;
+        let mut m = rod_model();
+        let plain = mesh_to_artefact(&m);
+        for key in ["scalar_points", "bush_systems", "lumped_extra"] {
+            assert!(!plain.meta.contains_key(key), "{key}");
+        }
+        m.scalar_points.extend([7, 8]);
+        let s = |n| DofId::new(n, Component::Scalar);
+        m.elements.insert(
+            10,
+            Element::Bush {
+                node: 1,
+                other: Some(2),
+                k: [1.0, 2.0, 3.0, 4.0, 5.0, 6.0],
+                axes: Some([[0.0, 1.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 0.0, 1.0]]),
+                b: [0.5, 0.0, 0.0, 0.0, 0.0, 0.0],
+            },
+        );
+        m.elements.insert(
+            11,
+            Element::ScalarMass {
+                dof: s(7),
+                other: Some(s(8)),
+                m: 2.0,
+            },
+        );
+        m.elements.insert(
+            12,
+            Element::ScalarDamper {
+                dof: s(7),
+                other: None,
+                c: 3.0,
+            },
+        );
+        m.elements.insert(
+            13,
+            Element::ScalarSpring {
+                dof: s(8),
+                other: Some(DofId::new(3, Component::Uz)),
+                k: 4.0,
+            },
+        );
+        m.elements.insert(
+            14,
+            Element::GeneralMass {
+                node: 3,
+                m: [1.0; 21],
+            },
+        );
+        m.elements.insert(
+            15,
+            Element::Viscous {
+                nodes: [1, 3],
+                axial: 1.0,
+                torsional: 0.5,
+            },
+        );
+        m.constraints.push(s(8));
+        let back = mesh_from_artefact(&mesh_to_artefact(&m)).unwrap();
+        assert_eq!(back, m);
     }
 
     /// Rods (by property and with their own section) and a membrane-only shell come back

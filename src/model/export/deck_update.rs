@@ -11,6 +11,9 @@
 //! - laminates: shell thickness → every ply's `Ti` (and an explicit `Z0`) of the PCOMP/PCOMPG,
 //!   scaled together; Young's modulus and density of a MAT8/MAT2 → `E1`, `E2`, `G12`, `G1Z`,
 //!   `G2Z` (blank ones stay blank) or `G11`–`G33` in proportion, and `RHO`.
+//! - lumped mass → CONM2 `M` and `I11`/`I22`/`I33` (divided by WTMASS); scalar mass → CMASS2/
+//!   CMASS4 `M`, or the PMASS `Mi` of a CMASS1/CMASS3 when every element using it changed
+//!   alike (divided by WTMASS; else an error: a PMASS copy is not written).
 //!
 //! When an update gave part of a shared property (or material, PBUSH, PELAS) its own value, the
 //! model holds a copy under a new id: the deck gets a copy of the original card, placed right
@@ -239,7 +242,11 @@ impl<'a> Writer<'a> {
                     w.used_materials.insert(id);
                 }
             } else if is_property(name) {
-                let ks: &[usize] = if name == "PELAS" { &[1, 5] } else { &[1] };
+                let ks: &[usize] = match name {
+                    "PELAS" => &[1, 5],
+                    "PMASS" | "PDAMP" => &[1, 3, 5, 7],
+                    _ => &[1],
+                };
                 for &k in ks {
                     if let Some(id) = card_id(c, k) {
                         w.properties.insert(id, i);
@@ -912,6 +919,7 @@ fn elements(
 ) -> Result<(), DeckUpdateError> {
     // Springs whose property card holds the stiffness: (property card, field of K) → users' k.
     let mut spring_groups: BTreeMap<(usize, usize), SpringUsers> = BTreeMap::new();
+    let mut mass_groups: BTreeMap<u64, Vec<(u64, f64, f64)>> = BTreeMap::new();
     for (eid, e) in &updated.elements {
         let Some(e0) = original.elements.get(eid) else {
             continue;
@@ -1011,10 +1019,59 @@ fn elements(
                     }
                 }
             }
+            (Element::ScalarMass { m, .. }, Element::ScalarMass { m: m0, .. }) if m != m0 => {
+                let wt = w.wtmass;
+                if matches!(w.card(i).name.as_str(), "CMASS2" | "CMASS4") {
+                    w.set_real(i, 2, "M", *m0, *m, wt, 0.0)?;
+                } else {
+                    let pid = card_id(w.card(i), 2).unwrap_or(*eid);
+                    mass_groups.entry(pid).or_default().push((*eid, *m0, *m));
+                }
+            }
             _ => {}
         }
     }
+    scalar_masses(w, mass_groups)?;
     springs(w, spring_groups)
+}
+
+/// PMASS masses of CMASS1/CMASS3 elements: the property's field when every element using it
+/// changed to one value, else an error naming the card.
+fn scalar_masses(
+    w: &mut Writer,
+    groups: BTreeMap<u64, Vec<(u64, f64, f64)>>,
+) -> Result<(), DeckUpdateError> {
+    for (pid, users) in groups {
+        let pi = *w.properties.get(&pid).ok_or(DeckUpdateError::Missing {
+            what: "property",
+            id: pid,
+        })?;
+        let all_users = w
+            .elements
+            .iter()
+            .filter(|(eid, ci)| {
+                let c = w.card(**ci);
+                matches!(c.name.as_str(), "CMASS1" | "CMASS3")
+                    && card_id(c, 2).unwrap_or(**eid) == pid
+            })
+            .count();
+        let (m0, m) = (users[0].1, users[0].2);
+        if users.len() != all_users || users.iter().any(|u| u.2.to_bits() != m.to_bits()) {
+            return Err(w.unsupported(
+                pi,
+                format!("the elements using PMASS {pid} were updated to different masses; give them their own PMASS (a PMASS copy is not written)"),
+            ));
+        }
+        let Some(k) = [1, 3, 5, 7]
+            .into_iter()
+            .find(|&k| card_id(w.card(pi), k) == Some(pid))
+        else {
+            continue;
+        };
+        let wt = w.wtmass;
+        w.set_real(pi, k + 1, "M", m0, m, wt, 0.0)?;
+    }
+    Ok(())
 }
 
 /// PBUSH/PELAS stiffnesses: the card itself when every element using it changed alike, else a
@@ -1363,7 +1420,7 @@ mod tests {
         main.push_str("SPC1,1,123456,1,4,7\n");
         main.push_str(&small(&["CONM2", "10", "9", "", "2.0"]));
         main.push('\n');
-        main.push_str(&small(&["CBUSH", "11", "21", "7"]));
+        main.push_str(&small(&["CBUSH", "11", "21", "7", "", "", "", "", "0"]));
         main.push('\n');
         main.push_str("CELAS2,12,1.+4,8,3\nPROD,20,1,1.-4,0.\nCROD,21,20,2,3\nCONROD,22,5,6,1,2.-4,0.\nSET1,5,10\nSET1,6,11\nSET1,7,12\nSET1,8,1\nSET1,9,22\nENDDATA\n");
         std::fs::write(dir.join("main.bdf"), main).unwrap();
@@ -1426,6 +1483,44 @@ mod tests {
             std::fs::write(out_dir.join(name), bytes).unwrap();
         }
         out_dir.join(&out.files[0].0)
+    }
+
+    /// Updated scalar masses go back into CMASS2 `M` and into the PMASS `M2` of a CMASS1 (the
+    /// only user of that property), divided by WTMASS; re-imported they are the updated ones
+    /// exactly. A PMASS whose users were updated apart is an error naming it.
+    #[test]
+    fn scalar_masses_are_written_back() {
+        let dir = tempfile::tempdir().unwrap();
+        let top = dir.path().join("main.bdf");
+        let text = "PARAM,WTMASS,.5\nSPOINT,1,2\nCELAS4,1,1.+4,1,2\nCMASS2,2,4.,1\nCMASS1,3,8,2\nCMASS1,4,7,2\nPMASS,7,1.,8,6.\nENDDATA\n";
+        std::fs::write(&top, text).unwrap();
+        let model = read_bulk(&top).unwrap().model;
+        let mut new = model.clone();
+        for (id, v) in [(2, 2.5), (3, 1.25)] {
+            if let Some(Element::ScalarMass { m, .. }) = new.elements.get_mut(&id) {
+                *m = v;
+            }
+        }
+        let deck = read_deck(&top).unwrap();
+        let out = update_deck(&deck, &model, &new, &["test".to_string()]).unwrap();
+        let back = read_bulk(written(dir.path(), &out)).unwrap().model;
+        assert_eq!(back, new);
+        let written_text = String::from_utf8_lossy(&out.files[0].1).to_string();
+        assert!(written_text.contains("CMASS2*"), "{written_text}");
+        assert!(written_text.contains("5."), "{written_text}");
+        // Elements 3 and 4 share nothing, but two users of one PMASS updated apart are refused.
+        let shared = "SPOINT,1,2\nCMASS1,3,8,1\nCMASS1,4,8,2\nPMASS,8,6.\nENDDATA\n";
+        std::fs::write(&top, shared).unwrap();
+        let model = read_bulk(&top).unwrap().model;
+        let mut new = model.clone();
+        if let Some(Element::ScalarMass { m, .. }) = new.elements.get_mut(&3) {
+            *m = 1.0;
+        }
+        let deck = read_deck(&top).unwrap();
+        let e = update_deck(&deck, &model, &new, &["test".to_string()])
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("PMASS 8") && e.contains("own PMASS"), "{e}");
     }
 
     /// Re-importing the written deck gives the updated model's K and M: the exactly written

@@ -3,9 +3,13 @@
 //!
 //! Cards written, in this order, each group by ascending id: MAT1, MAT9, PSHELL, PBAR (general
 //! sections) and PBARL (BAR, ROD, TUBE), PROD, PSOLID (each with material axes preceded by a
-//! CORD2R of a fresh id holding them, named in CORDM), PBUSH (one per bush, ids above every property
-//! id), CORD2R (one per distinct displacement system), GRID (basic coordinates, CD), CQUAD4, CTRIA3, CHEXA, CPENTA, CTETRA, CPYRAM, CBAR (orientation X1–X3), CROD (a rod with a
-//! property) or CONROD (a rod with its own section), CBUSH (CID 0), CELAS2, CONM2 (CID 0), SPC1
+//! CORD2R of a fresh id holding them, named in CORDM), PBUSH (one per bush, ids above every
+//! property id; a B line when the bush damps), PVISC (one per viscous damper, ids after the
+//! PBUSHes), CORD2R (one per bush with an element system), CORD2R (one per distinct
+//! displacement system), GRID (basic coordinates, CD), SPOINT (scalar points), CQUAD4, CTRIA3,
+//! CHEXA, CPENTA, CTETRA, CPYRAM, CBAR (orientation X1–X3), CROD (a rod with a
+//! property) or CONROD (a rod with its own section), CBUSH (CID 0, or its CORD2R), CELAS2,
+//! CMASS2, CDAMP2, CVISC, CONM1 (CID 0), CONM2 (CID 0), SPC1
 //! (SID 1, one card per component list), MPC (SID 1, one card per multipoint constraint
 //! `u_d = Σ cᵢ uᵢ` as `1·u_d − Σ cᵢ uᵢ = 0`, preceded by a comment naming the card it came
 //! from; re-read, its origin becomes `MPC 1`), SET1, between `BEGIN BULK` and `ENDDATA`.
@@ -141,16 +145,18 @@ pub fn write_bulk(model: &Model) -> String {
     let mut out = String::new();
     out.push_str("$ Nastran bulk data written by femu\nBEGIN BULK\n");
     write_materials_and_properties(&mut out, model);
-    let bush_pid = write_bush_properties(&mut out, model);
-    // Coordinate system ids: the solids' material axes first (1…), then the displacement
-    // systems, then the shells' material axes.
+    // Coordinate system ids: the solids' material axes first (1…), then the bushes' element
+    // systems, the displacement systems, and the shells' material axes.
     let solid_axes = model
         .solid_properties
         .values()
         .filter(|p| p.axes.is_some())
         .count() as u64;
-    let systems = write_displacement_systems(&mut out, model, solid_axes + 1);
-    let first = solid_axes + 1 + systems.values().collect::<BTreeSet<_>>().len() as u64;
+    let bush_pid = write_bush_properties(&mut out, model, solid_axes);
+    let bush_axes = bush_pid.values().filter(|(_, cid)| *cid != 0).count() as u64;
+    let first = solid_axes + bush_axes + 1;
+    let systems = write_displacement_systems(&mut out, model, first);
+    let first = first + systems.values().collect::<BTreeSet<_>>().len() as u64;
     let axes = write_material_axes(&mut out, model, first);
     for (&id, x) in &model.nodes {
         let mut fields = vec![
@@ -164,6 +170,16 @@ pub fn write_bulk(model: &Model) -> String {
             fields.push(F::Int(*cd));
         }
         card(&mut out, "GRID", fields);
+    }
+    if !model.scalar_points.is_empty() {
+        let ids: Vec<u64> = model.scalar_points.iter().copied().collect();
+        for chunk in ids.chunks(8) {
+            card(
+                &mut out,
+                "SPOINT",
+                chunk.iter().map(|i| F::Int(*i)).collect(),
+            );
+        }
     }
     for (&id, e) in &model.elements {
         match model.shell_placements.get(&id) {
@@ -504,7 +520,11 @@ fn write_beam_property(out: &mut String, id: u64, p: &BeamProperty) {
 
 /// One PBUSH per bush element, with ids above every property id; returns each bush's property
 /// id by element id.
-fn write_bush_properties(out: &mut String, model: &Model) -> BTreeMap<u64, u64> {
+fn write_bush_properties(
+    out: &mut String,
+    model: &Model,
+    cids_before: u64,
+) -> BTreeMap<u64, (u64, u64)> {
     let max_pid = model
         .shell_properties
         .keys()
@@ -515,20 +535,58 @@ fn write_bush_properties(out: &mut String, model: &Model) -> BTreeMap<u64, u64> 
         .copied()
         .unwrap_or(0);
     let mut bush_pid = BTreeMap::new();
+    let mut cid = cids_before;
     for (&id, e) in &model.elements {
-        if let Element::Bush { k, .. } = e {
+        if let Element::Bush { k, b, axes, .. } = e {
             let pid = max_pid + 1 + bush_pid.len() as u64;
-            bush_pid.insert(id, pid);
             let mut f = vec![F::Int(pid), F::Text("K".to_string())];
             f.extend(k.iter().map(|v| F::Real(*v)));
+            if b.iter().any(|v| *v != 0.0) {
+                // The continuation: a blank field 2, then the B flag and B1–B6.
+                f.extend([F::Blank, F::Text("B".to_string())]);
+                f.extend(b.iter().map(|v| F::Real(*v)));
+            }
             card(out, "PBUSH", f);
+            // The element system as a CORD2R: origin at basic 0, A the origin, B on z, C on x.
+            let system = axes.map(|a| {
+                cid += 1;
+                let mut f = vec![
+                    F::Int(cid),
+                    F::Int(0),
+                    F::Real(0.0),
+                    F::Real(0.0),
+                    F::Real(0.0),
+                ];
+                f.extend(a[2].iter().map(|v| F::Real(*v)));
+                f.extend(a[0].iter().map(|v| F::Real(*v)));
+                card(out, "CORD2R", f);
+                cid
+            });
+            bush_pid.insert(id, (pid, system.unwrap_or(0)));
+        }
+    }
+    let mut next = max_pid + 1 + bush_pid.len() as u64;
+    for (&id, e) in &model.elements {
+        if let Element::Viscous {
+            axial, torsional, ..
+        } = e
+        {
+            let pid = next;
+            next += 1;
+            bush_pid.insert(id, (pid, 0));
+            card(
+                out,
+                "PVISC",
+                vec![F::Int(pid), F::Real(*axial), F::Real(*torsional)],
+            );
         }
     }
     bush_pid
 }
 
-/// One element card; a bush refers to its PBUSH id in `bush_pid`.
-fn write_element(out: &mut String, id: u64, e: &Element, bush_pid: &BTreeMap<u64, u64>) {
+/// One element card; a bush refers to its PBUSH id and CORD2R id in `bush_pid` (a viscous
+/// damper to its PVISC id).
+fn write_element(out: &mut String, id: u64, e: &Element, bush_pid: &BTreeMap<u64, (u64, u64)>) {
     match e {
         Element::Quad4 { nodes, property } => {
             let mut f = vec![F::Int(id), F::Int(*property)];
@@ -610,7 +668,7 @@ fn write_element(out: &mut String, id: u64, e: &Element, bush_pid: &BTreeMap<u64
             card(out, name, f);
         }
         Element::Bush { node, other, .. } => {
-            let pid = bush_pid.get(&id).copied().unwrap_or(0);
+            let (pid, cid) = bush_pid.get(&id).copied().unwrap_or((0, 0));
             card(
                 out,
                 "CBUSH",
@@ -622,9 +680,28 @@ fn write_element(out: &mut String, id: u64, e: &Element, bush_pid: &BTreeMap<u64
                     F::Blank,
                     F::Blank,
                     F::Blank,
-                    F::Int(0),
+                    F::Int(cid),
                 ],
             );
+        }
+        Element::ScalarMass { dof, other, m } => {
+            card(out, "CMASS2", scalar_fields(id, *m, dof, other));
+        }
+        Element::ScalarDamper { dof, other, c } => {
+            card(out, "CDAMP2", scalar_fields(id, *c, dof, other));
+        }
+        Element::Viscous { nodes, .. } => {
+            let (pid, _) = bush_pid.get(&id).copied().unwrap_or((0, 0));
+            card(
+                out,
+                "CVISC",
+                vec![F::Int(id), F::Int(pid), F::Int(nodes[0]), F::Int(nodes[1])],
+            );
+        }
+        Element::GeneralMass { node, m } => {
+            let mut f = vec![F::Int(id), F::Int(*node), F::Int(0)];
+            f.extend(m.iter().map(|v| F::Real(*v)));
+            card(out, "CONM1", f);
         }
         Element::ScalarSpring { dof, other, k } => {
             let mut f = vec![
@@ -651,6 +728,25 @@ fn write_element(out: &mut String, id: u64, e: &Element, bush_pid: &BTreeMap<u64
             card(out, "CONM2", f);
         }
     }
+}
+
+/// The fields of a CELAS2/CMASS2/CDAMP2: EID, value, G1, C1 and G2, C2 when not to ground.
+fn scalar_fields(
+    id: u64,
+    v: f64,
+    dof: &crate::core::DofId,
+    other: &Option<crate::core::DofId>,
+) -> Vec<F> {
+    let mut f = vec![
+        F::Int(id),
+        F::Real(v),
+        F::Int(dof.node),
+        F::Int(u64::from(dof.comp.nastran())),
+    ];
+    if let Some(o) = other {
+        f.extend([F::Int(o.node), F::Int(u64::from(o.comp.nastran()))]);
+    }
+    f
 }
 
 /// SPC1 cards (SID 1), one per component list, the nodes grouped by their constrained components.
@@ -916,14 +1012,66 @@ mod tests {
                 node: 4,
                 other: Some(6),
                 k: [1e6, 2e6, 3e6, 10.0, 20.0, 30.5],
+                axes: Some([[0.0, 1.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 0.0, 1.0]]),
+                b: [0.5, 0.0, 0.0, 0.0, 0.0, 0.25],
             },
         );
+        // Scalar points and the scalar family (SPOINT, CMASS2, CDAMP2, CONM1, CVISC).
+        m.scalar_points.extend([100, 101]);
+        m.elements.insert(
+            30,
+            Element::ScalarMass {
+                dof: DofId::new(100, Component::Scalar),
+                other: Some(DofId::new(101, Component::Scalar)),
+                m: 0.75,
+            },
+        );
+        m.elements.insert(
+            31,
+            Element::ScalarDamper {
+                dof: DofId::new(100, Component::Scalar),
+                other: None,
+                c: 3.5,
+            },
+        );
+        m.elements.insert(
+            32,
+            Element::GeneralMass {
+                node: 5,
+                m: std::array::from_fn(|i| {
+                    if [0, 2, 5, 9, 14, 20].contains(&i) {
+                        1.0 + i as f64
+                    } else {
+                        0.01 * i as f64
+                    }
+                }),
+            },
+        );
+        m.elements.insert(
+            33,
+            Element::Viscous {
+                nodes: [4, 6],
+                axial: 2.0,
+                torsional: 0.5,
+            },
+        );
+        m.elements.insert(
+            34,
+            Element::ScalarSpring {
+                dof: DofId::new(3, Component::Uy),
+                other: Some(DofId::new(100, Component::Scalar)),
+                k: 9.0,
+            },
+        );
+        m.constraints.push(DofId::new(101, Component::Scalar));
         m.elements.insert(
             11,
             Element::Bush {
                 node: 7,
                 other: None,
                 k: [1e5, 0.0, 1e5, 0.0, 0.0, 0.0],
+                axes: None,
+                b: [0.0; 6],
             },
         );
         m.elements.insert(

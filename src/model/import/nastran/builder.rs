@@ -20,16 +20,8 @@ pub(super) enum ElemIn {
         orient: Option<Orient>,
         ends: BeamEndsIn,
     },
-    Celas1 {
-        pid: u64,
-        dof: DofId,
-        other: Option<DofId>,
-    },
-    Bush {
-        pid: u64,
-        node: u64,
-        other: Option<u64>,
-    },
+    /// Scalar elements, CONM1, CVISC and CBUSH (scalars.rs).
+    Scalar(super::scalars::ScalarIn),
     /// CONM2 with CID > 0: offset and inertia along the system's directions at the grid.
     MassInSystem {
         node: u64,
@@ -121,6 +113,8 @@ pub(super) struct Builder {
     pub(super) rigid: super::rigid::RigidIn,
     /// MAT2/MAT8 and shell placements (laminates.rs).
     pub(super) laminates: super::laminates::LaminatesIn,
+    /// Scalar points and the properties of scalar elements (scalars.rs).
+    pub(super) scalars: super::scalars::ScalarsIn,
 }
 
 /// The error for an id (data field `k`, always on the card's first line) defined twice.
@@ -177,7 +171,14 @@ impl Builder {
             "PSOLID" => self.psolid(c),
             "MAT9" => self.mat9(c),
             "MAT1" => self.mat1(c),
-            "CELAS1" | "CELAS2" => self.celas(c),
+            "CELAS1" | "CELAS2" | "CELAS3" | "CELAS4" | "CMASS1" | "CMASS2" | "CMASS3"
+            | "CMASS4" | "CDAMP1" | "CDAMP2" | "CDAMP3" | "CDAMP4" => self.scalar_element(c),
+            "SPOINT" | "EPOINT" => self.spoint(c),
+            "PMASS" | "PDAMP" => self.pmass_pdamp(c),
+            "PVISC" => self.pvisc(c),
+            "CVISC" => self.cvisc(c),
+            "CONM1" => self.conm1(c),
+            "CDAMP5" => self.cdamp5(c),
             "PELAS" => self.pelas_card(c),
             "CBUSH" => self.cbush(c),
             "PBUSH" => self.pbush_card(c),

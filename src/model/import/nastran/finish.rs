@@ -22,6 +22,7 @@ impl Builder {
         let mut origins = Origins::default();
         let geo = self.geometry()?;
         self.place_grids(&mut model, &geo)?;
+        self.place_scalar_points(&mut model)?;
         for (id, m) in &self.materials {
             model.materials.insert(*id, m.1.clone());
         }
@@ -37,6 +38,7 @@ impl Builder {
             model.elements.insert(id, element);
             origins.elements.insert(id, loc);
         }
+        self.scalar_constraints()?;
         self.resolve_constraints(&mut model, &mut origins)?;
         self.resolve_rigid(&mut model, &geo)?;
         self.resolve_sets(&mut model, &mut origins, set_names)?;
@@ -144,28 +146,7 @@ impl Builder {
                 orient,
                 ends,
             } => self.beam_in_basic(model, geo, loc, nodes, (eid, beam), property, orient, ends)?,
-            ElemIn::Celas1 { pid, dof, other } => {
-                let Some(&k) = self.pelas.get(&pid) else {
-                    return Err(loc.field_err(
-                        2,
-                        "PID",
-                        format!("property {pid} is not a PELAS"),
-                        "the id of a PELAS card",
-                    ));
-                };
-                Element::ScalarSpring { dof, other, k }
-            }
-            ElemIn::Bush { pid, node, other } => {
-                let Some(&k) = self.pbush.get(&pid) else {
-                    return Err(loc.field_err(
-                        2,
-                        "PID",
-                        format!("property {pid} is not a PBUSH"),
-                        "the id of a PBUSH card",
-                    ));
-                };
-                Element::Bush { node, other, k }
-            }
+            ElemIn::Scalar(e) => self.resolve_scalar(model, geo, loc, e)?,
             ElemIn::MassAbsolute {
                 node,
                 mass,
@@ -400,6 +381,10 @@ impl Builder {
                     .map(|(_, l)| l.clone()),
                 "name a set defined by SET1 or a `pid<N>` property set".to_string(),
             ),
+            ModelError::ScalarPointIsGrid(_) | ModelError::ComponentMismatch { .. } => (
+                None,
+                "grid components are 1-6, a scalar point's 0 or blank; ids are unique".to_string(),
+            ),
             ModelError::ConstraintNode(node) => (
                 origins.constraints.get(node).cloned(),
                 format!("add GRID {node} or remove it from the SPC/SPC1"),
@@ -568,6 +553,7 @@ fn apply_wtmass(model: &mut Model, w: f64) {
         p.nsm *= w;
     }
     for e in model.elements.values_mut() {
+        super::scalars::wtmass_scalars(e, w);
         if let Element::Mass { mass, inertia, .. } = e {
             *mass *= w;
             for i in inertia.iter_mut() {

@@ -16,7 +16,8 @@
 //! CONROD, CTUBE, CHEXA, CPENTA, CTETRA, CPYRAM with PSOLID and MAT9 (see below), PSHELL,
 //! PCOMP, PCOMPG, PBAR, PBARL and PBEAML (the beam library, see below), PBEAM, PROD, PTUBE,
 //! MAT1, MAT2, MAT8,
-//! CELAS1 with PELAS, CELAS2, CBUSH with PBUSH, CONM2, SPC, SPC1, SPCADD, SET1, the rigid
+//! SPOINT, EPOINT, CELAS1–4 with PELAS, CMASS1–4 with PMASS, CDAMP1–4 with PDAMP, CVISC with
+//! PVISC, CBUSH with PBUSH, CONM1, CONM2, SPC, SPC1, SPCADD, SET1, the rigid
 //! elements RBE2, RBAR, RROD, RBE3 and MPC, MPCADD (as multipoint constraints, see `rigid.rs`),
 //! PARAM GRDPNT (its reference point, for the weight summary mesh.import prints), and PARAM
 //! WTMASS (applied to every
@@ -121,7 +122,19 @@
 //! - MAT1: a blank E, G or NU is derived from the other two (E = 2(1+NU)G). With only E given,
 //!   NU = 0 (Nastran sets G = 0; femu's isotropic material has G = E/2) with a warning. When all
 //!   three are given and inconsistent, E and NU are kept and a warning names the G used.
-//! - CELAS1/CELAS2/PELAS: grid points only (no scalar points); GE and S are ignored (GE ≠ 0 warns).
+//! - SPOINT/EPOINT (with THRU): scalar points, one DOF `id:s` each without position; ids
+//!   shared with a GRID are an error. An EPOINT (extra point) only matters to transfer
+//!   functions and direct-response equations, which femu does not read, so it is a scalar
+//!   point that nothing connects unless an element names it, and such a DOF is dropped like an
+//!   unconnected rotation. SPC/SPC1 constrain a scalar point with component 0 or blank.
+//! - CELAS1–4, CMASS1–4, CDAMP1–4 (scalar elements, `scalars.rs`): CxxxS1/2 connect grid
+//!   components (1–6) or scalar points (0 or blank), CxxxS3/4 scalar points only; a mass or
+//!   damper between two DOFs is `v [[1, −1], [−1, 1]]` (the QRG's "between two points"). GE and
+//!   S of CELAS are ignored (GE ≠ 0 warns). CDAMP5 (heat transfer) is an error. The masses are
+//!   multiplied by WTMASS; dampers give the viscous `C` of direct FRFs (not the modes).
+//! - CVISC/PVISC: axial damping CE along G1→G2 and torsional CR about it.
+//! - CONM1: the 6×6 symmetric mass M11…M66 at the grid, given in CID's directions at the grid
+//!   (CID blank or 0: basic) and rotated to basic, `M_b = Tᵀ M T`; multiplied by WTMASS.
 //! - CHEXA/CPENTA/CTETRA/CPYRAM, PSOLID, MAT9 (`solids.rs`, kernels in `src/fe/solid/`):
 //!   HEXA8 (2×2×2 Gauss with Wilson–Taylor incompatible modes, close to MSC's default
 //!   bubble-enhanced CHEXA but not digit for digit), HEXA20, PENTA6, PENTA15, TETRA4, TETRA10
@@ -134,9 +147,13 @@
 //!   stiffness or mass: their grids' rotations are dropped unless other elements reach them
 //!   (AUTOSPC). Consistent mass, or with `mass: lumped` the HRZ diagonal (Nastran's lumped
 //!   solid mass is the same `ρV` spread by other weights for quadratic shapes).
-//! - CBUSH/PBUSH: only the K line is used (B, GE, RCV, M… ignored with a warning); the element
-//!   system (CID ≠ 0, orientation vector or G0) is ignored with a warning — stiffness acts along
-//!   the basic axes. The spring location (S, OCID, S1–S3) is ignored with a warning.
+//! - CBUSH/PBUSH: the K and B (viscous damping) lines are used (GE, RCV, M… ignored with a
+//!   warning). Element system as the QRG: CID ≥ 0 its axes (a cylindrical or spherical CID
+//!   evaluated at GA); CID blank: x from GA to GB, y in the plane of x and the orientation
+//!   vector (X1–X3 in GA's displacement system, or G0); CID blank with GB blank or within 1e-4
+//!   of GA is an error (Nastran requires CID). Deviation: CID and orientation both blank between
+//!   distinct grids take the basic axes, with a warning. The spring location (S, OCID, S1–S3) is
+//!   ignored with a warning (no lever arm is modelled).
 //! - CONM2: CID 0 (offset X1–X3 in basic), −1 (X1–X3 are the basic coordinates of the centre
 //!   of gravity) or a coordinate system (offset and inertia along its directions at the grid;
 //!   the inertia is rotated with the QRG's sign convention for I21, I31, I32).
@@ -193,6 +210,7 @@ mod properties;
 mod replicate;
 mod rigid;
 mod rods;
+mod scalars;
 mod sections;
 mod solids;
 mod source;
@@ -211,6 +229,8 @@ mod tests_rigid;
 #[cfg(test)]
 mod tests_rods;
 #[cfg(test)]
+mod tests_scalars;
+#[cfg(test)]
 mod tests_solids;
 
 use builder::*;
@@ -225,13 +245,14 @@ use source::*;
 const MAX_INCLUDE_DEPTH: usize = 64;
 
 /// Cards femu reads.
-pub const READ_CARDS: [&str; 53] = [
+pub const READ_CARDS: [&str; 70] = [
     "GRID", "GRDSET", "CORD1R", "CORD1C", "CORD1S", "CORD2R", "CORD2C", "CORD2S", "CQUAD4",
     "CTRIA3", "CBAR", "CBEAM", "PSHELL", "PBAR", "PBARL", "PBEAM", "MAT1", "CELAS1", "CELAS2",
     "PELAS", "CBUSH", "PBUSH", "CONM2", "SPC", "SPC1", "SPCADD", "SET1", "CROD", "CONROD", "CTUBE",
     "PROD", "PTUBE", "PBEAML", "BAROR", "BEAMOR", "RBE2", "RBAR", "RROD", "RBE3", "MPC", "MPCADD",
     "CHEXA", "CPENTA", "CTETRA", "CPYRAM", "PSOLID", "MAT9", "CQUADR", "CTRIAR", "PCOMP", "PCOMPG",
-    "MAT2", "MAT8",
+    "MAT2", "MAT8", "SPOINT", "EPOINT", "CELAS3", "CELAS4", "CMASS1", "CMASS2", "CMASS3", "CMASS4",
+    "PMASS", "CONM1", "CDAMP1", "CDAMP2", "CDAMP3", "CDAMP4", "PDAMP", "CVISC", "PVISC",
 ];
 
 /// Cards skipped (counted) because they change neither stiffness, mass nor constraints: static
@@ -258,13 +279,11 @@ pub const READ_PARAMS: [&str; 6] = ["WTMASS", "GRDPNT", "COUPMASS", "AUTOSPC", "
 /// Nastran cards femu does not read that change the stiffness, mass, damping or constraints;
 /// an error unless listed in [`BulkOptions::ignore_cards`] (the list only decides how messages
 /// name them: any other unread card is an error too).
-const REFUSED_CARDS: [&str; 57] = [
+const REFUSED_CARDS: [&str; 40] = [
     "RBE1", "RBAR1", "RTRPLT", "RSPLINE", "SPCD", "SUPORT", "SUPORT1", "ASET", "ASET1", "OMIT",
-    "OMIT1", "QSET", "QSET1", "BSET", "BSET1", "CSET", "CSET1", "SPOINT", "EPOINT", "CQUAD8",
-    "CQUAD", "CTRIA6", "CSHEAR", "PSHEAR", "MAT10", "MATT1", "MATS1", "CONM1", "CMASS1", "CMASS2",
-    "CMASS3", "CMASS4", "PMASS", "CDAMP1", "CDAMP2", "CDAMP3", "CDAMP4", "CDAMP5", "PDAMP",
-    "CVISC", "PVISC", "CELAS3", "CELAS4", "CBUSH1D", "PBUSH1D", "CGAP", "PGAP", "CWELD", "PWELD",
-    "CFAST", "PFAST", "NSM", "NSM1", "NSML", "NSML1", "DMIG", "GENEL",
+    "OMIT1", "QSET", "QSET1", "BSET", "BSET1", "CSET", "CSET1", "CQUAD8", "CQUAD", "CTRIA6",
+    "CSHEAR", "PSHEAR", "MAT10", "MATT1", "MATS1", "CDAMP5", "CBUSH1D", "PBUSH1D", "CGAP", "PGAP",
+    "CWELD", "PWELD", "CFAST", "PFAST", "NSM", "NSM1", "NSML", "NSML1", "DMIG", "GENEL",
 ];
 
 /// Whether `name` is a card name Nastran could have written: a letter, then letters or digits,
