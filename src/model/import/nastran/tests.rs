@@ -173,7 +173,7 @@ fn cards_that_change_the_model_are_errors_unless_ignored() {
         "CTRIA6,5,10,1,2,3",
         "CVISC,5,1,1,2",
         "CWELD,5,1",
-        "PCOMP,20",
+        "CGAP,5,5,1,2",
         "CQUAD,5,10,1,2,3,4",
         "CBUSH1D,5,5,1,2",
         "CGAP,5,5,1,2",
