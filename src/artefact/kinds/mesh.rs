@@ -1035,6 +1035,20 @@ mod tests {
     /// Rods (by property and with their own section) and a membrane-only shell come back
     /// exactly; a model without rods writes no rod metadata and a homogeneous shell property
     /// serialises as before the optional PSHELL parts existed (digests unchanged).
+    /// A grid in a cylindrical CD keeps its displacement system through the artefact, exactly.
+    #[test]
+    fn displacement_systems_round_trip() {
+        let deck = "CORD2C,7,0,0.,0.,0.,0.,0.,1.\n,1.,0.,0.\nMAT1,1,7.+10,,.3,2700.\n\
+PSHELL,1,1,.004,1,,1\nGRID,1,,0.,0.,0.\nGRID,2,,.1,0.,0.,7\nGRID,3,,.1,.1,0.,7\n\
+GRID,4,,0.,.1,0.,7\nCQUAD4,1,1,1,2,3,4\nSPC1,1,123456,1\n";
+        let m = crate::model::import::nastran::parse_bulk(deck, "cd.bdf")
+            .unwrap()
+            .model;
+        assert_eq!(m.displacement_systems.len(), 2);
+        let back = mesh_from_artefact(&mesh_to_artefact(&m)).unwrap();
+        assert_eq!(back, m);
+    }
+
     #[test]
     fn rods_and_shell_parts_round_trip_and_leave_other_meshes_alone() {
         let m = rod_model();

@@ -25,7 +25,7 @@ pub(super) const HEX: [[f64; 3]; 8] = [
 ];
 
 /// HEXA20 midside nodes G9–G20 as the corner pairs of their edges (0-based).
-const HEX_EDGES: [[usize; 2]; 12] = [
+pub const HEX_EDGES: [[usize; 2]; 12] = [
     [0, 1],
     [1, 2],
     [2, 3],
@@ -41,7 +41,7 @@ const HEX_EDGES: [[usize; 2]; 12] = [
 ];
 
 /// PENTA15 midside nodes G7–G15 as corner pairs.
-const PENTA_EDGES: [[usize; 2]; 9] = [
+pub const PENTA_EDGES: [[usize; 2]; 9] = [
     [0, 1],
     [1, 2],
     [2, 0],
@@ -54,7 +54,7 @@ const PENTA_EDGES: [[usize; 2]; 9] = [
 ];
 
 /// TETRA10 midside nodes G5–G10 as corner pairs.
-const TET_EDGES: [[usize; 2]; 6] = [[0, 1], [1, 2], [2, 0], [0, 3], [1, 3], [2, 3]];
+pub const TET_EDGES: [[usize; 2]; 6] = [[0, 1], [1, 2], [2, 0], [0, 3], [1, 3], [2, 3]];
 
 /// Natural coordinates of the nodes of `kind` (for the Kronecker-property test and the
 /// midside positions).

@@ -207,32 +207,9 @@ fn mesh(kind: SolidKind, n: [usize; 3], l: [f64; 3], moved: &dyn Fn([f64; 3]) ->
         }
     }
     let edges: &[[usize; 2]] = match kind {
-        SolidKind::Hexa20 => &[
-            [0, 1],
-            [1, 2],
-            [2, 3],
-            [3, 0],
-            [0, 4],
-            [1, 5],
-            [2, 6],
-            [3, 7],
-            [4, 5],
-            [5, 6],
-            [6, 7],
-            [7, 4],
-        ],
-        SolidKind::Penta15 => &[
-            [0, 1],
-            [1, 2],
-            [2, 0],
-            [0, 3],
-            [1, 4],
-            [2, 5],
-            [3, 4],
-            [4, 5],
-            [5, 3],
-        ],
-        SolidKind::Tetra10 => &[[0, 1], [1, 2], [2, 0], [0, 3], [1, 3], [2, 3]],
+        SolidKind::Hexa20 => &shape::HEX_EDGES,
+        SolidKind::Penta15 => &shape::PENTA_EDGES,
+        SolidKind::Tetra10 => &shape::TET_EDGES,
         _ => &[],
     };
     let mut mids: BTreeMap<(usize, usize), usize> = BTreeMap::new();

@@ -797,6 +797,19 @@ impl Builder {
     }
 }
 
+/// Terms sorted by DOF, those of one DOF summed.
+fn merged_terms(mut terms: Terms) -> Terms {
+    terms.sort_by_key(|t| t.0);
+    let mut merged: Terms = Vec::with_capacity(terms.len());
+    for (d, v) in terms {
+        match merged.last_mut() {
+            Some(last) if last.0 == d => last.1 += v,
+            _ => merged.push((d, v)),
+        }
+    }
+    merged
+}
+
 /// An equation written over basic components, rewritten over the components of the grids'
 /// displacement systems (the model's DOFs): `a · u_b = (R a) · u_local` on the left, and each
 /// basic term `c u_b,j = c Σ_k R[k][j] u_local,k` on the right. Terms that cancel to round-off
@@ -830,14 +843,7 @@ fn in_displacement_systems(mut e: Equation, systems: &BTreeMap<u64, [[f64; 3]; 3
             }
         }
     }
-    terms.sort_by_key(|t| t.0);
-    let mut merged: Vec<(DofId, f64)> = Vec::with_capacity(terms.len());
-    for (d, v) in terms {
-        match merged.last_mut() {
-            Some(last) if last.0 == d => last.1 += v,
-            _ => merged.push((d, v)),
-        }
-    }
+    let mut merged = merged_terms(terms);
     let big = merged.iter().fold(0.0f64, |m, t| m.max(t.1.abs()));
     merged.retain(|t| t.1.abs() > 1e-14 * big);
     e.rhs = merged;
@@ -950,14 +956,7 @@ fn solve_equations(
                     }
                 }
             }
-            terms.sort_by_key(|t| t.0);
-            let mut merged: Vec<(DofId, f64)> = Vec::with_capacity(terms.len());
-            for (d, v) in terms {
-                match merged.last_mut() {
-                    Some(last) if last.0 == d => last.1 += v,
-                    _ => merged.push((d, v)),
-                }
-            }
+            let mut merged = merged_terms(terms);
             merged.retain(|t| t.1 != 0.0);
             // The card of the equation with the largest weight on this pivot.
             let card = (0..list.len())

@@ -215,16 +215,12 @@ fn derivatives_in_displacement_systems_match_finite_differences() {
     }
 }
 
-/// The mesh artefact and the written deck carry the displacement systems: both read back to the
-/// same model (the deck to round-off: a CORD2R is re-derived from three points).
+/// The written deck carries the displacement systems: it reads back to the same model to
+/// round-off (a CORD2R is re-derived from three points). The mesh artefact's exact round trip is
+/// tested in `artefact::kinds::mesh`.
 #[test]
-fn displacement_systems_survive_the_artefact_and_the_written_deck() {
+fn displacement_systems_survive_the_written_deck() {
     let m = parse(&format!("{SYSTEMS}{}", plate("7"))).model;
-    let back = crate::artefact::kinds::mesh::mesh_from_artefact(
-        &crate::artefact::kinds::mesh::mesh_to_artefact(&m),
-    )
-    .unwrap();
-    assert_eq!(back, m);
     let text = crate::model::export::nastran::write_bulk(&m);
     let again = parse(&text).model;
     assert_eq!(again.nodes, m.nodes);

@@ -129,20 +129,7 @@ fn quadratic_shapes_and_defaults() {
         [1., 1., 1.],
         [0., 1., 1.],
     ];
-    let edges = [
-        [0, 1],
-        [1, 2],
-        [2, 3],
-        [3, 0],
-        [0, 4],
-        [1, 5],
-        [2, 6],
-        [3, 7],
-        [4, 5],
-        [5, 6],
-        [6, 7],
-        [7, 4],
-    ];
+    let edges = crate::fe::solid::shape::HEX_EDGES;
     let mut pts: Vec<[f64; 3]> = corners.to_vec();
     for [a, b] in edges {
         pts.push([0, 1, 2].map(|k| 0.5 * (corners[a][k] + corners[b][k])));
