@@ -506,18 +506,19 @@ impl Model {
             .collect()
     }
 
-    /// Gives the rods of `in_set` materials (and rod properties) that nothing outside the set
-    /// uses: a rod property shared with rods outside is copied under a new id, then every
-    /// material the set's rods share with any other element or property is copied.
-    fn own_rod_materials(&mut self, in_set: &std::collections::BTreeSet<u64>) {
-        use std::collections::{BTreeMap, BTreeSet};
-        let mut pid_outside = BTreeSet::new();
+    /// The property ids of the elements outside `in_set`, and the first property id above every
+    /// property of the model (for copies).
+    fn properties_outside(
+        &self,
+        in_set: &std::collections::BTreeSet<u64>,
+    ) -> (std::collections::BTreeSet<u64>, u64) {
+        let mut outside = std::collections::BTreeSet::new();
         for (id, e) in &self.elements {
             if let (false, Some(pid)) = (in_set.contains(id), e.property()) {
-                pid_outside.insert(pid);
+                outside.insert(pid);
             }
         }
-        let mut next_pid = self
+        let next = self
             .shell_properties
             .keys()
             .chain(self.beam_properties.keys())
@@ -527,6 +528,15 @@ impl Model {
             .copied()
             .unwrap_or(0)
             + 1;
+        (outside, next)
+    }
+
+    /// Gives the rods of `in_set` materials (and rod properties) that nothing outside the set
+    /// uses: a rod property shared with rods outside is copied under a new id, then every
+    /// material the set's rods share with any other element or property is copied.
+    fn own_rod_materials(&mut self, in_set: &std::collections::BTreeSet<u64>) {
+        use std::collections::{BTreeMap, BTreeSet};
+        let (pid_outside, mut next_pid) = self.properties_outside(in_set);
         let mut renamed: BTreeMap<u64, u64> = BTreeMap::new();
         for id in in_set {
             let Some(Element::Rod {
@@ -614,22 +624,7 @@ impl Model {
     /// material the set's properties share with any other property or element is copied.
     fn own_solid_materials(&mut self, in_set: &std::collections::BTreeSet<u64>) {
         use std::collections::{BTreeMap, BTreeSet};
-        let mut pid_outside = BTreeSet::new();
-        for (id, e) in &self.elements {
-            if let (false, Some(pid)) = (in_set.contains(id), e.property()) {
-                pid_outside.insert(pid);
-            }
-        }
-        let mut next_pid = self
-            .shell_properties
-            .keys()
-            .chain(self.beam_properties.keys())
-            .chain(self.rod_properties.keys())
-            .chain(self.solid_properties.keys())
-            .max()
-            .copied()
-            .unwrap_or(0)
-            + 1;
+        let (pid_outside, mut next_pid) = self.properties_outside(in_set);
         let mut renamed: BTreeMap<u64, u64> = BTreeMap::new();
         let mut own_pids = BTreeSet::new();
         for id in in_set {
