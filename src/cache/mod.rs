@@ -23,8 +23,9 @@ pub mod names;
 pub mod owner;
 
 use crate::artefact::codec::{read_dir, read_meta, write_dir};
-use crate::artefact::digest::{canonical_json, hash_bytes};
+use crate::artefact::digest::{canonical_json, hash_bytes, hash_file};
 use crate::artefact::{Artefact, ArtefactError, ArtefactKind, Format};
+use rayon::prelude::*;
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -309,19 +310,33 @@ impl Cache {
             return Err(format!("manifest names key {}", m.key));
         }
         let dir = self.entry_dir(key).map_err(|e| e.to_string())?;
-        for (rel, want) in &m.files {
+        for rel in m.files.keys() {
             if let Some(why) = names::unsafe_relative_reason(rel) {
                 return Err(format!("manifest lists file `{rel}`: {why}"));
             }
-            let path = dir.join(rel);
-            let meta = std::fs::symlink_metadata(&path).map_err(|e| format!("{rel}: {e}"))?;
-            if !meta.is_file() {
-                return Err(format!("{rel}: not a regular file"));
-            }
-            let bytes = std::fs::read(&path).map_err(|e| format!("{rel}: {e}"))?;
-            if &hash_bytes(&bytes) != want {
-                return Err(format!("{rel}: content does not match its recorded hash"));
-            }
+        }
+        // Every file checked in parallel; the first failure in the manifest's order is reported.
+        let failures: Vec<String> = m
+            .files
+            .par_iter()
+            .filter_map(|(rel, want)| {
+                let path = dir.join(rel);
+                let check = || -> Result<(), String> {
+                    let meta =
+                        std::fs::symlink_metadata(&path).map_err(|e| format!("{rel}: {e}"))?;
+                    if !meta.is_file() {
+                        return Err(format!("{rel}: not a regular file"));
+                    }
+                    if &hash_file(&path).map_err(|e| format!("{rel}: {e}"))? != want {
+                        return Err(format!("{rel}: content does not match its recorded hash"));
+                    }
+                    Ok(())
+                };
+                check().err()
+            })
+            .collect();
+        if let Some(first) = failures.into_iter().next() {
+            return Err(first);
         }
         for (port, record) in &m.outputs {
             self.check_producer(key, &m.stage_kind, port, &record.kind, Some(&record.digest))?;
@@ -677,25 +692,40 @@ fn write_synced(path: &Path, bytes: &[u8]) -> Result<(), CacheError> {
     f.sync_all().map_err(io(path))
 }
 
+/// The hash of every file under `dir`, keyed by its path relative to `base`; files are read and
+/// hashed in parallel (an entry's matrices are hundreds of megabytes at 10⁵–10⁶ DOFs).
 fn hash_tree(
     base: &Path,
     dir: &Path,
     out: &mut BTreeMap<String, String>,
 ) -> Result<(), CacheError> {
+    let mut files = Vec::new();
+    list_files(dir, &mut files)?;
+    let hashed: Vec<(String, String)> = files
+        .par_iter()
+        .map(|p| {
+            let hash = hash_file(p).map_err(io(p))?;
+            let rel = p
+                .strip_prefix(base)
+                .unwrap_or(p)
+                .to_string_lossy()
+                .replace('\\', "/");
+            Ok((rel, hash))
+        })
+        .collect::<Result<_, CacheError>>()?;
+    out.extend(hashed);
+    Ok(())
+}
+
+fn list_files(dir: &Path, out: &mut Vec<PathBuf>) -> Result<(), CacheError> {
     let mut entries: Vec<_> = std::fs::read_dir(dir).map_err(io(dir))?.flatten().collect();
     entries.sort_by_key(|e| e.file_name());
     for e in entries {
         let p = e.path();
         if p.is_dir() {
-            hash_tree(base, &p, out)?;
+            list_files(&p, out)?;
         } else {
-            let bytes = std::fs::read(&p).map_err(io(&p))?;
-            let rel = p
-                .strip_prefix(base)
-                .unwrap_or(&p)
-                .to_string_lossy()
-                .replace('\\', "/");
-            out.insert(rel, hash_bytes(&bytes));
+            out.push(p);
         }
     }
     Ok(())

@@ -28,8 +28,9 @@
 
 use super::{Artefact, ArtefactError, ArtefactKind, Column, Storage, Table};
 use crate::core::DofId;
-use crate::core::sparse::{SparseMatrix, sparse_from_triplets, sparse_triplets};
+use crate::core::sparse::{SparseMatrix, sparse_from_triplets};
 use faer::Mat;
+use faer::sparse::{SparseColMat, SymbolicSparseColMat};
 
 pub mod correlation;
 pub mod eigenvalue_sensitivity;
@@ -460,13 +461,51 @@ pub(crate) fn meta_value<T: serde::de::DeserializeOwned>(
         .map_err(|e| ArtefactError::schema(a.kind, format!("metadata `{key}`: {e}")))
 }
 
-/// A sparse matrix as a `row, col, value` table (the layout of every matrix table).
+/// A sparse matrix as a `row, col, value` table (the layout of every matrix table), in
+/// column-major order.
 pub fn triplet_table(mat: &SparseMatrix) -> Table {
-    let t = sparse_triplets(mat);
+    let nnz = mat.compute_nnz();
+    let (mut row, mut col, mut value) = (
+        Vec::with_capacity(nnz),
+        Vec::with_capacity(nnz),
+        Vec::with_capacity(nnz),
+    );
+    for j in 0..mat.ncols() {
+        let rows = mat.row_idx_of_col_raw(j);
+        row.extend(rows.iter().map(|&i| i as i64));
+        col.extend(std::iter::repeat_n(j as i64, rows.len()));
+        value.extend_from_slice(mat.val_of_col(j));
+    }
     Table::new()
-        .with("row", Column::I64(t.iter().map(|e| e.0 as i64).collect()))
-        .with("col", Column::I64(t.iter().map(|e| e.1 as i64).collect()))
-        .with("value", Column::F64(t.iter().map(|e| e.2).collect()))
+        .with("row", Column::I64(row))
+        .with("col", Column::I64(col))
+        .with("value", Column::F64(value))
+}
+
+/// The matrix of a table in column-major order with rows strictly ascending in each column (as
+/// [`triplet_table`] writes every matrix femu builds), built without sorting; `None` for any
+/// other table, which is then read through the general triplet path.
+fn sorted_column_major(n: usize, rows: &[i64], cols: &[i64], vals: &[f64]) -> Option<SparseMatrix> {
+    if rows.len() != cols.len() || rows.len() != vals.len() {
+        return None;
+    }
+    let mut col_ptr = vec![0usize; n + 1];
+    let mut previous: Option<(usize, usize)> = None;
+    let mut row_idx = Vec::with_capacity(rows.len());
+    for (&r, &c) in rows.iter().zip(cols) {
+        let (r, c) = (usize::try_from(r).ok()?, usize::try_from(c).ok()?);
+        if r >= n || c >= n || previous.is_some_and(|p| (c, r) <= p) {
+            return None;
+        }
+        previous = Some((c, r));
+        col_ptr[c + 1] += 1;
+        row_idx.push(r);
+    }
+    for j in 0..n {
+        col_ptr[j + 1] += col_ptr[j];
+    }
+    let symbolic = SymbolicSparseColMat::new_checked(n, n, col_ptr, None, row_idx);
+    Some(SparseColMat::new(symbolic, vals.to_vec()))
 }
 
 /// The sparse matrix table `name` of an artefact over `n` DOFs, if present.
@@ -483,6 +522,9 @@ pub(crate) fn read_sparse(
         t.i64s(name, "col")?,
         t.f64s(name, "value")?,
     );
+    if let Some(m) = sorted_column_major(n, r, c, v) {
+        return Ok(Some(m));
+    }
     let trip: Vec<(usize, usize, f64)> = r
         .iter()
         .zip(c)

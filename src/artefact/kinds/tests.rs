@@ -5,6 +5,7 @@
 use super::*;
 use crate::artefact::Format;
 use crate::artefact::codec::{read_dir, write_dir};
+use crate::core::sparse::sparse_to_dense;
 use crate::correlation::{FrfCorrelation, ModeCorrelation, ModePair};
 use crate::eigen::{ModeSelection, Modes};
 use crate::fe::element::MassKind;
@@ -550,4 +551,55 @@ fn beam_ends_round_trip_through_the_mesh_artefact() {
             .meta
             .contains_key("beam_ends")
     );
+}
+
+#[test]
+fn a_matrix_table_in_any_row_order_reads_as_the_same_matrix() {
+    // The sorted table takes the direct path, shuffled and duplicated rows the triplet path.
+    let n = 4;
+    let trip = [
+        (0, 0, 4.0),
+        (1, 0, -1.0),
+        (3, 0, 0.5),
+        (0, 1, -1.0),
+        (1, 1, 4.0),
+        (2, 2, 2.0),
+        (0, 3, 0.5),
+        (3, 3, 1.0),
+    ];
+    let m = sparse_from_triplets("K", n, &trip).unwrap();
+    let sorted = triplet_table(&m);
+    let mut shuffled = Table::new();
+    let order = [5usize, 0, 7, 2, 1, 6, 3, 4];
+    let (r, c, v) = (
+        sorted.i64s("K", "row").unwrap(),
+        sorted.i64s("K", "col").unwrap(),
+        sorted.f64s("K", "value").unwrap(),
+    );
+    // (1, 1) split into two halves: duplicates are summed.
+    let mut rows: Vec<i64> = order.iter().map(|&k| r[k]).collect();
+    let mut cols: Vec<i64> = order.iter().map(|&k| c[k]).collect();
+    let mut vals: Vec<f64> = order
+        .iter()
+        .map(|&k| if (r[k], c[k]) == (1, 1) { 2.0 } else { v[k] })
+        .collect();
+    rows.push(1);
+    cols.push(1);
+    vals.push(2.0);
+    shuffled = shuffled
+        .with("row", Column::I64(rows))
+        .with("col", Column::I64(cols))
+        .with("value", Column::F64(vals));
+    for table in [sorted, shuffled] {
+        let a = Artefact::new(ArtefactKind::Matrices).with_table("K", table, Storage::Ipc);
+        let read = read_sparse(&a, "K", n).unwrap().unwrap();
+        assert_eq!(sparse_to_dense(&read), sparse_to_dense(&m));
+    }
+    // An index out of range is an error on either path.
+    let bad = Table::new()
+        .with("row", Column::I64(vec![0, 4]))
+        .with("col", Column::I64(vec![0, 0]))
+        .with("value", Column::F64(vec![1.0, 1.0]));
+    let a = Artefact::new(ArtefactKind::Matrices).with_table("K", bad, Storage::Ipc);
+    assert!(read_sparse(&a, "K", n).is_err());
 }
