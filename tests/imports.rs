@@ -8,6 +8,48 @@ use femu::artefact::kinds::{correlation_from_artefact, frf_from_artefact};
 use femu::pipeline::Status;
 
 #[test]
+fn the_decks_method_and_eigrl_choose_the_modes_when_the_stage_gives_no_count() {
+    // The fixture's case control has METHOD = 1 and EIGRL 1 asks for ND = 10; a band from V1
+    // to V2 keeps exactly the modes of the full solution that lie in it.
+    let dir = tempfile::tempdir().unwrap();
+    let deck = std::fs::read_to_string(root().join("fixtures/nastran/plate_with_bar.bdf")).unwrap();
+    std::fs::write(dir.path().join("plate.bdf"), &deck).unwrap();
+    let pipeline = |modes_with: &str| {
+        format!(
+            "name: eigrl\nstages:\n  mesh:\n    kind: mesh.import\n    with: {{path: plate.bdf}}\n  matrices:\n    kind: assemble\n    inputs: {{mesh: mesh}}\n  modes:\n    kind: modes\n    inputs: {{model: matrices}}\n    with: {modes_with}\n"
+        )
+    };
+    let modes_of = |text: &str| {
+        let file = dir.path().join("p.yaml");
+        std::fs::write(&file, text).unwrap();
+        let (_, report, cache) = run(&file, &dir.path().join("cache"), &[]);
+        let modes = report.stages.iter().find(|s| s.name == "modes").unwrap();
+        let a = cache
+            .read(&modes.key, "modes", femu::artefact::ArtefactKind::Modes)
+            .unwrap();
+        femu::artefact::kinds::modes_from_artefact(&a)
+            .unwrap()
+            .modes
+            .frequencies_hz()
+    };
+    let from_deck = modes_of(&pipeline("{}"));
+    let all = modes_of(&pipeline("{count: 20}"));
+    assert_eq!(from_deck.len(), 10, "ND = 10");
+    assert_eq!(from_deck[..], all[..10]);
+    // V1 and V2 between modes 3/4 and 8/9 of the full solution.
+    let (v1, v2) = (0.5 * (all[2] + all[3]), 0.5 * (all[7] + all[8]));
+    std::fs::write(
+        dir.path().join("plate.bdf"),
+        deck.replace("EIGRL,1,,,10", &format!("EIGRL,1,{v1:.6},{v2:.6}")),
+    )
+    .unwrap();
+    let band = modes_of(&pipeline("{}"));
+    assert_eq!(band[..], all[3..8]);
+    // The stage's own count wins over the deck.
+    assert_eq!(modes_of(&pipeline("{count: 2}"))[..], all[..2]);
+}
+
+#[test]
 fn a_nastran_deck_runs_to_modes() {
     let dir = tempfile::tempdir().unwrap();
     let deck = root().join("fixtures/nastran/plate_with_bar.bdf");

@@ -42,7 +42,8 @@ impl TypedStage for Assemble {
     }
 
     fn run(p: &Params, inputs: &StageInputs) -> Result<StageOutputs, StageError> {
-        let model = mesh_from_artefact(inputs.require("mesh")?)?;
+        let mesh = inputs.require("mesh")?;
+        let model = mesh_from_artefact(mesh)?;
         let (mut sys, info) =
             assemble_model(&model, p.mass).map_err(StageError::from_numerics(""))?;
         // The dampers' viscous C (CDAMP, CVISC, CBUSH B), only when the model has any, so other
@@ -86,6 +87,10 @@ impl TypedStage for Assemble {
             );
         }
         a.meta.insert("total_dofs".into(), info.total_dofs.into());
+        if let Some(request) = mesh.meta.get("eigenvalue_request") {
+            // The deck's METHOD/EIGRL, for the `modes` stage.
+            a.meta.insert("eigenvalue_request".into(), request.clone());
+        }
         a.meta.insert(
             "auto_constrained".into(),
             info.auto_constrained

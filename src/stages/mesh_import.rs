@@ -83,6 +83,7 @@ struct Imported {
     warnings: Vec<String>,
     source_digest: String,
     grdpnt: Option<[f64; 3]>,
+    eigen_request: Option<crate::eigen::EigenRequest>,
 }
 
 /// The options from `ignore_cards`: names upper-cased, each a card name or `PARAM,NAME`, and
@@ -133,6 +134,7 @@ fn import(base: &Path, p: &Params) -> Result<Imported, String> {
         warnings: b.warnings,
         source_digest: b.source_digest,
         grdpnt: b.grdpnt,
+        eigen_request: b.eigen_request,
     })
 }
 
@@ -169,6 +171,12 @@ fn artefact(p: &Params, i: &Imported) -> (Artefact, String) {
         serde_json::to_value(&p.ignore_cards).unwrap_or_default(),
     );
     a.meta.insert("import_warnings".into(), warnings.into());
+    if let Some(request) = &i.eigen_request {
+        a.meta.insert(
+            "eigenvalue_request".into(),
+            serde_json::to_value(request).unwrap_or_default(),
+        );
+    }
     if let Some(reference) = i.grdpnt {
         a.meta
             .insert("weight_summary".into(), weight_summary(&i.model, reference));

@@ -127,7 +127,8 @@ impl TypedStage for MeshParameters {
     }
 
     fn run(p: &Params, inputs: &StageInputs) -> Result<StageOutputs, StageError> {
-        let mut model = mesh_from_artefact(inputs.require("mesh")?)?;
+        let mesh = inputs.require("mesh")?;
+        let mut model = mesh_from_artefact(mesh)?;
         if p.replace {
             model.parameters.clear();
         }
@@ -198,10 +199,13 @@ impl TypedStage for MeshParameters {
                 set(&name, v, &mut model)?;
             }
         }
-        Ok(StageOutputs::from([(
-            "mesh".to_string(),
-            mesh_to_artefact(&model),
-        )]))
+        let mut out = mesh_to_artefact(&model);
+        if let Some(request) = mesh.meta.get("eigenvalue_request") {
+            // The imported deck's METHOD/EIGRL still asks for the same modes.
+            out.meta
+                .insert("eigenvalue_request".into(), request.clone());
+        }
+        Ok(StageOutputs::from([("mesh".to_string(), out)]))
     }
 }
 

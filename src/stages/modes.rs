@@ -5,7 +5,7 @@ use super::params::{Count, Modes, Positive};
 use crate::artefact::ArtefactKind;
 use crate::artefact::kinds::modes::dependent_shapes_table;
 use crate::artefact::kinds::{matrices_from_artefact, modes_to_artefact};
-use crate::eigen::{ModeSelection, SparseEigenParams, lowest_modes};
+use crate::eigen::{EigenRequest, ModeSelection, SparseEigenParams, lowest_modes};
 use crate::fe::multipoint::recover;
 use crate::pipeline::{
     CheckContext, ParamIssue, PortSpec, StageError, StageInputs, StageOutputs, TypedStage,
@@ -21,7 +21,8 @@ pub const DENSE_LIMIT: usize = 6000;
 #[derive(Clone, Debug, serde::Deserialize, serde::Serialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct Params {
-    /// Keep the lowest `count` modes (default: all).
+    /// Keep the lowest `count` modes (default: what the imported deck's METHOD/EIGRL asks for,
+    /// else all).
     #[serde(default)]
     pub count: Option<Count>,
     /// Keep the modes up to this frequency in Hz (default: all).
@@ -107,7 +108,19 @@ impl TypedStage for ModesStage {
         let matrices = inputs.require("model")?;
         let sys = matrices_from_artefact(matrices)?;
         let dependent = crate::artefact::kinds::matrices::dependent_from_matrices(matrices)?;
-        if sys.n() > DENSE_LIMIT && p.count.is_none() && p.max_freq_hz.is_none() {
+        let deck_request: Option<EigenRequest> = match matrices.meta.get("eigenvalue_request") {
+            Some(v) if p.count.is_none() && p.max_freq_hz.is_none() => {
+                Some(serde_json::from_value(v.clone()).map_err(|e| {
+                    StageError::input("", format!("the model's eigenvalue_request: {e}"))
+                })?)
+            }
+            _ => None,
+        };
+        if sys.n() > DENSE_LIMIT
+            && p.count.is_none()
+            && p.max_freq_hz.is_none()
+            && deck_request.is_none()
+        {
             return Err(StageError::input(
                 "",
                 format!(
@@ -129,8 +142,32 @@ impl TypedStage for ModesStage {
             },
             ..Default::default()
         };
-        let (modes, _) = lowest_modes(&sys.k, &sys.m, &sys.dofs, selection, &params)
-            .map_err(StageError::from_numerics(""))?;
+        let solve = |selection| {
+            lowest_modes(&sys.k, &sys.m, &sys.dofs, selection, &params).map(|(modes, _)| modes)
+        };
+        let modes = match &deck_request {
+            Some(request) => {
+                let modes = request
+                    .select(solve)
+                    .map_err(StageError::from_numerics(""))?;
+                tracing::info!(
+                    "modes: {} mode(s), as the deck's METHOD/EIGRL asks ({})",
+                    modes.len(),
+                    request.describe()
+                );
+                if modes.is_empty() {
+                    return Err(StageError::input(
+                        "count",
+                        format!(
+                            "the deck's EIGRL ({}) selects no mode of this model; give `count` or `max_freq_hz`",
+                            request.describe()
+                        ),
+                    ));
+                }
+                modes
+            }
+            None => solve(selection).map_err(StageError::from_numerics(""))?,
+        };
         if modes.is_empty() {
             // Say where the first mode lies, so the limit can be set right.
             let (first, _) =

@@ -90,6 +90,10 @@ impl Kind for MatricesKind {
                 ),
                 meta_opt("total_dofs", "DOFs before constraints (assemble)"),
                 meta_opt(
+                    "eigenvalue_request",
+                    "the modes the imported deck's METHOD/EIGRL asks for (from the mesh)",
+                ),
+                meta_opt(
                     "auto_constrained",
                     "DOFs without stiffness that assemble constrained",
                 ),

@@ -143,6 +143,10 @@ impl Kind for MeshKind {
                 meta_opt("ignore_cards", "the cards requested to be left out"),
                 meta_opt("import_warnings", "what mesh.import warned about"),
                 meta_opt(
+                    "eigenvalue_request",
+                    "the modes the deck's METHOD/EIGRL asks for: min_hz (V1), max_hz (V2), count (ND)",
+                ),
+                meta_opt(
                     "weight_summary",
                     "rigid-body mass, centre of gravity and inertia (PARAM,GRDPNT)",
                 ),

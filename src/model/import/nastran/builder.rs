@@ -108,6 +108,9 @@ pub(super) struct Builder {
     pub(super) spcadds: BTreeMap<u64, (Loc, Vec<u64>)>,
     /// `SPC = n` selections of the case control.
     pub(super) case_control: Vec<(Loc, u64)>,
+    /// `METHOD = n` selections of the case control, and the EIGRL cards (eigrl.rs).
+    pub(super) case_control_method: Vec<(Loc, u64)>,
+    pub(super) eigrls: super::eigrl::Eigrls,
     pub(super) sets: BTreeMap<u64, SetIn>,
     /// Rigid elements and MPC cards (rigid.rs).
     pub(super) rigid: super::rigid::RigidIn,
@@ -189,6 +192,7 @@ impl Builder {
             "SET1" => self.set1(c),
             "RBE2" | "RBAR" | "RROD" | "RBE3" | "MPC" | "MPCADD" => self.rigid_card(c),
             "PARAM" => self.param(c),
+            "EIGRL" => self.eigrl(c),
             other if SKIPPED_CARDS.contains(&other) => {
                 *self.skipped.entry(other.to_string()).or_insert(0) += 1;
                 Ok(())

@@ -18,6 +18,8 @@ impl Builder {
         set_names: Vec<(Loc, u64, String)>,
         parameters: Vec<(Loc, Parameter)>,
     ) -> Result<BulkImport, NastranError> {
+        // Before the rigid elements are resolved (which takes what the case control said).
+        let eigen_request = self.eigen_request()?;
         let mut model = Model::default();
         let mut origins = Origins::default();
         let geo = self.geometry()?;
@@ -87,6 +89,7 @@ impl Builder {
         };
         Ok(BulkImport {
             grdpnt,
+            eigen_request,
             model,
             unknown,
             skipped: self.skipped,

@@ -19,6 +19,9 @@
 //! SPOINT, EPOINT, CELAS1–4 with PELAS, CMASS1–4 with PMASS, CDAMP1–4 with PDAMP, CVISC with
 //! PVISC, CBUSH with PBUSH, CONM1, CONM2, SPC, SPC1, SPCADD, SET1, the rigid
 //! elements RBE2, RBAR, RROD, RBE3 and MPC, MPCADD (as multipoint constraints, see `rigid.rs`),
+//! EIGRL with the case control's `METHOD = n` (the band and number of modes asked for,
+//! [`BulkImport::eigen_request`], which the `modes` stage follows when given no count or
+//! limit of its own; see `eigrl.rs`),
 //! PARAM GRDPNT (its reference point, for the weight summary mesh.import prints), and PARAM
 //! WTMASS (applied to every
 //! mass), COUPMASS, AUTOSPC, K6ROT and G (accepted with a warning saying what femu does
@@ -201,6 +204,7 @@ mod card;
 mod constraints;
 mod coords;
 mod deck;
+mod eigrl;
 mod elements;
 mod finish;
 mod laminates;
@@ -245,25 +249,25 @@ use source::*;
 const MAX_INCLUDE_DEPTH: usize = 64;
 
 /// Cards femu reads.
-pub const READ_CARDS: [&str; 70] = [
+pub const READ_CARDS: [&str; 71] = [
     "GRID", "GRDSET", "CORD1R", "CORD1C", "CORD1S", "CORD2R", "CORD2C", "CORD2S", "CQUAD4",
     "CTRIA3", "CBAR", "CBEAM", "PSHELL", "PBAR", "PBARL", "PBEAM", "MAT1", "CELAS1", "CELAS2",
     "PELAS", "CBUSH", "PBUSH", "CONM2", "SPC", "SPC1", "SPCADD", "SET1", "CROD", "CONROD", "CTUBE",
     "PROD", "PTUBE", "PBEAML", "BAROR", "BEAMOR", "RBE2", "RBAR", "RROD", "RBE3", "MPC", "MPCADD",
     "CHEXA", "CPENTA", "CTETRA", "CPYRAM", "PSOLID", "MAT9", "CQUADR", "CTRIAR", "PCOMP", "PCOMPG",
     "MAT2", "MAT8", "SPOINT", "EPOINT", "CELAS3", "CELAS4", "CMASS1", "CMASS2", "CMASS3", "CMASS4",
-    "PMASS", "CONM1", "CDAMP1", "CDAMP2", "CDAMP3", "CDAMP4", "PDAMP", "CVISC", "PVISC",
+    "PMASS", "CONM1", "CDAMP1", "CDAMP2", "CDAMP3", "CDAMP4", "PDAMP", "CVISC", "PVISC", "EIGRL",
 ];
 
 /// Cards skipped (counted) because they change neither stiffness, mass nor constraints: static
 /// and dynamic loads and their tables, temperatures (femu has no temperature-dependent
 /// material, and MATT1 is refused), eigenvalue and frequency-response control, plot elements.
-pub const SKIPPED_CARDS: [&str; 41] = [
+pub const SKIPPED_CARDS: [&str; 40] = [
     "FORCE", "FORCE1", "FORCE2", "MOMENT", "MOMENT1", "MOMENT2", "LOAD", "PLOAD", "PLOAD1",
     "PLOAD2", "PLOAD4", "GRAV", "RFORCE", "ACCEL", "ACCEL1", "LSEQ", "DAREA", "DLOAD", "RLOAD1",
     "RLOAD2", "TLOAD1", "TLOAD2", "DPHASE", "DELAY", "TABLED1", "TABLED2", "TABLED3", "TABLED4",
-    "TEMP", "TEMPD", "EIGRL", "EIGR", "EIGC", "EIGB", "FREQ", "FREQ1", "FREQ2", "FREQ3", "FREQ4",
-    "TSTEP", "PLOTEL",
+    "TEMP", "TEMPD", "EIGR", "EIGC", "EIGB", "FREQ", "FREQ1", "FREQ2", "FREQ3", "FREQ4", "TSTEP",
+    "PLOTEL",
 ];
 
 /// PARAM names skipped (counted): output and diagnostics only. WTMASS is applied; COUPMASS,
@@ -325,6 +329,9 @@ pub struct BulkImport {
     /// PARAM,GRDPNT's reference point (basic coordinates of its grid, or the origin for 0):
     /// the deck asks for the rigid-body mass summary about it.
     pub grdpnt: Option<[f64; 3]>,
+    /// The modes the case control's `METHOD = n` asks for through its EIGRL card (or the
+    /// deck's only EIGRL when it has no case control).
+    pub eigen_request: Option<crate::eigen::EigenRequest>,
 }
 
 /// Why a bulk data deck could not be read.
@@ -577,6 +584,7 @@ fn parse_with_policy(
     builder.case_control = std::mem::take(&mut loader.case_control);
     builder.rigid.case_control = std::mem::take(&mut loader.case_control_mpc);
     builder.rigid.has_case_control = loader.has_case_control;
+    builder.case_control_method = std::mem::take(&mut loader.case_control_method);
     let mut import = builder.finish(loader.set_names, loader.parameters)?;
     import.source_digest = loader.source.finalize().to_hex().to_string();
     Ok(import)

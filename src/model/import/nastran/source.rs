@@ -71,6 +71,8 @@ pub(super) struct Loader {
     pub(super) case_control: Vec<(Loc, u64)>,
     /// `MPC = n` selections of the case control, likewise.
     pub(super) case_control_mpc: Vec<(Loc, u64)>,
+    /// `METHOD = n` (or `METH = n`) selections, likewise.
+    pub(super) case_control_method: Vec<(Loc, u64)>,
     /// Whether the top file has a case control section (a CEND before BEGIN BULK).
     pub(super) has_case_control: bool,
     /// The top file's folder: INCLUDEs not found beside the including file are looked up here.
@@ -147,6 +149,10 @@ impl Loader {
             if let Some(begin) = raw.iter().position(|l| is_begin_bulk(l)) {
                 self.case_control = case_control_spcs(&raw[..begin], &file);
                 self.case_control_mpc = case_control_selections(&raw[..begin], &file, "MPC");
+                let mut method = case_control_selections(&raw[..begin], &file, "METHOD");
+                method.extend(case_control_selections(&raw[..begin], &file, "METH"));
+                method.sort_by_key(|(loc, _)| loc.line);
+                self.case_control_method = method;
                 self.has_case_control = raw[..begin]
                     .iter()
                     .any(|l| starts_with_ci(strip_comment(l).trim(), "CEND"));

@@ -147,7 +147,8 @@ GRID    99              this is never read
     assert_eq!(m.sets["pid10"], vec![100, 101]);
     assert_eq!(m.sets["pid20"], vec![200, 201]);
     let unknown: Vec<(&str, usize)> = b.unknown.iter().map(|(k, v)| (k.as_str(), *v)).collect();
-    assert_eq!(unknown, vec![("EIGRL", 1), ("PARAM,POST", 1)]);
+    assert_eq!(unknown, vec![("PARAM,POST", 1)]);
+    assert_eq!(b.eigen_request, None, "case control without METHOD");
     assert!(b.warnings.is_empty(), "{:?}", b.warnings);
 }
 
@@ -197,17 +198,13 @@ fn cards_that_change_the_model_are_errors_unless_ignored() {
     let b = parse_bulk_with(&deck, "t.bdf", &opts).unwrap();
     assert_eq!(
         b.skipped,
-        BTreeMap::from([
-            ("EIGRL".to_string(), 1),
-            ("FORCE".to_string(), 1),
-            ("PARAM,POST".to_string(), 1)
-        ])
+        BTreeMap::from([("FORCE".to_string(), 1), ("PARAM,POST".to_string(), 1)])
     );
     assert_eq!(
         b.ignored,
         BTreeMap::from([("CGAP".to_string(), 1), ("RBE1".to_string(), 2)])
     );
-    assert_eq!(b.unknown.len(), 5);
+    assert_eq!(b.unknown.len(), 4);
     // Or all of them, knowingly, with one warning that lists them.
     let opts = BulkOptions {
         on_unsupported: Unsupported::Warn,
@@ -944,8 +941,13 @@ fn fixture_plate_with_bar() {
     let b = read_bulk(&path).unwrap();
     let m = &b.model;
     assert!(b.warnings.is_empty(), "{:?}", b.warnings);
-    assert_eq!(b.unknown.len(), 2);
-    assert_eq!((b.skipped["PARAM,POST"], b.skipped["EIGRL"]), (1, 1));
+    assert_eq!(b.unknown.len(), 1);
+    assert_eq!(b.skipped["PARAM,POST"], 1);
+    let asked = crate::eigen::EigenRequest {
+        count: Some(10),
+        ..Default::default()
+    };
+    assert_eq!(b.eigen_request, Some(asked), "METHOD = 1 selects EIGRL 1");
     assert!(b.ignored.is_empty());
     assert_eq!(m.nodes.len(), 25);
     for j in 0..5u64 {
