@@ -29,6 +29,11 @@ fn structures_modes_match_their_golden_artefacts() {
     check_pipeline("structures-modes");
 }
 
+#[test]
+fn nastran_model_matches_its_golden_artefacts() {
+    check_pipeline("nastran-model");
+}
+
 /// A change of a value well beyond its column's tolerance: 1 % relative and ten times the
 /// absolute floor, alternating in sign along the column (so a mode shape leaves its span and a
 /// sign flip cannot hide it), a number in place of a NaN, or ten times an upper bound.

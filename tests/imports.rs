@@ -444,7 +444,12 @@ fn cards_femu_does_not_read_fail_the_check_unless_ignored_and_are_recorded() {
     assert_eq!(a.meta["ignored_cards"], serde_json::json!({"CTRIA6": 1}));
     assert_eq!(
         a.meta["skipped_cards"],
-        serde_json::json!({"EIGRL": 1, "PARAM,POST": 1})
+        serde_json::json!({"PARAM,POST": 1})
+    );
+    assert_eq!(
+        a.meta["eigenvalue_request"],
+        serde_json::json!({"count": 10}),
+        "EIGRL is read: METHOD = 1 selects it"
     );
     assert_eq!(a.meta["ignore_cards"], serde_json::json!(["ctria6"]));
     // An ignore list naming a card femu reads is refused at check time.
@@ -538,4 +543,55 @@ fn updated_values_go_back_into_the_users_deck() {
         .filter(|l| !(l.starts_with("PSHELL") || l.starts_with("PBARL") || l.starts_with("+PB2")))
         .all(|l| new.lines().any(|n| n == l));
     assert!(kept, "{new}");
+}
+
+/// The shipped mixed deck against hand values: total mass and centre of gravity from the
+/// drawing (panel 0.6 × 0.4 × 0.003 m steel, two 10 × 25 mm bars offset 14 mm down, a
+/// 0.1 × 0.1 × 0.04 m aluminium block, 2.5 kg 30 mm above its mount at 0.06 m, 0.3 kg at
+/// r = 0.6 m, θ = 10° about (−0.1, 0.2) at z = 0.02), and the 12 modes its EIGRL asks for.
+#[test]
+fn the_shipped_mixed_deck_has_its_drawings_mass_and_the_modes_its_eigrl_asks_for() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (_, report, cache) = run(&pipeline("nastran-model"), &tmp.path().join("cache"), &[]);
+    let read = |stage: &str, port: &str, kind| {
+        let s = report.stages.iter().find(|s| s.name == stage).unwrap();
+        cache.read(&s.key, port, kind).unwrap()
+    };
+    let mesh = read("panel", "mesh", femu::artefact::ArtefactKind::Mesh);
+    let summary = &mesh.meta["weight_summary"];
+    let (panel, bars, block) = (
+        0.6 * 0.4 * 0.003 * 7850.0,
+        2.0 * 0.6 * 0.010 * 0.025 * 7850.0,
+        0.1 * 0.1 * 0.04 * 2700.0,
+    );
+    let accessory = [
+        -0.1 + 0.6 * 10f64.to_radians().cos(),
+        0.2 + 0.6 * 10f64.to_radians().sin(),
+        0.02,
+    ];
+    let total = panel + bars + block + 2.5 + 0.3;
+    let cg = [
+        (total - 0.3) * 0.3 + 0.3 * accessory[0],
+        (total - 0.3) * 0.2 + 0.3 * accessory[1],
+        bars * -0.014 + block * 0.02 + 2.5 * 0.09 + 0.3 * 0.02,
+    ]
+    .map(|m| m / total);
+    for k in 0..3 {
+        let mass = summary["mass"][k].as_f64().unwrap();
+        let c = summary["centre_of_gravity"][k].as_f64().unwrap();
+        assert!((mass - total).abs() < 1e-12 * total, "{mass} vs {total}");
+        assert!((c - cg[k]).abs() < 1e-12, "{k}: {c} vs {}", cg[k]);
+    }
+    let modes = femu::artefact::kinds::modes_from_artefact(&read(
+        "modes",
+        "modes",
+        femu::artefact::ArtefactKind::Modes,
+    ))
+    .unwrap();
+    assert_eq!(
+        (modes.modes.len(), modes.modes.rigid_body_modes),
+        (12, 0),
+        "EIGRL 10: ND = 12, clamped"
+    );
+    assert!(modes.modes.residuals.iter().all(|r| *r < 1e-9));
 }

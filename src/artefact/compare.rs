@@ -164,10 +164,15 @@ pub fn compare(a: &Artefact, b: &Artefact, tol: &Tolerances) -> Comparison {
         let mut n = 0;
         match (a.tables.get(name), b.tables.get(name)) {
             (Some((ta, _)), Some((tb, _))) => match (a.kind, name.as_str()) {
-                (ArtefactKind::Matrices, t) if t != "dofs" => {
+                // Every matrices table but the DOF list and the rigid elements' equations is a
+                // sparse matrix.
+                (ArtefactKind::Matrices, t) if t != "dofs" && t != "dependent" => {
                     compare_sparse(name, ta, tb, tol, &mut out)
                 }
-                (ArtefactKind::Modes, "shapes") => compare_shapes(a, ta, tb, tol, &mut out),
+                // Shapes at the free and at the dependent DOFs, both up to sign.
+                (ArtefactKind::Modes, "shapes" | "dependent_shapes") => {
+                    compare_shapes(name, a, ta, tb, tol, &mut out)
+                }
                 _ => compare_table(name, ta, tb, tol, false, &mut out),
             },
             (Some(_), None) => out.push(&mut n, name.clone(), "table only in the first".into()),
@@ -337,34 +342,39 @@ fn repeated_groups(eigenvalues: &[f64]) -> Vec<Vec<usize>> {
 /// Mode shapes: a single mode up to sign; a repeated mode (e.g. the rigid-body modes) as a
 /// subspace, since any basis of it is as right as another: each new shape must lie in the span
 /// of the reference group to the column tolerance.
-fn compare_shapes(a: &Artefact, ta: &Table, tb: &Table, tol: &Tolerances, out: &mut Comparison) {
+fn compare_shapes(
+    name: &str,
+    a: &Artefact,
+    ta: &Table,
+    tb: &Table,
+    tol: &Tolerances,
+    out: &mut Comparison,
+) {
     let lambdas = a
         .table("frequencies")
         .ok()
         .and_then(|f| f.f64s("frequencies", "eigenvalue_rad2_s2").ok())
         .map(|v| v.to_vec());
     let Some(lambdas) = lambdas else {
-        return compare_table("shapes", ta, tb, tol, true, out);
+        return compare_table(name, ta, tb, tol, true, out);
     };
     let groups = repeated_groups(&lambdas);
     let (mut sa, mut sb) = (Table::new(), Table::new());
     for g in &groups {
         if g.len() == 1 {
-            let name = format!("phi_{}", g[0] + 1);
-            if let (Some(x), Some(y)) = (ta.column(&name), tb.column(&name)) {
-                sa.columns.push((name.clone(), x.clone()));
-                sb.columns.push((name, y.clone()));
+            let column = format!("phi_{}", g[0] + 1);
+            if let (Some(x), Some(y)) = (ta.column(&column), tb.column(&column)) {
+                sa.columns.push((column.clone(), x.clone()));
+                sb.columns.push((column, y.clone()));
             }
         }
     }
-    for name in ["dof"] {
-        if let (Some(x), Some(y)) = (ta.column(name), tb.column(name)) {
-            sa.columns.insert(0, (name.into(), x.clone()));
-            sb.columns.insert(0, (name.into(), y.clone()));
-        }
+    if let (Some(x), Some(y)) = (ta.column("dof"), tb.column("dof")) {
+        sa.columns.insert(0, ("dof".into(), x.clone()));
+        sb.columns.insert(0, ("dof".into(), y.clone()));
     }
-    compare_table("shapes", &sa, &sb, tol, true, out);
-    let t = tol.of("shapes", "phi_1");
+    compare_table(name, &sa, &sb, tol, true, out);
+    let t = tol.of(name, "phi_1");
     for g in groups.iter().filter(|g| g.len() > 1) {
         let cols = |tab: &Table| -> Option<Vec<Vec<f64>>> {
             g.iter()
@@ -378,7 +388,7 @@ fn compare_shapes(a: &Artefact, ta: &Table, tb: &Table, tol: &Tolerances, out: &
             let mut n = 0;
             out.push(
                 &mut n,
-                format!("shapes phi_{}..", g[0] + 1),
+                format!("{name} phi_{}..", g[0] + 1),
                 "repeated modes missing".into(),
             );
             continue;
@@ -392,7 +402,7 @@ fn compare_shapes(a: &Artefact, ta: &Table, tb: &Table, tol: &Tolerances, out: &
             let mut n = 0;
             out.push(
                 &mut n,
-                format!("shapes phi_{}..", g[0] + 1),
+                format!("{name} phi_{}..", g[0] + 1),
                 "reference shapes of a repeated mode are dependent".into(),
             );
             continue;
@@ -411,7 +421,7 @@ fn compare_shapes(a: &Artefact, ta: &Table, tb: &Table, tol: &Tolerances, out: &
             }
             let rel = (r2 / a2.max(f64::MIN_POSITIVE)).sqrt();
             if rel > t.rtol.max(1e-12) {
-                out.push(&mut listed, format!("shapes.phi_{}", g[c] + 1), format!("lies {rel:e} (relative) outside the reference span of the repeated modes {}..{}", g[0] + 1, g[k - 1] + 1));
+                out.push(&mut listed, format!("{name}.phi_{}", g[c] + 1), format!("lies {rel:e} (relative) outside the reference span of the repeated modes {}..{}", g[0] + 1, g[k - 1] + 1));
             }
         }
     }
@@ -557,5 +567,44 @@ mod tests {
             )
         };
         assert!(!compare(&frf_like(1.0), &frf_like(-1.0), &Tolerances::default()).same());
+    }
+
+    #[test]
+    fn dependent_dofs_compare_as_rows_and_their_shapes_up_to_sign() {
+        let model = |coefficient: f64| {
+            Artefact::new(ArtefactKind::Matrices)
+                .with_table(
+                    "K",
+                    Table::new()
+                        .with("row", Column::I64(vec![0]))
+                        .with("col", Column::I64(vec![0]))
+                        .with("value", Column::F64(vec![2.0])),
+                    Storage::Ipc,
+                )
+                .with_table(
+                    "dependent",
+                    Table::new()
+                        .with("dof", Column::Str(vec!["2:ux".into()]))
+                        .with("independent", Column::Str(vec!["1:ux".into()]))
+                        .with("coefficient", Column::F64(vec![coefficient]))
+                        .with("origin", Column::Str(vec!["RBE2 9".into()])),
+                    Storage::Parquet,
+                )
+        };
+        let t = Tolerances::default();
+        assert!(compare(&model(1.0), &model(1.0), &t).same());
+        let c = compare(&model(0.5), &model(1.0), &t);
+        assert_eq!(c.differences[0].location, "dependent.coefficient row 0");
+        let modes = |s: f64| {
+            Artefact::new(ArtefactKind::Modes).with_table(
+                "dependent_shapes",
+                Table::new()
+                    .with("dof", Column::Str(vec!["2:ux".into(), "2:uy".into()]))
+                    .with("phi_1", Column::F64(vec![s, 3.0 * s])),
+                Storage::Ipc,
+            )
+        };
+        assert!(compare(&modes(1.0), &modes(-1.0), &t).same());
+        assert!(!compare(&modes(1.0), &modes(1.1), &t).same());
     }
 }
