@@ -20,7 +20,11 @@
 //!   function) is read; other function types are skipped, counted and warned about.
 //!   - Record 6 directions ±1…±6 map to `ux uy uz rx ry rz`. A negative response or reference
 //!     direction negates the data so that they refer to the positive directions (both negative:
-//!     no change); [`Uff58::sign_flipped`] records it.
+//!     no change); [`Uff58::sign_flipped`] records it. Exports that leave record 6's directions
+//!     0 and name the DOFs only in the ID lines (`Pt12:+Z / Pt1:+Z`, `Pt 12.Z-`) are read from
+//!     there, with the reading recorded as a conversion.
+//!   - Zeros after the values record 7 declares are padding: dropped, with a warning; any other
+//!     extra value is an error.
 //!   - Record 7: ordinate data type 2/4 (real single/double) or 5/6 (complex single/double);
 //!     even abscissa (minimum, increment) or uneven (`x` stored with every value; in 58b as
 //!     `f64` for double data, `f32` accepted too, `f32` for single data).
@@ -29,7 +33,8 @@
 //!     denominator (record 10 field 1) is 13 excitation force or 9 reaction force. With type 0
 //!     (unknown) or 1 (general) the unit label decides.
 //!   - Units to SI: the unit labels of records 9/10 (e.g. `g`, `mm`, `in/s`, `m/s^2/N`, `lbf`,
-//!     `N*m`), else dataset 164 with the unit exponents (the addendum A table, or the record's
+//!     `N*m`, and expressions such as `(1/N)*(m/s²)`, `m/(s^2 N)`, `μm/N`, recorded as read),
+//!     else dataset 164 with the unit exponents (the addendum A table, or the record's
 //!     own exponents for type 1), else SI is assumed and warned about. The abscissa is in Hz
 //!     unless record 8 says `rad/s`, `kHz` or `rpm`. Every conversion is listed in
 //!     [`Uff58::conversions`] and [`UffFile::conversions`].
@@ -42,7 +47,7 @@
 //!
 //! The writer is [`write`] (datasets 58 / 58b and 2411). Files of the reader, by concern:
 //! `lex` (lines, fields, Fortran reals), `block` (datasets between delimiters, the 58b header),
-//! `header58` and `dataset58` (records 1–11 and the data of dataset 58), `units` (unit labels,
+//! `header58` and `dataset58` (records 1–11 and the data of dataset 58), `units` and `label` (unit labels,
 //! dataset 164, the ordinate's quantity and SI factor), `mesh` (datasets 15, 2411, 2412),
 //! `set` (records to one [`FrfSet`](crate::frf::FrfSet)), `types` and `error`.
 
@@ -50,6 +55,7 @@ mod block;
 mod dataset58;
 mod error;
 mod header58;
+mod label;
 mod lex;
 mod mesh;
 mod set;

@@ -878,3 +878,145 @@ proptest! {
         let _ = parse_uff(&bytes, "damaged.uff");
     }
 }
+
+/// Record 6 with zero nodes and directions, the DOFs named in ID line 1.
+fn with_id_dofs(id1: &str) -> String {
+    HAND_58.replace("H 3:uz / 1:uz accelerance", id1).replace(
+        R6,
+        "    4         1    0         0 NONE               0   0 NONE               0   0",
+    )
+}
+
+#[test]
+fn id_line_dof_spellings_are_read() {
+    use super::header58::id_line_dofs;
+    assert_eq!(id_line_dofs("Pt12:+Z / Pt1:+Z"), vec![(12, 3), (1, 3)]);
+    assert_eq!(id_line_dofs("FRF 12:-Y/1:+X"), vec![(12, -2), (1, 1)]);
+    assert_eq!(id_line_dofs("Pt 12.Z- Pt 1.Z+"), vec![(12, -3), (1, 3)]);
+    assert_eq!(
+        id_line_dofs("Point 7:+RX, Point 2:TY"),
+        vec![(7, 4), (2, 2)]
+    );
+    assert_eq!(id_line_dofs("1:+Z"), vec![(1, 3)]);
+    // Not DOFs: femu's own component names, bare words, both signs, trailing letters.
+    for none in [
+        "H 3:uz / 1:uz",
+        "Run 1 X",
+        "12:+Z+",
+        "12:+Zeta",
+        "18-Apr-16 13:49:58",
+    ] {
+        assert!(id_line_dofs(none).is_empty(), "{none}");
+    }
+}
+
+#[test]
+fn dofs_named_only_in_the_id_line_are_read_and_recorded() {
+    let f = parse(&with_id_dofs("Pt12:+Z / Pt1:-Z")).unwrap();
+    let r = &f.frfs[0];
+    assert_eq!(r.response, "12:uz".parse().unwrap());
+    assert_eq!(r.reference, "1:uz".parse().unwrap());
+    assert_eq!((r.response_direction, r.reference_direction), (3, -3));
+    assert!(r.sign_flipped);
+    assert_eq!(r.values[0], c64::new(-1.0, 2.0));
+    assert!(
+        r.conversions
+            .iter()
+            .any(|c| c.contains("read from ID line 1")
+                && c.contains("response node 12 direction +3")
+                && c.contains("reference node 1 direction -3")),
+        "{:?}",
+        r.conversions
+    );
+    // The sign after the axis; record 6's nodes given and agreeing.
+    let agree = with_id_dofs("Pt 3.Z- Pt 1.Z+").replace(
+        "NONE               0   0 NONE               0   0",
+        "NONE               3   0 NONE               1   0",
+    );
+    let r = &parse(&agree).unwrap().frfs[0];
+    assert_eq!(
+        (r.response, r.response_direction),
+        ("3:uz".parse().unwrap(), -3)
+    );
+    // A node that contradicts record 6 is refused, naming the ID line.
+    let clash = agree.replace("Pt 3.Z-", "Pt 4.Z-");
+    let e = parse(&clash).unwrap_err();
+    assert_eq!(
+        field_error(&e),
+        (3, 58, "record 1", "field 1 (ID line)".into())
+    );
+    assert!(e.to_string().contains("response node 3 of record 6"), "{e}");
+    // No DOF in the ID lines: record 6's zero direction is refused as before.
+    let e = parse(&with_id_dofs("accelerance")).unwrap_err();
+    assert_eq!(
+        field_error(&e),
+        (8, 58, "record 6", "field 7 (response direction)".into())
+    );
+    assert!(e.to_string().contains("named in the ID lines"), "{e}");
+}
+
+#[test]
+fn trailing_zero_padding_is_dropped_with_a_warning_but_a_value_is_not() {
+    let last = "  -5.00000000000E-01   6.25000000000E-02\n";
+    let padded = HAND_58.replace(last, &format!("{last}   0.0   0.0\n   0.00000E+00\n"));
+    let f = parse(&padded).unwrap();
+    assert_eq!(f.frfs[0].values.len(), 3);
+    assert!(
+        f.warnings.iter().any(|w| w.contains("test.uff:16")
+            && w.contains("3 zero value(s)")
+            && w.contains("padding")),
+        "{:?}",
+        f.warnings
+    );
+    let extra = HAND_58.replace(last, &format!("{last}   0.0   1.0\n"));
+    let e = parse(&extra).unwrap_err();
+    assert_eq!(field_error(&e).0, 16);
+    assert!(e.to_string().contains("value 8 being 1.0"), "{e}");
+}
+
+#[test]
+fn lab_unit_spellings_convert_and_say_how_they_were_read() {
+    let r10 = "        13    0    1    0 Force                N                   ";
+    let none10 = "        13    0    1    0 Force                NONE                ";
+    for label in ["(1/N)*(m/s²)", "m/(s^2 N)", "m·s⁻²/N", "(m/s2)/N"] {
+        let text = HAND_58
+            .replace(
+                R9,
+                &format!("        12    1    0    0 Acceleration         {label}"),
+            )
+            .replace(r10, none10);
+        let f = parse(&text).unwrap_or_else(|e| panic!("{label}: {e}"));
+        let r = &f.frfs[0];
+        assert_eq!(r.quantity, Quantity::Accelerance, "{label}");
+        assert_eq!(r.values[0], c64::new(1.0, -2.0), "{label}");
+        if label == "(m/s2)/N" {
+            // A plain spelling, read without a note (SI, so nothing converted).
+            assert!(r.conversions.is_empty(), "{:?}", r.conversions);
+            continue;
+        }
+        assert!(
+            r.conversions
+                .iter()
+                .any(|c| c.contains(&format!("`{label}` read as m/s^2/N"))),
+            "{label}: {:?}",
+            r.conversions
+        );
+    }
+    // g over a newton in an expression, and a record 10 moment spelled `N·mm`.
+    let text = HAND_58
+        .replace(R9, "        12    1    0    0 Acceleration         (g)/(N)")
+        .replace(r10, none10);
+    let r = &parse(&text).unwrap().frfs[0];
+    assert!((r.values[0].re - STANDARD_GRAVITY).abs() < 1e-14);
+    assert!(
+        r.conversions.iter().any(|c| c.contains("×9.80665e0")),
+        "{:?}",
+        r.conversions
+    );
+    let text = HAND_58
+        .replace(R9, "         0    0    0    0 NONE                 mm/s^2")
+        .replace(r10, "        13    0    1    0 Force                kN·mm");
+    let e = parse(&text).unwrap_err();
+    // A moment under a translational reference is refused as a plain label would be.
+    assert_eq!(field_error(&e).2, "record 10");
+}
