@@ -211,8 +211,8 @@ pub(super) fn parse_expr(label: &str) -> Option<UnitExpr> {
     };
     for (f, d, x) in atoms {
         e.factor *= f.powi(x);
-        for k in 0..4 {
-            e.dims[k] += d[k] * x;
+        for (acc, dk) in e.dims.iter_mut().zip(d) {
+            *acc += dk * x;
         }
         if d[F] != 0 {
             e.force_factor *= f.powi(-x);
