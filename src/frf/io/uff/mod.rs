@@ -55,17 +55,22 @@ mod block;
 mod dataset58;
 mod error;
 mod header58;
+mod info;
 mod label;
 mod lex;
 mod mesh;
 mod set;
+mod systems;
 mod types;
 mod units;
 pub mod write;
 
 pub use error::{NonFiniteValue, UffError};
 pub use set::{LINE_TOLERANCE, to_frf_set};
-pub use types::{Abscissa, ByteOrder, OrdinateType, Uff58, UffBeam, UffElement, UffFile, UffUnits};
+pub use types::{
+    Abscissa, ByteOrder, CoordKind, OrdinateType, Uff58, UffBeam, UffCoordSystem, UffElement,
+    UffFile, UffHeader, UffTraceLine, UffUnits,
+};
 pub use write::{
     UffEncoding, even_spacing, records_from_set, write_uff58, write_uff58_as, write_uff58_records,
     write_uff2411,
@@ -79,6 +84,14 @@ use mesh::{parse_elements_2412, parse_nodes_15, parse_nodes_2411};
 use std::collections::{BTreeMap, HashMap, HashSet};
 use std::path::Path;
 use units::parse_units_164;
+
+/// The quantity and SI factor of an FRF unit label (`m/s^2/N`, `g/N`, `(1/N)*(m/s²)`, `mm/N`):
+/// a translational motion over a force; `None` for anything else.
+pub fn frf_unit_si(label: &str) -> Option<(crate::frf::Quantity, f64)> {
+    let (m, f) = units::frf_label(label).ok()??;
+    let f = f?;
+    (!m.rotational && !f.moment).then(|| (m.kind.quantity(), m.factor / f.factor))
+}
 
 /// Reads and parses a universal file, read under the process-wide input policy
 /// ([`crate::core::input`]: regular files only, bounded size, optional confinement).
@@ -100,6 +113,7 @@ pub fn parse_uff(bytes: &[u8], file_name: &str) -> Result<UffFile, UffError> {
         units: None,
         warnings: Vec::new(),
         node_lines: HashMap::new(),
+        node_scale: Vec::new(),
         warned: HashSet::new(),
         skipped_functions: BTreeMap::new(),
         datasets: 0,
@@ -107,6 +121,7 @@ pub fn parse_uff(bytes: &[u8], file_name: &str) -> Result<UffFile, UffError> {
     };
     let mut out = UffFile::default();
     let mut skipped: BTreeMap<u32, usize> = BTreeMap::new();
+    let mut pending18 = Vec::new();
     while let Some(block) = next_block(&mut cur, &mut ctx)? {
         ctx.datasets += 1;
         match (block.number, block.binary.is_some()) {
@@ -121,6 +136,10 @@ pub fn parse_uff(bytes: &[u8], file_name: &str) -> Result<UffFile, UffError> {
             (2411, false) => parse_nodes_2411(&block, &mut ctx, &mut out)?,
             (2412, false) => parse_elements_2412(&block, &ctx, &mut out)?,
             (164, false) => ctx.units = Some(parse_units_164(&block, ctx.file)?),
+            (18, false) => systems::parse_18(&block, &mut ctx, &mut pending18)?,
+            (2420, false) => systems::parse_2420(&block, &mut ctx, &mut out)?,
+            (151, false) => info::parse_151(&block, &mut ctx, &mut out),
+            (82, false) => info::parse_82(&block, &ctx, &mut out)?,
             (n, _) => *skipped.entry(n).or_default() += 1,
         }
     }
@@ -130,6 +149,8 @@ pub fn parse_uff(bytes: &[u8], file_name: &str) -> Result<UffFile, UffError> {
             function_name(*ty)
         ));
     }
+    systems::resolve_18(&ctx, &mut out, pending18)?;
+    systems::nodes_to_global(&mut ctx, &mut out)?;
     out.units = ctx.units;
     out.warnings = ctx.warnings;
     out.skipped = skipped.into_iter().collect();

@@ -278,7 +278,7 @@ fn dataset_2411_15_and_2412_are_read() {
         "    -1\n",
         "    -1\n",
         "   151\n",
-        "a header we do not read\n",
+        "plate.mf1\n",
         "    -1\n",
     );
     let f = parse(text).unwrap();
@@ -306,7 +306,19 @@ fn dataset_2411_15_and_2412_are_read() {
     assert_eq!(f.elements[1].nodes, vec![101, 102]);
     assert_eq!(f.elements[2].nodes, (1..=9).collect::<Vec<u64>>());
     assert_eq!(f.elements[2].line, 19);
-    assert_eq!(f.skipped, vec![(151, 1)]);
+    assert!(f.skipped.is_empty(), "{:?}", f.skipped);
+    assert_eq!(
+        f.header.as_ref().map(|h| h.model.as_str()),
+        Some("plate.mf1")
+    );
+    // System 1 is not defined in the file: taken as global, and said so.
+    assert!(
+        f.warnings
+            .iter()
+            .any(|w| w.contains("2 node(s) name definition coordinate system 1")),
+        "{:?}",
+        f.warnings
+    );
     // Written nodes read back exactly.
     let nodes = vec![(5, [0.1, -1.0 / 3.0, 2e-300]), (6, [1e5, PI, -0.0])];
     let back = parse_uff(&write_uff2411(&nodes), "n.uff").unwrap();
@@ -1019,4 +1031,178 @@ fn lab_unit_spellings_convert_and_say_how_they_were_read() {
     let e = parse(&text).unwrap_err();
     // A moment under a translational reference is refused as a plain label would be.
     assert_eq!(field_error(&e).2, "record 10");
+}
+
+/// Coordinate systems in mm (dataset 164): 5 Cartesian turned 90° about z with its origin at
+/// (1, 2, 3) m (2420); 6 cylindrical at (0, 0, 0.5) m (2420); 8 spherical at the origin (2420);
+/// 7 Cartesian defined by three points in system 5 (dataset 18 at line 40, after its nodes).
+const SYSTEMS: &str = concat!(
+    "    -1\n",
+    "   164\n",
+    "         5mm (milli newton)               2\n",
+    "  1.00000000000000000D+03  1.00000000000000000D+03  1.00000000000000000D+00\n",
+    "  2.73150000000000000D+02\n",
+    "    -1\n",
+    "    -1\n",
+    "  2420\n",
+    "         1\n",
+    "Part\n",
+    "         5         0         8\n",
+    "turned\n",
+    "   0.0000000000000000D+00   1.0000000000000000D+00   0.0000000000000000D+00\n",
+    "  -1.0000000000000000D+00   0.0000000000000000D+00   0.0000000000000000D+00\n",
+    "   0.0000000000000000D+00   0.0000000000000000D+00   1.0000000000000000D+00\n",
+    "   1.0000000000000000D+03   2.0000000000000000D+03   3.0000000000000000D+03\n",
+    "         6         1         8\n",
+    "cylinder\n",
+    "   1.0000000000000000D+00   0.0000000000000000D+00   0.0000000000000000D+00\n",
+    "   0.0000000000000000D+00   1.0000000000000000D+00   0.0000000000000000D+00\n",
+    "   0.0000000000000000D+00   0.0000000000000000D+00   1.0000000000000000D+00\n",
+    "   0.0000000000000000D+00   0.0000000000000000D+00   5.0000000000000000D+02\n",
+    "         8         2         8\n",
+    "sphere\n",
+    "   1.0000000000000000D+00   0.0000000000000000D+00   0.0000000000000000D+00\n",
+    "   0.0000000000000000D+00   1.0000000000000000D+00   0.0000000000000000D+00\n",
+    "   0.0000000000000000D+00   0.0000000000000000D+00   1.0000000000000000D+00\n",
+    "   0.0000000000000000D+00   0.0000000000000000D+00   0.0000000000000000D+00\n",
+    "    -1\n",
+    "    -1\n",
+    "    15\n",
+    "         1         5         5         8  1.00000E+03  0.00000E+00  0.00000E+00\n",
+    "         2         6         0         8  2.00000E+03  9.00000E+01  1.00000E+03\n",
+    "         3         7         0         8  1.00000E+03  2.00000E+03  3.00000E+03\n",
+    "         4         8         0         8  2.00000E+03  9.00000E+01  9.00000E+01\n",
+    "         5         0         0         8  1.00000E+03  0.00000E+00  0.00000E+00\n",
+    "    -1\n",
+    "    -1\n",
+    "    18\n",
+    "         7         0         5         8         1\n",
+    "from points\n",
+    "  0.00000E+00  0.00000E+00  0.00000E+00  0.00000E+00  0.00000E+00  1.00000E+03\n",
+    "  1.00000E+03  0.00000E+00  0.00000E+00\n",
+    "    -1\n",
+    "    -1\n",
+    "    82\n",
+    "         1         4         8\n",
+    "edge\n",
+    "         1         2         0         5\n",
+    "    -1\n",
+    "    -1\n",
+    "   151\n",
+    "plate.mf1\n",
+    "bonded plate, 12 points\n",
+    "Simcenter Testlab\n",
+    "26-Nov-26 09:00:00\n",
+    "26-Nov-26 09:10:00\n",
+    "Simcenter Testlab 2306\n",
+    "26-Nov-26 09:20:00\n",
+    "    -1\n",
+);
+
+#[test]
+fn coordinate_systems_bring_nodes_to_global_as_computed_by_hand() {
+    let f = parse(SYSTEMS).unwrap();
+    let want: [(u64, [f64; 3]); 5] = [
+        // System 5: local (1, 0, 0) m along the turned x axis (global +y) from (1, 2, 3).
+        (1, [1.0, 3.0, 3.0]),
+        // System 6: r = 2 m, θ = 90° (not a length: not scaled), z = 1 m above (0, 0, 0.5).
+        (2, [0.0, 2.0, 1.5]),
+        // System 7: axes (0,0,1), (1,0,0), (0,1,0) from (1, 2, 3): 1·ez' + 2·ex' + 3·ey'.
+        (3, [3.0, 5.0, 4.0]),
+        // System 8: r = 2 m, θ = 90° from z, φ = 90° about z.
+        (4, [0.0, 2.0, 0.0]),
+        (5, [1.0, 0.0, 0.0]),
+    ];
+    for ((id, xyz), (wid, w)) in f.nodes.iter().zip(want) {
+        assert_eq!(*id, wid);
+        for k in 0..3 {
+            assert!((xyz[k] - w[k]).abs() < 1e-12, "node {id}: {xyz:?} vs {w:?}");
+        }
+    }
+    let s7 = f.coordinate_systems.iter().find(|c| c.id == 7).unwrap();
+    assert_eq!(s7.axes, [[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]);
+    assert_eq!((s7.dataset, s7.line), (18, 40));
+    // The displacement system is kept per node and said so; each transformation recorded.
+    assert_eq!(f.node_systems[0], [5, 5, 8]);
+    assert!(
+        f.warnings
+            .iter()
+            .any(|w| w.contains("1 node(s) measure in displacement system 5")),
+        "{:?}",
+        f.warnings
+    );
+    for s in [5, 6, 7, 8] {
+        assert!(
+            f.conversions
+                .iter()
+                .any(|c| c.contains(&format!("definition system {s} "))),
+            "{s}: {:?}",
+            f.conversions
+        );
+    }
+    assert_eq!(f.trace_lines.len(), 1);
+    assert_eq!(f.trace_lines[0].nodes, vec![1, 2, 0, 5]);
+    assert_eq!(f.trace_lines[0].name, "edge");
+    let h = f.header.as_ref().unwrap();
+    assert_eq!(
+        (h.model.as_str(), h.program.as_str(), h.written.as_str()),
+        ("plate.mf1", "Simcenter Testlab 2306", "26-Nov-26 09:20:00")
+    );
+    assert!(f.skipped.is_empty(), "{:?}", f.skipped);
+}
+
+#[test]
+fn bad_coordinate_systems_are_named_with_line_record_and_field() {
+    // A reference system that is never defined.
+    let e = parse(&SYSTEMS.replace(
+        "         7         0         5         8         1\n",
+        "         7         0         9         8         1\n",
+    ))
+    .unwrap_err();
+    assert_eq!(
+        field_error(&e),
+        (
+            40,
+            18,
+            "record 1",
+            "field 3 (reference coordinate system)".into()
+        )
+    );
+    // Three points on one line.
+    let e = parse(&SYSTEMS.replace(
+        "  1.00000E+03  0.00000E+00  0.00000E+00\n    -1\n    -1\n    82",
+        "  0.00000E+00  0.00000E+00  2.00000E+03\n    -1\n    -1\n    82",
+    ))
+    .unwrap_err();
+    assert_eq!(field_error(&e).0, 42);
+    assert!(e.to_string().contains("not on one line"), "{e}");
+    // Axes that are not orthonormal.
+    let e = parse(&SYSTEMS.replacen(
+        "   0.0000000000000000D+00   1.0000000000000000D+00   0.0000000000000000D+00\n",
+        "   0.0000000000000000D+00   2.0000000000000000D+00   0.0000000000000000D+00\n",
+        1,
+    ))
+    .unwrap_err();
+    assert_eq!(field_error(&e).1, 2420);
+    // An unknown type, and a trace line cut short.
+    let e = parse(&SYSTEMS.replace(
+        "         6         1         8\n",
+        "         6         4         8\n",
+    ))
+    .unwrap_err();
+    assert_eq!(
+        field_error(&e),
+        (
+            17,
+            2420,
+            "record 3",
+            "field 2 (coordinate system type)".into()
+        )
+    );
+    let e = parse(&SYSTEMS.replace(
+        "         1         4         8\n",
+        "         1         9         8\n",
+    ))
+    .unwrap_err();
+    assert_eq!(field_error(&e).1, 82);
 }
