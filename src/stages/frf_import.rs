@@ -1,7 +1,7 @@
 //! `frf.import`: measured FRFs from a Universal File (dataset 58, ASCII or binary 58b) or from a
 //! long-format table (CSV or Parquet: `freq_hz, response, excitation, re, im`, with a `quantity`
 //! or `unit` column or parameter), converted to SI with every conversion recorded. The reader
-//! is chosen by the extension (`.uff`/`.unv`, `.csv`, `.parquet`) or by `format:`. The file is
+//! is chosen by `format:`, else by the extension (`.csv`, `.parquet`, anything else UFF). The file is
 //! read when the pipeline is checked (through [`crate::core::input`]: regular files only,
 //! bounded size), so a malformed record or a NaN or infinite measured value is reported then;
 //! the cache key holds the digest of the FRFs, not the path.
@@ -56,24 +56,20 @@ pub struct Params {
     pub content_digest: Option<String>,
 }
 
-/// The reader for a path: `format`, else the extension.
-fn format_of(p: &Params) -> Result<FrfFormat, String> {
+/// The reader for a path: `format`, else the extension (`.csv`, `.parquet`; anything else UFF).
+fn format_of(p: &Params) -> FrfFormat {
     if let Some(f) = p.format {
-        return Ok(f);
+        return f;
     }
     let ext = Path::new(&p.path)
         .extension()
         .and_then(|e| e.to_str())
         .map(|e| e.to_ascii_lowercase());
+    // Any other extension is read as a Universal File, as before tables were read.
     match ext.as_deref() {
-        Some("uff" | "unv") => Ok(FrfFormat::Uff),
-        Some("csv") => Ok(FrfFormat::Csv),
-        Some("parquet" | "pq") => Ok(FrfFormat::Parquet),
-        other => Err(format!(
-            "{}: the extension {} does not say the format; use .uff/.unv, .csv or .parquet, or set `format: uff | csv | parquet`",
-            p.path,
-            other.map_or("(none)".to_string(), |e| format!("`.{e}`"))
-        )),
+        Some("csv") => FrfFormat::Csv,
+        Some("parquet" | "pq") => FrfFormat::Parquet,
+        _ => FrfFormat::Uff,
     }
 }
 
@@ -104,7 +100,7 @@ fn parquet_table(full: &Path) -> Result<LongTable, String> {
 
 fn import(base: &Path, p: &Params) -> Result<(FrfSet, Vec<String>), String> {
     let full = base.join(&p.path);
-    let format = format_of(p)?;
+    let format = format_of(p);
     if format == FrfFormat::Uff && (p.quantity.is_some() || p.unit.is_some()) {
         return Err(format!(
             "{}: `quantity` and `unit` are for tables; a Universal File says them in records 9-10",
