@@ -30,6 +30,8 @@ pub(super) struct Ctx<'f> {
     pub(super) units: Option<UffUnits>,
     pub(super) warnings: Vec<String>,
     pub(super) node_lines: HashMap<u64, usize>,
+    /// Per node read: the dataset 164 length factor applied.
+    pub(super) node_scale: Vec<f64>,
     /// Keys of the warnings given once per file.
     pub(super) warned: HashSet<&'static str>,
     /// Skipped dataset 58 function types: count and first line.

@@ -21,10 +21,19 @@ pub(super) fn parse_58(b: &Block<'_>, ctx: &mut Ctx<'_>) -> Result<Option<Uff58>
         None => ascii_data(b, file, &layout)?,
         Some(bin) => binary_data(bin, b, file, &h, &layout)?,
     };
+    if let Some((line, count)) = data.padding {
+        ctx.warn(format!(
+            "{file}:{line}: dataset 58 (header at line {}): {count} zero value(s) after the {} values record 7 declares ({}) taken as padding and ignored",
+            b.header_line, layout.total, layout.text
+        ));
+    }
     let (response, response_direction) = h.response;
     let (reference, reference_direction) = h.reference;
     let mut conversions = Vec::new();
     let loc = format!("{file}:{} H({response}, {reference})", b.header_line);
+    if let Some(note) = &h.dof_note {
+        conversions.push(format!("{loc}: {note}"));
+    }
     let (freqs_hz, abscissa) = frequency_lines(ctx, b, &h, &data.xs, &loc, &mut conversions)?;
     let (quantity, factor, unit_note) = resolve_ordinate(
         ctx,
@@ -115,11 +124,13 @@ impl Layout {
 }
 
 /// The values of record 12: abscissas (uneven only), ordinate parts, and the first value that
-/// is not finite as its index among the data values and its line.
+/// is not finite as its index among the data values and its line, and any zero padding.
 struct Data {
     xs: Vec<f64>,
     ys: Vec<f64>,
     first_bad: Option<(usize, usize)>,
+    /// Zeros after the declared values: the line of the first and their count.
+    padding: Option<(usize, usize)>,
 }
 
 /// Record 12 in ASCII: every number of the lines after record 11, split into abscissas and
@@ -127,6 +138,7 @@ struct Data {
 fn ascii_data(b: &Block<'_>, file: &str, layout: &Layout) -> Result<Data, UffError> {
     let total = layout.total;
     let mut first_bad = None;
+    let mut padding: Option<(usize, usize)> = None;
     let mut vals: Vec<f64> = Vec::new();
     for &(no, raw) in b.lines.get(11..).unwrap_or_default() {
         let t = text(raw);
@@ -140,9 +152,18 @@ fn ascii_data(b: &Block<'_>, file: &str, layout: &Layout) -> Result<Data, UffErr
                     )
                 })?;
                 if vals.len() == total {
+                    // Zeros after the declared values pad the last line or block (some
+                    // exporters write whole blocks); they are dropped and warned about.
+                    if v == 0.0 {
+                        padding.get_or_insert((no, 0)).1 += 1;
+                        continue;
+                    }
                     return Err(at58(file, 12, no).err(
                         "data values",
-                        format!("more than {total} values"),
+                        format!(
+                            "more than {total} values, value {} being {part} (not zero padding)",
+                            total + padding.map_or(0, |p| p.1) + 1
+                        ),
                         format!("{total} values: {} (record 7)", layout.text),
                     ));
                 }
@@ -165,6 +186,7 @@ fn ascii_data(b: &Block<'_>, file: &str, layout: &Layout) -> Result<Data, UffErr
             xs: Vec::new(),
             ys: vals,
             first_bad,
+            padding,
         });
     }
     let mut xs = Vec::new();
@@ -173,7 +195,12 @@ fn ascii_data(b: &Block<'_>, file: &str, layout: &Layout) -> Result<Data, UffErr
         xs.push(chunk[0]);
         ys.extend_from_slice(&chunk[1..]);
     }
-    Ok(Data { xs, ys, first_bad })
+    Ok(Data {
+        xs,
+        ys,
+        first_bad,
+        padding,
+    })
 }
 
 /// Record 12 in binary (58b), with the first value that is not finite indexed as in ASCII.
@@ -198,7 +225,12 @@ fn binary_data(
             .find(|(_, v)| !v.is_finite())
             .map(|(r, _)| (k * layout.per_point + r, b.header_line))
     });
-    Ok(Data { xs, ys, first_bad })
+    Ok(Data {
+        xs,
+        ys,
+        first_bad,
+        padding: None,
+    })
 }
 
 /// The frequency lines in Hz (record 8's unit converted, the conversion noted) and the spacing.

@@ -321,6 +321,8 @@ pub(super) fn at58(file: &str, k: usize, line: usize) -> At<'_> {
 
 /// Records 1–11 of an FRF record (function type 4), checked.
 pub(super) struct Header58 {
+    /// How DOFs missing from record 6 were read from the ID lines.
+    pub(super) dof_note: Option<String>,
     /// Records 1–5, trailing blanks removed.
     pub(super) id_lines: [String; 5],
     /// Record 6: function identification number and load case.
@@ -390,6 +392,9 @@ pub(super) fn read_header(b: &Block<'_>, ctx: &mut Ctx<'_>) -> Result<Option<Hea
         return Ok(None);
     }
     let (ordinate, even, n) = check_form(&at58(file, 7, form_line), &form)?;
+    let mut dofs = dofs;
+    let id_numbers: Vec<usize> = (1..=5).map(|k| b.lines[k - 1].0).collect();
+    let dof_note = dofs_from_id_lines(&at6, &id_lines, &id_numbers, &mut dofs)?;
     let response = dof_of(
         &at6,
         dofs.response_node,
@@ -405,6 +410,7 @@ pub(super) fn read_header(b: &Block<'_>, ctx: &mut Ctx<'_>) -> Result<Option<Hea
         "field 10 (reference direction)",
     )?;
     Ok(Some(Header58 {
+        dof_note,
         id_lines,
         function_id: dofs.function_id,
         load_case: dofs.load_case,
@@ -445,4 +451,160 @@ fn check_form(at7: &At<'_>, form: &FormRecord) -> Result<(OrdinateType, bool, us
         ));
     }
     Ok((ordinate, even, n))
+}
+
+/// The DOFs an ID line names, in order, as (node, signed direction code): `12:+Z` and `Pt12:+Z`
+/// (Test.Lab style), `12.Z-` and `Pt 12.Z-` (sign after the axis), `12:-RX` rotations, `12:TZ`
+/// for a translation. A node is a run of digits, followed by at most three of ` :._` and the
+/// direction: an optional sign, `R` or `T`, the axis `X`/`Y`/`Z`, an optional sign, and then no
+/// letter or digit. Without a sign the separator must hold `:` or `.` (a bare `12 Z` is not
+/// read); without a sign the direction is positive.
+pub(super) fn id_line_dofs(line: &str) -> Vec<(u64, i8)> {
+    let b = line.as_bytes();
+    let mut out = Vec::new();
+    let mut i = 0;
+    while i < b.len() {
+        if !b[i].is_ascii_digit() || (i > 0 && b[i - 1].is_ascii_digit()) {
+            i += 1;
+            continue;
+        }
+        let start = i;
+        while i < b.len() && b[i].is_ascii_digit() {
+            i += 1;
+        }
+        let Ok(node) = line[start..i].parse::<u64>() else {
+            continue;
+        };
+        let mut j = i;
+        let mut marked = false;
+        while j < b.len() && j - i < 3 && matches!(b[j], b' ' | b':' | b'.' | b'_') {
+            marked |= matches!(b[j], b':' | b'.');
+            j += 1;
+        }
+        let sign = |c: Option<&u8>| match c {
+            Some(b'+') => Some(1i8),
+            Some(b'-') => Some(-1i8),
+            _ => None,
+        };
+        let before = sign(b.get(j));
+        if before.is_some() {
+            j += 1;
+        }
+        let rotation = match b.get(j).map(|c| c.to_ascii_uppercase()) {
+            Some(b'R') => {
+                j += 1;
+                true
+            }
+            Some(b'T') => {
+                j += 1;
+                false
+            }
+            _ => false,
+        };
+        let axis = match b.get(j).map(|c| c.to_ascii_uppercase()) {
+            Some(b'X') => 1i8,
+            Some(b'Y') => 2,
+            Some(b'Z') => 3,
+            _ => continue,
+        };
+        j += 1;
+        let after = sign(b.get(j));
+        if after.is_some() {
+            j += 1;
+        }
+        let boundary = b.get(j).is_none_or(|c| !c.is_ascii_alphanumeric());
+        let s = match (before, after) {
+            (Some(_), Some(_)) => continue,
+            (Some(s), None) | (None, Some(s)) => s,
+            (None, None) if marked => 1,
+            (None, None) => continue,
+        };
+        if boundary {
+            out.push((node, s * (axis + if rotation { 3 } else { 0 })));
+            i = j;
+        }
+    }
+    out
+}
+
+/// Fills record 6's zero directions (and zero nodes) from the DOFs the ID lines name
+/// ([`id_line_dofs`]): the first named DOF is the response, the second the reference (the
+/// only one, when only the reference is missing). A node record 6 gives must agree. Returns a
+/// note of what was read, `None` when record 6 names both directions.
+fn dofs_from_id_lines(
+    at6: &At<'_>,
+    id_lines: &[String; 5],
+    id_numbers: &[usize],
+    dofs: &mut DofRecord,
+) -> Result<Option<String>, UffError> {
+    let (need_resp, need_ref) = (dofs.response_direction == 0, dofs.reference_direction == 0);
+    if !need_resp && !need_ref {
+        return Ok(None);
+    }
+    let named: Vec<(usize, u64, i8)> = id_lines
+        .iter()
+        .enumerate()
+        .flat_map(|(k, l)| id_line_dofs(l).into_iter().map(move |(n, d)| (k, n, d)))
+        .collect();
+    let (field, wanted) = if need_resp {
+        ("field 7 (response direction)", usize::from(need_ref) + 1)
+    } else {
+        ("field 10 (reference direction)", 1)
+    };
+    if named.len() < wanted {
+        return Err(at6.err(
+            field,
+            0,
+            format!(
+                "±1..±6; 0 (scalar) has no DOF unless the response and reference are named in the ID lines (records 1-5), e.g. `12:+Z / 1:+Z` or `Pt12.Z- Pt1.Z+`, and they name {}",
+                named.len()
+            ),
+        ));
+    }
+    let mut notes = Vec::new();
+    let mut take = |which: &str, node: &mut i64, dir: &mut i64, pick: (usize, u64, i8)| {
+        let (k, n, d) = pick;
+        let at = At {
+            line: id_numbers[k],
+            record: RECORDS[k + 1],
+            ..*at6
+        };
+        if *node != 0 && u64::try_from(*node).ok() != Some(n) {
+            return Err(at.err(
+                "field 1 (ID line)",
+                &id_lines[k],
+                format!("the {which} node {node} of record 6"),
+            ));
+        }
+        *node = n as i64;
+        *dir = i64::from(d);
+        notes.push(format!(
+            "{which} node {n} direction {d:+} read from ID line {} (line {}) `{}`",
+            k + 1,
+            id_numbers[k],
+            id_lines[k]
+        ));
+        Ok(())
+    };
+    if need_resp {
+        take(
+            "response",
+            &mut dofs.response_node,
+            &mut dofs.response_direction,
+            named[0],
+        )?;
+    }
+    if need_ref {
+        let pick = if named.len() >= 2 { named[1] } else { named[0] };
+        take(
+            "reference",
+            &mut dofs.reference_node,
+            &mut dofs.reference_direction,
+            pick,
+        )?;
+    }
+    Ok(Some(format!(
+        "record 6 gives direction 0; {}",
+        notes.join(", ")
+    )))
 }

@@ -28,10 +28,9 @@ pub(super) fn add_node(
             second: line,
         });
     }
-    let xyz = match length_conversion(ctx) {
-        Some((f, _)) => xyz.map(|x| x * f),
-        None => xyz,
-    };
+    let f = length_conversion(ctx).map_or(1.0, |(f, _)| f);
+    let xyz = xyz.map(|x| x * f);
+    ctx.node_scale.push(f);
     out.nodes.push((id, xyz));
     out.node_systems.push(systems);
     Ok(())

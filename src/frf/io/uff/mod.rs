@@ -20,7 +20,11 @@
 //!   function) is read; other function types are skipped, counted and warned about.
 //!   - Record 6 directions ±1…±6 map to `ux uy uz rx ry rz`. A negative response or reference
 //!     direction negates the data so that they refer to the positive directions (both negative:
-//!     no change); [`Uff58::sign_flipped`] records it.
+//!     no change); [`Uff58::sign_flipped`] records it. Exports that leave record 6's directions
+//!     0 and name the DOFs only in the ID lines (`Pt12:+Z / Pt1:+Z`, `Pt 12.Z-`) are read from
+//!     there, with the reading recorded as a conversion.
+//!   - Zeros after the values record 7 declares are padding: dropped, with a warning; any other
+//!     extra value is an error.
 //!   - Record 7: ordinate data type 2/4 (real single/double) or 5/6 (complex single/double);
 //!     even abscissa (minimum, increment) or uneven (`x` stored with every value; in 58b as
 //!     `f64` for double data, `f32` accepted too, `f32` for single data).
@@ -29,7 +33,8 @@
 //!     denominator (record 10 field 1) is 13 excitation force or 9 reaction force. With type 0
 //!     (unknown) or 1 (general) the unit label decides.
 //!   - Units to SI: the unit labels of records 9/10 (e.g. `g`, `mm`, `in/s`, `m/s^2/N`, `lbf`,
-//!     `N*m`), else dataset 164 with the unit exponents (the addendum A table, or the record's
+//!     `N*m`, and expressions such as `(1/N)*(m/s²)`, `m/(s^2 N)`, `μm/N`, recorded as read),
+//!     else dataset 164 with the unit exponents (the addendum A table, or the record's
 //!     own exponents for type 1), else SI is assumed and warned about. The abscissa is in Hz
 //!     unless record 8 says `rad/s`, `kHz` or `rpm`. Every conversion is listed in
 //!     [`Uff58::conversions`] and [`UffFile::conversions`].
@@ -42,7 +47,7 @@
 //!
 //! The writer is [`write`] (datasets 58 / 58b and 2411). Files of the reader, by concern:
 //! `lex` (lines, fields, Fortran reals), `block` (datasets between delimiters, the 58b header),
-//! `header58` and `dataset58` (records 1–11 and the data of dataset 58), `units` (unit labels,
+//! `header58` and `dataset58` (records 1–11 and the data of dataset 58), `units` and `label` (unit labels,
 //! dataset 164, the ordinate's quantity and SI factor), `mesh` (datasets 15, 2411, 2412),
 //! `set` (records to one [`FrfSet`](crate::frf::FrfSet)), `types` and `error`.
 
@@ -50,16 +55,22 @@ mod block;
 mod dataset58;
 mod error;
 mod header58;
+mod info;
+mod label;
 mod lex;
 mod mesh;
 mod set;
+mod systems;
 mod types;
 mod units;
 pub mod write;
 
 pub use error::{NonFiniteValue, UffError};
 pub use set::{LINE_TOLERANCE, to_frf_set};
-pub use types::{Abscissa, ByteOrder, OrdinateType, Uff58, UffBeam, UffElement, UffFile, UffUnits};
+pub use types::{
+    Abscissa, ByteOrder, CoordKind, OrdinateType, Uff58, UffBeam, UffCoordSystem, UffElement,
+    UffFile, UffHeader, UffTraceLine, UffUnits,
+};
 pub use write::{
     UffEncoding, even_spacing, records_from_set, write_uff58, write_uff58_as, write_uff58_records,
     write_uff2411,
@@ -73,6 +84,14 @@ use mesh::{parse_elements_2412, parse_nodes_15, parse_nodes_2411};
 use std::collections::{BTreeMap, HashMap, HashSet};
 use std::path::Path;
 use units::parse_units_164;
+
+/// The quantity and SI factor of an FRF unit label (`m/s^2/N`, `g/N`, `(1/N)*(m/s²)`, `mm/N`):
+/// a translational motion over a force; `None` for anything else.
+pub fn frf_unit_si(label: &str) -> Option<(crate::frf::Quantity, f64)> {
+    let (m, f) = units::frf_label(label).ok()??;
+    let f = f?;
+    (!m.rotational && !f.moment).then(|| (m.kind.quantity(), m.factor / f.factor))
+}
 
 /// Reads and parses a universal file, read under the process-wide input policy
 /// ([`crate::core::input`]: regular files only, bounded size, optional confinement).
@@ -94,6 +113,7 @@ pub fn parse_uff(bytes: &[u8], file_name: &str) -> Result<UffFile, UffError> {
         units: None,
         warnings: Vec::new(),
         node_lines: HashMap::new(),
+        node_scale: Vec::new(),
         warned: HashSet::new(),
         skipped_functions: BTreeMap::new(),
         datasets: 0,
@@ -101,6 +121,7 @@ pub fn parse_uff(bytes: &[u8], file_name: &str) -> Result<UffFile, UffError> {
     };
     let mut out = UffFile::default();
     let mut skipped: BTreeMap<u32, usize> = BTreeMap::new();
+    let mut pending18 = Vec::new();
     while let Some(block) = next_block(&mut cur, &mut ctx)? {
         ctx.datasets += 1;
         match (block.number, block.binary.is_some()) {
@@ -115,6 +136,10 @@ pub fn parse_uff(bytes: &[u8], file_name: &str) -> Result<UffFile, UffError> {
             (2411, false) => parse_nodes_2411(&block, &mut ctx, &mut out)?,
             (2412, false) => parse_elements_2412(&block, &ctx, &mut out)?,
             (164, false) => ctx.units = Some(parse_units_164(&block, ctx.file)?),
+            (18, false) => systems::parse_18(&block, &mut ctx, &mut pending18)?,
+            (2420, false) => systems::parse_2420(&block, &mut ctx, &mut out)?,
+            (151, false) => info::parse_151(&block, &mut ctx, &mut out),
+            (82, false) => info::parse_82(&block, &ctx, &mut out)?,
             (n, _) => *skipped.entry(n).or_default() += 1,
         }
     }
@@ -124,6 +149,8 @@ pub fn parse_uff(bytes: &[u8], file_name: &str) -> Result<UffFile, UffError> {
             function_name(*ty)
         ));
     }
+    systems::resolve_18(&ctx, &mut out, pending18)?;
+    systems::nodes_to_global(&mut ctx, &mut out)?;
     out.units = ctx.units;
     out.warnings = ctx.warnings;
     out.skipped = skipped.into_iter().collect();

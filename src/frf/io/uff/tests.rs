@@ -278,7 +278,7 @@ fn dataset_2411_15_and_2412_are_read() {
         "    -1\n",
         "    -1\n",
         "   151\n",
-        "a header we do not read\n",
+        "plate.mf1\n",
         "    -1\n",
     );
     let f = parse(text).unwrap();
@@ -306,7 +306,19 @@ fn dataset_2411_15_and_2412_are_read() {
     assert_eq!(f.elements[1].nodes, vec![101, 102]);
     assert_eq!(f.elements[2].nodes, (1..=9).collect::<Vec<u64>>());
     assert_eq!(f.elements[2].line, 19);
-    assert_eq!(f.skipped, vec![(151, 1)]);
+    assert!(f.skipped.is_empty(), "{:?}", f.skipped);
+    assert_eq!(
+        f.header.as_ref().map(|h| h.model.as_str()),
+        Some("plate.mf1")
+    );
+    // System 1 is not defined in the file: taken as global, and said so.
+    assert!(
+        f.warnings
+            .iter()
+            .any(|w| w.contains("2 node(s) name definition coordinate system 1")),
+        "{:?}",
+        f.warnings
+    );
     // Written nodes read back exactly.
     let nodes = vec![(5, [0.1, -1.0 / 3.0, 2e-300]), (6, [1e5, PI, -0.0])];
     let back = parse_uff(&write_uff2411(&nodes), "n.uff").unwrap();
@@ -877,4 +889,320 @@ proptest! {
         bytes.truncate(cut);
         let _ = parse_uff(&bytes, "damaged.uff");
     }
+}
+
+/// Record 6 with zero nodes and directions, the DOFs named in ID line 1.
+fn with_id_dofs(id1: &str) -> String {
+    HAND_58.replace("H 3:uz / 1:uz accelerance", id1).replace(
+        R6,
+        "    4         1    0         0 NONE               0   0 NONE               0   0",
+    )
+}
+
+#[test]
+fn id_line_dof_spellings_are_read() {
+    use super::header58::id_line_dofs;
+    assert_eq!(id_line_dofs("Pt12:+Z / Pt1:+Z"), vec![(12, 3), (1, 3)]);
+    assert_eq!(id_line_dofs("FRF 12:-Y/1:+X"), vec![(12, -2), (1, 1)]);
+    assert_eq!(id_line_dofs("Pt 12.Z- Pt 1.Z+"), vec![(12, -3), (1, 3)]);
+    assert_eq!(
+        id_line_dofs("Point 7:+RX, Point 2:TY"),
+        vec![(7, 4), (2, 2)]
+    );
+    assert_eq!(id_line_dofs("1:+Z"), vec![(1, 3)]);
+    // Not DOFs: femu's own component names, bare words, both signs, trailing letters.
+    for none in [
+        "H 3:uz / 1:uz",
+        "Run 1 X",
+        "12:+Z+",
+        "12:+Zeta",
+        "18-Apr-16 13:49:58",
+    ] {
+        assert!(id_line_dofs(none).is_empty(), "{none}");
+    }
+}
+
+#[test]
+fn dofs_named_only_in_the_id_line_are_read_and_recorded() {
+    let f = parse(&with_id_dofs("Pt12:+Z / Pt1:-Z")).unwrap();
+    let r = &f.frfs[0];
+    assert_eq!(r.response, "12:uz".parse().unwrap());
+    assert_eq!(r.reference, "1:uz".parse().unwrap());
+    assert_eq!((r.response_direction, r.reference_direction), (3, -3));
+    assert!(r.sign_flipped);
+    assert_eq!(r.values[0], c64::new(-1.0, 2.0));
+    assert!(
+        r.conversions
+            .iter()
+            .any(|c| c.contains("read from ID line 1")
+                && c.contains("response node 12 direction +3")
+                && c.contains("reference node 1 direction -3")),
+        "{:?}",
+        r.conversions
+    );
+    // The sign after the axis; record 6's nodes given and agreeing.
+    let agree = with_id_dofs("Pt 3.Z- Pt 1.Z+").replace(
+        "NONE               0   0 NONE               0   0",
+        "NONE               3   0 NONE               1   0",
+    );
+    let r = &parse(&agree).unwrap().frfs[0];
+    assert_eq!(
+        (r.response, r.response_direction),
+        ("3:uz".parse().unwrap(), -3)
+    );
+    // A node that contradicts record 6 is refused, naming the ID line.
+    let clash = agree.replace("Pt 3.Z-", "Pt 4.Z-");
+    let e = parse(&clash).unwrap_err();
+    assert_eq!(
+        field_error(&e),
+        (3, 58, "record 1", "field 1 (ID line)".into())
+    );
+    assert!(e.to_string().contains("response node 3 of record 6"), "{e}");
+    // No DOF in the ID lines: record 6's zero direction is refused as before.
+    let e = parse(&with_id_dofs("accelerance")).unwrap_err();
+    assert_eq!(
+        field_error(&e),
+        (8, 58, "record 6", "field 7 (response direction)".into())
+    );
+    assert!(e.to_string().contains("named in the ID lines"), "{e}");
+}
+
+#[test]
+fn trailing_zero_padding_is_dropped_with_a_warning_but_a_value_is_not() {
+    let last = "  -5.00000000000E-01   6.25000000000E-02\n";
+    let padded = HAND_58.replace(last, &format!("{last}   0.0   0.0\n   0.00000E+00\n"));
+    let f = parse(&padded).unwrap();
+    assert_eq!(f.frfs[0].values.len(), 3);
+    assert!(
+        f.warnings.iter().any(|w| w.contains("test.uff:16")
+            && w.contains("3 zero value(s)")
+            && w.contains("padding")),
+        "{:?}",
+        f.warnings
+    );
+    let extra = HAND_58.replace(last, &format!("{last}   0.0   1.0\n"));
+    let e = parse(&extra).unwrap_err();
+    assert_eq!(field_error(&e).0, 16);
+    assert!(e.to_string().contains("value 8 being 1.0"), "{e}");
+}
+
+#[test]
+fn lab_unit_spellings_convert_and_say_how_they_were_read() {
+    let r10 = "        13    0    1    0 Force                N                   ";
+    let none10 = "        13    0    1    0 Force                NONE                ";
+    for label in ["(1/N)*(m/s²)", "m/(s^2 N)", "m·s⁻²/N", "(m/s2)/N"] {
+        let text = HAND_58
+            .replace(
+                R9,
+                &format!("        12    1    0    0 Acceleration         {label}"),
+            )
+            .replace(r10, none10);
+        let f = parse(&text).unwrap_or_else(|e| panic!("{label}: {e}"));
+        let r = &f.frfs[0];
+        assert_eq!(r.quantity, Quantity::Accelerance, "{label}");
+        assert_eq!(r.values[0], c64::new(1.0, -2.0), "{label}");
+        if label == "(m/s2)/N" {
+            // A plain spelling, read without a note (SI, so nothing converted).
+            assert!(r.conversions.is_empty(), "{:?}", r.conversions);
+            continue;
+        }
+        assert!(
+            r.conversions
+                .iter()
+                .any(|c| c.contains(&format!("`{label}` read as m/s^2/N"))),
+            "{label}: {:?}",
+            r.conversions
+        );
+    }
+    // g over a newton in an expression, and a record 10 moment spelled `N·mm`.
+    let text = HAND_58
+        .replace(R9, "        12    1    0    0 Acceleration         (g)/(N)")
+        .replace(r10, none10);
+    let r = &parse(&text).unwrap().frfs[0];
+    assert!((r.values[0].re - STANDARD_GRAVITY).abs() < 1e-14);
+    assert!(
+        r.conversions.iter().any(|c| c.contains("×9.80665e0")),
+        "{:?}",
+        r.conversions
+    );
+    let text = HAND_58
+        .replace(R9, "         0    0    0    0 NONE                 mm/s^2")
+        .replace(r10, "        13    0    1    0 Force                kN·mm");
+    let e = parse(&text).unwrap_err();
+    // A moment under a translational reference is refused as a plain label would be.
+    assert_eq!(field_error(&e).2, "record 10");
+}
+
+/// Coordinate systems in mm (dataset 164): 5 Cartesian turned 90° about z with its origin at
+/// (1, 2, 3) m (2420); 6 cylindrical at (0, 0, 0.5) m (2420); 8 spherical at the origin (2420);
+/// 7 Cartesian defined by three points in system 5 (dataset 18 at line 40, after its nodes).
+const SYSTEMS: &str = concat!(
+    "    -1\n",
+    "   164\n",
+    "         5mm (milli newton)               2\n",
+    "  1.00000000000000000D+03  1.00000000000000000D+03  1.00000000000000000D+00\n",
+    "  2.73150000000000000D+02\n",
+    "    -1\n",
+    "    -1\n",
+    "  2420\n",
+    "         1\n",
+    "Part\n",
+    "         5         0         8\n",
+    "turned\n",
+    "   0.0000000000000000D+00   1.0000000000000000D+00   0.0000000000000000D+00\n",
+    "  -1.0000000000000000D+00   0.0000000000000000D+00   0.0000000000000000D+00\n",
+    "   0.0000000000000000D+00   0.0000000000000000D+00   1.0000000000000000D+00\n",
+    "   1.0000000000000000D+03   2.0000000000000000D+03   3.0000000000000000D+03\n",
+    "         6         1         8\n",
+    "cylinder\n",
+    "   1.0000000000000000D+00   0.0000000000000000D+00   0.0000000000000000D+00\n",
+    "   0.0000000000000000D+00   1.0000000000000000D+00   0.0000000000000000D+00\n",
+    "   0.0000000000000000D+00   0.0000000000000000D+00   1.0000000000000000D+00\n",
+    "   0.0000000000000000D+00   0.0000000000000000D+00   5.0000000000000000D+02\n",
+    "         8         2         8\n",
+    "sphere\n",
+    "   1.0000000000000000D+00   0.0000000000000000D+00   0.0000000000000000D+00\n",
+    "   0.0000000000000000D+00   1.0000000000000000D+00   0.0000000000000000D+00\n",
+    "   0.0000000000000000D+00   0.0000000000000000D+00   1.0000000000000000D+00\n",
+    "   0.0000000000000000D+00   0.0000000000000000D+00   0.0000000000000000D+00\n",
+    "    -1\n",
+    "    -1\n",
+    "    15\n",
+    "         1         5         5         8  1.00000E+03  0.00000E+00  0.00000E+00\n",
+    "         2         6         0         8  2.00000E+03  9.00000E+01  1.00000E+03\n",
+    "         3         7         0         8  1.00000E+03  2.00000E+03  3.00000E+03\n",
+    "         4         8         0         8  2.00000E+03  9.00000E+01  9.00000E+01\n",
+    "         5         0         0         8  1.00000E+03  0.00000E+00  0.00000E+00\n",
+    "    -1\n",
+    "    -1\n",
+    "    18\n",
+    "         7         0         5         8         1\n",
+    "from points\n",
+    "  0.00000E+00  0.00000E+00  0.00000E+00  0.00000E+00  0.00000E+00  1.00000E+03\n",
+    "  1.00000E+03  0.00000E+00  0.00000E+00\n",
+    "    -1\n",
+    "    -1\n",
+    "    82\n",
+    "         1         4         8\n",
+    "edge\n",
+    "         1         2         0         5\n",
+    "    -1\n",
+    "    -1\n",
+    "   151\n",
+    "plate.mf1\n",
+    "bonded plate, 12 points\n",
+    "Simcenter Testlab\n",
+    "26-Nov-26 09:00:00\n",
+    "26-Nov-26 09:10:00\n",
+    "Simcenter Testlab 2306\n",
+    "26-Nov-26 09:20:00\n",
+    "    -1\n",
+);
+
+#[test]
+fn coordinate_systems_bring_nodes_to_global_as_computed_by_hand() {
+    let f = parse(SYSTEMS).unwrap();
+    let want: [(u64, [f64; 3]); 5] = [
+        // System 5: local (1, 0, 0) m along the turned x axis (global +y) from (1, 2, 3).
+        (1, [1.0, 3.0, 3.0]),
+        // System 6: r = 2 m, θ = 90° (not a length: not scaled), z = 1 m above (0, 0, 0.5).
+        (2, [0.0, 2.0, 1.5]),
+        // System 7: axes (0,0,1), (1,0,0), (0,1,0) from (1, 2, 3): 1·ez' + 2·ex' + 3·ey'.
+        (3, [3.0, 5.0, 4.0]),
+        // System 8: r = 2 m, θ = 90° from z, φ = 90° about z.
+        (4, [0.0, 2.0, 0.0]),
+        (5, [1.0, 0.0, 0.0]),
+    ];
+    for ((id, xyz), (wid, w)) in f.nodes.iter().zip(want) {
+        assert_eq!(*id, wid);
+        for k in 0..3 {
+            assert!((xyz[k] - w[k]).abs() < 1e-12, "node {id}: {xyz:?} vs {w:?}");
+        }
+    }
+    let s7 = f.coordinate_systems.iter().find(|c| c.id == 7).unwrap();
+    assert_eq!(s7.axes, [[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]);
+    assert_eq!((s7.dataset, s7.line), (18, 40));
+    // The displacement system is kept per node and said so; each transformation recorded.
+    assert_eq!(f.node_systems[0], [5, 5, 8]);
+    assert!(
+        f.warnings
+            .iter()
+            .any(|w| w.contains("1 node(s) measure in displacement system 5")),
+        "{:?}",
+        f.warnings
+    );
+    for s in [5, 6, 7, 8] {
+        assert!(
+            f.conversions
+                .iter()
+                .any(|c| c.contains(&format!("definition system {s} "))),
+            "{s}: {:?}",
+            f.conversions
+        );
+    }
+    assert_eq!(f.trace_lines.len(), 1);
+    assert_eq!(f.trace_lines[0].nodes, vec![1, 2, 0, 5]);
+    assert_eq!(f.trace_lines[0].name, "edge");
+    let h = f.header.as_ref().unwrap();
+    assert_eq!(
+        (h.model.as_str(), h.program.as_str(), h.written.as_str()),
+        ("plate.mf1", "Simcenter Testlab 2306", "26-Nov-26 09:20:00")
+    );
+    assert!(f.skipped.is_empty(), "{:?}", f.skipped);
+}
+
+#[test]
+fn bad_coordinate_systems_are_named_with_line_record_and_field() {
+    // A reference system that is never defined.
+    let e = parse(&SYSTEMS.replace(
+        "         7         0         5         8         1\n",
+        "         7         0         9         8         1\n",
+    ))
+    .unwrap_err();
+    assert_eq!(
+        field_error(&e),
+        (
+            40,
+            18,
+            "record 1",
+            "field 3 (reference coordinate system)".into()
+        )
+    );
+    // Three points on one line.
+    let e = parse(&SYSTEMS.replace(
+        "  1.00000E+03  0.00000E+00  0.00000E+00\n    -1\n    -1\n    82",
+        "  0.00000E+00  0.00000E+00  2.00000E+03\n    -1\n    -1\n    82",
+    ))
+    .unwrap_err();
+    assert_eq!(field_error(&e).0, 42);
+    assert!(e.to_string().contains("not on one line"), "{e}");
+    // Axes that are not orthonormal.
+    let e = parse(&SYSTEMS.replacen(
+        "   0.0000000000000000D+00   1.0000000000000000D+00   0.0000000000000000D+00\n",
+        "   0.0000000000000000D+00   2.0000000000000000D+00   0.0000000000000000D+00\n",
+        1,
+    ))
+    .unwrap_err();
+    assert_eq!(field_error(&e).1, 2420);
+    // An unknown type, and a trace line cut short.
+    let e = parse(&SYSTEMS.replace(
+        "         6         1         8\n",
+        "         6         4         8\n",
+    ))
+    .unwrap_err();
+    assert_eq!(
+        field_error(&e),
+        (
+            17,
+            2420,
+            "record 3",
+            "field 2 (coordinate system type)".into()
+        )
+    );
+    let e = parse(&SYSTEMS.replace(
+        "         1         4         8\n",
+        "         1         9         8\n",
+    ))
+    .unwrap_err();
+    assert_eq!(field_error(&e).1, 82);
 }

@@ -8,13 +8,20 @@ use std::fmt;
 /// Everything read from a universal file.
 #[derive(Clone, Debug, Default)]
 pub struct UffFile {
-    /// Nodes of datasets 15 and 2411: label and coordinates (SI when dataset 164 gives units).
+    /// Nodes of datasets 15 and 2411: label and global coordinates (SI when dataset 164 gives
+    /// units; brought from their definition coordinate system to global).
     pub nodes: Vec<(u64, [f64; 3])>,
     /// Per node, in the order of `nodes`: definition coordinate system, displacement coordinate
     /// system and colour.
     pub node_systems: Vec<[u32; 3]>,
     /// Elements of dataset 2412.
     pub elements: Vec<UffElement>,
+    /// Coordinate systems of datasets 18 and 2420, axes and origins in global (SI lengths).
+    pub coordinate_systems: Vec<UffCoordSystem>,
+    /// Trace lines of dataset 82, kept for display.
+    pub trace_lines: Vec<UffTraceLine>,
+    /// The header of dataset 151.
+    pub header: Option<UffHeader>,
     /// FRF records of datasets 58 and 58b, in file order.
     pub frfs: Vec<Uff58>,
     /// The last units dataset (164) read.
@@ -25,6 +32,83 @@ pub struct UffFile {
     pub warnings: Vec<String>,
     /// Datasets not read, `(dataset number, count)`, ascending by number.
     pub skipped: Vec<(u32, usize)>,
+}
+
+/// The type of a coordinate system (dataset 18 field 2, dataset 2420 record 3 field 2).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CoordKind {
+    /// 0: `(x, y, z)`.
+    Cartesian,
+    /// 1: `(r, θ, z)`, θ in degrees.
+    Cylindrical,
+    /// 2: `(r, θ, φ)`, θ from the z axis and φ about it, in degrees.
+    Spherical,
+}
+
+impl CoordKind {
+    /// The name, for messages.
+    pub fn name(self) -> &'static str {
+        match self {
+            CoordKind::Cartesian => "Cartesian",
+            CoordKind::Cylindrical => "cylindrical",
+            CoordKind::Spherical => "spherical",
+        }
+    }
+}
+
+/// A coordinate system of dataset 18 or 2420, in global.
+#[derive(Clone, Debug, PartialEq)]
+pub struct UffCoordSystem {
+    /// Label.
+    pub id: u32,
+    /// Type.
+    pub kind: CoordKind,
+    /// Name as written.
+    pub name: String,
+    /// The local x, y, z axes as unit vectors in global components (rows).
+    pub axes: [[f64; 3]; 3],
+    /// Origin in global, m (when dataset 164 gives units).
+    pub origin: [f64; 3],
+    /// 18 or 2420.
+    pub dataset: u32,
+    /// 1-based line of the system's first record.
+    pub line: usize,
+}
+
+/// A trace line of dataset 82: nodes joined for display, 0 lifting the pen.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct UffTraceLine {
+    /// Trace line number.
+    pub id: u64,
+    /// Colour.
+    pub color: u32,
+    /// ID line.
+    pub name: String,
+    /// Node labels; 0 moves to the next node without drawing.
+    pub nodes: Vec<u64>,
+    /// 1-based line of record 1.
+    pub line: usize,
+}
+
+/// The header of dataset 151, as written.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct UffHeader {
+    /// Record 1: model file name.
+    pub model: String,
+    /// Record 2: model file description.
+    pub description: String,
+    /// Record 3: program that created the database.
+    pub database_program: String,
+    /// Record 4: date and time the database was created.
+    pub database_created: String,
+    /// Record 5: date and time the database was last saved.
+    pub database_saved: String,
+    /// Record 6: program that wrote the universal file.
+    pub program: String,
+    /// Record 7: date and time the universal file was written.
+    pub written: String,
+    /// 1-based line of the dataset number.
+    pub line: usize,
 }
 
 /// One element of dataset 2412.

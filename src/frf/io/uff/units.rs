@@ -3,6 +3,7 @@
 
 use super::block::{Block, Ctx};
 use super::header58::{AxisRecord, RECORDS, specific_type_name};
+use super::label::parse_expr;
 use super::lex::{At, col, fields, text};
 use super::{UffError, UffUnits};
 use crate::frf::Quantity;
@@ -158,18 +159,47 @@ pub(super) fn frf_label(raw: &str) -> Result<Option<(MotionUnit, Option<ForceUni
     let Some(n) = normalise_unit(raw) else {
         return Ok(None);
     };
-    if let Some(m) = motion_unit(&n) {
-        return Ok(Some((m, None)));
+    if let Some(plain) = plain_frf_label(&n) {
+        return Ok(Some(plain));
     }
-    for (i, _) in n.rmatch_indices('/') {
-        if let (Some(m), Some(f)) = (motion_unit(&n[..i]), force_unit(&n[i + 1..])) {
-            return Ok(Some((m, Some(f))));
-        }
-    }
-    Err(())
+    parse_expr(raw).and_then(|e| e.as_frf()).map(Some).ok_or(())
 }
 
-pub(super) const MOTION_LABELS: &str = "a motion unit such as m, mm, um, in, m/s, mm/s, in/s, m/s^2, mm/s^2, g, rad, rad/s, rad/s^2, optionally over a force (m/s^2/N, g/lbf, m/N); or NONE";
+/// The plain spellings: a motion unit, or one over a force (`m/s^2/N`, `g/lbf`).
+fn plain_frf_label(n: &str) -> Option<(MotionUnit, Option<ForceUnit>)> {
+    if let Some(m) = motion_unit(n) {
+        return Some((m, None));
+    }
+    n.rmatch_indices('/')
+        .find_map(|(i, _)| Some((motion_unit(&n[..i])?, Some(force_unit(&n[i + 1..])?))))
+}
+
+/// A force or moment label: the plain spellings, else a unit expression (`kN`, `N·mm`).
+fn force_label(raw: &str, n: &str) -> Option<ForceUnit> {
+    force_unit(n).or_else(|| parse_expr(raw).and_then(|e| e.as_force()))
+}
+
+/// How a label outside the plain spellings was read, e.g. ``record 9 label `(1/N)*(m/s²)` read
+/// as m/s^2/N``; `None` for a plain or blank label.
+fn reading(record: &str, raw: &str, force: bool) -> Option<String> {
+    let n = normalise_unit(raw)?;
+    let plain = if force {
+        force_unit(&n).is_some()
+    } else {
+        plain_frf_label(&n).is_some()
+    };
+    if plain {
+        return None;
+    }
+    let e = parse_expr(raw)?;
+    Some(format!(
+        "{record} label `{}` read as {}",
+        raw.trim(),
+        e.describe()
+    ))
+}
+
+pub(super) const MOTION_LABELS: &str = "a motion unit such as m, mm, um, in, m/s, mm/s, in/s, m/s^2, mm/s^2, g, rad, rad/s, rad/s^2, optionally over a force (m/s^2/N, g/lbf, m/N, (1/N)*(m/s²), m/(s^2 N)); or NONE";
 pub(super) const FORCE_LABELS: &str =
     "a force unit N, kN, mN, lbf, kgf, or a moment unit N*m, kN*m, N*mm, lbf*in, lbf*ft; or NONE";
 
@@ -240,13 +270,21 @@ pub(super) fn resolve_ordinate(
             "exponents that give a finite conversion factor",
         ));
     }
-    let note = (factor != 1.0).then(|| {
-        format!(
+    let mut notes: Vec<String> = [
+        reading("record 9", &num.unit, false),
+        reading("record 10", &den.unit, true),
+    ]
+    .into_iter()
+    .flatten()
+    .collect();
+    if factor != 1.0 {
+        notes.push(format!(
             "ordinate converted to SI {} from {}: ×{factor:e}",
             si_unit(kind, rot_response, rot_reference),
             sources.join(" and ")
-        )
-    });
+        ));
+    }
+    let note = (!notes.is_empty()).then(|| notes.join("; "));
     Ok((kind.quantity(), factor, note))
 }
 
@@ -298,7 +336,7 @@ impl Ordinate<'_> {
         let den_label = match normalise_unit(&den.unit) {
             None => None,
             Some(n) => Some(
-                force_unit(&n)
+                force_label(&den.unit, &n)
                     .ok_or_else(|| at10.err("field 6 (units label)", &den.unit, FORCE_LABELS))?,
             ),
         };
