@@ -10,6 +10,7 @@ pub mod model_assembly;
 pub mod multipoint;
 pub mod rod;
 pub mod shell;
+pub mod shell_quadratic;
 pub mod system;
 
 pub use system::{SystemMatrices, SystemMatricesError};

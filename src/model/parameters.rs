@@ -143,7 +143,13 @@ impl Model {
                 element_kind: e.type_name(),
             };
             let slot = match (e, &p.kind) {
-                (Element::Quad4 { property, .. } | Element::Tria3 { property, .. }, kind) => {
+                (
+                    Element::Quad4 { property, .. }
+                    | Element::Tria3 { property, .. }
+                    | Element::Quad8 { property, .. }
+                    | Element::Tria6 { property, .. },
+                    kind,
+                ) => {
                     match kind {
                         ParameterKind::ShellThickness => Slot::ShellThickness(*property),
                         ParameterKind::YoungsModulus => Slot::ShellMaterial(*property, Field::E),
@@ -387,7 +393,12 @@ impl Model {
                 continue;
             };
             let property = match e {
-                Element::Quad4 { property, .. } | Element::Tria3 { property, .. } if shell => {
+                Element::Quad4 { property, .. }
+                | Element::Tria3 { property, .. }
+                | Element::Quad8 { property, .. }
+                | Element::Tria6 { property, .. }
+                    if shell =>
+                {
                     property
                 }
                 Element::Beam { property, .. } if !shell => property,

@@ -271,6 +271,25 @@ pub enum Element {
         /// Shell property id.
         property: u64,
     },
+    /// Eight-node curved shell (CQUAD8).
+    Quad8 {
+        /// Corner nodes G1–G4, counter-clockwise.
+        corners: [u64; 4],
+        /// Midside nodes G5–G8 (G5 on edge 1–2, …, G8 on 4–1); `None` where omitted (that edge
+        /// is straight and interpolated linearly).
+        midside: [Option<u64>; 4],
+        /// Shell property id.
+        property: u64,
+    },
+    /// Six-node curved shell (CTRIA6).
+    Tria6 {
+        /// Corner nodes G1–G3.
+        corners: [u64; 3],
+        /// Midside nodes G4–G6 (G4 on edge 1–2, G5 on 2–3, G6 on 3–1); `None` where omitted.
+        midside: [Option<u64>; 3],
+        /// Shell property id.
+        property: u64,
+    },
     /// Two-node beam (CBAR, CBEAM).
     Beam {
         /// End nodes.
@@ -329,6 +348,12 @@ impl Element {
         match self {
             Element::Quad4 { nodes, .. } => nodes.to_vec(),
             Element::Tria3 { nodes, .. } => nodes.to_vec(),
+            Element::Quad8 {
+                corners, midside, ..
+            } => corners.iter().copied().chain(midside.iter().flatten().copied()).collect(),
+            Element::Tria6 {
+                corners, midside, ..
+            } => corners.iter().copied().chain(midside.iter().flatten().copied()).collect(),
             Element::Beam { nodes, .. } => nodes.to_vec(),
             Element::Rod { nodes, .. } => nodes.to_vec(),
             Element::Bush { node, other, .. } => std::iter::once(*node).chain(*other).collect(),
@@ -344,6 +369,8 @@ impl Element {
         match self {
             Element::Quad4 { property, .. }
             | Element::Tria3 { property, .. }
+            | Element::Quad8 { property, .. }
+            | Element::Tria6 { property, .. }
             | Element::Beam { property, .. } => Some(*property),
             Element::Rod {
                 section: RodSection::Property(p),
@@ -358,6 +385,8 @@ impl Element {
         match self {
             Element::Quad4 { .. } => "quad4",
             Element::Tria3 { .. } => "tria3",
+            Element::Quad8 { .. } => "quad8",
+            Element::Tria6 { .. } => "tria6",
             Element::Beam { .. } => "beam",
             Element::Rod { .. } => "rod",
             Element::Bush { .. } => "bush",
@@ -566,7 +595,10 @@ impl Model {
                 }
             }
             let (ok, wanted) = match e {
-                Element::Quad4 { property, .. } | Element::Tria3 { property, .. } => {
+                Element::Quad4 { property, .. }
+                | Element::Tria3 { property, .. }
+                | Element::Quad8 { property, .. }
+                | Element::Tria6 { property, .. } => {
                     (self.shell_properties.contains_key(property), "shell")
                 }
                 Element::Beam { property, .. } => {

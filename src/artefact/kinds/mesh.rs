@@ -14,7 +14,9 @@
 //! section (a CONROD), which is then in `meta.rod_sections` under the element id; both rod
 //! metadata keys are written only when the model has rods, so meshes without them keep their
 //! bytes. The offsets and pin flags of the beams that have them are in `beam_ends` (element
-//! id → ends; absent when no beam has any).
+//! id → ends; absent when no beam has any). Quadratic shells (`quad8`, `tria6`) have their
+//! corners in `n1 …` and their midside nodes in `midside_nodes` (element id → list, `null` for an
+//! omitted one; absent when the model has none).
 
 use super::{ColumnLayout, Kind, Layout, col, meta, meta_opt, meta_value, table};
 use crate::artefact::{Artefact, ArtefactError, ArtefactKind, Column, Storage, Table};
@@ -111,6 +113,10 @@ impl Kind for MeshKind {
                     "rigid-body mass, centre of gravity and inertia (PARAM,GRDPNT)",
                 ),
                 meta_opt(
+                    "midside_nodes",
+                    "midside nodes of the quad8 and tria6 elements (null where omitted), by element id",
+                ),
+                meta_opt(
                     "beam_ends",
                     "offsets (basic, m) and pin flags of the beams that have them, by element id",
                 ),
@@ -192,9 +198,26 @@ pub fn mesh_to_artefact(m: &Model) -> Artefact {
     let mut lumped = LumpedColumns::default();
     let mut rod_sections = std::collections::BTreeMap::new();
     let mut beam_ends = std::collections::BTreeMap::new();
+    let mut midside_nodes: BTreeMap<u64, Vec<Option<u64>>> = BTreeMap::new();
     for (&id, e) in &m.elements {
         match e {
             Element::Quad4 { nodes, property } => elements.push(id, e, nodes, *property, None),
+            Element::Quad8 {
+                corners,
+                midside,
+                property,
+            } => {
+                midside_nodes.insert(id, midside.to_vec());
+                elements.push(id, e, corners, *property, None)
+            }
+            Element::Tria6 {
+                corners,
+                midside,
+                property,
+            } => {
+                midside_nodes.insert(id, midside.to_vec());
+                elements.push(id, e, corners, *property, None)
+            }
             Element::Tria3 { nodes, property } => elements.push(id, e, nodes, *property, None),
             Element::Beam {
                 nodes,
@@ -245,6 +268,9 @@ pub fn mesh_to_artefact(m: &Model) -> Artefact {
     }
     if !rod_sections.is_empty() {
         a = a.with_meta("rod_sections", to_json(&rod_sections));
+    }
+    if !midside_nodes.is_empty() {
+        a = a.with_meta("midside_nodes", to_json(&midside_nodes));
     }
     if m.mpcs.is_empty() {
         a
@@ -443,6 +469,8 @@ impl LumpedRow {
             },
             Element::Quad4 { .. }
             | Element::Tria3 { .. }
+            | Element::Quad8 { .. }
+            | Element::Tria6 { .. }
             | Element::Beam { .. }
             | Element::Rod { .. } => return None,
         })
@@ -597,6 +625,7 @@ fn optional_meta<T: serde::de::DeserializeOwned + Default>(
 fn read_elements(a: &Artefact, m: &mut Model) -> Result<(), ArtefactError> {
     let mut rod_sections: std::collections::BTreeMap<u64, RodProperty> =
         optional_meta(a, "rod_sections")?;
+    let mut midside_nodes: BTreeMap<u64, Vec<Option<u64>>> = optional_meta(a, "midside_nodes")?;
     let n = "elements";
     let t = a.table(n)?;
     let (eid, ty, prop) = (
@@ -643,6 +672,29 @@ fn read_elements(a: &Artefact, m: &mut Model) -> Result<(), ArtefactError> {
                 nodes: [node(0)?, node(1)?, node(2)?],
                 property: p,
             },
+            "quad8" | "tria6" => {
+                let mid = midside_nodes.remove(&eid).unwrap_or_default();
+                let wrong = || {
+                    bad(format!(
+                        "elements row {r}: {} {eid} needs {} entries in metadata `midside_nodes`",
+                        ty[r],
+                        if ty[r] == "quad8" { 4 } else { 3 }
+                    ))
+                };
+                if ty[r] == "quad8" {
+                    Element::Quad8 {
+                        corners: [node(0)?, node(1)?, node(2)?, node(3)?],
+                        midside: mid.try_into().map_err(|_| wrong())?,
+                        property: p,
+                    }
+                } else {
+                    Element::Tria6 {
+                        corners: [node(0)?, node(1)?, node(2)?],
+                        midside: mid.try_into().map_err(|_| wrong())?,
+                        property: p,
+                    }
+                }
+            }
             "beam" => Element::Beam {
                 nodes: [node(0)?, node(1)?],
                 property: p,
@@ -651,7 +703,7 @@ fn read_elements(a: &Artefact, m: &mut Model) -> Result<(), ArtefactError> {
             },
             other => {
                 return Err(bad(format!(
-                    "elements row {r}: type `{other}` is not quad4, tria3, beam or rod"
+                    "elements row {r}: type `{other}` is not quad4, tria3, quad8, tria6, beam or rod"
                 )));
             }
         };

@@ -154,6 +154,7 @@ impl Builder {
             "CORD1R" | "CORD1C" | "CORD1S" => self.cord1(c),
             "GRDSET" => self.grdset(c),
             "CQUAD4" | "CTRIA3" => self.shell_element(c),
+            "CQUAD8" | "CTRIA6" => self.quadratic_shell(c),
             "CBAR" | "CBEAM" => self.beam_element(c),
             "BAROR" | "BEAMOR" => self.beam_defaults(c),
             "PSHELL" => self.pshell(c),

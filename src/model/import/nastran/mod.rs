@@ -12,7 +12,7 @@
 //! `1.E3` and `1D3`, and blank fields taking the QRG defaults.
 //!
 //! Cards read: GRID with GRDSET defaults, CORD1R/C/S and CORD2R/C/S (nested, in any order),
-//! CQUAD4, CTRIA3, CBAR, CBEAM (offsets, pin flags), BAROR, BEAMOR, CROD, CONROD, CTUBE,
+//! CQUAD4, CTRIA3, CQUAD8, CTRIA6, CBAR, CBEAM (offsets, pin flags), BAROR, BEAMOR, CROD, CONROD, CTUBE,
 //! PSHELL, PBAR, PBARL and PBEAML (the beam library, see below), PBEAM, PROD, PTUBE, MAT1,
 //! CELAS1 with PELAS, CELAS2, CBUSH with PBUSH, CONM2, SPC, SPC1, SPCADD, SET1, the rigid
 //! elements RBE2, RBAR, RROD, RBE3 and MPC, MPCADD (as multipoint constraints, see `rigid.rs`),
@@ -48,6 +48,14 @@
 //!   cylindrical or spherical system the undefined angle is taken as 0.
 //! - CQUAD4/CTRIA3: ZOFFS ≠ 0 is an error; THETA/MCID is ignored (isotropic material);
 //!   corner thicknesses T1–T4 are ignored with a warning (the PSHELL T is used).
+//! - CQUAD8/CTRIA6 (`shells_quadratic.rs`): curved 8- and 6-node shells (MITC shear,
+//!   `src/fe/shell_quadratic.rs`) with the same PSHELL parts as CQUAD4. A blank (or 0) midside
+//!   grid means a straight edge, as the QRG says: femu slaves that edge's midside motion to the
+//!   corners linearly (`u_m = (u_a + u_b)/2`). ZOFFS ≠ 0 is an error; THETA/MCID is ignored
+//!   (isotropic material); T1–T4 and TFLAG are ignored with a warning (the PSHELL T is used).
+//!   The lumped mass is HRZ-diagonal (all nodes positive; Nastran's own lumping of CQUAD8
+//!   distributes by area too but its exact split is not documented), the coupled mass
+//!   consistent; frequencies agree with Nastran's to formulation accuracy, not round-off.
 //! - CBAR/CBEAM: the orientation is X1–X3 or G0 (from GA); blank PID, orientation and OFFT
 //!   take the BAROR (CBAR) or BEAMOR (CBEAM) values, a blank PID without them the EID, a blank
 //!   orientation without them is an error. OFFT as the QRG: `v` in GA's displacement system
@@ -160,6 +168,7 @@ mod replicate;
 mod rigid;
 mod rods;
 mod sections;
+mod shells_quadratic;
 mod source;
 #[cfg(test)]
 mod tests;
@@ -169,6 +178,8 @@ mod tests_beams;
 mod tests_replicate;
 #[cfg(test)]
 mod tests_rigid;
+#[cfg(test)]
+mod tests_quadratic;
 #[cfg(test)]
 mod tests_rods;
 
@@ -184,11 +195,12 @@ use source::*;
 const MAX_INCLUDE_DEPTH: usize = 64;
 
 /// Cards femu reads.
-pub const READ_CARDS: [&str; 41] = [
+pub const READ_CARDS: [&str; 43] = [
     "GRID", "GRDSET", "CORD1R", "CORD1C", "CORD1S", "CORD2R", "CORD2C", "CORD2S", "CQUAD4",
     "CTRIA3", "CBAR", "CBEAM", "PSHELL", "PBAR", "PBARL", "PBEAM", "MAT1", "CELAS1", "CELAS2",
     "PELAS", "CBUSH", "PBUSH", "CONM2", "SPC", "SPC1", "SPCADD", "SET1", "CROD", "CONROD", "CTUBE",
     "PROD", "PTUBE", "PBEAML", "BAROR", "BEAMOR", "RBE2", "RBAR", "RROD", "RBE3", "MPC", "MPCADD",
+    "CQUAD8", "CTRIA6",
 ];
 
 /// Cards skipped (counted) because they change neither stiffness, mass nor constraints: static
@@ -215,10 +227,10 @@ pub const READ_PARAMS: [&str; 6] = ["WTMASS", "GRDPNT", "COUPMASS", "AUTOSPC", "
 /// Nastran cards femu does not read that change the stiffness, mass, damping or constraints;
 /// an error unless listed in [`BulkOptions::ignore_cards`] (the list only decides how messages
 /// name them: any other unread card is an error too).
-const REFUSED_CARDS: [&str; 69] = [
+const REFUSED_CARDS: [&str; 67] = [
     "RBE1", "RBAR1", "RTRPLT", "RSPLINE", "SPCD", "SUPORT", "SUPORT1", "ASET", "ASET1", "OMIT",
-    "OMIT1", "QSET", "QSET1", "BSET", "BSET1", "CSET", "CSET1", "SPOINT", "EPOINT", "CQUAD8",
-    "CQUADR", "CQUAD", "CTRIA6", "CTRIAR", "CSHEAR", "PSHEAR", "CHEXA", "CPENTA", "CTETRA",
+    "OMIT1", "QSET", "QSET1", "BSET", "BSET1", "CSET", "CSET1", "SPOINT", "EPOINT",
+    "CQUADR", "CQUAD", "CTRIAR", "CSHEAR", "PSHEAR", "CHEXA", "CPENTA", "CTETRA",
     "CPYRAM", "PSOLID", "PCOMP", "PCOMPG", "MAT2", "MAT8", "MAT9", "MAT10", "MATT1", "MATS1",
     "CONM1", "CMASS1", "CMASS2", "CMASS3", "CMASS4", "PMASS", "CDAMP1", "CDAMP2", "CDAMP3",
     "CDAMP4", "CDAMP5", "PDAMP", "CVISC", "PVISC", "CELAS3", "CELAS4", "CBUSH1D", "PBUSH1D",
