@@ -850,5 +850,33 @@ mod tests {
             serde_json::json!({"2": {"material": 1, "thickness": 0.002, "nsm": 0.0}})
         );
         assert_eq!(mesh_from_artefact(&a).unwrap(), plain);
+        assert!(!a.meta.contains_key("midside_nodes"));
+    }
+
+    #[test]
+    fn quadratic_shells_round_trip_with_omitted_midside_nodes() {
+        let mut m = rod_model();
+        m.elements.insert(
+            7,
+            Element::Tria6 {
+                corners: [1, 2, 3],
+                midside: [Some(4), None, Some(5)],
+                property: 2,
+            },
+        );
+        m.elements.insert(
+            8,
+            Element::Quad8 {
+                corners: [1, 2, 3, 4],
+                midside: [None, Some(6), None, Some(5)],
+                property: 2,
+            },
+        );
+        for n in 4..=6 {
+            m.nodes.insert(n, [n as f64, 0.5, 0.0]);
+        }
+        let a = mesh_to_artefact(&m);
+        assert_eq!(a.meta["midside_nodes"]["7"], serde_json::json!([4, null, 5]));
+        assert_eq!(mesh_from_artefact(&a).unwrap(), m);
     }
 }

@@ -220,14 +220,15 @@ fn blank_midside_grids_equal_midpoint_grids_tied_by_mpcs() {
 #[test]
 fn exported_quadratic_shells_read_back() {
     let mut m = parse(&plate(2, true)).model;
+    let g = |i: usize, j: usize| gid(2, i, j) as u64;
     if let Some(Element::Tria6 { midside, .. }) = m.elements.get_mut(&1) {
         midside[1] = None;
     }
     m.elements.insert(
         100,
         Element::Quad8 {
-            corners: [gid(2, 0, 0), gid(2, 2, 0), gid(2, 2, 2), gid(2, 0, 2)],
-            midside: [Some(gid(2, 1, 0)), None, Some(gid(2, 1, 2)), None],
+            corners: [g(0, 0), g(2, 0), g(2, 2), g(0, 2)],
+            midside: [Some(g(1, 0)), None, Some(g(1, 2)), None],
             property: 1,
         },
     );
