@@ -654,8 +654,9 @@ fn element_derivative(
                 &midside.map(|m| m.map(|n| xyz(&n))),
             );
             let s = shell_section(model, *property);
-            let (_, mut d) = super::shell_quadratic::quad8_with_derivatives(&x, present, &s, mass, &[p])
-                .map_err(err)?;
+            let (_, mut d) =
+                super::shell_quadratic::quad8_with_derivatives(&x, present, &s, mass, &[p])
+                    .map_err(err)?;
             d.remove(0)
         }
         Element::Tria6 {
@@ -669,8 +670,9 @@ fn element_derivative(
                 &midside.map(|m| m.map(|n| xyz(&n))),
             );
             let s = shell_section(model, *property);
-            let (_, mut d) = super::shell_quadratic::tria6_with_derivatives(&x, present, &s, mass, &[p])
-                .map_err(err)?;
+            let (_, mut d) =
+                super::shell_quadratic::tria6_with_derivatives(&x, present, &s, mass, &[p])
+                    .map_err(err)?;
             d.remove(0)
         }
         Element::Beam {

@@ -64,7 +64,9 @@
 #![allow(clippy::needless_range_loop)]
 
 use super::element::{ElementDerivative, ElementError, ElementMatrices, MassKind};
-use super::shell::{DRILLING_FACTOR, LayerMaterial, SHEAR_CORRECTION, ShellParameter, ShellSection};
+use super::shell::{
+    DRILLING_FACTOR, LayerMaterial, SHEAR_CORRECTION, ShellParameter, ShellSection,
+};
 use faer::Mat;
 
 /// Smallest accepted cosine between a nodal director and the element's mean normal.
@@ -178,8 +180,16 @@ impl Shape {
             }
             Shape::Tria6 => {
                 // Strang & Fix 6-point rule, degree 4 (weights sum to ½, the reference area).
-                let (a1, b1, w1) = (0.445_948_490_915_965, 0.108_103_018_168_070, 0.111_690_794_839_005_5);
-                let (a2, b2, w2) = (0.091_576_213_509_771, 0.816_847_572_980_459, 0.054_975_871_827_660_9);
+                let (a1, b1, w1) = (
+                    0.445_948_490_915_965,
+                    0.108_103_018_168_070,
+                    0.111_690_794_839_005_5,
+                );
+                let (a2, b2, w2) = (
+                    0.091_576_213_509_771,
+                    0.816_847_572_980_459,
+                    0.054_975_871_827_660_9,
+                );
                 vec![
                     (a1, a1, w1),
                     (b1, a1, w1),
@@ -662,8 +672,16 @@ fn parts(
             let mut rows = Vec::with_capacity(2);
             for a in 0..2 {
                 let mut row = vec![0.0; d];
-                axpy(&mut row, 2.0 * (ca(a, 0) * ca(2, 2) + ca(a, 2) * ca(2, 0)), &a13);
-                axpy(&mut row, 2.0 * (ca(a, 1) * ca(2, 2) + ca(a, 2) * ca(2, 1)), &a23);
+                axpy(
+                    &mut row,
+                    2.0 * (ca(a, 0) * ca(2, 2) + ca(a, 2) * ca(2, 0)),
+                    &a13,
+                );
+                axpy(
+                    &mut row,
+                    2.0 * (ca(a, 1) * ca(2, 2) + ca(a, 2) * ca(2, 1)),
+                    &a23,
+                );
                 for (k, l) in [(0, 0), (1, 1), (2, 2)] {
                     axpy(&mut row, 2.0 * ca(a, k) * ca(2, l), &p.ek[k][l]);
                 }
@@ -776,7 +794,9 @@ fn parts(
                 }
             }
         }
-        Mat::from_fn(out.nrows(), out.ncols(), |i, j| 0.5 * (out[(i, j)] + out[(j, i)]))
+        Mat::from_fn(out.nrows(), out.ncols(), |i, j| {
+            0.5 * (out[(i, j)] + out[(j, i)])
+        })
     };
     let all = el.present.iter().all(|p| *p);
     let (m_tr, m_rot) = if all {
@@ -786,7 +806,8 @@ fn parts(
     } else {
         (reduce(&m_tr), reduce(&m_rot))
     };
-    let sym = |m: Mat<f64>| Mat::from_fn(m.nrows(), m.ncols(), |i, j| 0.5 * (m[(i, j)] + m[(j, i)]));
+    let sym =
+        |m: Mat<f64>| Mat::from_fn(m.nrows(), m.ncols(), |i, j| 0.5 * (m[(i, j)] + m[(j, i)]));
     let out = Parts {
         k_m: if all { sym(k_m) } else { reduce(&k_m) },
         k_s: if all { sym(k_s) } else { reduce(&k_s) },
@@ -799,9 +820,8 @@ fn parts(
             res.bending.is_some_and(|b| b.2),
         ],
     };
-    let finite = |m: &Mat<f64>| {
-        (0..m.nrows()).all(|i| (0..m.ncols()).all(|j| m[(i, j)].is_finite()))
-    };
+    let finite =
+        |m: &Mat<f64>| (0..m.nrows()).all(|i| (0..m.ncols()).all(|j| m[(i, j)].is_finite()));
     if [&out.k_m, &out.k_s, &out.k_b, &out.m_tr, &out.m_rot]
         .iter()
         .all(|m| finite(m))

@@ -81,20 +81,8 @@ fn tria6_curved() -> [[f64; 3]; 6] {
 
 fn element(xyz: &[[f64; 3]], present: &[bool], s: &ShellSection, m: MassKind) -> ElementMatrices {
     match xyz.len() {
-        8 => quad8(
-            xyz.try_into().unwrap(),
-            present.try_into().unwrap(),
-            s,
-            m,
-        )
-        .unwrap(),
-        6 => tria6(
-            xyz.try_into().unwrap(),
-            present.try_into().unwrap(),
-            s,
-            m,
-        )
-        .unwrap(),
+        8 => quad8(xyz.try_into().unwrap(), present.try_into().unwrap(), s, m).unwrap(),
+        6 => tria6(xyz.try_into().unwrap(), present.try_into().unwrap(), s, m).unwrap(),
         n => panic!("{n} nodes"),
     }
 }
@@ -210,7 +198,11 @@ fn six_rigid_body_modes_and_positive_definite_mass() {
             let lmax = *lam.last().unwrap();
             let zero = lam.iter().filter(|l| l.abs() < 1e-10 * lmax).count();
             assert_eq!(zero, 6, "{name}: zero-energy modes {:?}", &lam[..8]);
-            assert!(lam[6] > 1e-9 * lmax, "{name}: seventh eigenvalue {:e}", lam[6]);
+            assert!(
+                lam[6] > 1e-9 * lmax,
+                "{name}: seventh eigenvalue {:e}",
+                lam[6]
+            );
             let mu = eigenvalues(&em.m);
             assert!(mu[0] > 0.0, "{name} {kind:?}: mass eigenvalue {:e}", mu[0]);
         }
@@ -315,7 +307,14 @@ impl Mesh {
                 } else {
                     let m = id(i + 1, j + 1);
                     elements.push(vec![c[0], c[1], c[3], id(i + 1, j), m, id(i, j + 1)]);
-                    elements.push(vec![c[1], c[2], c[3], id(i + 2, j + 1), id(i + 1, j + 2), m]);
+                    elements.push(vec![
+                        c[1],
+                        c[2],
+                        c[3],
+                        id(i + 2, j + 1),
+                        id(i + 1, j + 2),
+                        m,
+                    ]);
                 }
             }
         }
@@ -446,7 +445,11 @@ fn patch_tests_constant_membrane_strain_and_constant_curvature() {
     // the mapping is applied to the corners and the midside nodes are put at the midpoints).
     let general = |u: f64, v: f64| {
         let bump = 16.0 * u * (1.0 - u) * v * (1.0 - v);
-        [0.24 * u + 0.03 * bump * (v - 0.3), 0.12 * v + 0.02 * bump * (0.6 - u), 0.0]
+        [
+            0.24 * u + 0.03 * bump * (v - 0.3),
+            0.12 * v + 0.02 * bump * (0.6 - u),
+            0.0,
+        ]
     };
     let parallelogram = |u: f64, v: f64| [0.24 * u + 0.08 * v, 0.12 * v + 0.02 * u, 0.0];
     let straight = |mesh: &mut Mesh, tria: bool| {
@@ -468,7 +471,12 @@ fn patch_tests_constant_membrane_strain_and_constant_curvature() {
     type Field<'a> = &'a dyn Fn(&[f64; 3]) -> [f64; 6];
     let cases: Vec<(&str, bool, &dyn Fn(f64, f64) -> [f64; 3], Field)> = vec![
         ("quad8 general, membrane", false, &general, &membrane),
-        ("quad8 parallelograms, bending", false, &parallelogram, &bending),
+        (
+            "quad8 parallelograms, bending",
+            false,
+            &parallelogram,
+            &bending,
+        ),
         ("quad8 general, bending", false, &general, &bending),
         ("tria6 general, membrane", true, &general, &membrane),
         ("tria6 general, bending", true, &general, &bending),
@@ -503,7 +511,11 @@ fn patch_tests_constant_membrane_strain_and_constant_curvature() {
                 }
             }
         }
-        let tol = if name == "quad8 general, bending" { 1e-2 } else { 1e-7 };
+        let tol = if name == "quad8 general, bending" {
+            1e-2
+        } else {
+            1e-7
+        };
         eprintln!("{name}: largest interior error {worst:e} (scale 1e-4)");
         assert!(worst < tol * 1e-4, "{name}: interior error {worst:e}");
     }
@@ -567,7 +579,10 @@ fn simply_supported_thin_plate_matches_kirchhoff_without_locking() {
                 ratios.push(ratio);
             }
             for r in &ratios {
-                assert!((r - 1.0).abs() < tol, "tria {tria} {cells} cells: {ratios:?}");
+                assert!(
+                    (r - 1.0).abs() < tol,
+                    "tria {tria} {cells} cells: {ratios:?}"
+                );
             }
             assert!(
                 (ratios[0] - ratios[1]).abs() < 0.005,
@@ -578,7 +593,11 @@ fn simply_supported_thin_plate_matches_kirchhoff_without_locking() {
 }
 
 /// Assembles a quad4 mesh of the corner grid `f(u, v)` (`n × n` cells) with the flat shell.
-fn quad4_mesh(n: usize, s: &ShellSection, f: &dyn Fn(f64, f64) -> [f64; 3]) -> (Vec<[f64; 3]>, Mat<f64>, Mat<f64>) {
+fn quad4_mesh(
+    n: usize,
+    s: &ShellSection,
+    f: &dyn Fn(f64, f64) -> [f64; 3],
+) -> (Vec<[f64; 3]>, Mat<f64>, Mat<f64>) {
     let nodes: Vec<[f64; 3]> = (0..=n)
         .flat_map(|j| (0..=n).map(move |i| (i, j)))
         .map(|(i, j)| f(i as f64 / n as f64, j as f64 / n as f64))
@@ -680,7 +699,10 @@ fn cylindrical_panel_and_plate_against_refined_quad4() {
 
 /// Sections covering every PSHELL part combination.
 fn sections() -> Vec<(&'static str, ShellSection)> {
-    let other = LayerMaterial::Other { e: 7.0e10, nu: 0.33 };
+    let other = LayerMaterial::Other {
+        e: 7.0e10,
+        nu: 0.33,
+    };
     let with = |membrane, bending, shear, br, sr| ShellSection {
         layers: Some(ShellLayers {
             membrane,
@@ -693,10 +715,19 @@ fn sections() -> Vec<(&'static str, ShellSection)> {
     };
     vec![
         ("homogeneous", STEEL),
-        ("membrane only", with(true, None, LayerMaterial::Own, 1.0, 0.8)),
-        ("bending only", with(false, Some(LayerMaterial::Own), other, 1.0, 0.8)),
+        (
+            "membrane only",
+            with(true, None, LayerMaterial::Own, 1.0, 0.8),
+        ),
+        (
+            "bending only",
+            with(false, Some(LayerMaterial::Own), other, 1.0, 0.8),
+        ),
         ("other bending", with(true, Some(other), other, 0.7, 0.9)),
-        ("ratios", with(true, Some(LayerMaterial::Own), LayerMaterial::Own, 1.3, 0.6)),
+        (
+            "ratios",
+            with(true, Some(LayerMaterial::Own), LayerMaterial::Own, 1.3, 0.6),
+        ),
     ]
 }
 
@@ -707,7 +738,10 @@ fn sections() -> Vec<(&'static str, ShellSection)> {
 fn derivatives_match_central_differences() {
     let q8 = quad8_curved();
     let t6 = tria6_curved();
-    for (xyz, present) in [(&q8[..], &[true, true, false, true][..]), (&t6[..], &[true; 3][..])] {
+    for (xyz, present) in [
+        (&q8[..], &[true, true, false, true][..]),
+        (&t6[..], &[true; 3][..]),
+    ] {
         for (name, s) in sections() {
             for kind in [MassKind::Consistent, MassKind::Lumped] {
                 let em = element(xyz, present, &s, kind);
@@ -741,8 +775,16 @@ fn derivatives_match_central_differences() {
                     let sm = max_abs(&d.dm).max(max_abs(&em.m) / v);
                     let ek = max_abs(&(&fd_k - &d.dk)) / sk;
                     let emm = max_abs(&(&fd_m - &d.dm)) / sm;
-                    assert!(ek < 1e-6, "{} nodes {name} {kind:?} {p:?}: dK {ek:e}", xyz.len());
-                    assert!(emm < 1e-6, "{} nodes {name} {kind:?} {p:?}: dM {emm:e}", xyz.len());
+                    assert!(
+                        ek < 1e-6,
+                        "{} nodes {name} {kind:?} {p:?}: dK {ek:e}",
+                        xyz.len()
+                    );
+                    assert!(
+                        emm < 1e-6,
+                        "{} nodes {name} {kind:?} {p:?}: dM {emm:e}",
+                        xyz.len()
+                    );
                 }
             }
         }
@@ -818,7 +860,10 @@ fn drilling_penalty_condenses_out_of_one_element() {
         * 0.845
         * c
         * (ex * ex + ey * ey + 2.0 * STEEL.nu * ex * ey + 0.5 * (1.0 - STEEL.nu) * g * g);
-    assert!(((energy - exact) / exact).abs() < 1e-9, "{energy} vs {exact}");
+    assert!(
+        ((energy - exact) / exact).abs() < 1e-9,
+        "{energy} vs {exact}"
+    );
 }
 
 fn message(r: Result<ElementMatrices, ElementError>) -> String {
@@ -830,7 +875,9 @@ fn message(r: Result<ElementMatrices, ElementError>) -> String {
 fn bad_geometry_and_values_are_errors() {
     let mut xyz = quad8_flat();
     xyz[4] = [0.6, 0.6, 0.0];
-    assert!(message(quad8(&xyz, [true; 4], &STEEL, MassKind::Consistent)).contains("midside node 5"));
+    assert!(
+        message(quad8(&xyz, [true; 4], &STEEL, MassKind::Consistent)).contains("midside node 5")
+    );
     let mut xyz = quad8_flat();
     xyz[2] = xyz[1];
     assert!(message(quad8(&xyz, [true; 4], &STEEL, MassKind::Consistent)).contains("coincide"));
@@ -838,7 +885,9 @@ fn bad_geometry_and_values_are_errors() {
     let mut xyz = quad8_flat();
     xyz.swap(1, 3);
     let xyz: [[f64; 3]; 8] = with_midpoints(&[xyz[0], xyz[1], xyz[2], xyz[3]]);
-    let bowtie = [xyz[0], xyz[2], xyz[1], xyz[3], xyz[4], xyz[5], xyz[6], xyz[7]];
+    let bowtie = [
+        xyz[0], xyz[2], xyz[1], xyz[3], xyz[4], xyz[5], xyz[6], xyz[7],
+    ];
     let m = message(quad8(&bowtie, [true; 4], &STEEL, MassKind::Consistent));
     assert!(m.contains("degenerate"), "{m}");
     let bad = ShellSection { nu: 0.5, ..STEEL };
@@ -881,5 +930,8 @@ fn all_midsides_omitted_is_the_linear_element() {
         * 0.845
         * c
         * (ex * ex + ey * ey + 2.0 * STEEL.nu * ex * ey + 0.5 * (1.0 - STEEL.nu) * g * g);
-    assert!(((energy - exact) / exact).abs() < 1e-10, "{energy} vs {exact}");
+    assert!(
+        ((energy - exact) / exact).abs() < 1e-10,
+        "{energy} vs {exact}"
+    );
 }

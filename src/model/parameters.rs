@@ -149,14 +149,12 @@ impl Model {
                     | Element::Quad8 { property, .. }
                     | Element::Tria6 { property, .. },
                     kind,
-                ) => {
-                    match kind {
-                        ParameterKind::ShellThickness => Slot::ShellThickness(*property),
-                        ParameterKind::YoungsModulus => Slot::ShellMaterial(*property, Field::E),
-                        ParameterKind::Density => Slot::ShellMaterial(*property, Field::Rho),
-                        _ => return Err(not_applicable()),
-                    }
-                }
+                ) => match kind {
+                    ParameterKind::ShellThickness => Slot::ShellThickness(*property),
+                    ParameterKind::YoungsModulus => Slot::ShellMaterial(*property, Field::E),
+                    ParameterKind::Density => Slot::ShellMaterial(*property, Field::Rho),
+                    _ => return Err(not_applicable()),
+                },
                 (Element::Beam { property, .. }, kind) => match kind {
                     ParameterKind::YoungsModulus => Slot::BeamMaterial(*property, Field::E),
                     ParameterKind::Density => Slot::BeamMaterial(*property, Field::Rho),

@@ -350,10 +350,18 @@ impl Element {
             Element::Tria3 { nodes, .. } => nodes.to_vec(),
             Element::Quad8 {
                 corners, midside, ..
-            } => corners.iter().copied().chain(midside.iter().flatten().copied()).collect(),
+            } => corners
+                .iter()
+                .copied()
+                .chain(midside.iter().flatten().copied())
+                .collect(),
             Element::Tria6 {
                 corners, midside, ..
-            } => corners.iter().copied().chain(midside.iter().flatten().copied()).collect(),
+            } => corners
+                .iter()
+                .copied()
+                .chain(midside.iter().flatten().copied())
+                .collect(),
             Element::Beam { nodes, .. } => nodes.to_vec(),
             Element::Rod { nodes, .. } => nodes.to_vec(),
             Element::Bush { node, other, .. } => std::iter::once(*node).chain(*other).collect(),

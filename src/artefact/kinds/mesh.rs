@@ -876,7 +876,10 @@ mod tests {
             m.nodes.insert(n, [n as f64, 0.5, 0.0]);
         }
         let a = mesh_to_artefact(&m);
-        assert_eq!(a.meta["midside_nodes"]["7"], serde_json::json!([4, null, 5]));
+        assert_eq!(
+            a.meta["midside_nodes"]["7"],
+            serde_json::json!([4, null, 5])
+        );
         assert_eq!(mesh_from_artefact(&a).unwrap(), m);
     }
 }

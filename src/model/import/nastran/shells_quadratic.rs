@@ -39,7 +39,11 @@ impl Builder {
                 }
             }
         }
-        let (theta, zoffs, t_first, tflag) = if quad { (15, 16, 11, 17) } else { (9, 10, 11, 14) };
+        let (theta, zoffs, t_first, tflag) = if quad {
+            (15, 16, 11, 17)
+        } else {
+            (9, 10, 11, 14)
+        };
         if !c.blank(theta) {
             c.real(theta, "THETA/MCID")?;
         }

@@ -135,7 +135,13 @@ fn quad4_plate(n: usize) -> String {
 fn quadratic_shell_decks_reach_modes_and_agree_with_quad4() {
     let q8 = parse(&plate(6, false)).model;
     assert_eq!(q8.elements.len(), 36);
-    assert!(matches!(q8.elements[&1], Element::Quad8 { midside: [Some(_), Some(_), Some(_), Some(_)], .. }));
+    assert!(matches!(
+        q8.elements[&1],
+        Element::Quad8 {
+            midside: [Some(_), Some(_), Some(_), Some(_)],
+            ..
+        }
+    ));
     let t6 = parse(&plate(6, true)).model;
     let q4 = parse(&quad4_plate(24)).model;
     for mass in [MassKind::Consistent, MassKind::Lumped] {
@@ -143,8 +149,14 @@ fn quadratic_shell_decks_reach_modes_and_agree_with_quad4() {
         let f6 = frequencies(&t6, mass, 4);
         let f4 = frequencies(&q4, MassKind::Consistent, 4);
         for i in 0..4 {
-            assert!(rel(f8[i], f4[i]) < 0.01, "{mass:?} mode {i}: {f8:?} vs quad4 {f4:?}");
-            assert!(rel(f6[i], f8[i]) < 0.01, "{mass:?} mode {i}: {f6:?} vs quad8 {f8:?}");
+            assert!(
+                rel(f8[i], f4[i]) < 0.01,
+                "{mass:?} mode {i}: {f8:?} vs quad4 {f4:?}"
+            );
+            assert!(
+                rel(f6[i], f8[i]) < 0.01,
+                "{mass:?} mode {i}: {f6:?} vs quad8 {f8:?}"
+            );
         }
         let d = 2.1e11 * 0.01f64.powi(3) / (12.0 * (1.0 - 0.09));
         let beam = 1.875f64.powi(2) / (2.0 * std::f64::consts::PI) * (d / (7850.0 * 0.01)).sqrt();
@@ -252,17 +264,26 @@ fn bad_quadratic_shell_cards_are_named_and_thicknesses_warn() {
     assert!(e.contains("t.bdf line 11") && e.contains("ZOFFS"), "{e}");
     // A repeated grid.
     let e = error(&format!("{base}CQUAD8,1,1,1,2,3,4,5,6\n,7,5\n"));
-    assert!(e.contains("t.bdf line 11") && e.contains("G8") && e.contains("appears twice"), "{e}");
+    assert!(
+        e.contains("t.bdf line 11") && e.contains("G8") && e.contains("appears twice"),
+        "{e}"
+    );
     // A blank corner.
     let e = error(&format!("{base}CTRIA6,1,1,1,,3,5,6,8\n"));
     assert!(e.contains("t.bdf line 11") && e.contains("G2"), "{e}");
     // A midside grid far from its edge's middle: the element check names the card.
-    let e = error(&format!("{base}GRID,9,,1.,1.,0.\nCQUAD8,1,1,1,2,3,4,9,6\n,7,8\n"));
+    let e = error(&format!(
+        "{base}GRID,9,,1.,1.,0.\nCQUAD8,1,1,1,2,3,4,9,6\n,7,8\n"
+    ));
     assert!(e.contains("line 12") && e.contains("midside"), "{e}");
     // Corner thicknesses: a warning, PSHELL T used.
-    let b = parse(&format!("{base}CQUAD8,1,1,1,2,3,4,5,6\n,7,8,.02,.02,.02,.02\n"));
+    let b = parse(&format!(
+        "{base}CQUAD8,1,1,1,2,3,4,5,6\n,7,8,.02,.02,.02,.02\n"
+    ));
     assert!(
-        b.warnings.iter().any(|w| w.contains("t.bdf line 11") && w.contains("T1-T4")),
+        b.warnings
+            .iter()
+            .any(|w| w.contains("t.bdf line 11") && w.contains("T1-T4")),
         "{:?}",
         b.warnings
     );
