@@ -56,9 +56,9 @@
 //! positive). The omitted node carries no drilling penalty.
 //!
 //! **Derivatives** (docs/theory.md §2, thesis (2.13)–(2.16)): the stiffness is kept in parts,
-//! membrane + drilling `K_m ∝ t`, shear `K_s ∝ t`, bending `K_b ∝ t³`, so `∂K/∂t = K_m/t + K_s/t
-//! + 3 K_b/t`, `∂K/∂E = K/E` over the parts of the section's own material; the mass is `μ M_tr + I
-//! M_rot` with `∂μ/∂t = ρ`, `∂I/∂t = ρ t²/4`, `∂μ/∂ρ = t`, `∂I/∂ρ = t³/12`, `∂μ/∂nsm = 1`. Exact.
+//! membrane + drilling `K_m ∝ t`, shear `K_s ∝ t`, bending `K_b ∝ t³`, so
+//! `∂K/∂t = K_m/t + K_s/t + 3 K_b/t`, `∂K/∂E = K/E` over the parts of the section's own
+//! material; the mass is `μ M_tr + I M_rot` with `∂μ/∂t = ρ`, `∂I/∂t = ρ t²/4`, `∂μ/∂ρ = t`, `∂I/∂ρ = t³/12`, `∂μ/∂nsm = 1`. Exact.
 
 // Index loops follow the index notation of the formulas.
 #![allow(clippy::needless_range_loop)]

@@ -17,12 +17,11 @@ impl Builder {
         let property = c.id_or(2, "PID", id)?;
         // Grid fields: 3..=8 on the first line, 9 and 10 (G7, G8) on the second for CQUAD8.
         let mut grids: Vec<Option<u64>> = Vec::with_capacity(2 * corners);
-        for j in 0..2 * corners {
-            let k = 3 + j;
+        for (j, label) in LABELS.iter().enumerate().take(2 * corners) {
             if j < corners {
-                grids.push(Some(c.id(k, LABELS[j])?));
+                grids.push(Some(c.id(3 + j, label)?));
             } else {
-                grids.push(c.opt_grid(k, LABELS[j])?);
+                grids.push(c.opt_grid(3 + j, label)?);
             }
         }
         for j in 0..grids.len() {
