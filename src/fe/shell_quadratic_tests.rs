@@ -170,7 +170,8 @@ fn six_rigid_body_modes_and_positive_definite_mass() {
     let q8c = quad8_curved();
     let t6f = tria6_flat();
     let t6c = tria6_curved();
-    let cases: Vec<(&str, &[[f64; 3]], &[bool])> = vec![
+    type Case<'a> = (&'a str, &'a [[f64; 3]], &'a [bool]);
+    let cases: Vec<Case> = vec![
         ("quad8 flat", &q8f, &q),
         ("quad8 curved", &q8c, &q),
         ("quad8 curved, two midsides omitted", &q8c, &q2),
@@ -469,7 +470,8 @@ fn patch_tests_constant_membrane_strain_and_constant_curvature() {
         mesh.nodes = nodes;
     };
     type Field<'a> = &'a dyn Fn(&[f64; 3]) -> [f64; 6];
-    let cases: Vec<(&str, bool, &dyn Fn(f64, f64) -> [f64; 3], Field)> = vec![
+    type Map<'a> = &'a dyn Fn(f64, f64) -> [f64; 3];
+    let cases: Vec<(&str, bool, Map, Field)> = vec![
         ("quad8 general, membrane", false, &general, &membrane),
         (
             "quad8 parallelograms, bending",
