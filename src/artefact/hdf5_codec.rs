@@ -153,7 +153,14 @@ fn to_vlen(s: &str) -> Result<VarLenUnicode, String> {
 
 /// Reads every table under `/tables` of the HDF5 file `path`.
 pub fn read(path: &Path) -> Result<BTreeMap<String, Table>, ArtefactError> {
-    let file = File::open(path).map_err(ctx(path, "not a readable HDF5 file"))?;
+    // No HDF5 file lock on reading: a child process forked by another thread while the file
+    // was being written inherits its descriptor and lock for a moment, which made an immediate
+    // read fail with EWOULDBLOCK; artefacts are written to a temporary file and renamed, so a
+    // reader never sees a file being written and needs no lock.
+    let file = File::with_options()
+        .with_fapl(|p| p.file_locking(false))
+        .open(path)
+        .map_err(ctx(path, "not a readable HDF5 file"))?;
     let root = file.group(TABLES_GROUP).map_err(ctx(
         path,
         format!("no group `/{TABLES_GROUP}`; not a femu HDF5 artefact"),

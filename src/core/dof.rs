@@ -1,13 +1,15 @@
 //! Degree-of-freedom identifiers, `node:comp`.
 //!
-//! A DOF is a node id and one of six components. The text form is `12:ux` (components
-//! `ux uy uz rx ry rz`); the Nastran form `12:3` (components 1–6) is accepted on input.
+//! A DOF is a node id and one of six components, or the single DOF of a scalar point (Nastran
+//! SPOINT/EPOINT: one DOF without position, component [`Component::Scalar`]). The text form is
+//! `12:ux` (components `ux uy uz rx ry rz`, `s` for a scalar point); the Nastran form `12:3`
+//! (components 1–6, 0 for a scalar point) is accepted on input.
 //! Everything downstream matches DOFs by [`DofId`], never by row number.
 
 use std::fmt;
 use std::str::FromStr;
 
-/// One of the six nodal components.
+/// One of the six nodal components, or the one DOF of a scalar point.
 #[derive(
     Clone,
     Copy,
@@ -35,6 +37,8 @@ pub enum Component {
     Ry,
     /// Rotation about z.
     Rz,
+    /// The single DOF of a scalar point (Nastran component 0); never a grid's component.
+    Scalar,
 }
 
 impl Component {
@@ -57,12 +61,29 @@ impl Component {
             Component::Rx => "rx",
             Component::Ry => "ry",
             Component::Rz => "rz",
+            Component::Scalar => "s",
         }
     }
 
-    /// Nastran component number 1–6.
+    /// Nastran component number 1–6 (0 for a scalar point).
     pub fn nastran(self) -> u8 {
-        self as u8 + 1
+        match self {
+            Component::Scalar => 0,
+            c => c as u8 + 1,
+        }
+    }
+
+    /// Position in a node's 6-DOF block (a scalar point's DOF is slot 0 of its block).
+    pub fn slot(self) -> usize {
+        match self {
+            Component::Scalar => 0,
+            c => c as usize,
+        }
+    }
+
+    /// True for the scalar point's component.
+    pub fn is_scalar(self) -> bool {
+        self == Component::Scalar
     }
 
     /// Component from its Nastran number 1–6.
@@ -101,7 +122,7 @@ impl fmt::Display for DofId {
 /// Why a DOF label could not be read.
 #[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
 #[error(
-    "`{label}` is not a DOF label: {reason}; write `node:comp` with comp one of ux uy uz rx ry rz (or 1-6), e.g. `12:uz`"
+    "`{label}` is not a DOF label: {reason}; write `node:comp` with comp one of ux uy uz rx ry rz (or 1-6), or s (or 0) for a scalar point, e.g. `12:uz`"
 )]
 pub struct DofParseError {
     /// The text that failed.
@@ -131,6 +152,7 @@ impl FromStr for DofId {
             "rx" => Component::Rx,
             "ry" => Component::Ry,
             "rz" => Component::Rz,
+            "s" | "0" => Component::Scalar,
             other => other
                 .parse::<u8>()
                 .ok()
@@ -162,8 +184,8 @@ impl schemars::JsonSchema for DofId {
     fn json_schema(_: &mut schemars::SchemaGenerator) -> schemars::Schema {
         schemars::json_schema!({
             "type": "string",
-            "pattern": "^[0-9]+:(ux|uy|uz|rx|ry|rz|[1-6])$",
-            "description": "A degree of freedom `node:comp`, e.g. `12:uz`"
+            "pattern": "^[0-9]+:(ux|uy|uz|rx|ry|rz|[1-6]|s|0)$",
+            "description": "A degree of freedom `node:comp`, e.g. `12:uz` (`1001:s` for a scalar point)"
         })
     }
 }
@@ -179,11 +201,18 @@ mod tests {
         assert_eq!(d.to_string(), "12:uz");
         assert_eq!("12:3".parse::<DofId>().unwrap(), d);
         assert_eq!("7:6".parse::<DofId>().unwrap().comp, Component::Rz);
+        let s: DofId = "1001:s".parse().unwrap();
+        assert_eq!(s, DofId::new(1001, Component::Scalar));
+        assert_eq!(s.to_string(), "1001:s");
+        assert_eq!("1001:0".parse::<DofId>().unwrap(), s);
+        assert_eq!(Component::Scalar.nastran(), 0);
+        assert_eq!(Component::Scalar.slot(), 0);
+        assert_eq!(Component::from_nastran(0), None);
     }
 
     #[test]
     fn bad_labels_say_what_is_valid() {
-        for bad in ["12", "a:ux", "3:uq", "3:7", "3:0", "-1:ux"] {
+        for bad in ["12", "a:ux", "3:uq", "3:7", "3:-1", "-1:ux"] {
             let e = bad.parse::<DofId>().unwrap_err();
             assert!(e.to_string().contains("node:comp"), "{e}");
         }

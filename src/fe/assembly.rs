@@ -121,6 +121,31 @@ where
     F: Fn(usize) -> Result<Contribution, E> + Sync,
     E: Send,
 {
+    assemble_points(
+        node_ids,
+        &BTreeSet::new(),
+        elements,
+        constraints,
+        keep_dofs,
+        contribution,
+    )
+}
+
+/// [`assemble_keeping`] where the ids of `scalar` among `node_ids` are scalar points: their one
+/// DOF (`id:s`) is slot 0 of their 6-DOF block, the other five slots are never DOFs (not
+/// reported as auto-constrained). Elements place a scalar point's DOF at slot 0 of its block.
+pub fn assemble_points<E, F>(
+    node_ids: &[u64],
+    scalar: &BTreeSet<u64>,
+    elements: &[Vec<usize>],
+    constraints: &BTreeSet<DofId>,
+    keep_dofs: &BTreeSet<DofId>,
+    contribution: F,
+) -> Result<(SystemMatrices, AssemblyInfo), E>
+where
+    F: Fn(usize) -> Result<Contribution, E> + Sync,
+    E: Send,
+{
     let n_nodes = node_ids.len();
     // Node adjacency (sorted neighbour lists, self included).
     let mut adj: Vec<Vec<u32>> = (0..n_nodes).map(|a| vec![a as u32]).collect();
@@ -180,8 +205,18 @@ where
     let mut auto = Vec::new();
     let mut keep = vec![false; n];
     let mut dofs = Vec::new();
+    let mut total = n;
     for j in 0..n {
-        let d = DofId::new(node_ids[j / 6], Component::ALL[j % 6]);
+        let node = node_ids[j / 6];
+        let d = if scalar.contains(&node) {
+            if j % 6 != 0 {
+                total -= 1;
+                continue;
+            }
+            DofId::new(node, Component::Scalar)
+        } else {
+            DofId::new(node, Component::ALL[j % 6])
+        };
         if constraints.contains(&d) {
             continue;
         }
@@ -230,7 +265,7 @@ where
     let k = SparseMatrix::new(symbolic.clone(), k_values);
     let m = SparseMatrix::new(symbolic, m_values);
     let info = AssemblyInfo {
-        total_dofs: n,
+        total_dofs: total,
         free_dofs: dofs.len(),
         nnz: k.compute_nnz(),
         colours: colours.len(),

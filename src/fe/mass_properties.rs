@@ -52,14 +52,32 @@ pub fn mass_properties(
                 x[2] - reference[2],
             ];
             // u = t + θ × r: ∂u/∂θ = −[r]ₓ.
-            match d.comp {
+            let basic = |c: Component| match c {
                 Component::Ux => [1.0, 0.0, 0.0, 0.0, r[2], -r[1]],
                 Component::Uy => [0.0, 1.0, 0.0, -r[2], 0.0, r[0]],
                 Component::Uz => [0.0, 0.0, 1.0, r[1], -r[0], 0.0],
                 Component::Rx => [0.0, 0.0, 0.0, 1.0, 0.0, 0.0],
                 Component::Ry => [0.0, 0.0, 0.0, 0.0, 1.0, 0.0],
                 Component::Rz => [0.0, 0.0, 0.0, 0.0, 0.0, 1.0],
+                // A scalar point has no position: no rigid-body motion moves it (Nastran's
+                // weight generator covers grid points only).
+                Component::Scalar => [0.0; 6],
+            };
+            // A component of a displacement system is `Σ_j R[k][j]` times the basic ones.
+            let system = model.displacement_systems.get(&d.node);
+            let Some(rot) = system.filter(|_| d.comp != Component::Scalar) else {
+                return basic(d.comp);
+            };
+            let k = d.comp as usize;
+            let (row, first) = (rot[k % 3], if k < 3 { 0 } else { 3 });
+            let mut out = [0.0; 6];
+            for (j, w) in row.iter().enumerate() {
+                let b = basic(Component::ALL[first + j]);
+                for (o, v) in out.iter_mut().zip(b) {
+                    *o += w * v;
+                }
             }
+            out
         })
         .collect();
     let mut m0 = [[0.0; 6]; 6];
@@ -130,6 +148,8 @@ mod tests {
                 node: 1,
                 other: Some(2),
                 k: [1.0; 6],
+                axes: None,
+                b: [0.0; 6],
             },
         );
         let p = mass_properties(&m, MassKind::Consistent, [0.0; 3]).unwrap();

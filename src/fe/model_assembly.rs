@@ -1,7 +1,7 @@
 //! From a [`Model`] to `K` and `M`: each element's kernel (shell, beam, rod, spring, mass)
 //! evaluated in parallel and scattered by [`assemble`](super::assembly::assemble).
 
-use super::assembly::{AssemblyInfo, Contribution, assemble_keeping, node_index};
+use super::assembly::{AssemblyInfo, Contribution, assemble_points, node_index};
 use super::beam::{BeamData, EndConditions, Section, beam2_with_ends};
 use super::element::{ElementError, ElementMatrices, MassKind};
 use super::lumped_elements::{LumpedMass, SpringEnds, conm2, scalar_spring, spring6};
@@ -162,13 +162,143 @@ fn rod_data(model: &Model, section: &crate::model::RodSection) -> super::rod::Ro
     }
 }
 
-/// Element matrices of one element of `model` (references already validated).
+/// The kernel material of solid property `property` (references already validated): a MAT1's
+/// isotropic `D`, or a MAT9's `G` turned from the property's material axes to basic.
+pub fn solid_material(
+    model: &Model,
+    property: u64,
+) -> Result<super::solid::SolidMaterial, ElementError> {
+    let p = &model.solid_properties[&property];
+    if let Some(m) = model.materials.get(&p.material) {
+        return Ok(super::solid::SolidMaterial {
+            d: super::solid::isotropic(m.e, m.nu)?,
+            rho: m.rho,
+        });
+    }
+    let m = &model.anisotropic_materials[&p.material];
+    let g = m.matrix();
+    Ok(super::solid::SolidMaterial {
+        d: match &p.axes {
+            Some(axes) => super::solid::rotate_to_basic(&g, axes),
+            None => g,
+        },
+        rho: m.rho,
+    })
+}
+
+/// Element matrices of element `id` of `model` (references already validated), with its
+/// shell placement (THETA/MCID, ZOFFS) if it has one, over the DOFs of its nodes' displacement
+/// systems.
+pub fn element_matrices_with_id(
+    model: &Model,
+    id: u64,
+    e: &Element,
+    mass: MassKind,
+) -> Result<ElementMatrices, ElementError> {
+    element_matrices_at(model, Some(id), e, mass)
+}
+
+/// Element matrices of one element of `model` (references already validated), over the DOFs of
+/// its nodes' displacement systems. A shell of a model with shell placements needs its id:
+/// [`element_matrices_with_id`].
 pub fn element_matrices(
     model: &Model,
     e: &Element,
     mass: MassKind,
 ) -> Result<ElementMatrices, ElementError> {
+    element_matrices_at(model, None, e, mass)
+}
+
+fn element_matrices_at(
+    model: &Model,
+    id: Option<u64>,
+    e: &Element,
+    mass: MassKind,
+) -> Result<ElementMatrices, ElementError> {
+    let mut m = basic_element_matrices(model, id, e, mass)?;
+    to_displacement_systems(model, e, &mut m.k);
+    to_displacement_systems(model, e, &mut m.m);
+    Ok(m)
+}
+
+/// Whether an element's matrix is already over the DOFs it names (a scalar element joins
+/// components of the grids' displacement systems, as Nastran's CELAS do), rather than over
+/// basic components at its nodes.
+fn acts_on_named_dofs(e: &Element) -> bool {
+    matches!(
+        e,
+        Element::ScalarSpring { .. } | Element::ScalarMass { .. } | Element::ScalarDamper { .. }
+    )
+}
+
+/// Turns an element matrix over basic components at its nodes into one over the components of
+/// the nodes' displacement systems: `A ← T A Tᵀ` with `T` block-diagonal, `R` (rows: the local
+/// axes in basic) on the translations and on the rotations of each node that has a system
+/// (`u_local = R u_basic`), the identity elsewhere. Symmetric in, symmetric out (the two
+/// triangles are averaged so that round-off keeps no asymmetry).
+pub(crate) fn to_displacement_systems(model: &Model, e: &Element, a: &mut Mat<f64>) {
+    if model.displacement_systems.is_empty() || acts_on_named_dofs(e) {
+        return;
+    }
+    let systems: Vec<(usize, &[[f64; 3]; 3])> = block_nodes(e)
+        .iter()
+        .enumerate()
+        .filter_map(|(b, n)| model.displacement_systems.get(n).map(|r| (b, r)))
+        .collect();
+    if systems.is_empty() {
+        return;
+    }
+    let n = a.nrows();
+    for &(b, r) in &systems {
+        for start in [6 * b, 6 * b + 3] {
+            if start + 3 > n {
+                continue;
+            }
+            // Rows: A[start..start+3, :] ← R A[start..start+3, :].
+            for j in 0..n {
+                let v = [a[(start, j)], a[(start + 1, j)], a[(start + 2, j)]];
+                for (i, row) in r.iter().enumerate() {
+                    a[(start + i, j)] = row[0] * v[0] + row[1] * v[1] + row[2] * v[2];
+                }
+            }
+            // Columns: A[:, start..start+3] ← A[:, start..start+3] Rᵀ.
+            for i in 0..n {
+                let v = [a[(i, start)], a[(i, start + 1)], a[(i, start + 2)]];
+                for (j, row) in r.iter().enumerate() {
+                    a[(i, start + j)] = row[0] * v[0] + row[1] * v[1] + row[2] * v[2];
+                }
+            }
+        }
+    }
+    for i in 0..n {
+        for j in 0..i {
+            let s = 0.5 * (a[(i, j)] + a[(j, i)]);
+            a[(i, j)] = s;
+            a[(j, i)] = s;
+        }
+    }
+}
+
+/// [`element_matrices`] over basic components at the element's nodes.
+fn basic_element_matrices(
+    model: &Model,
+    id: Option<u64>,
+    e: &Element,
+    mass: MassKind,
+) -> Result<ElementMatrices, ElementError> {
     let xyz = |n: &u64| model.nodes[n];
+    if let Element::Quad4 { property, .. } | Element::Tria3 { property, .. } = e {
+        if id.is_none() && !model.shell_placements.is_empty() {
+            return Err(ElementError::Degenerate(
+                "internal: a shell of a model with THETA/MCID/ZOFFS placements is formed without its element id (use element_matrices_with_id)".into(),
+            ));
+        }
+        let p = &model.shell_properties[property];
+        if super::laminate::uses_general(model, id, p) {
+            let xyz: Vec<[f64; 3]> = e.nodes().iter().map(xyz).collect();
+            return super::laminate::general_shell_matrices(model, id, &xyz, *property, mass);
+        }
+    }
     match e {
         Element::Quad4 { nodes, property } => quad4(
             &nodes.each_ref().map(xyz),
@@ -232,43 +362,69 @@ pub fn element_matrices(
             &rod_data(model, section),
             mass,
         ),
-        Element::Bush { other, k, .. } => spring6(
-            k,
-            if other.is_some() {
-                SpringEnds::TwoNodes
-            } else {
-                SpringEnds::Ground
-            },
-        ),
-        Element::ScalarSpring { dof, other, k } => {
+        Element::Solid {
+            kind,
+            nodes,
+            property,
+        } => {
+            let xyz: Vec<[f64; 3]> = nodes.iter().map(xyz).collect();
+            super::solid::solid(*kind, &xyz, &solid_material(model, *property)?, mass)
+        }
+        Element::Bush { other, k, axes, .. } => {
             let ends = if other.is_some() {
                 SpringEnds::TwoNodes
             } else {
                 SpringEnds::Ground
             };
-            let small = scalar_spring(*k, ends)?;
-            // Expand the 2×2 (or 1×1) DOF matrix onto the node blocks of `Element::nodes`.
-            let comps: Vec<(usize, usize)> = match other {
-                Some(o) if o.node == dof.node => vec![(0, dof.comp as usize), (0, o.comp as usize)],
-                Some(o) => vec![(0, dof.comp as usize), (1, o.comp as usize)],
-                None => vec![(0, dof.comp as usize)],
-            };
-            let nn = if matches!(other, Some(o) if o.node != dof.node) {
-                2
-            } else {
-                1
-            };
-            let mut kk = Mat::zeros(6 * nn, 6 * nn);
-            for (a, (na, ca)) in comps.iter().enumerate() {
-                for (b, (nb, cb)) in comps.iter().enumerate() {
-                    kk[(6 * na + ca, 6 * nb + cb)] += small.k[(a, b)];
+            match axes {
+                None => spring6(k, ends),
+                Some(axes) => {
+                    spring6(k, ends)?;
+                    let kk = super::scalar_elements::bush_matrix(k, Some(axes), ends)?;
+                    Ok(ElementMatrices {
+                        m: Mat::zeros(kk.nrows(), kk.ncols()),
+                        k: kk,
+                    })
                 }
             }
+        }
+        Element::ScalarSpring { dof, other, k } => {
+            let small = scalar_spring(*k, scalar_ends(other))?;
+            let kk = expand_scalar(dof, other, &small.k);
             Ok(ElementMatrices {
-                m: Mat::zeros(6 * nn, 6 * nn),
+                m: Mat::zeros(kk.nrows(), kk.ncols()),
                 k: kk,
             })
         }
+        Element::ScalarMass { dof, other, m } => {
+            let small = super::scalar_elements::scalar_mass(*m, scalar_ends(other))?;
+            let mm = expand_scalar(dof, other, &small.m);
+            Ok(ElementMatrices {
+                k: Mat::zeros(mm.nrows(), mm.ncols()),
+                m: mm,
+            })
+        }
+        Element::ScalarDamper { other, c, .. } => {
+            // No stiffness or mass: the damping is assembled by `fe::damping`.
+            super::scalar_elements::scalar_damper(*c, scalar_ends(other))?;
+            let n = 6 * block_nodes(e).len();
+            Ok(ElementMatrices {
+                k: Mat::zeros(n, n),
+                m: Mat::zeros(n, n),
+            })
+        }
+        Element::Viscous {
+            nodes,
+            axial,
+            torsional,
+        } => {
+            super::scalar_elements::viscous(xyz(&nodes[0]), xyz(&nodes[1]), *axial, *torsional)?;
+            Ok(ElementMatrices {
+                k: Mat::zeros(12, 12),
+                m: Mat::zeros(12, 12),
+            })
+        }
+        Element::GeneralMass { m, .. } => super::scalar_elements::general_mass(m),
         Element::Mass {
             mass: m,
             inertia,
@@ -278,20 +434,82 @@ pub fn element_matrices(
     }
 }
 
+/// Two DOFs or one to ground.
+fn scalar_ends(other: &Option<crate::core::DofId>) -> SpringEnds {
+    if other.is_some() {
+        SpringEnds::TwoNodes
+    } else {
+        SpringEnds::Ground
+    }
+}
+
+/// A scalar element's 2×2 (or 1×1) DOF matrix expanded onto the 6-DOF blocks of its distinct
+/// points (a scalar point's DOF is slot 0 of its block).
+pub(crate) fn expand_scalar(
+    dof: &crate::core::DofId,
+    other: &Option<crate::core::DofId>,
+    small: &Mat<f64>,
+) -> Mat<f64> {
+    let comps: Vec<(usize, usize)> = match other {
+        Some(o) if o.node == dof.node => vec![(0, dof.comp.slot()), (0, o.comp.slot())],
+        Some(o) => vec![(0, dof.comp.slot()), (1, o.comp.slot())],
+        None => vec![(0, dof.comp.slot())],
+    };
+    let nn = if matches!(other, Some(o) if o.node != dof.node) {
+        2
+    } else {
+        1
+    };
+    let mut out = Mat::zeros(6 * nn, 6 * nn);
+    for (a, (na, ca)) in comps.iter().enumerate() {
+        for (b, (nb, cb)) in comps.iter().enumerate() {
+            out[(6 * na + ca, 6 * nb + cb)] += small[(a, b)];
+        }
+    }
+    out
+}
+
 /// The distinct nodes of an element in the order of its matrix blocks.
-fn block_nodes(e: &Element) -> Vec<u64> {
+pub(crate) fn block_nodes(e: &Element) -> Vec<u64> {
     let mut nodes = e.nodes();
-    if let Element::ScalarSpring {
-        dof,
-        other: Some(o),
-        ..
-    } = e
-    {
+    if let Some((dof, Some(o))) = e.scalar_dofs() {
         if o.node == dof.node {
             nodes.truncate(1);
         }
     }
     nodes
+}
+
+/// The DOF of each row of an element's matrices (6 per block; `None` for the five unused slots
+/// of a scalar point's block).
+pub(crate) fn block_dofs(model: &Model, e: &Element) -> Vec<Option<crate::core::DofId>> {
+    use crate::core::{Component, DofId};
+    block_nodes(e)
+        .into_iter()
+        .flat_map(|n| {
+            let scalar = model.is_scalar_point(n);
+            (0..6).map(move |i| match (scalar, i) {
+                (true, 0) => Some(DofId::new(n, Component::Scalar)),
+                (true, _) => None,
+                (false, i) => Some(DofId::new(n, Component::ALL[i])),
+            })
+        })
+        .collect()
+}
+
+/// Grid and scalar point ids, sorted: the blocks of an assembly.
+fn point_ids(model: &Model) -> Vec<u64> {
+    if model.scalar_points.is_empty() {
+        return model.nodes.keys().copied().collect();
+    }
+    let mut ids: Vec<u64> = model
+        .nodes
+        .keys()
+        .chain(model.scalar_points.iter())
+        .copied()
+        .collect();
+    ids.sort_unstable();
+    ids
 }
 
 /// Assembles `K` and `M` of a model over its free DOFs.
@@ -303,7 +521,7 @@ pub fn assemble_model(
     if model.elements.is_empty() {
         return Err(ModelAssemblyError::Empty);
     }
-    let node_ids: Vec<u64> = model.nodes.keys().copied().collect();
+    let node_ids: Vec<u64> = point_ids(model);
     let index = node_index(&node_ids);
     let elements: Vec<(u64, &Element)> = model.elements.iter().map(|(id, e)| (*id, e)).collect();
     let lists: Vec<Vec<usize>> = elements
@@ -313,14 +531,16 @@ pub fn assemble_model(
     let constraints: BTreeSet<_> = model.constraints.iter().copied().collect();
     let dependents = resolve(&model.mpcs, &constraints)?;
     let keep = independent_dofs(&dependents);
-    let (sys, info) = assemble_keeping(&node_ids, &lists, &constraints, &keep, |i| {
+    let scalar = &model.scalar_points;
+    let (sys, info) = assemble_points(&node_ids, scalar, &lists, &constraints, &keep, |i| {
         let (id, e) = elements[i];
-        let matrices =
-            element_matrices(model, e, mass).map_err(|source| ModelAssemblyError::Element {
+        let matrices = element_matrices_with_id(model, id, e, mass).map_err(|source| {
+            ModelAssemblyError::Element {
                 element: id,
                 kind: e.type_name(),
                 source,
-            })?;
+            }
+        })?;
         Ok::<_, ModelAssemblyError>(Contribution {
             nodes: lists[i].clone(),
             matrices,
@@ -365,17 +585,18 @@ pub fn element_dofs(
     e: &Element,
     mass: MassKind,
 ) -> Result<Vec<crate::core::DofId>, ModelAssemblyError> {
-    let m = element_matrices(model, e, mass).map_err(|source| ModelAssemblyError::Element {
-        element: id,
-        kind: e.type_name(),
-        source,
+    let m = element_matrices_with_id(model, id, e, mass).map_err(|source| {
+        ModelAssemblyError::Element {
+            element: id,
+            kind: e.type_name(),
+            source,
+        }
     })?;
     let mut out = Vec::new();
-    for (b, node) in block_nodes(e).into_iter().enumerate() {
-        for (c, comp) in crate::core::Component::ALL.into_iter().enumerate() {
-            let i = 6 * b + c;
+    for (i, d) in block_dofs(model, e).into_iter().enumerate() {
+        if let Some(d) = d {
             if i < m.k.nrows() && (m.k[(i, i)] != 0.0 || m.m[(i, i)] != 0.0) {
-                out.push(crate::core::DofId::new(node, comp));
+                out.push(d);
             }
         }
     }
@@ -424,14 +645,16 @@ pub fn assemble_elements(
     let all_constraints: BTreeSet<_> = model.constraints.iter().copied().collect();
     let dependents = resolve(&model.mpcs, &all_constraints)?;
     let keep = independent_dofs(&dependents);
-    let (sys, info) = assemble_keeping(&node_ids, &lists, &constraints, &keep, |i| {
+    let scalar = &model.scalar_points;
+    let (sys, info) = assemble_points(&node_ids, scalar, &lists, &constraints, &keep, |i| {
         let (id, e) = elements[i];
-        let matrices =
-            element_matrices(model, e, mass).map_err(|source| ModelAssemblyError::Element {
+        let matrices = element_matrices_with_id(model, id, e, mass).map_err(|source| {
+            ModelAssemblyError::Element {
                 element: id,
                 kind: e.type_name(),
                 source,
-            })?;
+            }
+        })?;
         Ok::<_, ModelAssemblyError>(Contribution {
             nodes: lists[i].clone(),
             matrices,
@@ -530,7 +753,6 @@ fn indexed_derivative(
     dependents: &BTreeMap<crate::core::DofId, DependentDof>,
     mass: MassKind,
 ) -> Result<(SparseMatrix, SparseMatrix), ModelAssemblyError> {
-    use crate::core::Component;
     let (mut kt, mut mt) = (Vec::new(), Vec::new());
     for id in ids {
         let Some(e) = model.elements.get(id) else {
@@ -539,25 +761,10 @@ fn indexed_derivative(
                 element: *id,
             }));
         };
-        let d = element_derivative(model, parameter, *id, e, mass)?;
-        let nodes = block_nodes(e);
-        let map: Vec<Vec<(usize, f64)>> = nodes
-            .iter()
-            .flat_map(|n| {
-                Component::ALL
-                    .iter()
-                    .map(move |c| crate::core::DofId::new(*n, *c))
-            })
-            .map(|d| match (index.get(&d), dependents.get(&d)) {
-                (Some(&i), _) => vec![(i, 1.0)],
-                (None, Some(dep)) => dep
-                    .terms
-                    .iter()
-                    .filter_map(|(t, c)| index.get(t).map(|&i| (i, *c)))
-                    .collect(),
-                (None, None) => Vec::new(),
-            })
-            .collect();
+        let mut d = element_derivative(model, parameter, *id, e, mass)?;
+        to_displacement_systems(model, e, &mut d.dk);
+        to_displacement_systems(model, e, &mut d.dm);
+        let map = row_map(model, e, index, dependents);
         for (a, ra) in map.iter().enumerate() {
             for (b, rb) in map.iter().enumerate() {
                 let (k, m) = (d.dk[(a, b)], d.dm[(a, b)]);
@@ -588,6 +795,40 @@ fn indexed_derivative(
         })
     };
     Ok((build("dK", &kt)?, build("dM", &mt)?))
+}
+
+/// Where each row of element `e`'s matrices goes among the rows of `index`: its own row, or the
+/// rows of the independent DOFs of a dependent DOF with their coefficients, or nowhere.
+pub(crate) fn row_map(
+    model: &Model,
+    e: &Element,
+    index: &DofIndex,
+    dependents: &BTreeMap<crate::core::DofId, DependentDof>,
+) -> Vec<Vec<(usize, f64)>> {
+    block_dofs(model, e)
+        .into_iter()
+        .map(|d| {
+            let Some(d) = d else {
+                return Vec::new();
+            };
+            match (index.get(&d), dependents.get(&d)) {
+                (Some(&i), _) => vec![(i, 1.0)],
+                (None, Some(dep)) => dep
+                    .terms
+                    .iter()
+                    .filter_map(|(t, c)| index.get(t).map(|&i| (i, *c)))
+                    .collect(),
+                (None, None) => Vec::new(),
+            }
+        })
+        .collect()
+}
+
+/// The model's dependent DOFs (for [`row_map`]).
+pub(crate) fn dependents_of(
+    model: &Model,
+) -> Result<BTreeMap<crate::core::DofId, DependentDof>, ModelAssemblyError> {
+    model_dependents(model)
 }
 
 /// The derivative of element `id`'s stiffness and mass with respect to `parameter`, in the
@@ -622,6 +863,15 @@ fn element_derivative(
         P::Density => Some(ShellParameter::Density),
         _ => None,
     };
+    if let Element::Quad4 { property, .. } | Element::Tria3 { property, .. } = e {
+        let sp = &model.shell_properties[property];
+        if super::laminate::uses_general(model, Some(id), sp) {
+            let p = shell(&parameter.kind).ok_or_else(not_applicable)?;
+            let xyz: Vec<[f64; 3]> = e.nodes().iter().map(xyz).collect();
+            return super::laminate::general_shell_derivative(model, id, &xyz, *property, mass, p)
+                .map_err(err);
+        }
+    }
     Ok(match e {
         Element::Quad4 { nodes, property } => {
             let p = shell(&parameter.kind).ok_or_else(not_applicable)?;
@@ -726,20 +976,57 @@ fn element_derivative(
             )
             .map_err(err)?
         }
-        Element::Bush { other, k, .. } => {
+        Element::Solid {
+            kind,
+            nodes,
+            property,
+        } => {
+            use super::solid::SolidParameter;
+            let mid = model.solid_properties[property].material;
+            let p = match (&parameter.kind, model.materials.get(&mid)) {
+                (P::YoungsModulus, Some(m)) => SolidParameter::YoungsModulus { e: m.e },
+                (P::Density, _) => SolidParameter::Density,
+                _ => return Err(not_applicable()),
+            };
+            let xyz: Vec<[f64; 3]> = nodes.iter().map(xyz).collect();
+            let mat = solid_material(model, *property).map_err(err)?;
+            super::solid::solid_derivative(*kind, &xyz, &mat, mass, p).map_err(err)?
+        }
+        Element::Bush { other, k, axes, .. } => {
             let P::SpringStiffness(c) = parameter.kind else {
                 return Err(not_applicable());
             };
-            spring6_derivative(
-                k,
-                if other.is_some() {
-                    SpringEnds::TwoNodes
-                } else {
-                    SpringEnds::Ground
-                },
-                c,
-            )
-            .map_err(err)?
+            let Some(unit) = super::scalar_elements::bush_unit(c) else {
+                return Err(not_applicable());
+            };
+            let ends = scalar_ends(&other.map(|o| crate::core::DofId::new(o, c)));
+            match axes {
+                None => spring6_derivative(k, ends, c).map_err(err)?,
+                Some(axes) => {
+                    spring6(k, ends).map_err(err)?;
+                    let dk = super::scalar_elements::bush_matrix(&unit, Some(axes), ends)
+                        .map_err(err)?;
+                    super::element::ElementDerivative {
+                        dm: Mat::zeros(dk.nrows(), dk.ncols()),
+                        dk,
+                    }
+                }
+            }
+        }
+        Element::ScalarMass { dof, other, m } => {
+            let P::LumpedMass(_) = parameter.kind else {
+                return Err(not_applicable());
+            };
+            super::scalar_elements::scalar_mass(*m, scalar_ends(other)).map_err(err)?;
+            let unit = super::scalar_elements::scalar_mass_derivative(scalar_ends(other));
+            let dm = expand_scalar(dof, other, &unit.dm);
+            super::element::ElementDerivative {
+                dk: Mat::zeros(dm.nrows(), dm.ncols()),
+                dm,
+            }
+        }
+        Element::GeneralMass { .. } | Element::ScalarDamper { .. } | Element::Viscous { .. } => {
+            return Err(not_applicable());
         }
         Element::ScalarSpring { dof, other, .. } => {
             let P::SpringStiffness(_) = parameter.kind else {
@@ -768,6 +1055,7 @@ fn element_derivative(
                 Component::Rx => MassParameter::Ixx,
                 Component::Ry => MassParameter::Iyy,
                 Component::Rz => MassParameter::Izz,
+                Component::Scalar => return Err(not_applicable()),
             };
             conm2_derivative(&LumpedMass::from_nastran(*m, *offset, *inertia), p).map_err(err)?
         }

@@ -97,6 +97,16 @@ pub fn element_value(model: &Model, id: u64, kind: &ParameterKind) -> Option<f64
                 _ => None,
             }
         }
+        (Element::Solid { property, .. }, k) => {
+            let mid = model.solid_properties.get(property)?.material;
+            match (k, model.anisotropic_materials.get(&mid)) {
+                (ParameterKind::Density, Some(m)) => Some(m.rho),
+                (_, Some(_)) => None,
+                (ParameterKind::YoungsModulus, None) => material(mid).map(|m| m.e),
+                (ParameterKind::Density, None) => material(mid).map(|m| m.rho),
+                _ => None,
+            }
+        }
         _ => None,
     }
 }
@@ -192,7 +202,8 @@ impl LocalDerivative {
                 ))
             })?;
             for node in e.nodes() {
-                for c in Component::ALL {
+                // A scalar point's one DOF is `node:s`.
+                for c in Component::ALL.into_iter().chain([Component::Scalar]) {
                     if let Some(&r) = index.get(&DofId::new(node, c)) {
                         rows.push(r);
                     }

@@ -3,6 +3,7 @@
 pub mod export;
 pub mod generate;
 pub mod import;
+pub mod laminates;
 pub mod lumped;
 pub mod parameters;
 pub mod sections;
@@ -10,6 +11,7 @@ pub mod structure;
 
 pub use lumped::{LumpedMass, LumpedModel, LumpedModelError, LumpedSpring};
 pub use parameters::ParameterValueError;
+pub use structure::{AnisotropicMaterial, SolidKind, SolidProperty};
 pub use structure::{
     BeamEnds, BeamProperty, BeamSection, Element, Material, Model, ModelError,
     MultipointConstraint, Parameter, ParameterKind, RodProperty, RodSection, ShellProperty,

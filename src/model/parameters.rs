@@ -98,9 +98,13 @@ enum Slot {
     BeamMaterial(u64, Field),
     /// A rod's material, by element id (through its property or its own CONROD section).
     RodMaterial(u64, Field),
+    /// A solid's material, by solid property id (MAT1 `E`, `ρ`; MAT9 `ρ`).
+    SolidMaterial(u64, Field),
     BeamDim(u64, Dim),
     Bush(u64, usize),
     Scalar(u64),
+    /// A scalar mass (CMASS) by element id.
+    ScalarMass(u64),
     Mass(u64),
     Inertia(u64, usize),
 }
@@ -175,8 +179,19 @@ impl Model {
                     Slot::RodMaterial(id, Field::E)
                 }
                 (Element::Rod { .. }, ParameterKind::Density) => Slot::RodMaterial(id, Field::Rho),
-                (Element::Bush { .. }, ParameterKind::SpringStiffness(c)) => {
-                    Slot::Bush(id, c.nastran() as usize - 1)
+                (Element::Solid { property, .. }, ParameterKind::YoungsModulus) => {
+                    // Only an isotropic (MAT1) material has one modulus.
+                    let sp = self.solid_properties.get(property).ok_or_else(broken)?;
+                    if !self.materials.contains_key(&sp.material) {
+                        return Err(not_applicable());
+                    }
+                    Slot::SolidMaterial(*property, Field::E)
+                }
+                (Element::Solid { property, .. }, ParameterKind::Density) => {
+                    Slot::SolidMaterial(*property, Field::Rho)
+                }
+                (Element::Bush { .. }, ParameterKind::SpringStiffness(c)) if !c.is_scalar() => {
+                    Slot::Bush(id, c.slot())
                 }
                 (Element::ScalarSpring { .. }, ParameterKind::SpringStiffness(_)) => {
                     Slot::Scalar(id)
@@ -186,7 +201,9 @@ impl Model {
                     Component::Rx => Slot::Inertia(id, 0),
                     Component::Ry => Slot::Inertia(id, 2),
                     Component::Rz => Slot::Inertia(id, 5),
+                    Component::Scalar => return Err(not_applicable()),
                 },
+                (Element::ScalarMass { .. }, ParameterKind::LumpedMass(_)) => Slot::ScalarMass(id),
                 _ => return Err(not_applicable()),
             };
             out.push((id, slot));
@@ -203,16 +220,32 @@ impl Model {
 
     fn slot_value(&self, slot: Slot) -> Option<f64> {
         let material = |id: u64, f: Field| {
-            self.materials.get(&id).map(|m| match f {
-                Field::E => m.e,
-                Field::Rho => m.rho,
-            })
+            self.materials
+                .get(&id)
+                .map(|m| match f {
+                    Field::E => m.e,
+                    Field::Rho => m.rho,
+                })
+                .or_else(|| {
+                    self.shell_materials.get(&id).map(|m| match f {
+                        Field::E => m.modulus(),
+                        Field::Rho => m.rho(),
+                    })
+                })
         };
         match slot {
             Slot::ShellThickness(pid) => self.shell_properties.get(&pid).map(|p| p.thickness),
             Slot::ShellMaterial(pid, f) => material(self.shell_properties.get(&pid)?.material, f),
             Slot::BeamMaterial(pid, f) => material(self.beam_properties.get(&pid)?.material, f),
             Slot::RodMaterial(id, f) => material(self.rod_material(id)?, f),
+            Slot::SolidMaterial(pid, f) => {
+                let mid = self.solid_properties.get(&pid)?.material;
+                match (self.anisotropic_materials.get(&mid), f) {
+                    (Some(m), Field::Rho) => Some(m.rho),
+                    (Some(_), Field::E) => None,
+                    (None, f) => material(mid, f),
+                }
+            }
             Slot::BeamDim(pid, d) => match self.beam_properties.get(&pid)?.section {
                 BeamSection::Rectangle { width, height } => Some(match d {
                     Dim::Width => width,
@@ -226,6 +259,10 @@ impl Model {
             },
             Slot::Scalar(id) => match self.elements.get(&id)? {
                 Element::ScalarSpring { k, .. } => Some(*k),
+                _ => None,
+            },
+            Slot::ScalarMass(id) => match self.elements.get(&id)? {
+                Element::ScalarMass { m, .. } => Some(*m),
                 _ => None,
             },
             Slot::Mass(id) => match self.elements.get(&id)? {
@@ -298,6 +335,9 @@ impl Model {
         if matches!(slots[0].1, Slot::RodMaterial(..)) {
             self.own_rod_materials(&in_set);
         }
+        if matches!(slots[0].1, Slot::SolidMaterial(..)) {
+            self.own_solid_materials(&in_set);
+        }
         // Slots again: the property ids may have changed.
         for (id, slot) in self.slots(p)? {
             let broken = || ParameterValueError::Broken {
@@ -309,7 +349,7 @@ impl Model {
                     self.shell_properties
                         .get_mut(&pid)
                         .ok_or_else(broken)?
-                        .thickness = value;
+                        .set_thickness(value);
                 }
                 Slot::ShellMaterial(pid, f) | Slot::BeamMaterial(pid, f) => {
                     let mid = if shell {
@@ -318,6 +358,14 @@ impl Model {
                         self.beam_properties.get(&pid).map(|p| p.material)
                     }
                     .ok_or_else(broken)?;
+                    if let Some(m) = self.shell_materials.get_mut(&mid).filter(|_| shell) {
+                        // MAT8/MAT2: every modulus in proportion (see `ShellMaterial`).
+                        match f {
+                            Field::E => m.set_modulus(value),
+                            Field::Rho => *m.rho_mut() = value,
+                        }
+                        continue;
+                    }
                     let m = self.materials.get_mut(&mid).ok_or_else(broken)?;
                     match f {
                         Field::E => m.e = value,
@@ -330,6 +378,18 @@ impl Model {
                     match f {
                         Field::E => m.e = value,
                         Field::Rho => m.rho = value,
+                    }
+                }
+                Slot::SolidMaterial(pid, f) => {
+                    let mid = self.solid_properties.get(&pid).ok_or_else(broken)?.material;
+                    if let Some(m) = self.anisotropic_materials.get_mut(&mid) {
+                        m.rho = value;
+                    } else {
+                        let m = self.materials.get_mut(&mid).ok_or_else(broken)?;
+                        match f {
+                            Field::E => m.e = value,
+                            Field::Rho => m.rho = value,
+                        }
                     }
                 }
                 Slot::BeamDim(pid, d) => {
@@ -349,6 +409,11 @@ impl Model {
                 Slot::Scalar(_) => {
                     if let Some(Element::ScalarSpring { k, .. }) = self.elements.get_mut(&id) {
                         *k = value;
+                    }
+                }
+                Slot::ScalarMass(_) => {
+                    if let Some(Element::ScalarMass { m, .. }) = self.elements.get_mut(&id) {
+                        *m = value;
                     }
                 }
                 Slot::Mass(_) => {
@@ -381,6 +446,7 @@ impl Model {
             .keys()
             .chain(self.beam_properties.keys())
             .chain(self.rod_properties.keys())
+            .chain(self.solid_properties.keys())
             .max()
             .copied()
             .unwrap_or(0)
@@ -449,26 +515,37 @@ impl Model {
             .collect()
     }
 
+    /// The property ids of the elements outside `in_set`, and the first property id above every
+    /// property of the model (for copies).
+    fn properties_outside(
+        &self,
+        in_set: &std::collections::BTreeSet<u64>,
+    ) -> (std::collections::BTreeSet<u64>, u64) {
+        let mut outside = std::collections::BTreeSet::new();
+        for (id, e) in &self.elements {
+            if let (false, Some(pid)) = (in_set.contains(id), e.property()) {
+                outside.insert(pid);
+            }
+        }
+        let next = self
+            .shell_properties
+            .keys()
+            .chain(self.beam_properties.keys())
+            .chain(self.rod_properties.keys())
+            .chain(self.solid_properties.keys())
+            .max()
+            .copied()
+            .unwrap_or(0)
+            + 1;
+        (outside, next)
+    }
+
     /// Gives the rods of `in_set` materials (and rod properties) that nothing outside the set
     /// uses: a rod property shared with rods outside is copied under a new id, then every
     /// material the set's rods share with any other element or property is copied.
     fn own_rod_materials(&mut self, in_set: &std::collections::BTreeSet<u64>) {
         use std::collections::{BTreeMap, BTreeSet};
-        let mut pid_outside = BTreeSet::new();
-        for (id, e) in &self.elements {
-            if let (false, Some(pid)) = (in_set.contains(id), e.property()) {
-                pid_outside.insert(pid);
-            }
-        }
-        let mut next_pid = self
-            .shell_properties
-            .keys()
-            .chain(self.beam_properties.keys())
-            .chain(self.rod_properties.keys())
-            .max()
-            .copied()
-            .unwrap_or(0)
-            + 1;
+        let (pid_outside, mut next_pid) = self.properties_outside(in_set);
         let mut renamed: BTreeMap<u64, u64> = BTreeMap::new();
         for id in in_set {
             let Some(Element::Rod {
@@ -493,9 +570,10 @@ impl Model {
         // Materials used by anything outside the set's rods.
         let mut outside = self.rod_materials_outside(in_set);
         for p in self.shell_properties.values() {
-            outside.extend([p.material, p.bending_mid(), p.shear_mid()]);
+            outside.extend(p.material_ids());
         }
         outside.extend(self.beam_properties.values().map(|p| p.material));
+        outside.extend(self.solid_properties.values().map(|p| p.material));
         let own_pids: BTreeSet<u64> = in_set
             .iter()
             .filter_map(|id| match self.elements.get(id) {
@@ -511,7 +589,15 @@ impl Model {
                 outside.insert(p.material);
             }
         }
-        let mut next = self.materials.keys().max().copied().unwrap_or(0) + 1;
+        let mut next = self
+            .materials
+            .keys()
+            .chain(self.anisotropic_materials.keys())
+            .chain(self.shell_materials.keys())
+            .max()
+            .copied()
+            .unwrap_or(0)
+            + 1;
         let mut copies: BTreeMap<u64, u64> = BTreeMap::new();
         let mut copy = |materials: &mut BTreeMap<u64, crate::model::Material>, mid: &mut u64| {
             if !outside.contains(mid) {
@@ -542,6 +628,71 @@ impl Model {
         }
     }
 
+    /// Gives the solids of `in_set` solid properties and materials (MAT1 or MAT9) that nothing
+    /// outside the set uses: a shared solid property is copied under a new id, then every
+    /// material the set's properties share with any other property or element is copied.
+    fn own_solid_materials(&mut self, in_set: &std::collections::BTreeSet<u64>) {
+        use std::collections::{BTreeMap, BTreeSet};
+        let (pid_outside, mut next_pid) = self.properties_outside(in_set);
+        let mut renamed: BTreeMap<u64, u64> = BTreeMap::new();
+        let mut own_pids = BTreeSet::new();
+        for id in in_set {
+            let Some(Element::Solid { property, .. }) = self.elements.get_mut(id) else {
+                continue;
+            };
+            if pid_outside.contains(property) {
+                let new = *renamed.entry(*property).or_insert_with(|| {
+                    next_pid += 1;
+                    next_pid - 1
+                });
+                if let Some(p) = self.solid_properties.get(property).cloned() {
+                    self.solid_properties.insert(new, p);
+                }
+                *property = new;
+            }
+            own_pids.insert(*property);
+        }
+        let mut outside = self.rod_materials_outside(&BTreeSet::new());
+        for p in self.shell_properties.values() {
+            outside.extend([p.material, p.bending_mid(), p.shear_mid()]);
+        }
+        outside.extend(self.beam_properties.values().map(|p| p.material));
+        for (pid, p) in &self.solid_properties {
+            if !own_pids.contains(pid) {
+                outside.insert(p.material);
+            }
+        }
+        let mut next = self
+            .materials
+            .keys()
+            .chain(self.anisotropic_materials.keys())
+            .max()
+            .copied()
+            .unwrap_or(0)
+            + 1;
+        let mut copies: BTreeMap<u64, u64> = BTreeMap::new();
+        for pid in &own_pids {
+            let Some(p) = self.solid_properties.get_mut(pid) else {
+                continue;
+            };
+            if !outside.contains(&p.material) {
+                continue;
+            }
+            let old = p.material;
+            let new = *copies.entry(old).or_insert_with(|| {
+                next += 1;
+                next - 1
+            });
+            if let Some(m) = self.materials.get(&old).cloned() {
+                self.materials.insert(new, m);
+            }
+            if let Some(m) = self.anisotropic_materials.get(&old).cloned() {
+                self.anisotropic_materials.insert(new, m);
+            }
+            p.material = new;
+        }
+    }
+
     /// Gives the (now owned) properties of `in_set` material ids no other property uses.
     fn own_materials(&mut self, in_set: &std::collections::BTreeSet<u64>, shell: bool) {
         let own: std::collections::BTreeSet<u64> = in_set
@@ -549,23 +700,28 @@ impl Model {
             .filter_map(|id| self.elements.get(id)?.property())
             .collect();
         let mut outside = self.rod_materials_outside(&std::collections::BTreeSet::new());
+        outside.extend(self.solid_properties.values().map(|p| p.material));
         for (pid, p) in &self.shell_properties {
             if !(shell && own.contains(pid)) {
                 outside.insert(p.material);
             }
             // Another part's material is outside what the parameter (the `material`) changes.
-            outside.extend(
-                [p.bending_mid(), p.shear_mid()]
-                    .into_iter()
-                    .filter(|m| *m != p.material),
-            );
+            outside.extend(p.material_ids().into_iter().filter(|m| *m != p.material));
         }
         for (pid, p) in &self.beam_properties {
             if shell || !own.contains(pid) {
                 outside.insert(p.material);
             }
         }
-        let mut next = self.materials.keys().max().copied().unwrap_or(0) + 1;
+        let mut next = self
+            .materials
+            .keys()
+            .chain(self.anisotropic_materials.keys())
+            .chain(self.shell_materials.keys())
+            .max()
+            .copied()
+            .unwrap_or(0)
+            + 1;
         let mut renamed = std::collections::BTreeMap::new();
         for pid in own {
             let material = if shell {
@@ -586,12 +742,26 @@ impl Model {
             *material = new;
             if let Some(m) = self.materials.get(&old).cloned() {
                 self.materials.insert(new, m);
+            } else if let Some(m) = self.shell_materials.get(&old).cloned() {
+                self.shell_materials.insert(new, m);
             }
-            // A PSHELL part naming the same material (MID3 = MID1 with another MID2) follows it.
+            // A PSHELL part naming the same material (MID3 = MID1 with another MID2) follows it,
+            // and so do a laminate's plies of it.
             if let Some(p) = self.shell_properties.get_mut(&pid).filter(|_| shell) {
-                for part in [&mut p.bending_material, &mut p.shear_material] {
+                for part in [
+                    &mut p.bending_material,
+                    &mut p.shear_material,
+                    &mut p.coupling_material,
+                ] {
                     if *part == Some(old) {
                         *part = Some(new);
+                    }
+                }
+                if let Some(l) = &mut p.laminate {
+                    for ply in &mut l.plies {
+                        if ply.material == old {
+                            ply.material = new;
+                        }
                     }
                 }
             }

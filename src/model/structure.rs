@@ -57,6 +57,13 @@ pub struct ShellProperty {
     /// Transverse shear thickness ratio `TS/T` (the shear correction factor, 5/6 by default).
     #[serde(default = "five_sixths", skip_serializing_if = "is_five_sixths")]
     pub shear_ratio: f64,
+    /// Membrane–bending coupling material (PSHELL MID4): `B = T² G4`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub coupling_material: Option<u64>,
+    /// The plies of a laminate (PCOMP, PCOMPG); then `material` is the first ply's, `thickness`
+    /// the laminate's total and the PSHELL parts above are unused.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub laminate: Option<crate::model::laminates::Laminate>,
 }
 
 impl ShellProperty {
@@ -72,6 +79,8 @@ impl ShellProperty {
             shear_material: None,
             bending_ratio: 1.0,
             shear_ratio: five_sixths(),
+            coupling_material: None,
+            laminate: None,
         }
     }
 
@@ -93,6 +102,8 @@ impl ShellProperty {
             && self.shear_material.is_none()
             && is_one(&self.bending_ratio)
             && is_five_sixths(&self.shear_ratio)
+            && self.coupling_material.is_none()
+            && self.laminate.is_none()
     }
 }
 
@@ -151,6 +162,124 @@ pub enum RodSection {
     Property(u64),
     /// The element's own section (CONROD).
     Own(RodProperty),
+}
+
+/// A general anisotropic material for solids (Nastran MAT9): the 6×6 symmetric elasticity
+/// matrix in the material system, Voigt order `[xx, yy, zz, xy, yz, zx]` with engineering shear
+/// strains, given by its upper triangle row by row (`G11 G12 … G16 G22 … G66`, 21 values).
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct AnisotropicMaterial {
+    /// `G_ij` (i ≤ j), row by row, Pa.
+    pub g: Vec<f64>,
+    /// Density, kg/m³.
+    pub rho: f64,
+}
+
+impl AnisotropicMaterial {
+    /// The full symmetric 6×6 matrix.
+    pub fn matrix(&self) -> [[f64; 6]; 6] {
+        let mut d = [[0.0; 6]; 6];
+        let upper = (0..6).flat_map(|i| (i..6).map(move |j| (i, j)));
+        for (k, (i, j)) in upper.enumerate() {
+            let v = self.g.get(k).copied().unwrap_or(0.0);
+            d[i][j] = v;
+            d[j][i] = v;
+        }
+        d
+    }
+}
+
+/// The isoparametric solid element shapes (Nastran CHEXA, CPENTA, CTETRA, CPYRAM), by node
+/// count; nodes in the QRG's order, corners first, then midside nodes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SolidKind {
+    /// 8-node hexahedron.
+    Hexa8,
+    /// 20-node serendipity hexahedron.
+    Hexa20,
+    /// 6-node pentahedron (wedge).
+    Penta6,
+    /// 15-node pentahedron.
+    Penta15,
+    /// 4-node tetrahedron.
+    Tetra4,
+    /// 10-node tetrahedron.
+    Tetra10,
+    /// 5-node pyramid.
+    Pyram5,
+}
+
+impl SolidKind {
+    /// Number of nodes.
+    pub fn n_nodes(self) -> usize {
+        match self {
+            SolidKind::Hexa8 => 8,
+            SolidKind::Hexa20 => 20,
+            SolidKind::Penta6 => 6,
+            SolidKind::Penta15 => 15,
+            SolidKind::Tetra4 => 4,
+            SolidKind::Tetra10 => 10,
+            SolidKind::Pyram5 => 5,
+        }
+    }
+
+    /// The faces of the element as lists of corner positions (0-based, into its nodes), each
+    /// ordered round the face.
+    pub fn corner_faces(self) -> &'static [&'static [usize]] {
+        match self {
+            SolidKind::Hexa8 | SolidKind::Hexa20 => &[
+                &[0, 1, 2, 3],
+                &[4, 5, 6, 7],
+                &[0, 1, 5, 4],
+                &[1, 2, 6, 5],
+                &[2, 3, 7, 6],
+                &[3, 0, 4, 7],
+            ],
+            SolidKind::Penta6 | SolidKind::Penta15 => &[
+                &[0, 1, 2],
+                &[3, 4, 5],
+                &[0, 1, 4, 3],
+                &[1, 2, 5, 4],
+                &[2, 0, 3, 5],
+            ],
+            SolidKind::Tetra4 | SolidKind::Tetra10 => {
+                &[&[0, 1, 2], &[0, 1, 3], &[1, 2, 3], &[2, 0, 3]]
+            }
+            SolidKind::Pyram5 => &[
+                &[0, 1, 2, 3],
+                &[0, 1, 4],
+                &[1, 2, 4],
+                &[2, 3, 4],
+                &[3, 0, 4],
+            ],
+        }
+    }
+
+    /// Short type name (`hexa8`, …).
+    pub fn name(self) -> &'static str {
+        match self {
+            SolidKind::Hexa8 => "hexa8",
+            SolidKind::Hexa20 => "hexa20",
+            SolidKind::Penta6 => "penta6",
+            SolidKind::Penta15 => "penta15",
+            SolidKind::Tetra4 => "tetra4",
+            SolidKind::Tetra10 => "tetra10",
+            SolidKind::Pyram5 => "pyram5",
+        }
+    }
+}
+
+/// A solid property (Nastran PSOLID): the material (a MAT1 of `materials` or a MAT9 of
+/// `anisotropic_materials`) and, for an anisotropic one, its material axes.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct SolidProperty {
+    /// Material id.
+    pub material: u64,
+    /// Material axes in the basic system (rows: the material x, y, z directions), for a MAT9
+    /// given in a rectangular CORDM; `None`: the basic axes.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub axes: Option<[[f64; 3]; 3]>,
 }
 
 /// A beam cross-section.
@@ -310,8 +439,18 @@ pub enum Element {
         /// Its section: a rod property id, or its own (CONROD).
         section: RodSection,
     },
+    /// Isoparametric solid (CHEXA, CPENTA, CTETRA, CPYRAM): three translations per node.
+    Solid {
+        /// Its shape.
+        kind: SolidKind,
+        /// Nodes in the QRG's order.
+        nodes: Vec<u64>,
+        /// Solid property id.
+        property: u64,
+    },
     /// Six-DOF lumped spring (CBUSH; or a spring to ground when `nodes[1]` is `None`),
-    /// stiffness per basic direction.
+    /// stiffness (and viscous damping) per direction of its element system: the basic axes, or
+    /// `axes` when given (`K = Rᵀ diag(k) R` per node block with `R` the rows of `axes`).
     Bush {
         /// First node.
         node: u64,
@@ -319,8 +458,15 @@ pub enum Element {
         other: Option<u64>,
         /// Stiffness `[kx, ky, kz, krx, kry, krz]` (N/m, N·m/rad).
         k: [f64; 6],
+        /// The element system's unit axes x, y, z in the basic system (rows); `None`: basic.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        axes: Option<[[f64; 3]; 3]>,
+        /// Viscous damping `[bx, by, bz, brx, bry, brz]` (N·s/m, N·m·s/rad; PBUSH B).
+        #[serde(default, skip_serializing_if = "is_zero6")]
+        b: [f64; 6],
     },
-    /// Scalar spring between two DOFs, or one DOF and ground (CELAS1/2).
+    /// Scalar spring between two DOFs, or one DOF and ground (CELAS1–4); a DOF may be a
+    /// scalar point's.
     ScalarSpring {
         /// First DOF.
         dof: DofId,
@@ -340,9 +486,62 @@ pub enum Element {
         /// Centre of gravity relative to the node, m.
         offset: [f64; 3],
     },
+    /// Scalar mass between two DOFs (`m [[1, −1], [−1, 1]]`), or on one DOF (CMASS1–4).
+    ScalarMass {
+        /// First DOF.
+        dof: DofId,
+        /// Second DOF, or ground.
+        other: Option<DofId>,
+        /// Mass, kg (or kg·m² on rotations).
+        m: f64,
+    },
+    /// A symmetric 6×6 mass matrix at a node in the basic system (CONM1), lower triangle by
+    /// rows: `M11, M21, M22, M31, …, M66`.
+    GeneralMass {
+        /// The node.
+        node: u64,
+        /// The 21 entries of the lower triangle, row by row.
+        m: [f64; 21],
+    },
+    /// Scalar viscous damper between two DOFs, or one DOF and ground (CDAMP1–4).
+    ScalarDamper {
+        /// First DOF.
+        dof: DofId,
+        /// Second DOF, or ground.
+        other: Option<DofId>,
+        /// Damping, N·s/m (or N·m·s/rad).
+        c: f64,
+    },
+    /// Viscous damper between two grids (CVISC): axial along the line between them and
+    /// torsional about it.
+    Viscous {
+        /// The two grids.
+        nodes: [u64; 2],
+        /// Axial damping, N·s/m.
+        axial: f64,
+        /// Torsional damping, N·m·s/rad.
+        torsional: f64,
+    },
+}
+
+fn is_zero6(v: &[f64; 6]) -> bool {
+    v.iter().all(|x| *x == 0.0)
 }
 
 impl Element {
+    /// Whether the element only damps (no stiffness, no mass).
+    pub fn is_damper(&self) -> bool {
+        matches!(self, Element::ScalarDamper { .. } | Element::Viscous { .. })
+    }
+
+    /// Whether the element adds viscous damping `C` (dampers, bushes with B).
+    pub fn has_damping(&self) -> bool {
+        match self {
+            Element::Bush { b, .. } => !is_zero6(b),
+            e => e.is_damper(),
+        }
+    }
+
     /// Grid points the element connects.
     pub fn nodes(&self) -> Vec<u64> {
         match self {
@@ -364,11 +563,28 @@ impl Element {
                 .collect(),
             Element::Beam { nodes, .. } => nodes.to_vec(),
             Element::Rod { nodes, .. } => nodes.to_vec(),
+            Element::Solid { nodes, .. } => nodes.clone(),
             Element::Bush { node, other, .. } => std::iter::once(*node).chain(*other).collect(),
             Element::ScalarSpring { dof, other, .. } => std::iter::once(dof.node)
                 .chain(other.map(|d| d.node))
                 .collect(),
-            Element::Mass { node, .. } => vec![*node],
+            Element::Mass { node, .. } | Element::GeneralMass { node, .. } => vec![*node],
+            Element::ScalarMass { dof, other, .. } | Element::ScalarDamper { dof, other, .. } => {
+                std::iter::once(dof.node)
+                    .chain(other.map(|d| d.node))
+                    .collect()
+            }
+            Element::Viscous { nodes, .. } => nodes.to_vec(),
+        }
+    }
+
+    /// The DOFs of a scalar element (spring, mass, damper): its first DOF and the other one.
+    pub fn scalar_dofs(&self) -> Option<(DofId, Option<DofId>)> {
+        match self {
+            Element::ScalarSpring { dof, other, .. }
+            | Element::ScalarMass { dof, other, .. }
+            | Element::ScalarDamper { dof, other, .. } => Some((*dof, *other)),
+            _ => None,
         }
     }
 
@@ -379,7 +595,8 @@ impl Element {
             | Element::Tria3 { property, .. }
             | Element::Quad8 { property, .. }
             | Element::Tria6 { property, .. }
-            | Element::Beam { property, .. } => Some(*property),
+            | Element::Beam { property, .. }
+            | Element::Solid { property, .. } => Some(*property),
             Element::Rod {
                 section: RodSection::Property(p),
                 ..
@@ -397,9 +614,14 @@ impl Element {
             Element::Tria6 { .. } => "tria6",
             Element::Beam { .. } => "beam",
             Element::Rod { .. } => "rod",
+            Element::Solid { kind, .. } => kind.name(),
             Element::Bush { .. } => "bush",
             Element::ScalarSpring { .. } => "scalar_spring",
             Element::Mass { .. } => "mass",
+            Element::ScalarMass { .. } => "scalar_mass",
+            Element::GeneralMass { .. } => "general_mass",
+            Element::ScalarDamper { .. } => "scalar_damper",
+            Element::Viscous { .. } => "viscous",
         }
     }
 }
@@ -439,7 +661,7 @@ pub struct Parameter {
     pub upper: f64,
 }
 
-/// A linear multipoint constraint in the basic system (rigid elements, MPC cards):
+/// A linear multipoint constraint over the model's DOFs (rigid elements, MPC cards):
 /// `u_dependent = Σ cᵢ uᵢ` over the `terms` `(uᵢ, cᵢ)` (docs/theory.md §2). A term may itself be
 /// a dependent DOF of another constraint (a chain); the assembly substitutes in dependency order.
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -466,6 +688,12 @@ pub struct Model {
     /// Rod properties by id (PROD, PTUBE).
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
     pub rod_properties: BTreeMap<u64, RodProperty>,
+    /// Solid properties by id (PSOLID).
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub solid_properties: BTreeMap<u64, SolidProperty>,
+    /// Anisotropic solid materials by id (MAT9); ids share one space with `materials`.
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub anisotropic_materials: BTreeMap<u64, AnisotropicMaterial>,
     /// Elements by id.
     pub elements: BTreeMap<u64, Element>,
     /// Constrained (zero) DOFs.
@@ -477,11 +705,56 @@ pub struct Model {
     /// Multipoint constraints (rigid elements, MPC), each eliminating one dependent DOF.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub mpcs: Vec<MultipointConstraint>,
+    /// Scalar points (Nastran SPOINT, EPOINT): one DOF each (`id:s`), no position; ids distinct
+    /// from the grids'.
+    #[serde(default, skip_serializing_if = "std::collections::BTreeSet::is_empty")]
+    pub scalar_points: std::collections::BTreeSet<u64>,
+    /// Orthotropic and anisotropic shell materials by id (MAT8, MAT2), beside the isotropic
+    /// `materials` (ids are shared: one id is in one of the two).
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub shell_materials: BTreeMap<u64, crate::model::laminates::ShellMaterial>,
+    /// Material axis and offset of the shell elements that have them, by element id.
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub shell_placements: BTreeMap<u64, crate::model::laminates::ShellPlacement>,
+    /// Displacement systems of the grid points whose DOFs are not along the basic axes
+    /// (Nastran GRID CD): per grid, the rows are the unit vectors (in basic) of its components
+    /// 1–3, which also carry the rotations 4–6. Every DOF of such a grid — constraints,
+    /// springs, multipoint constraints, mode shapes, responses — is a component along these
+    /// axes, `u_local = R u_basic`; the assembly turns element matrices into them
+    /// (`K_local = R K_basic Rᵀ` per 3 × 3 block). Grids not listed are in basic.
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub displacement_systems: BTreeMap<u64, [[f64; 3]; 3]>,
+}
+
+/// Whether the rows of `r` are orthonormal and right-handed, to 1e-9.
+fn is_rotation(r: &[[f64; 3]; 3]) -> bool {
+    let dot = |a: &[f64; 3], b: &[f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    let orthonormal = (0..3).all(|i| {
+        (0..3).all(|j| {
+            let want = if i == j { 1.0 } else { 0.0 };
+            (dot(&r[i], &r[j]) - want).abs() <= 1e-9
+        })
+    });
+    let [a, b, c] = r;
+    let cross = [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ];
+    orthonormal && r.iter().flatten().all(|v| v.is_finite()) && dot(&cross, c) > 0.0
 }
 
 /// Why a model is inconsistent.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum ModelError {
+    /// A displacement system names no node or is not a rotation.
+    #[error("the displacement system of node {node} is invalid: {problem}")]
+    BadDisplacementSystem {
+        /// Node id.
+        node: u64,
+        /// What is wrong.
+        problem: String,
+    },
     /// An element names a node that does not exist.
     #[error("element {element} ({kind}) refers to node {node}, which is not defined")]
     MissingNode {
@@ -543,6 +816,22 @@ pub enum ModelError {
     /// A constraint names a node that does not exist.
     #[error("a constraint refers to node {0}, which is not defined")]
     ConstraintNode(u64),
+    /// An id is both a grid's and a scalar point's.
+    #[error(
+        "id {0} is both a grid point and a scalar point; grid and scalar point ids must be unique"
+    )]
+    ScalarPointIsGrid(u64),
+    /// A DOF whose component does not fit its point: a grid component (1–6) of a scalar
+    /// point, or the scalar component (0) of a grid.
+    #[error("{origin} names DOF {dof}, but {problem}")]
+    ComponentMismatch {
+        /// Where (`element 12`, `a constraint`).
+        origin: String,
+        /// The DOF.
+        dof: DofId,
+        /// What is wrong and what would be valid.
+        problem: &'static str,
+    },
     /// A multipoint constraint names a node that does not exist.
     #[error("{origin} refers to node {node}, which is not defined")]
     MpcNode {
@@ -592,9 +881,32 @@ impl crate::core::InputFault for ModelError {
 impl Model {
     /// Checks every reference.
     pub fn validate(&self) -> Result<(), ModelError> {
+        if let Some(&g) = self
+            .scalar_points
+            .iter()
+            .find(|s| self.nodes.contains_key(s))
+        {
+            return Err(ModelError::ScalarPointIsGrid(g));
+        }
+        for (&node, r) in &self.displacement_systems {
+            if !self.nodes.contains_key(&node) {
+                return Err(ModelError::BadDisplacementSystem {
+                    node,
+                    problem: "the node is not defined".into(),
+                });
+            }
+            if !is_rotation(r) {
+                return Err(ModelError::BadDisplacementSystem {
+                    node,
+                    problem: format!(
+                        "its axes {r:?} are not orthonormal and right-handed (rows must be unit vectors, mutually perpendicular, with row 3 = row 1 × row 2, to 1e-9)"
+                    ),
+                });
+            }
+        }
         for (&id, e) in &self.elements {
             for n in e.nodes() {
-                if !self.nodes.contains_key(&n) {
+                if !self.has_point(n) {
                     return Err(ModelError::MissingNode {
                         element: id,
                         kind: e.type_name(),
@@ -616,6 +928,9 @@ impl Model {
                     section: RodSection::Property(p),
                     ..
                 } => (self.rod_properties.contains_key(p), "rod"),
+                Element::Solid { property, .. } => {
+                    (self.solid_properties.contains_key(property), "solid")
+                }
                 _ => (true, ""),
             };
             if !ok {
@@ -628,13 +943,41 @@ impl Model {
             }
         }
         for (&id, p) in &self.shell_properties {
-            for material in [p.material, p.bending_mid(), p.shear_mid()] {
-                if !self.materials.contains_key(&material) {
+            for material in p.material_ids() {
+                if !self.materials.contains_key(&material)
+                    && !self.shell_materials.contains_key(&material)
+                {
                     return Err(ModelError::MissingMaterial {
                         property: id,
                         material,
                     });
                 }
+            }
+        }
+        for (&id, e) in &self.elements {
+            if let Element::Quad8 { property, .. } | Element::Tria6 { property, .. } = e {
+                let p = &self.shell_properties[property];
+                let isotropic = p.laminate.is_none()
+                    && p.coupling_material.is_none()
+                    && p.material_ids().iter().all(|m| self.materials.contains_key(m));
+                if !isotropic {
+                    return Err(ModelError::MissingProperty {
+                        element: id,
+                        kind: e.type_name(),
+                        property: *property,
+                        wanted: "homogeneous-material (PSHELL with MAT1, no MID4) shell",
+                    });
+                }
+            }
+        }
+        for (&id, p) in &self.solid_properties {
+            if !self.materials.contains_key(&p.material)
+                && !self.anisotropic_materials.contains_key(&p.material)
+            {
+                return Err(ModelError::MissingMaterial {
+                    property: id,
+                    material: p.material,
+                });
             }
         }
         for (&id, p) in &self.rod_properties {
@@ -687,11 +1030,55 @@ impl Model {
             }
         }
         for d in &self.constraints {
-            if !self.nodes.contains_key(&d.node) {
+            if !self.has_point(d.node) {
                 return Err(ModelError::ConstraintNode(d.node));
+            }
+            self.check_component(*d, || "a constraint".to_string())?;
+        }
+        for (&id, e) in &self.elements {
+            if let Some((a, b)) = e.scalar_dofs() {
+                for d in std::iter::once(a).chain(b) {
+                    self.check_component(d, || format!("element {id} ({})", e.type_name()))?;
+                }
+            } else if !self.scalar_points.is_empty() {
+                if let Some(n) = e.nodes().into_iter().find(|n| self.is_scalar_point(*n)) {
+                    return Err(ModelError::ComponentMismatch {
+                        origin: format!("element {id} ({})", e.type_name()),
+                        dof: DofId::new(n, Component::Scalar),
+                        problem: "only scalar elements (springs, masses, dampers) connect scalar points",
+                    });
+                }
             }
         }
         self.validate_mpcs()
+    }
+
+    /// Whether `id` is a grid point or a scalar point of the model.
+    pub fn has_point(&self, id: u64) -> bool {
+        self.nodes.contains_key(&id) || self.scalar_points.contains(&id)
+    }
+
+    /// Whether `id` is a scalar point.
+    pub fn is_scalar_point(&self, id: u64) -> bool {
+        self.scalar_points.contains(&id)
+    }
+
+    /// A DOF's component fits its point: `s` on a scalar point, `ux`…`rz` on a grid.
+    fn check_component(&self, d: DofId, origin: impl Fn() -> String) -> Result<(), ModelError> {
+        let problem = match (self.is_scalar_point(d.node), d.comp.is_scalar()) {
+            (true, false) => {
+                "it is a scalar point, whose one DOF is component s (Nastran 0 or blank)"
+            }
+            (false, true) => {
+                "it is a grid point, whose components are ux uy uz rx ry rz (Nastran 1-6)"
+            }
+            _ => return Ok(()),
+        };
+        Err(ModelError::ComponentMismatch {
+            origin: origin(),
+            dof: d,
+            problem,
+        })
     }
 
     /// Multipoint constraints: nodes exist, each dependent DOF once, none constrained, no cycle.
@@ -702,7 +1089,7 @@ impl Model {
         let mut by_dep: BTreeMap<DofId, usize> = BTreeMap::new();
         for (i, c) in self.mpcs.iter().enumerate() {
             for d in std::iter::once(&c.dependent).chain(c.terms.iter().map(|t| &t.0)) {
-                if !self.nodes.contains_key(&d.node) {
+                if !self.has_point(d.node) {
                     return Err(ModelError::MpcNode {
                         origin: c.origin.clone(),
                         node: d.node,
@@ -790,8 +1177,8 @@ impl Model {
         }
     }
 
-    /// Total count of DOFs before constraints: six per node.
+    /// Total count of DOFs before constraints: six per node, one per scalar point.
     pub fn n_dofs(&self) -> usize {
-        6 * self.nodes.len()
+        6 * self.nodes.len() + self.scalar_points.len()
     }
 }

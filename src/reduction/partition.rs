@@ -325,12 +325,17 @@ pub fn automatic_groups(
         .elements
         .values()
         .map(|e| {
-            let nodes = e.nodes();
+            // Scalar points have no position: the centroid of the element's grids (the origin
+            // for an element on scalar points only).
+            let xs: Vec<[f64; 3]> = e
+                .nodes()
+                .iter()
+                .filter_map(|nd| model.nodes.get(nd).copied())
+                .collect();
             let mut c = [0.0; 3];
-            for nd in &nodes {
-                let x = model.nodes[nd];
+            for x in &xs {
                 for a in 0..3 {
-                    c[a] += x[a] / nodes.len() as f64;
+                    c[a] += x[a] / xs.len() as f64;
                 }
             }
             c

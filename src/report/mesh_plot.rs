@@ -178,6 +178,26 @@ fn items(model: &Model, view: View) -> Vec<Item> {
     let (right, up, toward) = axes(view);
     let mut out = Vec::new();
     for (&id, e) in &model.elements {
+        if let Element::Solid { kind, nodes, .. } = e {
+            // Each face of a solid, drawn like a shell facet of the element.
+            for f in kind.corner_faces() {
+                let xyz: Vec<[f64; 3]> = f
+                    .iter()
+                    .filter_map(|&k| model.nodes.get(nodes.get(k)?).copied())
+                    .collect();
+                if xyz.len() != f.len() {
+                    continue;
+                }
+                let depth = xyz.iter().map(|p| dot(*p, toward)).sum::<f64>() / xyz.len() as f64;
+                out.push(Item {
+                    id,
+                    depth,
+                    points: xyz.iter().map(|p| (dot(*p, right), dot(*p, up))).collect(),
+                    face: true,
+                });
+            }
+            continue;
+        }
         let (nodes, face): (Vec<u64>, bool) = match e {
             Element::Quad4 { nodes, .. } => (nodes.to_vec(), true),
             Element::Tria3 { nodes, .. } => (nodes.to_vec(), true),

@@ -43,7 +43,12 @@ impl TypedStage for Assemble {
 
     fn run(p: &Params, inputs: &StageInputs) -> Result<StageOutputs, StageError> {
         let model = mesh_from_artefact(inputs.require("mesh")?)?;
-        let (sys, info) = assemble_model(&model, p.mass).map_err(StageError::from_numerics(""))?;
+        let (mut sys, info) =
+            assemble_model(&model, p.mass).map_err(StageError::from_numerics(""))?;
+        // The dampers' viscous C (CDAMP, CVISC, CBUSH B), only when the model has any, so other
+        // models' matrices keep their bytes.
+        sys.c = crate::fe::damping::damping_matrix(&model, &sys.dofs)
+            .map_err(StageError::from_numerics(""))?;
         let mut a = matrices_to_artefact(&sys);
         // Per updating parameter, the assembled derivatives `dK__<name>`, `dM__<name>` (2.13).
         for param in &model.parameters {

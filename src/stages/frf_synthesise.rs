@@ -255,6 +255,14 @@ impl TypedStage for FrfSynthesise {
         };
         let set = match p.method {
             Some(Method::Modal) => {
+                if let Some(model) = inputs.get("model") {
+                    if matrices_from_artefact(model)?.c.is_some() {
+                        return Err(StageError::input(
+                            "",
+                            "the model has element dampers (its matrices hold a viscous C from CDAMP, CVISC or CBUSH B), which are not proportional and are not in the modal damping; use `method: direct` to include them, or remove the dampers",
+                        ));
+                    }
+                }
                 let m = modes_from_artefact(inputs.require("modes")?)?;
                 let pairs = FrfSet::all_pairs(&with_components(&m.dofs), &p.excitations);
                 let mut modes = m.modes;

@@ -7,6 +7,7 @@
 //! | `lumped` | `element, type, node, comp, other, other_comp, k_1 … k_6, mass_kg, i11, i21, i22, i31, i32, i33, off_x, off_y, off_z` |
 //! | `constraints` | `dof` |
 //! | `sets` | `set, element` |
+//! | `displacement_systems` (only when some grid has one) | `node, r11, r12, r13, r21, …, r33`: the rows of `R`, the unit vectors (basic) of the grid's components 1–3 (4–6); its DOFs are along them |
 //! | `mpcs` (only when the model has multipoint constraints) | `dependent, independent, coefficient, origin`: one row per term of `u_dependent = Σ coefficient · u_independent` (a constraint without terms: one row with an empty `independent`) |
 //!
 //! Materials, properties and parameters are small and go into `meta` as JSON. Rods (`type`
@@ -14,9 +15,17 @@
 //! section (a CONROD), which is then in `meta.rod_sections` under the element id; both rod
 //! metadata keys are written only when the model has rods, so meshes without them keep their
 //! bytes. The offsets and pin flags of the beams that have them are in `beam_ends` (element
-//! id → ends; absent when no beam has any). Quadratic shells (`quad8`, `tria6`) have their
-//! corners in `n1 …` and their midside nodes in `midside_nodes` (element id → list, `null` for an
-//! omitted one; absent when the model has none).
+//! id → ends; absent when no beam has any). Solid elements (up to 20 nodes) are in
+//! `solid_elements` (element id → `{type: solid, kind, nodes, property}`), with
+//! `solid_properties` and the MAT9 `anisotropic_materials`; all three are absent without solids.
+//! MAT8/MAT2 materials are in `shell_materials` and
+//! the shell elements' THETA/MCID/ZOFFS in `shell_placements` (element id → placement), each
+//! only when the model has any; laminates (PCOMP) are shell properties with `laminate` plies. //! Scalar points are in `scalar_points`, the
+//! element systems and damping of the bushes that have them in `bush_systems` (element id →
+//! `{axes, b}`), and scalar masses, general (CONM1) masses and dampers in `lumped_extra`
+//! (element id → element, JSON); each key is written only when the model has such things.
+//! Quadratic shells (`quad8`, `tria6`) have their corners in `n1 …` and their midside nodes in
+//! `midside_nodes` (element id → list, `null` for an omitted one; absent when the model has none).
 
 use super::{ColumnLayout, Kind, Layout, col, meta, meta_opt, meta_value, table};
 use crate::artefact::{Artefact, ArtefactError, ArtefactKind, Column, Storage, Table};
@@ -28,6 +37,10 @@ const K: ArtefactKind = ArtefactKind::Mesh;
 
 /// Names of the inertia columns of `lumped`.
 const INERTIA: [&str; 6] = ["i11", "i21", "i22", "i31", "i32", "i33"];
+/// Names of the columns of `displacement_systems`: `R` row by row.
+const R_COLUMNS: [&str; 9] = [
+    "r11", "r12", "r13", "r21", "r22", "r23", "r31", "r32", "r33",
+];
 /// Names of the offset columns of `lumped`.
 const OFFSET: [&str; 3] = ["off_x", "off_y", "off_z"];
 /// Names of the stiffness columns of `lumped`.
@@ -74,6 +87,21 @@ impl Kind for MeshKind {
                     ],
                 ),
                 table(
+                    "displacement_systems",
+                    s,
+                    false,
+                    std::iter::once(col("node", "int64", "", "grid id"))
+                        .chain(R_COLUMNS.iter().map(|c| {
+                            col(
+                                c,
+                                "float64",
+                                "",
+                                "component of R (row: local axis, column: basic)",
+                            )
+                        }))
+                        .collect(),
+                ),
+                table(
                     "mpcs",
                     s,
                     false,
@@ -101,6 +129,14 @@ impl Kind for MeshKind {
                 meta("units", "unit of the columns that have one"),
                 meta_opt("rod_properties", "rod properties by id (only with rods)"),
                 meta_opt(
+                    "shell_materials",
+                    "MAT8/MAT2 shell materials by id (only when the model has them)",
+                ),
+                meta_opt(
+                    "shell_placements",
+                    "shell material axes (THETA/MCID) and offsets (ZOFFS) by element id (only when some element has one)",
+                ),
+                meta_opt(
                     "rod_sections",
                     "sections of rods without a property (CONROD), by element id",
                 ),
@@ -117,8 +153,29 @@ impl Kind for MeshKind {
                     "midside nodes of the quad8 and tria6 elements (null where omitted), by element id",
                 ),
                 meta_opt(
+                    "solid_elements",
+                    "solid elements by id: kind, nodes (QRG order), property (only with solids)",
+                ),
+                meta_opt(
+                    "solid_properties",
+                    "solid properties by id (only with solids)",
+                ),
+                meta_opt(
+                    "anisotropic_materials",
+                    "MAT9 anisotropic materials by id (only when the model has them)",
+                ),
+                meta_opt(
                     "beam_ends",
                     "offsets (basic, m) and pin flags of the beams that have them, by element id",
+                ),
+                meta_opt("scalar_points", "scalar point ids (SPOINT, EPOINT)"),
+                meta_opt(
+                    "bush_systems",
+                    "element axes (rows, basic) and damping b_1..b_6 of the bushes that have them, by element id",
+                ),
+                meta_opt(
+                    "lumped_extra",
+                    "scalar masses, general masses (CONM1) and dampers, by element id",
                 ),
             ],
             blobs: vec![],
@@ -199,8 +256,24 @@ pub fn mesh_to_artefact(m: &Model) -> Artefact {
     let mut rod_sections = std::collections::BTreeMap::new();
     let mut beam_ends = std::collections::BTreeMap::new();
     let mut midside_nodes: BTreeMap<u64, Vec<Option<u64>>> = BTreeMap::new();
+    let mut solids = std::collections::BTreeMap::new();
+    let mut bush_systems = std::collections::BTreeMap::new();
+    let mut lumped_extra = std::collections::BTreeMap::new();
     for (&id, e) in &m.elements {
         match e {
+            Element::Solid { .. } => {
+                solids.insert(id, e.clone());
+            }
+            Element::Bush { axes, b, .. } if axes.is_some() || b.iter().any(|v| *v != 0.0) => {
+                bush_systems.insert(id, serde_json::json!({"axes": axes, "b": b}));
+                lumped.push(id, e);
+            }
+            Element::ScalarMass { .. }
+            | Element::GeneralMass { .. }
+            | Element::ScalarDamper { .. }
+            | Element::Viscous { .. } => {
+                lumped_extra.insert(id, e.clone());
+            }
             Element::Quad4 { nodes, property } => elements.push(id, e, nodes, *property, None),
             Element::Quad8 {
                 corners,
@@ -266,17 +339,82 @@ pub fn mesh_to_artefact(m: &Model) -> Artefact {
     if !m.rod_properties.is_empty() {
         a = a.with_meta("rod_properties", to_json(&m.rod_properties));
     }
+    if !m.shell_materials.is_empty() {
+        a = a.with_meta("shell_materials", to_json(&m.shell_materials));
+    }
+    if !m.shell_placements.is_empty() {
+        a = a.with_meta("shell_placements", to_json(&m.shell_placements));
+    }
     if !rod_sections.is_empty() {
         a = a.with_meta("rod_sections", to_json(&rod_sections));
     }
     if !midside_nodes.is_empty() {
         a = a.with_meta("midside_nodes", to_json(&midside_nodes));
     }
+    if !m.displacement_systems.is_empty() {
+        a = a.with_table(
+            "displacement_systems",
+            displacement_systems_table(m),
+            Storage::Parquet,
+        );
+    }
+    if !solids.is_empty() {
+        a = a.with_meta("solid_elements", to_json(&solids));
+    }
+    if !m.solid_properties.is_empty() {
+        a = a.with_meta("solid_properties", to_json(&m.solid_properties));
+    }
+    if !m.anisotropic_materials.is_empty() {
+        a = a.with_meta("anisotropic_materials", to_json(&m.anisotropic_materials));
+    }
+    if !m.scalar_points.is_empty() {
+        a = a.with_meta("scalar_points", to_json(&m.scalar_points));
+    }
+    if !bush_systems.is_empty() {
+        a = a.with_meta("bush_systems", to_json(&bush_systems));
+    }
+    if !lumped_extra.is_empty() {
+        a = a.with_meta("lumped_extra", to_json(&lumped_extra));
+    }
     if m.mpcs.is_empty() {
         a
     } else {
         a.with_table("mpcs", mpcs_table(m), Storage::Parquet)
     }
+}
+
+fn displacement_systems_table(m: &Model) -> Table {
+    let s = &m.displacement_systems;
+    let mut t = Table::new().with("node", Column::I64(s.keys().map(|&n| n as i64).collect()));
+    for (k, name) in R_COLUMNS.iter().enumerate() {
+        t = t.with(
+            *name,
+            Column::F64(s.values().map(|r| r[k / 3][k % 3]).collect()),
+        );
+    }
+    t
+}
+
+/// The `displacement_systems` table, when present.
+fn read_displacement_systems(a: &Artefact, m: &mut Model) -> Result<(), ArtefactError> {
+    let n = "displacement_systems";
+    if !a.tables.contains_key(n) {
+        return Ok(());
+    }
+    let t = a.table(n)?;
+    let nodes = t.i64s(n, "node")?;
+    let cols = R_COLUMNS
+        .iter()
+        .map(|c| t.f64s(n, c))
+        .collect::<Result<Vec<_>, _>>()?;
+    for (r, node) in nodes.iter().enumerate() {
+        let mut rot = [[0.0; 3]; 3];
+        for (k, c) in cols.iter().enumerate() {
+            rot[k / 3][k % 3] = c[r];
+        }
+        m.displacement_systems.insert(id(*node, n, r)?, rot);
+    }
+    Ok(())
 }
 
 fn mpcs_table(m: &Model) -> Table {
@@ -444,7 +582,7 @@ impl LumpedRow {
             offset: [0.0; 3],
         };
         Some(match e {
-            Element::Bush { node, other, k } => LumpedRow {
+            Element::Bush { node, other, k, .. } => LumpedRow {
                 other: other.map(|o| o as i64).unwrap_or(-1),
                 k: *k,
                 ..empty(*node)
@@ -472,7 +610,12 @@ impl LumpedRow {
             | Element::Quad8 { .. }
             | Element::Tria6 { .. }
             | Element::Beam { .. }
-            | Element::Rod { .. } => return None,
+            | Element::Rod { .. }
+            | Element::Solid { .. }
+            | Element::ScalarMass { .. }
+            | Element::GeneralMass { .. }
+            | Element::ScalarDamper { .. }
+            | Element::Viscous { .. } => return None,
         })
     }
 }
@@ -560,6 +703,10 @@ pub fn mesh_from_artefact(a: &Artefact) -> Result<Model, ArtefactError> {
         beam_properties: meta_value(a, "beam_properties")?,
         parameters: meta_value(a, "parameters")?,
         rod_properties: optional_meta(a, "rod_properties")?,
+        solid_properties: optional_meta(a, "solid_properties")?,
+        anisotropic_materials: optional_meta(a, "anisotropic_materials")?,
+        shell_materials: optional_meta(a, "shell_materials")?,
+        shell_placements: optional_meta(a, "shell_placements")?,
         ..Default::default()
     };
     read_nodes(a, &mut m)?;
@@ -575,8 +722,19 @@ pub fn mesh_from_artefact(a: &Artefact) -> Result<Model, ArtefactError> {
             }
         }
     }
+    let solids: BTreeMap<u64, Element> = optional_meta(a, "solid_elements")?;
+    for (eid, e) in solids {
+        if !matches!(e, Element::Solid { .. }) || m.elements.contains_key(&eid) {
+            return Err(bad(format!(
+                "solid_elements names element {eid}, which is not a solid or is also in the elements table"
+            )));
+        }
+        m.elements.insert(eid, e);
+    }
     read_lumped(a, &mut m)?;
+    read_lumped_extras(a, &mut m)?;
     read_mpcs(a, &mut m)?;
+    read_displacement_systems(a, &mut m)?;
     let t = a.table("constraints")?;
     for (r, d) in t.strs("constraints", "dof")?.iter().enumerate() {
         m.constraints.push(
@@ -712,6 +870,39 @@ fn read_elements(a: &Artefact, m: &mut Model) -> Result<(), ArtefactError> {
     Ok(())
 }
 
+/// Scalar points, bush systems and the lumped elements kept as JSON.
+fn read_lumped_extras(a: &Artefact, m: &mut Model) -> Result<(), ArtefactError> {
+    m.scalar_points = optional_meta(a, "scalar_points")?;
+    #[derive(serde::Deserialize)]
+    struct BushSystem {
+        axes: Option<[[f64; 3]; 3]>,
+        b: [f64; 6],
+    }
+    let systems: BTreeMap<u64, BushSystem> = optional_meta(a, "bush_systems")?;
+    for (eid, s) in systems {
+        match m.elements.get_mut(&eid) {
+            Some(Element::Bush { axes, b, .. }) => {
+                *axes = s.axes;
+                *b = s.b;
+            }
+            _ => {
+                return Err(bad(format!(
+                    "bush_systems names element {eid}, which is not a bush of the lumped table"
+                )));
+            }
+        }
+    }
+    let extra: BTreeMap<u64, Element> = optional_meta(a, "lumped_extra")?;
+    for (eid, e) in extra {
+        if m.elements.insert(eid, e).is_some() {
+            return Err(bad(format!(
+                "lumped_extra defines element {eid}, which another table defines too"
+            )));
+        }
+    }
+    Ok(())
+}
+
 fn read_lumped(a: &Artefact, m: &mut Model) -> Result<(), ArtefactError> {
     let n = "lumped";
     let t = a.table(n)?;
@@ -745,6 +936,8 @@ fn read_lumped(a: &Artefact, m: &mut Model) -> Result<(), ArtefactError> {
                 node,
                 other,
                 k: std::array::from_fn(|i| k[i][r]),
+                axes: None,
+                b: [0.0; 6],
             },
             "scalar_spring" => Element::ScalarSpring {
                 dof: dof(node, &lcomp[r])?,
@@ -825,9 +1018,89 @@ mod tests {
         m
     }
 
+    /// Scalar points, a bush with an element system and damping, and the scalar family come
+    /// back exactly; a model without them writes none of their keys.
+    #[test]
+    fn scalar_points_and_dampers_round_trip() {
+        use crate::core::Component;
+        let mut m = rod_model();
+        let plain = mesh_to_artefact(&m);
+        for key in ["scalar_points", "bush_systems", "lumped_extra"] {
+            assert!(!plain.meta.contains_key(key), "{key}");
+        }
+        m.scalar_points.extend([7, 8]);
+        let s = |n| DofId::new(n, Component::Scalar);
+        m.elements.insert(
+            10,
+            Element::Bush {
+                node: 1,
+                other: Some(2),
+                k: [1.0, 2.0, 3.0, 4.0, 5.0, 6.0],
+                axes: Some([[0.0, 1.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 0.0, 1.0]]),
+                b: [0.5, 0.0, 0.0, 0.0, 0.0, 0.0],
+            },
+        );
+        m.elements.insert(
+            11,
+            Element::ScalarMass {
+                dof: s(7),
+                other: Some(s(8)),
+                m: 2.0,
+            },
+        );
+        m.elements.insert(
+            12,
+            Element::ScalarDamper {
+                dof: s(7),
+                other: None,
+                c: 3.0,
+            },
+        );
+        m.elements.insert(
+            13,
+            Element::ScalarSpring {
+                dof: s(8),
+                other: Some(DofId::new(3, Component::Uz)),
+                k: 4.0,
+            },
+        );
+        m.elements.insert(
+            14,
+            Element::GeneralMass {
+                node: 3,
+                m: [1.0; 21],
+            },
+        );
+        m.elements.insert(
+            15,
+            Element::Viscous {
+                nodes: [1, 3],
+                axial: 1.0,
+                torsional: 0.5,
+            },
+        );
+        m.constraints.push(s(8));
+        let back = mesh_from_artefact(&mesh_to_artefact(&m)).unwrap();
+        assert_eq!(back, m);
+    }
+
     /// Rods (by property and with their own section) and a membrane-only shell come back
     /// exactly; a model without rods writes no rod metadata and a homogeneous shell property
     /// serialises as before the optional PSHELL parts existed (digests unchanged).
+    /// A grid in a cylindrical CD keeps its displacement system through the artefact, exactly.
+    #[test]
+    fn displacement_systems_round_trip() {
+        let deck = "CORD2C,7,0,0.,0.,0.,0.,0.,1.\n,1.,0.,0.\nMAT1,1,7.+10,,.3,2700.\n\
+PSHELL,1,1,.004,1,,1\nGRID,1,,0.,0.,0.\nGRID,2,,.1,0.,0.,7\nGRID,3,,.1,.1,0.,7\n\
+GRID,4,,0.,.1,0.,7\nCQUAD4,1,1,1,2,3,4\nSPC1,1,123456,1\n";
+        let m = crate::model::import::nastran::parse_bulk(deck, "cd.bdf")
+            .unwrap()
+            .model;
+        assert_eq!(m.displacement_systems.len(), 2);
+        let back = mesh_from_artefact(&mesh_to_artefact(&m)).unwrap();
+        assert_eq!(back, m);
+    }
+
     #[test]
     fn rods_and_shell_parts_round_trip_and_leave_other_meshes_alone() {
         let m = rod_model();

@@ -2,12 +2,18 @@
 //! changed are rewritten, every other line of every file keeps its bytes.
 //!
 //! What changes, by the parameter kinds of docs/theory.md §2:
-//! - shell thickness → PSHELL `T`; Young's modulus and density (of shells, beams, rods) → MAT1
-//!   `E` and `RHO` (with `G`
+//! - shell thickness → PSHELL `T`; Young's modulus and density (of shells, beams, rods, solids)
+//!   → MAT1 `E` and `RHO`, density of a solid's MAT9 → MAT9 `RHO` (with `G`
 //!   kept consistent, `E = 2(1 + ν)G`, when the card gives it; `RHO` divided by `PARAM,WTMASS`);
 //!   beam width and height → PBARL/PBEAML `BAR` `DIM1`/`DIM2`;
 //! - bush stiffness → PBUSH `K1`–`K6`, scalar spring stiffness → CELAS2 `K` or PELAS `K1`/`K2`;
-//! - lumped mass → CONM2 `M` and `I11`/`I22`/`I33` (divided by WTMASS).
+//! - lumped mass → CONM2 `M` and `I11`/`I22`/`I33` (divided by WTMASS);
+//! - laminates: shell thickness → every ply's `Ti` (and an explicit `Z0`) of the PCOMP/PCOMPG,
+//!   scaled together; Young's modulus and density of a MAT8/MAT2 → `E1`, `E2`, `G12`, `G1Z`,
+//!   `G2Z` (blank ones stay blank) or `G11`–`G33` in proportion, and `RHO`.
+//! - lumped mass → CONM2 `M` and `I11`/`I22`/`I33` (divided by WTMASS); scalar mass → CMASS2/
+//!   CMASS4 `M`, or the PMASS `Mi` of a CMASS1/CMASS3 when every element using it changed
+//!   alike (divided by WTMASS; else an error: a PMASS copy is not written).
 //!
 //! When an update gave part of a shared property (or material, PBUSH, PELAS) its own value, the
 //! model holds a copy under a new id: the deck gets a copy of the original card, placed right
@@ -24,7 +30,8 @@
 
 use crate::model::export::nastran::format_real;
 use crate::model::import::nastran::{Deck, DeckCard, parse_real};
-use crate::model::structure::{BeamSection, Element, Material, Model, RodSection};
+use crate::model::laminates::{Laminate, ShellMaterial};
+use crate::model::structure::{BeamSection, Element, Material, Model, RodSection, ShellProperty};
 use std::collections::{BTreeMap, BTreeSet};
 
 /// One field changed (or one card added), for the comment block and the stage's record.
@@ -235,7 +242,11 @@ impl<'a> Writer<'a> {
                     w.used_materials.insert(id);
                 }
             } else if is_property(name) {
-                let ks: &[usize] = if name == "PELAS" { &[1, 5] } else { &[1] };
+                let ks: &[usize] = match name {
+                    "PELAS" => &[1, 5],
+                    "PMASS" | "PDAMP" => &[1, 3, 5, 7],
+                    _ => &[1],
+                };
                 for &k in ks {
                     if let Some(id) = card_id(c, k) {
                         w.properties.insert(id, i);
@@ -383,6 +394,68 @@ impl<'a> Writer<'a> {
         self.set_real(i, 5, "RHO", old.rho, new.rho, w, 0.0)
     }
 
+    /// MAT8 `E1`, `E2`, `G12`, `G1Z`, `G2Z` (blank ones stay blank: they read as `G12`, which
+    /// scales with them), MAT2 `G11`–`G33`, and `RHO` (divided by WTMASS).
+    fn shell_material(
+        &mut self,
+        i: usize,
+        old: &ShellMaterial,
+        new: &ShellMaterial,
+    ) -> Result<(), DeckUpdateError> {
+        let name = self.card(i).name.clone();
+        let w = self.wtmass;
+        match (old, new) {
+            (
+                ShellMaterial::Orthotropic {
+                    e1: a1,
+                    e2: a2,
+                    nu12: n0,
+                    g12: s0,
+                    g1z: x0,
+                    g2z: y0,
+                    rho: r0,
+                },
+                ShellMaterial::Orthotropic {
+                    e1,
+                    e2,
+                    nu12,
+                    g12,
+                    g1z,
+                    g2z,
+                    rho,
+                },
+            ) if name == "MAT8" => {
+                if n0 != nu12 {
+                    return Err(self.unsupported(i, "a changed NU12 cannot be written back"));
+                }
+                for (k, label, o, n) in [
+                    (2, "E1", a1, e1),
+                    (3, "E2", a2, e2),
+                    (5, "G12", s0, g12),
+                    (6, "G1Z", x0, g1z),
+                    (7, "G2Z", y0, g2z),
+                ] {
+                    if k >= 6 && self.card(i).field(k).is_empty() {
+                        continue;
+                    }
+                    self.set_real(i, k, label, *o, *n, 1.0, f64::NAN)?;
+                }
+                self.set_real(i, 8, "RHO", *r0, *rho, w, 0.0)
+            }
+            (
+                ShellMaterial::Anisotropic { g: g0, rho: r0 },
+                ShellMaterial::Anisotropic { g, rho },
+            ) if name == "MAT2" => {
+                let labels = ["G11", "G12", "G13", "G22", "G23", "G33"];
+                for (j, label) in labels.iter().enumerate() {
+                    self.set_real(i, 2 + j, label, g0[j], g[j], 1.0, 0.0)?;
+                }
+                self.set_real(i, 8, "RHO", *r0, *rho, w, 0.0)
+            }
+            _ => Err(self.unsupported(i, format!("{name} values cannot be written back"))),
+        }
+    }
+
     /// Starts a copy of card `i`: its own pending edits are set aside, so that the edits made
     /// next describe the copy ([`Writer::finish_copy`]).
     fn begin_copy(&mut self, i: usize) -> Option<Edit> {
@@ -424,7 +497,8 @@ pub fn update_deck(
 ) -> Result<UpdatedDeck, DeckUpdateError> {
     same_structure(original, updated)?;
     let mut w = Writer::new(deck);
-    let new_material_ids = materials(&mut w, original, updated)?;
+    let mut new_material_ids = materials(&mut w, original, updated)?;
+    new_material_ids.extend(anisotropic_materials(&mut w, original, updated)?);
     let new_property_ids = properties(&mut w, original, updated, &new_material_ids)?;
     elements(
         &mut w,
@@ -497,6 +571,35 @@ fn materials(
         }
     }
     let mut ids = BTreeMap::new();
+    for (mid, m) in &updated.shell_materials {
+        if let Some(m0) = original.shell_materials.get(mid) {
+            if m0 != m {
+                let i = *w.materials.get(mid).ok_or(DeckUpdateError::Missing {
+                    what: "material",
+                    id: *mid,
+                })?;
+                w.shell_material(i, m0, m)?;
+            }
+            continue;
+        }
+        let Some(m0) = source_of
+            .get(mid)
+            .and_then(|mid0| original.shell_materials.get(mid0).map(|m0| (*mid0, m0)))
+        else {
+            continue;
+        };
+        let (mid0, m0) = m0;
+        let i = *w.materials.get(&mid0).ok_or(DeckUpdateError::Missing {
+            what: "material",
+            id: mid0,
+        })?;
+        let id = Writer::fresh(&mut w.used_materials, *mid);
+        ids.insert(*mid, id);
+        let own = w.begin_copy(i);
+        w.shell_material(i, m0, m)?;
+        let why = format!("copy of {} {mid0} for the updated elements", w.card(i).name);
+        w.finish_copy(i, own, id, why);
+    }
     for (mid, m) in &updated.materials {
         if let Some(m0) = original.materials.get(mid) {
             if m0 != m {
@@ -526,6 +629,62 @@ fn materials(
     Ok(ids)
 }
 
+/// MAT9 changes (density only); returns the deck id given to each MAT9 id new in `updated`.
+fn anisotropic_materials(
+    w: &mut Writer,
+    original: &Model,
+    updated: &Model,
+) -> Result<BTreeMap<u64, u64>, DeckUpdateError> {
+    let mut source_of: BTreeMap<u64, u64> = BTreeMap::new();
+    for (eid, e) in &updated.elements {
+        let Some(e0) = original.elements.get(eid) else {
+            continue;
+        };
+        if let (Some(mid), Some(mid0)) =
+            (element_material(updated, e), element_material(original, e0))
+        {
+            if !original.anisotropic_materials.contains_key(&mid) {
+                source_of.insert(mid, mid0);
+            }
+        }
+    }
+    let mut ids = BTreeMap::new();
+    for (mid, m) in &updated.anisotropic_materials {
+        let (mid0, is_new) = match original.anisotropic_materials.get(mid) {
+            Some(_) => (*mid, false),
+            None => match source_of.get(mid) {
+                Some(m0) => (*m0, true),
+                None => continue,
+            },
+        };
+        let m0 = &original.anisotropic_materials[&mid0];
+        if !is_new && m0 == m {
+            continue;
+        }
+        let i = *w.materials.get(&mid0).ok_or(DeckUpdateError::Missing {
+            what: "material",
+            id: mid0,
+        })?;
+        if m.g != m0.g {
+            return Err(w.unsupported(i, "MAT9 stiffness values cannot be written back"));
+        }
+        let own = if is_new { w.begin_copy(i) } else { None };
+        let scale = w.wtmass;
+        w.set_real(i, 23, "RHO", m0.rho, m.rho, scale, 0.0)?;
+        if is_new {
+            let id = Writer::fresh(&mut w.used_materials, *mid);
+            ids.insert(*mid, id);
+            w.finish_copy(
+                i,
+                own,
+                id,
+                format!("copy of MAT9 {mid0} for the updated elements"),
+            );
+        }
+    }
+    Ok(ids)
+}
+
 /// The material an element's stiffness comes from (shell, beam and rod properties, CONROD).
 fn element_material(m: &Model, e: &Element) -> Option<u64> {
     if let Element::Rod {
@@ -541,6 +700,7 @@ fn element_material(m: &Model, e: &Element) -> Option<u64> {
         .map(|p| p.material)
         .or_else(|| m.beam_properties.get(&pid).map(|p| p.material))
         .or_else(|| m.rod_properties.get(&pid).map(|p| p.material))
+        .or_else(|| m.solid_properties.get(&pid).map(|p| p.material))
 }
 
 /// Property changes; returns the deck id given to each property id new in `updated`.
@@ -568,13 +728,15 @@ fn properties(
         .keys()
         .chain(updated.beam_properties.keys())
         .chain(updated.rod_properties.keys())
+        .chain(updated.solid_properties.keys())
         .copied()
         .collect();
     for pid in pids {
         let (pid0, is_new) = match source_of.get(&pid) {
             Some(p0)
                 if !original.shell_properties.contains_key(&pid)
-                    && !original.beam_properties.contains_key(&pid) =>
+                    && !original.beam_properties.contains_key(&pid)
+                    && !original.solid_properties.contains_key(&pid) =>
             {
                 (*p0, true)
             }
@@ -589,15 +751,18 @@ fn properties(
             updated.shell_properties.get(&pid),
             original.shell_properties.get(&pid0),
         ) {
-            if w.card(i).name != "PSHELL" {
+            if let (Some(l), Some(l0)) = (&p.laminate, &p0.laminate) {
+                laminate(w, i, (p0, l0), (p, l), &mid_text)?;
+            } else if w.card(i).name != "PSHELL" || p.laminate.is_some() {
                 return Err(w.unsupported(i, "shell properties are written to PSHELL only"));
-            }
-            w.set_real(i, 3, "T", p0.thickness, p.thickness, 1.0, f64::NAN)?;
-            if p.material != p0.material {
-                // Every MID field that named the old material names the new one.
-                for (k, label) in [(2, "MID1"), (4, "MID2"), (6, "MID3"), (7, "MID4")] {
-                    if card_id(w.card(i), k) == Some(p0.material) {
-                        w.set(i, k, label, mid_text(p.material));
+            } else {
+                w.set_real(i, 3, "T", p0.thickness, p.thickness, 1.0, f64::NAN)?;
+                if p.material != p0.material {
+                    // Every MID field that named the old material names the new one.
+                    for (k, label) in [(2, "MID1"), (4, "MID2"), (6, "MID3"), (11, "MID4")] {
+                        if card_id(w.card(i), k) == Some(p0.material) {
+                            w.set(i, k, label, mid_text(p.material));
+                        }
                     }
                 }
             }
@@ -621,6 +786,16 @@ fn properties(
             if (p.area, p.j, p.nsm) != (p0.area, p0.j, p0.nsm) {
                 return Err(w.unsupported(i, "rod sections cannot be written back"));
             }
+        } else if let (Some(p), Some(p0)) = (
+            updated.solid_properties.get(&pid),
+            original.solid_properties.get(&pid0),
+        ) {
+            if p.material != p0.material {
+                w.set(i, 2, "MID", mid_text(p.material));
+            }
+            if p.axes != p0.axes {
+                return Err(w.unsupported(i, "solid material axes cannot be written back"));
+            }
         }
         if is_new {
             let id = Writer::fresh(&mut w.used_properties, pid);
@@ -630,6 +805,75 @@ fn properties(
         }
     }
     Ok(ids)
+}
+
+/// The MID field of each ply of a PCOMP/PCOMPG card, bottom to top (as the importer reads it).
+fn ply_fields(c: &DeckCard) -> Vec<usize> {
+    let global = c.name == "PCOMPG";
+    let step = if global { 8 } else { 4 };
+    let mut out = Vec::new();
+    let mut k0 = 9;
+    while k0 <= c.fields.len() {
+        let k = if global { k0 + 1 } else { k0 };
+        if (k0..k + 4).any(|j| !c.field(j).is_empty()) {
+            out.push(k);
+        }
+        k0 += step;
+    }
+    out
+}
+
+/// A laminate's changes on its PCOMP/PCOMPG: ply thicknesses (every ply's `Ti` written, so a
+/// blank one no longer repeats the one before), an explicit `Z0`, `NSM`, and ply materials
+/// renamed by a material copy. Other changes are errors.
+fn laminate(
+    w: &mut Writer,
+    i: usize,
+    (p0, l0): (&ShellProperty, &Laminate),
+    (p, l): (&ShellProperty, &Laminate),
+    mid_text: &dyn Fn(u64) -> String,
+) -> Result<(), DeckUpdateError> {
+    if !matches!(w.card(i).name.as_str(), "PCOMP" | "PCOMPG") {
+        return Err(w.unsupported(i, "a laminate is written to PCOMP/PCOMPG only"));
+    }
+    let fields = ply_fields(w.card(i));
+    let same_shape = fields.len() == l0.plies.len()
+        && l.plies.len() == l0.plies.len()
+        && l.symmetric == l0.symmetric
+        && l.global_ids == l0.global_ids
+        && l.z0.is_some() == l0.z0.is_some()
+        && l.plies
+            .iter()
+            .zip(&l0.plies)
+            .all(|(a, b)| a.theta_deg == b.theta_deg);
+    if !same_shape {
+        return Err(w.unsupported(
+            i,
+            "only ply thicknesses, Z0, NSM and ply materials of a laminate can be written back",
+        ));
+    }
+    if let (Some(z0), Some(z)) = (l0.z0, l.z0) {
+        w.set_real(i, 2, "Z0", z0, z, 1.0, f64::NAN)?;
+    }
+    w.set_real(i, 3, "NSM", p0.nsm, p.nsm, w.wtmass, 0.0)?;
+    for ((k, ply), ply0) in fields.into_iter().zip(&l.plies).zip(&l0.plies) {
+        if ply.thickness != ply0.thickness {
+            // A blank Ti reads as the previous ply's, which the model holds.
+            w.set_real(
+                i,
+                k + 1,
+                "Ti",
+                ply0.thickness,
+                ply.thickness,
+                1.0,
+                ply0.thickness,
+            )?;
+        }
+        if ply.material != ply0.material {
+            w.set(i, k, "MIDi", mid_text(ply.material));
+        }
+    }
+    Ok(())
 }
 
 /// PBARL/PBEAML BAR dimensions.
@@ -675,6 +919,7 @@ fn elements(
 ) -> Result<(), DeckUpdateError> {
     // Springs whose property card holds the stiffness: (property card, field of K) → users' k.
     let mut spring_groups: BTreeMap<(usize, usize), SpringUsers> = BTreeMap::new();
+    let mut mass_groups: BTreeMap<u64, Vec<(u64, f64, f64)>> = BTreeMap::new();
     for (eid, e) in &updated.elements {
         let Some(e0) = original.elements.get(eid) else {
             continue;
@@ -774,10 +1019,59 @@ fn elements(
                     }
                 }
             }
+            (Element::ScalarMass { m, .. }, Element::ScalarMass { m: m0, .. }) if m != m0 => {
+                let wt = w.wtmass;
+                if matches!(w.card(i).name.as_str(), "CMASS2" | "CMASS4") {
+                    w.set_real(i, 2, "M", *m0, *m, wt, 0.0)?;
+                } else {
+                    let pid = card_id(w.card(i), 2).unwrap_or(*eid);
+                    mass_groups.entry(pid).or_default().push((*eid, *m0, *m));
+                }
+            }
             _ => {}
         }
     }
+    scalar_masses(w, mass_groups)?;
     springs(w, spring_groups)
+}
+
+/// PMASS masses of CMASS1/CMASS3 elements: the property's field when every element using it
+/// changed to one value, else an error naming the card.
+fn scalar_masses(
+    w: &mut Writer,
+    groups: BTreeMap<u64, Vec<(u64, f64, f64)>>,
+) -> Result<(), DeckUpdateError> {
+    for (pid, users) in groups {
+        let pi = *w.properties.get(&pid).ok_or(DeckUpdateError::Missing {
+            what: "property",
+            id: pid,
+        })?;
+        let all_users = w
+            .elements
+            .iter()
+            .filter(|(eid, ci)| {
+                let c = w.card(**ci);
+                matches!(c.name.as_str(), "CMASS1" | "CMASS3")
+                    && card_id(c, 2).unwrap_or(**eid) == pid
+            })
+            .count();
+        let (m0, m) = (users[0].1, users[0].2);
+        if users.len() != all_users || users.iter().any(|u| u.2.to_bits() != m.to_bits()) {
+            return Err(w.unsupported(
+                pi,
+                format!("the elements using PMASS {pid} were updated to different masses; give them their own PMASS (a PMASS copy is not written)"),
+            ));
+        }
+        let Some(k) = [1, 3, 5, 7]
+            .into_iter()
+            .find(|&k| card_id(w.card(pi), k) == Some(pid))
+        else {
+            continue;
+        };
+        let wt = w.wtmass;
+        w.set_real(pi, k + 1, "M", m0, m, wt, 0.0)?;
+    }
+    Ok(())
 }
 
 /// PBUSH/PELAS stiffnesses: the card itself when every element using it changed alike, else a
@@ -1126,7 +1420,7 @@ mod tests {
         main.push_str("SPC1,1,123456,1,4,7\n");
         main.push_str(&small(&["CONM2", "10", "9", "", "2.0"]));
         main.push('\n');
-        main.push_str(&small(&["CBUSH", "11", "21", "7"]));
+        main.push_str(&small(&["CBUSH", "11", "21", "7", "", "", "", "", "0"]));
         main.push('\n');
         main.push_str("CELAS2,12,1.+4,8,3\nPROD,20,1,1.-4,0.\nCROD,21,20,2,3\nCONROD,22,5,6,1,2.-4,0.\nSET1,5,10\nSET1,6,11\nSET1,7,12\nSET1,8,1\nSET1,9,22\nENDDATA\n");
         std::fs::write(dir.join("main.bdf"), main).unwrap();
@@ -1189,6 +1483,44 @@ mod tests {
             std::fs::write(out_dir.join(name), bytes).unwrap();
         }
         out_dir.join(&out.files[0].0)
+    }
+
+    /// Updated scalar masses go back into CMASS2 `M` and into the PMASS `M2` of a CMASS1 (the
+    /// only user of that property), divided by WTMASS; re-imported they are the updated ones
+    /// exactly. A PMASS whose users were updated apart is an error naming it.
+    #[test]
+    fn scalar_masses_are_written_back() {
+        let dir = tempfile::tempdir().unwrap();
+        let top = dir.path().join("main.bdf");
+        let text = "PARAM,WTMASS,.5\nSPOINT,1,2\nCELAS4,1,1.+4,1,2\nCMASS2,2,4.,1\nCMASS1,3,8,2\nCMASS1,4,7,2\nPMASS,7,1.,8,6.\nENDDATA\n";
+        std::fs::write(&top, text).unwrap();
+        let model = read_bulk(&top).unwrap().model;
+        let mut new = model.clone();
+        for (id, v) in [(2, 2.5), (3, 1.25)] {
+            if let Some(Element::ScalarMass { m, .. }) = new.elements.get_mut(&id) {
+                *m = v;
+            }
+        }
+        let deck = read_deck(&top).unwrap();
+        let out = update_deck(&deck, &model, &new, &["test".to_string()]).unwrap();
+        let back = read_bulk(written(dir.path(), &out)).unwrap().model;
+        assert_eq!(back, new);
+        let written_text = String::from_utf8_lossy(&out.files[0].1).to_string();
+        assert!(written_text.contains("CMASS2*"), "{written_text}");
+        assert!(written_text.contains("5."), "{written_text}");
+        // Elements 3 and 4 share nothing, but two users of one PMASS updated apart are refused.
+        let shared = "SPOINT,1,2\nCMASS1,3,8,1\nCMASS1,4,8,2\nPMASS,8,6.\nENDDATA\n";
+        std::fs::write(&top, shared).unwrap();
+        let model = read_bulk(&top).unwrap().model;
+        let mut new = model.clone();
+        if let Some(Element::ScalarMass { m, .. }) = new.elements.get_mut(&3) {
+            *m = 1.0;
+        }
+        let deck = read_deck(&top).unwrap();
+        let e = update_deck(&deck, &model, &new, &["test".to_string()])
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("PMASS 8") && e.contains("own PMASS"), "{e}");
     }
 
     /// Re-importing the written deck gives the updated model's K and M: the exactly written

@@ -1,10 +1,15 @@
 //! Nastran bulk data export: writes a [`Model`] as a deck that
 //! [`crate::model::import::nastran::parse_bulk`] reads back to the same model.
 //!
-//! Cards written, in this order, each group by ascending id: MAT1, PSHELL, PBAR (general
-//! sections) and PBARL (BAR, ROD, TUBE), PROD, PBUSH (one per bush, ids above every property
-//! id), GRID (basic coordinates), CQUAD4, CTRIA3, CBAR (orientation X1–X3), CROD (a rod with a
-//! property) or CONROD (a rod with its own section), CBUSH (CID 0), CELAS2, CONM2 (CID 0), SPC1
+//! Cards written, in this order, each group by ascending id: MAT1, MAT9, PSHELL, PBAR (general
+//! sections) and PBARL (BAR, ROD, TUBE), PROD, PSOLID (each with material axes preceded by a
+//! CORD2R of a fresh id holding them, named in CORDM), PBUSH (one per bush, ids above every
+//! property id; a B line when the bush damps), PVISC (one per viscous damper, ids after the
+//! PBUSHes), CORD2R (one per bush with an element system), CORD2R (one per distinct
+//! displacement system), GRID (basic coordinates, CD), SPOINT (scalar points), CQUAD4, CTRIA3,
+//! CHEXA, CPENTA, CTETRA, CPYRAM, CBAR (orientation X1–X3), CROD (a rod with a
+//! property) or CONROD (a rod with its own section), CBUSH (CID 0, or its CORD2R), CELAS2,
+//! CMASS2, CDAMP2, CVISC, CONM1 (CID 0), CONM2 (CID 0), SPC1
 //! (SID 1, one card per component list), MPC (SID 1, one card per multipoint constraint
 //! `u_d = Σ cᵢ uᵢ` as `1·u_d − Σ cᵢ uᵢ = 0`, preceded by a comment naming the card it came
 //! from; re-read, its origin becomes `MPC 1`), SET1, between `BEGIN BULK` and `ENDDATA`.
@@ -140,22 +145,47 @@ pub fn write_bulk(model: &Model) -> String {
     let mut out = String::new();
     out.push_str("$ Nastran bulk data written by femu\nBEGIN BULK\n");
     write_materials_and_properties(&mut out, model);
-    let bush_pid = write_bush_properties(&mut out, model);
+    // Coordinate system ids: the solids' material axes first (1…), then the bushes' element
+    // systems, the displacement systems, and the shells' material axes.
+    let solid_axes = model
+        .solid_properties
+        .values()
+        .filter(|p| p.axes.is_some())
+        .count() as u64;
+    let bush_pid = write_bush_properties(&mut out, model, solid_axes);
+    let bush_axes = bush_pid.values().filter(|(_, cid)| *cid != 0).count() as u64;
+    let first = solid_axes + bush_axes + 1;
+    let systems = write_displacement_systems(&mut out, model, first);
+    let first = first + systems.values().collect::<BTreeSet<_>>().len() as u64;
+    let axes = write_material_axes(&mut out, model, first);
     for (&id, x) in &model.nodes {
-        card(
-            &mut out,
-            "GRID",
-            vec![
-                F::Int(id),
-                F::Blank,
-                F::Real(x[0]),
-                F::Real(x[1]),
-                F::Real(x[2]),
-            ],
-        );
+        let mut fields = vec![
+            F::Int(id),
+            F::Blank,
+            F::Real(x[0]),
+            F::Real(x[1]),
+            F::Real(x[2]),
+        ];
+        if let Some(cd) = systems.get(&id) {
+            fields.push(F::Int(*cd));
+        }
+        card(&mut out, "GRID", fields);
+    }
+    if !model.scalar_points.is_empty() {
+        let ids: Vec<u64> = model.scalar_points.iter().copied().collect();
+        for chunk in ids.chunks(8) {
+            card(
+                &mut out,
+                "SPOINT",
+                chunk.iter().map(|i| F::Int(*i)).collect(),
+            );
+        }
     }
     for (&id, e) in &model.elements {
-        write_element(&mut out, id, e, &bush_pid);
+        match model.shell_placements.get(&id) {
+            Some(pl) => write_placed_shell(&mut out, id, e, pl, &axes),
+            None => write_element(&mut out, id, e, &bush_pid),
+        }
     }
     write_constraints(&mut out, model);
     write_mpcs(&mut out, model);
@@ -167,6 +197,40 @@ pub fn write_bulk(model: &Model) -> String {
     }
     out.push_str("ENDDATA\n");
     out
+}
+
+/// One CORD2R per distinct displacement system (ids from `first`, in order of first use by grid id:
+/// origin at the basic origin, `B` on its z axis, `C` on its x axis), and the CD of each grid
+/// that has one.
+fn write_displacement_systems(out: &mut String, model: &Model, first: u64) -> BTreeMap<u64, u64> {
+    let mut ids: BTreeMap<[u64; 9], u64> = BTreeMap::new();
+    let mut cd = BTreeMap::new();
+    for (&node, r) in &model.displacement_systems {
+        let key: [u64; 9] = std::array::from_fn(|k| r[k / 3][k % 3].to_bits());
+        let next = ids.len() as u64 + first;
+        let id = *ids.entry(key).or_insert_with(|| {
+            card(
+                out,
+                "CORD2R",
+                vec![
+                    F::Int(next),
+                    F::Int(0),
+                    F::Real(0.0),
+                    F::Real(0.0),
+                    F::Real(0.0),
+                    F::Real(r[2][0]),
+                    F::Real(r[2][1]),
+                    F::Real(r[2][2]),
+                    F::Real(r[0][0]),
+                    F::Real(r[0][1]),
+                    F::Real(r[0][2]),
+                ],
+            );
+            next
+        });
+        cd.insert(node, id);
+    }
+    cd
 }
 
 /// MAT1, PSHELL, and PBAR or PBARL cards, each group by ascending id.
@@ -184,7 +248,18 @@ fn write_materials_and_properties(out: &mut String, model: &Model) {
             ],
         );
     }
+    for (&id, m) in &model.anisotropic_materials {
+        let mut f = vec![F::Int(id)];
+        f.extend(m.g.iter().map(|v| F::Real(*v)));
+        f.push(F::Real(m.rho));
+        card(out, "MAT9", f);
+    }
+    write_shell_materials(out, model);
     for (&id, p) in &model.shell_properties {
+        if let Some(l) = &p.laminate {
+            write_laminate(out, id, p, l);
+            continue;
+        }
         let mid = |on: bool, m: u64| if on { F::Int(m) } else { F::Blank };
         let ratio = |v: f64, default: f64| {
             if v == default { F::Blank } else { F::Real(v) }
@@ -201,7 +276,15 @@ fn write_materials_and_properties(out: &mut String, model: &Model) {
                 mid(p.bending, p.shear_mid()),
                 ratio(p.shear_ratio, crate::model::structure::five_sixths()),
                 F::Real(p.nsm),
-            ],
+            ]
+            .into_iter()
+            .chain(
+                p.coupling_material
+                    .map(|m| [F::Blank, F::Blank, F::Int(m)])
+                    .into_iter()
+                    .flatten(),
+            )
+            .collect(),
         );
     }
     for (&id, p) in &model.beam_properties {
@@ -221,6 +304,156 @@ fn write_materials_and_properties(out: &mut String, model: &Model) {
             ],
         );
     }
+    let mut cid = 0;
+    for (&id, p) in &model.solid_properties {
+        let cordm = match &p.axes {
+            Some(axes) => {
+                // CORD2R: origin A = 0, B on the z axis, C in the x-z plane (on x).
+                cid += 1;
+                let mut f = vec![F::Int(cid), F::Int(0), F::Real(0.0), F::Real(0.0)];
+                f.push(F::Real(0.0));
+                f.extend(axes[2].iter().chain(&axes[0]).map(|v| F::Real(*v)));
+                card(out, "CORD2R", f);
+                F::Int(cid)
+            }
+            None => F::Blank,
+        };
+        card(out, "PSOLID", vec![F::Int(id), F::Int(p.material), cordm]);
+    }
+}
+
+/// MAT8 and MAT2 cards by ascending id.
+fn write_shell_materials(out: &mut String, model: &Model) {
+    use crate::model::laminates::ShellMaterial;
+    for (&id, m) in &model.shell_materials {
+        match m {
+            ShellMaterial::Orthotropic {
+                e1,
+                e2,
+                nu12,
+                g12,
+                g1z,
+                g2z,
+                rho,
+            } => card(
+                out,
+                "MAT8",
+                [*e1, *e2, *nu12, *g12, *g1z, *g2z, *rho]
+                    .into_iter()
+                    .map(F::Real)
+                    .fold(vec![F::Int(id)], |mut v, f| {
+                        v.push(f);
+                        v
+                    }),
+            ),
+            ShellMaterial::Anisotropic { g, rho } => {
+                let mut f = vec![F::Int(id)];
+                f.extend(g.iter().map(|v| F::Real(*v)));
+                f.push(F::Real(*rho));
+                card(out, "MAT2", f);
+            }
+        }
+    }
+}
+
+/// A PCOMP (or PCOMPG with its global ply ids) with every ply's MID, T and THETA given.
+fn write_laminate(
+    out: &mut String,
+    id: u64,
+    p: &crate::model::ShellProperty,
+    l: &crate::model::laminates::Laminate,
+) {
+    let global = !l.global_ids.is_empty();
+    let mut f = vec![
+        F::Int(id),
+        l.z0.map_or(F::Blank, F::Real),
+        F::Real(p.nsm),
+        F::Blank,
+        F::Blank,
+        F::Blank,
+        F::Blank,
+        if l.symmetric {
+            F::Text("SYM".into())
+        } else {
+            F::Blank
+        },
+    ];
+    for (j, ply) in l.plies.iter().enumerate() {
+        if global {
+            f.push(F::Int(l.global_ids[j]));
+        }
+        f.extend([
+            F::Int(ply.material),
+            F::Real(ply.thickness),
+            F::Real(ply.theta_deg),
+            F::Blank,
+        ]);
+        if global {
+            f.extend([F::Blank, F::Blank, F::Blank]);
+        }
+    }
+    card(out, if global { "PCOMPG" } else { "PCOMP" }, f);
+}
+
+/// One CORD2R per distinct MCID axis of the shell placements (ids from `first`, in first-use
+/// order: the model holds every position in basic, so no other system is written); returns
+/// each axis' id by its bits.
+fn write_material_axes(out: &mut String, model: &Model, first: u64) -> BTreeMap<[u64; 3], u64> {
+    let mut ids = BTreeMap::new();
+    for pl in model.shell_placements.values() {
+        let Some(v) = pl.axis else { continue };
+        let key = v.map(f64::to_bits);
+        if ids.contains_key(&key) {
+            continue;
+        }
+        let id = ids.len() as u64 + first;
+        ids.insert(key, id);
+        // z normal to v: v × (the basic axis least along v); x in the plane of z and C = v.
+        let k = (0..3)
+            .min_by(|&a, &b| v[a].abs().total_cmp(&v[b].abs()))
+            .unwrap_or(0);
+        let mut w = [0.0; 3];
+        w[k] = 1.0;
+        let z = [
+            v[1] * w[2] - v[2] * w[1],
+            v[2] * w[0] - v[0] * w[2],
+            v[0] * w[1] - v[1] * w[0],
+        ];
+        let mut f = vec![
+            F::Int(id),
+            F::Blank,
+            F::Real(0.0),
+            F::Real(0.0),
+            F::Real(0.0),
+        ];
+        f.extend(z.iter().map(|c| F::Real(*c)));
+        f.extend(v.iter().map(|c| F::Real(*c)));
+        card(out, "CORD2R", f);
+    }
+    ids
+}
+
+/// A CQUAD4/CTRIA3 with its THETA (or MCID) and ZOFFS.
+fn write_placed_shell(
+    out: &mut String,
+    id: u64,
+    e: &Element,
+    pl: &crate::model::laminates::ShellPlacement,
+    axes: &BTreeMap<[u64; 3], u64>,
+) {
+    let (name, nodes, property) = match e {
+        Element::Quad4 { nodes, property } => ("CQUAD4", nodes.to_vec(), property),
+        Element::Tria3 { nodes, property } => ("CTRIA3", nodes.to_vec(), property),
+        _ => return,
+    };
+    let mut f = vec![F::Int(id), F::Int(*property)];
+    f.extend(nodes.iter().map(|n| F::Int(*n)));
+    f.push(match pl.axis {
+        Some(v) => F::Int(axes[&v.map(f64::to_bits)]),
+        None => F::Real(pl.theta_deg),
+    });
+    f.push(F::Real(pl.offset));
+    card(out, name, f);
 }
 
 /// A beam property: PBARL for the BAR, ROD and TUBE sections, PBAR for a general one.
@@ -287,30 +520,73 @@ fn write_beam_property(out: &mut String, id: u64, p: &BeamProperty) {
 
 /// One PBUSH per bush element, with ids above every property id; returns each bush's property
 /// id by element id.
-fn write_bush_properties(out: &mut String, model: &Model) -> BTreeMap<u64, u64> {
+fn write_bush_properties(
+    out: &mut String,
+    model: &Model,
+    cids_before: u64,
+) -> BTreeMap<u64, (u64, u64)> {
     let max_pid = model
         .shell_properties
         .keys()
         .chain(model.beam_properties.keys())
         .chain(model.rod_properties.keys())
+        .chain(model.solid_properties.keys())
         .max()
         .copied()
         .unwrap_or(0);
     let mut bush_pid = BTreeMap::new();
+    let mut cid = cids_before;
     for (&id, e) in &model.elements {
-        if let Element::Bush { k, .. } = e {
+        if let Element::Bush { k, b, axes, .. } = e {
             let pid = max_pid + 1 + bush_pid.len() as u64;
-            bush_pid.insert(id, pid);
             let mut f = vec![F::Int(pid), F::Text("K".to_string())];
             f.extend(k.iter().map(|v| F::Real(*v)));
+            if b.iter().any(|v| *v != 0.0) {
+                // The continuation: a blank field 2, then the B flag and B1–B6.
+                f.extend([F::Blank, F::Text("B".to_string())]);
+                f.extend(b.iter().map(|v| F::Real(*v)));
+            }
             card(out, "PBUSH", f);
+            // The element system as a CORD2R: origin at basic 0, A the origin, B on z, C on x.
+            let system = axes.map(|a| {
+                cid += 1;
+                let mut f = vec![
+                    F::Int(cid),
+                    F::Int(0),
+                    F::Real(0.0),
+                    F::Real(0.0),
+                    F::Real(0.0),
+                ];
+                f.extend(a[2].iter().map(|v| F::Real(*v)));
+                f.extend(a[0].iter().map(|v| F::Real(*v)));
+                card(out, "CORD2R", f);
+                cid
+            });
+            bush_pid.insert(id, (pid, system.unwrap_or(0)));
+        }
+    }
+    let mut next = max_pid + 1 + bush_pid.len() as u64;
+    for (&id, e) in &model.elements {
+        if let Element::Viscous {
+            axial, torsional, ..
+        } = e
+        {
+            let pid = next;
+            next += 1;
+            bush_pid.insert(id, (pid, 0));
+            card(
+                out,
+                "PVISC",
+                vec![F::Int(pid), F::Real(*axial), F::Real(*torsional)],
+            );
         }
     }
     bush_pid
 }
 
-/// One element card; a bush refers to its PBUSH id in `bush_pid`.
-fn write_element(out: &mut String, id: u64, e: &Element, bush_pid: &BTreeMap<u64, u64>) {
+/// One element card; a bush refers to its PBUSH id and CORD2R id in `bush_pid` (a viscous
+/// damper to its PVISC id).
+fn write_element(out: &mut String, id: u64, e: &Element, bush_pid: &BTreeMap<u64, (u64, u64)>) {
     match e {
         Element::Quad4 { nodes, property } => {
             let mut f = vec![F::Int(id), F::Int(*property)];
@@ -397,8 +673,24 @@ fn write_element(out: &mut String, id: u64, e: &Element, bush_pid: &BTreeMap<u64
                 ],
             ),
         },
+        Element::Solid {
+            kind,
+            nodes,
+            property,
+        } => {
+            use crate::model::SolidKind as S;
+            let name = match kind {
+                S::Hexa8 | S::Hexa20 => "CHEXA",
+                S::Penta6 | S::Penta15 => "CPENTA",
+                S::Tetra4 | S::Tetra10 => "CTETRA",
+                S::Pyram5 => "CPYRAM",
+            };
+            let mut f = vec![F::Int(id), F::Int(*property)];
+            f.extend(nodes.iter().map(|n| F::Int(*n)));
+            card(out, name, f);
+        }
         Element::Bush { node, other, .. } => {
-            let pid = bush_pid.get(&id).copied().unwrap_or(0);
+            let (pid, cid) = bush_pid.get(&id).copied().unwrap_or((0, 0));
             card(
                 out,
                 "CBUSH",
@@ -410,9 +702,28 @@ fn write_element(out: &mut String, id: u64, e: &Element, bush_pid: &BTreeMap<u64
                     F::Blank,
                     F::Blank,
                     F::Blank,
-                    F::Int(0),
+                    F::Int(cid),
                 ],
             );
+        }
+        Element::ScalarMass { dof, other, m } => {
+            card(out, "CMASS2", scalar_fields(id, *m, dof, other));
+        }
+        Element::ScalarDamper { dof, other, c } => {
+            card(out, "CDAMP2", scalar_fields(id, *c, dof, other));
+        }
+        Element::Viscous { nodes, .. } => {
+            let (pid, _) = bush_pid.get(&id).copied().unwrap_or((0, 0));
+            card(
+                out,
+                "CVISC",
+                vec![F::Int(id), F::Int(pid), F::Int(nodes[0]), F::Int(nodes[1])],
+            );
+        }
+        Element::GeneralMass { node, m } => {
+            let mut f = vec![F::Int(id), F::Int(*node), F::Int(0)];
+            f.extend(m.iter().map(|v| F::Real(*v)));
+            card(out, "CONM1", f);
         }
         Element::ScalarSpring { dof, other, k } => {
             let mut f = vec![
@@ -439,6 +750,25 @@ fn write_element(out: &mut String, id: u64, e: &Element, bush_pid: &BTreeMap<u64
             card(out, "CONM2", f);
         }
     }
+}
+
+/// The fields of a CELAS2/CMASS2/CDAMP2: EID, value, G1, C1 and G2, C2 when not to ground.
+fn scalar_fields(
+    id: u64,
+    v: f64,
+    dof: &crate::core::DofId,
+    other: &Option<crate::core::DofId>,
+) -> Vec<F> {
+    let mut f = vec![
+        F::Int(id),
+        F::Real(v),
+        F::Int(dof.node),
+        F::Int(u64::from(dof.comp.nastran())),
+    ];
+    if let Some(o) = other {
+        f.extend([F::Int(o.node), F::Int(u64::from(o.comp.nastran()))]);
+    }
+    f
 }
 
 /// SPC1 cards (SID 1), one per component list, the nodes grouped by their constrained components.
@@ -704,14 +1034,66 @@ mod tests {
                 node: 4,
                 other: Some(6),
                 k: [1e6, 2e6, 3e6, 10.0, 20.0, 30.5],
+                axes: Some([[0.0, 1.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 0.0, 1.0]]),
+                b: [0.5, 0.0, 0.0, 0.0, 0.0, 0.25],
             },
         );
+        // Scalar points and the scalar family (SPOINT, CMASS2, CDAMP2, CONM1, CVISC).
+        m.scalar_points.extend([100, 101]);
+        m.elements.insert(
+            30,
+            Element::ScalarMass {
+                dof: DofId::new(100, Component::Scalar),
+                other: Some(DofId::new(101, Component::Scalar)),
+                m: 0.75,
+            },
+        );
+        m.elements.insert(
+            31,
+            Element::ScalarDamper {
+                dof: DofId::new(100, Component::Scalar),
+                other: None,
+                c: 3.5,
+            },
+        );
+        m.elements.insert(
+            32,
+            Element::GeneralMass {
+                node: 5,
+                m: std::array::from_fn(|i| {
+                    if [0, 2, 5, 9, 14, 20].contains(&i) {
+                        1.0 + i as f64
+                    } else {
+                        0.01 * i as f64
+                    }
+                }),
+            },
+        );
+        m.elements.insert(
+            33,
+            Element::Viscous {
+                nodes: [4, 6],
+                axial: 2.0,
+                torsional: 0.5,
+            },
+        );
+        m.elements.insert(
+            34,
+            Element::ScalarSpring {
+                dof: DofId::new(3, Component::Uy),
+                other: Some(DofId::new(100, Component::Scalar)),
+                k: 9.0,
+            },
+        );
+        m.constraints.push(DofId::new(101, Component::Scalar));
         m.elements.insert(
             11,
             Element::Bush {
                 node: 7,
                 other: None,
                 k: [1e5, 0.0, 1e5, 0.0, 0.0, 0.0],
+                axes: None,
+                b: [0.0; 6],
             },
         );
         m.elements.insert(

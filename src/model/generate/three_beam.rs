@@ -107,6 +107,8 @@ pub fn three_beam(p: &ThreeBeam) -> Model {
                 node: 1000 * b,
                 other: None,
                 k: p.clamp,
+                axes: None,
+                b: [0.0; 6],
             },
         );
         m.sets.insert(format!("clamp_{b}"), vec![eid]);
@@ -120,6 +122,8 @@ pub fn three_beam(p: &ThreeBeam) -> Model {
                 node: mid(2),
                 other: Some(mid(b)),
                 k: p.joint,
+                axes: None,
+                b: [0.0; 6],
             },
         );
         m.sets.insert(format!("joint_{s}"), vec![eid]);

@@ -20,16 +20,8 @@ pub(super) enum ElemIn {
         orient: Option<Orient>,
         ends: BeamEndsIn,
     },
-    Celas1 {
-        pid: u64,
-        dof: DofId,
-        other: Option<DofId>,
-    },
-    Bush {
-        pid: u64,
-        node: u64,
-        other: Option<u64>,
-    },
+    /// Scalar elements, CONM1, CVISC and CBUSH (scalars.rs).
+    Scalar(super::scalars::ScalarIn),
     /// CONM2 with CID > 0: offset and inertia along the system's directions at the grid.
     MassInSystem {
         node: u64,
@@ -94,6 +86,9 @@ pub(super) struct Builder {
     /// PROD and PTUBE properties; the ids of the PTUBEs.
     pub(super) rods: BTreeMap<u64, crate::model::structure::RodProperty>,
     pub(super) tube_pids: BTreeSet<u64>,
+    /// PSOLID cards and MAT9 materials (solids.rs).
+    pub(super) solids: BTreeMap<u64, super::solids::SolidIn>,
+    pub(super) mat9s: BTreeMap<u64, (Loc, crate::model::structure::AnisotropicMaterial)>,
     /// Whether the PSHELL MID3-blank deviation has been stated (once per deck).
     pub(super) mid3_blank_warned: bool,
     /// PBARL/PBEAML turned to principal axes: property id → angle (rad) of the elements' turn.
@@ -116,6 +111,10 @@ pub(super) struct Builder {
     pub(super) sets: BTreeMap<u64, SetIn>,
     /// Rigid elements and MPC cards (rigid.rs).
     pub(super) rigid: super::rigid::RigidIn,
+    /// MAT2/MAT8 and shell placements (laminates.rs).
+    pub(super) laminates: super::laminates::LaminatesIn,
+    /// Scalar points and the properties of scalar elements (scalars.rs).
+    pub(super) scalars: super::scalars::ScalarsIn,
 }
 
 /// The error for an id (data field `k`, always on the card's first line) defined twice.
@@ -153,7 +152,10 @@ impl Builder {
             "CORD2R" | "CORD2C" | "CORD2S" => self.cord2(c),
             "CORD1R" | "CORD1C" | "CORD1S" => self.cord1(c),
             "GRDSET" => self.grdset(c),
-            "CQUAD4" | "CTRIA3" => self.shell_element(c),
+            "CQUAD4" | "CTRIA3" | "CQUADR" | "CTRIAR" => self.shell_element(c),
+            "PCOMP" | "PCOMPG" => self.pcomp(c),
+            "MAT2" => self.mat2(c),
+            "MAT8" => self.mat8(c),
             "CQUAD8" | "CTRIA6" => self.quadratic_shell(c),
             "CBAR" | "CBEAM" => self.beam_element(c),
             "BAROR" | "BEAMOR" => self.beam_defaults(c),
@@ -166,8 +168,18 @@ impl Builder {
             "PROD" => self.prod(c),
             "PTUBE" => self.ptube(c),
             "PBEAML" => self.pbeaml(c),
+            "CHEXA" | "CPENTA" | "CTETRA" | "CPYRAM" => self.solid_element(c),
+            "PSOLID" => self.psolid(c),
+            "MAT9" => self.mat9(c),
             "MAT1" => self.mat1(c),
-            "CELAS1" | "CELAS2" => self.celas(c),
+            "CELAS1" | "CELAS2" | "CELAS3" | "CELAS4" | "CMASS1" | "CMASS2" | "CMASS3"
+            | "CMASS4" | "CDAMP1" | "CDAMP2" | "CDAMP3" | "CDAMP4" => self.scalar_element(c),
+            "SPOINT" | "EPOINT" => self.spoint(c),
+            "PMASS" | "PDAMP" => self.pmass_pdamp(c),
+            "PVISC" => self.pvisc(c),
+            "CVISC" => self.cvisc(c),
+            "CONM1" => self.conm1(c),
+            "CDAMP5" => self.cdamp5(c),
             "PELAS" => self.pelas_card(c),
             "CBUSH" => self.cbush(c),
             "PBUSH" => self.pbush_card(c),

@@ -14,15 +14,8 @@ impl Builder {
                 break;
             }
             let g = c.id(2 + off, lg)?;
-            let comps = c.comps(3 + off, lc)?;
-            if comps.is_empty() {
-                return Err(c.err(
-                    3 + off,
-                    lc,
-                    "the field is blank",
-                    "components such as 123456",
-                ));
-            }
+            // 0 or blank: a scalar point's DOF (checked against the point in finish).
+            let comps = Self::spc_comps(c, 3 + off, lc)?;
             let value = c.real_or(4 + off, ld, 0.0)?;
             if value != 0.0 {
                 self.warn(
@@ -42,10 +35,7 @@ impl Builder {
     pub(super) fn spc1(&mut self, c: &Card) -> Result<(), NastranError> {
         let sid = c.id(1, "SID")?;
         self.spc_sids.insert(sid);
-        let comps = c.comps(2, "C")?;
-        if comps.is_empty() {
-            return Err(c.err(2, "C", "the field is blank", "components such as 123456"));
-        }
+        let comps = Self::spc_comps(c, 2, "C")?;
         let (ids, ranges) = c.id_list(3, "Gi")?;
         if ids.is_empty() && ranges.is_empty() {
             return Err(c.err(

@@ -746,7 +746,8 @@ GRID,4,,0.,1.,0.
 
     #[test]
     fn constraints_and_springs_in_the_displacement_system() {
-        // Component 1 of system 5 is basic y; 4 is basic ry; 5 is basic rx (sense reversed).
+        // PS 145 and the spring's component 2 are components of system 5 at grid 1: the
+        // model's DOFs there are along system 5's axes (x' = basic y, y' = −basic x).
         let b = parse(&format!(
             "{SYSTEMS}{PLATE}GRID,1,,0.,0.,0.,5,145\nCELAS2,9,1.+3,1,2\n"
         ));
@@ -756,36 +757,28 @@ GRID,4,,0.,1.,0.
             .iter()
             .map(|d| format!("{}:{}", d.node, d.comp.name()))
             .collect();
-        assert_eq!(c, ["1:uy", "1:rx", "1:ry"]);
+        assert_eq!(c, ["1:ux", "1:rx", "1:ry"]);
+        let r = b.model.displacement_systems[&1];
+        assert!(
+            close(r[0], [0.0, 1.0, 0.0]) && close(r[1], [-1.0, 0.0, 0.0]),
+            "{r:?}"
+        );
         let Element::ScalarSpring { dof, .. } = &b.model.elements[&9] else {
             panic!("{:?}", b.model.elements[&9]);
         };
         assert_eq!(
             *dof,
-            DofId::new(1, Component::Ux),
-            "component 2 of system 5 is basic -x"
+            DofId::new(1, Component::Uy),
+            "component 2 of system 5"
         );
-        // In the 45° system all three translations are exact; one alone is not.
-        let b = parse(&format!("{SYSTEMS}{PLATE}GRID,1,,0.,0.,0.,6,123\n"));
-        assert_eq!(b.model.constraints.len(), 3);
-        let e = error(&format!("{SYSTEMS}{PLATE}GRID,1,,0.,0.,0.,6,1\n"));
-        assert!(
-            e.contains("grid 1 is constrained in component 1 of its displacement system 6")
-                && e.contains("multipoint"),
-            "{e}"
-        );
-        let e = error(&format!(
-            "{SYSTEMS}{PLATE}GRID,1,,0.,0.,0.,6\nCELAS2,9,1.+3,1,2\n"
+        // In the 45° system a single component is a constraint like any other.
+        let b = parse(&format!("{SYSTEMS}{PLATE}GRID,1,,0.,0.,0.,6,1\n"));
+        assert_eq!(b.model.constraints, [DofId::new(1, Component::Ux)]);
+        // A grid whose CD axes are the basic ones has no displacement system.
+        let b = parse(&format!(
+            "{PLATE}CORD2R,8,0,5.,0.,0.,5.,0.,1.\n,6.,0.,0.\nGRID,1,,0.,0.,0.,8\n"
         ));
-        assert!(
-            e.contains("CELAS2 field 5 (C)") && e.contains("not along a basic axis"),
-            "{e}"
-        );
-        // A spring between components of opposite sense is not a spring between basic DOFs.
-        let e = error(&format!(
-            "{SYSTEMS}{PLATE}GRID,1,,0.,0.,0.,5\nCELAS2,9,1.+3,1,2,2,1\n"
-        ));
-        assert!(e.contains("opposite basic directions"), "{e}");
+        assert!(b.model.displacement_systems.is_empty());
         let e = error(&format!("{PLATE}GRID,1,,0.,0.,0.,8\n"));
         assert!(
             e.contains("GRID field 7 (CD)") && e.contains("system 8 is not defined"),

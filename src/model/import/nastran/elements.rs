@@ -7,7 +7,7 @@ use super::*;
 
 impl Builder {
     pub(super) fn shell_element(&mut self, c: &Card) -> Result<(), NastranError> {
-        let quad = c.name == "CQUAD4";
+        let quad = matches!(c.name.as_str(), "CQUAD4" | "CQUADR");
         let n = if quad { 4 } else { 3 };
         let id = c.id(1, "EID")?;
         let property = c.id_or(2, "PID", id)?;
@@ -27,15 +27,7 @@ impl Builder {
                 }
             }
         }
-        let theta_k = 3 + n;
-        if !c.blank(theta_k) {
-            c.real(theta_k, "THETA/MCID")?;
-        }
-        c.zero(
-            theta_k + 1,
-            "ZOFFS",
-            "shell offsets are not supported: leave ZOFFS blank or 0",
-        )?;
+        self.shell_placement(c, id, 3 + n)?;
         if (11..11 + n).any(|k| !c.blank(k)) {
             for k in 11..11 + n {
                 c.real(k, "Ti")?;

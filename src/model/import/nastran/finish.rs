@@ -22,19 +22,24 @@ impl Builder {
         let mut origins = Origins::default();
         let geo = self.geometry()?;
         self.place_grids(&mut model, &geo)?;
+        self.place_scalar_points(&mut model)?;
         for (id, m) in &self.materials {
             model.materials.insert(*id, m.1.clone());
         }
         model.shell_properties = std::mem::take(&mut self.shells);
+        self.finish_laminates(&mut model, &geo)?;
         model.beam_properties = std::mem::take(&mut self.beams);
         self.check_rod_properties()?;
         model.rod_properties = std::mem::take(&mut self.rods);
+        model.solid_properties = self.resolve_solid_properties(&geo)?;
+        model.anisotropic_materials = self.mat9s.iter().map(|(k, v)| (*k, v.1.clone())).collect();
         for (id, (loc, e)) in std::mem::take(&mut self.elements) {
             let element = self.resolve_element(&model, &geo, &loc, e)?;
             model.elements.insert(id, element);
             origins.elements.insert(id, loc);
         }
-        self.resolve_constraints(&mut model, &geo, &mut origins)?;
+        self.scalar_constraints()?;
+        self.resolve_constraints(&mut model, &mut origins)?;
         self.resolve_rigid(&mut model, &geo)?;
         self.resolve_sets(&mut model, &mut origins, set_names)?;
         for (loc, p) in parameters {
@@ -91,8 +96,8 @@ impl Builder {
         })
     }
 
-    /// Grid points in the basic system; PS components (in the grid's CD system) become
-    /// constraints.
+    /// Grid points in the basic system, the displacement systems of those whose CD axes are not
+    /// the basic ones; PS components (in the grid's CD system) become constraints.
     fn place_grids(&mut self, model: &mut Model, geo: &Geometry) -> Result<(), NastranError> {
         let mut ps = Vec::new();
         for (&id, g) in &self.grids {
@@ -109,6 +114,11 @@ impl Builder {
                     format!("coordinate system {cd} is not defined in the deck"),
                     "0 or blank (basic) or the id of a CORD1R/C/S or CORD2R/C/S card",
                 ));
+            }
+            if let (_, Some(dirs)) = self.grid_directions(geo, id) {
+                if dirs != IDENTITY {
+                    model.displacement_systems.insert(id, dirs);
+                }
             }
             for &comp in self.grid_ps(g) {
                 ps.push((g.loc.clone(), None, DofId::new(id, comp)));
@@ -127,10 +137,6 @@ impl Builder {
         e: ElemIn,
     ) -> Result<Element, NastranError> {
         Ok(match e {
-            ElemIn::Done(Element::ScalarSpring { dof, other, k }) => {
-                let (dof, other) = self.spring_in_basic(geo, loc, dof, other)?;
-                Element::ScalarSpring { dof, other, k }
-            }
             ElemIn::Done(e) => e,
             ElemIn::Beam {
                 eid,
@@ -140,29 +146,7 @@ impl Builder {
                 orient,
                 ends,
             } => self.beam_in_basic(model, geo, loc, nodes, (eid, beam), property, orient, ends)?,
-            ElemIn::Celas1 { pid, dof, other } => {
-                let Some(&k) = self.pelas.get(&pid) else {
-                    return Err(loc.field_err(
-                        2,
-                        "PID",
-                        format!("property {pid} is not a PELAS"),
-                        "the id of a PELAS card",
-                    ));
-                };
-                let (dof, other) = self.spring_in_basic(geo, loc, dof, other)?;
-                Element::ScalarSpring { dof, other, k }
-            }
-            ElemIn::Bush { pid, node, other } => {
-                let Some(&k) = self.pbush.get(&pid) else {
-                    return Err(loc.field_err(
-                        2,
-                        "PID",
-                        format!("property {pid} is not a PBUSH"),
-                        "the id of a PBUSH card",
-                    ));
-                };
-                Element::Bush { node, other, k }
-            }
+            ElemIn::Scalar(e) => self.resolve_scalar(model, geo, loc, e)?,
             ElemIn::MassAbsolute {
                 node,
                 mass,
@@ -204,11 +188,10 @@ impl Builder {
     }
 
     /// SPC1 THRU ranges over the grids that exist, merged with SPC and PS into one sorted list
-    /// of basic DOFs (components given in a grid's CD system mapped to the basic ones).
+    /// of DOFs (components of each grid's displacement system, as Nastran constrains them).
     fn resolve_constraints(
         &mut self,
         model: &mut Model,
-        geo: &Geometry,
         origins: &mut Origins,
     ) -> Result<(), NastranError> {
         let selected = self.selected_spc_sets()?;
@@ -237,25 +220,8 @@ impl Builder {
         }
         let mut constraints = Vec::new();
         for (g, (loc, comps)) in by_grid {
-            let (cd, dirs) = self.grid_directions(geo, g);
-            match dirs {
-                None => constraints.extend(comps.iter().map(|&c| DofId::new(g, c))),
-                Some(d) => {
-                    let basic = constraint_in_basic(&d, &comps).map_err(|local| {
-                        NastranError::Syntax {
-                            file: loc.file.to_string().into(),
-                            line: loc.line,
-                            problem: format!(
-                                "grid {g} is constrained in component {} of its displacement system {cd}, whose direction there is not along a basic axis",
-                                local.nastran()
-                            )
-                            .into(),
-                            valid: "constrain all three translations (or rotations) of such a grid, or give it a CD whose axes are parallel to the basic ones (a skewed single-point constraint is a multipoint constraint, which femu does not read)".into(),
-                        }
-                    })?;
-                    constraints.extend(basic.into_iter().map(|c| DofId::new(g, c)));
-                }
-            }
+            // Components of the grid's displacement system, as the model's DOFs are.
+            constraints.extend(comps.iter().map(|&c| DofId::new(g, c)));
             origins.constraints.insert(g, loc);
         }
         constraints.sort();
@@ -315,51 +281,6 @@ impl Builder {
             }
         };
         Ok(Some(members))
-    }
-
-    /// A scalar spring's DOFs in the basic system: each component given in its grid's CD
-    /// system must lie along a basic axis, with the same sense at both ends.
-    fn spring_in_basic(
-        &self,
-        geo: &Geometry,
-        loc: &Loc,
-        dof: DofId,
-        other: Option<DofId>,
-    ) -> Result<(DofId, Option<DofId>), NastranError> {
-        let map = |d: DofId, k: usize| -> Result<(DofId, f64), NastranError> {
-            let (cd, dirs) = self.grid_directions(geo, d.node);
-            let Some(dirs) = dirs else {
-                return Ok((d, 1.0));
-            };
-            aligned_component(&dirs, d.comp)
-                .map(|(c, sign)| (DofId::new(d.node, c), sign))
-                .ok_or_else(|| {
-                    loc.field_err(
-                        k,
-                        "C",
-                        format!(
-                            "component {} of grid {} in its displacement system {cd} is not along a basic axis",
-                            d.comp.nastran(),
-                            d.node
-                        ),
-                        "a spring on a component parallel to a basic axis (a skewed spring couples several basic DOFs: use a CBUSH or a CD parallel to the basic axes)",
-                    )
-                })
-        };
-        let (a, sa) = map(dof, 4)?;
-        let Some(o) = other else {
-            return Ok((a, None));
-        };
-        let (b, sb) = map(o, 6)?;
-        if sa != sb {
-            return Err(loc.field_err(
-                6,
-                "C2",
-                "the two components point in opposite basic directions",
-                "components of the same sense (a scalar spring with one end reversed is not a spring between basic DOFs)",
-            ));
-        }
-        Ok((a, Some(b)))
     }
 
     /// An orientation vector X1–X3 is given in the displacement system of GA (QRG CBAR/CBEAM).
@@ -460,9 +381,17 @@ impl Builder {
                     .map(|(_, l)| l.clone()),
                 "name a set defined by SET1 or a `pid<N>` property set".to_string(),
             ),
+            ModelError::ScalarPointIsGrid(_) | ModelError::ComponentMismatch { .. } => (
+                None,
+                "grid components are 1-6, a scalar point's 0 or blank; ids are unique".to_string(),
+            ),
             ModelError::ConstraintNode(node) => (
                 origins.constraints.get(node).cloned(),
                 format!("add GRID {node} or remove it from the SPC/SPC1"),
+            ),
+            ModelError::BadDisplacementSystem { node, .. } => (
+                self.grids.get(node).map(|g| g.loc.clone()),
+                "a CD naming a coordinate system defined by a CORD card".to_string(),
             ),
             ModelError::MpcNode { .. }
             | ModelError::MpcDependentTwice { .. }
@@ -487,8 +416,9 @@ impl Builder {
     /// when the pipeline is checked, at the card that holds it.
     fn check_elements(&self, model: &Model, origins: &Origins) -> Result<(), NastranError> {
         for (id, e) in &model.elements {
-            let Err(err) = crate::fe::model_assembly::element_matrices(
+            let Err(err) = crate::fe::model_assembly::element_matrices_with_id(
                 model,
+                *id,
                 e,
                 crate::fe::element::MassKind::Consistent,
             ) else {
@@ -521,10 +451,15 @@ impl Builder {
             .get(&p)
             .map(|s| s.material)
             .or_else(|| model.beam_properties.get(&p).map(|b| b.material))
-            .or_else(|| model.rod_properties.get(&p).map(|r| r.material));
+            .or_else(|| model.rod_properties.get(&p).map(|r| r.material))
+            .or_else(|| model.solid_properties.get(&p).map(|r| r.material));
         let at = |l: Option<&Loc>| l.map_or(String::new(), |l| format!(" at {}", l.place()));
         let mat = mid.map_or(String::new(), |m| {
-            format!(", material {m}{}", at(self.materials.get(&m).map(|x| &x.0)))
+            let loc = self.materials.get(&m).map(|x| &x.0);
+            format!(
+                ", material {m}{}",
+                at(loc.or(self.mat9s.get(&m).map(|x| &x.0)))
+            )
         });
         format!(" (property {p}{}{mat})", at(self.pids.get(&p)))
     }
@@ -577,45 +512,8 @@ pub(super) fn beam_orientation(
     Ok(orientation)
 }
 
-/// The basic component along which local direction `comp` (rows of `d`: the local unit vectors
-/// of components 1–3, which also carry rotations 4–6) points, with its sense; `None` when it is
-/// not along a basic axis.
-fn aligned_component(d: &[[f64; 3]; 3], comp: Component) -> Option<(Component, f64)> {
-    let n = comp.nastran() as usize;
-    let (row, rotation) = if n <= 3 {
-        (n - 1, false)
-    } else {
-        (n - 4, true)
-    };
-    let j = (0..3).find(|&j| d[row][j].abs() >= 1.0 - 1e-9)?;
-    let basic = Component::ALL[j + if rotation { 3 } else { 0 }];
-    Some((basic, d[row][j].signum()))
-}
-
-/// Constrained components given in a local displacement system, as basic components: all
-/// three translations (or rotations) stay all three; a partial set must lie along basic axes.
-/// On failure, the first local component that does not.
-fn constraint_in_basic(
-    d: &[[f64; 3]; 3],
-    comps: &BTreeSet<Component>,
-) -> Result<Vec<Component>, Component> {
-    let mut out = Vec::new();
-    for group in [&Component::ALL[..3], &Component::ALL[3..]] {
-        let given: Vec<Component> = group
-            .iter()
-            .copied()
-            .filter(|c| comps.contains(c))
-            .collect();
-        if given.len() == 3 {
-            out.extend_from_slice(group);
-            continue;
-        }
-        for c in given {
-            out.push(aligned_component(d, c).ok_or(c)?.0);
-        }
-    }
-    Ok(out)
-}
+/// The basic axes as a displacement system.
+const IDENTITY: [[f64; 3]; 3] = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
 
 /// CONM2 inertia `[I11, I21, I22, I31, I32, I33]` given along local axes `d` (rows, basic), as
 /// the same six numbers along the basic axes: `J_b = Dᵀ J D` with `J = [[I11, −I21, −I31], …]`
@@ -642,6 +540,9 @@ fn apply_wtmass(model: &mut Model, w: f64) {
     for m in model.materials.values_mut() {
         m.rho *= w;
     }
+    for m in model.anisotropic_materials.values_mut() {
+        m.rho *= w;
+    }
     for p in model.shell_properties.values_mut() {
         p.nsm *= w;
     }
@@ -652,6 +553,7 @@ fn apply_wtmass(model: &mut Model, w: f64) {
         p.nsm *= w;
     }
     for e in model.elements.values_mut() {
+        super::scalars::wtmass_scalars(e, w);
         if let Element::Mass { mass, inertia, .. } = e {
             *mass *= w;
             for i in inertia.iter_mut() {

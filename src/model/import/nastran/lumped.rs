@@ -1,49 +1,9 @@
-//! Springs, bushes and masses: CELAS1/2 with PELAS, CBUSH with PBUSH, CONM2.
+//! Springs, bushes and masses: PELAS, CBUSH with PBUSH, CONM2 (CELASi are read in
+//! `scalars.rs`).
 
 use super::*;
 
 impl Builder {
-    /// The two ends of a scalar spring from G1, C1, G2, C2 at fields `k..k+3`.
-    pub(super) fn spring_ends(c: &Card, k: usize) -> Result<(DofId, Option<DofId>), NastranError> {
-        let end =
-            |kg: usize, kc: usize, lg: &str, lc: &str| -> Result<Option<DofId>, NastranError> {
-                match c.opt_grid(kg, lg)? {
-                    None => Ok(None),
-                    Some(g) => Ok(Some(DofId::new(g, c.one_comp(kc, lc)?))),
-                }
-            };
-        let a = end(k, k + 1, "G1", "C1")?;
-        let b = end(k + 2, k + 3, "G2", "C2")?;
-        match (a, b) {
-            (Some(a), b) => Ok((a, b)),
-            (None, Some(b)) => Ok((b, None)),
-            (None, None) => Err(c.err(
-                k,
-                "G1",
-                "neither G1 nor G2 is given",
-                "at least one grid id",
-            )),
-        }
-    }
-
-    pub(super) fn celas(&mut self, c: &Card) -> Result<(), NastranError> {
-        let id = c.id(1, "EID")?;
-        let (dof, other) = Self::spring_ends(c, 3)?;
-        if c.name == "CELAS1" {
-            let pid = c.id_or(2, "PID", id)?;
-            return self.new_element(c, id, ElemIn::Celas1 { pid, dof, other });
-        }
-        if c.blank(2) {
-            return Err(c.err(2, "K", "the field is blank", "a stiffness >= 0"));
-        }
-        let k = c.nonneg_real(2, "K", 0.0)?;
-        if c.real_or(7, "GE", 0.0)? != 0.0 {
-            self.warn(&c.loc, id, "damping GE is ignored");
-        }
-        c.real(8, "S")?;
-        self.new_element(c, id, ElemIn::Done(Element::ScalarSpring { dof, other, k }))
-    }
-
     pub(super) fn pelas_card(&mut self, c: &Card) -> Result<(), NastranError> {
         for off in [0, 4] {
             if off == 4 && c.blank(5) {
@@ -89,13 +49,18 @@ impl Builder {
                 "blank, 0 or a system id",
             ));
         }
-        if orient.is_some() || cid.is_some_and(|v| v != 0) {
-            self.warn(
-                &c.loc,
-                id,
-                "the element system (CID, orientation vector or G0) is ignored; PBUSH K1-K6 act along the basic axes",
-            );
-        }
+        let system = match (cid, orient) {
+            (Some(v), _) if v >= 0 => super::scalars::BushSystem::Cid(v as u64),
+            (_, Some(o)) => super::scalars::BushSystem::Orient(o),
+            _ => {
+                self.warn(
+                    &c.loc,
+                    id,
+                    "CID and the orientation vector are blank: the element axes are taken as the basic axes",
+                );
+                super::scalars::BushSystem::None
+            }
+        };
         if c.real(9, "S")?.is_some()
             || c.int(10, "OCID")?.is_some()
             || (11..14).any(|k| !c.blank(k))
@@ -109,13 +74,23 @@ impl Builder {
                 "the spring location (S, OCID, S1-S3) is ignored",
             );
         }
-        self.new_element(c, id, ElemIn::Bush { pid, node, other })
+        self.new_element(
+            c,
+            id,
+            ElemIn::Scalar(super::scalars::ScalarIn::Bush {
+                pid,
+                node,
+                other,
+                system,
+            }),
+        )
     }
 
     pub(super) fn pbush_card(&mut self, c: &Card) -> Result<(), NastranError> {
         let id = c.id(1, "PID")?;
         let rows = c.fields.len().div_ceil(8).max(1);
         let mut k = None;
+        let mut b = None;
         let mut ignored = BTreeSet::new();
         for r in 0..rows {
             let kf = 2 + 8 * r;
@@ -138,6 +113,12 @@ impl Builder {
                     kv[i] = c.nonneg_real(j, &format!("K{}", i + 1), 0.0)?;
                 }
                 k = Some(kv);
+            } else if flag == "B" {
+                let mut bv = [0.0; 6];
+                for (i, &j) in values.iter().enumerate() {
+                    bv[i] = c.nonneg_real(j, &format!("B{}", i + 1), 0.0)?;
+                }
+                b = Some(bv);
             } else if parse_real(&flag).is_some() {
                 return Err(c.err(
                     kf,
@@ -156,7 +137,7 @@ impl Builder {
                 &c.loc,
                 id,
                 format!(
-                    "the {} line(s) are ignored (stiffness K only)",
+                    "the {} line(s) are ignored (stiffness K and damping B only)",
                     list.join(", ")
                 ),
             );
@@ -169,6 +150,9 @@ impl Builder {
             }
         };
         self.pbush.insert(id, k);
+        if let Some(b) = b {
+            self.scalars.pbush_b.insert(id, b);
+        }
         Ok(())
     }
 

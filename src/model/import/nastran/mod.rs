@@ -12,9 +12,12 @@
 //! `1.E3` and `1D3`, and blank fields taking the QRG defaults.
 //!
 //! Cards read: GRID with GRDSET defaults, CORD1R/C/S and CORD2R/C/S (nested, in any order),
-//! CQUAD4, CTRIA3, CQUAD8, CTRIA6, CBAR, CBEAM (offsets, pin flags), BAROR, BEAMOR, CROD, CONROD, CTUBE,
-//! PSHELL, PBAR, PBARL and PBEAML (the beam library, see below), PBEAM, PROD, PTUBE, MAT1,
-//! CELAS1 with PELAS, CELAS2, CBUSH with PBUSH, CONM2, SPC, SPC1, SPCADD, SET1, the rigid
+//! CQUAD4, CTRIA3, CQUADR, CTRIAR, CQUAD8, CTRIA6, CBAR, CBEAM (offsets, pin flags), BAROR, BEAMOR, CROD,
+//! CONROD, CTUBE, CHEXA, CPENTA, CTETRA, CPYRAM with PSOLID and MAT9 (see below), PSHELL,
+//! PCOMP, PCOMPG, PBAR, PBARL and PBEAML (the beam library, see below), PBEAM, PROD, PTUBE,
+//! MAT1, MAT2, MAT8,
+//! SPOINT, EPOINT, CELAS1–4 with PELAS, CMASS1–4 with PMASS, CDAMP1–4 with PDAMP, CVISC with
+//! PVISC, CBUSH with PBUSH, CONM1, CONM2, SPC, SPC1, SPCADD, SET1, the rigid
 //! elements RBE2, RBAR, RROD, RBE3 and MPC, MPCADD (as multipoint constraints, see `rigid.rs`),
 //! PARAM GRDPNT (its reference point, for the weight summary mesh.import prints), and PARAM
 //! WTMASS (applied to every
@@ -37,17 +40,35 @@
 //! mass ≥ 0. Every element is then checked as the assembly would check it, naming its card.
 //!
 //! Deviations from Nastran, each stated where it happens:
-//! - GRID: positions are placed in the basic system from any CP. Components (PS, SPC, SPC1,
-//!   CELAS) are given in the grid's CD system, as in Nastran, and mapped to basic DOFs: all three
-//!   translations (or rotations) of a grid are exact in any system; a single component must lie
-//!   along a basic axis at the grid (else an error: it is a multipoint constraint), and a scalar
-//!   spring's two ends must have the same sense. Results are reported in the basic system, not
-//!   in CD. SEID is ignored; CD −1 (fluid grid) is an error.
+//! - GRID: positions are placed in the basic system from any CP. A grid whose CD axes are not
+//!   the basic ones has a displacement system in the model ([`Model::displacement_systems`]):
+//!   its DOFs — PS, SPC, SPC1, CELAS, MPC and rigid-element components, mode shapes and
+//!   responses — are components along the CD axes at the grid, as in Nastran, and the assembly
+//!   turns element matrices into them. SEID is ignored; CD −1 (fluid grid) is an error.
 //! - CORD1x/CORD2x: references (RID, the CORD1 grids, a grid's CP) are followed in dependency
 //!   order; an undefined reference or a cycle is an error at the card. On the polar axis of a
 //!   cylindrical or spherical system the undefined angle is taken as 0.
-//! - CQUAD4/CTRIA3: ZOFFS ≠ 0 is an error; THETA/MCID is ignored (isotropic material);
-//!   corner thicknesses T1–T4 are ignored with a warning (the PSHELL T is used).
+//! - CQUAD4/CTRIA3 (and CQUADR/CTRIAR, `laminates.rs`): THETA is the material axis' angle from
+//!   the G1→G2 edge projected on the element, MCID (an integer) a rectangular system whose x
+//!   axis is projected on the element (MCID 0: basic x; a cylindrical or spherical MCID, or one
+//!   normal to the element, is an error); they orient MAT2/MAT8 materials and do not change an
+//!   isotropic shell. ZOFFS offsets the reference plane along the element normal, as Nastran's
+//!   constitutive offset (`B + z0 A`, `D + 2 z0 B + z0² A`, mass moments alike; the rotary
+//!   inertia is about the grid plane, θz included); non-structural mass stays on the grid
+//!   plane. Corner thicknesses T1–T4 are ignored with a warning (the PSHELL T is used).
+//!   CQUADR/CTRIAR are formed as femu's quad4/tria3 (which have a drilling penalty), not
+//!   Nastran's drilling formulation: a warning once per deck.
+//! - PCOMP/PCOMPG: classical lamination theory (`crate::fe::laminate`) of MAT1, MAT2 or MAT8
+//!   plies, bottom to top from Z0 (blank: −T/2); blank MIDi/Ti repeat the previous ply's; LAM
+//!   blank or SYM (MEM, BEND, SMEAR, SMCORE and the sandwich options are errors); NSM per area.
+//!   Deviation: the transverse shear stiffness is `5/6 Σ Ḡ_k t_k` (first-order shear theory),
+//!   not Nastran's equilibrium-based laminate shear (equal for one material; O((T/λ)²) on
+//!   frequencies otherwise). SB, FT, TREF, SOUT are not used; GE ≠ 0 is not applied (warning).
+//!   PCOMPG reads one ply per line (GPLYID MID T THETA SOUT); the DS/NRPT lines are errors.
+//! - MAT8: E1, E2, NU12, G12 (> 0, NU12² < E1/E2), G1Z/G2Z, RHO; G1Z/G2Z blank (Nastran: rigid
+//!   in transverse shear) take G12, with a warning once per deck. MAT2: G11–G33 (positive
+//!   definite) and RHO; as a ply or MID3 its transverse shear moduli are G33 (MAT2 has none),
+//!   with a warning. Expansion coefficients, allowables, TREF, GE and MCSID are not used.
 //! - CQUAD8/CTRIA6 (`shells_quadratic.rs`): curved 8- and 6-node shells (MITC shear,
 //!   `src/fe/shell_quadratic.rs`) with the same PSHELL parts as CQUAD4. A blank (or 0) midside
 //!   grid means a straight edge, as the QRG says: femu slaves that edge's midside motion to the
@@ -74,7 +95,8 @@
 //!   MID1's density (MID2's when MID1 is blank). Deviation: MID3 blank means no transverse
 //!   shear flexibility (Kirchhoff) to Nastran; femu keeps its Mindlin shear with MID2's G and
 //!   says so once per deck (an O((T/wavelength)²) effect: about 5e-4 at T/span = 0.01). MID4
-//!   (membrane-bending coupling), MID2 = −1 (plane strain), MID3 without MID2 and MID1 and MID2
+//!   (membrane–bending coupling, `B = T² G4`) and MAT2/MAT8 parts are read through the general
+//!   law of `crate::fe::laminate`. MID2 = −1 (plane strain), MID3 without MID2 and MID1 and MID2
 //!   both blank are errors; Z1/Z2 (stress recovery) are ignored. T must be given (> 0).
 //! - CROD/PROD, CTUBE/PTUBE, CONROD: axial `EA/L` and torsional `GJ/L` stiffness; mass
 //!   (ρA + NSM)L, Nastran's lumped rod mass (half per end on the translations) or coupled mass
@@ -108,10 +130,38 @@
 //! - MAT1: a blank E, G or NU is derived from the other two (E = 2(1+NU)G). With only E given,
 //!   NU = 0 (Nastran sets G = 0; femu's isotropic material has G = E/2) with a warning. When all
 //!   three are given and inconsistent, E and NU are kept and a warning names the G used.
-//! - CELAS1/CELAS2/PELAS: grid points only (no scalar points); GE and S are ignored (GE ≠ 0 warns).
-//! - CBUSH/PBUSH: only the K line is used (B, GE, RCV, M… ignored with a warning); the element
-//!   system (CID ≠ 0, orientation vector or G0) is ignored with a warning — stiffness acts along
-//!   the basic axes. The spring location (S, OCID, S1–S3) is ignored with a warning.
+//! - SPOINT/EPOINT (with THRU): scalar points, one DOF `id:s` each without position; ids
+//!   shared with a GRID are an error. An EPOINT (extra point) only matters to transfer
+//!   functions and direct-response equations, which femu does not read, so it is a scalar
+//!   point that nothing connects unless an element names it, and such a DOF is dropped like an
+//!   unconnected rotation. SPC/SPC1 constrain a scalar point with component 0 or blank.
+//! - CELAS1–4, CMASS1–4, CDAMP1–4 (scalar elements, `scalars.rs`): CxxxS1/2 connect grid
+//!   components (1–6) or scalar points (0 or blank), CxxxS3/4 scalar points only; a mass or
+//!   damper between two DOFs is `v [[1, −1], [−1, 1]]` (the QRG's "between two points"). GE and
+//!   S of CELAS are ignored (GE ≠ 0 warns). CDAMP5 (heat transfer) is an error. The masses are
+//!   multiplied by WTMASS; dampers give the viscous `C` of direct FRFs (not the modes).
+//! - CVISC/PVISC: axial damping CE along G1→G2 and torsional CR about it.
+//! - CONM1: the 6×6 symmetric mass M11…M66 at the grid, given in CID's directions at the grid
+//!   (CID blank or 0: basic) and rotated to basic, `M_b = Tᵀ M T`; multiplied by WTMASS.
+//! - CHEXA/CPENTA/CTETRA/CPYRAM, PSOLID, MAT9 (`solids.rs`, kernels in `src/fe/solid/`):
+//!   HEXA8 (2×2×2 Gauss with Wilson–Taylor incompatible modes, close to MSC's default
+//!   bubble-enhanced CHEXA but not digit for digit), HEXA20, PENTA6, PENTA15, TETRA4, TETRA10
+//!   and PYRAM5 fully integrated; PSOLID IN/ISOP other than blank are read as that formulation
+//!   with a warning. Midside grids all given or all blank (Nastran also accepts a partial set:
+//!   an error in femu); PYRAM13, repeated grids, FCTN other than SMECH, a MAT9 in the element
+//!   system (CORDM −1) or in a cylindrical/spherical CORDM are errors; CORDM is ignored for a
+//!   MAT1 (isotropic). A zero or negative Jacobian at an integration point is an error naming
+//!   the element card and the node order the QRG asks for. Solids carry no rotational
+//!   stiffness or mass: their grids' rotations are dropped unless other elements reach them
+//!   (AUTOSPC). Consistent mass, or with `mass: lumped` the HRZ diagonal (Nastran's lumped
+//!   solid mass is the same `ρV` spread by other weights for quadratic shapes).
+//! - CBUSH/PBUSH: the K and B (viscous damping) lines are used (GE, RCV, M… ignored with a
+//!   warning). Element system as the QRG: CID ≥ 0 its axes (a cylindrical or spherical CID
+//!   evaluated at GA); CID blank: x from GA to GB, y in the plane of x and the orientation
+//!   vector (X1–X3 in GA's displacement system, or G0); CID blank with GB blank or within 1e-4
+//!   of GA is an error (Nastran requires CID). Deviation: CID and orientation both blank between
+//!   distinct grids take the basic axes, with a warning. The spring location (S, OCID, S1–S3) is
+//!   ignored with a warning (no lever arm is modelled).
 //! - CONM2: CID 0 (offset X1–X3 in basic), −1 (X1–X3 are the basic coordinates of the centre
 //!   of gravity) or a coordinate system (offset and inertia along its directions at the grid;
 //!   the inertia is rotated with the QRG's sign convention for I21, I31, I32).
@@ -121,8 +171,8 @@
 //!   and the first is used. Without case control, every set is merged into one constraint list
 //!   (several SIDs give a warning). GRID PS always applies. THRU ranges cover the grids that
 //!   exist. Constraints come back sorted and without repeats.
-//! - RBE2, RBAR, RROD, RBE3, MPC, MPCADD: multipoint constraints `u_d = Σ cᵢ uᵢ` in basic DOFs
-//!   (small rotations; components in each grid's CD); the assembly eliminates them exactly. The
+//! - RBE2, RBAR, RROD, RBE3, MPC, MPCADD: multipoint constraints `u_d = Σ cᵢ uᵢ` over the
+//!   grids' own DOFs (small rotations; components in each grid's CD); the assembly eliminates them exactly. The
 //!   case control's `MPC = n` selects the MPC set (none selected in a deck with case control: no
 //!   MPC applies, with a warning; no case control: every set, with a warning when several).
 //!   A DOF dependent twice, dependent and in the SPC set, or a cycle of dependencies is an
@@ -161,27 +211,38 @@ mod coords;
 mod deck;
 mod elements;
 mod finish;
+mod laminates;
 mod lumped;
 mod numbers;
 mod properties;
 mod replicate;
 mod rigid;
 mod rods;
+mod scalars;
 mod sections;
 mod shells_quadratic;
+mod solids;
 mod source;
 #[cfg(test)]
 mod tests;
 #[cfg(test)]
 mod tests_beams;
 #[cfg(test)]
+mod tests_cd;
+#[cfg(test)]
 mod tests_quadratic;
+#[cfg(test)]
+mod tests_laminates;
 #[cfg(test)]
 mod tests_replicate;
 #[cfg(test)]
 mod tests_rigid;
 #[cfg(test)]
 mod tests_rods;
+#[cfg(test)]
+mod tests_scalars;
+#[cfg(test)]
+mod tests_solids;
 
 use builder::*;
 use card::*;
@@ -195,12 +256,14 @@ use source::*;
 const MAX_INCLUDE_DEPTH: usize = 64;
 
 /// Cards femu reads.
-pub const READ_CARDS: [&str; 43] = [
+pub const READ_CARDS: [&str; 72] = [
     "GRID", "GRDSET", "CORD1R", "CORD1C", "CORD1S", "CORD2R", "CORD2C", "CORD2S", "CQUAD4",
     "CTRIA3", "CBAR", "CBEAM", "PSHELL", "PBAR", "PBARL", "PBEAM", "MAT1", "CELAS1", "CELAS2",
     "PELAS", "CBUSH", "PBUSH", "CONM2", "SPC", "SPC1", "SPCADD", "SET1", "CROD", "CONROD", "CTUBE",
     "PROD", "PTUBE", "PBEAML", "BAROR", "BEAMOR", "RBE2", "RBAR", "RROD", "RBE3", "MPC", "MPCADD",
-    "CQUAD8", "CTRIA6",
+    "CHEXA", "CPENTA", "CTETRA", "CPYRAM", "PSOLID", "MAT9", "CQUADR", "CTRIAR", "PCOMP", "PCOMPG",
+    "MAT2", "MAT8", "SPOINT", "EPOINT", "CELAS3", "CELAS4", "CMASS1", "CMASS2", "CMASS3", "CMASS4",
+    "PMASS", "CONM1", "CDAMP1", "CDAMP2", "CDAMP3", "CDAMP4", "PDAMP", "CVISC", "PVISC", "CQUAD8", "CTRIA6",
 ];
 
 /// Cards skipped (counted) because they change neither stiffness, mass nor constraints: static
@@ -227,14 +290,11 @@ pub const READ_PARAMS: [&str; 6] = ["WTMASS", "GRDPNT", "COUPMASS", "AUTOSPC", "
 /// Nastran cards femu does not read that change the stiffness, mass, damping or constraints;
 /// an error unless listed in [`BulkOptions::ignore_cards`] (the list only decides how messages
 /// name them: any other unread card is an error too).
-const REFUSED_CARDS: [&str; 67] = [
+const REFUSED_CARDS: [&str; 38] = [
     "RBE1", "RBAR1", "RTRPLT", "RSPLINE", "SPCD", "SUPORT", "SUPORT1", "ASET", "ASET1", "OMIT",
-    "OMIT1", "QSET", "QSET1", "BSET", "BSET1", "CSET", "CSET1", "SPOINT", "EPOINT", "CQUADR",
-    "CQUAD", "CTRIAR", "CSHEAR", "PSHEAR", "CHEXA", "CPENTA", "CTETRA", "CPYRAM", "PSOLID",
-    "PCOMP", "PCOMPG", "MAT2", "MAT8", "MAT9", "MAT10", "MATT1", "MATS1", "CONM1", "CMASS1",
-    "CMASS2", "CMASS3", "CMASS4", "PMASS", "CDAMP1", "CDAMP2", "CDAMP3", "CDAMP4", "CDAMP5",
-    "PDAMP", "CVISC", "PVISC", "CELAS3", "CELAS4", "CBUSH1D", "PBUSH1D", "CGAP", "PGAP", "CWELD",
-    "PWELD", "CFAST", "PFAST", "NSM", "NSM1", "NSML", "NSML1", "DMIG", "GENEL",
+    "OMIT1", "QSET", "QSET1", "BSET", "BSET1", "CSET", "CSET1", "CQUAD", 
+    "CSHEAR", "PSHEAR", "MAT10", "MATT1", "MATS1", "CDAMP5", "CBUSH1D", "PBUSH1D", "CGAP", "PGAP",
+    "CWELD", "PWELD", "CFAST", "PFAST", "NSM", "NSM1", "NSML", "NSML1", "DMIG", "GENEL",
 ];
 
 /// Whether `name` is a card name Nastran could have written: a letter, then letters or digits,

@@ -7,8 +7,9 @@ impl Builder {
     /// PSHELL with the QRG's meaning: MID1 the membrane material (blank: no membrane), MID2 the
     /// bending material (blank: membrane only — no bending, transverse shear or rotary inertia),
     /// MID3 the transverse shear material, 12I/T³ scaling the bending stiffness, TS/T the shear
-    /// thickness ratio; MID4 (membrane-bending coupling) is refused; Z1/Z2 (stress recovery) are
-    /// ignored. The mass uses MID1's density (MID2's when MID1 is blank).
+    /// thickness ratio, MID4 the membrane–bending coupling (`B = T² G4`); each MID may be a MAT1,
+    /// MAT2 or MAT8 (the general law of `fe::laminate`); Z1/Z2 (stress recovery) are ignored.
+    /// The mass uses MID1's density (MID2's when MID1 is blank).
     pub(super) fn pshell(&mut self, c: &Card) -> Result<(), NastranError> {
         let id = c.id(1, "PID")?;
         let mid = |k: usize, label: &str| -> Result<Option<u64>, NastranError> {
@@ -20,9 +21,9 @@ impl Builder {
                     label,
                     format!("{m} is not a material id"),
                     if label == "MID2" {
-                        "a MAT1 id (integer > 0) or blank; MID2 = -1 (plane strain) is not supported"
+                        "a MAT1, MAT2 or MAT8 id (integer > 0) or blank; MID2 = -1 (plane strain) is not supported"
                     } else {
-                        "a MAT1 id (integer > 0) or blank"
+                        "a MAT1, MAT2 or MAT8 id (integer > 0) or blank"
                     },
                 )),
             }
@@ -58,14 +59,7 @@ impl Builder {
         let nsm = c.nonneg_real(8, "NSM", 0.0)?;
         c.real(9, "Z1")?;
         c.real(10, "Z2")?;
-        if let Some(m) = c.int(11, "MID4")?.filter(|m| *m != 0) {
-            return Err(c.err(
-                11,
-                "MID4",
-                format!("membrane-bending coupling material {m} is not supported"),
-                "leave MID4 blank (femu's shells have no membrane-bending coupling)",
-            ));
-        }
+        let mid4 = mid(11, "MID4")?;
         let Some(material) = mid1.or(mid2) else {
             return Err(c.err(
                 2,
@@ -84,6 +78,7 @@ impl Builder {
         }
         self.new_property(c, 1, "PID", id)?;
         let mut p = ShellProperty::homogeneous(material, thickness, nsm);
+        p.coupling_material = mid4;
         p.membrane = mid1.is_some();
         match mid2 {
             None => p.bending = false,

@@ -81,7 +81,7 @@ pub(super) struct RigidIn {
 /// The terms of one MPC card: grid, component, coefficient.
 type MpcTerms = Vec<(u64, Component, f64)>;
 
-/// Terms over basic DOFs.
+/// Terms over basic DOFs (until [`in_displacement_systems`] turns them into the grids' own).
 type Terms = Vec<(DofId, f64)>;
 
 /// One equation `a · u_{node, triple} = Σ rhs` for the dependent component `comp` (in CD).
@@ -743,6 +743,10 @@ impl Builder {
                 card: id,
             });
         }
+        let eqs = eqs
+            .into_iter()
+            .map(|e| in_displacement_systems(e, &model.displacement_systems))
+            .collect();
         let mpcs = solve_equations(eqs, &cards)?;
         // A dependent DOF also constrained by an SPC: Nastran's fatal error.
         let spc: BTreeSet<DofId> = model.constraints.iter().copied().collect();
@@ -793,7 +797,60 @@ impl Builder {
     }
 }
 
-/// The equations of each grid's translations (rotations) solved together for basic dependent
+/// Terms sorted by DOF, those of one DOF summed.
+fn merged_terms(mut terms: Terms) -> Terms {
+    terms.sort_by_key(|t| t.0);
+    let mut merged: Terms = Vec::with_capacity(terms.len());
+    for (d, v) in terms {
+        match merged.last_mut() {
+            Some(last) if last.0 == d => last.1 += v,
+            _ => merged.push((d, v)),
+        }
+    }
+    merged
+}
+
+/// An equation written over basic components, rewritten over the components of the grids'
+/// displacement systems (the model's DOFs): `a · u_b = (R a) · u_local` on the left, and each
+/// basic term `c u_b,j = c Σ_k R[k][j] u_local,k` on the right. Terms that cancel to round-off
+/// (below 1e-14 of the largest coefficient, from `R Rᵀ = I` in floating point) are dropped, so
+/// that a component written along its own axis stays one term.
+fn in_displacement_systems(mut e: Equation, systems: &BTreeMap<u64, [[f64; 3]; 3]>) -> Equation {
+    if systems.is_empty() {
+        return e;
+    }
+    if let Some(r) = systems.get(&e.node) {
+        let a = e.a;
+        e.a = r.map(|row| dot(row, a));
+        let big = e.a.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        for v in &mut e.a {
+            if v.abs() <= 1e-14 * big {
+                *v = 0.0;
+            }
+        }
+    }
+    let mut terms: Vec<(DofId, f64)> = Vec::with_capacity(e.rhs.len());
+    for (d, c) in e.rhs {
+        match systems.get(&d.node) {
+            None => terms.push((d, c)),
+            Some(r) => {
+                let (j, rot) = split(d.comp);
+                for (k, row) in r.iter().enumerate() {
+                    if row[j] != 0.0 {
+                        terms.push((basic(d.node, rot, k), c * row[j]));
+                    }
+                }
+            }
+        }
+    }
+    let mut merged = merged_terms(terms);
+    let big = merged.iter().fold(0.0f64, |m, t| m.max(t.1.abs()));
+    merged.retain(|t| t.1.abs() > 1e-14 * big);
+    e.rhs = merged;
+    e
+}
+
+/// The equations of each grid's translations (rotations) solved together for dependent
 /// DOFs (complete pivoting), in grid order; a component given twice is an error naming both cards.
 fn solve_equations(
     eqs: Vec<Equation>,
@@ -899,14 +956,7 @@ fn solve_equations(
                     }
                 }
             }
-            terms.sort_by_key(|t| t.0);
-            let mut merged: Vec<(DofId, f64)> = Vec::with_capacity(terms.len());
-            for (d, v) in terms {
-                match merged.last_mut() {
-                    Some(last) if last.0 == d => last.1 += v,
-                    _ => merged.push((d, v)),
-                }
-            }
+            let mut merged = merged_terms(terms);
             merged.retain(|t| t.1 != 0.0);
             // The card of the equation with the largest weight on this pivot.
             let card = (0..list.len())

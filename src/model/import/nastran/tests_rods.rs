@@ -355,8 +355,8 @@ fn pshell_fields_nastran_refuses_or_femu_cannot_take_are_named() {
     );
     let cases = [
         (
-            "PSHELL,1,1,.01,1,,1,,,\n,,,2\n",
-            "PSHELL field 4 (MID4) of continuation 1",
+            "PSHELL,1,1,.01,1,,1,,,\n,,,-2\n",
+            "(MID4) of continuation 1 (line 8): -2 is not a material id",
         ),
         (
             "PSHELL,1,,.01\n",
