@@ -405,9 +405,11 @@ fn omega2(k: &Mat<f64>, m: &Mat<f64>, free: &[usize]) -> Vec<f64> {
 /// rotation (and the matching θz) and (b) a constant curvature (w quadratic, θ its slopes: zero
 /// transverse shear); the interior nodes must take the exact field, to 1e-7 of its scale
 /// 1e-4 (round-off of a K whose condition number is ~1e9 here: bending ∝ t³, t = 0.001, beside
-/// membrane ∝ t). The quad8 patch is of parallelograms (an affine
-/// map: the serendipity space then holds every quadratic, so (b) is in the element's space) for
-/// (b), and of general quads for (a); the tria6 patch is of general triangles for both.
+/// membrane ∝ t). The quad8 patches are of parallelograms (an affine map: the serendipity
+/// space then holds every quadratic) and of general quads; on a general quad the serendipity
+/// interpolant of `w` is not the quadratic, but the tied shear (edge values and the interior
+/// moment `∫ ∂w/∂ξ dξ`) depends only on `w` along the straight edges, where it is exact, so the
+/// patch passes there too. The tria6 patch is of general triangles for both.
 #[test]
 fn patch_tests_constant_membrane_strain_and_constant_curvature() {
     let s = ShellSection {
@@ -513,13 +515,8 @@ fn patch_tests_constant_membrane_strain_and_constant_curvature() {
                 }
             }
         }
-        let tol = if name == "quad8 general, bending" {
-            1e-2
-        } else {
-            1e-7
-        };
         eprintln!("{name}: largest interior error {worst:e} (scale 1e-4)");
-        assert!(worst < tol * 1e-4, "{name}: interior error {worst:e}");
+        assert!(worst < 1e-7 * 1e-4, "{name}: interior error {worst:e}");
     }
 }
 
@@ -549,12 +546,16 @@ fn simply_supported(mesh: &Mesh, a: f64) -> Vec<usize> {
     free
 }
 
-/// Simply supported square plate, `a = 1`, thin (`t/a = 0.01` and `0.001`): the first
-/// frequency against Kirchhoff's `ω = 2π²/a² √(D/ρt)`. The Mindlin value is below Kirchhoff's by
-/// `~(π²/6κ(1−ν))·2 (t/a)² ≈ 5e-4` at `t/a = 0.01` and 5e-6 at 0.001; the discretisation error of
-/// a quadratic element is `O(h⁴)` in the eigenvalue: 8 × 8 quad8 within 0.3 %, 4 × 4 within 2 %
-/// (6 × 6 and 3 × 3 cells of tria6, two per cell). A locking element would be far too stiff at
-/// `t/a = 0.001` (MITC keeps the two thicknesses within 0.5 % of each other).
+/// Simply supported square plate, `a = 1`, thin (`t/a = 0.01` and `0.001`): the frequencies
+/// against Kirchhoff's `ω_mn = π² (m² + n²)/a² √(D/ρt)` (Leissa 1969, NASA SP-160, §4.1): modes
+/// (1,1), (1,2), (2,1), (2,2). The Mindlin value is below Kirchhoff's by
+/// `~(π²/6κ(1−ν))·2 (t/a)² ≈ 5e-4` at `t/a = 0.01` and 5e-6 at 0.001; the discretisation error
+/// of the MITC quadratics converges from above. Measured (ω/ω_K, t/a = 0.001): quad8 4 × 4
+/// 1.0033, 8 × 8 1.0002; tria6 (two per cell) 3 × 3 1.0155, 6 × 6 1.0012, 12 × 12 1.0001 (the
+/// fourth mode 1.015 at 6 × 6). Asserted: the first mode within 2 % on the coarse mesh and 0.3 %
+/// on the fine one, the first four within 2 % on the fine one, and the two thicknesses within
+/// 0.5 % of each other (a locking element is far too stiff at `t/a = 0.001`: the MITC9 field on
+/// the 8-node element gave 2.2 at 4 × 4).
 #[test]
 fn simply_supported_thin_plate_matches_kirchhoff_without_locking() {
     let a = 1.0;
@@ -575,10 +576,19 @@ fn simply_supported_thin_plate_matches_kirchhoff_without_locking() {
                 let (k, m) = mesh.assemble(&s, MassKind::Consistent);
                 let lam = omega2(&k, &m, &simply_supported(&mesh, a));
                 let d = s.e * s.thickness.powi(3) / (12.0 * (1.0 - s.nu * s.nu));
-                let kirchhoff = 2.0 * PI * PI / (a * a) * (d / (s.rho * s.thickness)).sqrt();
-                let ratio = lam[0].sqrt() / kirchhoff;
-                eprintln!("tria {tria} {cells}x{cells} t/a {ta}: ω/ω_K = {ratio}");
-                ratios.push(ratio);
+                let w0 = PI * PI / (a * a) * (d / (s.rho * s.thickness)).sqrt();
+                let modes: Vec<f64> = [2.0, 5.0, 5.0, 8.0]
+                    .iter()
+                    .enumerate()
+                    .map(|(i, f)| lam[i].sqrt() / (w0 * f))
+                    .collect();
+                eprintln!("tria {tria} {cells}x{cells} t/a {ta}: ω/ω_K = {modes:?}");
+                if tol < 0.01 {
+                    for (i, r) in modes.iter().enumerate() {
+                        assert!((r - 1.0).abs() < 0.02, "tria {tria} t/a {ta} mode {i}: {r}");
+                    }
+                }
+                ratios.push(modes[0]);
             }
             for r in &ratios {
                 assert!(
@@ -590,6 +600,47 @@ fn simply_supported_thin_plate_matches_kirchhoff_without_locking() {
                 (ratios[0] - ratios[1]).abs() < 0.005,
                 "locking: ratios {ratios:?}"
             );
+        }
+    }
+}
+
+/// No spurious zero-energy modes in free-free meshes: 3 × 3 cells of general distorted quad8 and
+/// tria6 (the patch-test map, midside nodes on the map), flat and mapped onto a cylinder, thin
+/// (`t = 0.005` on a 0.24 × 0.12 patch, bending far below membrane): exactly six eigenvalues of
+/// `K` (used DOFs) below `1e-10 λ_max`, the seventh above it by orders of magnitude.
+#[test]
+fn free_free_distorted_meshes_have_exactly_six_zero_energy_modes() {
+    let s = ShellSection {
+        thickness: 0.005,
+        ..STEEL
+    };
+    let general = |u: f64, v: f64| {
+        let bump = 16.0 * u * (1.0 - u) * v * (1.0 - v);
+        [
+            0.24 * u + 0.03 * bump * (v - 0.3),
+            0.12 * v + 0.02 * bump * (0.6 - u),
+            0.0,
+        ]
+    };
+    let curved = |u: f64, v: f64| {
+        let p = general(u, v);
+        cyl(0.3, p[0], p[1] / 0.3)
+    };
+    type Map<'a> = &'a dyn Fn(f64, f64) -> [f64; 3];
+    for (name, map) in [("flat", &general as Map), ("cylinder", &curved)] {
+        for tria in [false, true] {
+            let mesh = Mesh::grid(3, 3, tria, map);
+            let (k, _) = mesh.assemble(&s, MassKind::Consistent);
+            let used = mesh.used();
+            let dofs: Vec<usize> = (0..mesh.ndof()).filter(|d| used[d / 6]).collect();
+            let lam = eigenvalues(&restrict(&k, &dofs, &dofs));
+            let lmax = *lam.last().unwrap();
+            let zero = lam.iter().filter(|l| l.abs() < 1e-10 * lmax).count();
+            eprintln!(
+                "{name} tria {tria}: λ/λ_max {:?}",
+                lam[..8].iter().map(|l| l / lmax).collect::<Vec<_>>()
+            );
+            assert_eq!(zero, 6, "{name} tria {tria}: {:?}", &lam[..8]);
         }
     }
 }
@@ -639,12 +690,15 @@ fn clamped_ends(nodes: &[[f64; 3]], used: &[bool], len: f64) -> Vec<usize> {
 }
 
 /// Second path: the first three frequencies of a cylindrical panel (R = 1, 60°, length 1,
-/// `t = 0.01`, clamped on both curved ends) with 6 × 6 quad8 and 8 × 8 cells of tria6 against a
-/// 24 × 24 mesh of flat quad4 facets (which converges to the curved shell; its own
-/// discretisation and facet error is estimated by the 16 × 16 mesh). Agreement within 1.5 %:
-/// the facet mesh converges as O(h²) (the 16 → 24 change is ~0.5 %), the quadratic elements
-/// from above. And the clamped square plate (`t/a = 0.05`), quad8 8 × 8 and tria6 against
-/// quad4 24 × 24, within 0.5 %, and tria6 against quad8 within 0.5 %.
+/// `t = 0.02`, clamped on both curved ends) and of the square plate clamped on two opposite
+/// edges (`t/a = 0.05`), with 10 × 10 quad8 and 10 × 10 cells of tria6, against flat quad4
+/// meshes of 16 × 16 and 24 × 24. The quad4 converges as O(h²) (its 16 → 24 change is 0.6–1.3 %,
+/// so 24 × 24 alone is still ~0.5–1 % stiff); the reference is the Richardson extrapolation
+/// `ω₂₄ + (ω₂₄ − ω₁₆)·16²/(24² − 16²)`. Plate: quad8 and tria6 within 0.3 % of it (measured
+/// +0.05 … +0.22 %: the quadratics converge as O(h⁴), quad8 5 → 10 cells changes 0.2 %, and
+/// the extrapolation's own O(h⁴) remainder is below that). Panel: within 1.5 % (flat facets add
+/// an O(h²) geometric error of their own, and the coarse curved quadratics carry untreated
+/// membrane locking, from above); tria6 against quad8 within the same tolerances.
 #[test]
 fn cylindrical_panel_and_plate_against_refined_quad4() {
     let s = ShellSection {
@@ -664,36 +718,38 @@ fn cylindrical_panel_and_plate_against_refined_quad4() {
     };
     for (name, map, sec, tol) in [
         ("panel", &panel as &dyn Fn(f64, f64) -> [f64; 3], &s, 0.015),
-        ("plate", &plate, &thick, 0.005),
+        ("plate", &plate, &thick, 0.003),
     ] {
-        let reference = {
-            let (nodes, k, m) = quad4_mesh(24, sec, map);
+        let quad4_omega = |n: usize| {
+            let (nodes, k, m) = quad4_mesh(n, sec, map);
             let used = vec![true; nodes.len()];
-            omega2(&k, &m, &clamped_ends(&nodes, &used, 1.0))
+            let lam = omega2(&k, &m, &clamped_ends(&nodes, &used, 1.0));
+            (0..3).map(|i| lam[i].sqrt()).collect::<Vec<f64>>()
         };
-        let coarse = {
-            let (nodes, k, m) = quad4_mesh(16, sec, map);
-            let used = vec![true; nodes.len()];
-            omega2(&k, &m, &clamped_ends(&nodes, &used, 1.0))
-        };
+        let (fine, coarse) = (quad4_omega(24), quad4_omega(16));
+        let reference: Vec<f64> = (0..3)
+            .map(|i| fine[i] + (fine[i] - coarse[i]) * 256.0 / (576.0 - 256.0))
+            .collect();
         let mut quadratic = Vec::new();
-        for (tria, cells) in [(false, 10), (true, 10)] {
-            let mesh = Mesh::grid(cells, cells, tria, map);
+        for tria in [false, true] {
+            let mesh = Mesh::grid(10, 10, tria, map);
             let (k, m) = mesh.assemble(sec, MassKind::Consistent);
             let lam = omega2(&k, &m, &clamped_ends(&mesh.nodes, &mesh.used(), 1.0));
-            let ratios: Vec<f64> = (0..3).map(|i| (lam[i] / reference[i]).sqrt()).collect();
-            let coarse: Vec<f64> = (0..3).map(|i| (coarse[i] / reference[i]).sqrt()).collect();
-            eprintln!("{name} tria {tria}: ratios to quad4 24x24 {ratios:?} (16x16: {coarse:?})");
-            quadratic.push(lam);
+            let omega: Vec<f64> = (0..3).map(|i| lam[i].sqrt()).collect();
+            let ratios: Vec<f64> = (0..3).map(|i| omega[i] / reference[i]).collect();
+            eprintln!(
+                "{name} tria {tria}: ratios to extrapolated quad4 {ratios:?} (quad4 16, 24: {coarse:?} {fine:?})"
+            );
+            quadratic.push(omega);
         }
-        for (q, lam) in quadratic.iter().enumerate() {
+        for (q, omega) in quadratic.iter().enumerate() {
             for i in 0..3 {
-                let r = (lam[i] / reference[i]).sqrt();
+                let r = omega[i] / reference[i];
                 assert!((r - 1.0).abs() < tol, "{name} mesh {q} mode {i}: {r}");
             }
         }
         for i in 0..3 {
-            let r = (quadratic[1][i] / quadratic[0][i]).sqrt();
+            let r = quadratic[1][i] / quadratic[0][i];
             assert!((r - 1.0).abs() < tol, "{name}: tria6 / quad8 mode {i}: {r}");
         }
     }
@@ -937,3 +993,4 @@ fn all_midsides_omitted_is_the_linear_element() {
         "{energy} vs {exact}"
     );
 }
+

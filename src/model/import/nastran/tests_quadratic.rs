@@ -168,7 +168,8 @@ fn quadratic_shell_decks_reach_modes_and_agree_with_quad4() {
 /// midside grids present at the edge midpoints and tied to the corners by MPCs
 /// `u_m − ½ u_a − ½ u_b = 0` in all six components (an independent path through femu's
 /// multipoint constraints). G6 and G8 (the edges along y) are blanked in every element, so each
-/// such edge is straight in both its elements. Consistent mass, tolerance 1e-8 (eigenvalues of
+/// such edge is straight in both its elements; each shared midside grid gets one MPC per
+/// component (Nastran and femu refuse a DOF dependent twice). Consistent mass, tolerance 1e-8 (eigenvalues of
 /// differently assembled systems); the lumped mass differs (the blank edge's share goes to the
 /// corners, the tied grid keeps its own), so there only the modes are checked to exist.
 #[test]
@@ -189,9 +190,12 @@ fn blank_midside_grids_equal_midpoint_grids_tied_by_mpcs() {
                 f[0], f[1], f[2], f[3], f[4], f[5], f[6], f[7], c[1]
             );
             tied += &format!("{line}\n{cont}\n");
-            // G6 between G2 and G3, G8 between G4 and G1.
+            // G6 between G2 and G3, G8 between G4 and G1. The corners in ascending order: the
+            // edge shared by two elements is G2–G3 in one and G4–G1 (reversed) in the other, and
+            // it must give one MPC per component (a DOF may be dependent in one MPC only).
             for (m, a, b) in [(f[8], f[4], f[5]), (c[2], f[6], f[3])] {
-                terms.push((m.to_string(), a.to_string(), b.to_string()));
+                let (a, b) = (a.parse::<u64>().unwrap(), b.parse::<u64>().unwrap());
+                terms.push((m.to_string(), a.min(b), a.max(b)));
             }
         } else {
             blank += &format!("{line}\n");
@@ -286,6 +290,16 @@ fn bad_quadratic_shell_cards_are_named_and_thicknesses_warn() {
             .any(|w| w.contains("t.bdf line 11") && w.contains("T1-T4")),
         "{:?}",
         b.warnings
+    );
+    // A quadratic shell on a laminate (or MAT8/MAT2) property: the kernel is isotropic.
+    let lam = base.replace(
+        "PSHELL,1,1,.01,1,,1\n",
+        "PCOMP,1\n,1,.005,0.,,1,.005,90.\n",
+    );
+    let e = error(&format!("{lam}CQUAD8,1,1,1,2,3,4,5,6\n,7,8\n"));
+    assert!(
+        e.contains("element 1") && e.contains("property 1") && e.contains("MAT1"),
+        "{e}"
     );
     // All midside grids blank: a straight-sided element.
     let b = parse(&format!("{base}CTRIA6,1,1,1,2,3\n"));
