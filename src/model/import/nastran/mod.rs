@@ -73,7 +73,9 @@
 //!   `src/fe/shell_quadratic.rs`) with the same PSHELL parts as CQUAD4. A blank (or 0) midside
 //!   grid means a straight edge, as the QRG says: femu slaves that edge's midside motion to the
 //!   corners linearly (`u_m = (u_a + u_b)/2`). ZOFFS ≠ 0 is an error; THETA/MCID is ignored
-//!   (isotropic material); T1–T4 and TFLAG are ignored with a warning (the PSHELL T is used).
+//!   (isotropic material); a PCOMP/PCOMPG property, a MAT2/MAT8 material or MID4 on one is an
+//!   error (the kernel is isotropic); T1–T4 and TFLAG are ignored with a warning (the PSHELL T
+//!   is used).
 //!   The lumped mass is HRZ-diagonal (all nodes positive; Nastran's own lumping of CQUAD8
 //!   distributes by area too but its exact split is not documented), the coupled mass
 //!   consistent; frequencies agree with Nastran's to formulation accuracy, not round-off.

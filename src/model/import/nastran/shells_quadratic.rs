@@ -5,6 +5,8 @@
 //! required and distinct; a midside grid (G5–G8, G4–G6) may be blank, meaning a straight edge
 //! (QRG remark), or 0 (the same). THETA/MCID is read and ignored (isotropic material); ZOFFS ≠ 0
 //! is an error; corner thicknesses (and TFLAG) are ignored with a warning: the PSHELL T is used.
+//! The property must be a PSHELL of MAT1 materials without MID4 (the model check refuses a
+//! laminate or MAT2/MAT8 part, naming the element).
 
 use super::*;
 
