@@ -133,8 +133,9 @@ fn quad4_plate(n: usize) -> String {
 /// error, from below: at 6 × 6 the CQUAD8 deck is 0.4–3.1 % under the quad4 reference (modes
 /// 1–4), so the lumped decks are checked by convergence against the coupled 12 × 12 CQUAD8 deck
 /// (O(h⁴), far closer than quad4 24 × 24): the lumped 12 × 12 deviation is at most half the
-/// 6 × 6 one (O(h²) gives a quarter; a first-order error would fail) and below 1.5 %, and CTRIA6
-/// agrees with CQUAD8 on the same mesh within 1 %. The first bending
+/// 6 × 6 one (O(h²) gives a quarter; a first-order error would fail) and below 1.5 %; at 6 × 6
+/// both lumped decks are within 3.5 % of the quad4 reference (CTRIA6 and CQUAD8 lump
+/// differently: they differ by up to 2 % there, the same O(h²) error). The first bending
 /// frequency is also near the beam value `(1.875²/2π) √(D/(ρ t))` of a unit strip (plate effect
 /// `1/(1−ν²)` in D, free edges: within 3 %).
 #[test]
@@ -160,11 +161,16 @@ fn quadratic_shell_decks_reach_modes_and_agree_with_quad4() {
                     rel(f8[i], f4[i]) < 0.01,
                     "{mass:?} mode {i}: {f8:?} vs quad4 {f4:?}"
                 );
+                assert!(
+                    rel(f6[i], f8[i]) < 0.01,
+                    "{mass:?} mode {i}: {f6:?} vs quad8 {f8:?}"
+                );
+            } else {
+                // The O(h²) lumping error at 6 × 6 (measured ≤ 3.1 %, converging below).
+                for f in [&f8, &f6] {
+                    assert!(rel(f[i], f4[i]) < 0.035, "{mass:?} mode {i}: {f:?} vs {f4:?}");
+                }
             }
-            assert!(
-                rel(f6[i], f8[i]) < 0.01,
-                "{mass:?} mode {i}: {f6:?} vs quad8 {f8:?}"
-            );
         }
         let d = 2.1e11 * 0.01f64.powi(3) / (12.0 * (1.0 - 0.09));
         let beam = 1.875f64.powi(2) / (2.0 * std::f64::consts::PI) * (d / (7850.0 * 0.01)).sqrt();
