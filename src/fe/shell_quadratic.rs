@@ -882,7 +882,6 @@ struct Tying {
 
 const TIE: f64 = 0.577_350_269_189_625_8;
 
-
 impl Tying {
     fn new(shape: Shape) -> Tying {
         match shape {

@@ -993,4 +993,3 @@ fn all_midsides_omitted_is_the_linear_element() {
         "{energy} vs {exact}"
     );
 }
-

@@ -959,7 +959,9 @@ impl Model {
                 let p = &self.shell_properties[property];
                 let isotropic = p.laminate.is_none()
                     && p.coupling_material.is_none()
-                    && p.material_ids().iter().all(|m| self.materials.contains_key(m));
+                    && p.material_ids()
+                        .iter()
+                        .all(|m| self.materials.contains_key(m));
                 if !isotropic {
                     return Err(ModelError::MissingProperty {
                         element: id,

@@ -232,9 +232,9 @@ mod tests_beams;
 #[cfg(test)]
 mod tests_cd;
 #[cfg(test)]
-mod tests_quadratic;
-#[cfg(test)]
 mod tests_laminates;
+#[cfg(test)]
+mod tests_quadratic;
 #[cfg(test)]
 mod tests_replicate;
 #[cfg(test)]
@@ -265,7 +265,8 @@ pub const READ_CARDS: [&str; 72] = [
     "PROD", "PTUBE", "PBEAML", "BAROR", "BEAMOR", "RBE2", "RBAR", "RROD", "RBE3", "MPC", "MPCADD",
     "CHEXA", "CPENTA", "CTETRA", "CPYRAM", "PSOLID", "MAT9", "CQUADR", "CTRIAR", "PCOMP", "PCOMPG",
     "MAT2", "MAT8", "SPOINT", "EPOINT", "CELAS3", "CELAS4", "CMASS1", "CMASS2", "CMASS3", "CMASS4",
-    "PMASS", "CONM1", "CDAMP1", "CDAMP2", "CDAMP3", "CDAMP4", "PDAMP", "CVISC", "PVISC", "CQUAD8", "CTRIA6",
+    "PMASS", "CONM1", "CDAMP1", "CDAMP2", "CDAMP3", "CDAMP4", "PDAMP", "CVISC", "PVISC", "CQUAD8",
+    "CTRIA6",
 ];
 
 /// Cards skipped (counted) because they change neither stiffness, mass nor constraints: static
@@ -294,9 +295,9 @@ pub const READ_PARAMS: [&str; 6] = ["WTMASS", "GRDPNT", "COUPMASS", "AUTOSPC", "
 /// name them: any other unread card is an error too).
 const REFUSED_CARDS: [&str; 38] = [
     "RBE1", "RBAR1", "RTRPLT", "RSPLINE", "SPCD", "SUPORT", "SUPORT1", "ASET", "ASET1", "OMIT",
-    "OMIT1", "QSET", "QSET1", "BSET", "BSET1", "CSET", "CSET1", "CQUAD", 
-    "CSHEAR", "PSHEAR", "MAT10", "MATT1", "MATS1", "CDAMP5", "CBUSH1D", "PBUSH1D", "CGAP", "PGAP",
-    "CWELD", "PWELD", "CFAST", "PFAST", "NSM", "NSM1", "NSML", "NSML1", "DMIG", "GENEL",
+    "OMIT1", "QSET", "QSET1", "BSET", "BSET1", "CSET", "CSET1", "CQUAD", "CSHEAR", "PSHEAR",
+    "MAT10", "MATT1", "MATS1", "CDAMP5", "CBUSH1D", "PBUSH1D", "CGAP", "PGAP", "CWELD", "PWELD",
+    "CFAST", "PFAST", "NSM", "NSM1", "NSML", "NSML1", "DMIG", "GENEL",
 ];
 
 /// Whether `name` is a card name Nastran could have written: a letter, then letters or digits,

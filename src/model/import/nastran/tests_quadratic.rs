@@ -168,7 +168,10 @@ fn quadratic_shell_decks_reach_modes_and_agree_with_quad4() {
             } else {
                 // The O(h²) lumping error at 6 × 6 (measured ≤ 3.1 %, converging below).
                 for f in [&f8, &f6] {
-                    assert!(rel(f[i], f4[i]) < 0.035, "{mass:?} mode {i}: {f:?} vs {f4:?}");
+                    assert!(
+                        rel(f[i], f4[i]) < 0.035,
+                        "{mass:?} mode {i}: {f:?} vs {f4:?}"
+                    );
                 }
             }
         }
@@ -181,7 +184,10 @@ fn quadratic_shell_decks_reach_modes_and_agree_with_quad4() {
     let lumped6 = frequencies(&q8, MassKind::Lumped, 4);
     let lumped12 = frequencies(&fine, MassKind::Lumped, 4);
     for i in 0..4 {
-        let (e6, e12) = (rel(lumped6[i], reference[i]), rel(lumped12[i], reference[i]));
+        let (e6, e12) = (
+            rel(lumped6[i], reference[i]),
+            rel(lumped12[i], reference[i]),
+        );
         assert!(
             e12 < 0.5 * e6 + 1e-4 && e12 < 0.015,
             "lumped mode {i}: 6 x 6 {lumped6:?}, 12 x 12 {lumped12:?} vs coupled 12 x 12 {reference:?}"
@@ -317,10 +323,7 @@ fn bad_quadratic_shell_cards_are_named_and_thicknesses_warn() {
         b.warnings
     );
     // A quadratic shell on a laminate (or MAT8/MAT2) property: the kernel is isotropic.
-    let lam = base.replace(
-        "PSHELL,1,1,.01,1,,1\n",
-        "PCOMP,1\n,1,.005,0.,,1,.005,90.\n",
-    );
+    let lam = base.replace("PSHELL,1,1,.01,1,,1\n", "PCOMP,1\n,1,.005,0.,,1,.005,90.\n");
     let e = error(&format!("{lam}CQUAD8,1,1,1,2,3,4,5,6\n,7,8\n"));
     assert!(
         e.contains("element 1") && e.contains("property 1") && e.contains("MAT1"),
@@ -358,7 +361,10 @@ fn quadratic_shells_on_grids_with_displacement_systems() {
         let fa = frequencies(&a, MassKind::Consistent, 5);
         let fb = frequencies(&b, MassKind::Consistent, 5);
         for i in 0..5 {
-            assert!(rel(fb[i], fa[i]) < 1e-8, "tria {tria} mode {i}: {fb:?} vs {fa:?}");
+            assert!(
+                rel(fb[i], fa[i]) < 1e-8,
+                "tria {tria} mode {i}: {fb:?} vs {fa:?}"
+            );
         }
     }
 }
