@@ -404,7 +404,7 @@ fn cards_femu_does_not_read_fail_the_check_unless_ignored_and_are_recorded() {
         a.meta["skipped_cards"],
         serde_json::json!({"EIGRL": 1, "PARAM,POST": 1})
     );
-    assert_eq!(a.meta["ignore_cards"], serde_json::json!(["ctria6"]));
+    assert_eq!(a.meta["ignore_cards"], serde_json::json!(["cshear"]));
     // An ignore list naming a card femu reads is refused at check time.
     let p = import_pipeline(
         dir.path(),
