@@ -316,7 +316,11 @@ fn thickness_groups(model: &mut crate::model::Model, parameters: usize) -> usize
     use crate::model::{Element, Parameter, ParameterKind};
     let mut by_property: std::collections::BTreeMap<u64, Vec<u64>> = Default::default();
     for (&id, e) in &model.elements {
-        if let Element::Quad4 { property, .. } | Element::Tria3 { property, .. } = e {
+        if let Element::Quad4 { property, .. }
+        | Element::Tria3 { property, .. }
+        | Element::Quad8 { property, .. }
+        | Element::Tria6 { property, .. } = e
+        {
             by_property.entry(*property).or_default().push(id);
         }
     }
@@ -782,7 +786,12 @@ fn changed_part_model(
     use crate::updating::model::FeModel;
     let mut changed = model.clone();
     let shell_property = |e: &u64| match changed.elements.get(e) {
-        Some(Element::Quad4 { property, .. } | Element::Tria3 { property, .. }) => Some(*property),
+        Some(
+            Element::Quad4 { property, .. }
+            | Element::Tria3 { property, .. }
+            | Element::Quad8 { property, .. }
+            | Element::Tria6 { property, .. },
+        ) => Some(*property),
         _ => None,
     };
     let members = &partition.substructures[0].elements;

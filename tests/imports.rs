@@ -410,19 +410,19 @@ fn nan_or_inf_in_measured_frfs_is_an_error_naming_record_line_and_frequency() {
 fn cards_femu_does_not_read_fail_the_check_unless_ignored_and_are_recorded() {
     let dir = tempfile::tempdir().unwrap();
     let deck = std::fs::read_to_string(root().join("fixtures/nastran/plate_with_bar.bdf")).unwrap();
-    let with_ctria6 = deck.replace("ENDDATA", "CTRIA6,900,1,1,2,3,7,8,6\nENDDATA");
-    let line = with_ctria6
+    let with_cshear = deck.replace("ENDDATA", "CSHEAR,900,1,1,2,3,7\nENDDATA");
+    let line = with_cshear
         .lines()
-        .position(|l| l.starts_with("CTRIA6"))
+        .position(|l| l.starts_with("CSHEAR"))
         .unwrap()
         + 1;
-    std::fs::write(dir.path().join("plate.bdf"), &with_ctria6).unwrap();
+    std::fs::write(dir.path().join("plate.bdf"), &with_cshear).unwrap();
     let p = import_pipeline(dir.path(), "mesh.import", "plate.bdf", "");
     let (code, err) = validate(&p, &[]);
     assert_eq!(code, Some(2), "{err}");
     assert!(
         err.contains("1 card(s) femu does not read may change the stiffness, mass or constraints")
-            && err.contains("CTRIA6 ×1 (first at ")
+            && err.contains("CSHEAR ×1 (first at ")
             && err.contains(&format!("plate.bdf line {line})")),
         "{err}"
     );
@@ -431,7 +431,7 @@ fn cards_femu_does_not_read_fail_the_check_unless_ignored_and_are_recorded() {
         dir.path(),
         "mesh.import",
         "plate.bdf",
-        ", ignore_cards: [ctria6]",
+        ", ignore_cards: [cshear]",
     );
     let (_, report, cache) = run(&p, &dir.path().join("cache"), &[]);
     let a = cache
@@ -441,7 +441,7 @@ fn cards_femu_does_not_read_fail_the_check_unless_ignored_and_are_recorded() {
             femu::artefact::ArtefactKind::Mesh,
         )
         .unwrap();
-    assert_eq!(a.meta["ignored_cards"], serde_json::json!({"CTRIA6": 1}));
+    assert_eq!(a.meta["ignored_cards"], serde_json::json!({"CSHEAR": 1}));
     assert_eq!(
         a.meta["skipped_cards"],
         serde_json::json!({"PARAM,POST": 1})
@@ -451,7 +451,7 @@ fn cards_femu_does_not_read_fail_the_check_unless_ignored_and_are_recorded() {
         serde_json::json!({"count": 10}),
         "EIGRL is read: METHOD = 1 selects it"
     );
-    assert_eq!(a.meta["ignore_cards"], serde_json::json!(["ctria6"]));
+    assert_eq!(a.meta["ignore_cards"], serde_json::json!(["cshear"]));
     // An ignore list naming a card femu reads is refused at check time.
     let p = import_pipeline(
         dir.path(),

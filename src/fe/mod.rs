@@ -13,6 +13,7 @@ pub mod multipoint;
 pub mod rod;
 pub mod scalar_elements;
 pub mod shell;
+pub mod shell_quadratic;
 pub mod solid;
 pub mod system;
 

@@ -7,6 +7,7 @@ use super::element::{ElementError, ElementMatrices, MassKind};
 use super::lumped_elements::{LumpedMass, SpringEnds, conm2, scalar_spring, spring6};
 use super::multipoint::{DependentDof, MultipointError, eliminate, independent_dofs, resolve};
 use super::shell::{ShellSection, quad4, tria3};
+use super::shell_quadratic::{quad8, quadratic_geometry, tria6};
 use super::system::SystemMatrices;
 use crate::core::sparse::SparseMatrix;
 use crate::model::{BeamEnds, BeamSection, Element, Model, ModelError};
@@ -309,6 +310,28 @@ fn basic_element_matrices(
             &shell_section(model, *property),
             mass,
         ),
+        Element::Quad8 {
+            corners,
+            midside,
+            property,
+        } => {
+            let (x, present) = quadratic_geometry(
+                &corners.each_ref().map(xyz),
+                &midside.map(|m| m.map(|n| xyz(&n))),
+            );
+            quad8(&x, present, &shell_section(model, *property), mass)
+        }
+        Element::Tria6 {
+            corners,
+            midside,
+            property,
+        } => {
+            let (x, present) = quadratic_geometry(
+                &corners.each_ref().map(xyz),
+                &midside.map(|m| m.map(|n| xyz(&n))),
+            );
+            tria6(&x, present, &shell_section(model, *property), mass)
+        }
         Element::Beam {
             nodes,
             property,
@@ -869,6 +892,38 @@ fn element_derivative(
                 p,
             )
             .map_err(err)?
+        }
+        Element::Quad8 {
+            corners,
+            midside,
+            property,
+        } => {
+            let p = shell(&parameter.kind).ok_or_else(not_applicable)?;
+            let (x, present) = quadratic_geometry(
+                &corners.each_ref().map(xyz),
+                &midside.map(|m| m.map(|n| xyz(&n))),
+            );
+            let s = shell_section(model, *property);
+            let (_, mut d) =
+                super::shell_quadratic::quad8_with_derivatives(&x, present, &s, mass, &[p])
+                    .map_err(err)?;
+            d.remove(0)
+        }
+        Element::Tria6 {
+            corners,
+            midside,
+            property,
+        } => {
+            let p = shell(&parameter.kind).ok_or_else(not_applicable)?;
+            let (x, present) = quadratic_geometry(
+                &corners.each_ref().map(xyz),
+                &midside.map(|m| m.map(|n| xyz(&n))),
+            );
+            let s = shell_section(model, *property);
+            let (_, mut d) =
+                super::shell_quadratic::tria6_with_derivatives(&x, present, &s, mass, &[p])
+                    .map_err(err)?;
+            d.remove(0)
         }
         Element::Beam {
             nodes,

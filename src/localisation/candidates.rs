@@ -74,7 +74,13 @@ pub fn element_value(model: &Model, id: u64, kind: &ParameterKind) -> Option<f64
     let e = model.elements.get(&id)?;
     let material = |mid: u64| model.materials.get(&mid);
     match (e, kind) {
-        (Element::Quad4 { property, .. } | Element::Tria3 { property, .. }, k) => {
+        (
+            Element::Quad4 { property, .. }
+            | Element::Tria3 { property, .. }
+            | Element::Quad8 { property, .. }
+            | Element::Tria6 { property, .. },
+            k,
+        ) => {
             let p = model.shell_properties.get(property)?;
             match k {
                 ParameterKind::ShellThickness => Some(p.thickness),

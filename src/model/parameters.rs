@@ -147,14 +147,18 @@ impl Model {
                 element_kind: e.type_name(),
             };
             let slot = match (e, &p.kind) {
-                (Element::Quad4 { property, .. } | Element::Tria3 { property, .. }, kind) => {
-                    match kind {
-                        ParameterKind::ShellThickness => Slot::ShellThickness(*property),
-                        ParameterKind::YoungsModulus => Slot::ShellMaterial(*property, Field::E),
-                        ParameterKind::Density => Slot::ShellMaterial(*property, Field::Rho),
-                        _ => return Err(not_applicable()),
-                    }
-                }
+                (
+                    Element::Quad4 { property, .. }
+                    | Element::Tria3 { property, .. }
+                    | Element::Quad8 { property, .. }
+                    | Element::Tria6 { property, .. },
+                    kind,
+                ) => match kind {
+                    ParameterKind::ShellThickness => Slot::ShellThickness(*property),
+                    ParameterKind::YoungsModulus => Slot::ShellMaterial(*property, Field::E),
+                    ParameterKind::Density => Slot::ShellMaterial(*property, Field::Rho),
+                    _ => return Err(not_applicable()),
+                },
                 (Element::Beam { property, .. }, kind) => match kind {
                     ParameterKind::YoungsModulus => Slot::BeamMaterial(*property, Field::E),
                     ParameterKind::Density => Slot::BeamMaterial(*property, Field::Rho),
@@ -453,7 +457,12 @@ impl Model {
                 continue;
             };
             let property = match e {
-                Element::Quad4 { property, .. } | Element::Tria3 { property, .. } if shell => {
+                Element::Quad4 { property, .. }
+                | Element::Tria3 { property, .. }
+                | Element::Quad8 { property, .. }
+                | Element::Tria6 { property, .. }
+                    if shell =>
+                {
                     property
                 }
                 Element::Beam { property, .. } if !shell => property,

@@ -400,6 +400,25 @@ pub enum Element {
         /// Shell property id.
         property: u64,
     },
+    /// Eight-node curved shell (CQUAD8).
+    Quad8 {
+        /// Corner nodes G1–G4, counter-clockwise.
+        corners: [u64; 4],
+        /// Midside nodes G5–G8 (G5 on edge 1–2, …, G8 on 4–1); `None` where omitted (that edge
+        /// is straight and interpolated linearly).
+        midside: [Option<u64>; 4],
+        /// Shell property id.
+        property: u64,
+    },
+    /// Six-node curved shell (CTRIA6).
+    Tria6 {
+        /// Corner nodes G1–G3.
+        corners: [u64; 3],
+        /// Midside nodes G4–G6 (G4 on edge 1–2, G5 on 2–3, G6 on 3–1); `None` where omitted.
+        midside: [Option<u64>; 3],
+        /// Shell property id.
+        property: u64,
+    },
     /// Two-node beam (CBAR, CBEAM).
     Beam {
         /// End nodes.
@@ -528,6 +547,20 @@ impl Element {
         match self {
             Element::Quad4 { nodes, .. } => nodes.to_vec(),
             Element::Tria3 { nodes, .. } => nodes.to_vec(),
+            Element::Quad8 {
+                corners, midside, ..
+            } => corners
+                .iter()
+                .copied()
+                .chain(midside.iter().flatten().copied())
+                .collect(),
+            Element::Tria6 {
+                corners, midside, ..
+            } => corners
+                .iter()
+                .copied()
+                .chain(midside.iter().flatten().copied())
+                .collect(),
             Element::Beam { nodes, .. } => nodes.to_vec(),
             Element::Rod { nodes, .. } => nodes.to_vec(),
             Element::Solid { nodes, .. } => nodes.clone(),
@@ -560,6 +593,8 @@ impl Element {
         match self {
             Element::Quad4 { property, .. }
             | Element::Tria3 { property, .. }
+            | Element::Quad8 { property, .. }
+            | Element::Tria6 { property, .. }
             | Element::Beam { property, .. }
             | Element::Solid { property, .. } => Some(*property),
             Element::Rod {
@@ -575,6 +610,8 @@ impl Element {
         match self {
             Element::Quad4 { .. } => "quad4",
             Element::Tria3 { .. } => "tria3",
+            Element::Quad8 { .. } => "quad8",
+            Element::Tria6 { .. } => "tria6",
             Element::Beam { .. } => "beam",
             Element::Rod { .. } => "rod",
             Element::Solid { kind, .. } => kind.name(),
@@ -878,7 +915,10 @@ impl Model {
                 }
             }
             let (ok, wanted) = match e {
-                Element::Quad4 { property, .. } | Element::Tria3 { property, .. } => {
+                Element::Quad4 { property, .. }
+                | Element::Tria3 { property, .. }
+                | Element::Quad8 { property, .. }
+                | Element::Tria6 { property, .. } => {
                     (self.shell_properties.contains_key(property), "shell")
                 }
                 Element::Beam { property, .. } => {
@@ -910,6 +950,24 @@ impl Model {
                     return Err(ModelError::MissingMaterial {
                         property: id,
                         material,
+                    });
+                }
+            }
+        }
+        for (&id, e) in &self.elements {
+            if let Element::Quad8 { property, .. } | Element::Tria6 { property, .. } = e {
+                let p = &self.shell_properties[property];
+                let isotropic = p.laminate.is_none()
+                    && p.coupling_material.is_none()
+                    && p.material_ids()
+                        .iter()
+                        .all(|m| self.materials.contains_key(m));
+                if !isotropic {
+                    return Err(ModelError::MissingProperty {
+                        element: id,
+                        kind: e.type_name(),
+                        property: *property,
+                        wanted: "homogeneous-material (PSHELL with MAT1, no MID4) shell",
                     });
                 }
             }

@@ -164,6 +164,15 @@ fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
+/// The boundary of a quadratic face: each corner followed by its edge's midside node if present.
+fn outline(corners: &[u64], midside: &[Option<u64>]) -> Vec<u64> {
+    corners
+        .iter()
+        .zip(midside)
+        .flat_map(|(c, m)| std::iter::once(*c).chain(*m))
+        .collect()
+}
+
 /// Projected faces and beams, far to near.
 fn items(model: &Model, view: View) -> Vec<Item> {
     let (right, up, toward) = axes(view);
@@ -192,6 +201,13 @@ fn items(model: &Model, view: View) -> Vec<Item> {
         let (nodes, face): (Vec<u64>, bool) = match e {
             Element::Quad4 { nodes, .. } => (nodes.to_vec(), true),
             Element::Tria3 { nodes, .. } => (nodes.to_vec(), true),
+            // The outline through the corners and the midside nodes that are present.
+            Element::Quad8 {
+                corners, midside, ..
+            } => (outline(corners, midside), true),
+            Element::Tria6 {
+                corners, midside, ..
+            } => (outline(corners, midside), true),
             Element::Beam { nodes, .. } | Element::Rod { nodes, .. } => (nodes.to_vec(), false),
             _ => continue,
         };

@@ -35,7 +35,7 @@ pub struct Params {
     /// Bulk data file (`.bdf`, `.dat`, `.nas`, `.blk`), relative to the pipeline file.
     pub path: String,
     /// Cards femu does not read that may be dropped although they may change the stiffness,
-    /// mass or constraints (e.g. `CGAP`, `CQUAD8`; `PARAM,NAME` for one PARAM). Without them
+    /// mass or constraints (e.g. `CGAP`, `RBE1`; `PARAM,NAME` for one PARAM). Without them
     /// such a card is an error.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub ignore_cards: Vec<String>,
@@ -106,7 +106,7 @@ fn options(p: &Params) -> Result<BulkOptions, String> {
         };
         if !ok {
             return Err(format!(
-                "`{}` is not a card name; write names such as CGAP or CQUAD8, or PARAM,NAME for one PARAM",
+                "`{}` is not a card name; write names such as CGAP or RBE1, or PARAM,NAME for one PARAM",
                 crate::core::input::excerpt(raw, 40)
             ));
         }

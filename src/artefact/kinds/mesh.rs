@@ -24,6 +24,8 @@
 //! element systems and damping of the bushes that have them in `bush_systems` (element id →
 //! `{axes, b}`), and scalar masses, general (CONM1) masses and dampers in `lumped_extra`
 //! (element id → element, JSON); each key is written only when the model has such things.
+//! Quadratic shells (`quad8`, `tria6`) have their corners in `n1 …` and their midside nodes in
+//! `midside_nodes` (element id → list, `null` for an omitted one; absent when the model has none).
 
 use super::{ColumnLayout, Kind, Layout, col, meta, meta_opt, meta_value, table};
 use crate::artefact::{Artefact, ArtefactError, ArtefactKind, Column, Storage, Table};
@@ -151,6 +153,10 @@ impl Kind for MeshKind {
                     "rigid-body mass, centre of gravity and inertia (PARAM,GRDPNT)",
                 ),
                 meta_opt(
+                    "midside_nodes",
+                    "midside nodes of the quad8 and tria6 elements (null where omitted), by element id",
+                ),
+                meta_opt(
                     "solid_elements",
                     "solid elements by id: kind, nodes (QRG order), property (only with solids)",
                 ),
@@ -253,6 +259,7 @@ pub fn mesh_to_artefact(m: &Model) -> Artefact {
     let mut lumped = LumpedColumns::default();
     let mut rod_sections = std::collections::BTreeMap::new();
     let mut beam_ends = std::collections::BTreeMap::new();
+    let mut midside_nodes: BTreeMap<u64, Vec<Option<u64>>> = BTreeMap::new();
     let mut solids = std::collections::BTreeMap::new();
     let mut bush_systems = std::collections::BTreeMap::new();
     let mut lumped_extra = std::collections::BTreeMap::new();
@@ -272,6 +279,22 @@ pub fn mesh_to_artefact(m: &Model) -> Artefact {
                 lumped_extra.insert(id, e.clone());
             }
             Element::Quad4 { nodes, property } => elements.push(id, e, nodes, *property, None),
+            Element::Quad8 {
+                corners,
+                midside,
+                property,
+            } => {
+                midside_nodes.insert(id, midside.to_vec());
+                elements.push(id, e, corners, *property, None)
+            }
+            Element::Tria6 {
+                corners,
+                midside,
+                property,
+            } => {
+                midside_nodes.insert(id, midside.to_vec());
+                elements.push(id, e, corners, *property, None)
+            }
             Element::Tria3 { nodes, property } => elements.push(id, e, nodes, *property, None),
             Element::Beam {
                 nodes,
@@ -328,6 +351,9 @@ pub fn mesh_to_artefact(m: &Model) -> Artefact {
     }
     if !rod_sections.is_empty() {
         a = a.with_meta("rod_sections", to_json(&rod_sections));
+    }
+    if !midside_nodes.is_empty() {
+        a = a.with_meta("midside_nodes", to_json(&midside_nodes));
     }
     if !m.displacement_systems.is_empty() {
         a = a.with_table(
@@ -585,6 +611,8 @@ impl LumpedRow {
             },
             Element::Quad4 { .. }
             | Element::Tria3 { .. }
+            | Element::Quad8 { .. }
+            | Element::Tria6 { .. }
             | Element::Beam { .. }
             | Element::Rod { .. }
             | Element::Solid { .. }
@@ -759,6 +787,7 @@ fn optional_meta<T: serde::de::DeserializeOwned + Default>(
 fn read_elements(a: &Artefact, m: &mut Model) -> Result<(), ArtefactError> {
     let mut rod_sections: std::collections::BTreeMap<u64, RodProperty> =
         optional_meta(a, "rod_sections")?;
+    let mut midside_nodes: BTreeMap<u64, Vec<Option<u64>>> = optional_meta(a, "midside_nodes")?;
     let n = "elements";
     let t = a.table(n)?;
     let (eid, ty, prop) = (
@@ -805,6 +834,29 @@ fn read_elements(a: &Artefact, m: &mut Model) -> Result<(), ArtefactError> {
                 nodes: [node(0)?, node(1)?, node(2)?],
                 property: p,
             },
+            "quad8" | "tria6" => {
+                let mid = midside_nodes.remove(&eid).unwrap_or_default();
+                let wrong = || {
+                    bad(format!(
+                        "elements row {r}: {} {eid} needs {} entries in metadata `midside_nodes`",
+                        ty[r],
+                        if ty[r] == "quad8" { 4 } else { 3 }
+                    ))
+                };
+                if ty[r] == "quad8" {
+                    Element::Quad8 {
+                        corners: [node(0)?, node(1)?, node(2)?, node(3)?],
+                        midside: mid.try_into().map_err(|_| wrong())?,
+                        property: p,
+                    }
+                } else {
+                    Element::Tria6 {
+                        corners: [node(0)?, node(1)?, node(2)?],
+                        midside: mid.try_into().map_err(|_| wrong())?,
+                        property: p,
+                    }
+                }
+            }
             "beam" => Element::Beam {
                 nodes: [node(0)?, node(1)?],
                 property: p,
@@ -813,7 +865,7 @@ fn read_elements(a: &Artefact, m: &mut Model) -> Result<(), ArtefactError> {
             },
             other => {
                 return Err(bad(format!(
-                    "elements row {r}: type `{other}` is not quad4, tria3, beam or rod"
+                    "elements row {r}: type `{other}` is not quad4, tria3, quad8, tria6, beam or rod"
                 )));
             }
         };
@@ -1075,5 +1127,36 @@ GRID,4,,0.,.1,0.,7\nCQUAD4,1,1,1,2,3,4\nSPC1,1,123456,1\n";
             serde_json::json!({"2": {"material": 1, "thickness": 0.002, "nsm": 0.0}})
         );
         assert_eq!(mesh_from_artefact(&a).unwrap(), plain);
+        assert!(!a.meta.contains_key("midside_nodes"));
+    }
+
+    #[test]
+    fn quadratic_shells_round_trip_with_omitted_midside_nodes() {
+        let mut m = rod_model();
+        m.elements.insert(
+            7,
+            Element::Tria6 {
+                corners: [1, 2, 3],
+                midside: [Some(4), None, Some(5)],
+                property: 2,
+            },
+        );
+        m.elements.insert(
+            8,
+            Element::Quad8 {
+                corners: [1, 2, 3, 4],
+                midside: [None, Some(6), None, Some(5)],
+                property: 2,
+            },
+        );
+        for n in 4..=6 {
+            m.nodes.insert(n, [n as f64, 0.5, 0.0]);
+        }
+        let a = mesh_to_artefact(&m);
+        assert_eq!(
+            a.meta["midside_nodes"]["7"],
+            serde_json::json!([4, null, 5])
+        );
+        assert_eq!(mesh_from_artefact(&a).unwrap(), m);
     }
 }

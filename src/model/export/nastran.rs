@@ -598,6 +598,28 @@ fn write_element(out: &mut String, id: u64, e: &Element, bush_pid: &BTreeMap<u64
             f.extend(nodes.iter().map(|n| F::Int(*n)));
             card(out, "CTRIA3", f);
         }
+        // CQUAD8/CTRIA6: corners, then the midside nodes (blank where omitted); THETA, ZOFFS and
+        // T1–T4 blank (the PSHELL thickness).
+        Element::Quad8 {
+            corners,
+            midside,
+            property,
+        } => {
+            let mut f = vec![F::Int(id), F::Int(*property)];
+            f.extend(corners.iter().map(|n| F::Int(*n)));
+            f.extend(midside.iter().map(|n| n.map_or(F::Blank, F::Int)));
+            card(out, "CQUAD8", f);
+        }
+        Element::Tria6 {
+            corners,
+            midside,
+            property,
+        } => {
+            let mut f = vec![F::Int(id), F::Int(*property)];
+            f.extend(corners.iter().map(|n| F::Int(*n)));
+            f.extend(midside.iter().map(|n| n.map_or(F::Blank, F::Int)));
+            card(out, "CTRIA6", f);
+        }
         Element::Beam {
             nodes,
             property,

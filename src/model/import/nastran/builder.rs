@@ -159,6 +159,7 @@ impl Builder {
             "PCOMP" | "PCOMPG" => self.pcomp(c),
             "MAT2" => self.mat2(c),
             "MAT8" => self.mat8(c),
+            "CQUAD8" | "CTRIA6" => self.quadratic_shell(c),
             "CBAR" | "CBEAM" => self.beam_element(c),
             "BAROR" | "BEAMOR" => self.beam_defaults(c),
             "PSHELL" => self.pshell(c),

@@ -12,7 +12,7 @@
 //! `1.E3` and `1D3`, and blank fields taking the QRG defaults.
 //!
 //! Cards read: GRID with GRDSET defaults, CORD1R/C/S and CORD2R/C/S (nested, in any order),
-//! CQUAD4, CTRIA3, CQUADR, CTRIAR, CBAR, CBEAM (offsets, pin flags), BAROR, BEAMOR, CROD,
+//! CQUAD4, CTRIA3, CQUADR, CTRIAR, CQUAD8, CTRIA6, CBAR, CBEAM (offsets, pin flags), BAROR, BEAMOR, CROD,
 //! CONROD, CTUBE, CHEXA, CPENTA, CTETRA, CPYRAM with PSOLID and MAT9 (see below), PSHELL,
 //! PCOMP, PCOMPG, PBAR, PBARL and PBEAML (the beam library, see below), PBEAM, PROD, PTUBE,
 //! MAT1, MAT2, MAT8,
@@ -72,6 +72,16 @@
 //!   in transverse shear) take G12, with a warning once per deck. MAT2: G11–G33 (positive
 //!   definite) and RHO; as a ply or MID3 its transverse shear moduli are G33 (MAT2 has none),
 //!   with a warning. Expansion coefficients, allowables, TREF, GE and MCSID are not used.
+//! - CQUAD8/CTRIA6 (`shells_quadratic.rs`): curved 8- and 6-node shells (MITC shear,
+//!   `src/fe/shell_quadratic.rs`) with the same PSHELL parts as CQUAD4. A blank (or 0) midside
+//!   grid means a straight edge, as the QRG says: femu slaves that edge's midside motion to the
+//!   corners linearly (`u_m = (u_a + u_b)/2`). ZOFFS ≠ 0 is an error; THETA/MCID is ignored
+//!   (isotropic material); a PCOMP/PCOMPG property, a MAT2/MAT8 material or MID4 on one is an
+//!   error (the kernel is isotropic); T1–T4 and TFLAG are ignored with a warning (the PSHELL T
+//!   is used).
+//!   The lumped mass is HRZ-diagonal (all nodes positive; Nastran's own lumping of CQUAD8
+//!   distributes by area too but its exact split is not documented), the coupled mass
+//!   consistent; frequencies agree with Nastran's to formulation accuracy, not round-off.
 //! - CBAR/CBEAM: the orientation is X1–X3 or G0 (from GA); blank PID, orientation and OFFT
 //!   take the BAROR (CBAR) or BEAMOR (CBEAM) values, a blank PID without them the EID, a blank
 //!   orientation without them is an error. OFFT as the QRG: `v` in GA's displacement system
@@ -216,6 +226,7 @@ mod rigid;
 mod rods;
 mod scalars;
 mod sections;
+mod shells_quadratic;
 mod solids;
 mod source;
 #[cfg(test)]
@@ -226,6 +237,8 @@ mod tests_beams;
 mod tests_cd;
 #[cfg(test)]
 mod tests_laminates;
+#[cfg(test)]
+mod tests_quadratic;
 #[cfg(test)]
 mod tests_replicate;
 #[cfg(test)]
@@ -249,14 +262,15 @@ use source::*;
 const MAX_INCLUDE_DEPTH: usize = 64;
 
 /// Cards femu reads.
-pub const READ_CARDS: [&str; 71] = [
+pub const READ_CARDS: [&str; 73] = [
     "GRID", "GRDSET", "CORD1R", "CORD1C", "CORD1S", "CORD2R", "CORD2C", "CORD2S", "CQUAD4",
     "CTRIA3", "CBAR", "CBEAM", "PSHELL", "PBAR", "PBARL", "PBEAM", "MAT1", "CELAS1", "CELAS2",
     "PELAS", "CBUSH", "PBUSH", "CONM2", "SPC", "SPC1", "SPCADD", "SET1", "CROD", "CONROD", "CTUBE",
     "PROD", "PTUBE", "PBEAML", "BAROR", "BEAMOR", "RBE2", "RBAR", "RROD", "RBE3", "MPC", "MPCADD",
     "CHEXA", "CPENTA", "CTETRA", "CPYRAM", "PSOLID", "MAT9", "CQUADR", "CTRIAR", "PCOMP", "PCOMPG",
     "MAT2", "MAT8", "SPOINT", "EPOINT", "CELAS3", "CELAS4", "CMASS1", "CMASS2", "CMASS3", "CMASS4",
-    "PMASS", "CONM1", "CDAMP1", "CDAMP2", "CDAMP3", "CDAMP4", "PDAMP", "CVISC", "PVISC", "EIGRL",
+    "PMASS", "CONM1", "CDAMP1", "CDAMP2", "CDAMP3", "CDAMP4", "PDAMP", "CVISC", "PVISC", "CQUAD8",
+    "CTRIA6", "EIGRL",
 ];
 
 /// Cards skipped (counted) because they change neither stiffness, mass nor constraints: static
@@ -283,11 +297,11 @@ pub const READ_PARAMS: [&str; 6] = ["WTMASS", "GRDPNT", "COUPMASS", "AUTOSPC", "
 /// Nastran cards femu does not read that change the stiffness, mass, damping or constraints;
 /// an error unless listed in [`BulkOptions::ignore_cards`] (the list only decides how messages
 /// name them: any other unread card is an error too).
-const REFUSED_CARDS: [&str; 40] = [
+const REFUSED_CARDS: [&str; 38] = [
     "RBE1", "RBAR1", "RTRPLT", "RSPLINE", "SPCD", "SUPORT", "SUPORT1", "ASET", "ASET1", "OMIT",
-    "OMIT1", "QSET", "QSET1", "BSET", "BSET1", "CSET", "CSET1", "CQUAD8", "CQUAD", "CTRIA6",
-    "CSHEAR", "PSHEAR", "MAT10", "MATT1", "MATS1", "CDAMP5", "CBUSH1D", "PBUSH1D", "CGAP", "PGAP",
-    "CWELD", "PWELD", "CFAST", "PFAST", "NSM", "NSM1", "NSML", "NSML1", "DMIG", "GENEL",
+    "OMIT1", "QSET", "QSET1", "BSET", "BSET1", "CSET", "CSET1", "CQUAD", "CSHEAR", "PSHEAR",
+    "MAT10", "MATT1", "MATS1", "CDAMP5", "CBUSH1D", "PBUSH1D", "CGAP", "PGAP", "CWELD", "PWELD",
+    "CFAST", "PFAST", "NSM", "NSM1", "NSML", "NSML1", "DMIG", "GENEL",
 ];
 
 /// Whether `name` is a card name Nastran could have written: a letter, then letters or digits,

@@ -170,8 +170,7 @@ fn cards_that_change_the_model_are_errors_unless_ignored() {
     );
     for card in [
         "RSPLINE,1,.1,2,3",
-        "CQUAD8,5,10,1,2,3,4",
-        "CTRIA6,5,10,1,2,3",
+        "CSHEAR,5,10,1,2,3,4",
         "CFAST,5,1",
         "CWELD,5,1",
         "CQUAD,5,10,1,2,3,4",
