@@ -522,10 +522,13 @@ mod tests {
         }
     }
 
-    /// The `LDLᵀ` lines equal the pivoted LU's to 1e-10 relative on the clamped bent plate
-    /// (shells and beams) with structural damping, Rayleigh damping and a viscous `C` of three
-    /// dashpots (not proportional), at lines across the band, on resonance peaks included; a
-    /// lightly damped peak may send a line to the LU, which the report counts.
+    /// The `LDLᵀ` lines equal the pivoted LU's on the clamped bent plate (shells and beams) with
+    /// structural damping, Rayleigh damping and a viscous `C` of three dashpots (not
+    /// proportional), at lines across the band, resonance peaks included. `Z(ω)` of a shell
+    /// model has a condition number near `10¹⁰` at low frequencies (drilling and membrane
+    /// against bending stiffness), so two backward-stable solutions may differ by ~1e-7 of a
+    /// small entry (a cross receptance near an anti-resonance); against the largest value of each
+    /// FRF over the band they agree to 1e-10.
     #[test]
     fn ldlt_lines_equal_the_pivoted_lu() {
         let model = crate::model::generate::bent_plate(&crate::model::generate::BentPlate {
@@ -569,15 +572,57 @@ mod tests {
                 (run(DirectSolver::Ldlt), run(DirectSolver::Lu));
             assert_eq!(lu_report.lines_by_lu, freqs.len());
             assert!(report.lines_by_lu < freqs.len() / 10, "{report:?}");
-            let mut worst = 0.0f64;
-            eprintln!("{damping:?}: {report:?}");
-            for k in 0..freqs.len() {
-                for p in 0..pairs.len() {
+            let (mut worst, mut worst_entry) = (0.0f64, 0.0f64);
+            for p in 0..pairs.len() {
+                let scale = (0..freqs.len())
+                    .map(|k| lu.values[(k, p)].norm())
+                    .fold(0.0, f64::max);
+                for k in 0..freqs.len() {
                     let (a, b) = (ldlt.values[(k, p)], lu.values[(k, p)]);
-                    worst = worst.max((a - b).norm() / b.norm());
+                    worst = worst.max((a - b).norm() / scale);
+                    worst_entry = worst_entry.max((a - b).norm() / b.norm());
                 }
             }
+            assert!(worst_entry <= 1e-6, "{damping:?}: {worst_entry:e}");
             assert!(worst <= 1e-10, "{damping:?}: {worst:e}, {report:?}");
+        }
+    }
+
+    /// On a well-conditioned model (a six-mass chain with two non-proportional dashpots, a
+    /// structural loss factor and Rayleigh damping) the `LDLᵀ` lines equal the LU's entry by
+    /// entry to 1e-12, resonances included, without falling back.
+    #[test]
+    fn ldlt_equals_the_lu_entry_by_entry_on_a_chain_with_dampers() {
+        let mut sys =
+            assemble_lumped(&LumpedModel::chain(&[1.0, 1.3, 0.7, 1.0, 2.0, 1.1], 1e4)).unwrap();
+        let c = [
+            (0, 0, 4.0),
+            (2, 2, 1.5),
+            (5, 5, 1.5),
+            (2, 5, -1.5),
+            (5, 2, -1.5),
+        ];
+        sys.c = Some(crate::core::sparse::sparse_from_triplets("C", 6, &c).unwrap());
+        let pairs = FrfSet::all_pairs(&sys.dofs, &sys.dofs);
+        let freqs = crate::frf::frequency_lines(0.0, 40.0, 0.05);
+        let damping = DirectDamping {
+            structural_eta: 0.003,
+            rayleigh: Some((0.05, 1e-5)),
+        };
+        let run = |solver| {
+            direct_receptance_by(&sys, &damping, &pairs, &freqs, Quantity::Mobility, solver)
+                .unwrap()
+        };
+        let ((ldlt, report), (lu, _)) = (run(DirectSolver::Ldlt), run(DirectSolver::Lu));
+        assert_eq!(report.lines_by_lu, 0);
+        for k in 1..freqs.len() {
+            for p in 0..pairs.len() {
+                let (a, b) = (ldlt.values[(k, p)], lu.values[(k, p)]);
+                assert!(
+                    (a - b).norm() <= 1e-12 * b.norm(),
+                    "line {k} pair {p}: {a} vs {b}"
+                );
+            }
         }
     }
 
