@@ -127,8 +127,8 @@ impl SymbolicLdlt {
             .map(|s| rows_of(s).first().map(|&i| owner[i]))
             .collect();
         let mut relative = Vec::with_capacity(pattern.len());
-        for s in 0..ns {
-            if let Some(p) = parent[s] {
+        for (s, p) in parent.iter().enumerate() {
+            if let Some(p) = *p {
                 relative.extend(rows_of(s).iter().map(|&i| place(p, i)));
             }
         }
