@@ -858,3 +858,128 @@ fn max_eigenvalue_error(direct: &crate::eigen::Modes, reduced: &crate::eigen::Mo
     }
     worst
 }
+
+/// Figures of the direct FRF of the clamped plate (issue 26's speed goal).
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct FrfBench {
+    /// Free DOFs.
+    pub dofs: usize,
+    /// Frequency lines, evenly spaced over 0–800 Hz.
+    pub lines: usize,
+    /// Response DOFs (`uz`, spread over the plate); the first is also the one excitation.
+    pub responses: usize,
+    /// Seconds to generate and assemble the plate.
+    pub assembly_seconds: f64,
+    /// Seconds of the direct FRF by `LDLᵀ` per line (symbolic analysis included).
+    pub ldlt_seconds: f64,
+    /// Lines the `LDLᵀ` handed to the pivoted LU (a zero pivot or a poor backward error).
+    pub lines_by_lu: usize,
+    /// Lines also solved by the plain pivoted LU per line, an even subset of the lines.
+    pub lu_lines: usize,
+    /// Seconds of the LU on those lines.
+    pub lu_seconds: f64,
+    /// LU time per line over `LDLᵀ` time per line.
+    pub speed_up: f64,
+    /// Largest difference of the two on the LU's lines, relative to the largest value of its
+    /// pair.
+    pub max_relative_difference: f64,
+    /// Peak resident memory of the `LDLᵀ` run, MiB (Linux only).
+    pub peak_rss_mib: Option<f64>,
+}
+
+/// Times the direct FRF of the clamped 1 m × 1 m × 5 mm steel plate of about `target_dofs`
+/// DOFs (η = 0.01) at `lines` lines over 0–800 Hz for `responses` responses to one excitation,
+/// by `LDLᵀ` at every line and by the pivoted LU at `lu_lines` of them.
+pub fn frf_bench(
+    target_dofs: usize,
+    lines: usize,
+    responses: usize,
+    lu_lines: usize,
+) -> Result<FrfBench, String> {
+    use crate::core::Component;
+    use crate::frf::direct::{DirectDamping, DirectSolver, direct_receptance_by};
+    use crate::frf::{FrfSet, Quantity};
+    let side = ((target_dofs as f64 / 6.0).sqrt().round() as usize).max(2);
+    let t = Instant::now();
+    let model = flat_plate(&FlatPlate {
+        a: 1.0,
+        b: 1.0,
+        nx: side,
+        ny: side,
+        thickness: 0.005,
+        material: steel(),
+        support: PlateSupport::ClampedEdge,
+    });
+    let (sys, _) = assemble_model(&model, MassKind::Consistent).map_err(|e| e.to_string())?;
+    let assembly_seconds = t.elapsed().as_secs_f64();
+    let uz: Vec<_> = sys
+        .dofs
+        .iter()
+        .filter(|d| d.comp == Component::Uz)
+        .collect();
+    let responses = responses.clamp(1, uz.len());
+    let picked: Vec<_> = (0..responses)
+        .map(|k| *uz[(2 * k + 1) * uz.len() / (2 * responses)])
+        .collect();
+    let pairs = FrfSet::all_pairs(&picked, &picked[..1]);
+    let lines = lines.max(1);
+    let freqs: Vec<f64> = (0..lines)
+        .map(|k| 800.0 * k as f64 / (lines - 1).max(1) as f64)
+        .collect();
+    let damping = DirectDamping {
+        structural_eta: 0.01,
+        rayleigh: None,
+    };
+    reset_peak_rss();
+    let t = Instant::now();
+    let (ldlt, report) = direct_receptance_by(
+        &sys,
+        &damping,
+        &pairs,
+        &freqs,
+        Quantity::Receptance,
+        DirectSolver::Ldlt,
+    )
+    .map_err(|e| e.to_string())?;
+    let ldlt_seconds = t.elapsed().as_secs_f64();
+    let peak_rss_mib = peak_rss_mib();
+    let lu_lines = lu_lines.clamp(1, lines);
+    let subset: Vec<usize> = (0..lu_lines)
+        .map(|k| (2 * k + 1) * lines / (2 * lu_lines))
+        .collect();
+    let sub_freqs: Vec<f64> = subset.iter().map(|&k| freqs[k]).collect();
+    let t = Instant::now();
+    let (lu, _) = direct_receptance_by(
+        &sys,
+        &damping,
+        &pairs,
+        &sub_freqs,
+        Quantity::Receptance,
+        DirectSolver::Lu,
+    )
+    .map_err(|e| e.to_string())?;
+    let lu_seconds = t.elapsed().as_secs_f64();
+    let mut max_relative_difference = 0.0f64;
+    for p in 0..pairs.len() {
+        let scale = (0..lu_lines)
+            .map(|k| lu.values[(k, p)].norm())
+            .fold(0.0, f64::max);
+        for (k, &line) in subset.iter().enumerate() {
+            let d = (ldlt.values[(line, p)] - lu.values[(k, p)]).norm() / scale;
+            max_relative_difference = max_relative_difference.max(d);
+        }
+    }
+    Ok(FrfBench {
+        dofs: sys.n(),
+        lines,
+        responses,
+        assembly_seconds,
+        ldlt_seconds,
+        lines_by_lu: report.lines_by_lu,
+        lu_lines,
+        lu_seconds,
+        speed_up: (lu_seconds / lu_lines as f64) / (ldlt_seconds / lines as f64),
+        max_relative_difference,
+        peak_rss_mib,
+    })
+}

@@ -1,12 +1,14 @@
-//! `femu bench`: time assembly and the lowest modes of a plate or the muffler box, one P-C
-//! iteration, component mode synthesis, or the Nastran import; print the figures and write them
-//! as JSON.
+//! `femu bench`: time assembly and the lowest modes of a plate or the muffler box, the direct
+//! FRF, one P-C iteration, component mode synthesis, or the Nastran import; print the figures
+//! and write them as JSON.
 
 use super::{BenchArgs, Failure};
 
 /// `femu bench`: `--cms`, `--pc-iteration` or the model benchmark, in that precedence.
 pub(super) fn run(a: BenchArgs) -> Result<u8, Failure> {
-    if a.import {
+    if a.frf {
+        frf(a)
+    } else if a.import {
         import(a)
     } else if a.cms {
         cms(a)
@@ -15,6 +17,63 @@ pub(super) fn run(a: BenchArgs) -> Result<u8, Failure> {
     } else {
         models(a)
     }
+}
+
+/// `femu bench --frf`.
+fn frf(a: BenchArgs) -> Result<u8, Failure> {
+    let dofs = if a.dofs.is_empty() {
+        vec![3_900, 100_000]
+    } else {
+        a.dofs
+    };
+    println!(
+        "direct FRF of a clamped plate, eta = 0.01, 0-800 Hz, one excitation, {} threads",
+        rayon::current_num_threads()
+    );
+    println!(
+        "{:>9} {:>6} {:>5} {:>9} {:>9} {:>7} {:>7} {:>9} {:>9} {:>9} {:>9}",
+        "dofs",
+        "lines",
+        "resp",
+        "LDLt s",
+        "ms/line",
+        "by LU",
+        "LU lines",
+        "LU s",
+        "speed-up",
+        "max diff",
+        "peak MiB"
+    );
+    let mut all = Vec::new();
+    for n in dofs {
+        let lines = a.lines.unwrap_or(if n <= 10_000 { 801 } else { 100 });
+        // The plain LU on a subset: every line of it costs what the whole band does by LDLᵀ.
+        let lu_lines = if n <= 10_000 { 40 } else { 2 };
+        let b = crate::bench::frf_bench(n, lines, 10, lu_lines).map_err(|e| anyhow::anyhow!(e))?;
+        println!(
+            "{:>9} {:>6} {:>5} {:>9.2} {:>9.2} {:>7} {:>7} {:>9.2} {:>8.1}x {:>9.1e} {:>9.0}",
+            b.dofs,
+            b.lines,
+            b.responses,
+            b.ldlt_seconds,
+            1e3 * b.ldlt_seconds / b.lines as f64,
+            b.lines_by_lu,
+            b.lu_lines,
+            b.lu_seconds,
+            b.speed_up,
+            b.max_relative_difference,
+            b.peak_rss_mib.unwrap_or(f64::NAN)
+        );
+        all.push(b);
+    }
+    if let Some(path) = a.json {
+        std::fs::write(
+            &path,
+            serde_json::to_string_pretty(&all).unwrap_or_default(),
+        )
+        .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+    }
+    Ok(0)
 }
 
 /// `femu bench --import`.

@@ -6,8 +6,11 @@
 //!   the AVX2 kernels of [`thin`]). It serves the shift-invert Lanczos process of `eigen`
 //!   (through its two half sweeps, [`SymmetricFactor`]), the static constraint modes of
 //!   `reduction` and the static correction of `sensitivity`.
+//! - [`SymbolicLdlt`]: `A = P L D Lᵀ Pᵀ` of a complex symmetric `A` without pivoting, on the
+//!   same ordering and supernodal structure, analysed once per pattern and factored per matrix
+//!   in a caller's [`LdltWorkspace`]: the dynamic stiffness of the direct FRF at every line.
 //! - [`Lu`]: the LU factor of a general sparse matrix (faer's supernodal LU on a shared
-//!   [`SymbolicLu`]), for the complex dynamic stiffness of the direct FRF.
+//!   [`SymbolicLu`]), the direct FRF's fallback where the `LDLᵀ` leaves a poor residual.
 //!
 //! Both solve through [`SparseSolve`], which takes the parallelism of every call explicitly
 //! (faer's [`Par`](faer::Par)): [`Par::Seq`](faer::Par::Seq) runs the call on the calling thread
@@ -17,6 +20,7 @@
 mod combination;
 mod factor;
 mod layout;
+mod ldlt;
 mod lu;
 mod multifrontal;
 mod operator;
@@ -26,6 +30,7 @@ mod thin;
 
 pub use combination::lower_combination;
 pub use factor::{FactorError, FactorInfo, SOLVE_COLUMNS, SpdFactor};
+pub use ldlt::{LdltError, LdltWorkspace, SymbolicLdlt};
 pub use lu::{Lu, SymbolicLu};
 pub use operator::{SparseSolve, SymmetricFactor};
 pub use product::{sym_matvec, sym_matvec_pair};
