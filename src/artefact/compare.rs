@@ -31,7 +31,11 @@ impl Tol {
         if a == b || (a.is_nan() && b.is_nan()) {
             return true;
         }
-        (a - b).abs() <= self.atol + self.rtol * a.abs().max(b.abs())
+        // An infinity equals only itself (the relative bound would grow with it and accept any
+        // finite value).
+        a.is_finite()
+            && b.is_finite()
+            && (a - b).abs() <= self.atol + self.rtol * a.abs().max(b.abs())
     }
 }
 
@@ -512,6 +516,9 @@ mod tests {
             ..Default::default()
         };
         assert!(bounded.accepts(2.5, -1.0));
+        let t = Tol::default();
+        assert!(t.accepts(f64::INFINITY, f64::INFINITY));
+        assert!(!t.accepts(f64::INFINITY, 8e15) && !t.accepts(1.0, f64::NEG_INFINITY));
         assert!(!bounded.accepts(3.5, 2.0));
         assert!(!bounded.accepts(2.0, 3.5));
     }
