@@ -380,17 +380,18 @@ pub fn tria3_with_derivatives(
 // ---------------------------------------------------------------------------------------------
 // Internals.
 
-type V3 = [f64; 3];
+/// A 3-vector; the vector helpers below serve the quadratic shells too.
+pub(super) type V3 = [f64; 3];
 
-fn sub(a: &V3, b: &V3) -> V3 {
+pub(super) fn sub(a: &V3, b: &V3) -> V3 {
     [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
 }
 
-fn dot(a: &V3, b: &V3) -> f64 {
+pub(super) fn dot(a: &V3, b: &V3) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
-fn cross(a: &V3, b: &V3) -> V3 {
+pub(super) fn cross(a: &V3, b: &V3) -> V3 {
     [
         a[1] * b[2] - a[2] * b[1],
         a[2] * b[0] - a[0] * b[2],
@@ -398,7 +399,7 @@ fn cross(a: &V3, b: &V3) -> V3 {
     ]
 }
 
-fn norm(a: &V3) -> f64 {
+pub(super) fn norm(a: &V3) -> f64 {
     dot(a, a).sqrt()
 }
 

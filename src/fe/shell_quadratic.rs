@@ -78,7 +78,8 @@
 
 use super::element::{ElementDerivative, ElementError, ElementMatrices, MassKind};
 use super::shell::{
-    DRILLING_FACTOR, LayerMaterial, SHEAR_CORRECTION, ShellParameter, ShellSection,
+    DRILLING_FACTOR, LayerMaterial, SHEAR_CORRECTION, ShellParameter, ShellSection, V3, cross, dot,
+    norm, sub,
 };
 use faer::Mat;
 
@@ -220,28 +221,6 @@ impl Shape {
         let c = self.corners();
         (k, (k + 1) % c, c + k)
     }
-}
-
-type V3 = [f64; 3];
-
-fn sub(a: &V3, b: &V3) -> V3 {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
-fn dot(a: &V3, b: &V3) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-fn cross(a: &V3, b: &V3) -> V3 {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-
-fn norm(a: &V3) -> f64 {
-    dot(a, a).sqrt()
 }
 
 fn unit(a: &V3) -> V3 {
