@@ -604,22 +604,20 @@ fn write_element(out: &mut String, id: u64, e: &Element, bush_pid: &BTreeMap<u64
             corners,
             midside,
             property,
-        } => {
-            let mut f = vec![F::Int(id), F::Int(*property)];
-            f.extend(corners.iter().map(|n| F::Int(*n)));
-            f.extend(midside.iter().map(|n| n.map_or(F::Blank, F::Int)));
-            card(out, "CQUAD8", f);
-        }
+        } => card(
+            out,
+            "CQUAD8",
+            quadratic_fields(id, *property, corners, midside),
+        ),
         Element::Tria6 {
             corners,
             midside,
             property,
-        } => {
-            let mut f = vec![F::Int(id), F::Int(*property)];
-            f.extend(corners.iter().map(|n| F::Int(*n)));
-            f.extend(midside.iter().map(|n| n.map_or(F::Blank, F::Int)));
-            card(out, "CTRIA6", f);
-        }
+        } => card(
+            out,
+            "CTRIA6",
+            quadratic_fields(id, *property, corners, midside),
+        ),
         Element::Beam {
             nodes,
             property,
@@ -854,6 +852,15 @@ fn write_sets(out: &mut String, model: &Model) {
             card(out, "SET1", f);
         }
     }
+}
+
+/// The fields of a CQUAD8/CTRIA6: id, property, corners, then the midside nodes (blank where
+/// omitted).
+fn quadratic_fields(id: u64, property: u64, corners: &[u64], midside: &[Option<u64>]) -> Vec<F> {
+    let mut f = vec![F::Int(id), F::Int(property)];
+    f.extend(corners.iter().map(|n| F::Int(*n)));
+    f.extend(midside.iter().map(|n| n.map_or(F::Blank, F::Int)));
+    f
 }
 
 #[cfg(test)]
