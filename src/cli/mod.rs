@@ -18,6 +18,7 @@ mod load;
 mod run;
 mod schema;
 mod show;
+mod summary;
 mod sweep;
 mod validate;
 
@@ -81,7 +82,7 @@ enum Command {
         /// Recompute even cached stages.
         #[arg(long)]
         force: bool,
-        /// No progress lines.
+        /// No progress (bars or lines); the summary and the stages' warnings still print.
         #[arg(long, short)]
         quiet: bool,
     },
@@ -102,9 +103,10 @@ enum Command {
         /// A stage kind to describe in full.
         kind: Option<String>,
     },
-    /// Describe an artefact directory: kind, digest, units, tables and a preview.
+    /// Describe an artefact directory (kind, digest, units, tables and a preview), or summarise
+    /// a run's --out directory (stages, status, times, key results, warnings).
     Show {
-        /// Artefact directory (holding meta.json).
+        /// Artefact directory (holding meta.json) or run output (holding femu.lock.json).
         artefact: PathBuf,
         /// Rows of each table to print.
         #[arg(long, default_value_t = 8)]
