@@ -314,7 +314,11 @@ impl<'t> RowNames<'t> {
             .filter(|(_, c)| row < c.len())
             .map(|(n, c)| {
                 let v = match c {
-                    Column::F64(v) => format!("{}", v[row]),
+                    // 12 significant digits: `0.15`, not `0.15000000000000002`.
+                    Column::F64(v) => {
+                        let rounded: f64 = format!("{:.11e}", v[row]).parse().unwrap_or(v[row]);
+                        format!("{rounded}")
+                    }
                     Column::I64(v) => v[row].to_string(),
                     Column::Str(v) => v[row].clone(),
                 };
@@ -539,7 +543,7 @@ fn compare_table(
                         out.push_num(
                             &mut listed,
                             format!("{loc} {}", rows.name(row)),
-                            format!("{u:e} vs {v:e} ({})", t.describe()),
+                            format!("{u:e} vs {v:e}"),
                             d,
                             d / u.abs().max(v.abs()),
                         );
@@ -876,7 +880,10 @@ mod tests {
         let t = Tolerances::default();
         assert!(compare(&model(1.0), &model(1.0), &t).same());
         let c = compare(&model(0.5), &model(1.0), &t);
-        assert_eq!(c.differences[0].location, "dependent.coefficient row 0");
+        assert_eq!(
+            c.differences[0].location,
+            "dependent.coefficient row 0 (dof 2:ux)"
+        );
         let modes = |s: f64| {
             Artefact::new(ArtefactKind::Modes).with_table(
                 "dependent_shapes",
@@ -888,5 +895,102 @@ mod tests {
         };
         assert!(compare(&modes(1.0), &modes(-1.0), &t).same());
         assert!(!compare(&modes(1.0), &modes(1.1), &t).same());
+    }
+
+    #[test]
+    fn rows_are_named_by_their_key_columns_and_summarised_by_column() {
+        let params = |v: &[f64]| {
+            Artefact::new(ArtefactKind::UpdateResult).with_table(
+                "parameters",
+                Table::new()
+                    .with(
+                        "parameter",
+                        Column::Str(v.iter().enumerate().map(|(i, _)| format!("t{i}")).collect()),
+                    )
+                    .with("final", Column::F64(v.to_vec())),
+                Storage::Parquet,
+            )
+        };
+        let base: Vec<f64> = (1..=8).map(f64::from).collect();
+        let mut changed = base.clone();
+        for (i, x) in changed.iter_mut().enumerate().skip(1) {
+            *x *= 1.0 + 0.01 * i as f64;
+        }
+        let t = Tolerances::default();
+        let c = compare(&params(&changed), &params(&base), &t);
+        assert_eq!(c.count, 7);
+        assert_eq!(c.differences.len(), MAX_LISTED);
+        assert_eq!(
+            c.differences[0].location,
+            "parameters.final row 1 (parameter t1)"
+        );
+        let col = &c.columns["parameters.final"];
+        assert_eq!(col.count, 7);
+        assert_eq!(col.worst_at, "parameters.final row 7 (parameter t7)");
+        assert!((col.worst_rel - 0.56 / 1.07 * 0.125).abs() < 1e-2);
+        let all = compare_listing(&params(&changed), &params(&base), &t, usize::MAX);
+        assert_eq!(all.differences.len(), 7);
+        assert_eq!(all.count, c.count);
+    }
+
+    #[test]
+    fn diff_defaults_ignore_round_off_but_not_changes() {
+        let modes = |phi: Vec<f64>, ortho: f64| {
+            Artefact::new(ArtefactKind::Modes)
+                .with_meta("orthogonality_error", ortho.into())
+                .with_table(
+                    "shapes",
+                    Table::new()
+                        .with(
+                            "dof",
+                            Column::Str(vec!["1:ux".into(), "2:ux".into(), "3:ux".into()]),
+                        )
+                        .with("phi_1", Column::F64(phi)),
+                    Storage::Ipc,
+                )
+        };
+        let reference = modes(vec![0.5, 1e-19, -1.0], 1.1e-15);
+        // Sign flipped, a node's entry at round-off, a different round-off orthogonality error.
+        let noisy = modes(vec![-0.5, 3e-19, 1.0 + 1e-12], 2.3e-15);
+        let strict = Tolerances::default();
+        assert!(
+            !compare(&noisy, &reference, &strict).same(),
+            "1e-19 noise fails rtol alone"
+        );
+        let d = Tolerances::defaults_for(ArtefactKind::Modes);
+        assert!(compare(&noisy, &reference, &d).same());
+        let moved = modes(vec![-0.5, 1e-3, 1.0], 1.1e-15);
+        let c = compare(&moved, &reference, &d);
+        assert_eq!(c.count, 1);
+        assert_eq!(c.differences[0].location, "shapes.phi_1 row 1 (dof 2:ux)");
+        // Elsewhere the relative tolerance holds, plus round-off of the column's scale.
+        let frf = |v: f64| {
+            Artefact::new(ArtefactKind::Frf).with_table(
+                "frf",
+                Table::new()
+                    .with("response", Column::Str(vec!["1:ux".into(), "1:ux".into()]))
+                    .with(
+                        "excitation",
+                        Column::Str(vec!["1:ux".into(), "1:ux".into()]),
+                    )
+                    .with("freq_hz", Column::F64(vec![0.0, 0.5]))
+                    .with("re", Column::F64(vec![1.0, v])),
+                Storage::Parquet,
+            )
+        };
+        let d = Tolerances::defaults_for(ArtefactKind::Frf);
+        assert!(compare(&frf(1e-20), &frf(-1e-20), &d).same());
+        let c = compare(&frf(2e-6), &frf(1e-6), &d);
+        assert_eq!(
+            c.differences[0].location,
+            "frf.re row 1 (response 1:ux, excitation 1:ux, freq_hz 0.5)"
+        );
+        assert!(d.describe()[0].contains("1e-9·max(|a|, |b|)"));
+        assert!(
+            Tolerances::defaults_for(ArtefactKind::Modes)
+                .describe()
+                .iter()
+                .any(|l| l.starts_with("shapes.phi_* (up to sign"))
+        );
     }
 }

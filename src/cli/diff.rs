@@ -272,9 +272,17 @@ fn print_tolerances(chosen: &Chosen, kinds: &BTreeMap<ArtefactKind, usize>) {
             println!(
                 "tolerances (femu's defaults per artefact kind, ignoring round-off; --rtol/--atol or --tolerances FILE to choose):"
             );
+            // Kinds with the same rules share a line.
+            let mut rules: Vec<(String, Vec<String>)> = Vec::new();
             for kind in kinds.keys() {
-                let lines = Tolerances::defaults_for(*kind).describe();
-                println!("  {kind}: {}", lines.join("; "));
+                let text = Tolerances::defaults_for(*kind).describe().join("; ");
+                match rules.iter_mut().find(|r| r.0 == text) {
+                    Some(r) => r.1.push(kind.to_string()),
+                    None => rules.push((text, vec![kind.to_string()])),
+                }
+            }
+            for (text, kinds) in rules {
+                println!("  {}: {text}", kinds.join(", "));
             }
         }
     }
