@@ -332,9 +332,9 @@ mod tests {
         assert_eq!(
             w,
             [
-                "PARAM WTMASS 0.00259 applied",
                 "converted mm/N to m/N",
                 "sign of 3:uz flipped",
+                "PARAM WTMASS 0.00259 applied",
                 "one",
                 "cards dropped as `ignore_cards` or `on_unsupported` asks (the model lacks what they define): CGAP ×2",
             ]
