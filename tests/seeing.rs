@@ -178,7 +178,9 @@ fn show_summarises_a_run_directory() {
     assert_eq!(neither.status.code(), Some(2));
     let e = text(&neither.stderr);
     assert!(
-        e.contains("is neither a femu artefact") && e.contains("femu.lock.json"),
+        e.contains("is not a femu artefact (")
+            && e.contains("nor a run's output")
+            && e.contains("femu.lock.json"),
         "{e}"
     );
     assert!(!e.contains("No such file"), "{e}");

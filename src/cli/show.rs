@@ -23,11 +23,11 @@ pub(super) fn run(path: &Path, rows: usize) -> Result<u8, Failure> {
         return Ok(0);
     }
     let what = if !path.exists() {
-        "does not exist"
+        "is not a femu artefact or run output: no such file or directory"
     } else if !path.is_dir() {
-        "is not a directory"
+        "is not a femu artefact or run output: not a directory"
     } else {
-        "is neither a femu artefact (a directory holding meta.json, e.g. out/<stage>/<port>) nor a run's output (a directory holding femu.lock.json, written by `femu run --out`)"
+        "is not a femu artefact (a directory holding meta.json, e.g. out/<stage>/<port>) nor a run's output (a directory holding femu.lock.json, written by `femu run --out`)"
     };
     Err(Failure::bad_input(anyhow::anyhow!(
         "{} {what}",

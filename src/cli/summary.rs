@@ -345,7 +345,9 @@ mod tests {
         print_warnings(&[("import".into(), "frf.import".into(), w)], &mut text).unwrap();
         let text = String::from_utf8(text).unwrap();
         assert!(
-            text.starts_with("warnings (5, from 1 stage):\n  import (frf.import):\n    - PARAM")
+            text.starts_with(
+                "warnings (5, from 1 stage):\n  import (frf.import):\n    - converted"
+            )
         );
     }
 }
