@@ -20,11 +20,26 @@ pub struct Tol {
     /// Upper bound on both values' magnitudes, replacing the comparison.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub max: Option<f64>,
+    /// A further absolute tolerance as a fraction of the largest magnitude in the column (or
+    /// matrix): entries that are round-off next to the column's scale — a mode shape's entries
+    /// near a nodal line, a cancellation near zero — are no change.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub scaled: f64,
+}
+
+fn is_zero(v: &f64) -> bool {
+    *v == 0.0
 }
 
 impl Tol {
     /// Whether `a` and `b` agree.
     pub fn accepts(&self, a: f64, b: f64) -> bool {
+        self.accepts_in(a, b, 0.0)
+    }
+
+    /// Whether `a` and `b` agree in a column whose largest magnitude is `scale` (see
+    /// [`Tol::scaled`]).
+    pub fn accepts_in(&self, a: f64, b: f64, scale: f64) -> bool {
         if let Some(m) = self.max {
             return a.abs() <= m && b.abs() <= m;
         }
@@ -35,7 +50,29 @@ impl Tol {
         // finite value).
         a.is_finite()
             && b.is_finite()
-            && (a - b).abs() <= self.atol + self.rtol * a.abs().max(b.abs())
+            && (a - b).abs() <= self.atol + self.rtol * a.abs().max(b.abs()) + self.scaled * scale
+    }
+
+    /// The rule in words, e.g. `|Δ| ≤ 1e-9·max(|a|, |b|) + 1e-12·(column's largest |value|)`.
+    pub fn describe(&self) -> String {
+        if let Some(m) = self.max {
+            return format!("same while both |values| ≤ {m:e}");
+        }
+        let mut terms = Vec::new();
+        if self.atol > 0.0 {
+            terms.push(format!("{:e}", self.atol));
+        }
+        if self.rtol > 0.0 {
+            terms.push(format!("{:e}·max(|a|, |b|)", self.rtol));
+        }
+        if self.scaled > 0.0 {
+            terms.push(format!("{:e}·(largest |value| in the column)", self.scaled));
+        }
+        if terms.is_empty() {
+            "exactly equal".into()
+        } else {
+            format!("|a − b| ≤ {}", terms.join(" + "))
+        }
     }
 }
 
@@ -65,6 +102,7 @@ impl Tolerances {
                 ("rtol", t.rtol),
                 ("atol", t.atol),
                 ("max", t.max.unwrap_or(0.0)),
+                ("scaled", t.scaled),
             ] {
                 if !(v.is_finite() && v >= 0.0) {
                     return Err(format!("{name}: {what} = {v} must be a finite number >= 0"));
@@ -78,8 +116,7 @@ impl Tolerances {
 fn default_tol() -> Tol {
     Tol {
         rtol: 1e-9,
-        atol: 0.0,
-        max: None,
+        ..Default::default()
     }
 }
 
@@ -94,6 +131,66 @@ impl Default for Tolerances {
 }
 
 impl Tolerances {
+    /// `femu diff`'s tolerances for an artefact of `kind` when the user chooses none: round-off
+    /// is no change. Every number: `1e-9` relative, plus `1e-12` of its column's largest
+    /// magnitude (a cancellation near zero); mode shapes (compared up to sign, repeated modes
+    /// as a subspace) to `1e-7` of the shape's largest entry, since an iterative eigensolver's
+    /// shapes move by ~1e-9 with the operation order; figures that are round-off by nature
+    /// (eigen residuals, orthogonality errors) are the same while both stay below `1e-6`.
+    pub fn defaults_for(kind: ArtefactKind) -> Tolerances {
+        let mut t = Tolerances {
+            default: Tol {
+                rtol: 1e-9,
+                scaled: 1e-12,
+                ..Default::default()
+            },
+            ..Default::default()
+        };
+        let shapes = Tol {
+            rtol: 0.0,
+            scaled: 1e-7,
+            ..Default::default()
+        };
+        let roundoff = Tol {
+            max: Some(1e-6),
+            ..Default::default()
+        };
+        let columns: Vec<(&str, Tol)> = match kind {
+            ArtefactKind::Modes => vec![
+                ("shapes.phi_*", shapes),
+                ("dependent_shapes.phi_*", shapes),
+                ("frequencies.residual", roundoff),
+                ("meta.orthogonality_error", roundoff),
+            ],
+            ArtefactKind::ReducedComponent | ArtefactKind::ReducedModel => {
+                vec![("meta.orthogonality_error", roundoff)]
+            }
+            _ => Vec::new(),
+        };
+        t.columns = columns
+            .into_iter()
+            .map(|(k, v)| (k.to_string(), v))
+            .collect();
+        t
+    }
+
+    /// The rules in words, one line each: the default, then each column's own.
+    pub fn describe(&self) -> Vec<String> {
+        let mut out = vec![format!("every number: {}", self.default.describe())];
+        for (c, t) in &self.columns {
+            let what = if c.ends_with("phi_*") {
+                format!("{c} (up to sign, repeated modes as a subspace)")
+            } else {
+                c.clone()
+            };
+            out.push(format!("{what}: {}", t.describe()));
+        }
+        if self.skip_blobs {
+            out.push("files (figures) not compared".into());
+        }
+        out
+    }
+
     /// The tolerance of `table.column`.
     pub fn of(&self, table: &str, column: &str) -> Tol {
         let stem = column.split('_').next().unwrap_or(column);
@@ -114,15 +211,35 @@ pub struct Difference {
     pub detail: String,
 }
 
+/// The differences of one column (or matrix, or meta entry), for a summary.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ColumnDifferences {
+    /// Differing values.
+    pub count: usize,
+    /// Largest absolute difference among them (NaN for text and kinds of change).
+    pub worst_abs: f64,
+    /// Its relative size, `|a − b| / max(|a|, |b|)` (NaN when not numeric).
+    pub worst_rel: f64,
+    /// Where the largest difference is (the row named by its key columns).
+    pub worst_at: String,
+}
+
 /// The outcome of a comparison.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Comparison {
-    /// Differences, at most [`MAX_LISTED`] listed per table or column.
+    /// Differences, at most [`MAX_LISTED`] listed per table or column (or as many as
+    /// [`compare_listing`] was asked for).
     pub differences: Vec<Difference>,
     /// Total count of differing values.
     pub count: usize,
     /// Largest absolute difference per `table.column`.
     pub max_abs: BTreeMap<String, f64>,
+    /// Per `table.column` (or `meta.key`, or table) that differs: how many values and the
+    /// largest difference.
+    pub columns: BTreeMap<String, ColumnDifferences>,
+    /// How many differences to list per column (`None`: [`MAX_LISTED`]; `Some(usize::MAX)`
+    /// lists all).
+    limit: Option<usize>,
 }
 
 /// How many differences are listed per column before counting only.
@@ -134,18 +251,134 @@ impl Comparison {
         self.count == 0
     }
 
+    /// A difference that has no size (text, a missing key, a changed layout).
     fn push(&mut self, listed_in_column: &mut usize, location: String, detail: String) {
+        self.push_num(listed_in_column, location, detail, f64::NAN, f64::NAN);
+    }
+
+    /// A numeric difference of absolute size `abs` and relative size `rel`, counted in the
+    /// summary of its column (the location up to ` row ` or ` (`).
+    fn push_num(
+        &mut self,
+        listed_in_column: &mut usize,
+        location: String,
+        detail: String,
+        abs: f64,
+        rel: f64,
+    ) {
         self.count += 1;
-        if *listed_in_column < MAX_LISTED {
+        let column = location
+            .split(" row ")
+            .next()
+            .and_then(|c| c.split(" (").next())
+            .unwrap_or(&location)
+            .to_string();
+        let c = self.columns.entry(column).or_default();
+        c.count += 1;
+        if c.count == 1 || abs > c.worst_abs || (c.worst_abs.is_nan() && !abs.is_nan()) {
+            c.worst_abs = abs;
+            c.worst_rel = rel;
+            c.worst_at = location.clone();
+        }
+        if *listed_in_column < self.limit.unwrap_or(MAX_LISTED) {
             self.differences.push(Difference { location, detail });
         }
         *listed_in_column += 1;
     }
 }
 
-/// Compares `a` (new) against `b` (reference).
+/// Names a table's rows by its key columns (the parameter, the DOF, the mode, the frequency
+/// line) rather than by number alone.
+struct RowNames<'t> {
+    keys: Vec<(&'t str, &'t Column)>,
+}
+
+impl<'t> RowNames<'t> {
+    fn new(kind: ArtefactKind, table: &str, t: &'t Table) -> Self {
+        let names = key_columns(kind, table);
+        let keys = names
+            .iter()
+            .filter_map(|n| t.column(n).map(|c| (*n, c)))
+            .collect();
+        RowNames { keys }
+    }
+
+    /// `row 12 (response 1:ux, excitation 1:ux, freq_hz 0.6)`; `row 12` without key columns.
+    fn name(&self, row: usize) -> String {
+        if self.keys.is_empty() {
+            return format!("row {row}");
+        }
+        let parts: Vec<String> = self
+            .keys
+            .iter()
+            .filter(|(_, c)| row < c.len())
+            .map(|(n, c)| {
+                let v = match c {
+                    // 12 significant digits: `0.15`, not `0.15000000000000002`.
+                    Column::F64(v) => {
+                        let rounded: f64 = format!("{:.11e}", v[row]).parse().unwrap_or(v[row]);
+                        format!("{rounded}")
+                    }
+                    Column::I64(v) => v[row].to_string(),
+                    Column::Str(v) => v[row].clone(),
+                };
+                format!("{n} {v}")
+            })
+            .collect();
+        format!("row {row} ({})", parts.join(", "))
+    }
+}
+
+/// The columns that name a row of `table` in an artefact of `kind`.
+pub fn key_columns(kind: ArtefactKind, table: &str) -> &'static [&'static str] {
+    use ArtefactKind as K;
+    match (kind, table) {
+        (K::Frf, "frf") => &["response", "excitation", "freq_hz"],
+        (K::Correlation | K::Leverage, "lines") => &["freq_hz"],
+        (K::Correlation, "frac") => &["response", "excitation"],
+        (K::Modes, "frequencies") => &["mode"],
+        (K::Modes, _) => &["dof"],
+        (K::ModalCorrelation, "pairs" | "mac") => &["reference_mode", "predicted_mode"],
+        (K::ModalCorrelation, "comac") => &["dof"],
+        (K::UpdateResult, "parameters") => &["parameter"],
+        (K::UpdateResult, "history") => &["iteration", "parameter"],
+        (K::UpdateResult, "iterations") => &["iteration"],
+        (K::UpdateResult, "singular_values") => &["iteration", "index"],
+        (K::UpdateResult, "directions") => &["iteration", "direction", "parameter"],
+        (K::UpdateResult, "modal_damping") => &["mode"],
+        (K::Leverage, "candidates") => &["candidate"],
+        (K::Leverage | K::EigenvalueSensitivity, "members") => &["candidate", "element"],
+        (K::EigenvalueSensitivity, "modes") => &["mode"],
+        (K::EigenvalueSensitivity, "sensitivities") => &["candidate", "mode"],
+        (K::Matrices, "dependent") => &["dof"],
+        (K::Matrices, "dofs") => &["index"],
+        (K::Mesh, "nodes" | "displacement_systems") => &["node"],
+        (K::Mesh, "elements" | "lumped") => &["element"],
+        (K::Mesh, "sets") => &["set", "element"],
+        (K::Mesh, "constraints") => &["dof"],
+        (K::Mesh, "mpcs") => &["dependent", "independent"],
+        (K::Partition, "dofs") => &["substructure", "dof"],
+        (K::Partition, "substructures") => &["substructure", "element"],
+        (K::Partition, "boundaries") => &["boundary", "dof"],
+        (K::ReducedModel, "components") => &["substructure"],
+        (K::ReducedModel, "coords") => &["index"],
+        (K::ReducedComponent, "component_modes") => &["mode"],
+        _ => &[],
+    }
+}
+
+/// Compares `a` (new) against `b` (reference), listing at most [`MAX_LISTED`] differences a
+/// column.
 pub fn compare(a: &Artefact, b: &Artefact, tol: &Tolerances) -> Comparison {
-    let mut out = Comparison::default();
+    compare_listing(a, b, tol, MAX_LISTED)
+}
+
+/// [`compare`], listing at most `listed` differences a column (`usize::MAX`: every one).
+pub fn compare_listing(a: &Artefact, b: &Artefact, tol: &Tolerances, listed: usize) -> Comparison {
+    let mut out = Comparison {
+        limit: Some(listed),
+        ..Default::default()
+    };
     let mut n = 0;
     if a.kind != b.kind {
         out.push(
@@ -162,6 +395,7 @@ pub fn compare(a: &Artefact, b: &Artefact, tol: &Tolerances) -> Comparison {
         tol,
         &mut out,
     );
+    let labels = index_labels(b);
     let names: std::collections::BTreeSet<&String> =
         a.tables.keys().chain(b.tables.keys()).collect();
     for name in names {
@@ -171,13 +405,13 @@ pub fn compare(a: &Artefact, b: &Artefact, tol: &Tolerances) -> Comparison {
                 // Every matrices table but the DOF list and the rigid elements' equations is a
                 // sparse matrix.
                 (ArtefactKind::Matrices, t) if t != "dofs" && t != "dependent" => {
-                    compare_sparse(name, ta, tb, tol, &mut out)
+                    compare_sparse(name, ta, tb, tol, labels.as_ref(), &mut out)
                 }
                 // Shapes at the free and at the dependent DOFs, both up to sign.
                 (ArtefactKind::Modes, "shapes" | "dependent_shapes") => {
                     compare_shapes(name, a, ta, tb, tol, &mut out)
                 }
-                _ => compare_table(name, ta, tb, tol, false, &mut out),
+                _ => compare_table(name, ta, tb, tol, false, a.kind, &mut out),
             },
             (Some(_), None) => out.push(&mut n, name.clone(), "table only in the first".into()),
             (None, Some(_)) => out.push(&mut n, name.clone(), "table only in the second".into()),
@@ -229,7 +463,14 @@ fn compare_json(
             );
             let t = tol.columns.get(path).copied().unwrap_or(tol.default);
             if !t.accepts(u, v) {
-                out.push(&mut n, path.to_string(), format!("{u:e} vs {v:e}"));
+                let d = (u - v).abs();
+                out.push_num(
+                    &mut n,
+                    path.to_string(),
+                    format!("{u:e} vs {v:e}"),
+                    d,
+                    d / u.abs().max(v.abs()),
+                );
             }
         }
         (x, y) if x != y => out.push(&mut n, path.to_string(), format!("{x} vs {y}")),
@@ -243,9 +484,11 @@ fn compare_table(
     b: &Table,
     tol: &Tolerances,
     up_to_sign: bool,
+    kind: ArtefactKind,
     out: &mut Comparison,
 ) {
     let mut n = 0;
+    let rows = RowNames::new(kind, name, b);
     let ca: Vec<(&str, &str)> = a
         .columns
         .iter()
@@ -283,15 +526,26 @@ fn compare_table(
                 } else {
                     1.0
                 };
+                let scale = if t.scaled > 0.0 {
+                    x.iter()
+                        .chain(y)
+                        .filter(|v| v.is_finite())
+                        .fold(0.0f64, |m, v| m.max(v.abs()))
+                } else {
+                    0.0
+                };
                 let mut worst = 0.0f64;
                 for (row, (u, v)) in x.iter().zip(y).enumerate() {
                     let u = sign * u;
-                    worst = worst.max((u - v).abs());
-                    if !t.accepts(u, *v) {
-                        out.push(
+                    let d = (u - v).abs();
+                    worst = worst.max(d);
+                    if !t.accepts_in(u, *v, scale) {
+                        out.push_num(
                             &mut listed,
-                            format!("{loc} row {row}"),
-                            format!("{u:e} vs {v:e} (rtol {:e}, atol {:e})", t.rtol, t.atol),
+                            format!("{loc} {}", rows.name(row)),
+                            format!("{u:e} vs {v:e}"),
+                            d,
+                            d / u.abs().max(v.abs()),
                         );
                     }
                 }
@@ -302,7 +556,7 @@ fn compare_table(
                     if u != v {
                         out.push(
                             &mut listed,
-                            format!("{loc} row {row}"),
+                            format!("{loc} {}", rows.name(row)),
                             format!("{u} vs {v}"),
                         );
                     }
@@ -313,7 +567,7 @@ fn compare_table(
                     if u != v {
                         out.push(
                             &mut listed,
-                            format!("{loc} row {row}"),
+                            format!("{loc} {}", rows.name(row)),
                             format!("`{u}` vs `{v}`"),
                         );
                     }
@@ -360,7 +614,7 @@ fn compare_shapes(
         .and_then(|f| f.f64s("frequencies", "eigenvalue_rad2_s2").ok())
         .map(|v| v.to_vec());
     let Some(lambdas) = lambdas else {
-        return compare_table(name, ta, tb, tol, true, out);
+        return compare_table(name, ta, tb, tol, true, a.kind, out);
     };
     let groups = repeated_groups(&lambdas);
     let (mut sa, mut sb) = (Table::new(), Table::new());
@@ -377,7 +631,7 @@ fn compare_shapes(
         sa.columns.insert(0, ("dof".into(), x.clone()));
         sb.columns.insert(0, ("dof".into(), y.clone()));
     }
-    compare_table(name, &sa, &sb, tol, true, out);
+    compare_table(name, &sa, &sb, tol, true, a.kind, out);
     let t = tol.of(name, "phi_1");
     for g in groups.iter().filter(|g| g.len() > 1) {
         let cols = |tab: &Table| -> Option<Vec<Vec<f64>>> {
@@ -424,8 +678,8 @@ fn compare_shapes(
                 a2 += x[row] * x[row];
             }
             let rel = (r2 / a2.max(f64::MIN_POSITIVE)).sqrt();
-            if rel > t.rtol.max(1e-12) {
-                out.push(&mut listed, format!("{name}.phi_{}", g[c] + 1), format!("lies {rel:e} (relative) outside the reference span of the repeated modes {}..{}", g[0] + 1, g[k - 1] + 1));
+            if rel > t.rtol.max(t.scaled).max(1e-12) {
+                out.push_num(&mut listed, format!("{name}.phi_{}", g[c] + 1), format!("lies {rel:e} (relative) outside the reference span of the repeated modes {}..{}", g[0] + 1, g[k - 1] + 1), rel, rel);
             }
         }
     }
@@ -450,7 +704,26 @@ fn sparse_map(t: &Table, name: &str) -> Option<BTreeMap<(i64, i64), f64>> {
     Some(m)
 }
 
-fn compare_sparse(name: &str, a: &Table, b: &Table, tol: &Tolerances, out: &mut Comparison) {
+/// Labels of a matrix's rows and columns by index: the DOFs of `matrices`.
+fn index_labels(x: &Artefact) -> Option<BTreeMap<i64, String>> {
+    let (table, column) = match x.kind {
+        ArtefactKind::Matrices => ("dofs", "dof"),
+        _ => return None,
+    };
+    let t = x.table(table).ok()?;
+    let index = t.i64s(table, "index").ok()?;
+    let labels = t.strs(table, column).ok()?;
+    Some(index.iter().copied().zip(labels.iter().cloned()).collect())
+}
+
+fn compare_sparse(
+    name: &str,
+    a: &Table,
+    b: &Table,
+    tol: &Tolerances,
+    labels: Option<&BTreeMap<i64, String>>,
+    out: &mut Comparison,
+) {
     let mut n = 0;
     let (Some(ma), Some(mb)) = (sparse_map(a, name), sparse_map(b, name)) else {
         out.push(
@@ -471,11 +744,18 @@ fn compare_sparse(name: &str, a: &Table, b: &Table, tol: &Tolerances, out: &mut 
         );
         worst = worst.max((u - v).abs());
         // Entries are judged against the matrix's scale: a structural zero vs 1e-30 is no change.
-        if !t.accepts(u, v) && (u - v).abs() > t.rtol * scale {
-            out.push(
+        if !t.accepts_in(u, v, scale) && (u - v).abs() > t.rtol * scale {
+            let at = match labels.map(|l| (l.get(&k.0), l.get(&k.1))) {
+                Some((Some(r), Some(c))) => format!("{name} ({}, {}: {r}, {c})", k.0, k.1),
+                _ => format!("{name} ({}, {})", k.0, k.1),
+            };
+            let d = (u - v).abs();
+            out.push_num(
                 &mut n,
-                format!("{name} ({}, {})", k.0, k.1),
+                at,
                 format!("{u:e} vs {v:e}"),
+                d,
+                d / u.abs().max(v.abs()),
             );
         }
     }
@@ -505,8 +785,7 @@ mod tests {
         let loose = Tolerances {
             default: Tol {
                 rtol: 1e-3,
-                atol: 0.0,
-                max: None,
+                ..Default::default()
             },
             ..Default::default()
         };
@@ -601,7 +880,10 @@ mod tests {
         let t = Tolerances::default();
         assert!(compare(&model(1.0), &model(1.0), &t).same());
         let c = compare(&model(0.5), &model(1.0), &t);
-        assert_eq!(c.differences[0].location, "dependent.coefficient row 0");
+        assert_eq!(
+            c.differences[0].location,
+            "dependent.coefficient row 0 (dof 2:ux)"
+        );
         let modes = |s: f64| {
             Artefact::new(ArtefactKind::Modes).with_table(
                 "dependent_shapes",
@@ -613,5 +895,102 @@ mod tests {
         };
         assert!(compare(&modes(1.0), &modes(-1.0), &t).same());
         assert!(!compare(&modes(1.0), &modes(1.1), &t).same());
+    }
+
+    #[test]
+    fn rows_are_named_by_their_key_columns_and_summarised_by_column() {
+        let params = |v: &[f64]| {
+            Artefact::new(ArtefactKind::UpdateResult).with_table(
+                "parameters",
+                Table::new()
+                    .with(
+                        "parameter",
+                        Column::Str(v.iter().enumerate().map(|(i, _)| format!("t{i}")).collect()),
+                    )
+                    .with("final", Column::F64(v.to_vec())),
+                Storage::Parquet,
+            )
+        };
+        let base: Vec<f64> = (1..=8).map(f64::from).collect();
+        let mut changed = base.clone();
+        for (i, x) in changed.iter_mut().enumerate().skip(1) {
+            *x *= 1.0 + 0.01 * i as f64;
+        }
+        let t = Tolerances::default();
+        let c = compare(&params(&changed), &params(&base), &t);
+        assert_eq!(c.count, 7);
+        assert_eq!(c.differences.len(), MAX_LISTED);
+        assert_eq!(
+            c.differences[0].location,
+            "parameters.final row 1 (parameter t1)"
+        );
+        let col = &c.columns["parameters.final"];
+        assert_eq!(col.count, 7);
+        assert_eq!(col.worst_at, "parameters.final row 7 (parameter t7)");
+        assert!((col.worst_rel - 0.56 / 1.07 * 0.125).abs() < 1e-2);
+        let all = compare_listing(&params(&changed), &params(&base), &t, usize::MAX);
+        assert_eq!(all.differences.len(), 7);
+        assert_eq!(all.count, c.count);
+    }
+
+    #[test]
+    fn diff_defaults_ignore_round_off_but_not_changes() {
+        let modes = |phi: Vec<f64>, ortho: f64| {
+            Artefact::new(ArtefactKind::Modes)
+                .with_meta("orthogonality_error", ortho.into())
+                .with_table(
+                    "shapes",
+                    Table::new()
+                        .with(
+                            "dof",
+                            Column::Str(vec!["1:ux".into(), "2:ux".into(), "3:ux".into()]),
+                        )
+                        .with("phi_1", Column::F64(phi)),
+                    Storage::Ipc,
+                )
+        };
+        let reference = modes(vec![0.5, 1e-19, -1.0], 1.1e-15);
+        // Sign flipped, a node's entry at round-off, a different round-off orthogonality error.
+        let noisy = modes(vec![-0.5, 3e-19, 1.0 + 1e-12], 2.3e-15);
+        let strict = Tolerances::default();
+        assert!(
+            !compare(&noisy, &reference, &strict).same(),
+            "1e-19 noise fails rtol alone"
+        );
+        let d = Tolerances::defaults_for(ArtefactKind::Modes);
+        assert!(compare(&noisy, &reference, &d).same());
+        let moved = modes(vec![-0.5, 1e-3, 1.0], 1.1e-15);
+        let c = compare(&moved, &reference, &d);
+        assert_eq!(c.count, 1);
+        assert_eq!(c.differences[0].location, "shapes.phi_1 row 1 (dof 2:ux)");
+        // Elsewhere the relative tolerance holds, plus round-off of the column's scale.
+        let frf = |v: f64| {
+            Artefact::new(ArtefactKind::Frf).with_table(
+                "frf",
+                Table::new()
+                    .with("response", Column::Str(vec!["1:ux".into(), "1:ux".into()]))
+                    .with(
+                        "excitation",
+                        Column::Str(vec!["1:ux".into(), "1:ux".into()]),
+                    )
+                    .with("freq_hz", Column::F64(vec![0.0, 0.5]))
+                    .with("re", Column::F64(vec![1.0, v])),
+                Storage::Parquet,
+            )
+        };
+        let d = Tolerances::defaults_for(ArtefactKind::Frf);
+        assert!(compare(&frf(1e-20), &frf(-1e-20), &d).same());
+        let c = compare(&frf(2e-6), &frf(1e-6), &d);
+        assert_eq!(
+            c.differences[0].location,
+            "frf.re row 1 (response 1:ux, excitation 1:ux, freq_hz 0.5)"
+        );
+        assert!(d.describe()[0].contains("1e-9·max(|a|, |b|)"));
+        assert!(
+            Tolerances::defaults_for(ArtefactKind::Modes)
+                .describe()
+                .iter()
+                .any(|l| l.starts_with("shapes.phi_* (up to sign"))
+        );
     }
 }

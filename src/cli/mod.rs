@@ -18,6 +18,7 @@ mod load;
 mod run;
 mod schema;
 mod show;
+mod summary;
 mod sweep;
 mod validate;
 
@@ -81,7 +82,7 @@ enum Command {
         /// Recompute even cached stages.
         #[arg(long)]
         force: bool,
-        /// No progress lines.
+        /// No progress (bars or lines); the summary and the stages' warnings still print.
         #[arg(long, short)]
         quiet: bool,
     },
@@ -102,29 +103,35 @@ enum Command {
         /// A stage kind to describe in full.
         kind: Option<String>,
     },
-    /// Describe an artefact directory: kind, digest, units, tables and a preview.
+    /// Describe an artefact directory (kind, digest, units, tables and a preview), or summarise
+    /// a run's --out directory (stages, status, times, key results, warnings).
     Show {
-        /// Artefact directory (holding meta.json).
+        /// Artefact directory (holding meta.json) or run output (holding femu.lock.json).
         artefact: PathBuf,
         /// Rows of each table to print.
         #[arg(long, default_value_t = 8)]
         rows: usize,
     },
-    /// Compare two artefacts, or two directories of artefacts (e.g. two --out trees).
+    /// Compare two artefacts, or two directories of artefacts (e.g. two --out trees): a
+    /// summary, then each difference with its row named by its key columns.
     Diff {
         /// New artefact or tree.
         a: PathBuf,
         /// Reference artefact or tree.
         b: PathBuf,
-        /// Relative tolerance.
-        #[arg(long, default_value_t = 1e-9)]
-        rtol: f64,
-        /// Absolute tolerance.
-        #[arg(long, default_value_t = 0.0)]
-        atol: f64,
+        /// Relative tolerance for every number (default: femu's tolerances per artefact kind,
+        /// which ignore round-off; printed with the result).
+        #[arg(long)]
+        rtol: Option<f64>,
+        /// Absolute tolerance for every number (with --rtol, default 1e-9 then).
+        #[arg(long)]
+        atol: Option<f64>,
         /// YAML file of per-column tolerances (overrides --rtol/--atol).
         #[arg(long, value_name = "FILE")]
         tolerances: Option<PathBuf>,
+        /// List every differing value (by default at most 5 a column).
+        #[arg(long)]
+        full: bool,
     },
     /// Inspect or clean the cache.
     Cache {
@@ -252,6 +259,7 @@ fn dispatch(cli: Cli) -> Result<u8, Failure> {
             rtol,
             atol,
             tolerances,
+            full,
         } => diff::run(
             &a,
             &b,
@@ -260,6 +268,7 @@ fn dispatch(cli: Cli) -> Result<u8, Failure> {
                 atol,
                 file: tolerances,
             },
+            full,
         ),
         Command::Cache { action } => cache::run(action),
         Command::Bench(args) => bench::run(args),

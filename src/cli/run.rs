@@ -1,7 +1,11 @@
 //! `femu run`: run a pipeline, record its lock file, copy the artefacts out and print a summary.
 
 use super::load::load_sourced_plan;
+use super::summary::{
+    RUN_RECORD_FILE, RunRecord, RunRecordStage, artefact_meta, print_warnings, stage_warnings,
+};
 use super::{CacheArgs, Failure, PipelineArgs};
+use crate::artefact::codec::read_meta;
 use crate::cache::Cache;
 use crate::pipeline::executor::{RunError, RunReport};
 use crate::pipeline::lock::LockFile;
@@ -46,14 +50,81 @@ pub(super) fn run(p: &PipelineArgs, c: &CacheArgs, flags: RunFlags) -> Result<u8
             eprintln!("warning: {warning}");
         }
     }
+    let warnings = run_warnings(&report, &cache);
     if let Some(out) = &out {
-        crate::pipeline::executor::materialise_with_lock(&report, &cache, out, Some(&lock))?;
+        let record = run_record(&plan.name, &report, &warnings);
+        let text = serde_json::to_string_pretty(&record).context("the run record")? + "\n";
+        crate::pipeline::executor::materialise_run(
+            &report,
+            &cache,
+            out,
+            Some(&lock),
+            &[(RUN_RECORD_FILE, text.as_bytes())],
+        )?;
     }
     print_summary(&plan.name, &report);
     if let Some(out) = out {
         println!("artefacts in {}", out.display());
     }
+    // Once, at the end, so that they are not lost among the progress lines; cached stages' too.
+    let _ = print_warnings(&warnings, &mut std::io::stderr().lock());
     Ok(0)
+}
+
+/// Per stage (plan order): name, `kind[, cached]` and the warnings its outputs' meta records;
+/// a cached stage's are read from its cache entry.
+fn run_warnings(report: &RunReport, cache: &Cache) -> Vec<(String, String, Vec<String>)> {
+    report
+        .stages
+        .iter()
+        .map(|s| {
+            let metas: Vec<_> = s
+                .outputs
+                .keys()
+                .filter_map(|port| cache.artefact_dir(&s.key, port).ok())
+                .filter_map(|dir| read_meta(&dir).ok())
+                .map(|m| artefact_meta(&m))
+                .collect();
+            let label = match s.status {
+                Status::Cached => format!("{}, cached", s.kind),
+                _ => s.kind.clone(),
+            };
+            (s.name.clone(), label, stage_warnings(&metas))
+        })
+        .collect()
+}
+
+/// The run record written beside the lock file in `--out`.
+fn run_record(
+    pipeline: &str,
+    report: &RunReport,
+    warnings: &[(String, String, Vec<String>)],
+) -> RunRecord {
+    RunRecord {
+        pipeline: pipeline.to_string(),
+        femu_version: env!("CARGO_PKG_VERSION").into(),
+        command: std::env::args().collect(),
+        stages: report
+            .stages
+            .iter()
+            .map(|s| RunRecordStage {
+                name: s.name.clone(),
+                kind: s.kind.clone(),
+                status: match s.status {
+                    Status::Ran => "ran",
+                    Status::Cached => "cached",
+                    Status::Recovered => "recomputed",
+                }
+                .into(),
+                seconds: s.elapsed.as_secs_f64(),
+            })
+            .collect(),
+        warnings: warnings
+            .iter()
+            .filter(|w| !w.2.is_empty())
+            .map(|(stage, _, w)| (stage.clone(), w.clone()))
+            .collect(),
+    }
 }
 
 /// The run's table: one line per stage with its status, time and output digests.

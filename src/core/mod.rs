@@ -6,6 +6,7 @@ mod dof;
 mod fault;
 pub mod input;
 pub mod memory;
+pub mod progress;
 pub mod sparse;
 
 pub use dof::{Component, DofId, DofParseError};

@@ -302,6 +302,16 @@ pub fn lowest_modes_keeping_factor(
     crate::core::memory::release_freed_memory();
     info.factor = llt.info;
     info.factor_seconds = t0.elapsed().as_secs_f64();
+    crate::core::progress::step(
+        || {
+            format!(
+                "modes: K − σM factorised ({n} DOFs, {:.1} s)",
+                info.factor_seconds
+            )
+        },
+        0,
+        0,
+    );
     let massive: Vec<usize> = (0..n)
         .filter(|&j| m.val_of_col(j).iter().any(|v| *v != 0.0))
         .collect();
@@ -753,6 +763,7 @@ fn lanczos(
                 params,
             )?,
         };
+        crate::core::progress::step(|| "modes converged".into(), converged as u64, nev as u64);
         if converged >= nev || restart == params.max_restarts {
             if converged < nev {
                 return Err(EigenError::NotConverged {
@@ -847,6 +858,11 @@ impl<'a, F: SymmetricFactor> Lanczos<'a, F> {
         while s0 < self.p {
             self.extend(s0, kept, info)?;
             s0 += self.b;
+            crate::core::progress::step(
+                || "modes: Lanczos vectors".into(),
+                s0 as u64,
+                self.p as u64,
+            );
             if s0 < self.p && s0 >= nev + self.b {
                 let t = Instant::now();
                 let pairs = ritz(self.h.as_ref(), s0, self.r_last.as_ref(), nev, self.params)?;

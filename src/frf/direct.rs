@@ -119,7 +119,12 @@ pub fn direct_receptance_by(
     for (s, &j) in excitations.iter().enumerate() {
         rhs[(j, s)] = c64::new(1.0, 0.0);
     }
+    let done = crate::core::progress::task(
+        || format!("FRF lines (direct, {n} DOFs)"),
+        freqs_hz.len() as u64,
+    );
     let read = |x: Mat<c64>, f: f64| -> Result<Vec<c64>, DirectError> {
+        done.advance(1);
         let out: Vec<c64> = reads.iter().map(|&(i, s)| x[(i, s)]).collect();
         if out.iter().any(|v| !(v.re.is_finite() && v.im.is_finite())) {
             return Err(DirectError::Singular(f));

@@ -180,9 +180,16 @@ pub fn modal_receptance(
         }
     }
     let hz = modes.frequencies_hz();
+    // Shown only when long: the update's iterations call this often, and quickly.
+    let done = crate::core::progress::task_when(
+        freqs_hz.len() * m * pairs.len() > 50_000_000,
+        || "FRF lines (modal)".into(),
+        freqs_hz.len() as u64,
+    );
     let lines: Vec<Result<Vec<c64>, ModalError>> = freqs_hz
         .par_iter()
         .map(|&f| {
+            done.advance(1);
             let omega = 2.0 * PI * f;
             let mut inv = Vec::with_capacity(m);
             for (r, &lambda) in modes.eigenvalues.iter().enumerate().take(m) {

@@ -176,10 +176,15 @@ where
     let ranges: Vec<Range<usize>> = (0..n.div_ceil(chunk))
         .map(|c| c * chunk..((c + 1) * chunk).min(n))
         .collect();
+    let done = crate::core::progress::task(
+        || format!("leverage chunks ({n} candidates)"),
+        ranges.len() as u64,
+    );
     let parts = ranges
         .into_par_iter()
         .map(|r| {
             let s = equations.columns(&produce(r)?)?;
+            done.advance(1);
             Ok(column_fits(s.as_ref(), &eps))
         })
         .collect::<Result<Vec<_>, LocalisationError>>()?;

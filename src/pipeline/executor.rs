@@ -10,7 +10,7 @@ use super::stage::{StageError, StageInputs};
 use crate::artefact::{Artefact, ArtefactKind};
 use crate::cache::{Cache, CacheError, Lookup, OutputRecord, cache_key};
 use std::collections::{BTreeMap, BTreeSet, HashMap};
-use std::io::IsTerminal;
+use std::io::{IsTerminal, Write};
 use std::path::Path;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
@@ -144,38 +144,113 @@ impl RunError {
     }
 }
 
-enum Progress {
-    Bars(
-        indicatif::MultiProgress,
-        Mutex<HashMap<String, indicatif::ProgressBar>>,
-    ),
-    Plain,
+/// How the executor shows a run: per stage a start and an end line, and in between what the
+/// stage's numerics report through [`crate::core::progress`].
+enum Display {
+    /// Live bars on a terminal, one per running stage.
+    Bars {
+        multi: indicatif::MultiProgress,
+        bars: Mutex<HashMap<String, StageBar>>,
+    },
+    /// Plain lines on standard error, rate-limited per stage.
+    Plain(PlainLines),
+    /// Nothing.
     Quiet,
 }
 
-impl Progress {
+/// A running stage's bar and whether it shows a count yet (a spinner until the first task
+/// with a known total).
+struct StageBar {
+    bar: indicatif::ProgressBar,
+    counted: bool,
+}
+
+/// The sink of one stage: its events go to the run's display, named by the stage.
+struct StageSink {
+    stage: String,
+    display: Arc<Display>,
+}
+
+impl crate::core::progress::Sink for StageSink {
+    fn event(&self, event: crate::core::progress::Event<'_>) {
+        self.display.event(&self.stage, event);
+    }
+}
+
+impl Display {
     fn new(mode: ProgressMode) -> Self {
         match mode {
-            ProgressMode::Auto if std::io::stderr().is_terminal() => {
-                Progress::Bars(indicatif::MultiProgress::new(), Mutex::new(HashMap::new()))
-            }
-            ProgressMode::Auto | ProgressMode::Plain => Progress::Plain,
-            ProgressMode::Quiet => Progress::Quiet,
+            ProgressMode::Auto if std::io::stderr().is_terminal() => Display::Bars {
+                multi: indicatif::MultiProgress::new(),
+                bars: Mutex::new(HashMap::new()),
+            },
+            ProgressMode::Auto | ProgressMode::Plain => Display::Plain(PlainLines::stderr()),
+            ProgressMode::Quiet => Display::Quiet,
         }
+    }
+
+    fn quiet(&self) -> bool {
+        matches!(self, Display::Quiet)
     }
 
     fn start(&self, name: &str, kind: &str) {
         match self {
-            Progress::Bars(mp, bars) => {
-                let pb = mp.add(indicatif::ProgressBar::new_spinner());
-                pb.set_message(format!("{name} ({kind}) running"));
+            Display::Bars { multi, bars } => {
+                let pb = multi.add(indicatif::ProgressBar::new_spinner());
+                pb.set_prefix(format!("{name} ({kind})"));
+                if let Ok(style) =
+                    indicatif::ProgressStyle::with_template("{spinner} {prefix}: {msg}")
+                {
+                    pb.set_style(style);
+                }
+                pb.set_message("running");
                 pb.enable_steady_tick(Duration::from_millis(120));
                 if let Ok(mut b) = bars.lock() {
-                    b.insert(name.to_string(), pb);
+                    b.insert(
+                        name.to_string(),
+                        StageBar {
+                            bar: pb,
+                            counted: false,
+                        },
+                    );
                 }
             }
-            Progress::Plain => eprintln!("[femu] {name} ({kind}): running"),
-            Progress::Quiet => {}
+            Display::Plain(p) => p.start(name, kind),
+            Display::Quiet => {}
+        }
+    }
+
+    fn event(&self, stage: &str, event: crate::core::progress::Event<'_>) {
+        use crate::core::progress::Event;
+        match self {
+            Display::Bars { multi, bars } => match event {
+                Event::Step { task, done, total } => {
+                    let Ok(mut b) = bars.lock() else { return };
+                    let Some(sb) = b.get_mut(stage) else { return };
+                    if total > 0 {
+                        if !sb.counted {
+                            if let Ok(style) = indicatif::ProgressStyle::with_template(
+                                "{spinner} {prefix}: {msg} [{bar:30}] {pos}/{len} ({eta} left)",
+                            ) {
+                                sb.bar.set_style(style.progress_chars("=> "));
+                            }
+                            sb.counted = true;
+                        }
+                        sb.bar.set_length(total);
+                        sb.bar.set_position(done);
+                        if sb.bar.message() != task {
+                            sb.bar.set_message(task.to_string());
+                        }
+                    } else {
+                        sb.bar.set_message(format!("{task} {done}"));
+                    }
+                }
+                Event::Note(line) => {
+                    let _ = multi.println(format!("{stage}: {line}"));
+                }
+            },
+            Display::Plain(p) => p.event(stage, event),
+            Display::Quiet => {}
         }
     }
 
@@ -194,21 +269,114 @@ impl Progress {
             );
         }
         match self {
-            Progress::Bars(mp, bars) => {
+            Display::Bars { multi, bars } => {
                 let pb = bars.lock().ok().and_then(|mut b| b.remove(&r.name));
                 match pb {
-                    Some(pb) => pb.finish_with_message(line),
+                    Some(sb) => {
+                        if let Ok(style) = indicatif::ProgressStyle::with_template("{msg}") {
+                            sb.bar.set_style(style);
+                        }
+                        sb.bar.finish_with_message(line)
+                    }
                     None => {
-                        let _ = mp.println(line);
+                        let _ = multi.println(line);
                     }
                 }
             }
-            Progress::Plain => eprintln!("[femu] {line}"),
-            Progress::Quiet => {}
+            Display::Plain(p) => p.finish(&r.name, &line),
+            Display::Quiet => {}
         }
-        if let (Some(note), false) = (&r.note, matches!(self, Progress::Quiet)) {
+        if let (Some(note), false) = (&r.note, self.quiet()) {
             eprintln!("warning: stage `{}`: {note}", r.name);
         }
+    }
+}
+
+/// A clock for [`PlainLines`]: time since some fixed start.
+type Clock = Box<dyn Fn() -> Duration + Send + Sync>;
+
+/// Plain progress lines for logs: each stage's start and end, every note, and a stage's steps
+/// at most once per `interval` (the first step of a stage at once).
+pub(crate) struct PlainLines {
+    out: Mutex<Box<dyn std::io::Write + Send>>,
+    clock: Clock,
+    interval: Duration,
+    /// When each running stage last printed a step.
+    last: Mutex<HashMap<String, Duration>>,
+}
+
+impl PlainLines {
+    /// Lines on standard error, steps at most once a second per stage.
+    fn stderr() -> Self {
+        let t0 = Instant::now();
+        Self::new(
+            Box::new(std::io::stderr()),
+            Box::new(move || t0.elapsed()),
+            Duration::from_secs(1),
+        )
+    }
+
+    /// Lines to `out`, timed by `clock`.
+    pub(crate) fn new(
+        out: Box<dyn std::io::Write + Send>,
+        clock: Clock,
+        interval: Duration,
+    ) -> Self {
+        PlainLines {
+            out: Mutex::new(out),
+            clock,
+            interval,
+            last: Mutex::new(HashMap::new()),
+        }
+    }
+
+    fn line(&self, text: &str) {
+        if let Ok(mut o) = self.out.lock() {
+            let _ = writeln!(o, "[femu] {text}");
+        }
+    }
+
+    pub(crate) fn start(&self, name: &str, kind: &str) {
+        self.line(&format!("{name} ({kind}): running"));
+    }
+
+    pub(crate) fn event(&self, stage: &str, event: crate::core::progress::Event<'_>) {
+        use crate::core::progress::Event;
+        match event {
+            Event::Step { task, done, total } => {
+                let now = (self.clock)();
+                let due = match self.last.lock() {
+                    Ok(mut last) => {
+                        let due = last
+                            .get(stage)
+                            .is_none_or(|t| now.saturating_sub(*t) >= self.interval);
+                        if due {
+                            last.insert(stage.to_string(), now);
+                        }
+                        due
+                    }
+                    Err(_) => false,
+                };
+                if due {
+                    self.line(&if total > 0 {
+                        format!(
+                            "{stage}: {task} {done}/{total} ({:.0} %)",
+                            100.0 * done as f64 / total as f64
+                        )
+                    } else {
+                        format!("{stage}: {task} {done}")
+                    });
+                }
+            }
+            Event::Note(text) => self.line(&format!("{stage}: {text}")),
+        }
+    }
+
+    pub(crate) fn finish(&self, stage: &str, line: &str) {
+        if let Ok(mut last) = self.last.lock() {
+            last.remove(stage);
+        }
+        self.line(line);
     }
 }
 
@@ -233,7 +401,7 @@ pub fn execute(plan: &Plan, cache: &Cache, opts: &RunOptions) -> Result<RunRepor
         }
         plan.upstream_closure(&targets)
     };
-    let progress = Progress::new(opts.progress);
+    let display = Arc::new(Display::new(opts.progress));
     let mut reports: Vec<Option<StageReport>> = vec![None; plan.nodes.len()];
     let produced: Mutex<HashMap<(usize, String), Arc<Artefact>>> = Mutex::new(HashMap::new());
     loop {
@@ -257,9 +425,9 @@ pub fn execute(plan: &Plan, cache: &Cache, opts: &RunOptions) -> Result<RunRepor
                 .map(|&i| {
                     let reports = &reports;
                     let produced = &produced;
-                    let progress = &progress;
+                    let display = &display;
                     s.spawn(move || {
-                        run_node(plan, i, reports, produced, cache, opts.force, progress)
+                        run_node(plan, i, reports, produced, cache, opts.force, display)
                     })
                 })
                 .collect();
@@ -298,7 +466,7 @@ fn run_node(
     produced: &Produced,
     cache: &Cache,
     force: bool,
-    progress: &Progress,
+    display: &Arc<Display>,
 ) -> Result<StageReport, RunError> {
     let node = &plan.nodes[i];
     let kind = node.stage.kind();
@@ -325,7 +493,7 @@ fn run_node(
                     outputs: m.outputs,
                     note: None,
                 };
-                progress.finish(&r);
+                display.finish(&r);
                 return Ok(r);
             }
             Lookup::Corrupt(reason) => {
@@ -336,10 +504,18 @@ fn run_node(
             Lookup::Miss => {}
         }
     }
-    progress.start(&node.name, kind);
+    display.start(&node.name, kind);
     let parts = Arc::new(PartCache::new(cache.clone(), node.format, force));
     let inputs = node_inputs(plan, i, reports, produced, cache, parts.clone())?;
-    let outputs = run_stage(plan, i, &inputs)?;
+    let outputs = if display.quiet() {
+        run_stage(plan, i, &inputs)?
+    } else {
+        let sink = Arc::new(StageSink {
+            stage: node.name.clone(),
+            display: display.clone(),
+        });
+        crate::core::progress::scope(sink, || run_stage(plan, i, &inputs))?
+    };
     let parts = parts.counts();
     let version = node.stage.impl_version();
     let manifest = if force {
@@ -368,7 +544,7 @@ fn run_node(
         note,
         parts,
     };
-    progress.finish(&r);
+    display.finish(&r);
     Ok(r)
 }
 
@@ -503,6 +679,18 @@ pub fn materialise_with_lock(
     out: &Path,
     lock: Option<&LockFile>,
 ) -> Result<(), RunError> {
+    materialise_run(report, cache, out, lock, &[])
+}
+
+/// [`materialise_with_lock`], with `files` (name, content) written beside the lock file (the
+/// run record of `femu run`: statuses, times, warnings — never part of an artefact).
+pub fn materialise_run(
+    report: &RunReport,
+    cache: &Cache,
+    out: &Path,
+    lock: Option<&LockFile>,
+    files: &[(&str, &[u8])],
+) -> Result<(), RunError> {
     let out = out_path(out)?;
     let exists = check_out(&out)?;
     let (parent, name) = match (out.parent(), out.file_name()) {
@@ -537,7 +725,7 @@ pub fn materialise_with_lock(
         }
         Err(e) => return Err(out_io(&sibling)(e)),
     };
-    let filled = fill_staging(report, cache, &staging, lock);
+    let filled = fill_staging(report, cache, &staging, lock, files);
     let done = filled.and_then(|()| {
         if in_place {
             replace_contents(&out, &staging)
@@ -681,6 +869,7 @@ fn fill_staging(
     cache: &Cache,
     staging: &Path,
     lock: Option<&LockFile>,
+    files: &[(&str, &[u8])],
 ) -> Result<(), RunError> {
     let checked =
         |base: &Path, what: &str, name: &str| match crate::cache::names::unsafe_reason(name) {
@@ -725,6 +914,10 @@ fn fill_staging(
             .to_text()
             .map_err(out_io(&staging.join(OUT_LOCK_FILE)))?;
         create_new_file(&staging.join(OUT_LOCK_FILE), &mut text.as_bytes())?;
+    }
+    for (name, mut content) in files.iter().copied() {
+        let path = checked(staging, "file", name)?;
+        create_new_file(&path, &mut content)?;
     }
     Ok(())
 }
@@ -772,4 +965,80 @@ fn replace_contents(out: &Path, staging: &Path) -> Result<(), RunError> {
         std::fs::rename(e.path(), &to).map_err(out_io(&to))?;
     }
     std::fs::remove_dir(staging).map_err(out_io(staging))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::core::progress::Event;
+
+    /// A writer the test reads back.
+    #[derive(Clone, Default)]
+    struct Shared(Arc<Mutex<Vec<u8>>>);
+
+    impl std::io::Write for Shared {
+        fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+            self.0.lock().unwrap().extend_from_slice(buf);
+            Ok(buf.len())
+        }
+        fn flush(&mut self) -> std::io::Result<()> {
+            Ok(())
+        }
+    }
+
+    /// Plain lines keep every start, end and note, and show a stage's steps at most once per
+    /// interval of the (here hand-driven) clock, each stage on its own.
+    #[test]
+    fn plain_lines_are_rate_limited_per_stage() {
+        let out = Shared::default();
+        let now = Arc::new(Mutex::new(Duration::ZERO));
+        let clock = {
+            let now = now.clone();
+            Box::new(move || *now.lock().unwrap())
+        };
+        let plain = PlainLines::new(Box::new(out.clone()), clock, Duration::from_secs(1));
+        let at = |s: f64| *now.lock().unwrap() = Duration::from_secs_f64(s);
+        let step = |stage: &str, done| {
+            plain.event(
+                stage,
+                Event::Step {
+                    task: "FRF lines",
+                    done,
+                    total: 10,
+                },
+            )
+        };
+        plain.start("frf", "frf.synthesise");
+        step("frf", 0);
+        at(0.5);
+        step("frf", 4);
+        step("other", 1);
+        plain.event("frf", Event::Note("iteration 1: mean chi_s 0.9"));
+        at(1.0);
+        step("frf", 6);
+        at(1.9);
+        step("frf", 9);
+        plain.event(
+            "frf",
+            Event::Step {
+                task: "modes",
+                done: 3,
+                total: 0,
+            },
+        );
+        at(2.1);
+        step("frf", 10);
+        plain.finish("frf", "frf (frf.synthesise): ran in 2.100 s");
+        let text = String::from_utf8(out.0.lock().unwrap().clone()).unwrap();
+        assert_eq!(
+            text,
+            "[femu] frf (frf.synthesise): running\n\
+             [femu] frf: FRF lines 0/10 (0 %)\n\
+             [femu] other: FRF lines 1/10 (10 %)\n\
+             [femu] frf: iteration 1: mean chi_s 0.9\n\
+             [femu] frf: FRF lines 6/10 (60 %)\n\
+             [femu] frf: FRF lines 10/10 (100 %)\n\
+             [femu] frf (frf.synthesise): ran in 2.100 s\n"
+        );
+    }
 }

@@ -43,7 +43,7 @@ pub use reduced::{
     ComponentReduction, Coordinate, Coupling, JunctionFlexibility, Method, ReducedModel,
     ReductionInfo, SecondLevel, check_method, interface_rows, reduce, reduce_assembled,
     reduce_assembled_on_interface, reduce_substructure, reduce_substructure_on_interface,
-    reduce_with_interface, reduced_parameter_derivative, substructure_matrices,
+    reduce_with_interface, reduced_parameter_derivative, substructure_matrices, substructures_task,
 };
 
 use crate::core::DofId;

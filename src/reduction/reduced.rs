@@ -828,6 +828,12 @@ pub fn check_method(partition: &Partition, method: &Method) -> Result<(), Reduct
     Ok(())
 }
 
+/// Progress of the substructures' reductions, advanced as each one ends.
+pub fn substructures_task(partition: &Partition) -> crate::core::progress::Task {
+    let n = partition.substructures.len();
+    crate::core::progress::task(|| "substructures reduced (CMS)".into(), n as u64)
+}
+
 /// Reduces every substructure in parallel (results in partition order: deterministic) and
 /// synthesises the reduced model.
 pub fn reduce(
@@ -863,17 +869,20 @@ pub fn reduce_with_interface(
         let psi =
             interface_basis_from_condensations(&partition.junction, condensations, selection)?;
         if let Some(psi) = psi {
+            let done = substructures_task(partition);
             let components = (0..partition.substructures.len())
                 .into_par_iter()
                 .map(|k| {
-                    reduce_substructure_on_interface(
+                    let c = reduce_substructure_on_interface(
                         model,
                         partition,
                         k,
                         method,
                         mass,
                         psi.as_ref(),
-                    )
+                    );
+                    done.advance(1);
+                    c
                 })
                 .collect::<Result<Vec<_>, _>>()?;
             return ReducedModel::synthesise_with_interface(
@@ -884,9 +893,14 @@ pub fn reduce_with_interface(
             );
         }
     }
+    let done = substructures_task(partition);
     let components = (0..partition.substructures.len())
         .into_par_iter()
-        .map(|k| reduce_substructure(model, partition, k, method, mass))
+        .map(|k| {
+            let c = reduce_substructure(model, partition, k, method, mass);
+            done.advance(1);
+            c
+        })
         .collect::<Result<Vec<_>, _>>()?;
     let psi = match interface {
         Some(selection) => interface_basis(&partition.junction, &components, selection)?,

@@ -123,11 +123,18 @@ pub fn frf_sensitivities(
     let lambda = model.eigenvalues;
     let phi = model.shapes;
 
+    // Shown only when long (the P-C calls this every iteration).
+    let done = crate::core::progress::task_when(
+        np * (nq * m + m * m) * m.max(nf) > 200_000_000,
+        || "FRF sensitivities (parameters)".into(),
+        np as u64,
+    );
     // Frequency-independent coefficients [g | f], one row per (parameter, pair).
     let blocks: Vec<Mat<f64>> = derivatives
         .par_iter()
         .enumerate()
         .map(|(p, d)| {
+            done.advance(1);
             let rho = shape_corrections.and_then(|c| c.get(p));
             let dl = eigenvalue_sensitivity(lambda, d);
             // c_sr with s the row, r the column; zero inside a cluster (off the diagonal).

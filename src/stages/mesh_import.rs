@@ -9,8 +9,9 @@
 //! Cards femu does not read that may change the model are errors, all listed at once, except
 //! loads, analysis and output cards (skipped and counted), the cards listed in `ignore_cards`
 //! and, with `on_unsupported: warn`, all of them (dropped and counted). The counts go into the
-//! artefact's meta (`skipped_cards`, `ignored_cards`), and they and the import's warnings onto
-//! the console.
+//! artefact's meta (`skipped_cards`, `ignored_cards`) beside the import's warnings
+//! (`import_warnings`); `femu run` prints them once at the end of the run, for a cached
+//! stage too (here they are only logged, at `FEMU_LOG=info`).
 
 use crate::artefact::Artefact;
 use crate::artefact::ArtefactKind;
@@ -254,14 +255,14 @@ impl TypedStage for MeshImport {
             ));
         }
         if !i.skipped.is_empty() {
-            tracing::warn!(
+            tracing::info!(
                 "mesh.import {}: cards skipped (they change neither stiffness, mass nor constraints): {}",
                 p.path,
                 counts(&i.skipped)
             );
         }
         if !i.ignored.is_empty() {
-            tracing::warn!(
+            tracing::info!(
                 "mesh.import {}: cards dropped as `ignore_cards` or `on_unsupported` asks (the model lacks what they define): {}",
                 p.path,
                 counts(&i.ignored)
@@ -279,7 +280,7 @@ impl TypedStage for MeshImport {
         }
         if let Some(serde_json::Value::Array(notes)) = a.meta.get("import_warnings") {
             for note in notes.iter().filter_map(|n| n.as_str()) {
-                tracing::warn!("mesh.import {}: {note}", p.path);
+                tracing::info!("mesh.import {}: {note}", p.path);
             }
         }
         Ok(StageOutputs::from([("mesh".to_string(), a)]))

@@ -170,6 +170,7 @@ pub fn run(
         }
         _ => None,
     };
+    let done = crate::reduction::substructures_task(&part);
     let components = part
         .substructures
         .par_iter()
@@ -212,6 +213,7 @@ pub fn run(
                     Ok(a)
                 },
             )?;
+            done.advance(1);
             match computed {
                 Some(c) => Ok(c),
                 None => Ok(component_from_artefact(&a)?),

@@ -363,14 +363,20 @@ impl WorkerProgress {
         }
         let finished = report.ran + report.failed.len();
         match &self.bar {
-            Some(b) => b.inc(1),
+            Some(b) => {
+                b.set_message(format!("{} failed", report.failed.len()));
+                b.inc(1)
+            }
             // Plain lines at every tenth of the way, for logs.
-            None if self.show && finished % self.step == 0 => eprintln!(
-                "[femu] {finished}/{} points ({} failed), {:.1} s",
-                self.total,
-                report.failed.len(),
-                self.t0.elapsed().as_secs_f64()
-            ),
+            None if self.show && finished % self.step == 0 => {
+                let elapsed = self.t0.elapsed().as_secs_f64();
+                let left = elapsed / finished as f64 * (self.total - finished) as f64;
+                eprintln!(
+                    "[femu] {finished}/{} points ({} failed), {elapsed:.1} s, about {left:.0} s left",
+                    self.total,
+                    report.failed.len(),
+                )
+            }
             None => {}
         }
     }
@@ -381,8 +387,9 @@ fn progress_bar(show: bool, n: usize) -> Option<indicatif::ProgressBar> {
         return None;
     }
     let b = indicatif::ProgressBar::new(n as u64);
+    b.set_message("0 failed");
     if let Ok(style) = indicatif::ProgressStyle::with_template(
-        "{bar:40} {pos}/{len} points  {elapsed} ({eta} left)",
+        "{bar:40} {pos}/{len} points, {msg}  {elapsed} ({eta} left)",
     ) {
         b.set_style(style);
     }

@@ -57,6 +57,33 @@ impl IterationRecord {
     pub fn mean_chi(&self) -> f64 {
         0.5 * (self.mean_chi_s + self.mean_chi_a)
     }
+
+    /// One progress line: mean `χ_s`, `χ_a`, the active parameters, the largest relative step
+    /// and the condition number of `S` (`step: false` for the closing analysis, which takes none).
+    pub fn progress_line(&self, step: bool) -> String {
+        let mut line = format!(
+            "iteration {}: mean χ_s {:.4}, χ_a {:.4}",
+            self.iteration, self.mean_chi_s, self.mean_chi_a
+        );
+        if step {
+            let active = self.active.iter().filter(|a| **a).count();
+            let biggest = self
+                .relative_change
+                .iter()
+                .fold(0.0_f64, |a, d| a.max(d.abs()));
+            line += &format!(
+                ", {active}/{} parameters active, step {biggest:.3e}, condition {:.3e}",
+                self.active.len(),
+                self.diagnostics.condition
+            );
+        } else {
+            line += " (final analysis)";
+        }
+        if self.smoothing > 0.0 {
+            line += &format!(", smoothed (g = {:.3e})", self.smoothing);
+        }
+        line
+    }
 }
 
 /// Why the iterations ended.
@@ -254,6 +281,7 @@ pub fn run_from(
                   stop: StopReason| {
         record.relative_change = vec![0.0; n];
         record.active = vec![false; n];
+        crate::core::progress::note(|| record.progress_line(false));
         iterations.push(record);
         let mut history = UpdateHistory {
             parameters: params.clone(),
@@ -311,6 +339,7 @@ pub fn run_from(
         let stalled = applied.iter().all(|d| d.abs() < 1e-12);
         let mut record = current.record;
         record.relative_change = applied;
+        crate::core::progress::note(|| record.progress_line(true));
         iterations.push(record);
         values = next_values;
         current = next;

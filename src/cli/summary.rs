@@ -1,0 +1,353 @@
+//! What a run leaves for its reader: the warnings its stages recorded in their artefacts'
+//! meta, the run record written beside `femu.lock.json`, and the key results of an artefact
+//! (natural frequencies, mean `χ`, updated parameters) that `femu show` prints for a run.
+
+use crate::artefact::codec::{DirMeta, read_dir, read_ipc, read_meta, read_parquet};
+use crate::artefact::{Column, Table};
+use serde_json::{Map, Value};
+use std::collections::BTreeMap;
+use std::path::Path;
+
+/// Name of the run record in an `--out` directory: statuses, times and warnings of the run
+/// that wrote it (not in the lock file, which holds no times so that identical runs write
+/// identical locks; never part of an artefact).
+pub(super) const RUN_RECORD_FILE: &str = "femu.run.json";
+
+/// One stage in the run record.
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
+pub(super) struct RunRecordStage {
+    /// Stage name.
+    pub(super) name: String,
+    /// Kind.
+    pub(super) kind: String,
+    /// `ran`, `cached` or `recomputed`.
+    pub(super) status: String,
+    /// Wall time in seconds.
+    pub(super) seconds: f64,
+}
+
+/// The run record: how the run that wrote an `--out` directory went.
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
+pub(super) struct RunRecord {
+    /// Pipeline name.
+    pub(super) pipeline: String,
+    /// femu version.
+    pub(super) femu_version: String,
+    /// The command line.
+    pub(super) command: Vec<String>,
+    /// Stages in the order they were planned.
+    pub(super) stages: Vec<RunRecordStage>,
+    /// Warnings by stage.
+    pub(super) warnings: BTreeMap<String, Vec<String>>,
+}
+
+/// The warnings an artefact's meta records: every `warnings`, `…_warnings`, `notes` or
+/// `…_notes` entry (a string or a list of strings; `frf.import`'s unit conversions and sign
+/// flips, `mesh.import`'s warnings, …), and the deck cards `mesh.import` skipped or dropped.
+pub(super) fn meta_warnings(meta: &Map<String, Value>) -> Vec<String> {
+    let mut out = Vec::new();
+    for (key, value) in meta {
+        let is_warning = key == "warnings"
+            || key.ends_with("_warnings")
+            || key == "notes"
+            || key.ends_with("_notes");
+        if is_warning {
+            match value {
+                Value::String(s) => out.push(s.clone()),
+                Value::Array(items) => out.extend(items.iter().map(|v| match v {
+                    Value::String(s) => s.clone(),
+                    other => other.to_string(),
+                })),
+                _ => {}
+            }
+        }
+    }
+    for (key, what) in [
+        (
+            "skipped_cards",
+            "cards skipped (they change neither stiffness, mass nor constraints)",
+        ),
+        (
+            "ignored_cards",
+            "cards dropped as `ignore_cards` or `on_unsupported` asks (the model lacks what they define)",
+        ),
+    ] {
+        if let Some(Value::Object(cards)) = meta.get(key) {
+            if !cards.is_empty() {
+                let counts: Vec<String> = cards
+                    .iter()
+                    .map(|(card, n)| format!("{card} ×{n}"))
+                    .collect();
+                out.push(format!("{what}: {}", counts.join(", ")));
+            }
+        }
+    }
+    out
+}
+
+/// The warnings of one stage's outputs, each once, in port order.
+pub(super) fn stage_warnings<'a>(
+    metas: impl IntoIterator<Item = &'a Map<String, Value>>,
+) -> Vec<String> {
+    let mut out: Vec<String> = Vec::new();
+    for meta in metas {
+        for w in meta_warnings(meta) {
+            if !out.contains(&w) {
+                out.push(w);
+            }
+        }
+    }
+    out
+}
+
+/// The artefact meta (the `meta` object of `meta.json`).
+pub(super) fn artefact_meta(m: &DirMeta) -> Map<String, Value> {
+    m.raw
+        .get("meta")
+        .and_then(|v| v.as_object())
+        .cloned()
+        .unwrap_or_default()
+}
+
+/// Prints warnings grouped by stage (only stages that have some) to `out`.
+pub(super) fn print_warnings(
+    groups: &[(String, String, Vec<String>)],
+    out: &mut dyn std::io::Write,
+) -> std::io::Result<()> {
+    let total: usize = groups.iter().map(|g| g.2.len()).sum();
+    if total == 0 {
+        return Ok(());
+    }
+    writeln!(
+        out,
+        "warnings ({total}, from {} stage{}):",
+        groups.iter().filter(|g| !g.2.is_empty()).count(),
+        if groups.iter().filter(|g| !g.2.is_empty()).count() == 1 {
+            ""
+        } else {
+            "s"
+        }
+    )?;
+    for (stage, label, warnings) in groups.iter().filter(|g| !g.2.is_empty()) {
+        writeln!(out, "  {stage} ({label}):")?;
+        for w in warnings {
+            writeln!(out, "    - {w}")?;
+        }
+    }
+    Ok(())
+}
+
+/// One table of an artefact directory, reading only its file where the format allows.
+pub(super) fn read_table(dir: &Path, meta: &DirMeta, name: &str) -> Option<Table> {
+    let entry = meta.raw.get("tables")?.get(name)?;
+    let file = entry.get("file").and_then(|f| f.as_str());
+    let storage = entry.get("storage").and_then(|s| s.as_str());
+    match (file, storage) {
+        (Some(file), Some("parquet")) if crate::cache::names::unsafe_reason(file).is_none() => {
+            read_parquet(&dir.join(file)).ok()
+        }
+        (Some(file), Some("arrow_ipc")) if crate::cache::names::unsafe_reason(file).is_none() => {
+            read_ipc(&dir.join(file)).ok()
+        }
+        _ => read_dir(dir).ok()?.tables.remove(name).map(|(t, _)| t),
+    }
+}
+
+fn f64s<'t>(t: &'t Table, c: &str) -> Option<&'t [f64]> {
+    match t.column(c)? {
+        Column::F64(v) => Some(v),
+        _ => None,
+    }
+}
+
+fn strs<'t>(t: &'t Table, c: &str) -> Option<&'t [String]> {
+    match t.column(c)? {
+        Column::Str(v) => Some(v),
+        _ => None,
+    }
+}
+
+/// A list of numbers, the first `show` of them and a count of the rest.
+fn some_numbers(v: &[f64], show: usize, fmt: impl Fn(f64) -> String) -> String {
+    let mut s: Vec<String> = v.iter().take(show).map(|x| fmt(*x)).collect();
+    if v.len() > show {
+        s.push(format!("… ({} more)", v.len() - show));
+    }
+    s.join(", ")
+}
+
+/// The key results of the artefact in `dir`, one line each (empty for kinds without any).
+pub(super) fn key_results(dir: &Path, meta: &DirMeta) -> Vec<String> {
+    use crate::artefact::ArtefactKind as K;
+    let m = artefact_meta(meta);
+    let num = |k: &str| m.get(k).and_then(|v| v.as_f64());
+    let mut out = Vec::new();
+    match meta.kind {
+        K::Modes => {
+            if let Some(t) = read_table(dir, meta, "frequencies") {
+                if let Some(f) = f64s(&t, "freq_hz") {
+                    out.push(format!(
+                        "{} modes, natural frequencies (Hz): {}",
+                        f.len(),
+                        some_numbers(f, 12, |x| format!("{x:.4}"))
+                    ));
+                }
+            }
+        }
+        K::Correlation => {
+            if let Some(s) = m.get("summary") {
+                let g = |k: &str| s.get(k).and_then(|v| v.as_f64());
+                if let (Some(cs), Some(ca)) = (g("mean_chi_s"), g("mean_chi_a")) {
+                    out.push(format!(
+                        "mean χ_s {cs:.4}, mean χ_a {ca:.4} over {} lines of {} FRFs",
+                        s.get("n_lines").map(|v| v.to_string()).unwrap_or_default(),
+                        s.get("n_frfs").map(|v| v.to_string()).unwrap_or_default()
+                    ));
+                }
+            }
+        }
+        K::UpdateResult => {
+            let stop = m.get("stop").and_then(|v| v.as_str()).unwrap_or("?");
+            let iterations = m
+                .get("iterations")
+                .map(|v| v.to_string())
+                .unwrap_or_default();
+            let method = m.get("method").and_then(|v| v.as_str()).unwrap_or("?");
+            out.push(format!(
+                "{method}: {iterations} iterations, stopped: {stop}{}",
+                m.get("returned_iteration")
+                    .filter(|v| !v.is_null())
+                    .map(|v| format!(" (returned iteration {v})"))
+                    .unwrap_or_default()
+            ));
+            if let Some(t) = read_table(dir, meta, "parameters") {
+                if let (Some(names), Some(initial), Some(fin)) = (
+                    strs(&t, "parameter"),
+                    f64s(&t, "initial"),
+                    f64s(&t, "final"),
+                ) {
+                    for ((n, a), b) in names.iter().zip(initial).zip(fin).take(20) {
+                        let change = if *a != 0.0 {
+                            format!(" ({:+.2} %)", 100.0 * (b - a) / a)
+                        } else {
+                            String::new()
+                        };
+                        out.push(format!("  {n}: {a:.6e} → {b:.6e}{change}"));
+                    }
+                    if names.len() > 20 {
+                        out.push(format!("  … ({} more parameters)", names.len() - 20));
+                    }
+                }
+            }
+            if let Some(t) = read_table(dir, meta, "iterations") {
+                if let (Some(cs), Some(ca)) = (f64s(&t, "mean_chi_s"), f64s(&t, "mean_chi_a")) {
+                    if let (Some(s0), Some(a0), Some(s1), Some(a1)) =
+                        (cs.first(), ca.first(), cs.last(), ca.last())
+                    {
+                        out.push(format!(
+                            "  mean χ_s {s0:.4} → {s1:.4}, mean χ_a {a0:.4} → {a1:.4}"
+                        ));
+                    }
+                }
+            }
+        }
+        K::ModalCorrelation => {
+            if let Some(n) = num("n_pairs") {
+                out.push(format!(
+                    "{n} mode pairs ({} in band), largest |eigenvalue error| in band {}",
+                    m.get("n_pairs_in_band")
+                        .map(|v| v.to_string())
+                        .unwrap_or_default(),
+                    m.get("max_abs_eigenvalue_error_in_band")
+                        .map(|v| v.to_string())
+                        .unwrap_or_else(|| "-".into())
+                ));
+            }
+        }
+        K::Frf => {
+            if let (Some(f), Some(l)) = (num("n_frfs"), num("n_lines")) {
+                out.push(format!(
+                    "{f} FRFs × {l} lines ({})",
+                    m.get("quantity").and_then(|v| v.as_str()).unwrap_or("?")
+                ));
+            }
+        }
+        K::Leverage => {
+            if let Some(t) = read_table(dir, meta, "candidates") {
+                if let (Some(c), Some(n), Some(r)) = (
+                    strs(&t, "candidate"),
+                    f64s(&t, "normalised"),
+                    match t.column("rank") {
+                        Some(Column::I64(v)) => Some(v.as_slice()),
+                        _ => None,
+                    },
+                ) {
+                    let mut order: Vec<usize> = (0..c.len()).collect();
+                    order.sort_by_key(|&i| r[i]);
+                    let top: Vec<String> = order
+                        .iter()
+                        .take(5)
+                        .map(|&i| format!("{} ({:.3})", c[i], n[i]))
+                        .collect();
+                    out.push(format!(
+                        "{} candidates; highest leverage: {}",
+                        c.len(),
+                        top.join(", ")
+                    ));
+                }
+            }
+        }
+        _ => {}
+    }
+    out
+}
+
+/// Whether `dir` holds an artefact.
+pub(super) fn is_artefact(dir: &Path) -> bool {
+    dir.join(crate::artefact::codec::META_FILE).is_file()
+}
+
+/// Reads the meta of `dir/stage/port`, if it is an artefact.
+pub(super) fn output_meta(dir: &Path) -> Option<DirMeta> {
+    read_meta(dir).ok()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn warnings_come_from_warning_and_note_keys_and_dropped_cards() {
+        let meta: Map<String, Value> = serde_json::from_value(serde_json::json!({
+            "import_notes": ["converted mm/N to m/N", "sign of 3:uz flipped"],
+            "import_warnings": ["PARAM WTMASS 0.00259 applied"],
+            "warnings": "one",
+            "ignored_cards": {"CGAP": 2},
+            "skipped_cards": {},
+            "n_frfs": 3,
+            "notes_count": 4
+        }))
+        .unwrap();
+        let w = meta_warnings(&meta);
+        assert_eq!(
+            w,
+            [
+                "converted mm/N to m/N",
+                "sign of 3:uz flipped",
+                "PARAM WTMASS 0.00259 applied",
+                "one",
+                "cards dropped as `ignore_cards` or `on_unsupported` asks (the model lacks what they define): CGAP ×2",
+            ]
+        );
+        let both = stage_warnings([&meta, &meta]);
+        assert_eq!(both, w, "each warning once");
+        let mut text = Vec::new();
+        print_warnings(&[("import".into(), "frf.import".into(), w)], &mut text).unwrap();
+        let text = String::from_utf8(text).unwrap();
+        assert!(
+            text.starts_with(
+                "warnings (5, from 1 stage):\n  import (frf.import):\n    - converted"
+            )
+        );
+    }
+}

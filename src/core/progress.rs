@@ -1,0 +1,213 @@
+//! Progress of long computations, for whoever runs them to show.
+//!
+//! The numerics report what they are doing — a factorisation done, Lanczos blocks, FRF lines,
+//! iterations — through the free functions here, and never learn who listens. Whoever runs them
+//! (the pipeline executor, for one stage) installs a [`Sink`] on its thread with [`scope`]; with
+//! none installed every call is a cheap no-op, so library users, tests and benchmarks see
+//! nothing. Progress never reaches an artefact.
+//!
+//! Why an ambient sink rather than a `&dyn Progress` argument: the kernels' signatures stay as
+//! they are (callers in every layer, tests and benchmarks would otherwise pass a no-op), a stage
+//! needs no plumbing to have its numerics report, and stages that run side by side in one wave
+//! each have their own thread and so their own sink. Work fanned out with rayon captures a
+//! [`Task`] on the calling thread and advances it from the workers (a `Task` is `Send + Sync`);
+//! a computation started on a rayon worker that captured nothing reports nothing.
+
+use std::cell::RefCell;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, Ordering};
+
+/// One thing a computation reports.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Event<'a> {
+    /// `done` of `total` units of the named task (`total` 0: unknown). Transient: a display
+    /// shows the latest and may skip some.
+    Step {
+        /// What is being done (`FRF lines`, `Lanczos vectors`).
+        task: &'a str,
+        /// Units done.
+        done: u64,
+        /// Units in all (0 when unknown).
+        total: u64,
+    },
+    /// A line worth keeping, such as an iteration's summary.
+    Note(&'a str),
+}
+
+/// Receives the events of the computations running on the threads it was installed on.
+pub trait Sink: Send + Sync {
+    /// Handles one event; must be cheap (it is called from inner loops, rate-limit inside).
+    fn event(&self, event: Event<'_>);
+}
+
+thread_local! {
+    static CURRENT: RefCell<Option<Arc<dyn Sink>>> = const { RefCell::new(None) };
+}
+
+/// Restores the previous sink when a [`scope`] ends, also by a panic.
+struct Restore(Option<Arc<dyn Sink>>);
+
+impl Drop for Restore {
+    fn drop(&mut self) {
+        let previous = self.0.take();
+        CURRENT.with(|c| *c.borrow_mut() = previous);
+    }
+}
+
+/// Runs `f` with `sink` receiving the progress reported on this thread.
+pub fn scope<R>(sink: Arc<dyn Sink>, f: impl FnOnce() -> R) -> R {
+    let previous = CURRENT.with(|c| c.borrow_mut().replace(sink));
+    let _restore = Restore(previous);
+    f()
+}
+
+/// The sink installed on this thread, if any.
+pub fn current() -> Option<Arc<dyn Sink>> {
+    CURRENT.with(|c| c.borrow().clone())
+}
+
+/// Reports `done` of `total` units of `task` (the label is built only when someone listens).
+pub fn step(task: impl FnOnce() -> String, done: u64, total: u64) {
+    if let Some(s) = current() {
+        s.event(Event::Step {
+            task: &task(),
+            done,
+            total,
+        });
+    }
+}
+
+/// Reports a line worth keeping (built only when someone listens).
+pub fn note(line: impl FnOnce() -> String) {
+    if let Some(s) = current() {
+        s.event(Event::Note(&line()));
+    }
+}
+
+/// A count of units that may be advanced from any thread, e.g. from a rayon loop: created on
+/// the thread that owns the sink, it reports to that sink wherever it is advanced.
+pub struct Task {
+    sink: Option<Arc<dyn Sink>>,
+    label: String,
+    total: u64,
+    done: AtomicU64,
+}
+
+/// Starts a task of `total` units reporting to this thread's sink (the label is built only when
+/// someone listens); reports 0 done.
+pub fn task(label: impl FnOnce() -> String, total: u64) -> Task {
+    let sink = current();
+    let label = if sink.is_some() {
+        label()
+    } else {
+        String::new()
+    };
+    let t = Task {
+        sink,
+        label,
+        total,
+        done: AtomicU64::new(0),
+    };
+    t.report(0);
+    t
+}
+
+/// [`task`] when `long` holds, else a task that reports nothing (for work that is only
+/// sometimes worth showing, e.g. a modal FRF sweep over many lines and modes).
+pub fn task_when(long: bool, label: impl FnOnce() -> String, total: u64) -> Task {
+    if long {
+        task(label, total)
+    } else {
+        Task {
+            sink: None,
+            label: String::new(),
+            total,
+            done: AtomicU64::new(0),
+        }
+    }
+}
+
+impl Task {
+    /// Counts `n` more units done.
+    pub fn advance(&self, n: u64) {
+        if self.sink.is_some() {
+            let done = self.done.fetch_add(n, Ordering::Relaxed) + n;
+            self.report(done);
+        }
+    }
+
+    fn report(&self, done: u64) {
+        if let Some(s) = &self.sink {
+            s.event(Event::Step {
+                task: &self.label,
+                done,
+                total: self.total,
+            });
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::sync::Mutex;
+
+    #[derive(Default)]
+    struct Record(Mutex<Vec<String>>);
+
+    impl Sink for Record {
+        fn event(&self, event: Event<'_>) {
+            let line = match event {
+                Event::Step { task, done, total } => format!("{task} {done}/{total}"),
+                Event::Note(n) => n.to_string(),
+            };
+            self.0.lock().unwrap().push(line);
+        }
+    }
+
+    #[test]
+    fn events_reach_the_scoped_sink_only() {
+        let record = Arc::new(Record::default());
+        note(|| "unseen".into());
+        scope(record.clone(), || {
+            step(|| "lines".into(), 1, 4);
+            let t = task(|| "blocks".into(), 3);
+            std::thread::scope(|s| {
+                s.spawn(|| t.advance(2));
+            });
+            t.advance(1);
+            note(|| "iteration 1".into());
+            // Another thread has no sink of its own.
+            std::thread::scope(|s| {
+                s.spawn(|| note(|| "elsewhere".into()));
+            });
+        });
+        note(|| "after".into());
+        assert!(current().is_none());
+        let got = record.0.lock().unwrap().clone();
+        assert_eq!(
+            got,
+            [
+                "lines 1/4",
+                "blocks 0/3",
+                "blocks 2/3",
+                "blocks 3/3",
+                "iteration 1"
+            ]
+        );
+    }
+
+    #[test]
+    fn a_panic_restores_the_previous_sink() {
+        let outer = Arc::new(Record::default());
+        scope(outer.clone(), || {
+            let inner = Arc::new(Record::default());
+            let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+                scope(inner, || panic!("inside"))
+            }));
+            assert!(r.is_err());
+            note(|| "outer again".into());
+        });
+        assert_eq!(outer.0.lock().unwrap().as_slice(), ["outer again"]);
+    }
+}
