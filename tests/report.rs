@@ -192,3 +192,43 @@ fn update_report_shows_the_history() {
     check_in_browser(&page, &dir, &["update-viewer", "frf-viewer"]);
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// Through the command line: `femu run --report` writes the page beside the artefacts, `femu
+/// report` rewrites it, and a directory that is not a run's output is bad input (exit 2).
+#[test]
+fn the_commands_write_the_page() {
+    let dir = temp("cli");
+    let out = dir.join("out");
+    let run = common::femu()
+        .args(["run", "--quiet", "--report", "--out"])
+        .arg(&out)
+        .arg("--cache-dir")
+        .arg(dir.join("cache"))
+        .arg(common::pipeline("four-dof"))
+        .output()
+        .unwrap();
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let page = std::fs::read_to_string(out.join("report.html")).unwrap();
+    assert!(page.contains("femu run report: four-dof") && page.contains("ran"));
+    let again = common::femu()
+        .arg("report")
+        .arg(&out)
+        .args(["--output"])
+        .arg(dir.join("r.html"))
+        .output()
+        .unwrap();
+    assert!(again.status.success());
+    assert!(
+        std::fs::read_to_string(dir.join("r.html"))
+            .unwrap()
+            .contains("time not recorded")
+    );
+    let bad = common::femu().arg("report").arg(&dir).output().unwrap();
+    assert_eq!(bad.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("femu run --out"));
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -28,13 +28,26 @@ pub struct ReportError {
     pub path: PathBuf,
     /// What is wrong and what would be valid.
     pub message: String,
+    /// Whether the directory given is at fault (not a run's output), not the writing.
+    pub is_input: bool,
 }
 
 impl ReportError {
+    /// The directory given is not a run's output.
     pub(crate) fn new(path: &Path, message: impl Into<String>) -> Self {
         ReportError {
             path: path.to_path_buf(),
             message: message.into(),
+            is_input: true,
+        }
+    }
+
+    /// The page could not be written.
+    fn write(path: &Path, e: std::io::Error) -> Self {
+        ReportError {
+            path: path.to_path_buf(),
+            message: format!("cannot write: {e}"),
+            is_input: false,
         }
     }
 }
@@ -69,11 +82,13 @@ pub fn write_report(
         .map(|n| n.to_string_lossy().to_string())
         .ok_or_else(|| ReportError::new(&path, "is not a file name; give e.g. report.html"))?;
     let tmp = dir.join(format!(".{name}.{}.tmp", std::process::id()));
-    std::fs::write(&tmp, html.as_bytes())
-        .map_err(|e| ReportError::new(&tmp, format!("cannot write: {e}")))?;
+    std::fs::write(&tmp, html.as_bytes()).map_err(|e| {
+        let _ = std::fs::remove_file(&tmp);
+        ReportError::write(&tmp, e)
+    })?;
     std::fs::rename(&tmp, &path).map_err(|e| {
         let _ = std::fs::remove_file(&tmp);
-        ReportError::new(&path, format!("cannot write: {e}"))
+        ReportError::write(&path, e)
     })?;
     Ok(path)
 }
