@@ -27,7 +27,7 @@
     if (v === 0) { return '0'; }
     var a = Math.abs(v);
     if (a >= 1e-3 && a < 1e5) { return String(Math.round(v * 1e4) / 1e4); }
-    return v.toExponential(2);
+    return v.toExponential(2).replace(/\.?0+e/, 'e');
   }
 
   function linearTicks(lo, hi) {
