@@ -35,7 +35,7 @@ pub struct Params {
     /// Bulk data file (`.bdf`, `.dat`, `.nas`, `.blk`), relative to the pipeline file.
     pub path: String,
     /// Cards femu does not read that may be dropped although they may change the stiffness,
-    /// mass or constraints (e.g. `CGAP`, `RBE1`; `PARAM,NAME` for one PARAM). Without them
+    /// mass or constraints (e.g. `CGAP`, `RSPLINE`; `PARAM,NAME` for one PARAM). Without them
     /// such a card is an error.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub ignore_cards: Vec<String>,

@@ -191,7 +191,7 @@ impl Builder {
             "SPC1" => self.spc1(c),
             "SPCADD" => self.spcadd(c),
             "SET1" => self.set1(c),
-            "RBE2" | "RBAR" | "RROD" | "RBE3" | "MPC" | "MPCADD" => self.rigid_card(c),
+            "RBE2" | "RBAR" | "RBE1" | "RROD" | "RBE3" | "MPC" | "MPCADD" => self.rigid_card(c),
             "PARAM" => self.param(c),
             "EIGRL" => self.eigrl(c),
             other if SKIPPED_CARDS.contains(&other) => {
