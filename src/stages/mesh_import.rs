@@ -209,7 +209,7 @@ impl TypedStage for MeshImport {
     type Params = Params;
     const KIND: &'static str = "mesh.import";
     const SUMMARY: &'static str = "A model from Nastran bulk data (GRID, CQUAD4, CTRIA3, CBAR/CBEAM, springs, CONM2, SPC, SET1, ...)";
-    const IMPL_VERSION: u32 = 1;
+    const IMPL_VERSION: u32 = 2;
 
     fn inputs() -> Vec<PortSpec> {
         vec![]
