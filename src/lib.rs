@@ -29,6 +29,7 @@ pub mod model;
 pub mod pipeline;
 pub mod reduction;
 pub mod report;
+pub mod run_report;
 pub mod sensitivity;
 pub mod sparse;
 pub mod stages;

@@ -15,6 +15,7 @@ mod error;
 mod explain;
 mod list;
 mod load;
+mod report;
 mod run;
 mod schema;
 mod show;
@@ -85,6 +86,9 @@ enum Command {
         /// No progress (bars or lines); the summary and the stages' warnings still print.
         #[arg(long, short)]
         quiet: bool,
+        /// Also write the run report, DIR/report.html (needs --out).
+        #[arg(long, requires = "out")]
+        report: bool,
     },
     /// Check a pipeline without running it.
     Validate {
@@ -132,6 +136,14 @@ enum Command {
         /// List every differing value (by default at most 5 a column).
         #[arg(long)]
         full: bool,
+    },
+    /// Write the run report: one self-contained HTML page (graph, FRFs, MAC, history, mesh).
+    Report {
+        /// A run's output directory (the one `femu run --out DIR` wrote).
+        out: PathBuf,
+        /// Where to write the page (default OUT/report.html).
+        #[arg(long, short, value_name = "FILE")]
+        output: Option<PathBuf>,
     },
     /// Inspect or clean the cache.
     Cache {
@@ -239,6 +251,7 @@ fn dispatch(cli: Cli) -> Result<u8, Failure> {
             only,
             force,
             quiet,
+            report,
         } => run::run(
             &p,
             &c,
@@ -247,8 +260,10 @@ fn dispatch(cli: Cli) -> Result<u8, Failure> {
                 only,
                 force,
                 quiet,
+                report,
             },
         ),
+        Command::Report { out, output } => report::run(&out, output.as_deref()),
         Command::Validate { p } => validate::run(&p),
         Command::Explain { p, c } => explain::run(&p, &c),
         Command::List { kind } => list::run(kind.as_deref()),

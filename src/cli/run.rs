@@ -21,6 +21,7 @@ pub(super) struct RunFlags {
     pub(super) only: Vec<String>,
     pub(super) force: bool,
     pub(super) quiet: bool,
+    pub(super) report: bool,
 }
 
 /// `femu run`.
@@ -30,6 +31,7 @@ pub(super) fn run(p: &PipelineArgs, c: &CacheArgs, flags: RunFlags) -> Result<u8
         only,
         force,
         quiet,
+        report: with_report,
     } = flags;
     let (src, plan) = load_sourced_plan(p)?;
     let cache = Cache::open(&c.dir())?;
@@ -65,6 +67,12 @@ pub(super) fn run(p: &PipelineArgs, c: &CacheArgs, flags: RunFlags) -> Result<u8
     print_summary(&plan.name, &report);
     if let Some(out) = out {
         println!("artefacts in {}", out.display());
+        if with_report {
+            let command: Vec<String> = std::env::args().collect();
+            let opts = crate::run_report::ReportOptions::from_run(&report, Some(command.join(" ")));
+            let page = crate::run_report::write_report(&out, None, &opts)?;
+            println!("report in {}", page.display());
+        }
     }
     // Once, at the end, so that they are not lost among the progress lines; cached stages' too.
     let _ = print_warnings(&warnings, &mut std::io::stderr().lock());

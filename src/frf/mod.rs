@@ -96,6 +96,21 @@ impl FrfSet {
         self.pairs.iter().position(|p| p == pair)
     }
 
+    /// The lines `keep` accepts (by frequency in Hz), every pair kept, in order.
+    pub fn select_lines(&self, keep: impl Fn(f64) -> bool) -> FrfSet {
+        let rows: Vec<usize> = (0..self.freqs_hz.len())
+            .filter(|&k| keep(self.freqs_hz[k]))
+            .collect();
+        FrfSet {
+            quantity: self.quantity,
+            freqs_hz: rows.iter().map(|&k| self.freqs_hz[k]).collect(),
+            pairs: self.pairs.clone(),
+            values: Mat::from_fn(rows.len(), self.pairs.len(), |i, j| {
+                self.values[(rows[i], j)]
+            }),
+        }
+    }
+
     /// The DOFs the pairs touch, in order of first appearance.
     pub fn dofs(&self) -> Vec<DofId> {
         let mut out: Vec<DofId> = Vec::new();

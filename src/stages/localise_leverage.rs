@@ -7,7 +7,7 @@
 
 use super::params::{
     Band, Count, Damping, Deprecation, Fraction, Modes, NonNegative, Positive, migrate_mode_fields,
-    warn_deprecated,
+    select_lines, warn_deprecated,
 };
 use crate::artefact::ArtefactKind;
 use crate::artefact::kinds::{frf_from_artefact, plot_artefact};
@@ -338,6 +338,10 @@ pub struct Params {
     /// Only measured lines in `[lo, hi]` Hz are used (default: all).
     #[serde(default)]
     pub band_hz: Option<Band>,
+    /// Measured lines inside any of these bands are left out, e.g. `[[0, 0]]` for the static
+    /// line or `[[49, 51]]` for mains hum (default: none).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub exclude_hz: Vec<Band>,
     /// Lines with `(χ_s + χ_a)/2` above this are not used (4.20). Default 1: every line but
     /// those at predicted resonances, since well-correlated lines count against a candidate
     /// that would spoil them (through `S_iᵀS_i`); the P-C's 0.95 keeps only the poor lines.
@@ -450,7 +454,10 @@ impl TypedStage for LocaliseLeverage {
 
     fn run(p: &Params, inputs: &StageInputs) -> Result<StageOutputs, StageError> {
         let model = mesh_from_artefact(inputs.require("mesh")?)?;
-        let measured = frf_from_artefact(inputs.require("measured")?)?;
+        let mut measured = frf_from_artefact(inputs.require("measured")?)?;
+        if !p.exclude_hz.is_empty() {
+            measured = select_lines(&measured, None, &p.exclude_hz)?;
+        }
         let highlight = p.plot.highlighted(&model)?;
         let candidates = p.candidates.resolve(&model)?;
         let f = &measured.freqs_hz;
@@ -663,6 +670,11 @@ mod tests {
         assert!(e.contains("strip_99") && e.contains("strip_1"), "{e}");
         let e = run(serde_json::json!({"band_hz": [200, 300]}), true);
         assert!(e.starts_with("band_hz") && e.contains("10 to 20 Hz"), "{e}");
+        let e = run(serde_json::json!({"exclude_hz": [[0, 1000]]}), true);
+        assert!(
+            e.starts_with("with.exclude_hz") && e.contains("10 to 20 Hz"),
+            "{e}"
+        );
         let e = run(serde_json::json!({"plot": {"highlight_set": "nope"}}), true);
         assert!(e.starts_with("with.plot.highlight_set"), "{e}");
         let e = run(

@@ -36,7 +36,7 @@ pub struct Params {
     /// Bulk data file (`.bdf`, `.dat`, `.nas`, `.blk`), relative to the pipeline file.
     pub path: String,
     /// Cards femu does not read that may be dropped although they may change the stiffness,
-    /// mass or constraints (e.g. `CGAP`, `RBE1`; `PARAM,NAME` for one PARAM). Without them
+    /// mass or constraints (e.g. `CGAP`, `RSPLINE`; `PARAM,NAME` for one PARAM). Without them
     /// such a card is an error.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub ignore_cards: Vec<String>,
@@ -210,7 +210,7 @@ impl TypedStage for MeshImport {
     type Params = Params;
     const KIND: &'static str = "mesh.import";
     const SUMMARY: &'static str = "A model from Nastran bulk data (GRID, CQUAD4, CTRIA3, CBAR/CBEAM, springs, CONM2, SPC, SET1, ...)";
-    const IMPL_VERSION: u32 = 1;
+    const IMPL_VERSION: u32 = 2;
 
     fn inputs() -> Vec<PortSpec> {
         vec![]

@@ -4,8 +4,8 @@
 //! old spellings (kept for one release).
 
 use crate::eigen::ModeSelection;
-use crate::frf::{DirectDamping, ModalDamping};
-use crate::pipeline::ParamIssue;
+use crate::frf::{DirectDamping, FrfSet, ModalDamping};
+use crate::pipeline::{ParamIssue, StageError};
 use std::borrow::Cow;
 
 /// Defines a bounded `f64` newtype: read from a number, refused outside its range with a message
@@ -189,6 +189,42 @@ impl TryFrom<[f64; 2]> for Band {
             ))
         }
     }
+}
+
+impl Band {
+    /// Whether `f_hz` lies in the band (ends included).
+    pub fn contains(&self, f_hz: f64) -> bool {
+        self.lo <= f_hz && f_hz <= self.hi
+    }
+}
+
+/// The lines of `set` a stage uses: those inside `band` (all when `None`) and outside every
+/// band of `exclude`. Measured and predicted sets given the same selection keep the same lines.
+/// An empty selection is an error that names the fields and the lines there are.
+pub fn select_lines(
+    set: &FrfSet,
+    band: Option<Band>,
+    exclude: &[Band],
+) -> Result<FrfSet, StageError> {
+    let kept = set.select_lines(|f| {
+        band.is_none_or(|b| b.contains(f)) && !exclude.iter().any(|b| b.contains(f))
+    });
+    if kept.freqs_hz.is_empty() {
+        let range = match (set.freqs_hz.first(), set.freqs_hz.last()) {
+            (Some(a), Some(b)) => format!("the lines run {a} to {b} Hz"),
+            _ => "there are no lines".to_string(),
+        };
+        let field = if band.is_some() {
+            "band_hz"
+        } else {
+            "exclude_hz"
+        };
+        return Err(StageError::input(
+            field,
+            format!("no line is left by band_hz and exclude_hz; {range}"),
+        ));
+    }
+    Ok(kept)
 }
 
 impl From<Band> for [f64; 2] {

@@ -191,7 +191,7 @@ impl Builder {
             "SPC1" => self.spc1(c),
             "SPCADD" => self.spcadd(c),
             "SET1" => self.set1(c),
-            "RBE2" | "RBAR" | "RROD" | "RBE3" | "MPC" | "MPCADD" => self.rigid_card(c),
+            "RBE2" | "RBAR" | "RBE1" | "RROD" | "RBE3" | "MPC" | "MPCADD" => self.rigid_card(c),
             "PARAM" => self.param(c),
             "EIGRL" => self.eigrl(c),
             other if SKIPPED_CARDS.contains(&other) => {
@@ -257,8 +257,9 @@ impl Builder {
         })
     }
 
-    /// PARAM: WTMASS is applied, parameters whose effect femu reproduces or replaces are
-    /// accepted with a warning saying how, output-only ones are skipped, any other is unread.
+    /// PARAM: WTMASS is applied, GRDPNT read, parameters whose effect femu reproduces or
+    /// replaces are accepted with a warning saying how, output-only ones are skipped (and only
+    /// they are counted in `skipped_cards`), any other is unread.
     pub(super) fn param(&mut self, c: &Card) -> Result<(), NastranError> {
         let name = c.word(1);
         if !is_card_name(&name) {
@@ -339,10 +340,12 @@ impl Builder {
                     ));
                 }
             }
-            _ if SKIPPED_PARAMS.contains(&name.as_str()) => {}
+            // Output only: counted as skipped.
+            _ if SKIPPED_PARAMS.contains(&name.as_str()) => {
+                *self.skipped.entry(key).or_insert(0) += 1;
+            }
             _ => return self.unread(c, &key, "PARAM"),
         }
-        *self.skipped.entry(key).or_insert(0) += 1;
         Ok(())
     }
 

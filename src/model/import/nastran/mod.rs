@@ -176,12 +176,12 @@
 //!   and the first is used. Without case control, every set is merged into one constraint list
 //!   (several SIDs give a warning). GRID PS always applies. THRU ranges cover the grids that
 //!   exist. Constraints come back sorted and without repeats.
-//! - RBE2, RBAR, RROD, RBE3, MPC, MPCADD: multipoint constraints `u_d = Σ cᵢ uᵢ` over the
+//! - RBE2, RBAR, RBE1, RROD, RBE3, MPC, MPCADD: multipoint constraints `u_d = Σ cᵢ uᵢ` over the
 //!   grids' own DOFs (small rotations; components in each grid's CD); the assembly eliminates them exactly. The
 //!   case control's `MPC = n` selects the MPC set (none selected in a deck with case control: no
 //!   MPC applies, with a warning; no case control: every set, with a warning when several).
 //!   A DOF dependent twice, dependent and in the SPC set, or a cycle of dependencies is an
-//!   error naming the cards. RBE3 UM fields, RBE1, RBAR1, RSPLINE and scalar points in MPC are
+//!   error naming the cards. RBE3 UM fields, RBAR1, RSPLINE and scalar points in MPC are
 //!   not read (errors). With a CD not parallel to basic and only some components of a grid
 //!   dependent, the dependent basic components are chosen by pivoting (the constraint is the
 //!   same; the DOF labelled dependent may differ from Nastran's). ALPHA/TREF are ignored.
@@ -262,7 +262,7 @@ use source::*;
 const MAX_INCLUDE_DEPTH: usize = 64;
 
 /// Cards femu reads.
-pub const READ_CARDS: [&str; 73] = [
+pub const READ_CARDS: [&str; 74] = [
     "GRID", "GRDSET", "CORD1R", "CORD1C", "CORD1S", "CORD2R", "CORD2C", "CORD2S", "CQUAD4",
     "CTRIA3", "CBAR", "CBEAM", "PSHELL", "PBAR", "PBARL", "PBEAM", "MAT1", "CELAS1", "CELAS2",
     "PELAS", "CBUSH", "PBUSH", "CONM2", "SPC", "SPC1", "SPCADD", "SET1", "CROD", "CONROD", "CTUBE",
@@ -270,7 +270,7 @@ pub const READ_CARDS: [&str; 73] = [
     "CHEXA", "CPENTA", "CTETRA", "CPYRAM", "PSOLID", "MAT9", "CQUADR", "CTRIAR", "PCOMP", "PCOMPG",
     "MAT2", "MAT8", "SPOINT", "EPOINT", "CELAS3", "CELAS4", "CMASS1", "CMASS2", "CMASS3", "CMASS4",
     "PMASS", "CONM1", "CDAMP1", "CDAMP2", "CDAMP3", "CDAMP4", "PDAMP", "CVISC", "PVISC", "CQUAD8",
-    "CTRIA6", "EIGRL",
+    "CTRIA6", "EIGRL", "RBE1",
 ];
 
 /// Cards skipped (counted) because they change neither stiffness, mass nor constraints: static
@@ -297,11 +297,11 @@ pub const READ_PARAMS: [&str; 6] = ["WTMASS", "GRDPNT", "COUPMASS", "AUTOSPC", "
 /// Nastran cards femu does not read that change the stiffness, mass, damping or constraints;
 /// an error unless listed in [`BulkOptions::ignore_cards`] (the list only decides how messages
 /// name them: any other unread card is an error too).
-const REFUSED_CARDS: [&str; 38] = [
-    "RBE1", "RBAR1", "RTRPLT", "RSPLINE", "SPCD", "SUPORT", "SUPORT1", "ASET", "ASET1", "OMIT",
-    "OMIT1", "QSET", "QSET1", "BSET", "BSET1", "CSET", "CSET1", "CQUAD", "CSHEAR", "PSHEAR",
-    "MAT10", "MATT1", "MATS1", "CDAMP5", "CBUSH1D", "PBUSH1D", "CGAP", "PGAP", "CWELD", "PWELD",
-    "CFAST", "PFAST", "NSM", "NSM1", "NSML", "NSML1", "DMIG", "GENEL",
+const REFUSED_CARDS: [&str; 37] = [
+    "RBAR1", "RTRPLT", "RSPLINE", "SPCD", "SUPORT", "SUPORT1", "ASET", "ASET1", "OMIT", "OMIT1",
+    "QSET", "QSET1", "BSET", "BSET1", "CSET", "CSET1", "CQUAD", "CSHEAR", "PSHEAR", "MAT10",
+    "MATT1", "MATS1", "CDAMP5", "CBUSH1D", "PBUSH1D", "CGAP", "PGAP", "CWELD", "PWELD", "CFAST",
+    "PFAST", "NSM", "NSM1", "NSML", "NSML1", "DMIG", "GENEL",
 ];
 
 /// Whether `name` is a card name Nastran could have written: a letter, then letters or digits,

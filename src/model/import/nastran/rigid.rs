@@ -1,4 +1,4 @@
-//! Rigid elements and multipoint constraints: RBE2, RBAR, RROD, RBE3, MPC and MPCADD, as the
+//! Rigid elements and multipoint constraints: RBE2, RBAR, RBE1, RROD, RBE3, MPC and MPCADD, as the
 //! MSC Nastran Quick Reference Guide (QRG) defines them, turned into the model's
 //! [`MultipointConstraint`]s (`u_dependent = Σ cᵢ uᵢ` over basic DOFs).
 //!
@@ -11,6 +11,9 @@
 //!   six independent components CNA at GA and CNB at GB (they must determine it: a 6×6 system,
 //!   else an error); the dependent components CMA, CMB (blank: every component not independent)
 //!   follow from `q`.
+//! - RBE1 (GNi/CNi, UM, GMi/CMi): RBAR's rule for any grids: the rigid motion `q` about GN1 is
+//!   solved from the six independent components (a 6×6 system, else an error) and every
+//!   dependent component follows from it.
 //! - RROD (GA, GB, CMA or CMB): `e · (u_B − u_A) = 0` along the unit axis `e`; the one dependent
 //!   translation must have a component along `e`.
 //! - RBE3 (REFGRID, REFC, WTi, Ci, Gi,j): the reference grid moves with the rigid motion `q`
@@ -50,6 +53,11 @@ pub(super) enum RigidCard {
         gb: u64,
         cn: [Vec<Component>; 2],
         cm: [Vec<Component>; 2],
+    },
+    /// RBE1: independent grids with their components (six in all), dependent grids with theirs.
+    Rbe1 {
+        independent: Vec<(u64, Vec<Component>)>,
+        dependent: Vec<(u64, Vec<Component>)>,
     },
     Rrod {
         ga: u64,
@@ -300,6 +308,7 @@ impl Builder {
                 RigidCard::Rrod { ga, gb, dependent }
             }
             "RBE3" => self.rbe3_card(c)?,
+            "RBE1" => rbe1_card(c)?,
             other => return self.unread(c, other, other),
         };
         self.rigid.ids.insert(eid, c.loc.clone());
@@ -590,6 +599,49 @@ impl Builder {
                                 &q,
                                 id,
                             ));
+                        }
+                    }
+                }
+                RigidCard::Rbe1 {
+                    independent,
+                    dependent,
+                } => {
+                    let origin = pos(loc, independent[0].0)?;
+                    let mut s: Vec<Vec<f64>> = Vec::new();
+                    let mut v: Vec<Vec<(DofId, f64)>> = Vec::new();
+                    for (g, comps) in independent {
+                        let d = sub(pos(loc, *g)?, origin);
+                        for &c in comps {
+                            let (k, rot) = split(c);
+                            let r = dirs(*g)[k];
+                            s.push(rigid_row(rot, r, d).to_vec());
+                            v.push(along(*g, rot, r));
+                        }
+                    }
+                    let Some(si) = inverse(&s) else {
+                        return Err(at(
+                            loc,
+                            format!(
+                                "RBE1 {eid}: the independent components CNi do not determine the element's rigid motion"
+                            ),
+                            "independent components that fix all six rigid motions, e.g. 123456 at one grid, or 123 at one grid, 23 at a second and 3 at a third not on their line",
+                        ));
+                    };
+                    // q = S⁻¹ v, the rigid motion about the first independent grid.
+                    let q: Vec<Vec<(DofId, f64)>> = (0..6)
+                        .map(|i| {
+                            let mut t = Vec::new();
+                            for (j, vj) in v.iter().enumerate() {
+                                t.extend(vj.iter().map(|&(dd, c)| (dd, si[i][j] * c)));
+                            }
+                            t
+                        })
+                        .collect();
+                    for (g, comps) in dependent {
+                        let d = sub(pos(loc, *g)?, origin);
+                        for &c in comps {
+                            let (k, rot) = split(c);
+                            eqs.push(from_q(*g, c, rigid_row(rot, dirs(*g)[k], d), &q, id));
                         }
                     }
                 }
@@ -971,4 +1023,97 @@ fn solve_equations(
     }
     out.sort_by_key(|m| m.dependent);
     Ok(out)
+}
+
+/// RBE1 (EID, GNi/CNi pairs, `UM`, GMi/CMi pairs, ALPHA, TREF): the pairs are read in order,
+/// blanks skipped (the QRG leaves the first field of each continuation blank); a real after
+/// the dependent pairs starts ALPHA and TREF (no effect on modes).
+fn rbe1_card(c: &Card) -> Result<RigidCard, NastranError> {
+    let (mut independent, mut dependent) = (Vec::new(), Vec::new());
+    let mut after_um = false;
+    let mut k = 2;
+    let n = c.fields.len();
+    while k <= n {
+        if c.blank(k) {
+            k += 1;
+            continue;
+        }
+        if c.word(k) == "UM" {
+            if after_um {
+                return Err(c.err(
+                    k,
+                    "UM",
+                    "UM is given twice",
+                    "one UM before the dependent pairs",
+                ));
+            }
+            after_um = true;
+            k += 1;
+            continue;
+        }
+        if after_um && c.text(k).contains('.') {
+            break;
+        }
+        let (grid_field, comp_field) = if after_um {
+            ("GMi", "CMi")
+        } else {
+            ("GNi", "CNi")
+        };
+        let g = c.id(k, grid_field)?;
+        let comps = if k < n {
+            c.comps(k + 1, comp_field)?
+        } else {
+            Vec::new()
+        };
+        if comps.is_empty() {
+            return Err(c.err(
+                k + 1,
+                comp_field,
+                format!("grid {g} has no components"),
+                "components such as 123 after each grid",
+            ));
+        }
+        if after_um {
+            dependent.push((g, comps));
+        } else {
+            independent.push((g, comps));
+        }
+        k += 2;
+    }
+    let count: usize = independent.iter().map(|(_, cs)| cs.len()).sum();
+    if count != 6 {
+        return Err(c.err(
+            3,
+            "CN1",
+            format!("the CNi hold {count} components"),
+            "six independent components in all (the QRG's rule), e.g. GN1 = 1, CN1 = 123456",
+        ));
+    }
+    if dependent.is_empty() {
+        return Err(c.err(
+            2,
+            "UM",
+            "no dependent grid follows UM",
+            "`UM` on a continuation, then GM1 CM1 (grid and components) pairs",
+        ));
+    }
+    for (g, cs) in &dependent {
+        for (h, ns) in &independent {
+            if let Some(x) = cs.iter().find(|x| g == h && ns.contains(x)) {
+                return Err(c.err(
+                    2,
+                    "CMi",
+                    format!(
+                        "component {} of grid {g} is both independent and dependent",
+                        x.nastran()
+                    ),
+                    "dependent components that are not among the same grid's CNi",
+                ));
+            }
+        }
+    }
+    Ok(RigidCard::Rbe1 {
+        independent,
+        dependent,
+    })
 }

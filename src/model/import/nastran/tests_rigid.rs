@@ -209,6 +209,66 @@ fn rbar_and_rrod_give_their_rigid_equations() {
     assert!(e.contains("do not determine the bar's rigid motion"), "{e}");
 }
 
+/// RBE1 with all six independent components at GN1 is RBAR's (and RBE2's) equations; with the
+/// six spread over three grids (123 at 1, 23 at 2, 3 at 3, the QRG's classic choice), every
+/// dependent component reproduces an arbitrary rigid motion exactly; independent components
+/// that leave a motion free, a grid without components and a component both independent and
+/// dependent are errors naming the card.
+#[test]
+fn rbe1_gives_the_rigid_motion_of_its_independent_components() {
+    let grids = "GRID,1,,0.,0.,0.\nGRID,2,,1.,2.,3.\n";
+    let stiff = "CELAS2,1,1.,1,1\n";
+    let a = parse(&format!("{grids}{stiff}RBE1,5,1,123456\n,UM,2,123456\n")).model;
+    let b = parse(&format!("{grids}{stiff}RBAR,5,1,2,123456,,,123456\n")).model;
+    assert_eq!(a.mpcs.len(), 6);
+    for (x, y) in a.mpcs.iter().zip(&b.mpcs) {
+        assert_eq!(x.dependent, y.dependent);
+        for (s, t) in x.terms.iter().zip(&y.terms) {
+            assert_eq!(s.0, t.0);
+            assert!((s.1 - t.1).abs() < 1e-12);
+        }
+    }
+    assert_eq!(a.mpcs[0].origin, "RBE1 5");
+    // Three independent grids not on a line, two dependent ones; the QRG's continuation layout
+    // (first field of each continuation blank, ALPHA at the end).
+    let deck = "GRID,1,,0.,0.,0.\nGRID,2,,2.,0.,0.\nGRID,3,,0.,3.,0.\nGRID,4,,1.,1.,1.\nGRID,5,,-1.,2.,.5\nCELAS2,1,1.,1,1\nRBE1,7,1,123,2,23,3,3\n,\n,UM,4,123456,5,135,1.-5\n";
+    let w = parse(deck).model;
+    assert_eq!(w.mpcs.len(), 9);
+    let (u0, th) = ([0.3, -0.2, 0.5], [0.01, 0.02, -0.03]);
+    let rigid = |d: DofId| -> f64 {
+        let x = w.nodes[&d.node];
+        let k = d.comp.nastran() as usize;
+        if k > 3 {
+            return th[k - 4];
+        }
+        let t = [
+            th[1] * x[2] - th[2] * x[1],
+            th[2] * x[0] - th[0] * x[2],
+            th[0] * x[1] - th[1] * x[0],
+        ];
+        u0[k - 1] + t[k - 1]
+    };
+    for c in &w.mpcs {
+        assert!(c.dependent.node >= 4, "{}", c.dependent);
+        let v: f64 = c.terms.iter().map(|(d, x)| x * rigid(*d)).sum();
+        assert!((v - rigid(c.dependent)).abs() < 1e-12, "{}", c.dependent);
+    }
+    // Three grids on a line cannot fix the rotation about it.
+    let line =
+        "GRID,1,,0.,0.,0.\nGRID,2,,1.,0.,0.\nGRID,3,,2.,0.,0.\nGRID,4,,0.,1.,0.\nCELAS2,1,1.,1,1\n";
+    let e = error(&format!("{line}RBE1,7,1,123,2,12,3,2\n,UM,4,1\n"));
+    assert!(
+        e.contains("RBE1 7") && e.contains("do not determine"),
+        "{e}"
+    );
+    let e = error(&format!("{line}RBE1,7,1,123,2,12\n,UM,4,1\n"));
+    assert!(e.contains("CNi hold 5 components"), "{e}");
+    let e = error(&format!("{line}RBE1,7,1,123456\n,UM,1,1\n"));
+    assert!(e.contains("both independent and dependent"), "{e}");
+    let e = error(&format!("{line}RBE1,7,1,123456\n"));
+    assert!(e.contains("no dependent grid follows UM"), "{e}");
+}
+
 /// Nastran's fatal cases, each naming the cards.
 #[test]
 fn conflicting_constraints_are_errors_naming_the_cards() {
