@@ -5,100 +5,11 @@
 use crate::artefact::codec::{DirMeta, read_dir, read_ipc, read_meta, read_parquet};
 use crate::artefact::{Column, Table};
 use serde_json::{Map, Value};
-use std::collections::BTreeMap;
 use std::path::Path;
 
-/// Name of the run record in an `--out` directory: statuses, times and warnings of the run
-/// that wrote it (not in the lock file, which holds no times so that identical runs write
-/// identical locks; never part of an artefact).
-pub(super) const RUN_RECORD_FILE: &str = "femu.run.json";
-
-/// One stage in the run record.
-#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
-pub(super) struct RunRecordStage {
-    /// Stage name.
-    pub(super) name: String,
-    /// Kind.
-    pub(super) kind: String,
-    /// `ran`, `cached` or `recomputed`.
-    pub(super) status: String,
-    /// Wall time in seconds.
-    pub(super) seconds: f64,
-}
-
-/// The run record: how the run that wrote an `--out` directory went.
-#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
-pub(super) struct RunRecord {
-    /// Pipeline name.
-    pub(super) pipeline: String,
-    /// femu version.
-    pub(super) femu_version: String,
-    /// The command line.
-    pub(super) command: Vec<String>,
-    /// Stages in the order they were planned.
-    pub(super) stages: Vec<RunRecordStage>,
-    /// Warnings by stage.
-    pub(super) warnings: BTreeMap<String, Vec<String>>,
-}
-
-/// The warnings an artefact's meta records: every `warnings`, `…_warnings`, `notes` or
-/// `…_notes` entry (a string or a list of strings; `frf.import`'s unit conversions and sign
-/// flips, `mesh.import`'s warnings, …), and the deck cards `mesh.import` skipped or dropped.
-pub(super) fn meta_warnings(meta: &Map<String, Value>) -> Vec<String> {
-    let mut out = Vec::new();
-    for (key, value) in meta {
-        let is_warning = key == "warnings"
-            || key.ends_with("_warnings")
-            || key == "notes"
-            || key.ends_with("_notes");
-        if is_warning {
-            match value {
-                Value::String(s) => out.push(s.clone()),
-                Value::Array(items) => out.extend(items.iter().map(|v| match v {
-                    Value::String(s) => s.clone(),
-                    other => other.to_string(),
-                })),
-                _ => {}
-            }
-        }
-    }
-    for (key, what) in [
-        (
-            "skipped_cards",
-            "cards skipped (they change neither stiffness, mass nor constraints)",
-        ),
-        (
-            "ignored_cards",
-            "cards dropped as `ignore_cards` or `on_unsupported` asks (the model lacks what they define)",
-        ),
-    ] {
-        if let Some(Value::Object(cards)) = meta.get(key) {
-            if !cards.is_empty() {
-                let counts: Vec<String> = cards
-                    .iter()
-                    .map(|(card, n)| format!("{card} ×{n}"))
-                    .collect();
-                out.push(format!("{what}: {}", counts.join(", ")));
-            }
-        }
-    }
-    out
-}
-
-/// The warnings of one stage's outputs, each once, in port order.
-pub(super) fn stage_warnings<'a>(
-    metas: impl IntoIterator<Item = &'a Map<String, Value>>,
-) -> Vec<String> {
-    let mut out: Vec<String> = Vec::new();
-    for meta in metas {
-        for w in meta_warnings(meta) {
-            if !out.contains(&w) {
-                out.push(w);
-            }
-        }
-    }
-    out
-}
+pub(super) use crate::run_report::record::{
+    RUN_RECORD_FILE, RunRecord, RunRecordStage, stage_warnings,
+};
 
 /// The artefact meta (the `meta` object of `meta.json`).
 pub(super) fn artefact_meta(m: &DirMeta) -> Map<String, Value> {
@@ -315,6 +226,7 @@ pub(super) fn output_meta(dir: &Path) -> Option<DirMeta> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::run_report::record::meta_warnings;
 
     #[test]
     fn warnings_come_from_warning_and_note_keys_and_dropped_cards() {

@@ -1,6 +1,7 @@
 //! What the report shows, read from a run's output directory: the lock file's stages and wiring,
 //! and every artefact, turned into plain views (numbers and names) for the page.
 
+use super::record::{RUN_RECORD_FILE, RunRecord, stage_warnings};
 use super::{ReportError, ReportOptions};
 use crate::artefact::codec::read_dir;
 use crate::artefact::kinds::{correlation_from_artefact, frf_from_artefact};
@@ -273,11 +274,34 @@ pub fn collect(out: &Path, opts: &ReportOptions) -> Result<RunView, ReportError>
         .map_err(|e| ReportError::new(&lock_path, format!("cannot read: {e}")))?;
     let lock: LockFile = serde_json::from_str(&text)
         .map_err(|e| ReportError::new(&lock_path, format!("is not a femu lock file: {e}")))?;
+    // Statuses, times and the command: given right after a run, else from the run record
+    // `femu run --out` left beside the lock file (absent for older outputs: the page says so).
+    let record: Option<RunRecord> = std::fs::read_to_string(out.join(RUN_RECORD_FILE))
+        .ok()
+        .and_then(|t| serde_json::from_str(&t).ok());
+    let mut timings = opts.timings.clone();
+    let mut command = opts.command.clone();
+    if timings.is_empty()
+        && let Some(r) = &record
+    {
+        timings = r
+            .stages
+            .iter()
+            .map(|s| {
+                let t = StageTiming {
+                    status: s.status.clone(),
+                    seconds: s.seconds,
+                };
+                (s.name.clone(), t)
+            })
+            .collect();
+        command = Some(r.command.join(" "));
+    }
     let mut view = RunView {
         pipeline: lock.pipeline.clone(),
         femu_version: lock.femu_version.clone(),
         report_version: env!("CARGO_PKG_VERSION").to_string(),
-        command: opts.command.clone(),
+        command,
         ..RunView::default()
     };
     let mut meshes: BTreeMap<String, Model> = BTreeMap::new();
@@ -293,9 +317,10 @@ pub fn collect(out: &Path, opts: &ReportOptions) -> Result<RunView, ReportError>
                 .iter()
                 .map(|(p, r)| (p.clone(), r.kind.clone(), r.digest.clone()))
                 .collect(),
-            timing: opts.timings.get(&name).cloned(),
+            timing: timings.get(&name).cloned(),
             params: s.params.clone(),
         });
+        let mut metas = Vec::new();
         for port in s.outputs.keys() {
             let id = format!("{name}.{port}");
             let dir = out.join(&name).join(port);
@@ -313,7 +338,7 @@ pub fn collect(out: &Path, opts: &ReportOptions) -> Result<RunView, ReportError>
                     continue;
                 }
             };
-            collect_warnings(&name, &a, &mut view.warnings);
+            metas.push(a.meta.clone());
             view.artefacts.push(artefact_view(&id, &a));
             match a.kind {
                 ArtefactKind::Frf => {
@@ -384,6 +409,9 @@ pub fn collect(out: &Path, opts: &ReportOptions) -> Result<RunView, ReportError>
                 _ => {}
             }
         }
+        for w in stage_warnings(&metas) {
+            view.warnings.push((name.clone(), w));
+        }
     }
     for (id, mesh, a) in leverage {
         if meshes.contains_key(&mesh)
@@ -393,34 +421,6 @@ pub fn collect(out: &Path, opts: &ReportOptions) -> Result<RunView, ReportError>
         }
     }
     Ok(view)
-}
-
-/// Warnings a stage recorded in its artefact's metadata: every key naming warnings or notes,
-/// text or a list of texts, each stated once per stage.
-fn collect_warnings(stage: &str, a: &Artefact, out: &mut Vec<(String, String)>) {
-    for (key, value) in &a.meta {
-        if !(key.contains("warning") || key.ends_with("notes")) {
-            continue;
-        }
-        let texts: Vec<String> = match value {
-            serde_json::Value::String(s) => vec![s.clone()],
-            serde_json::Value::Array(v) => v
-                .iter()
-                .map(|x| match x {
-                    serde_json::Value::String(s) => s.clone(),
-                    other => other.to_string(),
-                })
-                .collect(),
-            serde_json::Value::Null => Vec::new(),
-            other => vec![other.to_string()],
-        };
-        for t in texts {
-            let entry = (stage.to_string(), t);
-            if !out.contains(&entry) {
-                out.push(entry);
-            }
-        }
-    }
 }
 
 /// The listing of one artefact: metadata and the first rows of every table.

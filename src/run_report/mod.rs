@@ -10,6 +10,7 @@
 
 mod collect;
 mod page;
+pub mod record;
 mod svg;
 
 pub use collect::{RunView, StageTiming, collect};
