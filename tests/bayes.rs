@@ -56,7 +56,8 @@ fn clean(freqs: &[f64]) -> FrfSet {
 /// on 0.5–40 Hz every 0.5 Hz (80 lines, 640 data) with a loss factor of 0.02 and complex
 /// Gaussian noise at 30 dB SNR (`noise.add`'s model, σ known per FRF). Over 400 noise seeds the
 /// 90 % credible interval of every mass contains the truth 90 ± 5 % of the time, and so do the
-/// four masses pooled (1600 intervals) to ±2.5 %. The mean standard deviation is also checked
+/// four masses pooled to ±4 % (the masses share their seeds, so the 1600 intervals are not
+/// independent; this run gives 0.887, 0.882, 0.885, 0.865, pooled 0.880). The mean standard deviation is also checked
 /// against the spread of the posterior means across seeds (the frequentist error) to 15 %.
 #[test]
 fn credible_intervals_of_the_masses_cover_the_truth() {
@@ -100,7 +101,11 @@ fn credible_intervals_of_the_masses_cover_the_truth() {
                 None,
             )
             .unwrap();
-            assert!(post.refinement.converged, "seed {seed}: {:?}", post.refinement);
+            assert!(
+                post.refinement.converged,
+                "seed {seed}: {:?}",
+                post.refinement
+            );
             let m = &post.marginals;
             (
                 m.iter().map(|m| m.lower <= 1.0 && 1.0 <= m.upper).collect(),
@@ -121,8 +126,12 @@ fn credible_intervals_of_the_masses_cover_the_truth() {
             j + 1
         );
         let mean = per_seed.iter().map(|s| s.1[j]).sum::<f64>() / n;
-        let spread =
-            (per_seed.iter().map(|s| (s.1[j] - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt();
+        let spread = (per_seed
+            .iter()
+            .map(|s| (s.1[j] - mean).powi(2))
+            .sum::<f64>()
+            / (n - 1.0))
+            .sqrt();
         let sd = per_seed.iter().map(|s| s.2[j]).sum::<f64>() / n;
         assert!(
             (sd / spread - 1.0).abs() < 0.15,
@@ -135,7 +144,7 @@ fn credible_intervals_of_the_masses_cover_the_truth() {
         );
     }
     let pooled = pooled / (4.0 * n);
-    assert!((pooled - 0.9).abs() <= 0.025, "pooled coverage {pooled}");
+    assert!((pooled - 0.9).abs() <= 0.04, "pooled coverage {pooled}");
 }
 
 /// The shipped pipeline `four-dof-bayes`: the update writes a `posterior` artefact that fits
@@ -160,7 +169,12 @@ fn four_dof_bayes_pipeline_writes_the_posterior() {
     assert_eq!(mean.len(), 4);
     for j in 0..4 {
         assert!(sd[j] > 0.0 && sd[j] < 0.05, "m{}: sd {}", j + 1, sd[j]);
-        assert!((mean[j] - 1.0).abs() < 4.0 * sd[j], "m{}: {}", j + 1, mean[j]);
+        assert!(
+            (mean[j] - 1.0).abs() < 4.0 * sd[j],
+            "m{}: {}",
+            j + 1,
+            mean[j]
+        );
     }
     let c = a.table("covariance").unwrap();
     let rho = c.f64s("covariance", "correlation").unwrap();
@@ -182,7 +196,13 @@ fn four_dof_bayes_pipeline_writes_the_posterior() {
     );
     assert_eq!(lin.len(), 4);
     for r in 0..4 {
-        assert!((smp[r] / lin[r] - 1.0).abs() < 0.25, "mode {}: {} vs {}", r + 1, smp[r], lin[r]);
+        assert!(
+            (smp[r] / lin[r] - 1.0).abs() < 0.25,
+            "mode {}: {} vs {}",
+            r + 1,
+            smp[r],
+            lin[r]
+        );
     }
     let band = a.table("frf_band").unwrap();
     assert_eq!(band.f64s("frf_band", "abs").unwrap().len(), 4 * 159);
@@ -190,10 +210,20 @@ fn four_dof_bayes_pipeline_writes_the_posterior() {
 
     // Estimated noise against the known: σ per FRF as noise.add made it.
     let known = read_dir(&out.join("pc").join("posterior")).unwrap();
-    let known = known.table("noise").unwrap().f64s("noise", "sigma").unwrap().to_vec();
+    let known = known
+        .table("noise")
+        .unwrap()
+        .f64s("noise", "sigma")
+        .unwrap()
+        .to_vec();
     let e = read_dir(&out.join("pc_estimated").join("posterior")).unwrap();
     assert_eq!(e.meta["sigma_estimated"], true);
-    let est = e.table("noise").unwrap().f64s("noise", "sigma").unwrap().to_vec();
+    let est = e
+        .table("noise")
+        .unwrap()
+        .f64s("noise", "sigma")
+        .unwrap()
+        .to_vec();
     for (k, s) in known.iter().zip(&est) {
         assert!((s / k - 1.0).abs() < 0.15, "{s:e} vs {k:e}");
     }

@@ -326,10 +326,22 @@ fn row_sigmas(
             if lik.pooled() {
                 per = vec![per[0]; ng];
             }
-            let floor = per.iter().copied().fold(0.0_f64, f64::max) * 1e-12;
-            let per: Vec<f64> = per
-                .iter()
-                .map(|s| s.max(floor).max(f64::MIN_POSITIVE))
+            // No noise below round-off can be claimed: σ_g ≥ ε·rms(y_g) (noise-free data).
+            let y = lik.measured();
+            let (mut ys, mut yc) = (vec![0.0; ng], vec![0usize; ng]);
+            for (&g, v) in groups.iter().zip(y) {
+                let g = if lik.pooled() { 0 } else { g };
+                ys[g] += v * v;
+                yc[g] += 1;
+            }
+            let overall = (ys.iter().sum::<f64>() / m.max(1) as f64).sqrt();
+            let per: Vec<f64> = (0..ng)
+                .map(|g| {
+                    let k = if lik.pooled() { 0 } else { g };
+                    let rms = (ys[k] / yc[k].max(1) as f64).sqrt();
+                    let rms = if rms > 0.0 { rms } else { overall };
+                    per[g].max(f64::EPSILON * rms).max(f64::MIN_POSITIVE)
+                })
                 .collect();
             Ok((groups.iter().map(|&g| per[g]).collect(), per))
         }
@@ -458,12 +470,25 @@ fn refine(
 
 /// Eigen-decomposition of the precision `F` in unity coordinates: `(μ, V)`, μ descending.
 fn precision_eigen(a: MatRef<'_, f64>) -> Result<(Vec<f64>, Mat<f64>), UpdatingError> {
+    // `AᵀA` by fixed-order sums: a parallel product's last bits could depend on the thread
+    // count, and results must not.
     let n = a.ncols();
-    let f = a.transpose() * a;
-    let f = Mat::from_fn(n, n, |i, j| 0.5 * (f[(i, j)] + f[(j, i)]));
-    let evd = f
-        .self_adjoint_eigen(Side::Lower)
-        .map_err(|_| UpdatingError::Model("eigen-decomposition of the posterior precision".into()))?;
+    let mut f = Mat::<f64>::zeros(n, n);
+    for i in 0..n {
+        for j in 0..=i {
+            let v: f64 = (0..a.nrows()).map(|k| a[(k, i)] * a[(k, j)]).sum();
+            f[(i, j)] = v;
+            f[(j, i)] = v;
+        }
+    }
+    if f.col_iter().any(|c| c.iter().any(|v| !v.is_finite())) {
+        return Err(UpdatingError::Model(
+            "the posterior precision is not finite (a noise level of zero?)".into(),
+        ));
+    }
+    let evd = f.self_adjoint_eigen(Side::Lower).map_err(|_| {
+        UpdatingError::Model("eigen-decomposition of the posterior precision".into())
+    })?;
     // Ascending from faer: reverse to descending.
     let mu: Vec<f64> = (0..n).rev().map(|i| evd.S()[i].max(0.0)).collect();
     let u = evd.U();
@@ -515,7 +540,11 @@ pub fn laplace(
     }
     // Noise at the update's result, the mode under it, and (estimated) the noise again there.
     let start_pred = lik.predict(updated, false)?;
-    let r0: Vec<f64> = y.iter().zip(&start_pred.values).map(|(a, b)| a - b).collect();
+    let r0: Vec<f64> = y
+        .iter()
+        .zip(&start_pred.values)
+        .map(|(a, b)| a - b)
+        .collect();
     let (mut sigma, mut per_group) = row_sigmas(lik, &settings.noise, &r0, n)?;
     let (mode, mut pred, mut refinement) = refine(
         lik,
@@ -650,8 +679,7 @@ pub fn laplace(
             return f64::NAN;
         }
         let m = values.iter().map(|v| v[k]).sum::<f64>() / values.len() as f64;
-        (values.iter().map(|v| (v[k] - m).powi(2)).sum::<f64>() / (values.len() - 1) as f64)
-            .sqrt()
+        (values.iter().map(|v| (v[k] - m).powi(2)).sum::<f64>() / (values.len() - 1) as f64).sqrt()
     };
 
     // |H| bands at the lines of an FRF likelihood.
@@ -699,10 +727,7 @@ pub fn laplace(
             .par_iter()
             .map(|s| nat.at(s).map(|x| x.0))
             .collect::<Result<_, _>>()?;
-        let sampled: Vec<Vec<f64>> = sampled
-            .into_iter()
-            .filter(|s| s.len() >= f.len())
-            .collect();
+        let sampled: Vec<Vec<f64>> = sampled.into_iter().filter(|s| s.len() >= f.len()).collect();
         for (r, &fr) in f.iter().enumerate() {
             natural_frequencies.push(Band {
                 label: format!("mode {}", r + 1),
@@ -957,7 +982,9 @@ pub fn likelihood_lines(
 }
 
 fn restrict(set: &FrfSet, lines: &[usize]) -> Mat<c64> {
-    Mat::from_fn(lines.len(), set.pairs.len(), |i, q| set.values[(lines[i], q)])
+    Mat::from_fn(lines.len(), set.pairs.len(), |i, q| {
+        set.values[(lines[i], q)]
+    })
 }
 
 impl Likelihood for ModalFrfLikelihood<'_> {
@@ -1271,8 +1298,9 @@ impl Likelihood for DirectFrfLikelihood<'_> {
                             pairs
                                 .iter()
                                 .map(|&(i, j)| {
-                                    let s = (0..n)
-                                        .fold(c64::new(0.0, 0.0), |acc, k| acc + cols[i][k] * dz[j][k]);
+                                    let s = (0..n).fold(c64::new(0.0, 0.0), |acc, k| {
+                                        acc + cols[i][k] * dz[j][k]
+                                    });
                                     -s * v * factor
                                 })
                                 .collect(),
@@ -1441,7 +1469,9 @@ mod tests {
     }
 
     fn linear_problem() -> Linear {
-        let a = Mat::from_fn(12, 3, |i, j| ((i * 3 + j * 5) as f64 * 0.7).sin() + (i == j) as u8 as f64);
+        let a = Mat::from_fn(12, 3, |i, j| {
+            ((i * 3 + j * 5) as f64 * 0.7).sin() + (i == j) as u8 as f64
+        });
         let y = (0..12).map(|i| 1.0 + 0.3 * (i as f64).cos()).collect();
         Linear {
             a,
@@ -1502,7 +1532,12 @@ mod tests {
         // Sample covariance approaches Σ.
         let ns = post.samples.len() as f64;
         let mean0 = post.samples.iter().map(|s| s[0]).sum::<f64>() / ns;
-        let var0 = post.samples.iter().map(|s| (s[0] - mean0).powi(2)).sum::<f64>() / (ns - 1.0);
+        let var0 = post
+            .samples
+            .iter()
+            .map(|s| (s[0] - mean0).powi(2))
+            .sum::<f64>()
+            / (ns - 1.0);
         assert!((var0 / want[(0, 0)] - 1.0).abs() < 0.1, "{var0}");
 
         // With a prior.
@@ -1563,6 +1598,25 @@ mod tests {
         assert!(post.directions[0].sd.is_infinite());
         let d = &post.directions[0].vector;
         assert!(d[1].abs() < 1e-8, "{d:?}");
+    }
+
+    /// Estimated noise with no degree of freedom left: reported as unknown, not as certainty.
+    #[test]
+    fn noise_that_cannot_be_estimated_gives_an_unknown_posterior() {
+        let a = Mat::from_fn(3, 3, |i, j| if i == j { 1.0 } else { 0.1 });
+        let lik = Linear {
+            a,
+            y: vec![1.0, 2.0, 3.0],
+            groups: vec![0; 3],
+        };
+        let start = [1.0, 1.0, 1.0];
+        let post = laplace(&lik, &params(&start), &start, &Default::default(), None).unwrap();
+        assert!(
+            post.marginals
+                .iter()
+                .all(|m| m.sd.is_nan() && m.mean == 1.0)
+        );
+        assert!(post.sigma[0].is_nan() && post.samples.is_empty());
     }
 
     #[test]

@@ -42,20 +42,38 @@ impl Kind for PosteriorKind {
         Layout {
             tables: tables(),
             meta: vec![
-                meta("method", "the updating method whose result the posterior refines"),
+                meta(
+                    "method",
+                    "the updating method whose result the posterior refines",
+                ),
                 meta(
                     "likelihood",
                     "frf_modal, frf_direct, frf_damping or natural_frequencies",
                 ),
-                meta("noise", "the noise model: estimated, sigma, relative or snr_db"),
+                meta(
+                    "noise",
+                    "the noise model: estimated, sigma, relative or snr_db",
+                ),
                 meta(
                     "sigma_estimated",
                     "whether the noise sigma was estimated from the residuals at the mode",
                 ),
-                meta("credible_level", "probability of the central credible intervals"),
-                meta("rows", "data in the likelihood (real and imaginary parts count apart)"),
-                meta("neg_log_likelihood", "-log p(y|mode) with the noise as used"),
-                meta("refine_steps", "Gauss-Newton steps from the update's result to the mode"),
+                meta(
+                    "credible_level",
+                    "probability of the central credible intervals",
+                ),
+                meta(
+                    "rows",
+                    "data in the likelihood (real and imaginary parts count apart)",
+                ),
+                meta(
+                    "neg_log_likelihood",
+                    "-log p(y|mode) with the noise as used",
+                ),
+                meta(
+                    "refine_steps",
+                    "Gauss-Newton steps from the update's result to the mode",
+                ),
                 meta("refine_converged", "whether the refinement converged"),
                 meta("objective_start", "Q at the update's result"),
                 meta("objective_mode", "Q at the mode"),
@@ -93,10 +111,30 @@ fn tables() -> Vec<TableLayout> {
             vec![
                 col("parameter", "string", "", "parameter name"),
                 col("updated", "float64", "SI", "the update's result"),
-                col("mean", "float64", "SI", "posterior mean (the likelihood's mode)"),
-                col("sd", "float64", "SI", "posterior standard deviation (inf: unidentified)"),
-                col("lower", "float64", "SI", "lower end of the central credible interval"),
-                col("upper", "float64", "SI", "upper end of the central credible interval"),
+                col(
+                    "mean",
+                    "float64",
+                    "SI",
+                    "posterior mean (the likelihood's mode)",
+                ),
+                col(
+                    "sd",
+                    "float64",
+                    "SI",
+                    "posterior standard deviation (inf: unidentified)",
+                ),
+                col(
+                    "lower",
+                    "float64",
+                    "SI",
+                    "lower end of the central credible interval",
+                ),
+                col(
+                    "upper",
+                    "float64",
+                    "SI",
+                    "upper end of the central credible interval",
+                ),
                 col("relative_sd", "float64", "", "sd / |mean|"),
             ],
         ),
@@ -108,7 +146,12 @@ fn tables() -> Vec<TableLayout> {
                 col("parameter_i", "string", "", "row parameter"),
                 col("parameter_j", "string", "", "column parameter"),
                 col("covariance", "float64", "SI^2", "posterior covariance"),
-                col("correlation", "float64", "", "rho_ij (NaN where a variance is infinite)"),
+                col(
+                    "correlation",
+                    "float64",
+                    "",
+                    "rho_ij (NaN where a variance is infinite)",
+                ),
             ],
         ),
         table(
@@ -124,7 +167,12 @@ fn tables() -> Vec<TableLayout> {
                     "standard deviation along it, relative (inf: unidentified)",
                 ),
                 col("parameter", "string", "", "parameter"),
-                col("component", "float64", "", "component of the unit direction (unity coordinates)"),
+                col(
+                    "component",
+                    "float64",
+                    "",
+                    "component of the unit direction (unity coordinates)",
+                ),
             ],
         ),
         table(
@@ -132,7 +180,12 @@ fn tables() -> Vec<TableLayout> {
             s,
             true,
             vec![
-                col("group", "string", "", "noise group: an FRF (response/excitation) or a mode"),
+                col(
+                    "group",
+                    "string",
+                    "",
+                    "noise group: an FRF (response/excitation) or a mode",
+                ),
                 col(
                     "sigma",
                     "float64",
@@ -158,8 +211,18 @@ fn tables() -> Vec<TableLayout> {
             vec![
                 col("mode", "int64", "", "1-based elastic mode"),
                 col("freq_hz", "float64", "Hz", "natural frequency at the mode"),
-                col("sd_linear_hz", "float64", "Hz", "first-order standard deviation"),
-                col("sd_sampled_hz", "float64", "Hz", "standard deviation over the samples"),
+                col(
+                    "sd_linear_hz",
+                    "float64",
+                    "Hz",
+                    "first-order standard deviation",
+                ),
+                col(
+                    "sd_sampled_hz",
+                    "float64",
+                    "Hz",
+                    "standard deviation over the samples",
+                ),
             ],
         ),
         table(
@@ -169,9 +232,24 @@ fn tables() -> Vec<TableLayout> {
             vec![
                 col("freq_hz", "float64", "Hz", "line"),
                 col("pair", "string", "", "response/excitation"),
-                col("abs", "float64", "", "|H| at the mode, in the measured quantity"),
-                col("sd_linear", "float64", "", "first-order standard deviation of |H|"),
-                col("sd_sampled", "float64", "", "standard deviation of |H| over the samples"),
+                col(
+                    "abs",
+                    "float64",
+                    "",
+                    "|H| at the mode, in the measured quantity",
+                ),
+                col(
+                    "sd_linear",
+                    "float64",
+                    "",
+                    "first-order standard deviation of |H|",
+                ),
+                col(
+                    "sd_sampled",
+                    "float64",
+                    "",
+                    "standard deviation of |H| over the samples",
+                ),
             ],
         ),
     ]
@@ -203,11 +281,17 @@ fn write(r: &PosteriorRecord) -> Artefact {
         .with("parameter_i", strs(pairs().map(|(i, _)| &names[i])))
         .with("parameter_j", strs(pairs().map(|(_, j)| &names[j])))
         .with("covariance", f64s(pairs().map(|(i, j)| p.covariance[i][j])))
-        .with("correlation", f64s(pairs().map(|(i, j)| p.correlation[i][j])));
+        .with(
+            "correlation",
+            f64s(pairs().map(|(i, j)| p.correlation[i][j])),
+        );
     let d = &p.directions;
     let dirs = || (0..d.len()).flat_map(move |k| (0..n).map(move |i| (k, i)));
     let directions = Table::new()
-        .with("direction", Column::I64(dirs().map(|(k, _)| k as i64 + 1).collect()))
+        .with(
+            "direction",
+            Column::I64(dirs().map(|(k, _)| k as i64 + 1).collect()),
+        )
         .with("sd_relative", f64s(dirs().map(|(k, _)| d[k].sd)))
         .with("parameter", strs(dirs().map(|(_, i)| &names[i])))
         .with("component", f64s(dirs().map(|(k, i)| d[k].vector[i])));
@@ -220,7 +304,11 @@ fn write(r: &PosteriorRecord) -> Artefact {
         .with("sample", Column::I64(sm().map(|(k, _)| k as i64).collect()))
         .with("parameter", strs(sm().map(|(_, i)| &names[i])))
         .with("value", f64s(sm().map(|(k, i)| s[k][i])));
-    let unidentified: Vec<&String> = m.iter().filter(|x| x.sd.is_infinite()).map(|x| &x.name).collect();
+    let unidentified: Vec<&String> = m
+        .iter()
+        .filter(|x| x.sd.is_infinite())
+        .map(|x| &x.name)
+        .collect();
     let mut a = Artefact::new(K)
         .with_table("parameters", parameters, Storage::Parquet)
         .with_table("covariance", covariance, Storage::Parquet)
@@ -281,7 +369,13 @@ fn read(a: &Artefact) -> Result<PosteriorRecord, ArtefactError> {
     let names = t.strs("parameters", "parameter")?.to_vec();
     let n = names.len();
     let g = |c: &str| t.f64s("parameters", c);
-    let (updated, mean, sd, lower, upper) = (g("updated")?, g("mean")?, g("sd")?, g("lower")?, g("upper")?);
+    let (updated, mean, sd, lower, upper) = (
+        g("updated")?,
+        g("mean")?,
+        g("sd")?,
+        g("lower")?,
+        g("upper")?,
+    );
     let marginals = (0..n)
         .map(|i| Marginal {
             name: names[i].clone(),
@@ -316,12 +410,19 @@ fn read(a: &Artefact) -> Result<PosteriorRecord, ArtefactError> {
     let st = a.table("samples")?;
     let values = st.f64s("samples", "value")?;
     let samples = values.chunks(n.max(1)).map(|c| c.to_vec()).collect();
-    let band = |name: &str, label: &dyn Fn(&Table, usize) -> Result<String, ArtefactError>, cols: [&str; 4]| -> Result<Vec<Band>, ArtefactError> {
+    let band = |name: &str,
+                label: &dyn Fn(&Table, usize) -> Result<String, ArtefactError>,
+                cols: [&str; 4]|
+     -> Result<Vec<Band>, ArtefactError> {
         let Ok(b) = a.table(name) else {
             return Ok(Vec::new());
         };
         let f = b.f64s(name, cols[0])?;
-        let v = if cols[1].is_empty() { f } else { b.f64s(name, cols[1])? };
+        let v = if cols[1].is_empty() {
+            f
+        } else {
+            b.f64s(name, cols[1])?
+        };
         let (l, s) = (b.f64s(name, cols[2])?, b.f64s(name, cols[3])?);
         (0..f.len())
             .map(|i| {

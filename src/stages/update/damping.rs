@@ -3,7 +3,6 @@
 //! modes; the result gains the table `modal_damping`.
 
 use super::{PosteriorParams, Reduction, build_model, max_iterations, measured_frf};
-use crate::updating::posterior::DampingLikelihood;
 use crate::artefact::kinds::matrices_to_artefact;
 use crate::artefact::update::{IdentifiedDamping, update_result_to_artefact, with_modal_damping};
 use crate::eigen::ModeSelection;
@@ -17,6 +16,7 @@ use crate::stages::params::{
 use crate::updating::damping::{
     DampingIdentification, DampingKind, DampingParameters, DampingSettings, equivalent_loss_factor,
 };
+use crate::updating::posterior::DampingLikelihood;
 use crate::updating::{ModalState, ParametricModel, UpdateHistory, run};
 
 /// Parameters of `method: damping`.

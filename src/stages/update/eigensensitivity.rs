@@ -6,7 +6,6 @@ use super::{
     Method, PosteriorParams, Reduction, SensitiveStartParams, build_model, max_iterations,
     measured_modes, run_and_write,
 };
-use crate::updating::posterior::{FrequencyLikelihood, NaturalFrequencies};
 use crate::core::DofId;
 use crate::eigen::ModeSelection;
 use crate::fe::element::MassKind;
@@ -16,6 +15,7 @@ use crate::stages::params::{
     migrate_mode_fields,
 };
 use crate::updating::eigensensitivity::{EigenSettings, InverseEigensensitivity, MeasuredModes};
+use crate::updating::posterior::{FrequencyLikelihood, NaturalFrequencies};
 
 /// Parameters of `method: eigensensitivity`.
 #[derive(Clone, Debug, serde::Deserialize, serde::Serialize, schemars::JsonSchema)]

@@ -5,7 +5,6 @@ use super::{
     Method, PosteriorParams, Reduction, SensitiveStartParams, build_model, max_iterations,
     measured_frf, run_and_write,
 };
-use crate::updating::posterior::{ModalFrfLikelihood, NaturalFrequencies, likelihood_lines};
 use crate::eigen::ModeSelection;
 use crate::fe::element::MassKind;
 use crate::frf::ModalDamping;
@@ -15,6 +14,7 @@ use crate::stages::params::{
     migrate_mode_fields,
 };
 use crate::updating::pc::{PcSettings, PredictorCorrector};
+use crate::updating::posterior::{ModalFrfLikelihood, NaturalFrequencies, likelihood_lines};
 use crate::updating::{ParameterWeighting, UpdateMethod};
 
 /// Parameters of `method: pc`.

@@ -132,7 +132,10 @@ impl PosteriorParams {
         if let NoiseParams::SnrDb(s) = self.noise
             && !s.is_finite()
         {
-            issues.push(ParamIssue::at("posterior.noise.snr_db", "give a finite SNR in dB"));
+            issues.push(ParamIssue::at(
+                "posterior.noise.snr_db",
+                "give a finite SNR in dB",
+            ));
         }
         issues
     }

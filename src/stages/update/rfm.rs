@@ -6,10 +6,10 @@ use super::{
     measured_frf,
 };
 use crate::eigen::ModeSelection;
-use crate::updating::posterior::{DirectFrfLikelihood, NaturalFrequencies};
 use crate::fe::element::MassKind;
 use crate::pipeline::{ParamIssue, StageError, StageInputs, StageOutputs};
 use crate::stages::params::{Damping, NonNegative, OpenFraction, PerMode};
+use crate::updating::posterior::{DirectFrfLikelihood, NaturalFrequencies};
 use crate::updating::rfm::{ResponseFunctionMethod, RfmSettings};
 
 /// Parameters of `method: rfm`.
