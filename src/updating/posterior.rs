@@ -1065,6 +1065,9 @@ fn modal_jacobian(
     Ok(stack_jacobian(&sens, rows))
 }
 
+/// The modal damping of every mode of the basis from the parameter values.
+pub type DampingOf<'a> = Box<dyn Fn(&[f64]) -> ModalDamping + Sync + 'a>;
+
 /// The output-error likelihood of the modal damping identification: the spatial model fixed
 /// on `state`, the parameters the loss factors (or ratios) of `modes`, `∂H/∂u` from the exact
 /// damping sensitivities (6.8, 6.11).
@@ -1073,7 +1076,7 @@ pub struct DampingLikelihood<'a> {
     measured: &'a FrfSet,
     lines: Vec<usize>,
     /// The damping of every mode of the basis from the parameter values.
-    damping: Box<dyn Fn(&[f64]) -> ModalDamping + Sync + 'a>,
+    damping: DampingOf<'a>,
     modes: Vec<usize>,
     data: FrfData,
 }
@@ -1085,7 +1088,7 @@ impl<'a> DampingLikelihood<'a> {
         state: &'a ModalState,
         measured: &'a FrfSet,
         lines: Vec<usize>,
-        damping: Box<dyn Fn(&[f64]) -> ModalDamping + Sync + 'a>,
+        damping: DampingOf<'a>,
         modes: Vec<usize>,
     ) -> Self {
         let data = FrfData::new(measured, &lines);
@@ -1522,8 +1525,8 @@ mod tests {
             }
         }
         let ls = least_squares(lik.a.as_ref(), &lik.y, 1e-14);
-        for i in 0..3 {
-            assert!((post.marginals[i].mean - ls[i]).abs() < 1e-10, "{i}");
+        for (m, l) in post.marginals.iter().zip(&ls) {
+            assert!((m.mean - l).abs() < 1e-10, "{m:?}");
         }
         assert!(post.refinement.steps >= 1 && post.refinement.converged);
         // The credible interval is mean ± 1.6449 sd.

@@ -196,7 +196,7 @@ impl DampingMethod {
         );
         let posterior = self.posterior.artefact(
             &lik,
-            &parameters.parameters().to_vec(),
+            parameters.parameters(),
             &history.final_values,
             Some(&measured),
             None,
