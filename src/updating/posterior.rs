@@ -434,7 +434,11 @@ fn refine(
         for _ in 0..=super::MAX_HALVINGS {
             let scaled: Vec<f64> = delta.iter().map(|d| t * d).collect();
             let (next, _) = super::apply_step(params, &values, &scaled);
-            let p = lik.predict(&next, false)?;
+            // A trial point the model cannot be analysed at is a rejected step.
+            let Ok(p) = lik.predict(&next, false) else {
+                t *= 0.5;
+                continue;
+            };
             let r: Vec<f64> = y.iter().zip(&p.values).map(|(a, b)| a - b).collect();
             if objective(&r, sigma, prior, &next) < lin.objective {
                 accepted = Some(next);
@@ -692,10 +696,11 @@ pub fn laplace(
                 .map(|i| vals[2 * i].hypot(vals[2 * i + 1]))
                 .collect()
         };
+        // Samples the model cannot be analysed at are left out of the band.
         let sampled: Vec<Vec<f64>> = within
             .par_iter()
-            .map(|s| lik.predict(s, false).map(|p| abs_of(&p.values)))
-            .collect::<Result<_, _>>()?;
+            .filter_map(|s| lik.predict(s, false).ok().map(|p| abs_of(&p.values)))
+            .collect();
         for (k, &f) in layout.freqs_hz.iter().enumerate() {
             for (q, label) in layout.pairs.iter().enumerate() {
                 let i = k * np + q;
@@ -725,8 +730,8 @@ pub fn laplace(
         let (f, g) = nat.at(&mode)?;
         let sampled: Vec<Vec<f64>> = within
             .par_iter()
-            .map(|s| nat.at(s).map(|x| x.0))
-            .collect::<Result<_, _>>()?;
+            .filter_map(|s| nat.at(s).ok().map(|x| x.0))
+            .collect();
         let sampled: Vec<Vec<f64>> = sampled.into_iter().filter(|s| s.len() >= f.len()).collect();
         for (r, &fr) in f.iter().enumerate() {
             natural_frequencies.push(Band {
@@ -763,9 +768,9 @@ pub fn laplace(
     })
 }
 
-/// The posterior when the noise can be neither given nor estimated: every number NaN, the
-/// means the update's result.
-fn unknown(
+/// The posterior when it cannot be computed (the noise neither given nor estimable, or the
+/// model not analysable at the mode): every number NaN, the means the update's result.
+pub fn unknown(
     lik: &dyn Likelihood,
     params: &[UpdatingParameter],
     updated: &[f64],

@@ -4,12 +4,13 @@
 use crate::artefact::Artefact;
 use crate::artefact::kinds::Kind;
 use crate::artefact::kinds::posterior::{PosteriorKind, PosteriorRecord};
+use crate::core::InputFault;
 use crate::frf::FrfSet;
 use crate::pipeline::{ParamIssue, StageError};
 use crate::stages::params::{OpenFraction, Positive};
 use crate::updating::UpdatingParameter;
 use crate::updating::posterior::{
-    Likelihood, NaturalFrequencies, Noise, PosteriorSettings, Prior, laplace,
+    Likelihood, NaturalFrequencies, Noise, PosteriorSettings, Prior, laplace, unknown,
 };
 
 /// The Laplace posterior computed after the update (docs/theory.md §12): a Gaussian at the
@@ -226,8 +227,17 @@ impl PosteriorParams {
         likelihood: &str,
     ) -> Result<Artefact, StageError> {
         let settings = self.settings(params, measured)?;
-        let posterior = laplace(lik, params, final_values, &settings, natural)
-            .map_err(StageError::from_numerics("posterior"))?;
+        let posterior = match laplace(lik, params, final_values, &settings, natural) {
+            Ok(p) => p,
+            Err(e) if e.is_input() => return Err(StageError::from_numerics("posterior")(e)),
+            // The update stands; its posterior is reported as unknown rather than failing it.
+            Err(e) => {
+                tracing::warn!(
+                    "the posterior could not be computed ({e}); it is reported as unknown (NaN)"
+                );
+                unknown(lik, params, final_values, &settings)
+            }
+        };
         for m in &posterior.marginals {
             tracing::info!(
                 "posterior {}: {:.6e} ± {:.3e} ({}% credible [{:.6e}, {:.6e}])",
