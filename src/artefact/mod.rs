@@ -80,6 +80,9 @@ pub enum ArtefactKind {
     EigenvalueSensitivity,
     /// A Nastran bulk data deck (its files) with the record of what was changed.
     NastranDeck,
+    /// The Laplace posterior of an update's parameters: marginals, correlation, directions,
+    /// samples, predictive bands.
+    Posterior,
 }
 
 impl ArtefactKind {

@@ -63,7 +63,7 @@ pub struct InverseEigensensitivity<'a> {
 
 impl InverseEigensensitivity<'_> {
     /// Analytical mode paired with each measured mode (`None` when no MAC reaches `min_mac`).
-    fn pairs(&self, state: &ModalState) -> Result<Vec<Option<usize>>, UpdatingError> {
+    pub fn pairs(&self, state: &ModalState) -> Result<Vec<Option<usize>>, UpdatingError> {
         let elastic: Vec<usize> = (0..state.modes.len())
             .filter(|&r| state.modes.eigenvalues[r] > 0.0)
             .collect();

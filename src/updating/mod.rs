@@ -11,6 +11,7 @@ pub mod damping;
 pub mod eigensensitivity;
 pub mod model;
 pub mod pc;
+pub mod posterior;
 pub mod rfm;
 pub mod sensitive_start;
 pub mod solve;

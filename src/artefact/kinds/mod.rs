@@ -25,6 +25,7 @@
 //! | `leverage` | [`leverage`] |
 //! | `eigenvalue_sensitivity` | [`eigenvalue_sensitivity`] |
 //! | `nastran_deck` | [`nastran_deck`] |
+//! | `posterior` | [`posterior`] |
 
 use super::{Artefact, ArtefactError, ArtefactKind, Column, Storage, Table};
 use crate::core::DofId;
@@ -43,6 +44,7 @@ pub mod modes;
 pub mod nastran_deck;
 pub mod partition;
 pub mod plot;
+pub mod posterior;
 pub mod reduced_component;
 pub mod reduced_model;
 #[cfg(test)]
@@ -141,6 +143,7 @@ registry! {
     Leverage => leverage::LeverageKind,
     EigenvalueSensitivity => eigenvalue_sensitivity::EigenvalueSensitivityKind,
     NastranDeck => nastran_deck::NastranDeckKind,
+    Posterior => posterior::PosteriorKind,
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -603,3 +603,87 @@ fn a_matrix_table_in_any_row_order_reads_as_the_same_matrix() {
     let a = Artefact::new(ArtefactKind::Matrices).with_table("K", bad, Storage::Ipc);
     assert!(read_sparse(&a, "K", n).is_err());
 }
+
+impl Example for posterior::PosteriorKind {
+    fn examples() -> Vec<posterior::PosteriorRecord> {
+        use crate::updating::posterior::{Band, Direction, Marginal, Posterior, Refinement};
+        let marginal = |name: &str, mean: f64, sd: f64| Marginal {
+            name: name.into(),
+            updated: mean * 1.01,
+            mean,
+            sd,
+            lower: mean - 1.64 * sd,
+            upper: mean + 1.64 * sd,
+        };
+        let band = |label: &str, f: f64| Band {
+            label: label.into(),
+            freq_hz: f,
+            value: 2.0 * f,
+            sd_linear: 0.1,
+            sd_sampled: 0.11,
+        };
+        let frf = Posterior {
+            marginals: vec![marginal("m1", 1.0, 0.01), marginal("m2", 2.0, 0.03)],
+            covariance: vec![vec![1e-4, -1.5e-4], vec![-1.5e-4, 9e-4]],
+            correlation: vec![vec![1.0, -0.5], vec![-0.5, 1.0]],
+            directions: vec![
+                Direction {
+                    sd: 0.02,
+                    vector: vec![0.3, 0.95],
+                },
+                Direction {
+                    sd: 0.005,
+                    vector: vec![0.95, -0.3],
+                },
+            ],
+            sigma: vec![1e-6, 2e-6],
+            groups: vec!["1:ux/1:ux".into(), "2:ux/1:ux".into()],
+            sigma_estimated: false,
+            rows: 40,
+            neg_log_likelihood: -512.5,
+            refinement: Refinement {
+                steps: 2,
+                objective_start: 30.0,
+                objective_mode: 19.5,
+                converged: true,
+            },
+            credible_level: 0.9,
+            samples: vec![vec![1.01, 1.98], vec![0.99, 2.02], vec![1.0, 2.0]],
+            predictive_samples: 2,
+            natural_frequencies: vec![band("mode 1", 9.8), band("mode 2", 18.7)],
+            frf: vec![band("1:ux/1:ux", 1.0), band("2:ux/1:ux", 1.0)],
+            seed: 7,
+        };
+        let unidentified = Posterior {
+            marginals: vec![marginal("k", 1e4, f64::INFINITY)],
+            covariance: vec![vec![f64::INFINITY]],
+            correlation: vec![vec![1.0]],
+            directions: vec![Direction {
+                sd: f64::INFINITY,
+                vector: vec![1.0],
+            }],
+            sigma: vec![0.01, 0.01],
+            groups: vec!["9.8 Hz".into(), "18.7 Hz".into()],
+            sigma_estimated: true,
+            natural_frequencies: Vec::new(),
+            frf: Vec::new(),
+            samples: Vec::new(),
+            predictive_samples: 0,
+            ..frf.clone()
+        };
+        vec![
+            posterior::PosteriorRecord {
+                method: "pc".into(),
+                likelihood: "frf_modal".into(),
+                noise: "sigma".into(),
+                posterior: frf,
+            },
+            posterior::PosteriorRecord {
+                method: "eigensensitivity".into(),
+                likelihood: "natural_frequencies".into(),
+                noise: "estimated".into(),
+                posterior: unidentified,
+            },
+        ]
+    }
+}

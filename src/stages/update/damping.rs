@@ -2,7 +2,7 @@
 //! the fixed model, then the P-C on the `η_r` (structural) or `ζ_r` (viscous) of chosen elastic
 //! modes; the result gains the table `modal_damping`.
 
-use super::{Reduction, build_model, max_iterations, measured_frf};
+use super::{PosteriorParams, Reduction, build_model, max_iterations, measured_frf};
 use crate::artefact::kinds::matrices_to_artefact;
 use crate::artefact::update::{IdentifiedDamping, update_result_to_artefact, with_modal_damping};
 use crate::eigen::ModeSelection;
@@ -16,6 +16,7 @@ use crate::stages::params::{
 use crate::updating::damping::{
     DampingIdentification, DampingKind, DampingParameters, DampingSettings, equivalent_loss_factor,
 };
+use crate::updating::posterior::DampingLikelihood;
 use crate::updating::{ModalState, ParametricModel, UpdateHistory, run};
 
 /// Parameters of `method: damping`.
@@ -57,6 +58,10 @@ pub struct DampingMethod {
     /// With `partition` connected: the component mode synthesis the mesh is analysed by.
     #[serde(default)]
     pub reduction: Reduction,
+    /// The Laplace posterior of the identified damping (docs/theory.md §12), on the complex
+    /// FRFs at every line.
+    #[serde(default)]
+    pub posterior: PosteriorParams,
 }
 
 /// The P-C settings of the damping identification; defaults: [`DampingSettings::default`]
@@ -181,9 +186,27 @@ impl DampingMethod {
         let system = (parameters.evaluate(&history.final_values))
             .map_err(StageError::from_numerics(""))?
             .system;
+        // The output error on the complex FRFs at every line (the predictions are damped).
+        let lik = DampingLikelihood::new(
+            &state,
+            &measured,
+            (0..measured.freqs_hz.len()).collect(),
+            Box::new(|v: &[f64]| method.damping(v)),
+            modes.clone(),
+        );
+        let posterior = self.posterior.artefact(
+            &lik,
+            parameters.parameters(),
+            &history.final_values,
+            Some(&measured),
+            None,
+            "damping",
+            "frf_damping",
+        )?;
         Ok(StageOutputs::from([
             ("result".to_string(), result),
             ("model".to_string(), matrices_to_artefact(&system)),
+            ("posterior".to_string(), posterior),
         ]))
     }
 

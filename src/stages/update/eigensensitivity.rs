@@ -3,8 +3,8 @@
 
 use super::pc::weighting;
 use super::{
-    Method, Reduction, SensitiveStartParams, build_model, max_iterations, measured_modes,
-    run_and_write,
+    Method, PosteriorParams, Reduction, SensitiveStartParams, build_model, max_iterations,
+    measured_modes, run_and_write,
 };
 use crate::core::DofId;
 use crate::eigen::ModeSelection;
@@ -15,6 +15,7 @@ use crate::stages::params::{
     migrate_mode_fields,
 };
 use crate::updating::eigensensitivity::{EigenSettings, InverseEigensensitivity, MeasuredModes};
+use crate::updating::posterior::{FrequencyLikelihood, NaturalFrequencies};
 
 /// Parameters of `method: eigensensitivity`.
 #[derive(Clone, Debug, serde::Deserialize, serde::Serialize, schemars::JsonSchema)]
@@ -71,6 +72,10 @@ pub struct EigensensitivityMethod {
     /// With `partition` connected: the component mode synthesis the mesh is analysed by.
     #[serde(default)]
     pub reduction: Reduction,
+    /// The Laplace posterior computed after the update (docs/theory.md §12), on the paired
+    /// natural frequencies (noise levels are relative frequency errors, one or one per mode).
+    #[serde(default)]
+    pub posterior: PosteriorParams,
 }
 
 /// The P-C block as inverse eigensensitivity read it before it had its own fields: only these
@@ -189,12 +194,44 @@ impl EigensensitivityMethod {
                 weighting: weighting(self.weighting_gamma),
             },
         };
+        let model = model.as_ref();
+        let selection = method.settings.modes;
+        // The output error on the paired natural frequencies, the pairs held from the result.
+        let posterior = |h: &crate::updating::UpdateHistory| {
+            let (state, _) = model
+                .modal_state(&h.final_values, selection)
+                .map_err(StageError::from_numerics("posterior"))?;
+            let pairs: Vec<(f64, usize)> = method
+                .pairs(&state)
+                .map_err(StageError::from_numerics("posterior"))?
+                .iter()
+                .zip(&measured.eigenvalues)
+                .filter_map(|(a, &l)| a.map(|a| (l.sqrt() / (2.0 * std::f64::consts::PI), a)))
+                .collect();
+            let lik = FrequencyLikelihood::new(model, selection, pairs);
+            let natural = NaturalFrequencies {
+                model,
+                selection,
+                count: measured.eigenvalues.len(),
+                max_hz: f64::INFINITY,
+            };
+            self.posterior.artefact(
+                &lik,
+                model.parameters(),
+                &h.final_values,
+                None,
+                Some(&natural),
+                Method::Eigensensitivity.name(),
+                "natural_frequencies",
+            )
+        };
         run_and_write(
-            model.as_ref(),
+            model,
             &[&method],
             self.sensitive_start.as_ref(),
             self.max_iterations,
             Method::Eigensensitivity,
+            &posterior,
         )
     }
 }

@@ -4,8 +4,9 @@
 //! damping identification (`damping`). The model is a mesh (rebuilt from its elements at every
 //! iteration: exact for every parameter kind) or a matrices artefact whose parameters enter
 //! linearly (`model.lumped`). Writes the history, the diagnostics of `S` and the final values
-//! (`result`), and the updated system (`model`); the updated mesh comes from `mesh.parameters`
-//! with the result connected.
+//! (`result`), the updated system (`model`) and the Laplace posterior of the parameters
+//! (`posterior`, docs/theory.md §12); the updated mesh comes from `mesh.parameters` with the
+//! result connected.
 //!
 //! The parameters are one variant per method, selected by `method:` (one file each); the
 //! fields every method shares are here.
@@ -13,11 +14,13 @@
 mod damping;
 mod eigensensitivity;
 mod pc;
+mod posterior;
 mod rfm;
 
 pub use damping::{DampingMethod, DampingPcParams};
 pub use eigensensitivity::{EigensensitivityMethod, LegacyEigenPc};
 pub use pc::{PcMethod, PcParams};
+pub use posterior::{NoiseParams, OneOrMany, PosteriorParams, PriorParams, snr_sigmas};
 pub use rfm::RfmMethod;
 
 use super::params::{Count, Deprecation, Positive, warn_deprecated};
@@ -32,7 +35,9 @@ use crate::pipeline::{
     CheckContext, ParamIssue, PortSpec, StageError, StageInputs, StageOutputs, TypedStage,
 };
 use crate::updating::sensitive_start::sensitive_start;
-use crate::updating::{FeModel, LinearModel, ParametricModel, ReducedFeModel, UpdateMethod};
+use crate::updating::{
+    FeModel, LinearModel, ParametricModel, ReducedFeModel, UpdateHistory, UpdateMethod,
+};
 use serde::de::{DeserializeOwned, Error as _};
 
 /// The stage.
@@ -122,6 +127,16 @@ impl Params {
             Params::Rfm(_) => Method::Rfm,
             Params::Eigensensitivity(_) => Method::Eigensensitivity,
             Params::Damping(_) => Method::Damping,
+        }
+    }
+
+    /// The posterior settings.
+    pub fn posterior(&self) -> &PosteriorParams {
+        match self {
+            Params::Pc(p) => &p.posterior,
+            Params::Rfm(p) => &p.posterior,
+            Params::Eigensensitivity(p) => &p.posterior,
+            Params::Damping(p) => &p.posterior,
         }
     }
 
@@ -231,7 +246,7 @@ impl TypedStage for Update {
     const KIND: &'static str = "update";
     const SUMMARY: &'static str =
         "Update model parameters from measured FRFs (P-C, RFM) or modes (inverse eigensensitivity)";
-    const IMPL_VERSION: u32 = 4;
+    const IMPL_VERSION: u32 = 5;
 
     fn inputs() -> Vec<PortSpec> {
         vec![
@@ -271,6 +286,11 @@ impl TypedStage for Update {
                 ArtefactKind::Matrices,
                 "K and M of the updated model",
             ),
+            PortSpec::required(
+                "posterior",
+                ArtefactKind::Posterior,
+                "Laplace posterior of the parameters: marginals, correlation, directions, samples, predictive bands",
+            ),
         ]
     }
 
@@ -285,6 +305,7 @@ impl TypedStage for Update {
             Params::Eigensensitivity(p) => p.issues(),
             Params::Damping(p) => p.issues(),
         });
+        issues.extend(p.posterior().issues());
         issues
     }
 
@@ -442,14 +463,18 @@ fn missing(port: &str) -> StageError {
     )
 }
 
+/// The posterior artefact of an update, from its history.
+type PosteriorOf<'a> = &'a dyn Fn(&UpdateHistory) -> Result<crate::artefact::Artefact, StageError>;
+
 /// The common end of the spatial methods: the sensitive-region search, the phases run in turn
-/// from its start, and the outputs.
+/// from its start, the posterior, and the outputs.
 fn run_and_write(
     model: &dyn ParametricModel,
     phases: &[&dyn UpdateMethod],
     sensitive: Option<&SensitiveStartParams>,
     max_iterations: usize,
     method: Method,
+    posterior: PosteriorOf<'_>,
 ) -> Result<StageOutputs, StageError> {
     let (start, moved) = match sensitive {
         Some(ss) => move_to_sensitive_regions(model, ss)?,
@@ -464,9 +489,11 @@ fn run_and_write(
     if !moved.is_empty() {
         result = result.with_meta("sensitive_start", serde_json::Value::Array(moved));
     }
+    let posterior = posterior(&history)?;
     Ok(StageOutputs::from([
         ("result".to_string(), result),
         ("model".to_string(), matrices_to_artefact(&updated.system)),
+        ("posterior".to_string(), posterior),
     ]))
 }
 

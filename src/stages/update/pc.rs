@@ -2,8 +2,8 @@
 //! (docs/theory.md §5; thesis ch. 4), with optional continuation phases on smoothed FRFs.
 
 use super::{
-    Method, Reduction, SensitiveStartParams, build_model, max_iterations, measured_frf,
-    run_and_write,
+    Method, PosteriorParams, Reduction, SensitiveStartParams, build_model, max_iterations,
+    measured_frf, run_and_write,
 };
 use crate::eigen::ModeSelection;
 use crate::fe::element::MassKind;
@@ -14,6 +14,7 @@ use crate::stages::params::{
     migrate_mode_fields,
 };
 use crate::updating::pc::{PcSettings, PredictorCorrector};
+use crate::updating::posterior::{ModalFrfLikelihood, NaturalFrequencies, likelihood_lines};
 use crate::updating::{ParameterWeighting, UpdateMethod};
 
 /// Parameters of `method: pc`.
@@ -57,6 +58,9 @@ pub struct PcMethod {
     /// substructures holding a changed parameter are reduced again at each iteration.
     #[serde(default)]
     pub reduction: Reduction,
+    /// The Laplace posterior computed after the update (docs/theory.md §12).
+    #[serde(default)]
+    pub posterior: PosteriorParams,
 }
 
 /// Settings of the P-C (docs/theory.md §5); defaults: [`PcSettings::default`].
@@ -215,12 +219,45 @@ impl PcMethod {
             .map(|g| PredictorCorrector::new(&measured, self.settings(modes, g)))
             .collect();
         let phases: Vec<&dyn UpdateMethod> = phases.iter().map(|m| m as _).collect();
+        let damping = self.damping.modal();
+        let undamped = matches!(damping, ModalDamping::None);
+        let model = model.as_ref();
+        // The output error on the complex FRFs at every line (off the resonances when the
+        // predictions are undamped), with the P-C's modal predictions.
+        let posterior = |h: &crate::updating::UpdateHistory| {
+            let lines = likelihood_lines(
+                model,
+                &measured,
+                &h.final_values,
+                modes,
+                undamped,
+                self.pc.resonance_lines.get(),
+            )
+            .map_err(StageError::from_numerics("posterior"))?;
+            let lik = ModalFrfLikelihood::new(model, &measured, lines, modes, damping.clone());
+            let natural = NaturalFrequencies {
+                model,
+                selection: modes,
+                count: usize::MAX,
+                max_hz: top_hz,
+            };
+            self.posterior.artefact(
+                &lik,
+                model.parameters(),
+                &h.final_values,
+                Some(&measured),
+                Some(&natural),
+                Method::Pc.name(),
+                "frf_modal",
+            )
+        };
         run_and_write(
-            model.as_ref(),
+            model,
             &phases,
             self.sensitive_start.as_ref(),
             self.max_iterations,
             Method::Pc,
+            &posterior,
         )
     }
 }

@@ -1,10 +1,15 @@
 //! `method: rfm`: Lin and Ewins's response function method at chosen measured lines, the
 //! unmeasured coordinates taken from the model (docs/theory.md §5).
 
-use super::{Method, Reduction, SensitiveStartParams, build_model, max_iterations, measured_frf};
+use super::{
+    Method, PosteriorParams, Reduction, SensitiveStartParams, build_model, max_iterations,
+    measured_frf,
+};
+use crate::eigen::ModeSelection;
 use crate::fe::element::MassKind;
 use crate::pipeline::{ParamIssue, StageError, StageInputs, StageOutputs};
 use crate::stages::params::{Damping, NonNegative, OpenFraction, PerMode};
+use crate::updating::posterior::{DirectFrfLikelihood, NaturalFrequencies};
 use crate::updating::rfm::{ResponseFunctionMethod, RfmSettings};
 
 /// Parameters of `method: rfm`.
@@ -33,6 +38,10 @@ pub struct RfmMethod {
     /// (thesis §5.4).
     #[serde(default)]
     pub sensitive_start: Option<SensitiveStartParams>,
+    /// The Laplace posterior computed after the update (docs/theory.md §12), on the complex
+    /// FRFs at `lines_hz`.
+    #[serde(default)]
+    pub posterior: PosteriorParams,
 }
 
 fn tolerance() -> OpenFraction {
@@ -72,21 +81,52 @@ impl RfmMethod {
             false,
         )?;
         let measured = measured_frf(inputs)?;
+        let lines_hz: Vec<f64> = self.lines_hz.iter().map(|f| f.get()).collect();
+        let eta = self.damping.direct().structural_eta;
+        let model = model.as_ref();
+        let top_hz = measured.freqs_hz.last().copied().unwrap_or(0.0);
+        // The output error on the complex direct FRFs at the RFM's lines.
+        let posterior = |h: &crate::updating::UpdateHistory| {
+            let lines: Vec<usize> = lines_hz
+                .iter()
+                .filter_map(|&l| {
+                    (measured.freqs_hz.iter())
+                        .position(|&x| (x - l).abs() <= 1e-9 * l.abs().max(1.0))
+                })
+                .collect();
+            let lik = DirectFrfLikelihood::new(model, &measured, lines, eta);
+            let natural = NaturalFrequencies {
+                model,
+                selection: ModeSelection::BelowHz(2.0 * top_hz),
+                count: usize::MAX,
+                max_hz: top_hz,
+            };
+            self.posterior.artefact(
+                &lik,
+                model.parameters(),
+                &h.final_values,
+                Some(&measured),
+                Some(&natural),
+                Method::Rfm.name(),
+                "frf_direct",
+            )
+        };
         let method = ResponseFunctionMethod {
             measured: &measured,
             settings: RfmSettings {
-                lines_hz: self.lines_hz.iter().map(|f| f.get()).collect(),
-                eta: self.damping.direct().structural_eta,
+                lines_hz: lines_hz.clone(),
+                eta,
                 tolerance: self.tolerance.get(),
                 ..RfmSettings::default()
             },
         };
         super::run_and_write(
-            model.as_ref(),
+            model,
             &[&method],
             self.sensitive_start.as_ref(),
             self.max_iterations,
             Method::Rfm,
+            &posterior,
         )
     }
 }

@@ -1,0 +1,477 @@
+//! The `posterior` kind: the Laplace posterior of an update's parameters (docs/theory.md §12)
+//! as tables a user can plot without femu.
+//!
+//! | table (Parquet) | columns |
+//! |---|---|
+//! | `parameters` | `parameter, updated, mean, sd, lower, upper, relative_sd` |
+//! | `covariance` | `parameter_i, parameter_j, covariance, correlation` |
+//! | `directions` | `direction, sd_relative, parameter, component` |
+//! | `noise` | `group, sigma` |
+//! | `samples` | `sample, parameter, value` |
+//! | `natural_frequencies` (optional) | `mode, freq_hz, sd_linear_hz, sd_sampled_hz` |
+//! | `frf_band` (optional) | `freq_hz, pair, abs, sd_linear, sd_sampled` |
+
+use super::{Kind, Layout, TableLayout, col, expect_kind, meta, meta_value, table};
+use crate::artefact::{Artefact, ArtefactError, ArtefactKind, Column, Storage, Table};
+use crate::updating::posterior::{Band, Direction, Marginal, Posterior, Refinement};
+
+const K: ArtefactKind = ArtefactKind::Posterior;
+
+/// A posterior as stored: the numbers and what they were computed from.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PosteriorRecord {
+    /// The updating method whose result it refines (`pc`, `rfm`, …).
+    pub method: String,
+    /// The likelihood: `frf_modal`, `frf_direct`, `frf_damping` or `natural_frequencies`.
+    pub likelihood: String,
+    /// The noise model as the user gave it (`estimated`, `sigma`, `relative`, `snr_db`).
+    pub noise: String,
+    /// The posterior.
+    pub posterior: Posterior,
+}
+
+/// The `posterior` kind.
+pub struct PosteriorKind;
+
+impl Kind for PosteriorKind {
+    const KIND: ArtefactKind = K;
+    const NAME: &'static str = "posterior";
+    type Value = PosteriorRecord;
+
+    fn layout() -> Layout {
+        Layout {
+            tables: tables(),
+            meta: vec![
+                meta(
+                    "method",
+                    "the updating method whose result the posterior refines",
+                ),
+                meta(
+                    "likelihood",
+                    "frf_modal, frf_direct, frf_damping or natural_frequencies",
+                ),
+                meta(
+                    "noise",
+                    "the noise model: estimated, sigma, relative or snr_db",
+                ),
+                meta(
+                    "sigma_estimated",
+                    "whether the noise sigma was estimated from the residuals at the mode",
+                ),
+                meta(
+                    "credible_level",
+                    "probability of the central credible intervals",
+                ),
+                meta(
+                    "rows",
+                    "data in the likelihood (real and imaginary parts count apart)",
+                ),
+                meta(
+                    "neg_log_likelihood",
+                    "-log p(y|mode) with the noise as used",
+                ),
+                meta(
+                    "refine_steps",
+                    "Gauss-Newton steps from the update's result to the mode",
+                ),
+                meta("refine_converged", "whether the refinement converged"),
+                meta("objective_start", "Q at the update's result"),
+                meta("objective_mode", "Q at the mode"),
+                meta("samples", "parameter samples drawn"),
+                meta(
+                    "predictive_samples",
+                    "samples evaluated through the model for the sampled bands",
+                ),
+                meta("seed", "seed of the samples"),
+                meta(
+                    "unidentified",
+                    "parameters with an infinite standard deviation (in an unidentified direction)",
+                ),
+            ],
+            blobs: vec![],
+        }
+    }
+
+    fn to_artefact(r: &PosteriorRecord) -> Artefact {
+        write(r)
+    }
+
+    fn from_artefact(a: &Artefact) -> Result<PosteriorRecord, ArtefactError> {
+        read(a)
+    }
+}
+
+fn tables() -> Vec<TableLayout> {
+    let s = Storage::Parquet;
+    vec![
+        table(
+            "parameters",
+            s,
+            true,
+            vec![
+                col("parameter", "string", "", "parameter name"),
+                col("updated", "float64", "SI", "the update's result"),
+                col(
+                    "mean",
+                    "float64",
+                    "SI",
+                    "posterior mean (the likelihood's mode)",
+                ),
+                col(
+                    "sd",
+                    "float64",
+                    "SI",
+                    "posterior standard deviation (inf: unidentified)",
+                ),
+                col(
+                    "lower",
+                    "float64",
+                    "SI",
+                    "lower end of the central credible interval",
+                ),
+                col(
+                    "upper",
+                    "float64",
+                    "SI",
+                    "upper end of the central credible interval",
+                ),
+                col("relative_sd", "float64", "", "sd / |mean|"),
+            ],
+        ),
+        table(
+            "covariance",
+            s,
+            true,
+            vec![
+                col("parameter_i", "string", "", "row parameter"),
+                col("parameter_j", "string", "", "column parameter"),
+                col("covariance", "float64", "SI^2", "posterior covariance"),
+                col(
+                    "correlation",
+                    "float64",
+                    "",
+                    "rho_ij (NaN where a variance is infinite)",
+                ),
+            ],
+        ),
+        table(
+            "directions",
+            s,
+            true,
+            vec![
+                col("direction", "int64", "", "1 = largest variance"),
+                col(
+                    "sd_relative",
+                    "float64",
+                    "",
+                    "standard deviation along it, relative (inf: unidentified)",
+                ),
+                col("parameter", "string", "", "parameter"),
+                col(
+                    "component",
+                    "float64",
+                    "",
+                    "component of the unit direction (unity coordinates)",
+                ),
+            ],
+        ),
+        table(
+            "noise",
+            s,
+            true,
+            vec![
+                col(
+                    "group",
+                    "string",
+                    "",
+                    "noise group: an FRF (response/excitation) or a mode",
+                ),
+                col(
+                    "sigma",
+                    "float64",
+                    "",
+                    "standard deviation of each real and imaginary part (FRF units), or relative frequency error",
+                ),
+            ],
+        ),
+        table(
+            "samples",
+            s,
+            true,
+            vec![
+                col("sample", "int64", "", "0-based sample number"),
+                col("parameter", "string", "", "parameter"),
+                col("value", "float64", "SI", "sampled value"),
+            ],
+        ),
+        table(
+            "natural_frequencies",
+            s,
+            false,
+            vec![
+                col("mode", "int64", "", "1-based elastic mode"),
+                col("freq_hz", "float64", "Hz", "natural frequency at the mode"),
+                col(
+                    "sd_linear_hz",
+                    "float64",
+                    "Hz",
+                    "first-order standard deviation",
+                ),
+                col(
+                    "sd_sampled_hz",
+                    "float64",
+                    "Hz",
+                    "standard deviation over the samples",
+                ),
+            ],
+        ),
+        table(
+            "frf_band",
+            s,
+            false,
+            vec![
+                col("freq_hz", "float64", "Hz", "line"),
+                col("pair", "string", "", "response/excitation"),
+                col(
+                    "abs",
+                    "float64",
+                    "",
+                    "|H| at the mode, in the measured quantity",
+                ),
+                col(
+                    "sd_linear",
+                    "float64",
+                    "",
+                    "first-order standard deviation of |H|",
+                ),
+                col(
+                    "sd_sampled",
+                    "float64",
+                    "",
+                    "standard deviation of |H| over the samples",
+                ),
+            ],
+        ),
+    ]
+}
+
+fn f64s(v: impl Iterator<Item = f64>) -> Column {
+    Column::F64(v.collect())
+}
+
+fn strs<'a>(v: impl Iterator<Item = &'a String>) -> Column {
+    Column::Str(v.cloned().collect())
+}
+
+fn write(r: &PosteriorRecord) -> Artefact {
+    let p = &r.posterior;
+    let m = &p.marginals;
+    let n = m.len();
+    let names: Vec<String> = m.iter().map(|x| x.name.clone()).collect();
+    let parameters = Table::new()
+        .with("parameter", strs(names.iter()))
+        .with("updated", f64s(m.iter().map(|x| x.updated)))
+        .with("mean", f64s(m.iter().map(|x| x.mean)))
+        .with("sd", f64s(m.iter().map(|x| x.sd)))
+        .with("lower", f64s(m.iter().map(|x| x.lower)))
+        .with("upper", f64s(m.iter().map(|x| x.upper)))
+        .with("relative_sd", f64s(m.iter().map(|x| x.sd / x.mean.abs())));
+    let pairs = || (0..n).flat_map(move |i| (0..n).map(move |j| (i, j)));
+    let covariance = Table::new()
+        .with("parameter_i", strs(pairs().map(|(i, _)| &names[i])))
+        .with("parameter_j", strs(pairs().map(|(_, j)| &names[j])))
+        .with("covariance", f64s(pairs().map(|(i, j)| p.covariance[i][j])))
+        .with(
+            "correlation",
+            f64s(pairs().map(|(i, j)| p.correlation[i][j])),
+        );
+    let d = &p.directions;
+    let dirs = || (0..d.len()).flat_map(move |k| (0..n).map(move |i| (k, i)));
+    let directions = Table::new()
+        .with(
+            "direction",
+            Column::I64(dirs().map(|(k, _)| k as i64 + 1).collect()),
+        )
+        .with("sd_relative", f64s(dirs().map(|(k, _)| d[k].sd)))
+        .with("parameter", strs(dirs().map(|(_, i)| &names[i])))
+        .with("component", f64s(dirs().map(|(k, i)| d[k].vector[i])));
+    let noise = Table::new()
+        .with("group", strs(p.groups.iter()))
+        .with("sigma", f64s(p.sigma.iter().copied()));
+    let s = &p.samples;
+    let sm = || (0..s.len()).flat_map(move |k| (0..n).map(move |i| (k, i)));
+    let samples = Table::new()
+        .with("sample", Column::I64(sm().map(|(k, _)| k as i64).collect()))
+        .with("parameter", strs(sm().map(|(_, i)| &names[i])))
+        .with("value", f64s(sm().map(|(k, i)| s[k][i])));
+    let unidentified: Vec<&String> = m
+        .iter()
+        .filter(|x| x.sd.is_infinite())
+        .map(|x| &x.name)
+        .collect();
+    let mut a = Artefact::new(K)
+        .with_table("parameters", parameters, Storage::Parquet)
+        .with_table("covariance", covariance, Storage::Parquet)
+        .with_table("directions", directions, Storage::Parquet)
+        .with_table("noise", noise, Storage::Parquet)
+        .with_table("samples", samples, Storage::Parquet)
+        .with_meta("method", r.method.clone().into())
+        .with_meta("likelihood", r.likelihood.clone().into())
+        .with_meta("noise", r.noise.clone().into())
+        .with_meta("sigma_estimated", p.sigma_estimated.into())
+        .with_meta("credible_level", p.credible_level.into())
+        .with_meta("rows", p.rows.into())
+        .with_meta("neg_log_likelihood", p.neg_log_likelihood.into())
+        .with_meta("refine_steps", p.refinement.steps.into())
+        .with_meta("refine_converged", p.refinement.converged.into())
+        .with_meta("objective_start", p.refinement.objective_start.into())
+        .with_meta("objective_mode", p.refinement.objective_mode.into())
+        .with_meta("samples", s.len().into())
+        .with_meta("predictive_samples", p.predictive_samples.into())
+        .with_meta("seed", p.seed.into())
+        .with_meta("unidentified", serde_json::json!(unidentified));
+    if !p.natural_frequencies.is_empty() {
+        let b = &p.natural_frequencies;
+        a = a.with_table(
+            "natural_frequencies",
+            Table::new()
+                .with("mode", Column::I64((1..=b.len() as i64).collect()))
+                .with("freq_hz", f64s(b.iter().map(|x| x.freq_hz)))
+                .with("sd_linear_hz", f64s(b.iter().map(|x| x.sd_linear)))
+                .with("sd_sampled_hz", f64s(b.iter().map(|x| x.sd_sampled))),
+            Storage::Parquet,
+        );
+    }
+    if !p.frf.is_empty() {
+        let b = &p.frf;
+        a = a.with_table(
+            "frf_band",
+            Table::new()
+                .with("freq_hz", f64s(b.iter().map(|x| x.freq_hz)))
+                .with("pair", strs(b.iter().map(|x| &x.label)))
+                .with("abs", f64s(b.iter().map(|x| x.value)))
+                .with("sd_linear", f64s(b.iter().map(|x| x.sd_linear)))
+                .with("sd_sampled", f64s(b.iter().map(|x| x.sd_sampled))),
+            Storage::Parquet,
+        );
+    }
+    a
+}
+
+fn meta_f64(a: &Artefact, key: &str) -> Result<f64, ArtefactError> {
+    // Non-finite numbers are written as null.
+    Ok(meta_value::<Option<f64>>(a, key)?.unwrap_or(f64::NAN))
+}
+
+fn read(a: &Artefact) -> Result<PosteriorRecord, ArtefactError> {
+    expect_kind(a, K)?;
+    let t = a.table("parameters")?;
+    let names = t.strs("parameters", "parameter")?.to_vec();
+    let n = names.len();
+    let g = |c: &str| t.f64s("parameters", c);
+    let (updated, mean, sd, lower, upper) = (
+        g("updated")?,
+        g("mean")?,
+        g("sd")?,
+        g("lower")?,
+        g("upper")?,
+    );
+    let marginals = (0..n)
+        .map(|i| Marginal {
+            name: names[i].clone(),
+            updated: updated[i],
+            mean: mean[i],
+            sd: sd[i],
+            lower: lower[i],
+            upper: upper[i],
+        })
+        .collect();
+    let square = |v: &[f64]| -> Result<Vec<Vec<f64>>, ArtefactError> {
+        if v.len() != n * n {
+            return Err(ArtefactError::schema(K, "covariance is not n x n"));
+        }
+        Ok((0..n).map(|i| v[i * n..(i + 1) * n].to_vec()).collect())
+    };
+    let c = a.table("covariance")?;
+    let covariance = square(c.f64s("covariance", "covariance")?)?;
+    let correlation = square(c.f64s("covariance", "correlation")?)?;
+    let d = a.table("directions")?;
+    let (dsd, comp) = (
+        d.f64s("directions", "sd_relative")?,
+        d.f64s("directions", "component")?,
+    );
+    let directions = (0..comp.len() / n.max(1))
+        .map(|k| Direction {
+            sd: dsd[k * n],
+            vector: comp[k * n..(k + 1) * n].to_vec(),
+        })
+        .collect();
+    let nt = a.table("noise")?;
+    let st = a.table("samples")?;
+    let values = st.f64s("samples", "value")?;
+    let samples = values.chunks(n.max(1)).map(|c| c.to_vec()).collect();
+    let band = |name: &str,
+                label: &dyn Fn(&Table, usize) -> Result<String, ArtefactError>,
+                cols: [&str; 4]|
+     -> Result<Vec<Band>, ArtefactError> {
+        let Ok(b) = a.table(name) else {
+            return Ok(Vec::new());
+        };
+        let f = b.f64s(name, cols[0])?;
+        let v = if cols[1].is_empty() {
+            f
+        } else {
+            b.f64s(name, cols[1])?
+        };
+        let (l, s) = (b.f64s(name, cols[2])?, b.f64s(name, cols[3])?);
+        (0..f.len())
+            .map(|i| {
+                Ok(Band {
+                    label: label(b, i)?,
+                    freq_hz: f[i],
+                    value: v[i],
+                    sd_linear: l[i],
+                    sd_sampled: s[i],
+                })
+            })
+            .collect()
+    };
+    let natural_frequencies = band(
+        "natural_frequencies",
+        &|_, i| Ok(format!("mode {}", i + 1)),
+        ["freq_hz", "", "sd_linear_hz", "sd_sampled_hz"],
+    )?;
+    let frf = band(
+        "frf_band",
+        &|b, i| Ok(b.strs("frf_band", "pair")?[i].clone()),
+        ["freq_hz", "abs", "sd_linear", "sd_sampled"],
+    )?;
+    Ok(PosteriorRecord {
+        method: a.meta_str("method")?.to_string(),
+        likelihood: a.meta_str("likelihood")?.to_string(),
+        noise: a.meta_str("noise")?.to_string(),
+        posterior: Posterior {
+            marginals,
+            covariance,
+            correlation,
+            directions,
+            sigma: nt.f64s("noise", "sigma")?.to_vec(),
+            groups: nt.strs("noise", "group")?.to_vec(),
+            sigma_estimated: meta_value::<bool>(a, "sigma_estimated")?,
+            rows: meta_value::<usize>(a, "rows")?,
+            neg_log_likelihood: meta_f64(a, "neg_log_likelihood")?,
+            refinement: Refinement {
+                steps: meta_value::<usize>(a, "refine_steps")?,
+                objective_start: meta_f64(a, "objective_start")?,
+                objective_mode: meta_f64(a, "objective_mode")?,
+                converged: meta_value::<bool>(a, "refine_converged")?,
+            },
+            credible_level: meta_f64(a, "credible_level")?,
+            samples,
+            predictive_samples: meta_value::<usize>(a, "predictive_samples")?,
+            natural_frequencies,
+            frf,
+            seed: meta_value::<u64>(a, "seed")?,
+        },
+    })
+}

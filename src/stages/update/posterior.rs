@@ -1,0 +1,274 @@
+//! The `posterior` output of `update`: the Laplace posterior of the updated parameters
+//! (docs/theory.md §12), computed after every method with the settings under `posterior:`.
+
+use crate::artefact::Artefact;
+use crate::artefact::kinds::Kind;
+use crate::artefact::kinds::posterior::{PosteriorKind, PosteriorRecord};
+use crate::core::InputFault;
+use crate::frf::FrfSet;
+use crate::pipeline::{ParamIssue, StageError};
+use crate::stages::params::{OpenFraction, Positive};
+use crate::updating::UpdatingParameter;
+use crate::updating::posterior::{
+    Likelihood, NaturalFrequencies, Noise, PosteriorSettings, Prior, laplace, unknown,
+};
+
+/// The Laplace posterior computed after the update (docs/theory.md §12): a Gaussian at the
+/// mode of an output-error likelihood on the quantities the method fits (complex FRFs; natural
+/// frequencies for `eigensensitivity`), reached by a few Gauss-Newton steps from the update's
+/// result.
+#[derive(Clone, Debug, serde::Deserialize, serde::Serialize, schemars::JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct PosteriorParams {
+    /// The measurement noise: `estimated` (default: per FRF from the residuals at the mode,
+    /// `σ² = rᵀr/(m − n)` scaled per FRF; pooled over the modes), `{sigma: 1e-6}` or
+    /// `{sigma: [..]}` (standard deviation of each real and imaginary part, in the FRFs' units,
+    /// one for all or one per FRF; for `eigensensitivity` the relative frequency error, one or
+    /// one per mode), `{relative: 0.05}` (a fraction of the measured `|H|`, or of the
+    /// frequency), `{snr_db: 40}` (per FRF as `noise.add`'s Gaussian model:
+    /// `σ² = mean|H|²/10^(SNR/10)/2`).
+    #[serde(default)]
+    pub noise: NoiseParams,
+    /// Probability of the central credible intervals.
+    #[serde(default = "level")]
+    pub credible_level: OpenFraction,
+    /// Most Gauss-Newton steps from the update's result to the likelihood's mode.
+    #[serde(default = "refine")]
+    pub refine_iterations: usize,
+    /// Parameter samples drawn from the Gaussian (seeded).
+    #[serde(default = "samples")]
+    pub samples: usize,
+    /// How many of the samples are evaluated through the model for the sampled predictive
+    /// bands (each one a modal or direct analysis).
+    #[serde(default = "predictive")]
+    pub predictive_samples: usize,
+    /// Seed of the samples.
+    #[serde(default)]
+    pub seed: u64,
+    /// A Gaussian prior on the parameters; omitted: flat.
+    #[serde(default)]
+    pub prior: Option<PriorParams>,
+}
+
+impl Default for PosteriorParams {
+    fn default() -> Self {
+        PosteriorParams {
+            noise: NoiseParams::default(),
+            credible_level: level(),
+            refine_iterations: refine(),
+            samples: samples(),
+            predictive_samples: predictive(),
+            seed: 0,
+            prior: None,
+        }
+    }
+}
+
+fn level() -> OpenFraction {
+    OpenFraction::of_default(PosteriorSettings::default().credible_level)
+}
+fn refine() -> usize {
+    PosteriorSettings::default().refine_iterations
+}
+fn samples() -> usize {
+    PosteriorSettings::default().samples
+}
+fn predictive() -> usize {
+    PosteriorSettings::default().predictive_samples
+}
+
+/// The noise model of the likelihood.
+#[derive(Clone, Debug, Default, serde::Deserialize, serde::Serialize, schemars::JsonSchema)]
+#[serde(rename_all = "snake_case", deny_unknown_fields)]
+pub enum NoiseParams {
+    /// Estimated from the residuals at the mode.
+    #[default]
+    Estimated,
+    /// Standard deviations: one for all, or one per FRF (per mode).
+    Sigma(OneOrMany),
+    /// A fraction of the measured `|H|` (of the measured frequency).
+    Relative(Positive),
+    /// Per FRF from a signal-to-noise ratio in dB, as `noise.add`'s Gaussian noise.
+    SnrDb(f64),
+}
+
+/// One number or a list.
+#[derive(Clone, Debug, serde::Deserialize, serde::Serialize, schemars::JsonSchema)]
+#[serde(untagged)]
+pub enum OneOrMany {
+    /// One value for all.
+    One(Positive),
+    /// One per group.
+    Many(Vec<Positive>),
+}
+
+/// A Gaussian prior: standard deviations absolute (`sd`, one per parameter) or relative to
+/// the means (`relative_sd`); means given or the initial values.
+#[derive(Clone, Debug, serde::Deserialize, serde::Serialize, schemars::JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct PriorParams {
+    /// Prior means in SI, one per updated parameter (default: the initial values).
+    #[serde(default)]
+    pub mean: Vec<f64>,
+    /// Prior standard deviations in SI, one per updated parameter.
+    #[serde(default)]
+    pub sd: Vec<Positive>,
+    /// Prior standard deviation as a fraction of each mean, e.g. 0.3.
+    #[serde(default)]
+    pub relative_sd: Option<Positive>,
+}
+
+impl PosteriorParams {
+    /// Problems the types cannot state.
+    pub(super) fn issues(&self) -> Vec<ParamIssue> {
+        let mut issues = Vec::new();
+        if let Some(p) = &self.prior
+            && p.sd.is_empty() == p.relative_sd.is_none()
+        {
+            issues.push(ParamIssue::at(
+                "posterior.prior",
+                "give exactly one of `sd` (one per parameter) and `relative_sd`",
+            ));
+        }
+        if let NoiseParams::SnrDb(s) = self.noise
+            && !s.is_finite()
+        {
+            issues.push(ParamIssue::at(
+                "posterior.noise.snr_db",
+                "give a finite SNR in dB",
+            ));
+        }
+        issues
+    }
+
+    /// The numerics' settings for `params` (initial values as prior means by default);
+    /// `measured` turns an SNR into per-FRF levels.
+    fn settings(
+        &self,
+        params: &[UpdatingParameter],
+        measured: Option<&FrfSet>,
+    ) -> Result<PosteriorSettings, StageError> {
+        let n = params.len();
+        let noise = match &self.noise {
+            NoiseParams::Estimated => Noise::Estimated,
+            NoiseParams::Sigma(OneOrMany::One(s)) => Noise::Absolute(vec![s.get()]),
+            NoiseParams::Sigma(OneOrMany::Many(s)) => {
+                Noise::Absolute(s.iter().map(|v| v.get()).collect())
+            }
+            NoiseParams::Relative(c) => Noise::Relative(c.get()),
+            NoiseParams::SnrDb(snr) => {
+                let Some(m) = measured else {
+                    return Err(StageError::input(
+                        "posterior.noise",
+                        "`snr_db` describes FRF noise: give `sigma` (relative frequency errors) or `relative` for measured modes",
+                    ));
+                };
+                Noise::Absolute(snr_sigmas(m, *snr))
+            }
+        };
+        let prior = match &self.prior {
+            None => None,
+            Some(p) => {
+                let mean = if p.mean.is_empty() {
+                    params.iter().map(|q| q.initial).collect()
+                } else {
+                    p.mean.clone()
+                };
+                if mean.len() != n {
+                    return Err(StageError::input(
+                        "posterior.prior.mean",
+                        format!("{} means for {n} updated parameters", mean.len()),
+                    ));
+                }
+                let sd: Vec<f64> = match p.relative_sd {
+                    Some(r) => mean.iter().map(|m| r.get() * m.abs()).collect(),
+                    None => p.sd.iter().map(|s| s.get()).collect(),
+                };
+                if sd.len() != n || sd.iter().any(|s| !(*s > 0.0)) {
+                    return Err(StageError::input(
+                        "posterior.prior.sd",
+                        format!("give {n} positive standard deviations (got {})", sd.len()),
+                    ));
+                }
+                Some(Prior { mean, sd })
+            }
+        };
+        Ok(PosteriorSettings {
+            noise,
+            prior,
+            credible_level: self.credible_level.get(),
+            refine_iterations: self.refine_iterations,
+            samples: self.samples,
+            predictive_samples: self.predictive_samples.min(self.samples),
+            seed: self.seed,
+        })
+    }
+
+    /// The name of the noise model in the artefact.
+    fn noise_name(&self) -> &'static str {
+        match self.noise {
+            NoiseParams::Estimated => "estimated",
+            NoiseParams::Sigma(_) => "sigma",
+            NoiseParams::Relative(_) => "relative",
+            NoiseParams::SnrDb(_) => "snr_db",
+        }
+    }
+
+    /// The posterior artefact of `lik` at the update's `final_values`.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn artefact(
+        &self,
+        lik: &dyn Likelihood,
+        params: &[UpdatingParameter],
+        final_values: &[f64],
+        measured: Option<&FrfSet>,
+        natural: Option<&NaturalFrequencies<'_>>,
+        method: &str,
+        likelihood: &str,
+    ) -> Result<Artefact, StageError> {
+        let settings = self.settings(params, measured)?;
+        let posterior = match laplace(lik, params, final_values, &settings, natural) {
+            Ok(p) => p,
+            Err(e) if e.is_input() => return Err(StageError::from_numerics("posterior")(e)),
+            // The update stands; its posterior is reported as unknown rather than failing it.
+            Err(e) => {
+                tracing::warn!(
+                    "the posterior could not be computed ({e}); it is reported as unknown (NaN)"
+                );
+                unknown(lik, params, final_values, &settings)
+            }
+        };
+        for m in &posterior.marginals {
+            tracing::info!(
+                "posterior {}: {:.6e} ± {:.3e} ({}% credible [{:.6e}, {:.6e}])",
+                m.name,
+                m.mean,
+                m.sd,
+                100.0 * settings.credible_level,
+                m.lower,
+                m.upper
+            );
+        }
+        Ok(PosteriorKind::to_artefact(&PosteriorRecord {
+            method: method.into(),
+            likelihood: likelihood.into(),
+            noise: self.noise_name().into(),
+            posterior,
+        }))
+    }
+}
+
+/// Per FRF, the `σ` of each real and imaginary part of `noise.add`'s Gaussian noise at `snr_db`:
+/// `σ² = mean_k |H_k|² / 10^(SNR/10) / 2` over the measured lines.
+pub fn snr_sigmas(measured: &FrfSet, snr_db: f64) -> Vec<f64> {
+    let lines = measured.freqs_hz.len().max(1) as f64;
+    (0..measured.pairs.len())
+        .map(|q| {
+            let power = (0..measured.freqs_hz.len())
+                .map(|k| measured.values[(k, q)].norm_sqr())
+                .sum::<f64>()
+                / lines;
+            (power / 10f64.powf(snr_db / 10.0) / 2.0).sqrt()
+        })
+        .collect()
+}

@@ -1,0 +1,1790 @@
+//! The Laplace (Gaussian) posterior of the updating parameters (docs/theory.md §12).
+//!
+//! The likelihood is an output error on the quantities a method fits, `y = f(φ) + e`,
+//! `e ~ N(0, Σ_ε)`, `Σ_ε = diag(σ_i²)`: the complex FRFs at the likelihood's lines (real and
+//! imaginary parts stacked) for the FRF methods, the natural frequencies of the paired modes for
+//! inverse eigensensitivity. With an optional Gaussian prior `N(φ₀, diag(s₀²))` the negative
+//! log posterior is `Q(φ) = ½ rᵀΣ_ε⁻¹r + ½ Σ_j ((φ_j − φ₀_j)/s₀_j)²`, `r = y − f(φ)`.
+//!
+//! The P-C and the RFM minimise other objectives, so their optimum is not `Q`'s minimum: a few
+//! Gauss-Newton steps on `Q` ([`refine`], bounded, each accepted only when `Q` falls) move from
+//! the update's result to the mode `φ̂`. There, in unity coordinates `u_j = δφ_j/φ̂_j` with the
+//! Jacobian `J = ∂f/∂u` (the exact sensitivities, `φ_j ∂f/∂φ_j`), the Laplace covariance is
+//! `Σ_u = (JᵀΣ_ε⁻¹J + P)⁻¹`, `P = diag(φ̂_j²/s₀_j²)` (0 for a flat prior), and
+//! `Σ_φ = diag(φ̂) Σ_u diag(φ̂)`. Directions of `F = JᵀΣ_ε⁻¹J + P` whose eigenvalue is below
+//! [`UNIDENTIFIED`]`·μ_max` are unidentified: their variance is unbounded and every parameter
+//! with a share in them gets an infinite standard deviation.
+//!
+//! With the noise estimated, `σ_g² = (r_gᵀr_g / m_g) · m/(m − n)` per noise group `g` (an FRF;
+//! all modes pooled), recomputed at the mode: `σ̂² = rᵀr/(m − n)` when there is one group.
+//!
+//! Predictive bands: to first order `var y ≈ gᵀΣ_u g`, `g = ∂y/∂u`; by sampling, `φ_s = φ̂ +
+//! diag(φ̂) L z_s`, `Σ_u = L Lᵀ`, `z_s` standard normal from a seeded ChaCha8 stream, each
+//! sample evaluated through the model.
+
+use super::model::{ModalState, ParametricModel, UpdatingError, UpdatingParameter};
+use super::solve::least_squares;
+use crate::core::sparse::SparseMatrix;
+use crate::eigen::ModeSelection;
+use crate::frf::direct::DynamicStiffness;
+use crate::frf::{DirectDamping, FrfSet, ModalDamping, Quantity};
+use crate::sensitivity::{
+    ModalFrfModel, damping_sensitivities, eigenvalue_sensitivity, frf_sensitivities,
+};
+use faer::{Mat, MatRef, Side, c64};
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, StandardNormal};
+use rayon::prelude::*;
+use std::f64::consts::PI;
+
+/// Eigenvalues of the posterior precision below this fraction of the largest are unidentified.
+pub const UNIDENTIFIED: f64 = 1e-12;
+
+/// The model's predictions of the fitted quantities at parameter values.
+#[derive(Clone, Debug)]
+pub struct Prediction {
+    /// `f(φ)`, one value per row.
+    pub values: Vec<f64>,
+    /// `∂f/∂u_j = φ_j ∂f/∂φ_j` (rows × parameters), when asked for.
+    pub jacobian: Option<Mat<f64>>,
+}
+
+/// An output-error likelihood: measured values, their noise groups and the model's predictions.
+pub trait Likelihood: Sync {
+    /// The measured values `y`, one per row.
+    fn measured(&self) -> &[f64];
+    /// Noise group of every row (an FRF, or a mode).
+    fn groups(&self) -> &[usize];
+    /// Names of the noise groups.
+    fn group_names(&self) -> Vec<String>;
+    /// Whether an estimated noise is pooled over all groups (modes) instead of per group (FRFs).
+    fn pooled(&self) -> bool;
+    /// The reference magnitude of every row for a relative noise (`|H|` of the measured FRF
+    /// at the row's line and pair; 1 for relative frequency errors).
+    fn scale(&self) -> Vec<f64>;
+    /// `f(φ)` and, with `jacobian`, `∂f/∂u`.
+    fn predict(&self, values: &[f64], jacobian: bool) -> Result<Prediction, UpdatingError>;
+    /// The complex layout of FRF rows: per line, per pair, real then imaginary part.
+    fn frf_layout(&self) -> Option<FrfLayout> {
+        None
+    }
+}
+
+/// How the rows of an FRF likelihood are laid out.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FrfLayout {
+    /// The lines, Hz.
+    pub freqs_hz: Vec<f64>,
+    /// `response/excitation` label of every pair.
+    pub pairs: Vec<String>,
+}
+
+/// The noise model of the likelihood.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Noise {
+    /// Estimated from the residuals at the mode (per FRF, or pooled over the modes).
+    Estimated,
+    /// Standard deviation of every row (of each real and each imaginary part), one value for all
+    /// groups or one per group.
+    Absolute(Vec<f64>),
+    /// `σ_i = c · scale_i` (a fraction of `|H|`, or of the measured frequency).
+    Relative(f64),
+}
+
+/// A Gaussian prior on the parameters (absolute values, SI).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Prior {
+    /// Means.
+    pub mean: Vec<f64>,
+    /// Standard deviations.
+    pub sd: Vec<f64>,
+}
+
+/// Settings of the posterior.
+#[derive(Clone, Debug)]
+pub struct PosteriorSettings {
+    /// The noise model.
+    pub noise: Noise,
+    /// Optional Gaussian prior; `None`: flat.
+    pub prior: Option<Prior>,
+    /// Probability of the central credible intervals.
+    pub credible_level: f64,
+    /// Most Gauss-Newton steps toward the likelihood's mode.
+    pub refine_iterations: usize,
+    /// Parameter samples drawn from the Gaussian.
+    pub samples: usize,
+    /// How many of them are evaluated through the model for the sampled predictive bands.
+    pub predictive_samples: usize,
+    /// Seed of the samples.
+    pub seed: u64,
+}
+
+impl Default for PosteriorSettings {
+    fn default() -> Self {
+        PosteriorSettings {
+            noise: Noise::Estimated,
+            prior: None,
+            credible_level: 0.9,
+            refine_iterations: 5,
+            samples: 1000,
+            predictive_samples: 20,
+            seed: 0,
+        }
+    }
+}
+
+/// What the Gauss-Newton refinement did.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Refinement {
+    /// Steps accepted.
+    pub steps: usize,
+    /// `Q` at the update's result.
+    pub objective_start: f64,
+    /// `Q` at the mode.
+    pub objective_mode: f64,
+    /// Whether the last step was below the tolerance (or no step lowered `Q`).
+    pub converged: bool,
+}
+
+/// One parameter's marginal.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Marginal {
+    /// Name.
+    pub name: String,
+    /// The update's result.
+    pub updated: f64,
+    /// Posterior mean (the mode `φ̂`).
+    pub mean: f64,
+    /// Standard deviation (infinite when unidentified).
+    pub sd: f64,
+    /// Lower end of the central credible interval.
+    pub lower: f64,
+    /// Upper end.
+    pub upper: f64,
+}
+
+/// A principal direction of the posterior covariance in unity coordinates.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Direction {
+    /// Standard deviation along it (relative), infinite when unidentified.
+    pub sd: f64,
+    /// Unit vector over the parameters (largest entry positive).
+    pub vector: Vec<f64>,
+}
+
+/// A predictive band of one quantity.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Band {
+    /// Label (`mode 2`, or `2:ux/1:ux`).
+    pub label: String,
+    /// Frequency, Hz (the line, or the natural frequency at the mode).
+    pub freq_hz: f64,
+    /// The value at the mode (`f_r` in Hz, or `|H|`).
+    pub value: f64,
+    /// First-order standard deviation `√(gᵀΣ_u g)`.
+    pub sd_linear: f64,
+    /// Standard deviation over the evaluated samples (NaN without samples).
+    pub sd_sampled: f64,
+}
+
+/// The Laplace posterior.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Posterior {
+    /// Per parameter.
+    pub marginals: Vec<Marginal>,
+    /// Covariance `Σ_φ` (SI²), row-major, `n × n`; infinite entries for unidentified ones.
+    pub covariance: Vec<Vec<f64>>,
+    /// Correlations `ρ_ij` (NaN where a variance is infinite).
+    pub correlation: Vec<Vec<f64>>,
+    /// Principal directions, largest variance first.
+    pub directions: Vec<Direction>,
+    /// Noise standard deviation per group, as used.
+    pub sigma: Vec<f64>,
+    /// Group names.
+    pub groups: Vec<String>,
+    /// Whether `sigma` was estimated from the residuals.
+    pub sigma_estimated: bool,
+    /// Rows of the likelihood.
+    pub rows: usize,
+    /// `−log p(y|φ̂)`, with the noise as used.
+    pub neg_log_likelihood: f64,
+    /// The refinement.
+    pub refinement: Refinement,
+    /// The credible level.
+    pub credible_level: f64,
+    /// Parameter samples (absolute values), `samples × n`.
+    pub samples: Vec<Vec<f64>>,
+    /// Samples evaluated for the sampled bands (those within the bounds).
+    pub predictive_samples: usize,
+    /// Natural-frequency bands.
+    pub natural_frequencies: Vec<Band>,
+    /// `|H|` bands at the lines of an FRF likelihood.
+    pub frf: Vec<Band>,
+    /// The seed.
+    pub seed: u64,
+}
+
+/// Standard normal CDF, `Φ(x) = ½(1 + erf(x/√2))`, with `erf` from its everywhere-positive
+/// series `erf(x) = 2/√π e^{−x²} Σ 2ⁿ x^{2n+1}/(1·3···(2n+1))` below 6 (accurate to round-off).
+pub fn normal_cdf(x: f64) -> f64 {
+    let t = x.abs() / std::f64::consts::SQRT_2;
+    let erf = if t > 6.0 {
+        1.0
+    } else {
+        let (mut term, mut sum, mut k) = (t, t, 0.0);
+        while term > 1e-17 * sum {
+            k += 1.0;
+            term *= 2.0 * t * t / (2.0 * k + 1.0);
+            sum += term;
+        }
+        (2.0 / PI.sqrt() * (-t * t).exp() * sum).min(1.0)
+    };
+    if x >= 0.0 {
+        0.5 * (1.0 + erf)
+    } else {
+        0.5 * (1.0 - erf)
+    }
+}
+
+/// The standard normal quantile `z` with `Φ(z) = p`, by bisection, for `p` in (0, 1).
+pub fn normal_quantile(p: f64) -> f64 {
+    let (mut lo, mut hi) = (-40.0_f64, 40.0_f64);
+    for _ in 0..200 {
+        let mid = 0.5 * (lo + hi);
+        if normal_cdf(mid) < p {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    0.5 * (lo + hi)
+}
+
+/// `σ_i` of every row from the noise model and the residual at the mode; the per-group values
+/// and whether they were estimated.
+fn row_sigmas(
+    lik: &dyn Likelihood,
+    noise: &Noise,
+    residual: &[f64],
+    n_params: usize,
+) -> Result<(Vec<f64>, Vec<f64>), UpdatingError> {
+    let groups = lik.groups();
+    let ng = lik.group_names().len();
+    let m = residual.len();
+    match noise {
+        Noise::Absolute(s) => {
+            let per: Vec<f64> = match s.len() {
+                1 => vec![s[0]; ng],
+                k if k == ng => s.clone(),
+                k => {
+                    return Err(UpdatingError::Settings(format!(
+                        "{k} noise levels for {ng} noise groups ({}): give one, or one per group",
+                        lik.group_names().join(", ")
+                    )));
+                }
+            };
+            if per.iter().any(|s| !(*s > 0.0 && s.is_finite())) {
+                return Err(UpdatingError::Settings(
+                    "every noise level must be positive and finite".into(),
+                ));
+            }
+            Ok((groups.iter().map(|&g| per[g]).collect(), per))
+        }
+        Noise::Relative(c) => {
+            let scale = lik.scale();
+            let rows: Vec<f64> = scale.iter().map(|s| c * s.max(f64::MIN_POSITIVE)).collect();
+            let mut per = vec![0.0; ng];
+            let mut count = vec![0usize; ng];
+            for (&g, s) in groups.iter().zip(&rows) {
+                per[g] += s * s;
+                count[g] += 1;
+            }
+            let per = per
+                .iter()
+                .zip(&count)
+                .map(|(s, &c)| (s / c.max(1) as f64).sqrt())
+                .collect();
+            Ok((rows, per))
+        }
+        Noise::Estimated => {
+            if m <= n_params {
+                return Err(UpdatingError::Data(format!(
+                    "{m} data for {n_params} parameters: the noise cannot be estimated; give it"
+                )));
+            }
+            let dof = m as f64 / (m - n_params) as f64;
+            let (mut ss, mut count) = (vec![0.0; ng], vec![0usize; ng]);
+            for (&g, r) in groups.iter().zip(residual) {
+                let g = if lik.pooled() { 0 } else { g };
+                ss[g] += r * r;
+                count[g] += 1;
+            }
+            let mut per: Vec<f64> = (0..ng)
+                .map(|g| (dof * ss[g] / count[g].max(1) as f64).sqrt())
+                .collect();
+            if lik.pooled() {
+                per = vec![per[0]; ng];
+            }
+            // No noise below round-off can be claimed: σ_g ≥ ε·rms(y_g) (noise-free data).
+            let y = lik.measured();
+            let (mut ys, mut yc) = (vec![0.0; ng], vec![0usize; ng]);
+            for (&g, v) in groups.iter().zip(y) {
+                let g = if lik.pooled() { 0 } else { g };
+                ys[g] += v * v;
+                yc[g] += 1;
+            }
+            let overall = (ys.iter().sum::<f64>() / m.max(1) as f64).sqrt();
+            let per: Vec<f64> = (0..ng)
+                .map(|g| {
+                    let k = if lik.pooled() { 0 } else { g };
+                    let rms = (ys[k] / yc[k].max(1) as f64).sqrt();
+                    let rms = if rms > 0.0 { rms } else { overall };
+                    per[g].max(f64::EPSILON * rms).max(f64::MIN_POSITIVE)
+                })
+                .collect();
+            Ok((groups.iter().map(|&g| per[g]).collect(), per))
+        }
+    }
+}
+
+/// `Q(φ)` and the weighted, stacked Gauss-Newton system at `values` (rows `r_i/σ_i`, `J/σ_i`,
+/// then the prior's `√P` rows).
+struct Linearised {
+    objective: f64,
+    a: Mat<f64>,
+    b: Vec<f64>,
+}
+
+fn prior_terms(prior: Option<&Prior>, values: &[f64]) -> (f64, Vec<(f64, f64)>) {
+    let Some(p) = prior else {
+        return (0.0, Vec::new());
+    };
+    let mut q = 0.0;
+    let rows = values
+        .iter()
+        .enumerate()
+        .map(|(j, &v)| {
+            let z = (v - p.mean[j]) / p.sd[j];
+            q += 0.5 * z * z;
+            // √P_jj = φ_j/s₀_j; right-hand side √P (φ₀ − φ)/φ = (φ₀ − φ)/s₀.
+            (v / p.sd[j], -z)
+        })
+        .collect();
+    (q, rows)
+}
+
+fn objective(r: &[f64], sigma: &[f64], prior: Option<&Prior>, values: &[f64]) -> f64 {
+    let data: f64 = r.iter().zip(sigma).map(|(r, s)| (r / s).powi(2)).sum();
+    0.5 * data + prior_terms(prior, values).0
+}
+
+fn linearise(
+    y: &[f64],
+    pred: &Prediction,
+    sigma: &[f64],
+    prior: Option<&Prior>,
+    values: &[f64],
+) -> Linearised {
+    let j = pred.jacobian.as_ref().expect("a Jacobian was asked for");
+    let (m, n) = (y.len(), values.len());
+    let (qp, prior_rows) = prior_terms(prior, values);
+    let r: Vec<f64> = y.iter().zip(&pred.values).map(|(a, b)| a - b).collect();
+    let extra = prior_rows.len();
+    let a = Mat::from_fn(m + extra, n, |i, c| {
+        if i < m {
+            j[(i, c)] / sigma[i]
+        } else if i - m == c {
+            prior_rows[c].0
+        } else {
+            0.0
+        }
+    });
+    let mut b: Vec<f64> = r.iter().zip(sigma).map(|(r, s)| r / s).collect();
+    b.extend(prior_rows.iter().map(|p| p.1));
+    let data: f64 = b[..m].iter().map(|x| x * x).sum();
+    Linearised {
+        objective: 0.5 * data + qp,
+        a,
+        b,
+    }
+}
+
+/// Gauss-Newton steps on `Q` from `start` toward the mode, at most `max_steps`, each halved up
+/// to six times until `Q` falls and stopped when the largest relative step is below 1e-9;
+/// values are clamped to the bounds. Returns the mode, the linearisation there and the record.
+fn refine(
+    lik: &dyn Likelihood,
+    params: &[UpdatingParameter],
+    start: &[f64],
+    sigma: &[f64],
+    prior: Option<&Prior>,
+    max_steps: usize,
+) -> Result<(Vec<f64>, Prediction, Refinement), UpdatingError> {
+    let y = lik.measured();
+    let mut values = start.to_vec();
+    let mut pred = lik.predict(&values, true)?;
+    let mut lin = linearise(y, &pred, sigma, prior, &values);
+    let objective_start = lin.objective;
+    let (mut steps, mut converged) = (0, false);
+    for _ in 0..max_steps {
+        let delta = least_squares(lin.a.as_ref(), &lin.b, 1e-12);
+        let mut t = 1.0;
+        let mut accepted = None;
+        for _ in 0..=super::MAX_HALVINGS {
+            let scaled: Vec<f64> = delta.iter().map(|d| t * d).collect();
+            let (next, _) = super::apply_step(params, &values, &scaled);
+            // A trial point the model cannot be analysed at is a rejected step.
+            let Ok(p) = lik.predict(&next, false) else {
+                t *= 0.5;
+                continue;
+            };
+            let r: Vec<f64> = y.iter().zip(&p.values).map(|(a, b)| a - b).collect();
+            if objective(&r, sigma, prior, &next) < lin.objective {
+                accepted = Some(next);
+                break;
+            }
+            t *= 0.5;
+        }
+        let Some(next) = accepted else {
+            converged = true;
+            break;
+        };
+        let biggest = delta.iter().fold(0.0_f64, |a, d| a.max((t * d).abs()));
+        values = next;
+        pred = lik.predict(&values, true)?;
+        lin = linearise(y, &pred, sigma, prior, &values);
+        steps += 1;
+        if biggest < 1e-9 {
+            converged = true;
+            break;
+        }
+    }
+    Ok((
+        values,
+        pred,
+        Refinement {
+            steps,
+            objective_start,
+            objective_mode: lin.objective,
+            converged,
+        },
+    ))
+}
+
+/// Eigen-decomposition of the precision `F` in unity coordinates: `(μ, V)`, μ descending.
+fn precision_eigen(a: MatRef<'_, f64>) -> Result<(Vec<f64>, Mat<f64>), UpdatingError> {
+    // `AᵀA` by fixed-order sums: a parallel product's last bits could depend on the thread
+    // count, and results must not.
+    let n = a.ncols();
+    let mut f = Mat::<f64>::zeros(n, n);
+    for i in 0..n {
+        for j in 0..=i {
+            let v: f64 = (0..a.nrows()).map(|k| a[(k, i)] * a[(k, j)]).sum();
+            f[(i, j)] = v;
+            f[(j, i)] = v;
+        }
+    }
+    if f.col_iter().any(|c| c.iter().any(|v| !v.is_finite())) {
+        return Err(UpdatingError::Model(
+            "the posterior precision is not finite (a noise level of zero?)".into(),
+        ));
+    }
+    let evd = f.self_adjoint_eigen(Side::Lower).map_err(|_| {
+        UpdatingError::Model("eigen-decomposition of the posterior precision".into())
+    })?;
+    // Ascending from faer: reverse to descending.
+    let mu: Vec<f64> = (0..n).rev().map(|i| evd.S()[i].max(0.0)).collect();
+    let u = evd.U();
+    let v = Mat::from_fn(n, n, |i, j| u[(i, n - 1 - j)]);
+    Ok((mu, v))
+}
+
+/// The Laplace posterior of `params` (of which `updated` is the update's result) under `lik`.
+/// `natural` gives the natural frequencies and their unity derivatives at parameter values
+/// (for the bands; `None`: no frequency band).
+pub fn laplace(
+    lik: &dyn Likelihood,
+    params: &[UpdatingParameter],
+    updated: &[f64],
+    settings: &PosteriorSettings,
+    natural: Option<&NaturalFrequencies<'_>>,
+) -> Result<Posterior, UpdatingError> {
+    let n = params.len();
+    if updated.len() != n {
+        return Err(UpdatingError::Settings(format!(
+            "{} values for {n} parameters",
+            updated.len()
+        )));
+    }
+    if !(settings.credible_level > 0.0 && settings.credible_level < 1.0) {
+        return Err(UpdatingError::Settings(format!(
+            "credible level {} is not in (0, 1)",
+            settings.credible_level
+        )));
+    }
+    if let Some(p) = &settings.prior
+        && (p.mean.len() != n
+            || p.sd.len() != n
+            || p.sd.iter().any(|s| !(*s > 0.0 && s.is_finite())))
+    {
+        return Err(UpdatingError::Settings(format!(
+            "the prior needs {n} means and {n} positive standard deviations"
+        )));
+    }
+    let prior = settings.prior.as_ref();
+    let y = lik.measured();
+    let estimated = settings.noise == Noise::Estimated;
+    if estimated && y.len() <= n {
+        tracing::warn!(
+            "posterior: {} data for {n} parameters leave no degree of freedom to estimate the noise; give it (`posterior.noise`) — the posterior is reported as unknown (NaN)",
+            y.len()
+        );
+        return Ok(unknown(lik, params, updated, settings));
+    }
+    // Noise at the update's result, the mode under it, and (estimated) the noise again there.
+    let start_pred = lik.predict(updated, false)?;
+    let r0: Vec<f64> = y
+        .iter()
+        .zip(&start_pred.values)
+        .map(|(a, b)| a - b)
+        .collect();
+    let (mut sigma, mut per_group) = row_sigmas(lik, &settings.noise, &r0, n)?;
+    let (mode, mut pred, mut refinement) = refine(
+        lik,
+        params,
+        updated,
+        &sigma,
+        prior,
+        settings.refine_iterations,
+    )?;
+    let r: Vec<f64> = y.iter().zip(&pred.values).map(|(a, b)| a - b).collect();
+    if estimated {
+        (sigma, per_group) = row_sigmas(lik, &settings.noise, &r, n)?;
+        refinement.objective_start = objective(&r0, &sigma, prior, updated);
+        refinement.objective_mode = objective(&r, &sigma, prior, &mode);
+    }
+    let lin = linearise(y, &pred, &sigma, prior, &mode);
+    let (mu, v) = precision_eigen(lin.a.as_ref())?;
+    let mu_max = mu.first().copied().unwrap_or(0.0);
+    let identified: Vec<bool> = mu
+        .iter()
+        .map(|&m| mu_max > 0.0 && m > UNIDENTIFIED * mu_max)
+        .collect();
+    // Σ_u = V diag(1/μ) Vᵀ over the identified directions; infinite along the others.
+    let mut cov_u = vec![vec![0.0; n]; n];
+    let mut unbounded = vec![false; n];
+    for k in 0..n {
+        if identified[k] {
+            for i in 0..n {
+                for j in 0..n {
+                    cov_u[i][j] += v[(i, k)] * v[(j, k)] / mu[k];
+                }
+            }
+        } else {
+            for (i, u) in unbounded.iter_mut().enumerate() {
+                *u |= v[(i, k)].abs() > 1e-8;
+            }
+        }
+    }
+    let z = normal_quantile(0.5 + 0.5 * settings.credible_level);
+    let cov: Vec<Vec<f64>> = (0..n)
+        .map(|i| {
+            (0..n)
+                .map(|j| {
+                    if unbounded[i] || unbounded[j] {
+                        f64::INFINITY
+                    } else {
+                        mode[i] * mode[j] * cov_u[i][j]
+                    }
+                })
+                .collect()
+        })
+        .collect();
+    let sd: Vec<f64> = (0..n).map(|i| cov[i][i].max(0.0).sqrt()).collect();
+    let correlation = (0..n)
+        .map(|i| {
+            (0..n)
+                .map(|j| {
+                    if sd[i].is_finite() && sd[j].is_finite() && sd[i] > 0.0 && sd[j] > 0.0 {
+                        cov[i][j] / (sd[i] * sd[j])
+                    } else if i == j {
+                        1.0
+                    } else {
+                        f64::NAN
+                    }
+                })
+                .collect()
+        })
+        .collect();
+    let marginals = (0..n)
+        .map(|i| Marginal {
+            name: params[i].name.clone(),
+            updated: updated[i],
+            mean: mode[i],
+            sd: sd[i],
+            lower: mode[i] - z * sd[i],
+            upper: mode[i] + z * sd[i],
+        })
+        .collect();
+    let directions: Vec<Direction> = (0..n)
+        .rev()
+        .map(|k| Direction {
+            sd: if identified[k] {
+                1.0 / mu[k].sqrt()
+            } else {
+                f64::INFINITY
+            },
+            vector: sign_fixed((0..n).map(|i| v[(i, k)]).collect()),
+        })
+        .collect();
+
+    // Samples z ~ N(0, I) in the identified directions: u = Σ_k v_k z_k/√μ_k.
+    let mut rng = ChaCha8Rng::seed_from_u64(settings.seed);
+    let samples: Vec<Vec<f64>> = (0..settings.samples)
+        .map(|_| {
+            let mut u = vec![0.0; n];
+            for k in 0..n {
+                let g: f64 = StandardNormal.sample(&mut rng);
+                if identified[k] {
+                    for (i, ui) in u.iter_mut().enumerate() {
+                        *ui += v[(i, k)] * g / mu[k].sqrt();
+                    }
+                }
+            }
+            (0..n).map(|i| mode[i] * (1.0 + u[i])).collect()
+        })
+        .collect();
+    let within: Vec<Vec<f64>> = samples
+        .iter()
+        .filter(|s| {
+            s.iter()
+                .zip(params)
+                .all(|(v, p)| p.lower <= *v && *v <= p.upper)
+        })
+        .take(settings.predictive_samples)
+        .cloned()
+        .collect();
+    let quad = |g: &[f64]| -> f64 {
+        let mut s = 0.0;
+        for i in 0..n {
+            for j in 0..n {
+                s += g[i] * cov_u[i][j] * g[j];
+            }
+        }
+        if (0..n).any(|i| unbounded[i] && g[i] != 0.0) {
+            f64::INFINITY
+        } else {
+            s.max(0.0).sqrt()
+        }
+    };
+    let sample_sd = |values: &[Vec<f64>], k: usize| -> f64 {
+        if values.len() < 2 {
+            return f64::NAN;
+        }
+        let m = values.iter().map(|v| v[k]).sum::<f64>() / values.len() as f64;
+        (values.iter().map(|v| (v[k] - m).powi(2)).sum::<f64>() / (values.len() - 1) as f64).sqrt()
+    };
+
+    // |H| bands at the lines of an FRF likelihood.
+    let mut frf = Vec::new();
+    if let Some(layout) = lik.frf_layout() {
+        let jac = pred.jacobian.take().unwrap_or_else(|| Mat::zeros(0, n));
+        let np = layout.pairs.len();
+        let abs_of = |vals: &[f64]| -> Vec<f64> {
+            (0..vals.len() / 2)
+                .map(|i| vals[2 * i].hypot(vals[2 * i + 1]))
+                .collect()
+        };
+        // Samples the model cannot be analysed at are left out of the band.
+        let sampled: Vec<Vec<f64>> = within
+            .par_iter()
+            .filter_map(|s| lik.predict(s, false).ok().map(|p| abs_of(&p.values)))
+            .collect();
+        for (k, &f) in layout.freqs_hz.iter().enumerate() {
+            for (q, label) in layout.pairs.iter().enumerate() {
+                let i = k * np + q;
+                let (re, im) = (pred.values[2 * i], pred.values[2 * i + 1]);
+                let a = re.hypot(im);
+                let g: Vec<f64> = (0..n)
+                    .map(|c| {
+                        if a > 0.0 {
+                            (re * jac[(2 * i, c)] + im * jac[(2 * i + 1, c)]) / a
+                        } else {
+                            0.0
+                        }
+                    })
+                    .collect();
+                frf.push(Band {
+                    label: label.clone(),
+                    freq_hz: f,
+                    value: a,
+                    sd_linear: quad(&g),
+                    sd_sampled: sample_sd(&sampled, i),
+                });
+            }
+        }
+    }
+    let mut natural_frequencies = Vec::new();
+    if let Some(nat) = natural {
+        let (f, g) = nat.at(&mode)?;
+        let sampled: Vec<Vec<f64>> = within
+            .par_iter()
+            .filter_map(|s| nat.at(s).ok().map(|x| x.0))
+            .collect();
+        let sampled: Vec<Vec<f64>> = sampled.into_iter().filter(|s| s.len() >= f.len()).collect();
+        for (r, &fr) in f.iter().enumerate() {
+            natural_frequencies.push(Band {
+                label: format!("mode {}", r + 1),
+                freq_hz: fr,
+                value: fr,
+                sd_linear: quad(&g[r]),
+                sd_sampled: sample_sd(&sampled, r),
+            });
+        }
+    }
+    let neg_log_likelihood = 0.5
+        * r.iter()
+            .zip(&sigma)
+            .map(|(r, s)| (r / s).powi(2) + (2.0 * PI * s * s).ln())
+            .sum::<f64>();
+    Ok(Posterior {
+        marginals,
+        covariance: cov,
+        correlation,
+        directions,
+        sigma: per_group,
+        groups: lik.group_names(),
+        sigma_estimated: estimated,
+        rows: y.len(),
+        neg_log_likelihood,
+        refinement,
+        credible_level: settings.credible_level,
+        samples,
+        predictive_samples: within.len(),
+        natural_frequencies,
+        frf,
+        seed: settings.seed,
+    })
+}
+
+/// The posterior when it cannot be computed (the noise neither given nor estimable, or the
+/// model not analysable at the mode): every number NaN, the means the update's result.
+pub fn unknown(
+    lik: &dyn Likelihood,
+    params: &[UpdatingParameter],
+    updated: &[f64],
+    settings: &PosteriorSettings,
+) -> Posterior {
+    let n = params.len();
+    let nan = f64::NAN;
+    Posterior {
+        marginals: (0..n)
+            .map(|i| Marginal {
+                name: params[i].name.clone(),
+                updated: updated[i],
+                mean: updated[i],
+                sd: nan,
+                lower: nan,
+                upper: nan,
+            })
+            .collect(),
+        covariance: vec![vec![nan; n]; n],
+        correlation: vec![vec![nan; n]; n],
+        directions: Vec::new(),
+        sigma: vec![nan; lik.group_names().len()],
+        groups: lik.group_names(),
+        sigma_estimated: true,
+        rows: lik.measured().len(),
+        neg_log_likelihood: nan,
+        refinement: Refinement {
+            steps: 0,
+            objective_start: nan,
+            objective_mode: nan,
+            converged: false,
+        },
+        credible_level: settings.credible_level,
+        samples: Vec::new(),
+        predictive_samples: 0,
+        natural_frequencies: Vec::new(),
+        frf: Vec::new(),
+        seed: settings.seed,
+    }
+}
+
+/// A direction with its largest entry positive.
+fn sign_fixed(mut v: Vec<f64>) -> Vec<f64> {
+    let big = v
+        .iter()
+        .copied()
+        .fold(0.0_f64, |a, b| if b.abs() > a.abs() { b } else { a });
+    if big < 0.0 {
+        v.iter_mut().for_each(|x| *x = -*x);
+    }
+    v
+}
+
+/// The elastic natural frequencies of a model (Hz) and their unity derivatives
+/// `∂f_r/∂u_j = φ_j ∂λ_r/∂φ_j / (8π² f_r)` (5.3), for the predictive bands.
+pub struct NaturalFrequencies<'a> {
+    /// The model.
+    pub model: &'a dyn ParametricModel,
+    /// Its modal basis.
+    pub selection: ModeSelection,
+    /// How many elastic modes to report at most.
+    pub count: usize,
+    /// Report the elastic modes up to this frequency, Hz.
+    pub max_hz: f64,
+}
+
+impl NaturalFrequencies<'_> {
+    /// `(f_r, ∂f_r/∂u)` of the first `count` elastic modes at `values`.
+    #[allow(clippy::type_complexity)]
+    pub fn at(&self, values: &[f64]) -> Result<(Vec<f64>, Vec<Vec<f64>>), UpdatingError> {
+        let (state, _) = self.model.modal_state(values, self.selection)?;
+        let dl: Vec<Vec<f64>> = state
+            .projected
+            .iter()
+            .map(|d| eigenvalue_sensitivity(&state.modes.eigenvalues, d))
+            .collect();
+        let elastic: Vec<usize> = (0..state.modes.len())
+            .filter(|&r| {
+                let l = state.modes.eigenvalues[r];
+                l > 0.0 && l.sqrt() / (2.0 * PI) <= self.max_hz
+            })
+            .take(self.count)
+            .collect();
+        let f: Vec<f64> = elastic
+            .iter()
+            .map(|&r| state.modes.eigenvalues[r].sqrt() / (2.0 * PI))
+            .collect();
+        let g = elastic
+            .iter()
+            .zip(&f)
+            .map(|(&r, &fr)| {
+                (0..values.len())
+                    .map(|j| dl[j][r] / (8.0 * PI * PI * fr))
+                    .collect()
+            })
+            .collect();
+        Ok((f, g))
+    }
+}
+
+/// The rows of a complex FRF likelihood: for each line, each pair, `Re` then `Im`.
+fn stack_frf(values: MatRef<'_, c64>, lines: &[usize]) -> Vec<f64> {
+    let mut out = Vec::with_capacity(2 * lines.len() * values.ncols());
+    for &k in lines {
+        for q in 0..values.ncols() {
+            let h = values[(k, q)];
+            out.push(h.re);
+            out.push(h.im);
+        }
+    }
+    out
+}
+
+fn pair_labels(measured: &FrfSet) -> Vec<String> {
+    measured
+        .pairs
+        .iter()
+        .map(|p| format!("{}/{}", p.response, p.excitation))
+        .collect()
+}
+
+/// The measured side shared by the FRF likelihoods.
+struct FrfData {
+    y: Vec<f64>,
+    groups: Vec<usize>,
+    scale: Vec<f64>,
+    layout: FrfLayout,
+}
+
+impl FrfData {
+    fn new(measured: &FrfSet, lines: &[usize]) -> Self {
+        let y = stack_frf(measured.values.as_ref(), lines);
+        let nq = measured.pairs.len();
+        let groups = (0..y.len()).map(|i| (i / 2) % nq).collect();
+        let scale = (0..y.len())
+            .map(|i| y[2 * (i / 2)].hypot(y[2 * (i / 2) + 1]))
+            .collect();
+        FrfData {
+            y,
+            groups,
+            scale,
+            layout: FrfLayout {
+                freqs_hz: lines.iter().map(|&k| measured.freqs_hz[k]).collect(),
+                pairs: pair_labels(measured),
+            },
+        }
+    }
+}
+
+/// Jacobian rows from `∂H/∂u` per parameter (`N_lines × N_pairs` each), stacked like
+/// [`stack_frf`].
+fn stack_jacobian(sens: &[Mat<c64>], rows: usize) -> Mat<f64> {
+    Mat::from_fn(rows, sens.len(), |i, c| {
+        let (kq, part) = (i / 2, i % 2);
+        let nq = sens[c].ncols();
+        let h = sens[c][(kq / nq, kq % nq)];
+        if part == 0 { h.re } else { h.im }
+    })
+}
+
+/// The output-error likelihood of a modal FRF model (the P-C's predictions): `H` by modal
+/// summation with the method's modal damping, `∂H/∂u` from the exact modal sensitivities (§3;
+/// with the static correction of the truncated modes when the model gives the physical
+/// matrices).
+pub struct ModalFrfLikelihood<'a> {
+    model: &'a dyn ParametricModel,
+    measured: &'a FrfSet,
+    lines: Vec<usize>,
+    selection: ModeSelection,
+    damping: ModalDamping,
+    data: FrfData,
+}
+
+impl<'a> ModalFrfLikelihood<'a> {
+    /// On `lines` (indices of measured lines) of `measured`.
+    pub fn new(
+        model: &'a dyn ParametricModel,
+        measured: &'a FrfSet,
+        lines: Vec<usize>,
+        selection: ModeSelection,
+        damping: ModalDamping,
+    ) -> Self {
+        let data = FrfData::new(measured, &lines);
+        ModalFrfLikelihood {
+            model,
+            measured,
+            lines,
+            selection,
+            damping,
+            data,
+        }
+    }
+}
+
+/// Every measured line except those within `resonance_lines` line spacings of a natural
+/// frequency of the model at `values` when the predictions are undamped (undefined there).
+pub fn likelihood_lines(
+    model: &dyn ParametricModel,
+    measured: &FrfSet,
+    values: &[f64],
+    selection: ModeSelection,
+    undamped: bool,
+    resonance_lines: f64,
+) -> Result<Vec<usize>, UpdatingError> {
+    if !undamped {
+        return Ok((0..measured.freqs_hz.len()).collect());
+    }
+    let (state, _) = model.modal_state(values, selection)?;
+    Ok(super::pc::off_resonance_lines(
+        &measured.freqs_hz,
+        &state.modes.frequencies_hz(),
+        resonance_lines.max(1.0),
+    ))
+}
+
+fn restrict(set: &FrfSet, lines: &[usize]) -> Mat<c64> {
+    Mat::from_fn(lines.len(), set.pairs.len(), |i, q| {
+        set.values[(lines[i], q)]
+    })
+}
+
+impl Likelihood for ModalFrfLikelihood<'_> {
+    fn measured(&self) -> &[f64] {
+        &self.data.y
+    }
+    fn groups(&self) -> &[usize] {
+        &self.data.groups
+    }
+    fn group_names(&self) -> Vec<String> {
+        self.data.layout.pairs.clone()
+    }
+    fn pooled(&self) -> bool {
+        false
+    }
+    fn scale(&self) -> Vec<f64> {
+        self.data.scale.clone()
+    }
+    fn frf_layout(&self) -> Option<FrfLayout> {
+        Some(self.data.layout.clone())
+    }
+
+    fn predict(&self, values: &[f64], jacobian: bool) -> Result<Prediction, UpdatingError> {
+        let (state, evaluated) = self.model.modal_state(values, self.selection)?;
+        let predicted = super::pc::predict(&state, self.measured, &self.damping)?;
+        let h = restrict(&predicted, &self.lines);
+        let all: Vec<usize> = (0..self.lines.len()).collect();
+        let out = stack_frf(h.as_ref(), &all);
+        let jacobian = if jacobian {
+            Some(modal_jacobian(
+                &state,
+                evaluated.as_ref(),
+                values,
+                self.measured,
+                &self.data.layout.freqs_hz,
+                &self.damping,
+                out.len(),
+            )?)
+        } else {
+            None
+        };
+        Ok(Prediction {
+            values: out,
+            jacobian,
+        })
+    }
+}
+
+fn modal_jacobian(
+    state: &ModalState,
+    evaluated: Option<&super::model::Evaluated>,
+    values: &[f64],
+    measured: &FrfSet,
+    freqs_hz: &[f64],
+    damping: &ModalDamping,
+    rows: usize,
+) -> Result<Mat<f64>, UpdatingError> {
+    let dofs = measured.dofs();
+    let shapes = state.shapes_at(&dofs)?;
+    let modal = ModalFrfModel {
+        eigenvalues: &state.modes.eigenvalues,
+        shapes: shapes.as_ref(),
+        dofs: &dofs,
+        damping,
+    };
+    let corrections = match evaluated {
+        Some(ev) => Some(state.shape_corrections(ev, values, &dofs)?),
+        None => None,
+    };
+    let sens = frf_sensitivities(
+        &modal,
+        &measured.pairs,
+        freqs_hz,
+        measured.quantity,
+        &state.projected,
+        corrections.as_deref(),
+    )?;
+    Ok(stack_jacobian(&sens, rows))
+}
+
+/// The modal damping of every mode of the basis from the parameter values.
+pub type DampingOf<'a> = Box<dyn Fn(&[f64]) -> ModalDamping + Sync + 'a>;
+
+/// The output-error likelihood of the modal damping identification: the spatial model fixed
+/// on `state`, the parameters the loss factors (or ratios) of `modes`, `∂H/∂u` from the exact
+/// damping sensitivities (6.8, 6.11).
+pub struct DampingLikelihood<'a> {
+    state: &'a ModalState,
+    measured: &'a FrfSet,
+    lines: Vec<usize>,
+    /// The damping of every mode of the basis from the parameter values.
+    damping: DampingOf<'a>,
+    modes: Vec<usize>,
+    data: FrfData,
+}
+
+impl<'a> DampingLikelihood<'a> {
+    /// On `lines` of `measured`; `damping` maps parameter values to the basis's damping,
+    /// `modes` are the identified modes (0-based), one per parameter.
+    pub fn new(
+        state: &'a ModalState,
+        measured: &'a FrfSet,
+        lines: Vec<usize>,
+        damping: DampingOf<'a>,
+        modes: Vec<usize>,
+    ) -> Self {
+        let data = FrfData::new(measured, &lines);
+        DampingLikelihood {
+            state,
+            measured,
+            lines,
+            damping,
+            modes,
+            data,
+        }
+    }
+}
+
+impl Likelihood for DampingLikelihood<'_> {
+    fn measured(&self) -> &[f64] {
+        &self.data.y
+    }
+    fn groups(&self) -> &[usize] {
+        &self.data.groups
+    }
+    fn group_names(&self) -> Vec<String> {
+        self.data.layout.pairs.clone()
+    }
+    fn pooled(&self) -> bool {
+        false
+    }
+    fn scale(&self) -> Vec<f64> {
+        self.data.scale.clone()
+    }
+    fn frf_layout(&self) -> Option<FrfLayout> {
+        Some(self.data.layout.clone())
+    }
+
+    fn predict(&self, values: &[f64], jacobian: bool) -> Result<Prediction, UpdatingError> {
+        let damping = (self.damping)(values);
+        let predicted = super::pc::predict(self.state, self.measured, &damping)?;
+        let h = restrict(&predicted, &self.lines);
+        let all: Vec<usize> = (0..self.lines.len()).collect();
+        let out = stack_frf(h.as_ref(), &all);
+        let jacobian = if jacobian {
+            let dofs = self.measured.dofs();
+            let shapes = self.state.shapes_at(&dofs)?;
+            let modal = ModalFrfModel {
+                eigenvalues: &self.state.modes.eigenvalues,
+                shapes: shapes.as_ref(),
+                dofs: &dofs,
+                damping: &damping,
+            };
+            let per_mode = damping_sensitivities(
+                &modal,
+                &self.measured.pairs,
+                &self.data.layout.freqs_hz,
+                self.measured.quantity,
+            )?;
+            let cols: Vec<Mat<c64>> = self
+                .modes
+                .iter()
+                .zip(values)
+                .map(|(&r, &v)| {
+                    let d = &per_mode[r];
+                    Mat::from_fn(d.nrows(), d.ncols(), |i, j| d[(i, j)] * v)
+                })
+                .collect();
+            Some(stack_jacobian(&cols, out.len()))
+        } else {
+            None
+        };
+        Ok(Prediction {
+            values: out,
+            jacobian,
+        })
+    }
+}
+
+/// `A x` for sparse `A` and complex `x`.
+fn spmv(a: &SparseMatrix, x: &[c64]) -> Vec<c64> {
+    let mut y = vec![c64::new(0.0, 0.0); a.nrows()];
+    let (cp, ri, v) = (a.symbolic().col_ptr(), a.symbolic().row_idx(), a.val());
+    for j in 0..a.ncols() {
+        for k in cp[j]..cp[j + 1] {
+            y[ri[k]] += x[j] * v[k];
+        }
+    }
+    y
+}
+
+/// The output-error likelihood of the full model's direct FRFs (the RFM's predictions):
+/// `α = Z(ω)⁻¹`, `Z = (1 + iη)K − ω²M`, and the exact sensitivity
+/// `∂α_ij/∂u = −φ_p (Z⁻¹e_i)ᵀ (∂Z/∂φ_p) (Z⁻¹e_j)` (§3, `Z` symmetric), in the measured quantity.
+pub struct DirectFrfLikelihood<'a> {
+    model: &'a dyn ParametricModel,
+    measured: &'a FrfSet,
+    eta: f64,
+    data: FrfData,
+}
+
+impl<'a> DirectFrfLikelihood<'a> {
+    /// On `lines` of `measured` with the uniform structural loss factor `eta`.
+    pub fn new(
+        model: &'a dyn ParametricModel,
+        measured: &'a FrfSet,
+        lines: Vec<usize>,
+        eta: f64,
+    ) -> Self {
+        let data = FrfData::new(measured, &lines);
+        DirectFrfLikelihood {
+            model,
+            measured,
+            eta,
+            data,
+        }
+    }
+}
+
+impl Likelihood for DirectFrfLikelihood<'_> {
+    fn measured(&self) -> &[f64] {
+        &self.data.y
+    }
+    fn groups(&self) -> &[usize] {
+        &self.data.groups
+    }
+    fn group_names(&self) -> Vec<String> {
+        self.data.layout.pairs.clone()
+    }
+    fn pooled(&self) -> bool {
+        false
+    }
+    fn scale(&self) -> Vec<f64> {
+        self.data.scale.clone()
+    }
+    fn frf_layout(&self) -> Option<FrfLayout> {
+        Some(self.data.layout.clone())
+    }
+
+    fn predict(&self, values: &[f64], jacobian: bool) -> Result<Prediction, UpdatingError> {
+        let ev = self.model.evaluate(values)?;
+        let sys = &ev.system;
+        let index = sys.dof_index();
+        // The distinct DOFs every pair needs, solved once per line.
+        let mut dofs: Vec<crate::core::DofId> = Vec::new();
+        for p in &self.measured.pairs {
+            for d in [p.response, p.excitation] {
+                if !dofs.contains(&d) {
+                    dofs.push(d);
+                }
+            }
+        }
+        let rows: Vec<usize> = dofs
+            .iter()
+            .map(|d| {
+                index.get(d).copied().ok_or_else(|| {
+                    UpdatingError::Data(format!("measured DOF {d} is not a free DOF of the model"))
+                })
+            })
+            .collect::<Result<_, _>>()?;
+        let col = |d: &crate::core::DofId| dofs.iter().position(|x| x == d).unwrap_or(0);
+        let pairs: Vec<(usize, usize)> = (self.measured.pairs.iter())
+            .map(|p| (col(&p.response), col(&p.excitation)))
+            .collect();
+        let z = DynamicStiffness::new(
+            sys,
+            &DirectDamping {
+                structural_eta: self.eta,
+                rayleigh: None,
+            },
+        )?;
+        let n = sys.n();
+        let eta = self.eta;
+        let per_line: Vec<(Vec<c64>, Vec<Vec<c64>>)> = self
+            .data
+            .layout
+            .freqs_hz
+            .par_iter()
+            .map(|&f| {
+                let w = 2.0 * PI * f;
+                let factor = self.measured.quantity.factor(w);
+                let factor = if self.measured.quantity == Quantity::Receptance {
+                    c64::new(1.0, 0.0)
+                } else {
+                    factor
+                };
+                let mut b = Mat::<c64>::zeros(n, rows.len());
+                for (c, &r) in rows.iter().enumerate() {
+                    b[(r, c)] = c64::new(1.0, 0.0);
+                }
+                let x = z.solve(f, b.as_ref(), faer::Par::Seq)?;
+                let h: Vec<c64> = pairs
+                    .iter()
+                    .map(|&(i, j)| x[(rows[i], j)] * factor)
+                    .collect();
+                let mut d = Vec::new();
+                if jacobian {
+                    let cols: Vec<Vec<c64>> = (0..rows.len())
+                        .map(|c| (0..n).map(|i| x[(i, c)]).collect())
+                        .collect();
+                    for ((dk, dm), &v) in ev.derivatives.iter().zip(values) {
+                        // ∂Z x_j for every solved column j.
+                        let dz: Vec<Vec<c64>> = cols
+                            .iter()
+                            .map(|xc| {
+                                let (kx, mx) = (spmv(dk, xc), spmv(dm, xc));
+                                kx.iter()
+                                    .zip(&mx)
+                                    .map(|(a, b)| c64::new(1.0, eta) * a - b * (w * w))
+                                    .collect()
+                            })
+                            .collect();
+                        d.push(
+                            pairs
+                                .iter()
+                                .map(|&(i, j)| {
+                                    let s = (0..n).fold(c64::new(0.0, 0.0), |acc, k| {
+                                        acc + cols[i][k] * dz[j][k]
+                                    });
+                                    -s * v * factor
+                                })
+                                .collect(),
+                        );
+                    }
+                }
+                Ok((h, d))
+            })
+            .collect::<Result<_, UpdatingError>>()?;
+        let nq = pairs.len();
+        let mut out = Vec::with_capacity(2 * nq * per_line.len());
+        for (h, _) in &per_line {
+            for v in h {
+                out.push(v.re);
+                out.push(v.im);
+            }
+        }
+        let jacobian = jacobian.then(|| {
+            Mat::from_fn(out.len(), values.len(), |i, c| {
+                let (kq, part) = (i / 2, i % 2);
+                let v = per_line[kq / nq].1[c][kq % nq];
+                if part == 0 { v.re } else { v.im }
+            })
+        });
+        Ok(Prediction {
+            values: out,
+            jacobian,
+        })
+    }
+}
+
+/// The likelihood of measured natural frequencies: rows `f_X,r` against the paired model
+/// frequencies `f_A,r` (pairs held as given), both divided by `f_X,r` so that a noise level is
+/// a relative frequency error; Jacobian `(φ_j ∂λ_r/∂φ_j)/(8π² f_A,r f_X,r)` (5.3).
+pub struct FrequencyLikelihood<'a> {
+    model: &'a dyn ParametricModel,
+    selection: ModeSelection,
+    /// `(measured f_X in Hz, index of the paired model mode)`.
+    pairs: Vec<(f64, usize)>,
+    y: Vec<f64>,
+    groups: Vec<usize>,
+}
+
+impl<'a> FrequencyLikelihood<'a> {
+    /// `pairs`: each measured frequency (Hz) with the index of its model mode in the basis.
+    pub fn new(
+        model: &'a dyn ParametricModel,
+        selection: ModeSelection,
+        pairs: Vec<(f64, usize)>,
+    ) -> Self {
+        let y = vec![1.0; pairs.len()];
+        let groups = (0..pairs.len()).collect();
+        FrequencyLikelihood {
+            model,
+            selection,
+            pairs,
+            y,
+            groups,
+        }
+    }
+}
+
+impl Likelihood for FrequencyLikelihood<'_> {
+    fn measured(&self) -> &[f64] {
+        &self.y
+    }
+    fn groups(&self) -> &[usize] {
+        &self.groups
+    }
+    fn group_names(&self) -> Vec<String> {
+        self.pairs
+            .iter()
+            .map(|(f, _)| format!("{f:.6} Hz"))
+            .collect()
+    }
+    fn pooled(&self) -> bool {
+        true
+    }
+    fn scale(&self) -> Vec<f64> {
+        vec![1.0; self.pairs.len()]
+    }
+
+    fn predict(&self, values: &[f64], jacobian: bool) -> Result<Prediction, UpdatingError> {
+        let (state, _) = self.model.modal_state(values, self.selection)?;
+        let lambda = &state.modes.eigenvalues;
+        if let Some(&(_, a)) = self.pairs.iter().find(|(_, a)| *a >= lambda.len()) {
+            return Err(UpdatingError::Data(format!(
+                "mode {} left the modal basis of {} modes",
+                a + 1,
+                lambda.len()
+            )));
+        }
+        let f = |a: usize| lambda[a].max(0.0).sqrt() / (2.0 * PI);
+        let out: Vec<f64> = self.pairs.iter().map(|&(fx, a)| f(a) / fx).collect();
+        let jacobian = jacobian.then(|| {
+            let dl: Vec<Vec<f64>> = state
+                .projected
+                .iter()
+                .map(|d| eigenvalue_sensitivity(lambda, d))
+                .collect();
+            Mat::from_fn(self.pairs.len(), values.len(), |i, j| {
+                let (fx, a) = self.pairs[i];
+                dl[j][a] / (8.0 * PI * PI * f(a).max(f64::MIN_POSITIVE) * fx)
+            })
+        });
+        Ok(Prediction {
+            values: out,
+            jacobian,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::fe::lumped::{LumpedTarget, assemble_lumped, lumped_derivative};
+    use crate::frf::{DirectDamping, FrfSet, direct_receptance, frequency_lines};
+    use crate::model::LumpedModel;
+    use crate::updating::LinearModel;
+
+    /// `f(φ) = A φ`, a linear-Gaussian problem.
+    struct Linear {
+        a: Mat<f64>,
+        y: Vec<f64>,
+        groups: Vec<usize>,
+    }
+
+    impl Likelihood for Linear {
+        fn measured(&self) -> &[f64] {
+            &self.y
+        }
+        fn groups(&self) -> &[usize] {
+            &self.groups
+        }
+        fn group_names(&self) -> Vec<String> {
+            vec!["all".into()]
+        }
+        fn pooled(&self) -> bool {
+            true
+        }
+        fn scale(&self) -> Vec<f64> {
+            vec![1.0; self.y.len()]
+        }
+        fn predict(&self, values: &[f64], jacobian: bool) -> Result<Prediction, UpdatingError> {
+            let (m, n) = self.a.shape();
+            Ok(Prediction {
+                values: (0..m)
+                    .map(|i| (0..n).map(|j| self.a[(i, j)] * values[j]).sum())
+                    .collect(),
+                jacobian: jacobian.then(|| Mat::from_fn(m, n, |i, j| self.a[(i, j)] * values[j])),
+            })
+        }
+    }
+
+    fn params(values: &[f64]) -> Vec<UpdatingParameter> {
+        values
+            .iter()
+            .enumerate()
+            .map(|(i, &v)| UpdatingParameter {
+                name: format!("p{i}"),
+                initial: v,
+                lower: -1e9,
+                upper: 1e9,
+            })
+            .collect()
+    }
+
+    fn linear_problem() -> Linear {
+        let a = Mat::from_fn(12, 3, |i, j| {
+            ((i * 3 + j * 5) as f64 * 0.7).sin() + (i == j) as u8 as f64
+        });
+        let y = (0..12).map(|i| 1.0 + 0.3 * (i as f64).cos()).collect();
+        Linear {
+            a,
+            y,
+            groups: vec![0; 12],
+        }
+    }
+
+    /// `(AᵀA/σ² + P)⁻¹` by a plain inverse.
+    fn analytic(a: &Mat<f64>, sigma: f64, prior_sd: Option<&[f64]>) -> Mat<f64> {
+        let n = a.ncols();
+        let mut f = a.transpose() * a * faer::Scale(1.0 / (sigma * sigma));
+        if let Some(s) = prior_sd {
+            for j in 0..n {
+                f[(j, j)] += 1.0 / (s[j] * s[j]);
+            }
+        }
+        use faer::linalg::solvers::DenseSolveCore;
+        f.partial_piv_lu().inverse()
+    }
+
+    /// A linear-Gaussian problem: from a start away from the solution, one Gauss-Newton step
+    /// reaches the least-squares solution and the Laplace covariance is `σ²(AᵀA)⁻¹` to 1e-12
+    /// (relative to the largest entry); with a Gaussian prior `(AᵀA/σ² + diag(1/s₀²))⁻¹`, and
+    /// the mean moves toward the prior mean. The estimated noise is `rᵀr/(m − n)`.
+    #[test]
+    fn linear_gaussian_covariance_is_exact() {
+        let lik = linear_problem();
+        let start = [2.0, -1.0, 0.5];
+        let p = params(&start);
+        let sigma = 0.05;
+        let settings = PosteriorSettings {
+            noise: Noise::Absolute(vec![sigma]),
+            samples: 4000,
+            ..Default::default()
+        };
+        let post = laplace(&lik, &p, &start, &settings, None).unwrap();
+        let want = analytic(&lik.a, sigma, None);
+        let scale = (0..3).map(|i| want[(i, i)]).fold(0.0, f64::max);
+        for i in 0..3 {
+            for j in 0..3 {
+                assert!(
+                    (post.covariance[i][j] - want[(i, j)]).abs() < 1e-12 * scale,
+                    "{i}{j}: {} vs {}",
+                    post.covariance[i][j],
+                    want[(i, j)]
+                );
+            }
+        }
+        let ls = least_squares(lik.a.as_ref(), &lik.y, 1e-14);
+        for (m, l) in post.marginals.iter().zip(&ls) {
+            assert!((m.mean - l).abs() < 1e-10, "{m:?}");
+        }
+        assert!(post.refinement.steps >= 1 && post.refinement.converged);
+        // The credible interval is mean ± 1.6449 sd.
+        let m = &post.marginals[0];
+        assert!(((m.upper - m.mean) / m.sd - 1.6448536269514722).abs() < 1e-9);
+        // Sample covariance approaches Σ.
+        let ns = post.samples.len() as f64;
+        let mean0 = post.samples.iter().map(|s| s[0]).sum::<f64>() / ns;
+        let var0 = post
+            .samples
+            .iter()
+            .map(|s| (s[0] - mean0).powi(2))
+            .sum::<f64>()
+            / (ns - 1.0);
+        assert!((var0 / want[(0, 0)] - 1.0).abs() < 0.1, "{var0}");
+
+        // With a prior.
+        let prior_sd = [0.01, 0.2, 0.05];
+        let settings = PosteriorSettings {
+            noise: Noise::Absolute(vec![sigma]),
+            prior: Some(Prior {
+                mean: vec![0.0, 0.0, 0.0],
+                sd: prior_sd.to_vec(),
+            }),
+            ..Default::default()
+        };
+        let post = laplace(&lik, &p, &start, &settings, None).unwrap();
+        let want = analytic(&lik.a, sigma, Some(&prior_sd));
+        let scale = (0..3).map(|i| want[(i, i)]).fold(0.0, f64::max);
+        for i in 0..3 {
+            for j in 0..3 {
+                assert!((post.covariance[i][j] - want[(i, j)]).abs() < 1e-12 * scale);
+            }
+        }
+        assert!(post.marginals[0].mean.abs() < ls[0].abs());
+
+        // Estimated noise: σ̂² = rᵀr/(m − n) at the solution.
+        let settings = PosteriorSettings::default();
+        let post = laplace(&lik, &p, &start, &settings, None).unwrap();
+        let r: Vec<f64> = (0..12)
+            .map(|i| lik.y[i] - (0..3).map(|j| lik.a[(i, j)] * ls[j]).sum::<f64>())
+            .collect();
+        let s2 = r.iter().map(|x| x * x).sum::<f64>() / 9.0;
+        assert!((post.sigma[0] / s2.sqrt() - 1.0).abs() < 1e-10);
+        assert!(post.sigma_estimated);
+    }
+
+    /// A dependent column: the direction it spans is unidentified, the parameters in it have
+    /// infinite standard deviations, the other stays finite, and the largest-variance direction
+    /// is the null-space direction.
+    #[test]
+    fn an_unidentified_direction_is_reported() {
+        let a = Mat::from_fn(8, 3, |i, j| match j {
+            0 => 1.0 + i as f64,
+            1 => (i as f64).sin(),
+            _ => 2.0 * (1.0 + i as f64),
+        });
+        let y = (0..8).map(|i| 3.0 + i as f64).collect();
+        let lik = Linear {
+            a,
+            y,
+            groups: vec![0; 8],
+        };
+        let start = [1.0, 1.0, 1.0];
+        let settings = PosteriorSettings {
+            noise: Noise::Absolute(vec![0.1]),
+            ..Default::default()
+        };
+        let post = laplace(&lik, &params(&start), &start, &settings, None).unwrap();
+        assert!(post.marginals[0].sd.is_infinite() && post.marginals[2].sd.is_infinite());
+        assert!(post.marginals[1].sd.is_finite());
+        assert!(post.directions[0].sd.is_infinite());
+        let d = &post.directions[0].vector;
+        assert!(d[1].abs() < 1e-8, "{d:?}");
+    }
+
+    /// Estimated noise with no degree of freedom left: reported as unknown, not as certainty.
+    #[test]
+    fn noise_that_cannot_be_estimated_gives_an_unknown_posterior() {
+        let a = Mat::from_fn(3, 3, |i, j| if i == j { 1.0 } else { 0.1 });
+        let lik = Linear {
+            a,
+            y: vec![1.0, 2.0, 3.0],
+            groups: vec![0; 3],
+        };
+        let start = [1.0, 1.0, 1.0];
+        let post = laplace(&lik, &params(&start), &start, &Default::default(), None).unwrap();
+        assert!(
+            post.marginals
+                .iter()
+                .all(|m| m.sd.is_nan() && m.mean == 1.0)
+        );
+        assert!(post.sigma[0].is_nan() && post.samples.is_empty());
+    }
+
+    #[test]
+    fn normal_quantiles() {
+        assert!((normal_quantile(0.95) - 1.6448536269514722).abs() < 1e-12);
+        assert!((normal_quantile(0.975) - 1.959963984540054).abs() < 1e-12);
+        assert!((normal_cdf(0.0) - 0.5).abs() < 1e-16);
+        assert!((normal_cdf(-3.0) - 0.0013498980316301).abs() < 1e-13);
+    }
+
+    fn chain(masses: &[f64]) -> LinearModel {
+        let lumped = LumpedModel::chain(masses, 1e4);
+        let sys = assemble_lumped(&lumped).unwrap();
+        let params = (0..masses.len())
+            .map(|i| {
+                let (dk, dm) = lumped_derivative(&lumped, LumpedTarget::Mass(i)).unwrap();
+                (
+                    UpdatingParameter {
+                        name: format!("m{}", i + 1),
+                        initial: masses[i],
+                        lower: 0.01,
+                        upper: 100.0,
+                    },
+                    dk,
+                    dm,
+                )
+            })
+            .collect();
+        LinearModel::new(sys, params).unwrap()
+    }
+
+    fn measured(eta: f64, freqs: &[f64]) -> FrfSet {
+        let sys = assemble_lumped(&LumpedModel::chain(&[1.0; 4], 1e4)).unwrap();
+        let pairs = FrfSet::all_pairs(&sys.dofs, &sys.dofs[..1]);
+        direct_receptance(
+            &sys,
+            &DirectDamping {
+                structural_eta: eta,
+                rayleigh: None,
+            },
+            &pairs,
+            freqs,
+            crate::frf::Quantity::Receptance,
+        )
+        .unwrap()
+    }
+
+    /// Every Jacobian column against a central difference `(f(φ(1+h)) − f(φ(1−h)))/2h`,
+    /// `h = 1e-6`, to 1e-6 of the column's largest entry.
+    fn check_jacobian(lik: &dyn Likelihood, values: &[f64]) {
+        let p = lik.predict(values, true).unwrap();
+        let j = p.jacobian.unwrap();
+        let h = 1e-6;
+        for c in 0..values.len() {
+            let mut up = values.to_vec();
+            let mut dn = values.to_vec();
+            up[c] *= 1.0 + h;
+            dn[c] *= 1.0 - h;
+            let (fu, fd) = (
+                lik.predict(&up, false).unwrap().values,
+                lik.predict(&dn, false).unwrap().values,
+            );
+            let big = (0..j.nrows()).map(|i| j[(i, c)].abs()).fold(0.0, f64::max);
+            assert!(big > 0.0, "column {c} is zero");
+            for i in 0..j.nrows() {
+                let fd_i = (fu[i] - fd[i]) / (2.0 * h);
+                assert!(
+                    (fd_i - j[(i, c)]).abs() < 1e-6 * big,
+                    "row {i} column {c}: {fd_i} vs {}",
+                    j[(i, c)]
+                );
+            }
+        }
+    }
+
+    /// The modal, direct, frequency and damping Jacobians against central differences on the
+    /// damped four-DOF chain (m2 = 1.3 kg).
+    #[test]
+    fn jacobians_match_central_differences() {
+        let model = chain(&[1.0, 1.3, 1.0, 1.0]);
+        let values = model.initial_values();
+        let freqs = frequency_lines(1.0, 40.0, 0.5);
+        let x = measured(0.02, &freqs);
+        let lines: Vec<usize> = (0..freqs.len()).collect();
+        let modal = ModalFrfLikelihood::new(
+            &model,
+            &x,
+            lines.clone(),
+            ModeSelection::All,
+            ModalDamping::Structural(vec![0.02; 4]),
+        );
+        check_jacobian(&modal, &values);
+        let direct = DirectFrfLikelihood::new(&model, &x, lines.clone(), 0.02);
+        check_jacobian(&direct, &values);
+        // The modal and direct predictions agree for a uniform loss factor on a complete basis.
+        let (a, b) = (
+            modal.predict(&values, true).unwrap(),
+            direct.predict(&values, true).unwrap(),
+        );
+        let big = a.values.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+        for (u, v) in a.values.iter().zip(&b.values) {
+            assert!((u - v).abs() < 1e-9 * big);
+        }
+        let freq = FrequencyLikelihood::new(&model, ModeSelection::All, vec![(9.8, 0), (18.7, 1)]);
+        check_jacobian(&freq, &values);
+        let (state, _) = model.modal_state(&values, ModeSelection::All).unwrap();
+        let damping = DampingLikelihood::new(
+            &state,
+            &x,
+            lines,
+            Box::new(|v: &[f64]| {
+                let mut all = vec![0.02; 4];
+                all[0] = v[0];
+                all[1] = v[1];
+                ModalDamping::Structural(all)
+            }),
+            vec![0, 1],
+        );
+        check_jacobian(&damping, &[0.03, 0.01]);
+    }
+
+    /// Sampled and first-order bands agree on the nearly linear chain, and natural-frequency
+    /// bands come out for every elastic mode.
+    #[test]
+    fn predictive_bands_agree_to_first_order() {
+        let model = chain(&[1.0, 1.0, 1.0, 1.0]);
+        let values = model.initial_values();
+        let freqs = frequency_lines(1.0, 40.0, 0.5);
+        let x = measured(0.02, &freqs);
+        let lines: Vec<usize> = (0..freqs.len()).collect();
+        let lik = ModalFrfLikelihood::new(
+            &model,
+            &x,
+            lines,
+            ModeSelection::All,
+            ModalDamping::Structural(vec![0.02; 4]),
+        );
+        let settings = PosteriorSettings {
+            noise: Noise::Relative(0.01),
+            predictive_samples: 400,
+            ..Default::default()
+        };
+        let natural = NaturalFrequencies {
+            model: &model,
+            selection: ModeSelection::All,
+            count: 4,
+            max_hz: f64::INFINITY,
+        };
+        let post = laplace(&lik, model.parameters(), &values, &settings, Some(&natural)).unwrap();
+        assert_eq!(post.natural_frequencies.len(), 4);
+        assert_eq!(post.predictive_samples, 400);
+        for b in &post.natural_frequencies {
+            assert!(b.sd_linear > 0.0);
+            assert!((b.sd_sampled / b.sd_linear - 1.0).abs() < 0.15, "{b:?}");
+        }
+        let b = &post.frf[10];
+        assert!((b.sd_sampled / b.sd_linear - 1.0).abs() < 0.15, "{b:?}");
+        // Noise-free data at the truth: the mode is the truth.
+        for m in &post.marginals {
+            assert!((m.mean - 1.0).abs() < 1e-9, "{m:?}");
+        }
+    }
+}
