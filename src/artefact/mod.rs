@@ -80,6 +80,10 @@ pub enum ArtefactKind {
     EigenvalueSensitivity,
     /// A Nastran bulk data deck (its files) with the record of what was changed.
     NastranDeck,
+    /// Test points with their displacement frames and trace lines.
+    TestGeometry,
+    /// Measured DOFs as weighted sums of model DOFs, with the pairing of each test point.
+    TestMap,
 }
 
 impl ArtefactKind {

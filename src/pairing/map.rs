@@ -35,7 +35,10 @@ impl PairMethod {
 }
 
 /// What to do with points beyond the tolerance.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(
+    Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize, schemars::JsonSchema,
+)]
+#[serde(rename_all = "snake_case")]
 pub enum OnBeyond {
     /// Refuse them, naming each.
     Error,
@@ -428,13 +431,16 @@ pub fn sensor_weights(
 }
 
 /// The map of the measured DOFs `test_dofs` (each `node:comp`, a direction of the node's
-/// displacement frame), in their order, repeated DOFs once.
+/// displacement frame), in their order, repeated DOFs once. `directions` gives the sensor
+/// direction (a unit vector in the point's displacement frame) of DOFs whose sensor is not
+/// along the frame's axis `comp`.
 pub fn map_dofs(
     model: &Model,
     geometry: &[TestPoint],
     pairings: &[PointPairing],
     transform: &RigidTransform,
     test_dofs: &[DofId],
+    directions: &BTreeMap<DofId, [f64; 3]>,
 ) -> Result<Vec<MapRow>, PairingError> {
     let points: BTreeMap<u64, (&TestPoint, &PointPairing)> = geometry
         .iter()
@@ -462,6 +468,7 @@ pub fn map_dofs(
         }
         let mut e = [0.0; 3];
         e[dof.comp.slot() % 3] = 1.0;
+        let e = directions.get(&dof).copied().unwrap_or(e);
         let terms = sensor_weights(model, g, p, transform, e, dof.comp.is_rotation())?;
         if terms.is_empty() {
             return Err(PairingError::BadTestDof {
@@ -543,7 +550,15 @@ mod tests {
         assert!((p[0].distance - 0.002).abs() < 1e-15);
         assert_eq!(p[1].paired_by, PairedBy::Node(14));
         // The map: uz of the point takes the shape weights on the grids' uz.
-        let rows = map_dofs(&m, &geo, &p, &RigidTransform::identity(), &[dof("1:uz")]).unwrap();
+        let rows = map_dofs(
+            &m,
+            &geo,
+            &p,
+            &RigidTransform::identity(),
+            &[dof("1:uz")],
+            &BTreeMap::new(),
+        )
+        .unwrap();
         assert_eq!(rows.len(), 4);
         assert!(rows.iter().all(|r| r.fe_dof.comp == Component::Uz));
         assert!((rows.iter().map(|r| r.weight).sum::<f64>() - 1.0).abs() < 1e-14);
@@ -572,7 +587,15 @@ mod tests {
             axes: [[c, 0.0, c], [0.0, 1.0, 0.0], [-c, 0.0, c]],
             ..geo[0].clone()
         };
-        let rows = map_dofs(&m, &[skew.clone()], &p, &t, &[dof("5:ux")]).unwrap();
+        let rows = map_dofs(
+            &m,
+            &[skew.clone()],
+            &p,
+            &t,
+            &[dof("5:ux")],
+            &BTreeMap::new(),
+        )
+        .unwrap();
         let got: Vec<(String, f64)> = rows
             .iter()
             .map(|r| (r.fe_dof.to_string(), r.weight))
@@ -621,7 +644,7 @@ mod tests {
         let (p, w) = pair_points(&m, &geo, &t, &warn).unwrap();
         assert_eq!(w.len(), 1);
         assert!(!p[1].within_tolerance && (p[1].distance - 0.02).abs() < 1e-15);
-        let e = map_dofs(&m, &geo, &p, &t, &[dof("9001:uz")])
+        let e = map_dofs(&m, &geo, &p, &t, &[dof("9001:uz")], &BTreeMap::new())
             .unwrap_err()
             .to_string();
         assert!(e.contains("test node 9001") && e.contains("1, 77"), "{e}");

@@ -16,8 +16,8 @@ pub mod shape;
 
 pub use align::{Correspondence, FitReport, RigidTransform, Rotation, fit_rigid};
 pub use map::{
-    BeyondTolerance, MapRow, PairMethod, PairParams, PairedBy, PointPairing, TestMap, map_dofs,
-    pair_points, sensor_weights,
+    BeyondTolerance, MapRow, OnBeyond, PairMethod, PairParams, PairedBy, PointPairing, TestMap,
+    map_dofs, pair_points, sensor_weights,
 };
 pub use shape::{Location, Shape, locate};
 

@@ -25,6 +25,8 @@
 //! | `leverage` | [`leverage`] |
 //! | `eigenvalue_sensitivity` | [`eigenvalue_sensitivity`] |
 //! | `nastran_deck` | [`nastran_deck`] |
+//! | `test_geometry` | [`test_geometry`] |
+//! | `test_map` | [`test_map`] |
 
 use super::{Artefact, ArtefactError, ArtefactKind, Column, Storage, Table};
 use crate::core::DofId;
@@ -45,6 +47,8 @@ pub mod partition;
 pub mod plot;
 pub mod reduced_component;
 pub mod reduced_model;
+pub mod test_geometry;
+pub mod test_map;
 #[cfg(test)]
 mod tests;
 pub mod update_result;
@@ -141,6 +145,8 @@ registry! {
     Leverage => leverage::LeverageKind,
     EigenvalueSensitivity => eigenvalue_sensitivity::EigenvalueSensitivityKind,
     NastranDeck => nastran_deck::NastranDeckKind,
+    TestGeometry => test_geometry::TestGeometryKind,
+    TestMap => test_map::TestMapKind,
 }
 
 // ---------------------------------------------------------------------------------------------
