@@ -118,9 +118,9 @@ fn lab_file_pairs_to_the_plate_with_fit_interpolation_and_directions() {
     let fit = map.fit.as_ref().unwrap();
     assert!(fit.rms < 1e-12, "{fit:?}");
     let want_r = [[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]];
-    for i in 0..3 {
-        for j in 0..3 {
-            assert!((map.transform.rotation[i][j] - want_r[i][j]).abs() < 1e-12);
+    for (got, want) in map.transform.rotation.iter().zip(&want_r) {
+        for (g, w) in got.iter().zip(want) {
+            assert!((g - w).abs() < 1e-12, "{:?}", map.transform.rotation);
         }
     }
     let t = map.transform.translation;
@@ -243,5 +243,144 @@ fn bad_pairings_name_the_test_node_and_what_would_be_valid() {
     assert!(
         e.contains("one line") && e.contains("test 101 → FE 1"),
         "{e}"
+    );
+}
+
+/// `frf.synthesise` with the measured FRFs as template predicts exactly the measured pairs on
+/// the measured lines in the measured quantity; through the map, each is the weighted sum of
+/// model FRFs (14.7), here checked against FRFs synthesised at the model DOFs directly.
+#[test]
+fn predictions_follow_the_test_through_the_map() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::copy(
+        root().join("tests/fixtures/uff/lab-plate.uff"),
+        dir.path().join("lab-plate.uff"),
+    )
+    .unwrap();
+    let yaml = format!(
+        "name: lab-predict\nstages:\n{PLATE}{LAB}  pair:\n    kind: test.pair\n    inputs: {{mesh: plate, geometry: lab.geometry, frf: lab.frf}}\n    with: {{tolerance_m: 0.002, alignment: {FIT}}}\n  matrices:\n    kind: assemble\n    inputs: {{mesh: plate}}\n  predicted:\n    kind: frf.synthesise\n    inputs: {{model: matrices, template: lab.frf, map: pair.map}}\n    with: {{method: direct, damping: {{structural: 0.01}}}}\n  direct:\n    kind: frf.synthesise\n    inputs: {{model: matrices}}\n    with: {{method: direct, damping: {{structural: 0.01}}, quantity: accelerance, responses: [\"1:uz\", \"14:uz\", \"3:ux\", \"3:uz\", \"4:ux\", \"4:uz\", \"9:ux\", \"9:uz\", \"8:ux\", \"8:uz\"], excitations: [\"20:uz\"], band_hz: [10, 80], step_hz: 10}}\n"
+    );
+    let file = dir.path().join("p.yaml");
+    std::fs::write(&file, yaml).unwrap();
+    let (_, report, cache) = common::run(&file, &dir.path().join("cache"), &[]);
+    let set = |stage: &str, port: &str| {
+        femu::artefact::kinds::frf_from_artefact(&output(
+            &report,
+            &cache,
+            stage,
+            port,
+            ArtefactKind::Frf,
+        ))
+        .unwrap()
+    };
+    let (measured, predicted, direct) = (
+        set("lab", "frf"),
+        set("predicted", "frf"),
+        set("direct", "frf"),
+    );
+    assert_eq!(predicted.pairs, measured.pairs);
+    assert_eq!(predicted.freqs_hz, measured.freqs_hz);
+    assert_eq!(predicted.quantity, measured.quantity);
+    assert_eq!(direct.freqs_hz, measured.freqs_hz);
+    let h = |r: &str| {
+        let pair = femu::frf::FrfPair {
+            response: r.parse().unwrap(),
+            excitation: "20:uz".parse().unwrap(),
+        };
+        direct.pair_index(&pair).unwrap()
+    };
+    let col = |r: &str| {
+        let pair = femu::frf::FrfPair {
+            response: r.parse().unwrap(),
+            excitation: "120:uz".parse().unwrap(),
+        };
+        predicted.pair_index(&pair).unwrap()
+    };
+    for l in 0..measured.freqs_hz.len() {
+        let near = |a: faer::c64, b: faer::c64| (a - b).norm() <= 1e-9 * (1.0 + b.norm());
+        assert!(near(
+            predicted.values[(l, col("101:uz"))],
+            direct.values[(l, h("1:uz"))]
+        ));
+        assert!(near(
+            predicted.values[(l, col("9002:uz"))],
+            -direct.values[(l, h("14:uz"))]
+        ));
+        let skew = ["3", "4", "9", "8"]
+            .iter()
+            .fold(faer::c64::new(0.0, 0.0), |acc, n| {
+                acc + direct.values[(l, h(&format!("{n}:ux")))] * 0.15
+                    + direct.values[(l, h(&format!("{n}:uz")))] * 0.2
+            });
+        assert!(
+            near(predicted.values[(l, col("9003:ux"))], skew),
+            "line {l}"
+        );
+    }
+    // Without the map the measured DOFs are taken as the model's own, and 9001 is not one.
+    let e = {
+        let yaml = std::fs::read_to_string(&file).unwrap();
+        std::fs::write(
+            &file,
+            format!("{yaml}  as_named:\n    kind: frf.synthesise\n    inputs: {{model: matrices, template: lab.frf}}\n    with: {{method: direct, damping: {{structural: 0.01}}}}\n"),
+        )
+        .unwrap();
+        let mut src = femu::pipeline::read_pipeline(&file).unwrap();
+        src.apply_overrides(&[]).unwrap();
+        let plan = femu::pipeline::plan(&src, &femu::stages::registry()).unwrap();
+        let opts = femu::pipeline::RunOptions {
+            progress: femu::pipeline::ProgressMode::Quiet,
+            ..Default::default()
+        };
+        match femu::pipeline::execute(&plan, &cache, &opts) {
+            Ok(_) => String::new(),
+            Err(e) => format!(
+                "{e} {:?}",
+                std::error::Error::source(&e).map(|s| s.to_string())
+            ),
+        }
+    };
+    assert!(e.contains("9001"), "{e}");
+}
+
+/// With `template` connected the lines and pairs are the template's: giving them as well is
+/// refused before anything runs, and a map needs a template.
+#[test]
+fn template_and_map_wiring_is_checked_before_running() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::copy(
+        root().join("tests/fixtures/uff/lab-plate.uff"),
+        dir.path().join("lab-plate.uff"),
+    )
+    .unwrap();
+    let check = |predicted: &str| -> String {
+        let yaml = format!(
+            "name: lab-check\nstages:\n{PLATE}{LAB}  pair:\n    kind: test.pair\n    inputs: {{mesh: plate, geometry: lab.geometry}}\n    with: {{tolerance_m: 0.002, alignment: {FIT}}}\n  matrices:\n    kind: assemble\n    inputs: {{mesh: plate}}\n{predicted}"
+        );
+        let file = dir.path().join("p.yaml");
+        std::fs::write(&file, yaml).unwrap();
+        let mut src = femu::pipeline::read_pipeline(&file).unwrap();
+        src.apply_overrides(&[]).unwrap();
+        match femu::pipeline::plan(&src, &femu::stages::registry()) {
+            Ok(_) => String::new(),
+            Err(e) => e.to_string(),
+        }
+    };
+    let e = check(
+        "  predicted:\n    kind: frf.synthesise\n    inputs: {model: matrices, template: lab.frf}\n    with: {method: direct, responses: [\"1:uz\"], band_hz: [0, 10], step_hz: 1}\n",
+    );
+    assert!(
+        e.contains("responses") && e.contains("band_hz") && e.contains("template"),
+        "{e}"
+    );
+    let e = check(
+        "  predicted:\n    kind: frf.synthesise\n    inputs: {model: matrices, map: pair.map}\n    with: {method: direct, responses: [\"1:uz\"], excitations: [\"1:uz\"], band_hz: [0, 10], step_hz: 1}\n",
+    );
+    assert!(e.contains("needs the measured FRFs on `template`"), "{e}");
+    assert!(
+        check(
+            "  predicted:\n    kind: frf.synthesise\n    inputs: {model: matrices, template: lab.frf, map: pair.map}\n    with: {method: direct}\n"
+        )
+        .is_empty()
     );
 }

@@ -589,7 +589,7 @@ mod tests {
         };
         let rows = map_dofs(
             &m,
-            &[skew.clone()],
+            std::slice::from_ref(&skew),
             &p,
             &t,
             &[dof("5:ux")],

@@ -117,8 +117,9 @@ fn solve(mut a: [[f64; 3]; 3], mut b: [f64; 3], n: usize) -> Option<[f64; 3]> {
         b.swap(c, p);
         for r in c + 1..n {
             let f = a[r][c] / a[c][c];
-            for k in c..n {
-                a[r][k] -= f * a[c][k];
+            let pivot = a[c];
+            for (x, pv) in a[r][c..n].iter_mut().zip(&pivot[c..n]) {
+                *x -= f * pv;
             }
             b[r] -= f * b[c];
         }
@@ -328,8 +329,8 @@ mod tests {
             0.25 * 0.5 * 1.5,
             0.25 * 1.5 * 1.5,
         ];
-        for k in 0..4 {
-            assert!((l.weights[k] - want[k]).abs() < 1e-14, "{:?}", l.weights);
+        for (w, want) in l.weights.iter().zip(want) {
+            assert!((w - want).abs() < 1e-14, "{:?}", l.weights);
         }
         assert!((l.natural[0] + 0.5).abs() < 1e-14 && (l.natural[1] - 0.5).abs() < 1e-14);
         assert!((l.distance - 0.003).abs() < 1e-15 && l.inside);
