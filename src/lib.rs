@@ -4,7 +4,7 @@
 //! coefficients, their sensitivities, the predictor-corrector and the response function method.
 //! The crate is a data-pipeline engine: YAML pipelines chain stages that read and write typed,
 //! cached artefacts. Numerical modules (`core`, `model`, `fe`, `sparse`, `eigen`, `frf`,
-//! `correlation`, `sensitivity`, `reduction`, `localisation`, `updating`, `report`) never import
+//! `pairing`, `correlation`, `sensitivity`, `reduction`, `localisation`, `updating`, `report`) never import
 //! the engine (`artefact`, `cache`, `pipeline`, `stages`, `cli`, `sweep`); `stages` is the glue. The layers,
 //! the error flow and the caching are described in `docs/architecture.md`, the mathematics in
 //! `docs/theory.md`.
@@ -26,6 +26,7 @@ pub mod fe;
 pub mod frf;
 pub mod localisation;
 pub mod model;
+pub mod pairing;
 pub mod pipeline;
 pub mod reduction;
 pub mod report;

@@ -83,6 +83,10 @@ pub enum ArtefactKind {
     /// The Laplace posterior of an update's parameters: marginals, correlation, directions,
     /// samples, predictive bands.
     Posterior,
+    /// Test points with their displacement frames and trace lines.
+    TestGeometry,
+    /// Measured DOFs as weighted sums of model DOFs, with the pairing of each test point.
+    TestMap,
 }
 
 impl ArtefactKind {

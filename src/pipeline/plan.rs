@@ -311,7 +311,14 @@ impl<'a> Planning<'a> {
         let out = match up_port {
             Some(p) => outs.iter().find(|o| o.name == p),
             None if outs.len() == 1 => outs.first(),
-            None => None,
+            // Several outputs: the one of the kind the input takes, when it is the only one.
+            None => {
+                let mut same = outs.iter().filter(|o| o.kind == pspec.kind);
+                match (same.next(), same.next()) {
+                    (Some(o), None) => Some(o),
+                    _ => None,
+                }
+            }
         };
         let Some(out) = out else {
             let list = outs

@@ -64,8 +64,8 @@ pub struct MeshPlot<'a> {
 }
 
 const INK: RGBColor = RGBColor(33, 33, 33);
-const EDGE: RGBColor = RGBColor(60, 60, 60);
-const NO_VALUE: RGBColor = RGBColor(215, 215, 215);
+pub(super) const EDGE: RGBColor = RGBColor(60, 60, 60);
+pub(super) const NO_VALUE: RGBColor = RGBColor(215, 215, 215);
 const MARK: RGBColor = RGBColor(220, 20, 30);
 /// Panel size in pixels.
 const PANEL: (u32, u32) = (560, 430);
@@ -73,7 +73,7 @@ const TITLE_H: u32 = 44;
 const BAR_W: u32 = 110;
 
 /// Viridis-like ramp: control points at 0, 1/8, …, 1.
-const SEQUENTIAL: [(u8, u8, u8); 9] = [
+pub(super) const SEQUENTIAL: [(u8, u8, u8); 9] = [
     (68, 1, 84),
     (71, 44, 122),
     (59, 81, 139),
@@ -93,7 +93,7 @@ const DIVERGING: [(u8, u8, u8); 5] = [
     (178, 24, 43),
 ];
 
-fn ramp(points: &[(u8, u8, u8)], t: f64) -> RGBColor {
+pub(super) fn ramp(points: &[(u8, u8, u8)], t: f64) -> RGBColor {
     let t = if t.is_finite() {
         t.clamp(0.0, 1.0)
     } else {
@@ -141,15 +141,15 @@ impl Scale {
 }
 
 /// One drawable: a face (3 or 4 corners) or a beam (2 ends), projected.
-struct Item {
-    id: u64,
-    depth: f64,
-    points: Vec<(f64, f64)>,
-    face: bool,
+pub(super) struct Item {
+    pub(super) id: u64,
+    pub(super) depth: f64,
+    pub(super) points: Vec<(f64, f64)>,
+    pub(super) face: bool,
 }
 
 /// Orthographic projection: screen right, screen up, toward the camera.
-fn axes(view: View) -> ([f64; 3], [f64; 3], [f64; 3]) {
+pub(super) fn axes(view: View) -> ([f64; 3], [f64; 3], [f64; 3]) {
     let (a, e) = (
         view.azimuth_deg.to_radians(),
         view.elevation_deg.to_radians(),
@@ -160,7 +160,7 @@ fn axes(view: View) -> ([f64; 3], [f64; 3], [f64; 3]) {
     (right, up, toward)
 }
 
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+pub(super) fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
@@ -174,7 +174,7 @@ fn outline(corners: &[u64], midside: &[Option<u64>]) -> Vec<u64> {
 }
 
 /// Projected faces and beams, far to near.
-fn items(model: &Model, view: View) -> Vec<Item> {
+pub(super) fn items(model: &Model, view: View) -> Vec<Item> {
     let (right, up, toward) = axes(view);
     let mut out = Vec::new();
     for (&id, e) in &model.elements {

@@ -9,3 +9,4 @@ pub mod figure;
 pub mod frf_plot;
 pub mod line_plot;
 pub mod mesh_plot;
+pub mod pairing_plot;

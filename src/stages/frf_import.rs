@@ -4,14 +4,21 @@
 //! is chosen by `format:`, else by the extension (`.csv`, `.parquet`, anything else UFF). The file is
 //! read when the pipeline is checked (through [`crate::core::input`]: regular files only,
 //! bounded size), so a malformed record or a NaN or infinite measured value is reported then;
-//! the cache key holds the digest of the FRFs, not the path.
+//! the cache key holds the digests of the FRFs and of the test geometry, not the path.
+//!
+//! A Universal File's nodes (datasets 15/2411, in global SI coordinates) leave as the second
+//! output, `geometry`, with each node's displacement frame (its displacement coordinate system's
+//! directions at the node; global when 0 or not defined) and the trace lines (dataset 82), for
+//! `test.pair`. Tables and files without nodes give an empty geometry.
 
 use crate::artefact::ArtefactKind;
 use crate::artefact::Column;
 use crate::artefact::kinds::frf_to_artefact;
+use crate::artefact::kinds::test_geometry::test_geometry_to_artefact;
 use crate::frf::io::table::{LongTable, parse_csv, table_to_frf_set};
-use crate::frf::io::uff::{UffError, read_uff, to_frf_set};
+use crate::frf::io::uff::{UffError, UffFile, read_uff, to_frf_set};
 use crate::frf::{FrfSet, Quantity};
+use crate::pairing::{TestGeometry, TestPoint};
 use crate::pipeline::{
     CheckContext, ParamIssue, PortSpec, StageError, StageInputs, StageOutputs, TypedStage,
 };
@@ -54,6 +61,39 @@ pub struct Params {
     /// Digest of the imported FRFs, filled in when the pipeline is checked (not for users).
     #[serde(default)]
     pub content_digest: Option<String>,
+    /// Digest of the imported test geometry, filled in when the pipeline is checked (not for
+    /// users).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub geometry_digest: Option<String>,
+}
+
+/// The test geometry of a Universal File: its nodes with their displacement frames, and its
+/// trace lines.
+pub fn geometry_of(file: &UffFile) -> TestGeometry {
+    let mut g = TestGeometry::default();
+    for (k, (node, xyz)) in file.nodes.iter().enumerate() {
+        let [def, disp, _] = file.node_systems.get(k).copied().unwrap_or([0; 3]);
+        let axes = file
+            .coordinate_systems
+            .iter()
+            .find(|c| disp != 0 && c.id == disp)
+            .map(|c| c.directions_at(*xyz));
+        g.points.push(match axes {
+            Some(axes) => TestPoint {
+                node: *node,
+                xyz: *xyz,
+                axes,
+            },
+            None => TestPoint::global(*node, *xyz),
+        });
+        g.systems.push([def, disp]);
+    }
+    g.trace_lines = file
+        .trace_lines
+        .iter()
+        .map(|t| (t.id, t.nodes.clone()))
+        .collect();
+    g
 }
 
 /// The reader for a path: `format`, else the extension (`.csv`, `.parquet`; anything else UFF).
@@ -98,7 +138,10 @@ fn parquet_table(full: &Path) -> Result<LongTable, String> {
     })
 }
 
-fn import(base: &Path, p: &Params) -> Result<(FrfSet, Vec<String>), String> {
+/// What a file gives: the FRFs, the test geometry (empty for tables) and the notes.
+type Imported = (FrfSet, TestGeometry, Vec<String>);
+
+fn import(base: &Path, p: &Params) -> Result<Imported, String> {
     let full = base.join(&p.path);
     let format = format_of(p);
     if format == FrfFormat::Uff && (p.quantity.is_some() || p.unit.is_some()) {
@@ -126,7 +169,7 @@ fn import(base: &Path, p: &Params) -> Result<(FrfSet, Vec<String>), String> {
                     h.written
                 ));
             }
-            return Ok((set, notes));
+            return Ok((set, geometry_of(&file), notes));
         }
         FrfFormat::Csv => {
             let bytes = crate::core::input::read_input(&full)
@@ -139,31 +182,36 @@ fn import(base: &Path, p: &Params) -> Result<(FrfSet, Vec<String>), String> {
     };
     let (set, more) = table_to_frf_set(&table, p.quantity.map(|q| q.name()), p.unit.as_deref())?;
     notes.extend(more);
-    Ok((set, notes))
+    Ok((set, TestGeometry::default(), notes))
 }
 
 impl TypedStage for FrfImport {
     type Params = Params;
     const KIND: &'static str = "frf.import";
     const SUMMARY: &'static str = "Measured FRFs from a Universal File (dataset 58/58b) or a CSV/Parquet long table, converted to SI";
-    const IMPL_VERSION: u32 = 1;
+    // 2: the test geometry is a second output.
+    const IMPL_VERSION: u32 = 2;
 
     fn inputs() -> Vec<PortSpec> {
         vec![]
     }
 
     fn outputs() -> Vec<PortSpec> {
-        vec![PortSpec::required(
-            "frf",
-            ArtefactKind::Frf,
-            "the measured FRFs",
-        )]
+        vec![
+            PortSpec::required("frf", ArtefactKind::Frf, "the measured FRFs"),
+            PortSpec::required(
+                "geometry",
+                ArtefactKind::TestGeometry,
+                "the test points of datasets 15/2411 with their displacement frames (empty for tables and files without nodes)",
+            ),
+        ]
     }
 
     fn validate(p: &mut Params, ctx: &CheckContext) -> Vec<ParamIssue> {
         match import(&ctx.base_dir, p) {
-            Ok((set, _)) => {
+            Ok((set, geometry, _)) => {
                 p.content_digest = Some(frf_to_artefact(&set).digest());
+                p.geometry_digest = Some(test_geometry_to_artefact(&geometry).digest());
                 Vec::new()
             }
             Err(e) => vec![ParamIssue::at("path", e)],
@@ -176,9 +224,13 @@ impl TypedStage for FrfImport {
 
     fn run(p: &Params, inputs: &StageInputs) -> Result<StageOutputs, StageError> {
         // Normally found when checking; here only when the file changed since.
-        let (set, notes) = import(&inputs.base_dir, p).map_err(StageError::input_at("path"))?;
+        let (set, geometry, notes) =
+            import(&inputs.base_dir, p).map_err(StageError::input_at("path"))?;
         let a = frf_to_artefact(&set);
-        if p.content_digest.as_deref() != Some(a.digest().as_str()) {
+        let g = test_geometry_to_artefact(&geometry);
+        if p.content_digest.as_deref() != Some(a.digest().as_str())
+            || p.geometry_digest.as_deref() != Some(g.digest().as_str())
+        {
             return Err(StageError::input(
                 "path",
                 format!(
@@ -188,6 +240,9 @@ impl TypedStage for FrfImport {
             ));
         }
         let a = a.with_meta("import_notes", notes.into());
-        Ok(StageOutputs::from([("frf".to_string(), a)]))
+        Ok(StageOutputs::from([
+            ("frf".to_string(), a),
+            ("geometry".to_string(), g),
+        ]))
     }
 }

@@ -1,20 +1,31 @@
 //! `frf.synthesise`: receptance, mobility or accelerance at chosen DOFs over a band, by modal
 //! summation (structural `η_r` or viscous `ζ_r`, uniform or per mode, optionally truncated) or by
 //! direct solution of `Z(ω)` (docs/theory.md §1).
+//!
+//! With a measured FRF artefact on `template`, the prediction follows the test: its lines, its
+//! response/excitation pairs and its quantity, nothing retyped. With a `test.pair` map on `map`
+//! too, each measured DOF is the map's weighted sum of model DOFs, and
+//! `H_t(i, j) = Σ_a Σ_b w_ia w_jb H(a, b)` (docs/theory.md §14, (14.7)).
 
 use super::params::{
     Band, Count, Damping, Deprecation, Modes, NonNegative, Positive, migrate_mode_fields,
     warn_deprecated,
 };
 use crate::artefact::ArtefactKind;
-use crate::artefact::kinds::{frf_to_artefact, matrices_from_artefact, modes_from_artefact};
+use crate::artefact::kinds::test_map::test_map_from_artefact;
+use crate::artefact::kinds::{
+    frf_from_artefact, frf_to_artefact, matrices_from_artefact, modes_from_artefact,
+};
 use crate::core::DofId;
 use crate::frf::{
-    FrfSet, Quantity, direct_receptance, frequency_line_count, frequency_lines, modal_receptance,
+    FrfPair, FrfSet, Quantity, direct_receptance, frequency_line_count, frequency_lines,
+    modal_receptance,
 };
 use crate::pipeline::{
     CheckContext, ParamIssue, PortSpec, StageError, StageInputs, StageOutputs, TypedStage,
 };
+use faer::{Mat, c64};
+use std::collections::{BTreeMap, BTreeSet};
 
 /// The stage.
 pub struct FrfSynthesise;
@@ -38,7 +49,8 @@ pub struct Params {
     /// `modal` (needs `modes`) or `direct` (needs `model`); default: modal when `modes` is connected.
     #[serde(default)]
     pub method: Option<Method>,
-    /// receptance (m/N), mobility (m/s/N) or accelerance (m/s²/N).
+    /// receptance (m/N), mobility (m/s/N) or accelerance (m/s²/N); with `template`, the
+    /// template's.
     #[serde(default = "receptance")]
     pub quantity: Quantity,
     /// Response DOFs.
@@ -48,7 +60,8 @@ pub struct Params {
     /// `[ux, uy, uz, rx, ry, rz]` for complete data, `[ux]` for x-direction DOFs only).
     #[serde(default)]
     pub response_components: Vec<crate::core::Component>,
-    /// Excitation DOFs; every response/excitation pair is synthesised.
+    /// Excitation DOFs; every response/excitation pair is synthesised (not with `template`).
+    #[serde(default)]
     pub excitations: Vec<DofId>,
     /// Band `[start, stop]` in Hz, with `step_hz`.
     #[serde(default)]
@@ -109,6 +122,70 @@ impl Params {
     }
 }
 
+/// The checks of the responses, excitations and lines (when no template gives them).
+/// `earlier`: whether other checks found issues already (the line count is then not checked).
+fn pair_and_line_issues(p: &Params, earlier: bool) -> Vec<ParamIssue> {
+    let mut issues = Vec::new();
+    if p.responses.is_empty() && p.response_components.is_empty() {
+        issues.push(ParamIssue::at(
+            "responses",
+            "give at least one response DOF, e.g. [\"1:ux\"], or `response_components`",
+        ));
+    }
+    if p.excitations.is_empty() {
+        issues.push(ParamIssue::at(
+            "excitations",
+            "give at least one excitation DOF, e.g. [\"1:ux\"]",
+        ));
+    }
+    match (&p.lines_hz, p.band_hz, p.step_hz) {
+        (Some(_), None, None) | (None, Some(_), Some(_)) => {}
+        _ => issues.push(ParamIssue::at(
+            "band_hz",
+            "give `band_hz: [start, stop]` with `step_hz`, or `lines_hz: [...]`",
+        )),
+    }
+    if let Some(l) = &p.lines_hz {
+        if l.is_empty() || l.windows(2).any(|w| w[1] <= w[0]) {
+            issues.push(ParamIssue::at(
+                "lines_hz",
+                "lines must be non-negative and strictly increasing",
+            ));
+        }
+    }
+    if let (true, Some(Band { lo: a, hi: b }), Some(step)) = (
+        !earlier && issues.is_empty(),
+        p.band_hz,
+        p.step_hz.map(Positive::get),
+    ) {
+        // Counted before anything is allocated: a step of 1e-3 Hz over 1 MHz is 1e9 lines.
+        match frequency_line_count(a, b, step) {
+            None => issues.push(ParamIssue::at(
+                "step_hz",
+                format!(
+                    "{step} Hz is too small to separate lines near {b} Hz in double precision; widen the step"
+                ),
+            )),
+            Some(n) if n > MAX_LINES as f64 => issues.push(ParamIssue::at(
+                "step_hz",
+                format!(
+                    "[{a}, {b}] Hz at {step} Hz is {n:.3e} lines, above the limit of {MAX_LINES}; widen the step or narrow the band"
+                ),
+            )),
+            Some(_) => {}
+        }
+    }
+    if let Some(l) = &p.lines_hz {
+        if l.len() > MAX_LINES {
+            issues.push(ParamIssue::at(
+                "lines_hz",
+                format!("{} lines exceed the limit of {MAX_LINES}", l.len()),
+            ));
+        }
+    }
+    issues
+}
+
 impl TypedStage for FrfSynthesise {
     type Params = Params;
     const KIND: &'static str = "frf.synthesise";
@@ -124,6 +201,16 @@ impl TypedStage for FrfSynthesise {
                 "system matrices, for `method: direct`",
             ),
             PortSpec::optional("modes", ArtefactKind::Modes, "modes, for `method: modal`"),
+            PortSpec::optional(
+                "template",
+                ArtefactKind::Frf,
+                "measured FRFs whose lines, pairs and quantity the prediction takes",
+            ),
+            PortSpec::optional(
+                "map",
+                ArtefactKind::TestMap,
+                "with `template`: measured DOFs as weighted model DOFs (test.pair)",
+            ),
         ]
     }
 
@@ -156,60 +243,30 @@ impl TypedStage for FrfSynthesise {
             )),
             _ => {}
         }
-        if p.responses.is_empty() && p.response_components.is_empty() {
-            issues.push(ParamIssue::at(
-                "responses",
-                "give at least one response DOF, e.g. [\"1:ux\"], or `response_components`",
-            ));
+        if ctx.is_connected("map") && !ctx.is_connected("template") {
+            issues.push(ParamIssue {
+                path: vec![],
+                message: "the `map` input needs the measured FRFs on `template` (their pairs are what the map's DOFs combine into)".into(),
+            });
         }
-        if p.excitations.is_empty() {
-            issues.push(ParamIssue::at(
-                "excitations",
-                "give at least one excitation DOF, e.g. [\"1:ux\"]",
-            ));
-        }
-        match (&p.lines_hz, p.band_hz, p.step_hz) {
-            (Some(_), None, None) | (None, Some(_), Some(_)) => {}
-            _ => issues.push(ParamIssue::at(
-                "band_hz",
-                "give `band_hz: [start, stop]` with `step_hz`, or `lines_hz: [...]`",
-            )),
-        }
-        if let Some(l) = &p.lines_hz {
-            if l.is_empty() || l.windows(2).any(|w| w[1] <= w[0]) {
+        if ctx.is_connected("template") {
+            let given = [
+                ("responses", !p.responses.is_empty()),
+                ("response_components", !p.response_components.is_empty()),
+                ("excitations", !p.excitations.is_empty()),
+                ("band_hz", p.band_hz.is_some()),
+                ("step_hz", p.step_hz.is_some()),
+                ("lines_hz", p.lines_hz.is_some()),
+            ];
+            for (field, _) in given.iter().filter(|g| g.1) {
                 issues.push(ParamIssue::at(
-                    "lines_hz",
-                    "lines must be non-negative and strictly increasing",
+                    field,
+                    "with `template` connected the lines, pairs and quantity are the measured FRFs'; remove it",
                 ));
             }
-        }
-        if let (true, Some(Band { lo: a, hi: b }), Some(step)) =
-            (issues.is_empty(), p.band_hz, p.step_hz.map(Positive::get))
-        {
-            // Counted before anything is allocated: a step of 1e-3 Hz over 1 MHz is 1e9 lines.
-            match frequency_line_count(a, b, step) {
-                None => issues.push(ParamIssue::at(
-                    "step_hz",
-                    format!(
-                        "{step} Hz is too small to separate lines near {b} Hz in double precision; widen the step"
-                    ),
-                )),
-                Some(n) if n > MAX_LINES as f64 => issues.push(ParamIssue::at(
-                    "step_hz",
-                    format!(
-                        "[{a}, {b}] Hz at {step} Hz is {n:.3e} lines, above the limit of {MAX_LINES}; widen the step or narrow the band"
-                    ),
-                )),
-                Some(_) => {}
-            }
-        }
-        if let Some(l) = &p.lines_hz {
-            if l.len() > MAX_LINES {
-                issues.push(ParamIssue::at(
-                    "lines_hz",
-                    format!("{} lines exceed the limit of {MAX_LINES}", l.len()),
-                ));
-            }
+        } else {
+            let earlier = !issues.is_empty();
+            issues.extend(pair_and_line_issues(p, earlier));
         }
         let values = match &p.damping {
             Damping::Structural(v) | Damping::Viscous(v) => v.values(),
@@ -241,6 +298,23 @@ impl TypedStage for FrfSynthesise {
     }
 
     fn run(p: &Params, inputs: &StageInputs) -> Result<StageOutputs, StageError> {
+        if let Some(t) = inputs.get("template") {
+            let template = frf_from_artefact(t)?;
+            let set = match inputs.get("map") {
+                Some(m) => through_map(p, inputs, &template, &test_map_from_artefact(m)?)?,
+                None => synthesise(
+                    p,
+                    inputs,
+                    &template.pairs,
+                    &template.freqs_hz,
+                    template.quantity,
+                )?,
+            };
+            return Ok(StageOutputs::from([(
+                "frf".to_string(),
+                frf_to_artefact(&set),
+            )]));
+        }
         let lines = p.lines();
         // Responses: the listed DOFs, then every model DOF of the listed components.
         let with_components = |dofs: &[DofId]| {
@@ -296,6 +370,168 @@ impl TypedStage for FrfSynthesise {
             frf_to_artefact(&set),
         )]))
     }
+}
+
+/// The FRFs of `pairs` at `lines` by the method of `p` (the template path: no response
+/// components).
+fn synthesise(
+    p: &Params,
+    inputs: &StageInputs,
+    pairs: &[FrfPair],
+    lines: &[f64],
+    quantity: Quantity,
+) -> Result<FrfSet, StageError> {
+    match p.method {
+        Some(Method::Modal) => {
+            if let Some(model) = inputs.get("model") {
+                if matrices_from_artefact(model)?.c.is_some() {
+                    return Err(StageError::input(
+                        "",
+                        "the model has element dampers (its matrices hold a viscous C from CDAMP, CVISC or CBUSH B), which are not proportional and are not in the modal damping; use `method: direct` to include them, or remove the dampers",
+                    ));
+                }
+            }
+            let m = modes_from_artefact(inputs.require("modes")?)?;
+            let mut modes = m.modes;
+            if modes.is_empty() {
+                return Err(StageError::input(
+                    "",
+                    "the `modes` input holds no mode, so every modal FRF would be zero; compute modes upstream (raise `max_freq_hz` or give `count`)",
+                ));
+            }
+            if let Some(c) = p.kept_modes(&modes.frequencies_hz())? {
+                modes.eigenvalues.truncate(c);
+                modes.residuals.truncate(c);
+                modes.shapes = modes.shapes.subcols(0, c).to_owned();
+            }
+            let damping = p
+                .damping
+                .modal_for(modes.len())
+                .map_err(StageError::input_at("damping"))?;
+            modal_receptance(&modes, &m.dofs, &damping, pairs, lines, quantity)
+                .map_err(StageError::from_numerics(""))
+        }
+        _ => {
+            let sys = matrices_from_artefact(inputs.require("model")?)?;
+            direct_receptance(&sys, &p.damping.direct(), pairs, lines, quantity)
+                .map_err(StageError::from_numerics(""))
+        }
+    }
+}
+
+/// The model's DOFs (free DOFs of the matrices, or the DOFs of the modes).
+fn model_dofs(inputs: &StageInputs, method: Option<Method>) -> Result<Vec<DofId>, StageError> {
+    Ok(match method {
+        Some(Method::Modal) => modes_from_artefact(inputs.require("modes")?)?.dofs,
+        _ => matrices_from_artefact(inputs.require("model")?)?.dofs,
+    })
+}
+
+/// The template's FRFs predicted through the map (14.7): the model FRFs between every pair of
+/// model DOFs the map names for a measured pair, combined with the weights. Model DOFs the map
+/// names that the model does not have (constrained ones) contribute zero; a measured DOF with
+/// none of its model DOFs left is refused.
+fn through_map(
+    p: &Params,
+    inputs: &StageInputs,
+    template: &FrfSet,
+    map: &crate::pairing::TestMap,
+) -> Result<FrfSet, StageError> {
+    let free: BTreeSet<DofId> = model_dofs(inputs, p.method)?.into_iter().collect();
+    let combos: BTreeMap<DofId, Vec<(DofId, f64)>> = map.combinations().into_iter().collect();
+    let mut dropped: BTreeSet<DofId> = BTreeSet::new();
+    let mut terms_of = |d: DofId| -> Result<Vec<(DofId, f64)>, StageError> {
+        let Some(all) = combos.get(&d) else {
+            let known: Vec<String> = combos.keys().take(12).map(|k| k.to_string()).collect();
+            return Err(StageError::input(
+                "",
+                format!(
+                    "measured DOF {d} is not in the map; the map holds {}{} (pair the FRFs it was made from)",
+                    known.join(", "),
+                    if combos.len() > 12 { ", …" } else { "" }
+                ),
+            ));
+        };
+        let kept: Vec<(DofId, f64)> = all
+            .iter()
+            .filter(|(a, _)| free.contains(a))
+            .copied()
+            .collect();
+        dropped.extend(
+            all.iter()
+                .filter(|(a, _)| !free.contains(a))
+                .map(|(a, _)| *a),
+        );
+        if kept.is_empty() {
+            return Err(StageError::input(
+                "",
+                format!(
+                    "measured DOF {d} maps only to {}, none of them a free DOF of the model (constrained?)",
+                    all.iter()
+                        .map(|(a, _)| a.to_string())
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ),
+            ));
+        }
+        Ok(kept)
+    };
+    let mut combos_of_pairs = Vec::with_capacity(template.pairs.len());
+    let mut needed: Vec<FrfPair> = Vec::new();
+    let mut index: BTreeMap<FrfPair, usize> = BTreeMap::new();
+    for pair in &template.pairs {
+        let (ri, ej) = (terms_of(pair.response)?, terms_of(pair.excitation)?);
+        let mut terms = Vec::with_capacity(ri.len() * ej.len());
+        for &(a, wa) in &ri {
+            for &(b, wb) in &ej {
+                let fe = FrfPair {
+                    response: a,
+                    excitation: b,
+                };
+                let k = *index.entry(fe).or_insert_with(|| {
+                    needed.push(fe);
+                    needed.len() - 1
+                });
+                terms.push((k, wa * wb));
+            }
+        }
+        combos_of_pairs.push(terms);
+    }
+    if !dropped.is_empty() {
+        tracing::warn!(
+            "frf.synthesise: the map names model DOFs the model does not have (constrained?), taken as zero: {}",
+            dropped
+                .iter()
+                .map(|d| d.to_string())
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+    }
+    let fe = synthesise(p, inputs, &needed, &template.freqs_hz, template.quantity)?;
+    let column: Vec<usize> = needed
+        .iter()
+        .map(|q| {
+            fe.pair_index(q).ok_or_else(|| {
+                StageError::Failed(format!(
+                    "internal error: the model FRF {q:?} was not synthesised"
+                ))
+            })
+        })
+        .collect::<Result<_, _>>()?;
+    let lines = template.freqs_hz.len();
+    let values = Mat::from_fn(lines, template.pairs.len(), |l, j| {
+        combos_of_pairs[j]
+            .iter()
+            .fold(c64::new(0.0, 0.0), |acc, &(k, w)| {
+                acc + fe.values[(l, column[k])] * w
+            })
+    });
+    Ok(FrfSet {
+        quantity: template.quantity,
+        freqs_hz: template.freqs_hz.clone(),
+        pairs: template.pairs.clone(),
+        values,
+    })
 }
 
 #[cfg(test)]

@@ -23,6 +23,7 @@ pub mod reduce_common;
 pub mod reduce_craig_bampton;
 pub mod reduce_force_coupling;
 pub mod reduce_free_interface;
+pub mod test_pair;
 pub mod update;
 
 use crate::pipeline::{Registry, Stage, Typed};
@@ -48,6 +49,7 @@ static REDUCE_FI: Typed<reduce_free_interface::ReduceFreeInterface> = Typed::new
 static REDUCE_FC: Typed<reduce_force_coupling::ReduceForceCoupling> = Typed::new();
 static LOCALISE_LEVERAGE: Typed<localise_leverage::LocaliseLeverage> = Typed::new();
 static LOCALISE_EIGEN: Typed<localise_eigensensitivity::LocaliseEigensensitivity> = Typed::new();
+static TEST_PAIR: Typed<test_pair::TestPair> = Typed::new();
 
 /// Every stage kind femu knows.
 pub fn registry() -> Registry {
@@ -61,6 +63,7 @@ pub fn registry() -> Registry {
         &MODES,
         &FRF_SYNTHESISE,
         &FRF_IMPORT,
+        &TEST_PAIR,
         &NOISE_ADD,
         &CORRELATE_FRF,
         &CORRELATE_MODES,

@@ -26,6 +26,8 @@
 //! | `eigenvalue_sensitivity` | [`eigenvalue_sensitivity`] |
 //! | `nastran_deck` | [`nastran_deck`] |
 //! | `posterior` | [`posterior`] |
+//! | `test_geometry` | [`test_geometry`] |
+//! | `test_map` | [`test_map`] |
 
 use super::{Artefact, ArtefactError, ArtefactKind, Column, Storage, Table};
 use crate::core::DofId;
@@ -47,6 +49,8 @@ pub mod plot;
 pub mod posterior;
 pub mod reduced_component;
 pub mod reduced_model;
+pub mod test_geometry;
+pub mod test_map;
 #[cfg(test)]
 mod tests;
 pub mod update_result;
@@ -144,6 +148,8 @@ registry! {
     EigenvalueSensitivity => eigenvalue_sensitivity::EigenvalueSensitivityKind,
     NastranDeck => nastran_deck::NastranDeckKind,
     Posterior => posterior::PosteriorKind,
+    TestGeometry => test_geometry::TestGeometryKind,
+    TestMap => test_map::TestMapKind,
 }
 
 // ---------------------------------------------------------------------------------------------

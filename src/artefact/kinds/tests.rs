@@ -472,6 +472,113 @@ impl Example for eigenvalue_sensitivity::EigenvalueSensitivityKind {
     }
 }
 
+impl Example for test_geometry::TestGeometryKind {
+    fn examples() -> Vec<crate::pairing::TestGeometry> {
+        use crate::pairing::{TestGeometry, TestPoint};
+        let c = std::f64::consts::FRAC_1_SQRT_2;
+        let points = vec![
+            TestPoint::global(1, [0.0, 0.0, 0.0]),
+            TestPoint {
+                node: 12,
+                xyz: [0.1, 0.025, -0.003],
+                axes: [[c, c, 0.0], [-c, c, 0.0], [0.0, 0.0, 1.0]],
+            },
+        ];
+        vec![
+            TestGeometry {
+                points: points.clone(),
+                systems: vec![[0, 0], [3, 7]],
+                trace_lines: vec![(1, vec![1, 12, 0, 12]), (4, vec![12, 1])],
+            },
+            TestGeometry {
+                points,
+                systems: vec![[0, 0], [0, 0]],
+                trace_lines: vec![],
+            },
+            TestGeometry::default(),
+        ]
+    }
+}
+
+impl Example for test_map::TestMapKind {
+    fn examples() -> Vec<crate::pairing::TestMap> {
+        use crate::pairing::*;
+        let t = RigidTransform::new(
+            &Rotation::AxisAngle {
+                axis: [0.0, 0.0, 1.0],
+                angle_deg: 30.0,
+            },
+            [0.1, 0.0, -0.2],
+        )
+        .unwrap();
+        let points = vec![
+            PointPairing {
+                test_node: 3,
+                xyz: [0.1, 0.2, 0.0],
+                paired_by: PairedBy::Node(14),
+                nodes: vec![(14, 1.0)],
+                distance: 1e-4,
+                nearest_node: (14, 1e-4),
+                within_tolerance: true,
+            },
+            PointPairing {
+                test_node: 9001,
+                xyz: [0.175, 0.125, 0.002],
+                paired_by: PairedBy::Element {
+                    id: 6,
+                    shape: Shape::Quad4,
+                    natural: [0.5, -0.5, 0.0],
+                },
+                nodes: vec![(7, 0.1875), (8, 0.5625), (13, 0.1875), (12, 0.0625)],
+                distance: 0.002,
+                nearest_node: (8, 0.0354),
+                within_tolerance: false,
+            },
+        ];
+        let rows = vec![
+            MapRow {
+                test_dof: dof("3:uz"),
+                fe_dof: dof("14:uz"),
+                weight: -1.0,
+            },
+            MapRow {
+                test_dof: dof("9001:ux"),
+                fe_dof: dof("7:ux"),
+                weight: 0.1875 * 0.6,
+            },
+            MapRow {
+                test_dof: dof("9001:ux"),
+                fe_dof: dof("7:uy"),
+                weight: 0.1875 * 0.8,
+            },
+        ];
+        vec![
+            TestMap {
+                transform: t,
+                fit: Some(FitReport {
+                    transform: t,
+                    residuals: vec![(3, 14, 1e-4), (5, 1, 2e-4), (7, 2, 0.0)],
+                    rms: 1.29e-4,
+                }),
+                method: "auto".into(),
+                tolerance: 0.005,
+                points: points.clone(),
+                rows: rows.clone(),
+                warnings: vec!["test node 9001 beyond".into()],
+            },
+            TestMap {
+                transform: RigidTransform::identity(),
+                fit: None,
+                method: "nearest".into(),
+                tolerance: 0.01,
+                points,
+                rows,
+                warnings: vec![],
+            },
+        ]
+    }
+}
+
 impl Example for nastran_deck::NastranDeckKind {
     fn examples() -> Vec<nastran_deck::NastranDeck> {
         vec![nastran_deck::NastranDeck {

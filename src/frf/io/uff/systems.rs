@@ -432,3 +432,87 @@ pub(super) fn nodes_to_global(ctx: &mut Ctx<'_>, out: &mut UffFile) -> Result<()
     }
     Ok(())
 }
+
+impl UffCoordSystem {
+    /// The unit directions (rows, in global components) that DOFs 1–3 of a node at global
+    /// position `p` measure along when this is its displacement system: the system's axes for a
+    /// Cartesian one; radial, tangential, axial at `p` for a cylindrical one; `e_r`, `e_θ`,
+    /// `e_φ` at `p` for a spherical one (at the origin, or on the axis, the directions of
+    /// `θ = 0`, `φ = 0` where undefined).
+    pub fn directions_at(&self, p: [f64; 3]) -> [[f64; 3]; 3] {
+        let q = sub(p, self.origin);
+        let c: Vec<f64> = self
+            .axes
+            .iter()
+            .map(|e| e[0] * q[0] + e[1] * q[1] + e[2] * q[2])
+            .collect();
+        let local: [[f64; 3]; 3] = match self.kind {
+            CoordKind::Cartesian => return self.axes,
+            CoordKind::Cylindrical => {
+                let t = c[1].atan2(c[0]);
+                let (s, k) = t.sin_cos();
+                [[k, s, 0.0], [-s, k, 0.0], [0.0, 0.0, 1.0]]
+            }
+            CoordKind::Spherical => {
+                let t = (c[0] * c[0] + c[1] * c[1]).sqrt().atan2(c[2]);
+                let f = c[1].atan2(c[0]);
+                let ((st, ct), (sf, cf)) = (t.sin_cos(), f.sin_cos());
+                [
+                    [st * cf, st * sf, ct],
+                    [ct * cf, ct * sf, -st],
+                    [-sf, cf, 0.0],
+                ]
+            }
+        };
+        local.map(|l| {
+            let mut g = [0.0; 3];
+            for (i, e) in self.axes.iter().enumerate() {
+                for k in 0..3 {
+                    g[k] += l[i] * e[k];
+                }
+            }
+            g
+        })
+    }
+}
+
+#[cfg(test)]
+mod direction_tests {
+    use super::*;
+
+    /// A cylindrical system about global z shifted to (1, 0, 0): at (1, 2, 5) the radial
+    /// direction is +y, the tangential −x.
+    #[test]
+    fn directions_follow_the_point() {
+        let sys = UffCoordSystem {
+            id: 3,
+            kind: CoordKind::Cylindrical,
+            name: String::new(),
+            axes: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+            origin: [1.0, 0.0, 0.0],
+            dataset: 2420,
+            line: 1,
+        };
+        let d = sys.directions_at([1.0, 2.0, 5.0]);
+        let near = |a: [f64; 3], b: [f64; 3]| (0..3).all(|k| (a[k] - b[k]).abs() < 1e-15);
+        assert!(
+            near(d[0], [0.0, 1.0, 0.0]) && near(d[1], [-1.0, 0.0, 0.0]),
+            "{d:?}"
+        );
+        let sph = UffCoordSystem {
+            kind: CoordKind::Spherical,
+            origin: [0.0; 3],
+            ..sys.clone()
+        };
+        let d = sph.directions_at([0.0, 0.0, 2.0]);
+        assert!(
+            near(d[0], [0.0, 0.0, 1.0]) && near(d[1], [1.0, 0.0, 0.0]),
+            "{d:?}"
+        );
+        let cart = UffCoordSystem {
+            kind: CoordKind::Cartesian,
+            ..sys
+        };
+        assert_eq!(cart.directions_at([9.0, 9.0, 9.0]), cart.axes);
+    }
+}
