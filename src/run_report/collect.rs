@@ -170,6 +170,19 @@ pub struct FigureView {
     pub images: Vec<(String, Vec<u8>)>,
 }
 
+/// The first rows of one table, as text.
+#[derive(Clone, Debug)]
+pub struct TablePreview {
+    /// Table name.
+    pub name: String,
+    /// Rows in the table.
+    pub rows: usize,
+    /// Column names.
+    pub header: Vec<String>,
+    /// The first [`TABLE_ROWS`] rows.
+    pub shown: Vec<Vec<String>>,
+}
+
 /// One artefact in the table listing.
 #[derive(Clone, Debug)]
 pub struct ArtefactView {
@@ -181,8 +194,8 @@ pub struct ArtefactView {
     pub digest: String,
     /// Metadata (pretty JSON).
     pub meta: String,
-    /// Tables: name, total rows, header, first rows as text.
-    pub tables: Vec<(String, usize, Vec<String>, Vec<Vec<String>>)>,
+    /// Tables, their first rows as text.
+    pub tables: Vec<TablePreview>,
     /// Why it could not be read, if so.
     pub error: Option<String>,
 }
@@ -434,7 +447,12 @@ fn artefact_view(id: &str, a: &Artefact) -> ArtefactView {
             let shown = (0..rows.min(TABLE_ROWS))
                 .map(|r| t.columns.iter().map(|c| cell(&c.1, r)).collect())
                 .collect();
-            (name.clone(), rows, header, shown)
+            TablePreview {
+                name: name.clone(),
+                rows,
+                header,
+                shown,
+            }
         })
         .collect();
     ArtefactView {

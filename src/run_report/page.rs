@@ -73,10 +73,8 @@ pub fn render_html(view: &RunView) -> String {
                 escape(&u.stop)
             );
             if let Some(a) = view.artefacts.iter().find(|a| a.id == u.id) {
-                for (name, rows, header, shown) in &a.tables {
-                    if name == "parameters" {
-                        table_html(&mut h, header, shown, *rows);
-                    }
+                for t in a.tables.iter().filter(|t| t.name == "parameters") {
+                    table_html(&mut h, &t.header, &t.shown, t.rows);
                 }
             }
         }
@@ -125,9 +123,9 @@ pub fn render_html(view: &RunView) -> String {
     });
     // `<` never appears raw inside the script element, so no text can close it.
     let json = data.to_string().replace('<', "\\u003c");
-    let _ = write!(
+    let _ = writeln!(
         h,
-        "<script type=\"application/json\" id=\"femu-data\">{json}</script><script>{SCRIPT}</script></body></html>\n"
+        "<script type=\"application/json\" id=\"femu-data\">{json}</script><script>{SCRIPT}</script></body></html>"
     );
     h
 }
@@ -268,13 +266,14 @@ fn artefacts_section(h: &mut String, artefacts: &[ArtefactView]) {
         if let Some(e) = &a.error {
             let _ = write!(h, "<p class=\"error\">cannot be read: {}</p>", escape(e));
         }
-        for (name, rows, header, shown) in &a.tables {
+        for t in &a.tables {
             let _ = write!(
                 h,
-                "<h4>{} <span class=\"kind\">{rows} rows</span></h4>",
-                escape(name)
+                "<h4>{} <span class=\"kind\">{} rows</span></h4>",
+                escape(&t.name),
+                t.rows
             );
-            table_html(h, header, shown, *rows);
+            table_html(h, &t.header, &t.shown, t.rows);
         }
         if !a.meta.is_empty() {
             let _ = write!(h, "<h4>meta</h4><pre>{}</pre>", escape(&a.meta));
