@@ -414,3 +414,54 @@ fn old_parameter_spellings_warn_and_mean_the_same() {
         "{stderr}"
     );
 }
+
+/// `band_hz` and `exclude_hz` restrict an update to the lines chosen: on the C1 chain the
+/// posterior's predictive band (one row per used line and FRF) holds only lines inside the band
+/// and outside the excluded one; a band that leaves no measured line is the user's error,
+/// naming the field and the lines there are.
+#[test]
+fn update_uses_only_the_chosen_lines() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("out");
+    let sets = ["pc.band_hz=[2.0, 15.0]", "pc.exclude_hz=[[9.0, 10.5]]"];
+    let (_, report, cache) = run(
+        &pipeline("four-dof-bayes"),
+        &tmp.path().join("cache"),
+        &sets,
+    );
+    femu::pipeline::materialise(&report, &cache, &out).unwrap();
+    let post = read_dir(&out.join("pc").join("posterior")).unwrap();
+    let band = post.table("frf_band").unwrap();
+    let f = band.f64s("frf_band", "freq_hz").unwrap();
+    assert!(!f.is_empty());
+    assert!(
+        f.iter()
+            .all(|&x| (2.0..=15.0).contains(&x) && !(9.0..=10.5).contains(&x)),
+        "{f:?}"
+    );
+    let full = read_dir(&out.join("pc_estimated").join("posterior")).unwrap();
+    let g = full
+        .table("frf_band")
+        .unwrap()
+        .f64s("frf_band", "freq_hz")
+        .unwrap()
+        .to_vec();
+    assert!(
+        g.iter().any(|&x| x > 15.0),
+        "the other stage keeps every line"
+    );
+
+    let plan = load(&pipeline("four-dof-bayes"), &["pc.band_hz=[100.0, 200.0]"]);
+    let cache = femu::cache::Cache::open(&tmp.path().join("cache2")).unwrap();
+    let opts = femu::pipeline::RunOptions {
+        progress: femu::pipeline::ProgressMode::Quiet,
+        ..Default::default()
+    };
+    let e = femu::pipeline::execute(&plan, &cache, &opts).unwrap_err();
+    assert!(e.is_input(), "{e}");
+    let text = format!("{e:#}");
+    assert!(
+        text.contains("band_hz") && text.contains("0.5 to 40 Hz"),
+        "{text}"
+    );
+}

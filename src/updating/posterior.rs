@@ -323,8 +323,10 @@ fn row_sigmas(
             let mut per: Vec<f64> = (0..ng)
                 .map(|g| (dof * ss[g] / count[g].max(1) as f64).sqrt())
                 .collect();
-            if lik.pooled() {
-                per = vec![per[0]; ng];
+            if lik.pooled()
+                && let Some(&first) = per.first()
+            {
+                per = vec![first; ng];
             }
             // No noise below round-off can be claimed: σ_g ≥ ε·rms(y_g) (noise-free data).
             let y = lik.measured();

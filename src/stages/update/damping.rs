@@ -10,8 +10,8 @@ use crate::fe::element::MassKind;
 use crate::frf::{FrfSet, ModalDamping};
 use crate::pipeline::{ParamIssue, StageError, StageInputs, StageOutputs};
 use crate::stages::params::{
-    AtLeastOne, Count, Damping, Deprecation, Fraction, Modes, NonNegative, OpenFraction, Positive,
-    migrate_mode_fields,
+    AtLeastOne, Band, Count, Damping, Deprecation, Fraction, Modes, NonNegative, OpenFraction,
+    Positive, migrate_mode_fields,
 };
 use crate::updating::damping::{
     DampingIdentification, DampingKind, DampingParameters, DampingSettings, equivalent_loss_factor,
@@ -62,6 +62,13 @@ pub struct DampingMethod {
     /// FRFs at every line.
     #[serde(default)]
     pub posterior: PosteriorParams,
+    /// Only measured lines in `[lo, hi]` Hz are used (default: all).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub band_hz: Option<Band>,
+    /// Measured lines inside any of these bands are left out, e.g. `[[0, 0]]` for the static
+    /// line or `[[49, 51]]` for mains hum (default: none).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub exclude_hz: Vec<Band>,
 }
 
 /// The P-C settings of the damping identification; defaults: [`DampingSettings::default`]
@@ -145,7 +152,7 @@ impl DampingMethod {
             &self.reduction,
             self.modes.is_given(),
         )?;
-        let measured = measured_frf(inputs)?;
+        let measured = measured_frf(inputs, self.band_hz, &self.exclude_hz)?;
         let top_hz = measured.freqs_hz.last().copied().unwrap_or(0.0);
         let basis = self
             .modes

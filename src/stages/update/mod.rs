@@ -440,10 +440,18 @@ fn linear_model(
     ))
 }
 
-/// The measured FRFs, required by the FRF methods.
-fn measured_frf(inputs: &StageInputs) -> Result<crate::frf::FrfSet, StageError> {
+/// The measured FRFs, required by the FRF methods: the lines in `band` and outside `exclude`.
+fn measured_frf(
+    inputs: &StageInputs,
+    band: Option<crate::stages::params::Band>,
+    exclude: &[crate::stages::params::Band],
+) -> Result<crate::frf::FrfSet, StageError> {
     let a = inputs.get("measured").ok_or_else(|| missing("measured"))?;
-    Ok(crate::artefact::kinds::frf_from_artefact(a)?)
+    let set = crate::artefact::kinds::frf_from_artefact(a)?;
+    if band.is_none() && exclude.is_empty() {
+        return Ok(set);
+    }
+    crate::stages::params::select_lines(&set, band, exclude)
 }
 
 /// The measured modes, required by inverse eigensensitivity.

@@ -10,7 +10,7 @@ use crate::fe::element::MassKind;
 use crate::frf::ModalDamping;
 use crate::pipeline::{ParamIssue, StageError, StageInputs, StageOutputs};
 use crate::stages::params::{
-    AtLeastOne, Count, Damping, Deprecation, Fraction, Modes, NonNegative, Positive,
+    AtLeastOne, Band, Count, Damping, Deprecation, Fraction, Modes, NonNegative, Positive,
     migrate_mode_fields,
 };
 use crate::updating::pc::{PcSettings, PredictorCorrector};
@@ -61,6 +61,13 @@ pub struct PcMethod {
     /// The Laplace posterior computed after the update (docs/theory.md §12).
     #[serde(default)]
     pub posterior: PosteriorParams,
+    /// Only measured lines in `[lo, hi]` Hz are used (default: all).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub band_hz: Option<Band>,
+    /// Measured lines inside any of these bands are left out, e.g. `[[0, 0]]` for the static
+    /// line or `[[49, 51]]` for mains hum (default: none).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub exclude_hz: Vec<Band>,
 }
 
 /// Settings of the P-C (docs/theory.md §5); defaults: [`PcSettings::default`].
@@ -205,7 +212,7 @@ impl PcMethod {
             &self.reduction,
             self.modes.is_given(),
         )?;
-        let measured = measured_frf(inputs)?;
+        let measured = measured_frf(inputs, self.band_hz, &self.exclude_hz)?;
         let top_hz = measured.freqs_hz.last().copied().unwrap_or(0.0);
         let modes = self
             .modes

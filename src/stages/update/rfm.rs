@@ -8,7 +8,7 @@ use super::{
 use crate::eigen::ModeSelection;
 use crate::fe::element::MassKind;
 use crate::pipeline::{ParamIssue, StageError, StageInputs, StageOutputs};
-use crate::stages::params::{Damping, NonNegative, OpenFraction, PerMode};
+use crate::stages::params::{Band, Damping, NonNegative, OpenFraction, PerMode};
 use crate::updating::posterior::{DirectFrfLikelihood, NaturalFrequencies};
 use crate::updating::rfm::{ResponseFunctionMethod, RfmSettings};
 
@@ -42,6 +42,13 @@ pub struct RfmMethod {
     /// FRFs at `lines_hz`.
     #[serde(default)]
     pub posterior: PosteriorParams,
+    /// Only measured lines in `[lo, hi]` Hz are used (default: all).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub band_hz: Option<Band>,
+    /// Measured lines inside any of these bands are left out, e.g. `[[0, 0]]` for the static
+    /// line or `[[49, 51]]` for mains hum (default: none).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub exclude_hz: Vec<Band>,
 }
 
 fn tolerance() -> OpenFraction {
@@ -80,7 +87,7 @@ impl RfmMethod {
             &Reduction::default(),
             false,
         )?;
-        let measured = measured_frf(inputs)?;
+        let measured = measured_frf(inputs, self.band_hz, &self.exclude_hz)?;
         let lines_hz: Vec<f64> = self.lines_hz.iter().map(|f| f.get()).collect();
         let eta = self.damping.direct().structural_eta;
         let model = model.as_ref();
