@@ -551,17 +551,14 @@ impl Builder {
                     let grids = [*ga, *gb];
                     let x = [pos(loc, *ga)?, pos(loc, *gb)?];
                     let d = [[0.0; 3], sub(x[1], x[0])];
-                    let mut s: Vec<Vec<f64>> = Vec::new();
-                    let mut v: Vec<Vec<(DofId, f64)>> = Vec::new();
-                    for e in 0..2 {
-                        for &c in &cn[e] {
-                            let (k, rot) = split(c);
-                            let r = dirs(grids[e])[k];
-                            s.push(rigid_row(rot, r, d[e]).to_vec());
-                            v.push(along(grids[e], rot, r));
-                        }
-                    }
-                    let Some(si) = inverse(&s) else {
+                    let independent: Vec<(u64, [f64; 3], [f64; 3], Component)> = (0..2)
+                        .flat_map(|e| {
+                            cn[e]
+                                .iter()
+                                .map(move |&c| (grids[e], d[e], dirs(grids[e])[split(c).0], c))
+                        })
+                        .collect();
+                    let Some(q) = rigid_motion(&independent) else {
                         return Err(at(
                             loc,
                             format!(
@@ -570,16 +567,6 @@ impl Builder {
                             "independent components that fix all six rigid motions, e.g. CNA = 123456",
                         ));
                     };
-                    // q = S⁻¹ v.
-                    let q: Vec<Vec<(DofId, f64)>> = (0..6)
-                        .map(|i| {
-                            let mut t = Vec::new();
-                            for (j, vj) in v.iter().enumerate() {
-                                t.extend(vj.iter().map(|&(dd, c)| (dd, si[i][j] * c)));
-                            }
-                            t
-                        })
-                        .collect();
                     for e in 0..2 {
                         let deps: Vec<Component> = if cm[0].is_empty() && cm[1].is_empty() {
                             Component::ALL
@@ -607,18 +594,15 @@ impl Builder {
                     dependent,
                 } => {
                     let origin = pos(loc, independent[0].0)?;
-                    let mut s: Vec<Vec<f64>> = Vec::new();
-                    let mut v: Vec<Vec<(DofId, f64)>> = Vec::new();
+                    let mut rows: Vec<(u64, [f64; 3], [f64; 3], Component)> = Vec::new();
                     for (g, comps) in independent {
                         let d = sub(pos(loc, *g)?, origin);
                         for &c in comps {
-                            let (k, rot) = split(c);
-                            let r = dirs(*g)[k];
-                            s.push(rigid_row(rot, r, d).to_vec());
-                            v.push(along(*g, rot, r));
+                            rows.push((*g, d, dirs(*g)[split(c).0], c));
                         }
                     }
-                    let Some(si) = inverse(&s) else {
+                    // The rigid motion about the first independent grid.
+                    let Some(q) = rigid_motion(&rows) else {
                         return Err(at(
                             loc,
                             format!(
@@ -627,16 +611,6 @@ impl Builder {
                             "independent components that fix all six rigid motions, e.g. 123456 at one grid, or 123 at one grid, 23 at a second and 3 at a third not on their line",
                         ));
                     };
-                    // q = S⁻¹ v, the rigid motion about the first independent grid.
-                    let q: Vec<Vec<(DofId, f64)>> = (0..6)
-                        .map(|i| {
-                            let mut t = Vec::new();
-                            for (j, vj) in v.iter().enumerate() {
-                                t.extend(vj.iter().map(|&(dd, c)| (dd, si[i][j] * c)));
-                            }
-                            t
-                        })
-                        .collect();
                     for (g, comps) in dependent {
                         let d = sub(pos(loc, *g)?, origin);
                         for &c in comps {
@@ -1116,4 +1090,33 @@ fn rbe1_card(c: &Card) -> Result<RigidCard, NastranError> {
         independent,
         dependent,
     })
+}
+
+/// The rigid motion `q = S⁻¹ v` (six sums over basic DOFs) that independent components fix:
+/// each row is a grid, its offset from the motion's origin, the component's direction in basic
+/// and the component; `S` holds their rigid-body rows, `v` their displacements. `None` when
+/// they do not determine the motion (`S` singular or not 6×6).
+fn rigid_motion(rows: &[(u64, [f64; 3], [f64; 3], Component)]) -> Option<Vec<Terms>> {
+    if rows.len() != 6 {
+        return None;
+    }
+    let mut s: Vec<Vec<f64>> = Vec::new();
+    let mut v: Vec<Terms> = Vec::new();
+    for &(g, d, r, c) in rows {
+        let (_, rot) = split(c);
+        s.push(rigid_row(rot, r, d).to_vec());
+        v.push(along(g, rot, r));
+    }
+    let si = inverse(&s)?;
+    Some(
+        (0..6)
+            .map(|i| {
+                let mut t = Vec::new();
+                for (j, vj) in v.iter().enumerate() {
+                    t.extend(vj.iter().map(|&(dd, c)| (dd, si[i][j] * c)));
+                }
+                t
+            })
+            .collect(),
+    )
 }
