@@ -305,7 +305,7 @@ impl TypedStage for FrfSynthesise {
                 None => synthesise(
                     p,
                     inputs,
-                    &template.pairs,
+                    |_| template.pairs.clone(),
                     &template.freqs_hz,
                     template.quantity,
                 )?,
@@ -327,44 +327,13 @@ impl TypedStage for FrfSynthesise {
             }
             out
         };
-        let set = match p.method {
-            Some(Method::Modal) => {
-                if let Some(model) = inputs.get("model") {
-                    if matrices_from_artefact(model)?.c.is_some() {
-                        return Err(StageError::input(
-                            "",
-                            "the model has element dampers (its matrices hold a viscous C from CDAMP, CVISC or CBUSH B), which are not proportional and are not in the modal damping; use `method: direct` to include them, or remove the dampers",
-                        ));
-                    }
-                }
-                let m = modes_from_artefact(inputs.require("modes")?)?;
-                let pairs = FrfSet::all_pairs(&with_components(&m.dofs), &p.excitations);
-                let mut modes = m.modes;
-                if modes.is_empty() {
-                    return Err(StageError::input(
-                        "",
-                        "the `modes` input holds no mode, so every modal FRF would be zero; compute modes upstream (raise `max_freq_hz` or give `count`)",
-                    ));
-                }
-                if let Some(c) = p.kept_modes(&modes.frequencies_hz())? {
-                    modes.eigenvalues.truncate(c);
-                    modes.residuals.truncate(c);
-                    modes.shapes = modes.shapes.subcols(0, c).to_owned();
-                }
-                let damping = p
-                    .damping
-                    .modal_for(modes.len())
-                    .map_err(StageError::input_at("damping"))?;
-                modal_receptance(&modes, &m.dofs, &damping, &pairs, &lines, p.quantity)
-                    .map_err(StageError::from_numerics(""))?
-            }
-            _ => {
-                let sys = matrices_from_artefact(inputs.require("model")?)?;
-                let pairs = FrfSet::all_pairs(&with_components(&sys.dofs), &p.excitations);
-                direct_receptance(&sys, &p.damping.direct(), &pairs, &lines, p.quantity)
-                    .map_err(StageError::from_numerics(""))?
-            }
-        };
+        let set = synthesise(
+            p,
+            inputs,
+            |dofs| FrfSet::all_pairs(&with_components(dofs), &p.excitations),
+            &lines,
+            p.quantity,
+        )?;
         Ok(StageOutputs::from([(
             "frf".to_string(),
             frf_to_artefact(&set),
@@ -372,12 +341,12 @@ impl TypedStage for FrfSynthesise {
     }
 }
 
-/// The FRFs of `pairs` at `lines` by the method of `p` (the template path: no response
-/// components).
+/// The FRFs at `lines` by the method of `p`, of the pairs `pairs_of` makes from the model's
+/// DOFs (the modes' or the matrices').
 fn synthesise(
     p: &Params,
     inputs: &StageInputs,
-    pairs: &[FrfPair],
+    pairs_of: impl FnOnce(&[DofId]) -> Vec<FrfPair>,
     lines: &[f64],
     quantity: Quantity,
 ) -> Result<FrfSet, StageError> {
@@ -392,6 +361,7 @@ fn synthesise(
                 }
             }
             let m = modes_from_artefact(inputs.require("modes")?)?;
+            let pairs = pairs_of(&m.dofs);
             let mut modes = m.modes;
             if modes.is_empty() {
                 return Err(StageError::input(
@@ -408,12 +378,13 @@ fn synthesise(
                 .damping
                 .modal_for(modes.len())
                 .map_err(StageError::input_at("damping"))?;
-            modal_receptance(&modes, &m.dofs, &damping, pairs, lines, quantity)
+            modal_receptance(&modes, &m.dofs, &damping, &pairs, lines, quantity)
                 .map_err(StageError::from_numerics(""))
         }
         _ => {
             let sys = matrices_from_artefact(inputs.require("model")?)?;
-            direct_receptance(&sys, &p.damping.direct(), pairs, lines, quantity)
+            let pairs = pairs_of(&sys.dofs);
+            direct_receptance(&sys, &p.damping.direct(), &pairs, lines, quantity)
                 .map_err(StageError::from_numerics(""))
         }
     }
@@ -507,7 +478,13 @@ fn through_map(
                 .join(", ")
         );
     }
-    let fe = synthesise(p, inputs, &needed, &template.freqs_hz, template.quantity)?;
+    let fe = synthesise(
+        p,
+        inputs,
+        |_| needed.clone(),
+        &template.freqs_hz,
+        template.quantity,
+    )?;
     let column: Vec<usize> = needed
         .iter()
         .map(|q| {

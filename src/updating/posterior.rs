@@ -894,6 +894,31 @@ fn pair_labels(measured: &FrfSet) -> Vec<String> {
         .collect()
 }
 
+/// The data half of [`Likelihood`] for the FRF likelihoods: everything but `predict`, read from
+/// their `data: FrfData` (one noise group per FRF, never pooled).
+macro_rules! frf_data_rows {
+    () => {
+        fn measured(&self) -> &[f64] {
+            &self.data.y
+        }
+        fn groups(&self) -> &[usize] {
+            &self.data.groups
+        }
+        fn group_names(&self) -> Vec<String> {
+            self.data.layout.pairs.clone()
+        }
+        fn pooled(&self) -> bool {
+            false
+        }
+        fn scale(&self) -> Vec<f64> {
+            self.data.scale.clone()
+        }
+        fn frf_layout(&self) -> Option<FrfLayout> {
+            Some(self.data.layout.clone())
+        }
+    };
+}
+
 /// The measured side shared by the FRF likelihoods.
 struct FrfData {
     y: Vec<f64>,
@@ -995,24 +1020,7 @@ fn restrict(set: &FrfSet, lines: &[usize]) -> Mat<c64> {
 }
 
 impl Likelihood for ModalFrfLikelihood<'_> {
-    fn measured(&self) -> &[f64] {
-        &self.data.y
-    }
-    fn groups(&self) -> &[usize] {
-        &self.data.groups
-    }
-    fn group_names(&self) -> Vec<String> {
-        self.data.layout.pairs.clone()
-    }
-    fn pooled(&self) -> bool {
-        false
-    }
-    fn scale(&self) -> Vec<f64> {
-        self.data.scale.clone()
-    }
-    fn frf_layout(&self) -> Option<FrfLayout> {
-        Some(self.data.layout.clone())
-    }
+    frf_data_rows!();
 
     fn predict(&self, values: &[f64], jacobian: bool) -> Result<Prediction, UpdatingError> {
         let (state, evaluated) = self.model.modal_state(values, self.selection)?;
@@ -1111,24 +1119,7 @@ impl<'a> DampingLikelihood<'a> {
 }
 
 impl Likelihood for DampingLikelihood<'_> {
-    fn measured(&self) -> &[f64] {
-        &self.data.y
-    }
-    fn groups(&self) -> &[usize] {
-        &self.data.groups
-    }
-    fn group_names(&self) -> Vec<String> {
-        self.data.layout.pairs.clone()
-    }
-    fn pooled(&self) -> bool {
-        false
-    }
-    fn scale(&self) -> Vec<f64> {
-        self.data.scale.clone()
-    }
-    fn frf_layout(&self) -> Option<FrfLayout> {
-        Some(self.data.layout.clone())
-    }
+    frf_data_rows!();
 
     fn predict(&self, values: &[f64], jacobian: bool) -> Result<Prediction, UpdatingError> {
         let damping = (self.damping)(values);
@@ -1212,24 +1203,7 @@ impl<'a> DirectFrfLikelihood<'a> {
 }
 
 impl Likelihood for DirectFrfLikelihood<'_> {
-    fn measured(&self) -> &[f64] {
-        &self.data.y
-    }
-    fn groups(&self) -> &[usize] {
-        &self.data.groups
-    }
-    fn group_names(&self) -> Vec<String> {
-        self.data.layout.pairs.clone()
-    }
-    fn pooled(&self) -> bool {
-        false
-    }
-    fn scale(&self) -> Vec<f64> {
-        self.data.scale.clone()
-    }
-    fn frf_layout(&self) -> Option<FrfLayout> {
-        Some(self.data.layout.clone())
-    }
+    frf_data_rows!();
 
     fn predict(&self, values: &[f64], jacobian: bool) -> Result<Prediction, UpdatingError> {
         let ev = self.model.evaluate(values)?;
