@@ -5,6 +5,7 @@ pub mod assemble;
 pub mod correlate_frf;
 pub mod correlate_modes;
 pub mod frf_import;
+pub mod modes_import;
 pub mod frf_synthesise;
 pub mod localise_eigensensitivity;
 pub mod localise_leverage;
@@ -30,6 +31,7 @@ use crate::pipeline::{Registry, Stage, Typed};
 
 static MESH_IMPORT: Typed<mesh_import::MeshImport> = Typed::new();
 static FRF_IMPORT: Typed<frf_import::FrfImport> = Typed::new();
+static MODES_IMPORT: Typed<modes_import::ModesImport> = Typed::new();
 static ASSEMBLE: Typed<assemble::Assemble> = Typed::new();
 static MODEL_LUMPED: Typed<model_lumped::ModelLumped> = Typed::new();
 static MODES: Typed<modes::ModesStage> = Typed::new();
@@ -63,6 +65,7 @@ pub fn registry() -> Registry {
         &MODES,
         &FRF_SYNTHESISE,
         &FRF_IMPORT,
+        &MODES_IMPORT,
         &TEST_PAIR,
         &NOISE_ADD,
         &CORRELATE_FRF,

@@ -5,6 +5,10 @@
 //! | `frequencies` (Parquet) | `mode, freq_hz, eigenvalue_rad2_s2, residual` |
 //! | `shapes` (IPC) | `dof, phi_1 … phi_m` |
 //! | `dependent_shapes` (IPC; when the model has rigid elements or MPCs) | `dof, phi_1 … phi_m`: the shapes at the DOFs the constraints eliminated, recovered as `u_d = Σ c u` |
+//! | `test` (Parquet; modes read from a test) | `mode, source_mode, damping_ratio, collinearity, modal_mass` |
+//!
+//! Modes of a model are mass-normalised (`normalisation: mass`); modes read from a test keep
+//! their measured scale (`normalisation: as_measured`, residual NaN: no model to have one).
 
 use super::{Kind, Layout, col, expect_kind, meta, meta_opt, parse_dofs, table};
 use crate::artefact::{Artefact, ArtefactError, ArtefactKind, Column, Storage, Table};
@@ -81,6 +85,28 @@ impl Kind for ModesKind {
                         ),
                     ],
                 ),
+                table(
+                    "test",
+                    Storage::Parquet,
+                    false,
+                    vec![
+                        col("mode", "int64", "", "mode number from 1"),
+                        col("source_mode", "int64", "", "mode number in the test file"),
+                        col("damping_ratio", "float64", "", "modal viscous damping ratio"),
+                        col(
+                            "collinearity",
+                            "float64",
+                            "",
+                            "mode phase collinearity of the measured shape (1: real)",
+                        ),
+                        col(
+                            "modal_mass",
+                            "float64",
+                            "",
+                            "modal mass as written in the test file (0: not given)",
+                        ),
+                    ],
+                ),
             ],
             meta: vec![
                 meta("n_modes", "number of modes"),
@@ -91,7 +117,11 @@ impl Kind for ModesKind {
                     "deviation of the shapes from mass-orthonormality",
                 ),
                 meta("dof_index", "digest of the DOF list"),
-                meta("normalisation", "`mass`"),
+                meta(
+                    "normalisation",
+                    "`mass`, or `as_measured` for modes read from a test",
+                ),
+                meta_opt("import_notes", "test modes: what was converted or assumed"),
                 meta("units", "unit of each column"),
                 meta_opt("reduced_coords", "coordinates of the reduced model solved"),
                 meta_opt("reduced_physical", "its physical coordinates"),
@@ -163,6 +193,37 @@ fn write(dofs: &[DofId], modes: &Modes) -> Artefact {
         .with_meta("units", serde_json::json!({"freq_hz": "Hz", "eigenvalue_rad2_s2": "rad^2/s^2", "phi": "1/sqrt(kg)"}))
         .with_table("frequencies", freqs, Storage::Parquet)
         .with_table("shapes", shapes, Storage::Ipc)
+}
+
+/// Modes read from a test as an artefact: shapes at the test DOFs in their measured scale, with
+/// damping ratios, phase collinearity and modal masses in the `test` table.
+pub fn test_modes_to_artefact(t: &crate::frf::io::uff::TestModes) -> Artefact {
+    let m = t.freqs_hz.len();
+    let modes = Modes {
+        eigenvalues: t
+            .freqs_hz
+            .iter()
+            .map(|f| (2.0 * std::f64::consts::PI * f).powi(2))
+            .collect(),
+        shapes: t.shapes.clone(),
+        residuals: vec![f64::NAN; m],
+        orthogonality_error: f64::NAN,
+        rigid_body_modes: t.freqs_hz.iter().filter(|f| **f == 0.0).count(),
+    };
+    let test = Table::new()
+        .with("mode", Column::I64((1..=m as i64).collect()))
+        .with("source_mode", Column::I64(t.source_mode.clone()))
+        .with("damping_ratio", Column::F64(t.damping_ratios.clone()))
+        .with("collinearity", Column::F64(t.collinearity.clone()))
+        .with("modal_mass", Column::F64(t.modal_mass.clone()));
+    write(&t.dofs, &modes)
+        .with_meta("normalisation", "as_measured".into())
+        .with_meta(
+            "units",
+            serde_json::json!({"freq_hz": "Hz", "eigenvalue_rad2_s2": "rad^2/s^2", "phi": "as measured"}),
+        )
+        .with_meta("import_notes", t.notes.clone().into())
+        .with_table("test", test, Storage::Parquet)
 }
 
 /// The `dependent_shapes` table: shapes (one column per mode) at the dependent DOFs `dofs`.

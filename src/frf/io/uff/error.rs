@@ -122,6 +122,27 @@ pub enum UffError {
     /// No FRF record to group.
     #[error("no FRF records (dataset 58, function type 4) to form an FRF set from")]
     NoFrfs,
+    /// No mode shape record to form modes from.
+    #[error(
+        "no mode shapes (dataset 55 of analysis type 2, 3 or 7 with motion at nodes) to form modes from{}",
+        if *skipped > 0 { format!("; {skipped} other dataset 55 record(s) were skipped (see the warnings)") } else { String::new() }
+    )]
+    NoShapes {
+        /// Dataset 55 records skipped as not mode shapes.
+        skipped: usize,
+    },
+    /// Two mode shape records contradict each other.
+    #[error("{file}:{line}: {what} (first at line {first})")]
+    ShapeConflict {
+        /// The file.
+        file: String,
+        /// Line of the second record's dataset number.
+        line: usize,
+        /// What is wrong.
+        what: String,
+        /// Line of the first record.
+        first: usize,
+    },
 }
 
 /// A measured value that is NaN or infinite, and where it is.

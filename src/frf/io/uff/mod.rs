@@ -38,6 +38,9 @@
 //!     own exponents for type 1), else SI is assumed and warned about. The abscissa is in Hz
 //!     unless record 8 says `rad/s`, `kHz` or `rpm`. Every conversion is listed in
 //!     [`Uff58::conversions`] and [`UffFile::conversions`].
+//! - **55** data at nodes: mode shapes (analysis type 2 normal, 3/7 complex), 3 or 6 values
+//!   per node, real or complex; other analysis types and data characteristics are skipped,
+//!   counted and warned about. [`to_test_modes`] makes them one set of real test modes.
 //! - Every other dataset is skipped and counted in [`UffFile::skipped`].
 //!
 //! [`to_frf_set`] groups FRF records into one [`FrfSet`] after checking they share quantity and
@@ -52,6 +55,7 @@
 //! `set` (records to one [`FrfSet`](crate::frf::FrfSet)), `types` and `error`.
 
 mod block;
+mod dataset55;
 mod dataset58;
 mod error;
 mod header58;
@@ -60,13 +64,16 @@ mod label;
 mod lex;
 mod mesh;
 mod set;
+mod shapes;
 mod systems;
 mod types;
 mod units;
 pub mod write;
 
 pub use error::{NonFiniteValue, UffError};
+pub use dataset55::{ModeKind55, Uff55};
 pub use set::{LINE_TOLERANCE, to_frf_set};
+pub use shapes::{TestModes, realisation, to_test_modes};
 pub use types::{
     Abscissa, ByteOrder, CoordKind, OrdinateType, Uff58, UffBeam, UffCoordSystem, UffElement,
     UffFile, UffHeader, UffTraceLine, UffUnits,
@@ -132,6 +139,7 @@ pub fn parse_uff(bytes: &[u8], file_name: &str) -> Result<UffFile, UffError> {
                 }
                 None => *skipped.entry(58).or_default() += 1,
             },
+            (55, false) => dataset55::parse_55(&block, &mut ctx, &mut out)?,
             (15, false) => parse_nodes_15(&block, &mut ctx, &mut out)?,
             (2411, false) => parse_nodes_2411(&block, &mut ctx, &mut out)?,
             (2412, false) => parse_elements_2412(&block, &ctx, &mut out)?,
@@ -159,3 +167,5 @@ pub fn parse_uff(bytes: &[u8], file_name: &str) -> Result<UffFile, UffError> {
 
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod tests55;

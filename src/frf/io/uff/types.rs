@@ -24,6 +24,10 @@ pub struct UffFile {
     pub header: Option<UffHeader>,
     /// FRF records of datasets 58 and 58b, in file order.
     pub frfs: Vec<Uff58>,
+    /// Mode shape records of dataset 55, in file order.
+    pub shapes: Vec<super::Uff55>,
+    /// Dataset 55 records skipped as not mode shapes (each reason warned about).
+    pub skipped_shapes: usize,
     /// The last units dataset (164) read.
     pub units: Option<UffUnits>,
     /// Every conversion done (units, abscissa, sign flips), naming the record it applies to.

@@ -421,3 +421,95 @@ mod tests {
         assert_eq!(id_line(&"é".repeat(50)).len(), 80);
     }
 }
+
+/// One mode for dataset 55: its frequency, modal mass and damping ratio, and its shape.
+#[derive(Clone, Copy, Debug)]
+pub struct ModeRecord<'a> {
+    /// Mode number (record 7 field 4).
+    pub mode: usize,
+    /// Natural frequency, Hz.
+    pub freq_hz: f64,
+    /// Modal mass `φᵀMφ` of the shape as written (1 for mass-normalised shapes, 0 unknown).
+    pub modal_mass: f64,
+    /// Modal viscous damping ratio.
+    pub damping_ratio: f64,
+    /// The shape, one value per DOF of [`write_uff55`]'s `dofs`.
+    pub shape: &'a [f64],
+}
+
+/// Modes as dataset 55 (data at nodes, analysis type 2 normal mode, real, displacement), one
+/// dataset per mode: `x, y, z` per node (data characteristic 2), or `x, y, z, rx, ry, rz` when
+/// any DOF is a rotation (3); components not among `dofs` are written 0 (note 15 of the
+/// description). Values in `6E13.5` columns with as many digits as fit (about 7). `title` is
+/// ID line 1. Scalar-point DOFs have no place in the dataset and are refused.
+pub fn write_uff55(
+    dofs: &[crate::core::DofId],
+    modes: &[ModeRecord<'_>],
+    title: &str,
+) -> Result<Vec<u8>, String> {
+    use crate::core::Component;
+    use std::collections::BTreeMap;
+    let mut nodes: BTreeMap<u64, Vec<(usize, usize)>> = BTreeMap::new();
+    let mut rotations = false;
+    for (row, d) in dofs.iter().enumerate() {
+        let Some(k) = Component::ALL.iter().position(|c| *c == d.comp) else {
+            return Err(format!(
+                "DOF {d} is a scalar point's; dataset 55 holds only grid translations and rotations"
+            ));
+        };
+        rotations |= k >= 3;
+        nodes.entry(d.node).or_default().push((k, row));
+    }
+    let per_node = if rotations { 6 } else { 3 };
+    let mut s = String::new();
+    for m in modes {
+        if m.shape.len() != dofs.len() {
+            return Err(format!(
+                "mode {} has {} values for {} DOFs",
+                m.mode,
+                m.shape.len(),
+                dofs.len()
+            ));
+        }
+        s.push_str("    -1\n    55\n");
+        let _ = writeln!(s, "{}", id_line(title));
+        let _ = writeln!(s, "{}", id_line(&format!("mode {}", m.mode)));
+        let _ = writeln!(s, "NONE");
+        let _ = writeln!(s, "NONE");
+        let _ = writeln!(
+            s,
+            "{}",
+            id_line(&format!("MODE {:>10} FREQUENCY {}", m.mode, fmt_e(m.freq_hz, 13)))
+        );
+        let _ = writeln!(
+            s,
+            "{:>10}{:>10}{:>10}{:>10}{:>10}{:>10}",
+            1,
+            2,
+            if rotations { 3 } else { 2 },
+            8,
+            2,
+            per_node
+        );
+        let _ = writeln!(s, "{:>10}{:>10}{:>10}{:>10}", 2, 4, 1, m.mode);
+        for v in [m.freq_hz, m.modal_mass, m.damping_ratio, 0.0] {
+            s.push_str(&fmt_e(v, 13));
+        }
+        s.push('\n');
+        for (node, comps) in &nodes {
+            let mut vals = vec![0.0; per_node];
+            for &(k, row) in comps {
+                vals[k] = m.shape[row];
+            }
+            let _ = writeln!(s, "{node:>10}");
+            for chunk in vals.chunks(6) {
+                for v in chunk {
+                    s.push_str(&fmt_e(*v, 13));
+                }
+                s.push('\n');
+            }
+        }
+        s.push_str("    -1\n");
+    }
+    Ok(s.into_bytes())
+}
