@@ -87,6 +87,8 @@ pub enum ArtefactKind {
     TestGeometry,
     /// Measured DOFs as weighted sums of model DOFs, with the pairing of each test point.
     TestMap,
+    /// A Universal File written for a lab's software: test points, FRFs, modes.
+    UniversalFile,
 }
 
 impl ArtefactKind {

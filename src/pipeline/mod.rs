@@ -7,6 +7,7 @@ pub mod locate;
 pub mod lock;
 pub mod memo;
 pub mod plan;
+pub mod preflight;
 pub mod schema;
 pub mod spec;
 pub mod stage;
@@ -14,6 +15,7 @@ pub mod stage;
 pub use diagnostic::{Diagnostic, Diagnostics};
 pub use executor::{ProgressMode, RunOptions, RunReport, Status, execute, materialise};
 pub use plan::{Plan, Registry, plan};
+pub use preflight::preflight;
 pub use spec::{SourcedSpec, parse_pipeline, read_pipeline};
 pub use stage::{
     CheckContext, ParamIssue, PortSpec, Stage, StageError, StageInputs, StageOutputs, Typed,

@@ -268,6 +268,16 @@ pub trait Stage: Send + Sync {
         params: &serde_json::Value,
         inputs: &StageInputs,
     ) -> Result<StageOutputs, StageError>;
+    /// Whether `femu validate` runs the stage to check the stages downstream against its
+    /// outputs (see [`TypedStage::PREFLIGHT`]).
+    fn runs_in_preflight(&self) -> bool {
+        false
+    }
+    /// Checks of checked parameters against the inputs, before anything runs (see
+    /// [`TypedStage::preflight`]).
+    fn preflight(&self, _params: &serde_json::Value, _inputs: &StageInputs) -> Vec<ParamIssue> {
+        Vec::new()
+    }
 }
 
 /// A stage with typed parameters; [`Typed`] adapts it to [`Stage`].
@@ -293,6 +303,17 @@ pub trait TypedStage: Send + Sync + 'static {
     /// Parameters that enter the cache key (default: all).
     fn key_params(params: &serde_json::Value) -> serde_json::Value {
         params.clone()
+    }
+    /// Whether the stage only reads files or builds a model from its parameters, cheaply and
+    /// without side effects, so that `femu validate` may run it and check the stages
+    /// downstream against what it gives ([`crate::pipeline::preflight`]).
+    const PREFLIGHT: bool = false;
+    /// What can be checked against the inputs before anything runs (DOFs of the test against
+    /// the model, set names, parameter kinds), so that `femu validate` reports it at the field
+    /// instead of the run failing later. Called only when every connected input is available
+    /// at check time.
+    fn preflight(_params: &Self::Params, _inputs: &StageInputs) -> Vec<ParamIssue> {
+        Vec::new()
     }
 }
 
@@ -393,5 +414,14 @@ impl<T: TypedStage> Stage for Typed<T> {
     ) -> Result<StageOutputs, StageError> {
         let params: T::Params = parse_params(params).map_err(|e| StageError::Failed(e.message))?;
         T::run(&params, inputs)
+    }
+    fn runs_in_preflight(&self) -> bool {
+        T::PREFLIGHT
+    }
+    fn preflight(&self, params: &serde_json::Value, inputs: &StageInputs) -> Vec<ParamIssue> {
+        match parse_params::<T::Params>(params) {
+            Ok(p) => T::preflight(&p, inputs),
+            Err(e) => vec![e],
+        }
     }
 }

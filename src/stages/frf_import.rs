@@ -191,6 +191,7 @@ impl TypedStage for FrfImport {
     const SUMMARY: &'static str = "Measured FRFs from a Universal File (dataset 58/58b) or a CSV/Parquet long table, converted to SI";
     // 2: the test geometry is a second output.
     const IMPL_VERSION: u32 = 2;
+    const PREFLIGHT: bool = true;
 
     fn inputs() -> Vec<PortSpec> {
         vec![]

@@ -117,6 +117,7 @@ impl TypedStage for MeshGenerate {
     const SUMMARY: &'static str =
         "Case-study geometries (bent plate, flat plate, three-beam) with a mesh-density knob";
     const IMPL_VERSION: u32 = 1;
+    const PREFLIGHT: bool = true;
 
     fn inputs() -> Vec<PortSpec> {
         vec![]

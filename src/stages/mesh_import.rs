@@ -211,6 +211,7 @@ impl TypedStage for MeshImport {
     const KIND: &'static str = "mesh.import";
     const SUMMARY: &'static str = "A model from Nastran bulk data (GRID, CQUAD4, CTRIA3, CBAR/CBEAM, springs, CONM2, SPC, SET1, ...)";
     const IMPL_VERSION: u32 = 2;
+    const PREFLIGHT: bool = true;
 
     fn inputs() -> Vec<PortSpec> {
         vec![]

@@ -66,6 +66,7 @@ impl TypedStage for MeshParameters {
     const SUMMARY: &'static str =
         "Declare updating parameters on element sets, set their values, or apply an update result";
     const IMPL_VERSION: u32 = 1;
+    const PREFLIGHT: bool = true;
 
     fn inputs() -> Vec<PortSpec> {
         vec![
@@ -120,6 +121,69 @@ impl TypedStage for MeshParameters {
                         &format!("{field}.{name}"),
                         format!("{v} must be a positive finite number"),
                     ));
+                }
+            }
+        }
+        issues
+    }
+
+    /// Each declaration against the model: its set exists and its kind acts on the set's
+    /// elements; the names given values exist.
+    fn preflight(p: &Params, inputs: &StageInputs) -> Vec<ParamIssue> {
+        use crate::model::ParameterValueError as E;
+        let Some(Ok(mut model)) = inputs.get("mesh").map(mesh_from_artefact) else {
+            return Vec::new();
+        };
+        if p.replace {
+            model.parameters.clear();
+        }
+        let mut issues = Vec::new();
+        for (i, d) in p.declare.iter().enumerate() {
+            let param = Parameter {
+                name: d.name.clone(),
+                kind: d.kind.clone(),
+                set: d.set.clone().unwrap_or_else(|| d.name.clone()),
+                lower: 0.0,
+                upper: f64::INFINITY,
+            };
+            match model.parameter_value(&param) {
+                Ok(_) => {
+                    model.parameters.retain(|q| q.name != param.name);
+                    model.parameters.push(param);
+                }
+                Err(e) => {
+                    let field = match (&e, &d.set) {
+                        (E::MissingSet { .. }, Some(_)) => "set",
+                        (E::MissingSet { .. }, None) => "name",
+                        _ => "kind",
+                    };
+                    let mut message = e.to_string();
+                    if let E::MissingSet { set, .. } = &e {
+                        if let Some(near) = crate::pipeline::diagnostic::nearest(
+                            set,
+                            model.sets.keys().map(String::as_str),
+                        ) {
+                            message.push_str(&format!("; did you mean `{near}`?"));
+                        }
+                    }
+                    issues.push(ParamIssue {
+                        path: vec!["declare".into(), i.to_string(), field.into()],
+                        message,
+                    });
+                }
+            }
+        }
+        let declared: Vec<&str> = model.parameters.iter().map(|q| q.name.as_str()).collect();
+        for (field, names) in [("values", &p.values), ("scale", &p.scale)] {
+            for name in names.keys() {
+                if !declared.contains(&name.as_str()) {
+                    issues.push(ParamIssue {
+                        path: vec![field.into(), name.clone()],
+                        message: format!(
+                            "`{name}` is not a parameter of the model; declared: {}",
+                            declared.join(", ")
+                        ),
+                    });
                 }
             }
         }

@@ -5,7 +5,6 @@ pub mod assemble;
 pub mod correlate_frf;
 pub mod correlate_modes;
 pub mod frf_import;
-pub mod modes_import;
 pub mod frf_synthesise;
 pub mod localise_eigensensitivity;
 pub mod localise_leverage;
@@ -16,6 +15,7 @@ pub mod mesh_parameters;
 pub mod model_lumped;
 pub mod model_partition;
 pub mod modes;
+pub mod modes_import;
 pub mod noise_add;
 pub mod params;
 pub mod plot_convergence;
@@ -24,6 +24,7 @@ pub mod reduce_common;
 pub mod reduce_craig_bampton;
 pub mod reduce_force_coupling;
 pub mod reduce_free_interface;
+pub mod test_export;
 pub mod test_pair;
 pub mod update;
 
@@ -52,6 +53,7 @@ static REDUCE_FC: Typed<reduce_force_coupling::ReduceForceCoupling> = Typed::new
 static LOCALISE_LEVERAGE: Typed<localise_leverage::LocaliseLeverage> = Typed::new();
 static LOCALISE_EIGEN: Typed<localise_eigensensitivity::LocaliseEigensensitivity> = Typed::new();
 static TEST_PAIR: Typed<test_pair::TestPair> = Typed::new();
+static TEST_EXPORT: Typed<test_export::TestExport> = Typed::new();
 
 /// Every stage kind femu knows.
 pub fn registry() -> Registry {
@@ -67,6 +69,7 @@ pub fn registry() -> Registry {
         &FRF_IMPORT,
         &MODES_IMPORT,
         &TEST_PAIR,
+        &TEST_EXPORT,
         &NOISE_ADD,
         &CORRELATE_FRF,
         &CORRELATE_MODES,

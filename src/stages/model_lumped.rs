@@ -140,6 +140,7 @@ impl TypedStage for ModelLumped {
     const SUMMARY: &'static str =
         "Lumped masses and springs (with optional dampers) assembled into K, M, C, D";
     const IMPL_VERSION: u32 = 2;
+    const PREFLIGHT: bool = true;
 
     fn inputs() -> Vec<PortSpec> {
         vec![]

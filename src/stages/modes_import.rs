@@ -86,6 +86,7 @@ impl TypedStage for ModesImport {
     const SUMMARY: &'static str =
         "Test modes from a Universal File (dataset 55), complex shapes made real";
     const IMPL_VERSION: u32 = 1;
+    const PREFLIGHT: bool = true;
 
     fn inputs() -> Vec<PortSpec> {
         vec![]

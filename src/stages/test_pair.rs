@@ -183,6 +183,7 @@ impl TypedStage for TestPair {
     const KIND: &'static str = "test.pair";
     const SUMMARY: &'static str = "Pairs test points to the model (alignment, nearest grid or shape-function interpolation) and maps measured DOFs to weighted model DOFs";
     const IMPL_VERSION: u32 = 1;
+    const PREFLIGHT: bool = true;
 
     fn inputs() -> Vec<PortSpec> {
         vec![

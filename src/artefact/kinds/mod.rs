@@ -25,6 +25,7 @@
 //! | `leverage` | [`leverage`] |
 //! | `eigenvalue_sensitivity` | [`eigenvalue_sensitivity`] |
 //! | `nastran_deck` | [`nastran_deck`] |
+//! | `universal_file` | [`universal_file`] |
 //! | `posterior` | [`posterior`] |
 //! | `test_geometry` | [`test_geometry`] |
 //! | `test_map` | [`test_map`] |
@@ -53,6 +54,7 @@ pub mod test_geometry;
 pub mod test_map;
 #[cfg(test)]
 mod tests;
+pub mod universal_file;
 pub mod update_result;
 
 pub use correlation::{CorrelationKind, correlation_from_artefact, correlation_to_artefact};
@@ -150,6 +152,7 @@ registry! {
     Posterior => posterior::PosteriorKind,
     TestGeometry => test_geometry::TestGeometryKind,
     TestMap => test_map::TestMapKind,
+    UniversalFile => universal_file::UniversalFileKind,
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -92,7 +92,12 @@ impl Kind for ModesKind {
                     vec![
                         col("mode", "int64", "", "mode number from 1"),
                         col("source_mode", "int64", "", "mode number in the test file"),
-                        col("damping_ratio", "float64", "", "modal viscous damping ratio"),
+                        col(
+                            "damping_ratio",
+                            "float64",
+                            "",
+                            "modal viscous damping ratio",
+                        ),
                         col(
                             "collinearity",
                             "float64",

@@ -579,6 +579,17 @@ impl Example for test_map::TestMapKind {
     }
 }
 
+impl Example for universal_file::UniversalFileKind {
+    fn examples() -> Vec<universal_file::UniversalFile> {
+        vec![universal_file::UniversalFile {
+            name: "plate.uff".into(),
+            bytes: b"    -1\n  2411\n    -1\n".to_vec(),
+            datasets: vec![(2411, 1), (58, 0)],
+            source: "frf.synthesise abc".into(),
+        }]
+    }
+}
+
 impl Example for nastran_deck::NastranDeckKind {
     fn examples() -> Vec<nastran_deck::NastranDeck> {
         vec![nastran_deck::NastranDeck {

@@ -309,6 +309,25 @@ impl TypedStage for Update {
         issues
     }
 
+    /// The measured DOFs against the model, unless a map relates them.
+    fn preflight(_p: &Params, inputs: &StageInputs) -> Vec<ParamIssue> {
+        if inputs.get("map").is_some() {
+            return Vec::new();
+        }
+        let (Some(mesh), Some(measured)) = (inputs.get("mesh"), inputs.get("measured")) else {
+            return Vec::new();
+        };
+        let (Ok(model), Ok(set)) = (
+            crate::artefact::mesh::mesh_from_artefact(mesh),
+            crate::artefact::kinds::frf_from_artefact(measured),
+        ) else {
+            return Vec::new();
+        };
+        super::params::measured_dofs_issue(&model, &set, "measured")
+            .into_iter()
+            .collect()
+    }
+
     fn run(p: &Params, inputs: &StageInputs) -> Result<StageOutputs, StageError> {
         match p {
             Params::Pc(p) => p.run(inputs),

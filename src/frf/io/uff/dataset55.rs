@@ -192,11 +192,7 @@ pub(super) fn parse_55(
         2 => false,
         5 => true,
         _ => {
-            return Err(at6.err(
-                "field 5 (data type)",
-                data_type,
-                "2 (real) or 5 (complex)",
-            ));
+            return Err(at6.err("field 5 (data type)", data_type, "2 (real) or 5 (complex)"));
         }
     };
     if ndv != per_node as i64 {
@@ -315,15 +311,13 @@ fn node_values(
             let at10 = at55(file, l10, "record 10");
             for tok in text(r10).split_whitespace() {
                 for part in split_numbers(tok) {
-                    let v = parse_real(part)
-                        .filter(|v| v.is_finite())
-                        .ok_or_else(|| {
-                            at10.err(
-                                format!("value {} of node {node}", vals.len() + 1),
-                                part,
-                                "a finite real number, e.g. -1.23456E-02",
-                            )
-                        })?;
+                    let v = parse_real(part).filter(|v| v.is_finite()).ok_or_else(|| {
+                        at10.err(
+                            format!("value {} of node {node}", vals.len() + 1),
+                            part,
+                            "a finite real number, e.g. -1.23456E-02",
+                        )
+                    })?;
                     if vals.len() == parts {
                         return Err(at10.err(
                             format!("values of node {node}"),

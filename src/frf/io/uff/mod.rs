@@ -70,8 +70,8 @@ mod types;
 mod units;
 pub mod write;
 
-pub use error::{NonFiniteValue, UffError};
 pub use dataset55::{ModeKind55, Uff55};
+pub use error::{NonFiniteValue, UffError};
 pub use set::{LINE_TOLERANCE, to_frf_set};
 pub use shapes::{TestModes, realisation, to_test_modes};
 pub use types::{

@@ -43,7 +43,11 @@ fn written_modes_read_back() {
     let t = to_test_modes(&file).unwrap();
     // Nodes 1, 2: x, y zero; node 3: y zero — all left out.
     assert_eq!(t.dofs, dofs);
-    assert!(t.notes.iter().any(|n| n.contains("5 DOF(s) zero")), "{:?}", t.notes);
+    assert!(
+        t.notes.iter().any(|n| n.contains("5 DOF(s) zero")),
+        "{:?}",
+        t.notes
+    );
     assert_eq!(t.freqs_hz.len(), 2);
     assert!((t.freqs_hz[1] - 40.123456).abs() < 1e-5);
     assert_eq!(t.damping_ratios, vec![0.01, 0.0]);
@@ -51,7 +55,10 @@ fn written_modes_read_back() {
     for (c, s) in [s1, s2].iter().enumerate() {
         for (i, v) in s.iter().enumerate() {
             let got = t.shapes[(i, c)];
-            assert!((got - v).abs() <= 1e-6 * v.abs(), "mode {c} row {i}: {got} vs {v}");
+            assert!(
+                (got - v).abs() <= 1e-6 * v.abs(),
+                "mode {c} row {i}: {got} vs {v}"
+            );
         }
     }
     // Rotations make the records six values per node.
@@ -151,7 +158,12 @@ fn complex_mode_is_made_real() {
     assert!((t.collinearity[0] - 1.0).abs() < 1e-9);
     // Largest component (−1.0) made positive: the shape is −real.
     for (i, r) in real.iter().enumerate() {
-        assert!((t.shapes[(i, 0)] + r).abs() < 1e-5, "{} vs {}", t.shapes[(i, 0)], -r);
+        assert!(
+            (t.shapes[(i, 0)] + r).abs() < 1e-5,
+            "{} vs {}",
+            t.shapes[(i, 0)],
+            -r
+        );
     }
     assert!(t.notes.iter().any(|n| n.contains("made real")));
     assert_eq!(t.source_mode, vec![4]);
@@ -173,7 +185,11 @@ fn other_data_at_nodes_are_skipped() {
     );
     let e = to_test_modes(&file).unwrap_err();
     assert!(matches!(e, UffError::NoShapes { skipped: 1 }));
-    assert!(e.to_string().contains("1 other dataset 55 record(s) were skipped"), "{e}");
+    assert!(
+        e.to_string()
+            .contains("1 other dataset 55 record(s) were skipped"),
+        "{e}"
+    );
 }
 
 /// Malformed records are refused with the file, line, record and field.
@@ -185,7 +201,9 @@ fn malformed_records_are_refused() {
     let r8 = "  1.00000E+01  1.00000E+00  0.00000E+00  0.00000E+00\n";
     let cases = [
         (
-            format!("{head}         1         2         2         8         2         6\n{r7}{r8}    -1\n"),
+            format!(
+                "{head}         1         2         2         8         2         6\n{r7}{r8}    -1\n"
+            ),
             "record 6, field 6 (values per node)",
         ),
         (
@@ -197,7 +215,9 @@ fn malformed_records_are_refused() {
             "value 2 of node 1",
         ),
         (
-            format!("{head}{r6}{r7}{r8}         1\n  1.0 2.0 3.0\n         1\n  1.0 2.0 3.0\n    -1\n"),
+            format!(
+                "{head}{r6}{r7}{r8}         1\n  1.0 2.0 3.0\n         1\n  1.0 2.0 3.0\n    -1\n"
+            ),
             "each node once per mode",
         ),
         (
@@ -206,12 +226,20 @@ fn malformed_records_are_refused() {
         ),
     ];
     for (text, want) in cases {
-        let e = parse_uff(text.as_bytes(), "bad.uff").unwrap_err().to_string();
-        assert!(e.contains("bad.uff:") && e.contains(want), "{e}\nwanted {want}");
+        let e = parse_uff(text.as_bytes(), "bad.uff")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("bad.uff:") && e.contains(want),
+            "{e}\nwanted {want}"
+        );
     }
     let one = format!("{head}{r6}{r7}{r8}         1\n  1.0 2.0 3.0\n    -1\n");
     let twice = format!("{one}{one}");
     let file = parse_uff(twice.as_bytes(), "twice.uff").unwrap();
     let e = to_test_modes(&file).unwrap_err().to_string();
-    assert!(e.contains("twice.uff:15") && e.contains("mode 1") && e.contains("line 2"), "{e}");
+    assert!(
+        e.contains("twice.uff:15") && e.contains("mode 1") && e.contains("line 2"),
+        "{e}"
+    );
 }

@@ -105,11 +105,12 @@ pub fn write_uff58_records(records: &[Uff58], encoding: UffEncoding) -> Vec<u8> 
     out
 }
 
-/// Dataset 2411 (nodes, double precision) with 17 significant digits: exact.
+/// Dataset 2411 (nodes, double precision) with 17 significant digits: exact; coordinates in
+/// the global system (definition and displacement system 0).
 pub fn write_uff2411(nodes: &[(u64, [f64; 3])]) -> Vec<u8> {
     let mut s = String::from("    -1\n  2411\n");
     for (id, xyz) in nodes {
-        let _ = writeln!(s, "{id:>10}{:>10}{:>10}{:>10}", 1, 1, 11);
+        let _ = writeln!(s, "{id:>10}{:>10}{:>10}{:>10}", 0, 0, 11);
         for x in xyz {
             s.push_str(&fmt_e(*x, 25));
         }
@@ -479,7 +480,11 @@ pub fn write_uff55(
         let _ = writeln!(
             s,
             "{}",
-            id_line(&format!("MODE {:>10} FREQUENCY {}", m.mode, fmt_e(m.freq_hz, 13)))
+            id_line(&format!(
+                "MODE {:>10} FREQUENCY {}",
+                m.mode,
+                fmt_e(m.freq_hz, 13)
+            ))
         );
         let _ = writeln!(
             s,

@@ -1,0 +1,241 @@
+//! `test.export`: predictions written as a Universal File for the lab's own software: the
+//! test points (dataset 2411), FRFs (dataset 58, or 58b), and modes (dataset 55).
+//!
+//! FRFs are written at their own DOFs: a prediction made with `frf.synthesise`'s `template`
+//! and `map` is already at the measured DOFs, in the test's quantity. Modes are written at
+//! their DOFs too, or, with a `test.pair` map connected, at the measured DOFs: each is the
+//! map's weighted sum of model DOFs (14.7), so an updated model's modes reach the lab's
+//! points and directions. Mass-normalised modes carry modal mass 1, test modes 0 (unknown).
+
+use crate::artefact::ArtefactKind;
+use crate::artefact::kinds::test_geometry::test_geometry_from_artefact;
+use crate::artefact::kinds::test_map::test_map_from_artefact;
+use crate::artefact::kinds::universal_file::{UniversalFile, UniversalFileKind};
+use crate::artefact::kinds::{Kind, frf_from_artefact, modes_from_artefact};
+use crate::core::DofId;
+use crate::frf::io::uff::write::{ModeRecord, UffEncoding, write_uff55, write_uff2411};
+use crate::frf::io::uff::write_uff58_as;
+use crate::pairing::TestMap;
+use crate::pipeline::{
+    CheckContext, ParamIssue, PortSpec, StageError, StageInputs, StageOutputs, TypedStage,
+};
+use faer::Mat;
+use std::collections::HashMap;
+
+/// The stage.
+pub struct TestExport;
+
+/// How dataset 58 data are encoded.
+#[derive(
+    Clone,
+    Copy,
+    Debug,
+    Default,
+    PartialEq,
+    Eq,
+    serde::Deserialize,
+    serde::Serialize,
+    schemars::JsonSchema,
+)]
+#[serde(rename_all = "snake_case")]
+pub enum Encoding {
+    /// The standard `4E20.12` columns (about 13 digits), readable by fixed-column readers.
+    #[default]
+    Ascii,
+    /// 17 digits in 25 columns: exact, for whitespace-splitting readers.
+    AsciiExact,
+    /// Binary 58b, little-endian IEEE 754: exact and compact.
+    Binary,
+}
+
+/// Parameters of `test.export`.
+#[derive(Clone, Debug, serde::Deserialize, serde::Serialize, schemars::JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct Params {
+    /// File name of the Universal File (default `femu.uff`).
+    #[serde(default = "default_name")]
+    pub file_name: String,
+    /// Encoding of the FRF data (default `ascii`).
+    #[serde(default)]
+    pub encoding: Encoding,
+    /// ID line 1 of the mode datasets.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub title: Option<String>,
+}
+
+fn default_name() -> String {
+    "femu.uff".into()
+}
+
+/// A plain file name: no folder, not empty, not `.`/`..`.
+fn plain_name(name: &str) -> bool {
+    !name.is_empty()
+        && name != "."
+        && name != ".."
+        && !name.contains(['/', '\\', '\0'])
+        && name.len() <= 255
+}
+
+/// Shapes at the measured DOFs: `φ_t = Σ w φ_fe` for every measured DOF of the map.
+pub fn shapes_through_map(
+    map: &TestMap,
+    dofs: &[DofId],
+    shapes: faer::MatRef<'_, f64>,
+) -> Result<(Vec<DofId>, Mat<f64>), String> {
+    let row: HashMap<DofId, usize> = dofs.iter().enumerate().map(|(i, d)| (*d, i)).collect();
+    let combos = map.combinations();
+    let mut out = Mat::<f64>::zeros(combos.len(), shapes.ncols());
+    for (t, (test_dof, terms)) in combos.iter().enumerate() {
+        for (fe, w) in terms {
+            let Some(&i) = row.get(fe) else {
+                return Err(format!(
+                    "the map's measured DOF {test_dof} uses model DOF {fe}, which the modes do not hold (a constrained or dependent DOF, or modes of another model)"
+                ));
+            };
+            for c in 0..shapes.ncols() {
+                out[(t, c)] += w * shapes[(i, c)];
+            }
+        }
+    }
+    Ok((combos.into_iter().map(|(d, _)| d).collect(), out))
+}
+
+impl TypedStage for TestExport {
+    type Params = Params;
+    const KIND: &'static str = "test.export";
+    const SUMMARY: &'static str =
+        "Test points, FRFs and modes as a Universal File (datasets 2411, 58/58b, 55) for the lab";
+    const IMPL_VERSION: u32 = 1;
+
+    fn inputs() -> Vec<PortSpec> {
+        vec![
+            PortSpec::optional(
+                "geometry",
+                ArtefactKind::TestGeometry,
+                "test points, written as dataset 2411 (global frames only)",
+            ),
+            PortSpec::optional("frf", ArtefactKind::Frf, "FRFs, written as dataset 58"),
+            PortSpec::optional("modes", ArtefactKind::Modes, "modes, written as dataset 55"),
+            PortSpec::optional(
+                "map",
+                ArtefactKind::TestMap,
+                "with `modes`: the modes are written at the map's measured DOFs",
+            ),
+        ]
+    }
+
+    fn outputs() -> Vec<PortSpec> {
+        vec![PortSpec::required(
+            "file",
+            ArtefactKind::UniversalFile,
+            "the Universal File",
+        )]
+    }
+
+    fn validate(p: &mut Params, ctx: &CheckContext) -> Vec<ParamIssue> {
+        let mut issues = Vec::new();
+        if !plain_name(&p.file_name) {
+            issues.push(ParamIssue::at(
+                "file_name",
+                format!("`{}` is not a plain file name (no folders)", p.file_name),
+            ));
+        }
+        if !["geometry", "frf", "modes"]
+            .iter()
+            .any(|port| ctx.is_connected(port))
+        {
+            issues.push(ParamIssue::at(
+                "",
+                "nothing to write: connect `geometry`, `frf` or `modes`",
+            ));
+        }
+        if ctx.is_connected("map") && !ctx.is_connected("modes") {
+            issues.push(ParamIssue::at(
+                "",
+                "the `map` input maps `modes` to the measured DOFs; connect `modes` too, or remove `map`",
+            ));
+        }
+        issues
+    }
+
+    fn run(p: &Params, inputs: &StageInputs) -> Result<StageOutputs, StageError> {
+        let mut bytes = Vec::new();
+        let mut datasets = Vec::new();
+        let mut source = Vec::new();
+        if let Some(g) = inputs.get("geometry") {
+            let geometry = test_geometry_from_artefact(g)?;
+            let global = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+            if let Some(pt) = geometry.points.iter().find(|pt| pt.axes != global) {
+                return Err(StageError::input(
+                    "geometry",
+                    format!(
+                        "test point {} has its own displacement frame; writing frames (dataset 2420) is not supported, so its directions would be misread: leave `geometry` unconnected and keep the lab's own geometry file",
+                        pt.node
+                    ),
+                ));
+            }
+            let nodes: Vec<(u64, [f64; 3])> =
+                geometry.points.iter().map(|pt| (pt.node, pt.xyz)).collect();
+            bytes.extend(write_uff2411(&nodes));
+            datasets.push((2411, 1));
+            source.push(format!("geometry {}", &g.digest()[..16]));
+        }
+        if let Some(f) = inputs.get("frf") {
+            let set = frf_from_artefact(f)?;
+            let encoding = match p.encoding {
+                Encoding::Ascii => UffEncoding::Ascii,
+                Encoding::AsciiExact => UffEncoding::AsciiExact,
+                Encoding::Binary => UffEncoding::Binary(crate::frf::io::uff::ByteOrder::Little),
+            };
+            bytes.extend(write_uff58_as(&set, encoding));
+            datasets.push((58, set.pairs.len()));
+            source.push(format!("frf {}", &f.digest()[..16]));
+        }
+        if let Some(m) = inputs.get("modes") {
+            let modes = modes_from_artefact(m)?;
+            let (dofs, shapes) = match inputs.get("map") {
+                Some(a) => {
+                    let map = test_map_from_artefact(a)?;
+                    shapes_through_map(&map, &modes.dofs, modes.modes.shapes.as_ref())
+                        .map_err(|e| StageError::input("map", e))?
+                }
+                None => (modes.dofs.clone(), modes.modes.shapes.clone()),
+            };
+            let modal_mass = match m.meta.get("normalisation").and_then(|v| v.as_str()) {
+                Some("mass") => 1.0,
+                _ => 0.0,
+            };
+            let freqs = modes.modes.frequencies_hz();
+            let columns: Vec<Vec<f64>> = (0..shapes.ncols())
+                .map(|c| (0..shapes.nrows()).map(|i| shapes[(i, c)]).collect())
+                .collect();
+            let records: Vec<ModeRecord<'_>> = columns
+                .iter()
+                .enumerate()
+                .map(|(c, shape)| ModeRecord {
+                    mode: c + 1,
+                    freq_hz: freqs[c],
+                    modal_mass,
+                    damping_ratio: 0.0,
+                    shape,
+                })
+                .collect();
+            let title = p.title.clone().unwrap_or_else(|| "femu modes".into());
+            bytes.extend(
+                write_uff55(&dofs, &records, &title).map_err(|e| StageError::input("modes", e))?,
+            );
+            datasets.push((55, records.len()));
+            source.push(format!("modes {}", &m.digest()[..16]));
+        }
+        let file = UniversalFile {
+            name: p.file_name.clone(),
+            bytes,
+            datasets,
+            source: source.join(", "),
+        };
+        Ok(StageOutputs::from([(
+            "file".to_string(),
+            UniversalFileKind::to_artefact(&file),
+        )]))
+    }
+}
