@@ -12,6 +12,7 @@ pub mod eigensensitivity;
 pub mod model;
 pub mod pc;
 pub mod posterior;
+pub mod tmcmc;
 pub mod rfm;
 pub mod sensitive_start;
 pub mod solve;
