@@ -2,6 +2,7 @@
 //! Each parses its typed parameters, calls the numerics and writes artefacts.
 
 pub mod assemble;
+pub mod bayes_tmcmc;
 pub mod correlate_frf;
 pub mod correlate_modes;
 pub mod frf_import;
@@ -50,6 +51,7 @@ static REDUCE_FC: Typed<reduce_force_coupling::ReduceForceCoupling> = Typed::new
 static LOCALISE_LEVERAGE: Typed<localise_leverage::LocaliseLeverage> = Typed::new();
 static LOCALISE_EIGEN: Typed<localise_eigensensitivity::LocaliseEigensensitivity> = Typed::new();
 static TEST_PAIR: Typed<test_pair::TestPair> = Typed::new();
+static BAYES_TMCMC: Typed<bayes_tmcmc::BayesTmcmc> = Typed::new();
 
 /// Every stage kind femu knows.
 pub fn registry() -> Registry {
@@ -76,6 +78,7 @@ pub fn registry() -> Registry {
         &REDUCE_FC,
         &LOCALISE_LEVERAGE,
         &LOCALISE_EIGEN,
+        &BAYES_TMCMC,
     ];
     Registry::new(all)
 }

@@ -12,10 +12,10 @@ pub mod eigensensitivity;
 pub mod model;
 pub mod pc;
 pub mod posterior;
-pub mod tmcmc;
 pub mod rfm;
 pub mod sensitive_start;
 pub mod solve;
+pub mod tmcmc;
 
 pub use model::{
     Evaluated, FeModel, LinearModel, ModalState, ParametricModel, ReducedFeModel, UpdatingError,

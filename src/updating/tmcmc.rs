@@ -1,8 +1,8 @@
-//! Transitional Markov chain Monte Carlo (Ching and Chen 2007; docs/theory.md §13): samples of
+//! Transitional Markov chain Monte Carlo (Ching and Chen 2007; docs/theory.md §15): samples of
 //! the posterior `p(φ|y) ∝ p(y|φ) p(φ)` and the model evidence `p(y) = ∫ p(y|φ) p(φ) dφ`.
 //!
 //! The likelihood is the output error of [`Likelihood`], `y = f(φ) + e`, `e ~ N(0, diag σ_i²)`,
-//! with every normalising constant kept (13.1): `ln p(y|φ) = −½ Σ_i (r_i/σ_i)² − Σ_i ln σ_i −
+//! with every normalising constant kept (15.1): `ln p(y|φ) = −½ Σ_i (r_i/σ_i)² − Σ_i ln σ_i −
 //! (m/2) ln 2π`, so that the evidence of different parameterisations of one data set can be
 //! compared. The noise must be stated ([`Noise::Absolute`] or [`Noise::Relative`]):
 //! [`Noise::Estimated`] is refused. Integrating a per-group `σ` out under a Jeffreys prior
@@ -11,14 +11,14 @@
 //! as a number; a stated noise keeps the evidence absolute.
 //!
 //! Stages `j = 0, 1, …` sample the tempered densities `p_j(φ) ∝ p(y|φ)^{β_j} p(φ)`, `0 = β_0 <
-//! β_1 < … < β_J = 1` (13.2). From the samples `φ_k` of stage `j` the plausibility weights
-//! `w_k = p(y|φ_k)^{β_{j+1} − β_j}` (13.3) are formed, `β_{j+1}` chosen by bisection so that
+//! β_1 < … < β_J = 1` (15.2). From the samples `φ_k` of stage `j` the plausibility weights
+//! `w_k = p(y|φ_k)^{β_{j+1} − β_j}` (15.3) are formed, `β_{j+1}` chosen by bisection so that
 //! their coefficient of variation is the target (1: an effective sample size of half the
 //! samples), or 1 when that is reached sooner. The mean weight `S_j = (1/N) Σ_k w_k` estimates
-//! the ratio of the stages' normalising constants, so `ln p(y) = Σ_j ln S_j` (13.4), summed
+//! the ratio of the stages' normalising constants, so `ln p(y) = Σ_j ln S_j` (15.4), summed
 //! with the largest log-likelihood factored out (log-sum-exp). The samples are resampled in
 //! proportion to `w_k` and every one moves by Metropolis-Hastings steps under `p_{j+1}` with
-//! the Gaussian proposal `N(φ, β² Σ_j)`, `Σ_j` the weighted sample covariance (13.5),
+//! the Gaussian proposal `N(φ, β² Σ_j)`, `Σ_j` the weighted sample covariance (15.5),
 //! `β² = 0.04` by default.
 //!
 //! The likelihood evaluations of a stage run in parallel (rayon); every chain draws from its
@@ -101,11 +101,9 @@ impl ParamPrior {
                 sd,
                 lower,
                 upper,
-            } if !(finite(&[mean, sd, lower, upper]) && sd > 0.0 && lower < upper) => {
-                Err(format!(
-                    "bounded prior: mean {mean}, sd {sd} on [{lower}, {upper}]; give a positive sd and lower < upper"
-                ))
-            }
+            } if !(finite(&[mean, sd, lower, upper]) && sd > 0.0 && lower < upper) => Err(format!(
+                "bounded prior: mean {mean}, sd {sd} on [{lower}, {upper}]; give a positive sd and lower < upper"
+            )),
             ParamPrior::Bounded {
                 mean,
                 sd,
@@ -245,7 +243,7 @@ impl Default for TmcmcSettings {
 pub struct TmcmcStage {
     /// The exponent `β_{j+1}` reached.
     pub exponent: f64,
-    /// `ln S_j`, the stage's share of the log evidence (13.4).
+    /// `ln S_j`, the stage's share of the log evidence (15.4).
     pub log_evidence: f64,
     /// Fraction of accepted Metropolis-Hastings proposals.
     pub acceptance: f64,
@@ -294,7 +292,7 @@ pub fn log_sum_exp(a: &[f64]) -> f64 {
     max + a.iter().map(|v| (v - max).exp()).sum::<f64>().ln()
 }
 
-/// The coefficient of variation of `w_k = exp(Δ ℓ_k)` (13.3).
+/// The coefficient of variation of `w_k = exp(Δ ℓ_k)` (15.3).
 pub fn weight_cov(log_lik: &[f64], delta: f64) -> f64 {
     let max = log_lik.iter().copied().fold(f64::NEG_INFINITY, f64::max);
     let w: Vec<f64> = log_lik
@@ -340,17 +338,18 @@ pub fn next_exponent(log_lik: &[f64], beta: f64, target_cov: f64) -> f64 {
 /// jitter of `1e-12·max diag` (repeated ×10 as needed) for directions the samples collapsed.
 fn cholesky(c: &[Vec<f64>]) -> Vec<Vec<f64>> {
     let n = c.len();
-    let scale = (0..n).map(|i| c[i][i].abs()).fold(0.0, f64::max).max(1e-300);
+    let scale = (0..n)
+        .map(|i| c[i][i].abs())
+        .fold(0.0, f64::max)
+        .max(1e-300);
     let mut jitter = 0.0;
     loop {
         let mut l = vec![vec![0.0; n]; n];
         let mut ok = true;
         'outer: for i in 0..n {
             for j in 0..=i {
-                let mut s = c[i][j] + if i == j { jitter } else { 0.0 };
-                for k in 0..j {
-                    s -= l[i][k] * l[j][k];
-                }
+                let dot: f64 = l[i][..j].iter().zip(&l[j][..j]).map(|(a, b)| a * b).sum();
+                let s = c[i][j] + if i == j { jitter } else { 0.0 } - dot;
                 if i == j {
                     if s <= 0.0 || !s.is_finite() {
                         ok = false;
@@ -373,7 +372,7 @@ fn cholesky(c: &[Vec<f64>]) -> Vec<Vec<f64>> {
     }
 }
 
-/// The log-likelihood (13.1) with the rows' `σ_i`.
+/// The log-likelihood (15.1) with the rows' `σ_i`.
 struct LogLik<'a> {
     lik: &'a dyn Likelihood,
     sigma: Vec<f64>,
@@ -483,7 +482,7 @@ pub fn tmcmc(
         }
         let next = next_exponent(&l, beta, settings.target_cov);
         let delta = next - beta;
-        // ln S_j = ln((1/N) Σ exp(Δ ℓ_k)), log-sum-exp (13.4).
+        // ln S_j = ln((1/N) Σ exp(Δ ℓ_k)), log-sum-exp (15.4).
         let a: Vec<f64> = l
             .iter()
             .map(|v| {
@@ -498,7 +497,7 @@ pub fn tmcmc(
         let log_s = lse - (big_n as f64).ln();
         log_evidence += log_s;
         let w: Vec<f64> = a.iter().map(|v| (v - lse).exp()).collect();
-        // Weighted mean and covariance (13.5).
+        // Weighted mean and covariance (15.5).
         let mean: Vec<f64> = (0..n)
             .map(|i| (0..big_n).map(|k| w[k] * x[k][i]).sum())
             .collect();
@@ -677,9 +676,10 @@ pub fn to_posterior(
             .rev()
             .map(|k| {
                 let mut v: Vec<f64> = (0..n).map(|i| evd.U()[(i, k)]).collect();
-                let big = v.iter().copied().fold(0.0, |a: f64, b| {
-                    if b.abs() > a.abs() { b } else { a }
-                });
+                let big = v
+                    .iter()
+                    .copied()
+                    .fold(0.0, |a: f64, b| if b.abs() > a.abs() { b } else { a });
                 if big < 0.0 {
                     v.iter_mut().for_each(|c| *c = -*c);
                 }
@@ -763,7 +763,9 @@ mod tests {
     /// One parameter, `y_i = θ + e_i`, prior `N(μ₀, s₀²)`: the evidence in closed form,
     /// `y ~ N(μ₀ 1, σ² I + s₀² 1 1ᵀ)`.
     fn scalar_problem(m: usize) -> (Linear, f64, f64, f64) {
-        let y: Vec<f64> = (0..m).map(|i| 1.0 + 0.1 * ((i * 7 % 5) as f64 - 2.0)).collect();
+        let y: Vec<f64> = (0..m)
+            .map(|i| 1.0 + 0.1 * ((i * 7 % 5) as f64 - 2.0))
+            .collect();
         let (mu0, s0, sigma) = (0.5, 0.4, 0.1);
         let lin = Linear {
             a: vec![vec![1.0]; m],
@@ -787,10 +789,16 @@ mod tests {
 
     #[test]
     fn exponent_bisection_meets_the_target_cov() {
-        let l: Vec<f64> = (0..500).map(|k| -0.5 * (k as f64 * 0.37).sin().powi(2) * 400.0).collect();
+        let l: Vec<f64> = (0..500)
+            .map(|k| -0.5 * (k as f64 * 0.37).sin().powi(2) * 400.0)
+            .collect();
         let b = next_exponent(&l, 0.0, 1.0);
         assert!(b > 0.0 && b < 1.0);
-        assert!((weight_cov(&l, b) - 1.0).abs() < 1e-9, "{}", weight_cov(&l, b));
+        assert!(
+            (weight_cov(&l, b) - 1.0).abs() < 1e-9,
+            "{}",
+            weight_cov(&l, b)
+        );
         // Flat enough: straight to 1.
         let flat: Vec<f64> = (0..100).map(|k| -1e-3 * k as f64).collect();
         assert_eq!(next_exponent(&flat, 0.3, 1.0), 1.0);
@@ -838,11 +846,13 @@ mod tests {
             let mut rng = chain_rng(3, 0, 0);
             let draws: Vec<f64> = (0..40_000).map(|_| p.sample(&mut rng)).collect();
             let mean = draws.iter().sum::<f64>() / draws.len() as f64;
-            let sd = (draws.iter().map(|v| (v - mean).powi(2)).sum::<f64>()
-                / draws.len() as f64)
-                .sqrt();
+            let sd =
+                (draws.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / draws.len() as f64).sqrt();
             let (m0, s0) = p.moments();
-            assert!((mean - m0).abs() < 4.0 * s0 / 200.0, "{p:?}: {mean} vs {m0}");
+            assert!(
+                (mean - m0).abs() < 4.0 * s0 / 200.0,
+                "{p:?}: {mean} vs {m0}"
+            );
             assert!((sd / s0 - 1.0).abs() < 0.03, "{p:?}: {sd} vs {s0}");
             assert!(draws.iter().all(|v| p.log_density(*v).is_finite()));
         }
@@ -898,7 +908,11 @@ mod tests {
         );
         let mg = &p.marginals[0];
         assert!((mg.mean - post_mean).abs() < 0.1 * post_sd, "{}", mg.mean);
-        assert!((mg.sd / post_sd - 1.0).abs() < 0.1, "{} vs {post_sd}", mg.sd);
+        assert!(
+            (mg.sd / post_sd - 1.0).abs() < 0.1,
+            "{} vs {post_sd}",
+            mg.sd
+        );
         assert_eq!(t.stages.last().unwrap().exponent, 1.0);
         assert!(t.stages.len() > 2);
         assert!(t.stages.iter().all(|s| s.acceptance > 0.05));
@@ -915,9 +929,18 @@ mod tests {
             ..Default::default()
         };
         assert!(tmcmc(&lin, &prior, &Noise::Absolute(vec![0.1]), &few).is_err());
-        let bad = [ParamPrior::Normal { mean: 0.0, sd: -1.0 }];
+        let bad = [ParamPrior::Normal {
+            mean: 0.0,
+            sd: -1.0,
+        }];
         assert!(
-            tmcmc(&lin, &bad, &Noise::Absolute(vec![0.1]), &TmcmcSettings::default()).is_err()
+            tmcmc(
+                &lin,
+                &bad,
+                &Noise::Absolute(vec![0.1]),
+                &TmcmcSettings::default()
+            )
+            .is_err()
         );
     }
 
