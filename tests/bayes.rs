@@ -260,7 +260,8 @@ fn noisy(x0: &FrfSet, seed: u64) -> FrfSet {
 /// TMCMC coverage (issue 28, reduced size): the C1 chain (truth all masses 1 kg), the four
 /// receptances on 1–40 Hz every 1 Hz (40 lines, 320 data), loss factor 0.02, complex Gaussian
 /// noise at 30 dB SNR with σ known per FRF; uniform priors U[0.6, 1.6] on the four masses;
-/// 300 samples a stage, two Metropolis-Hastings steps per chain. Over 200 noise seeds the
+/// 400 samples a stage, six Metropolis-Hastings steps per chain (with two, the chains mix too
+/// little and the intervals are too narrow: 0.74 coverage). Over 200 noise seeds the
 /// 90 % credible interval of every mass (sample quantiles) contains the truth 90 ± 5 % of the
 /// time, the masses pooled to ±4 %.
 #[test]
@@ -285,8 +286,8 @@ fn tmcmc_credible_intervals_cover_the_truth() {
                 &priors,
                 &Noise::Absolute(sigma.clone()),
                 &TmcmcSettings {
-                    samples: 300,
-                    mh_steps: 2,
+                    samples: 400,
+                    mh_steps: 6,
                     seed,
                     ..Default::default()
                 },
@@ -459,8 +460,9 @@ fn spd_logdet_solve(b: &[Vec<f64>], rhs: &[f64]) -> (f64, Vec<f64>) {
 /// The evidence against its closed form (the independent check of (15.4)): `y = Aθ + e`,
 /// three parameters with normal priors `N(μ₀, s₀²)`, 30 rows, `σ = 0.05`; then
 /// `y ~ N(Aμ₀, A S₀ Aᵀ + σ² I)`, evaluated by the determinant lemma and Woodbury's identity.
-/// Over four seeds (2000 samples, three moves a stage) the TMCMC estimate is within 0.3 nats
-/// of it each time and 0.15 on average (its sampling error is about 0.1 nats here).
+/// Over four seeds (2000 samples, three moves a stage) the TMCMC estimate is within 0.4 nats
+/// of it each time and 0.15 on average (its sampling error is about 0.25 nats here: one run
+/// gave 45.82, 45.56, 45.95, 45.35 against 45.64).
 #[test]
 fn tmcmc_evidence_matches_the_linear_gaussian_closed_form() {
     let (m, n, sigma) = (30usize, 3usize, 0.05);
@@ -532,14 +534,15 @@ fn tmcmc_evidence_matches_the_linear_gaussian_closed_form() {
         .collect();
     eprintln!("ln p(y): exact {exact:.4}, TMCMC {estimates:.4?}");
     for e in &estimates {
-        assert!((e - exact).abs() < 0.3, "{e} vs {exact}");
+        assert!((e - exact).abs() < 0.4, "{e} vs {exact}");
     }
     let mean = estimates.iter().sum::<f64>() / estimates.len() as f64;
     assert!((mean - exact).abs() < 0.15, "mean {mean} vs {exact}");
 }
 
 /// The stage `bayes.tmcmc` on the shipped four-DOF models (`four-dof-bayes` with a TMCMC stage
-/// added): a `posterior` artefact that fits its layout, means within four sds of the truth,
+/// added): a `posterior` artefact that fits its layout, means within 0.75 Laplace sd of the
+/// P-C's Laplace posterior on the same data and sds within 30 % of it,
 /// the evidence and the stages (exponents rising to 1), the marginal and pair figures; the
 /// same run again is served from the cache.
 #[test]
@@ -561,7 +564,8 @@ fn bayes_tmcmc_stage_writes_the_posterior_with_evidence_and_figures() {
         m4: {{bounded: {{mean: 1.0, sd: 0.3, lower: 0.5, upper: 2.0}}}}
       truth: {{m1: 1.0, m2: 1.0, m3: 1.0, m4: 1.0}}
       noise: {{snr_db: 30.0}}
-      samples: 300
+      samples: 500
+      mh_steps: 6
       seed: 2
 "
     );
@@ -590,10 +594,30 @@ fn bayes_tmcmc_stage_writes_the_posterior_with_evidence_and_figures() {
         t.f64s("parameters", "mean").unwrap(),
         t.f64s("parameters", "sd").unwrap(),
     );
+    // Against the Laplace posterior of the P-C on the same data (the `pc` stage).
+    let l = read_dir(&out.join("pc").join("posterior")).unwrap();
+    let lt = l.table("parameters").unwrap();
+    let (lmean, lsd) = (
+        lt.f64s("parameters", "mean").unwrap(),
+        lt.f64s("parameters", "sd").unwrap(),
+    );
     for j in 0..4 {
-        assert!(sd[j] > 0.0 && sd[j] < 0.05, "m{}: sd {}", j + 1, sd[j]);
+        eprintln!(
+            "m{}: TMCMC {:.5} ± {:.2e}, Laplace {:.5} ± {:.2e}",
+            j + 1,
+            mean[j],
+            sd[j],
+            lmean[j],
+            lsd[j]
+        );
         assert!(
-            (mean[j] - 1.0).abs() < 4.0 * sd[j],
+            (sd[j] / lsd[j] - 1.0).abs() < 0.3,
+            "m{}: sd {}",
+            j + 1,
+            sd[j]
+        );
+        assert!(
+            (mean[j] - lmean[j]).abs() < 0.75 * lsd[j],
             "m{}: {}",
             j + 1,
             mean[j]
@@ -605,13 +629,12 @@ fn bayes_tmcmc_stage_writes_the_posterior_with_evidence_and_figures() {
             .f64s("samples", "value")
             .unwrap()
             .len(),
-        1200
+        2000
     );
     for f in ["marginals.png", "marginals.svg", "pairs.png", "pairs.svg"] {
         assert!(a.blobs.contains_key(f), "{f}");
     }
     // The Laplace posterior of the update carries its figures too.
-    let l = read_dir(&out.join("pc").join("posterior")).unwrap();
     assert!(l.blobs.contains_key("marginals.png") && l.blobs.contains_key("pairs.svg"));
     let (_, again, _) = run(&path, &tmp.path().join("cache"), &[]);
     assert!(executed(&again).is_empty(), "{:?}", executed(&again));
