@@ -263,7 +263,8 @@ fn noisy(x0: &FrfSet, seed: u64) -> FrfSet {
 /// 400 samples a stage, six Metropolis-Hastings steps per chain (with two, the chains mix too
 /// little and the intervals are too narrow: 0.74 coverage). Over 200 noise seeds the
 /// 90 % credible interval of every mass (sample quantiles) contains the truth 90 ± 5 % of the
-/// time, the masses pooled to ±4 %.
+/// time, the masses pooled to ±4 % (this run: 0.880, 0.885, 0.915, 0.875, pooled 0.889; about
+/// four minutes in release on two busy cores).
 #[test]
 fn tmcmc_credible_intervals_cover_the_truth() {
     let freqs = frequency_lines(1.0, 40.0, 1.0);
