@@ -10,3 +10,4 @@ pub mod frf_plot;
 pub mod line_plot;
 pub mod mesh_plot;
 pub mod pairing_plot;
+pub mod posterior_plot;

@@ -2,6 +2,7 @@
 //! Each parses its typed parameters, calls the numerics and writes artefacts.
 
 pub mod assemble;
+pub mod bayes_tmcmc;
 pub mod correlate_frf;
 pub mod correlate_modes;
 pub mod frf_import;
@@ -54,6 +55,7 @@ static LOCALISE_LEVERAGE: Typed<localise_leverage::LocaliseLeverage> = Typed::ne
 static LOCALISE_EIGEN: Typed<localise_eigensensitivity::LocaliseEigensensitivity> = Typed::new();
 static TEST_PAIR: Typed<test_pair::TestPair> = Typed::new();
 static TEST_EXPORT: Typed<test_export::TestExport> = Typed::new();
+static BAYES_TMCMC: Typed<bayes_tmcmc::BayesTmcmc> = Typed::new();
 
 /// Every stage kind femu knows.
 pub fn registry() -> Registry {
@@ -82,6 +84,7 @@ pub fn registry() -> Registry {
         &REDUCE_FC,
         &LOCALISE_LEVERAGE,
         &LOCALISE_EIGEN,
+        &BAYES_TMCMC,
     ];
     Registry::new(all)
 }

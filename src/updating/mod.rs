@@ -15,6 +15,7 @@ pub mod posterior;
 pub mod rfm;
 pub mod sensitive_start;
 pub mod solve;
+pub mod tmcmc;
 
 pub use model::{
     Evaluated, FeModel, LinearModel, ModalState, ParametricModel, ReducedFeModel, UpdatingError,

@@ -263,7 +263,7 @@ pub fn normal_quantile(p: f64) -> f64 {
 
 /// `σ_i` of every row from the noise model and the residual at the mode; the per-group values
 /// and whether they were estimated.
-fn row_sigmas(
+pub(crate) fn row_sigmas(
     lik: &dyn Likelihood,
     noise: &Noise,
     residual: &[f64],

@@ -10,10 +10,15 @@
 //! | `samples` | `sample, parameter, value` |
 //! | `natural_frequencies` (optional) | `mode, freq_hz, sd_linear_hz, sd_sampled_hz` |
 //! | `frf_band` (optional) | `freq_hz, pair, abs, sd_linear, sd_sampled` |
+//! | `tmcmc_stages` (optional, `bayes.tmcmc`) | `stage, exponent, log_evidence, acceptance, distinct` |
+//!
+//! Sampled posteriors also carry `log_evidence` in the metadata; figures (`marginals`, `pairs`)
+//! are stored as `<name>.png` and `<name>.svg` blobs.
 
-use super::{Kind, Layout, TableLayout, col, expect_kind, meta, meta_value, table};
+use super::{Kind, Layout, TableLayout, col, expect_kind, meta, meta_opt, meta_value, table};
 use crate::artefact::{Artefact, ArtefactError, ArtefactKind, Column, Storage, Table};
 use crate::updating::posterior::{Band, Direction, Marginal, Posterior, Refinement};
+use crate::updating::tmcmc::TmcmcStage;
 
 const K: ArtefactKind = ArtefactKind::Posterior;
 
@@ -28,6 +33,17 @@ pub struct PosteriorRecord {
     pub noise: String,
     /// The posterior.
     pub posterior: Posterior,
+    /// What a sampler adds (`bayes.tmcmc`); `None` for the Laplace posterior.
+    pub sampling: Option<Sampling>,
+}
+
+/// The evidence and the tempering stages of a TMCMC posterior.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Sampling {
+    /// `ln p(y)`.
+    pub log_evidence: f64,
+    /// The stages in order.
+    pub stages: Vec<TmcmcStage>,
 }
 
 /// The `posterior` kind.
@@ -87,8 +103,12 @@ impl Kind for PosteriorKind {
                     "unidentified",
                     "parameters with an infinite standard deviation (in an unidentified direction)",
                 ),
+                meta_opt(
+                    "log_evidence",
+                    "ln p(y), the log model evidence (sampled posteriors)",
+                ),
             ],
-            blobs: vec![],
+            blobs: vec!["{name}.png", "{name}.svg"],
         }
     }
 
@@ -252,6 +272,33 @@ fn tables() -> Vec<TableLayout> {
                 ),
             ],
         ),
+        table(
+            "tmcmc_stages",
+            s,
+            false,
+            vec![
+                col("stage", "int64", "", "1-based tempering stage"),
+                col("exponent", "float64", "", "tempering exponent beta reached"),
+                col(
+                    "log_evidence",
+                    "float64",
+                    "",
+                    "ln S_j, the stage's share of ln p(y)",
+                ),
+                col(
+                    "acceptance",
+                    "float64",
+                    "",
+                    "fraction of Metropolis-Hastings proposals accepted",
+                ),
+                col(
+                    "distinct",
+                    "int64",
+                    "",
+                    "distinct samples kept by the resampling",
+                ),
+            ],
+        ),
     ]
 }
 
@@ -355,6 +402,24 @@ fn write(r: &PosteriorRecord) -> Artefact {
             Storage::Parquet,
         );
     }
+    if let Some(smp) = &r.sampling {
+        let st = &smp.stages;
+        a = a
+            .with_meta("log_evidence", smp.log_evidence.into())
+            .with_table(
+                "tmcmc_stages",
+                Table::new()
+                    .with("stage", Column::I64((1..=st.len() as i64).collect()))
+                    .with("exponent", f64s(st.iter().map(|x| x.exponent)))
+                    .with("log_evidence", f64s(st.iter().map(|x| x.log_evidence)))
+                    .with("acceptance", f64s(st.iter().map(|x| x.acceptance)))
+                    .with(
+                        "distinct",
+                        Column::I64(st.iter().map(|x| x.distinct as i64).collect()),
+                    ),
+                Storage::Parquet,
+            );
+    }
     a
 }
 
@@ -446,7 +511,31 @@ fn read(a: &Artefact) -> Result<PosteriorRecord, ArtefactError> {
         &|b, i| Ok(b.strs("frf_band", "pair")?[i].clone()),
         ["freq_hz", "abs", "sd_linear", "sd_sampled"],
     )?;
+    let sampling = match a.table("tmcmc_stages") {
+        Err(_) => None,
+        Ok(t) => {
+            let n = "tmcmc_stages";
+            let (e, l, acc, d) = (
+                t.f64s(n, "exponent")?,
+                t.f64s(n, "log_evidence")?,
+                t.f64s(n, "acceptance")?,
+                t.i64s(n, "distinct")?,
+            );
+            Some(Sampling {
+                log_evidence: meta_f64(a, "log_evidence")?,
+                stages: (0..e.len())
+                    .map(|k| TmcmcStage {
+                        exponent: e[k],
+                        log_evidence: l[k],
+                        acceptance: acc[k],
+                        distinct: d[k].max(0) as usize,
+                    })
+                    .collect(),
+            })
+        }
+    };
     Ok(PosteriorRecord {
+        sampling,
         method: a.meta_str("method")?.to_string(),
         likelihood: a.meta_str("likelihood")?.to_string(),
         noise: a.meta_str("noise")?.to_string(),

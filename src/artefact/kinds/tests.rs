@@ -794,13 +794,38 @@ impl Example for posterior::PosteriorKind {
                 method: "pc".into(),
                 likelihood: "frf_modal".into(),
                 noise: "sigma".into(),
+                posterior: frf.clone(),
+                sampling: None,
+            },
+            posterior::PosteriorRecord {
+                method: "tmcmc".into(),
+                likelihood: "frf_modal".into(),
+                noise: "sigma".into(),
                 posterior: frf,
+                sampling: Some(posterior::Sampling {
+                    log_evidence: -123.25,
+                    stages: vec![
+                        crate::updating::tmcmc::TmcmcStage {
+                            exponent: 0.01,
+                            log_evidence: -100.0,
+                            acceptance: 0.4,
+                            distinct: 600,
+                        },
+                        crate::updating::tmcmc::TmcmcStage {
+                            exponent: 1.0,
+                            log_evidence: -23.25,
+                            acceptance: 0.3,
+                            distinct: 550,
+                        },
+                    ],
+                }),
             },
             posterior::PosteriorRecord {
                 method: "eigensensitivity".into(),
                 likelihood: "natural_frequencies".into(),
                 noise: "estimated".into(),
                 posterior: unidentified,
+                sampling: None,
             },
         ]
     }

@@ -379,7 +379,7 @@ fn wiring_issues(method: Method, ctx: &CheckContext) -> Vec<ParamIssue> {
 /// The model updated: a mesh (through the partition's reduction when one is connected) or
 /// linear matrices. `parameters`: the names to update (empty: all); `None`: none (a fixed
 /// model, for the damping identification). `modes_given`: whether the user chose the basis.
-fn build_model(
+pub(crate) fn build_model(
     inputs: &StageInputs,
     parameters: Option<&[String]>,
     mass: MassKind,
@@ -460,7 +460,7 @@ fn linear_model(
 }
 
 /// The measured FRFs, required by the FRF methods: the lines in `band` and outside `exclude`.
-fn measured_frf(
+pub(crate) fn measured_frf(
     inputs: &StageInputs,
     band: Option<crate::stages::params::Band>,
     exclude: &[crate::stages::params::Band],
@@ -474,7 +474,7 @@ fn measured_frf(
 }
 
 /// The measured modes, required by inverse eigensensitivity.
-fn measured_modes(
+pub(crate) fn measured_modes(
     inputs: &StageInputs,
 ) -> Result<crate::artefact::kinds::ModesArtefact, StageError> {
     let a = inputs

@@ -249,12 +249,25 @@ impl PosteriorParams {
                 m.upper
             );
         }
-        Ok(PosteriorKind::to_artefact(&PosteriorRecord {
+        // The figures: the Gaussian's samples with its marginals drawn over them.
+        let names = posterior.marginals.iter().map(|m| m.name.clone()).collect();
+        let gaussian = posterior.marginals.iter().map(|m| (m.mean, m.sd)).collect();
+        let samples = posterior.samples.clone();
+        let a = PosteriorKind::to_artefact(&PosteriorRecord {
             method: method.into(),
             likelihood: likelihood.into(),
             noise: self.noise_name().into(),
             posterior,
-        }))
+            sampling: None,
+        });
+        Ok(crate::stages::bayes_tmcmc::with_figures(
+            a,
+            "Laplace posterior",
+            names,
+            &samples,
+            None,
+            Some(gaussian),
+        ))
     }
 }
 

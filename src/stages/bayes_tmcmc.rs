@@ -1,0 +1,579 @@
+//! `bayes.tmcmc`: samples the posterior of a model's parameters by transitional MCMC and
+//! reports the model evidence (docs/theory.md §15). The likelihood is the update's output
+//! error (§12): the complex FRFs at the measured lines (modal summation, `frf_modal`, or the
+//! direct solution, `frf_direct`; `band_hz`/`exclude_hz` select the lines) or the measured
+//! natural frequencies (`natural_frequencies`, paired with the model's elastic modes in order),
+//! under a stated noise. Writes a `posterior` artefact (sample statistics, the samples, the
+//! evidence and the stages) with the marginal and pair figures.
+
+use crate::artefact::kinds::Kind;
+use crate::artefact::kinds::posterior::{PosteriorKind, PosteriorRecord, Sampling};
+use crate::artefact::{Artefact, ArtefactKind};
+use crate::eigen::ModeSelection;
+use crate::fe::element::MassKind;
+use crate::frf::ModalDamping;
+use crate::pipeline::{
+    CheckContext, ParamIssue, PortSpec, StageError, StageInputs, StageOutputs, TypedStage,
+};
+use crate::report::posterior_plot::{PosteriorPlot, marginal_plot, pair_plot};
+use crate::stages::params::{Band, Count, Damping, Modes, OpenFraction, Positive};
+use crate::stages::update::{
+    NoiseParams, OneOrMany, Reduction, build_model, measured_frf, measured_modes, snr_sigmas,
+};
+use crate::updating::posterior::{
+    DirectFrfLikelihood, FrequencyLikelihood, Likelihood, ModalFrfLikelihood, Noise,
+    likelihood_lines,
+};
+use crate::updating::tmcmc::{ParamPrior, TmcmcSettings, tmcmc, to_posterior};
+use indexmap::IndexMap;
+
+/// The stage.
+pub struct BayesTmcmc;
+
+/// The likelihood: which measured quantities, predicted how.
+#[derive(
+    Clone,
+    Copy,
+    Debug,
+    Default,
+    PartialEq,
+    serde::Deserialize,
+    serde::Serialize,
+    schemars::JsonSchema,
+)]
+#[serde(rename_all = "snake_case")]
+pub enum LikelihoodChoice {
+    /// Complex FRFs by modal summation with the modal `damping` (the P-C's predictions).
+    #[default]
+    FrfModal,
+    /// Complex FRFs by the direct solution with a uniform structural `damping` (the RFM's).
+    FrfDirect,
+    /// Measured natural frequencies (input `measured_modes`), relative errors.
+    NaturalFrequencies,
+}
+
+impl LikelihoodChoice {
+    fn name(self) -> &'static str {
+        match self {
+            LikelihoodChoice::FrfModal => "frf_modal",
+            LikelihoodChoice::FrfDirect => "frf_direct",
+            LikelihoodChoice::NaturalFrequencies => "natural_frequencies",
+        }
+    }
+}
+
+/// The prior of one parameter, on its absolute value in SI.
+#[derive(Clone, Debug, serde::Deserialize, serde::Serialize, schemars::JsonSchema)]
+#[serde(rename_all = "snake_case", deny_unknown_fields)]
+pub enum PriorSpec {
+    /// Uniform on `[lower, upper]`.
+    Uniform([f64; 2]),
+    /// Normal.
+    Normal {
+        /// Mean.
+        mean: f64,
+        /// Standard deviation.
+        sd: f64,
+    },
+    /// Lognormal: `ln φ ~ N(ln median, log_sd²)`.
+    Lognormal {
+        /// Median.
+        median: f64,
+        /// Standard deviation of `ln φ` (≈ the relative spread when small).
+        log_sd: f64,
+    },
+    /// A normal truncated to `[lower, upper]`.
+    Bounded {
+        /// Mean of the untruncated normal.
+        mean: f64,
+        /// Its standard deviation.
+        sd: f64,
+        /// Lower bound.
+        lower: f64,
+        /// Upper bound.
+        upper: f64,
+    },
+}
+
+impl PriorSpec {
+    fn prior(&self) -> ParamPrior {
+        match *self {
+            PriorSpec::Uniform([lower, upper]) => ParamPrior::Uniform { lower, upper },
+            PriorSpec::Normal { mean, sd } => ParamPrior::Normal { mean, sd },
+            PriorSpec::Lognormal { median, log_sd } => ParamPrior::LogNormal { median, log_sd },
+            PriorSpec::Bounded {
+                mean,
+                sd,
+                lower,
+                upper,
+            } => ParamPrior::Bounded {
+                mean,
+                sd,
+                lower,
+                upper,
+            },
+        }
+    }
+}
+
+/// Parameters of `bayes.tmcmc`.
+#[derive(Clone, Debug, serde::Deserialize, serde::Serialize, schemars::JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct Params {
+    /// The likelihood: `frf_modal` (default), `frf_direct` or `natural_frequencies`.
+    #[serde(default)]
+    pub likelihood: LikelihoodChoice,
+    /// The prior of every sampled parameter by name, e.g. `m2: {uniform: [0.5, 2.0]}`,
+    /// `k: {normal: {mean: 1e4, sd: 1e3}}`, `{lognormal: {median: 1e4, log_sd: 0.2}}`,
+    /// `{bounded: {mean, sd, lower, upper}}`; the model's other parameters stay at their
+    /// values.
+    pub priors: IndexMap<String, PriorSpec>,
+    /// Known true values by name (simulated data): marked on the figures.
+    #[serde(default, skip_serializing_if = "IndexMap::is_empty")]
+    pub truth: IndexMap<String, f64>,
+    /// The measurement noise, stated: `{sigma: 1e-6}` or one per FRF (per mode), `{relative:
+    /// 0.05}`, `{snr_db: 30}` (as in `update`'s posterior); `estimated` is refused: the
+    /// evidence needs a proper noise model.
+    pub noise: NoiseParams,
+    /// Samples per stage.
+    #[serde(default = "samples")]
+    pub samples: Count,
+    /// Seed of every chain's stream.
+    #[serde(default)]
+    pub seed: u64,
+    /// Target coefficient of variation of the plausibility weights (15.3).
+    #[serde(default = "target_cov")]
+    pub target_cov: Positive,
+    /// `β²`, the scale of the proposal covariance (15.5).
+    #[serde(default = "proposal_scale")]
+    pub proposal_scale: Positive,
+    /// Metropolis-Hastings steps of every chain per stage.
+    #[serde(default = "one")]
+    pub mh_steps: Count,
+    /// Most stages.
+    #[serde(default = "max_stages")]
+    pub max_stages: Count,
+    /// Probability of the central credible intervals.
+    #[serde(default = "level")]
+    pub credible_level: OpenFraction,
+    /// Mass matrix of a mesh model.
+    #[serde(default)]
+    pub mass: MassKind,
+    /// Damping of the predictions (`frf_modal`: modal `structural` or `viscous`; `frf_direct`:
+    /// a uniform `structural` loss factor).
+    #[serde(default)]
+    pub damping: Damping,
+    /// The modal basis (default: every mode up to twice the highest measured line; for
+    /// natural frequencies, three times as many modes as measured plus six).
+    #[serde(default)]
+    pub modes: Modes,
+    /// With `partition` connected: the component mode synthesis the mesh is analysed by.
+    #[serde(default)]
+    pub reduction: Reduction,
+    /// Only measured lines in `[lo, hi]` Hz are used (default: all).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub band_hz: Option<Band>,
+    /// Measured lines inside any of these bands are left out.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub exclude_hz: Vec<Band>,
+}
+
+fn samples() -> Count {
+    Count::of_default(TmcmcSettings::default().samples)
+}
+fn target_cov() -> Positive {
+    Positive::of_default(TmcmcSettings::default().target_cov)
+}
+fn proposal_scale() -> Positive {
+    Positive::of_default(TmcmcSettings::default().proposal_scale)
+}
+fn one() -> Count {
+    Count::of_default(1)
+}
+fn max_stages() -> Count {
+    Count::of_default(TmcmcSettings::default().max_stages)
+}
+fn level() -> OpenFraction {
+    OpenFraction::of_default(0.9)
+}
+
+impl TypedStage for BayesTmcmc {
+    type Params = Params;
+    const KIND: &'static str = "bayes.tmcmc";
+    const SUMMARY: &'static str =
+        "Posterior samples of model parameters and the model evidence by transitional MCMC";
+    const IMPL_VERSION: u32 = 1;
+
+    fn inputs() -> Vec<PortSpec> {
+        vec![
+            PortSpec::optional(
+                "mesh",
+                ArtefactKind::Mesh,
+                "a finite-element model with declared parameters",
+            ),
+            PortSpec::optional(
+                "model",
+                ArtefactKind::Matrices,
+                "matrices with linear parameters (model.lumped)",
+            ),
+            PortSpec::optional("measured", ArtefactKind::Frf, "measured FRFs (frf_*)"),
+            PortSpec::optional(
+                "measured_modes",
+                ArtefactKind::Modes,
+                "measured modes (natural_frequencies)",
+            ),
+            PortSpec::optional(
+                "partition",
+                ArtefactKind::Partition,
+                "substructures: analyse the mesh through `reduction`",
+            ),
+        ]
+    }
+
+    fn outputs() -> Vec<PortSpec> {
+        vec![PortSpec::required(
+            "posterior",
+            ArtefactKind::Posterior,
+            "sample statistics, samples, log evidence, tempering stages, marginal and pair figures",
+        )]
+    }
+
+    fn validate(p: &mut Params, ctx: &CheckContext) -> Vec<ParamIssue> {
+        let mut issues = Vec::new();
+        if p.priors.is_empty() {
+            issues.push(ParamIssue::at(
+                "priors",
+                "give the prior of at least one parameter, e.g. `m2: {uniform: [0.5, 2.0]}`",
+            ));
+        }
+        for (name, spec) in &p.priors {
+            if let Err(e) = spec.prior().check() {
+                issues.push(ParamIssue::at(&format!("priors.{name}"), e));
+            }
+        }
+        if let Some(name) = p.truth.keys().find(|k| !p.priors.contains_key(*k)) {
+            issues.push(ParamIssue::at(
+                &format!("truth.{name}"),
+                "a truth is marked only for a sampled parameter: give it a prior or drop it",
+            ));
+        }
+        match &p.noise {
+            NoiseParams::Estimated => issues.push(ParamIssue::at(
+                "noise",
+                "TMCMC needs the noise stated (`sigma`, `relative` or `snr_db`): an estimated noise has no proper prior, and the evidence would be undefined",
+            )),
+            NoiseParams::SnrDb(s) if !s.is_finite() => {
+                issues.push(ParamIssue::at("noise.snr_db", "give a finite SNR in dB"))
+            }
+            NoiseParams::SnrDb(_) if p.likelihood == LikelihoodChoice::NaturalFrequencies => {
+                issues.push(ParamIssue::at(
+                    "noise",
+                    "`snr_db` describes FRF noise: give `sigma` (relative frequency errors) or `relative`",
+                ))
+            }
+            _ => {}
+        }
+        if p.samples.get() < 2 {
+            issues.push(ParamIssue::at(
+                "samples",
+                "give at least 2 samples per stage (hundreds for a useful posterior)",
+            ));
+        }
+        issues.extend(p.modes.issues("modes"));
+        let modal = p.likelihood == LikelihoodChoice::FrfModal;
+        if modal && matches!(p.damping, Damping::Rayleigh { .. }) {
+            issues.push(ParamIssue::at(
+                "damping",
+                "frf_modal predicts by modal summation: give `structural` or `viscous` modal damping",
+            ));
+        }
+        if p.likelihood == LikelihoodChoice::FrfDirect
+            && !matches!(p.damping, Damping::None | Damping::Structural(_))
+        {
+            issues.push(ParamIssue::at(
+                "damping",
+                "frf_direct takes a uniform `structural` loss factor",
+            ));
+        }
+        if p.damping.is_per_mode() {
+            issues.push(ParamIssue::at(
+                "damping",
+                "give one uniform damping value (per-mode damping needs a fixed modal basis)",
+            ));
+        }
+        if ctx.connected.is_empty() {
+            return issues;
+        }
+        if ctx.is_connected("mesh") == ctx.is_connected("model") {
+            issues.push(ParamIssue::at(
+                "",
+                "connect exactly one of the inputs `mesh` (a finite-element model) and `model` (matrices from model.lumped)",
+            ));
+        }
+        let port = match p.likelihood {
+            LikelihoodChoice::NaturalFrequencies => "measured_modes",
+            _ => "measured",
+        };
+        if !ctx.is_connected(port) {
+            issues.push(ParamIssue::at(
+                "likelihood",
+                format!(
+                    "the likelihood {} needs the input `{port}`",
+                    p.likelihood.name()
+                ),
+            ));
+        }
+        if ctx.is_connected("partition") && !ctx.is_connected("mesh") {
+            issues.push(ParamIssue::at(
+                "reduction",
+                "a partition reduces a mesh: connect `mesh` (not `model`) with it",
+            ));
+        }
+        issues
+    }
+
+    fn run(p: &Params, inputs: &StageInputs) -> Result<StageOutputs, StageError> {
+        let names: Vec<String> = p.priors.keys().cloned().collect();
+        let model = build_model(
+            inputs,
+            Some(&names),
+            p.mass,
+            &p.reduction,
+            p.modes.is_given(),
+        )?;
+        let model = model.as_ref();
+        let params = model.parameters();
+        // The sampled parameters in the model's order, each with its prior.
+        let priors: Vec<ParamPrior> = params
+            .iter()
+            .map(|q| {
+                p.priors.get(&q.name).map(PriorSpec::prior).ok_or_else(|| {
+                    StageError::input(
+                        "priors",
+                        format!("the model's parameter `{}` has no prior", q.name),
+                    )
+                })
+            })
+            .collect::<Result<_, _>>()?;
+        let settings = TmcmcSettings {
+            samples: p.samples.get(),
+            target_cov: p.target_cov.get(),
+            proposal_scale: p.proposal_scale.get(),
+            mh_steps: p.mh_steps.get(),
+            max_stages: p.max_stages.get(),
+            seed: p.seed,
+        };
+        let initial = model.initial_values();
+        let measured = match p.likelihood {
+            LikelihoodChoice::NaturalFrequencies => None,
+            _ => Some(measured_frf(inputs, p.band_hz, &p.exclude_hz)?),
+        };
+        let noise = noise(&p.noise, measured.as_ref())?;
+        let run = |lik: &dyn Likelihood| {
+            tmcmc(lik, &priors, &noise, &settings)
+                .map_err(StageError::from_numerics(""))
+                .map(|t| (t, lik.group_names()))
+        };
+        let (t, groups) = match (p.likelihood, &measured) {
+            (LikelihoodChoice::FrfModal, Some(measured)) => {
+                let top_hz = measured.freqs_hz.last().copied().unwrap_or(0.0);
+                let modes = p.modes.selection_or(ModeSelection::BelowHz(2.0 * top_hz));
+                let damping = p.damping.modal();
+                let undamped = matches!(damping, ModalDamping::None);
+                let lines = likelihood_lines(model, measured, &initial, modes, undamped, 1.0)
+                    .map_err(StageError::from_numerics(""))?;
+                run(&ModalFrfLikelihood::new(
+                    model, measured, lines, modes, damping,
+                ))?
+            }
+            (LikelihoodChoice::FrfDirect, Some(measured)) => {
+                let lines = (0..measured.freqs_hz.len()).collect();
+                let eta = p.damping.direct().structural_eta;
+                run(&DirectFrfLikelihood::new(model, measured, lines, eta))?
+            }
+            _ => {
+                let m = measured_modes(inputs)?;
+                let fx: Vec<f64> = (0..m.modes.len())
+                    .filter(|&r| m.modes.eigenvalues[r] > 0.0)
+                    .map(|r| m.modes.eigenvalues[r].sqrt() / (2.0 * std::f64::consts::PI))
+                    .collect();
+                let selection = p.modes.selection_or(ModeSelection::Count(3 * fx.len() + 6));
+                let (state, _) = model
+                    .modal_state(&initial, selection)
+                    .map_err(StageError::from_numerics(""))?;
+                let elastic: Vec<usize> = (0..state.modes.len())
+                    .filter(|&r| state.modes.eigenvalues[r] > 0.0)
+                    .collect();
+                if elastic.len() < fx.len() {
+                    return Err(StageError::input(
+                        "modes",
+                        format!(
+                            "{} measured elastic modes but {} in the model's basis: widen `modes`",
+                            fx.len(),
+                            elastic.len()
+                        ),
+                    ));
+                }
+                let pairs = fx.iter().copied().zip(elastic.iter().copied()).collect();
+                run(&FrequencyLikelihood::new(model, selection, pairs))?
+            }
+        };
+        tracing::info!(
+            "TMCMC: {} stages, ln evidence {:.4}, {} failed evaluations",
+            t.stages.len(),
+            t.log_evidence,
+            t.failed
+        );
+        let posterior = to_posterior(&t, params, groups, p.credible_level.get(), p.seed);
+        for m in &posterior.marginals {
+            tracing::info!(
+                "posterior {}: {:.6e} ± {:.3e} ({}% credible [{:.6e}, {:.6e}])",
+                m.name,
+                m.mean,
+                m.sd,
+                100.0 * p.credible_level.get(),
+                m.lower,
+                m.upper
+            );
+        }
+        let truth = (!p.truth.is_empty()).then(|| {
+            params
+                .iter()
+                .map(|q| p.truth.get(&q.name).copied().unwrap_or(f64::NAN))
+                .collect()
+        });
+        let names: Vec<String> = params.iter().map(|q| q.name.clone()).collect();
+        let a = PosteriorKind::to_artefact(&PosteriorRecord {
+            method: "tmcmc".into(),
+            likelihood: p.likelihood.name().into(),
+            noise: noise_name(&p.noise).into(),
+            sampling: Some(Sampling {
+                log_evidence: t.log_evidence,
+                stages: t.stages.clone(),
+            }),
+            posterior: posterior.clone(),
+        });
+        let a = with_figures(a, "TMCMC posterior", names, &posterior.samples, truth, None);
+        Ok(StageOutputs::from([("posterior".to_string(), a)]))
+    }
+}
+
+/// The stated noise model (an SNR turned into per-FRF levels from `measured`).
+fn noise(n: &NoiseParams, measured: Option<&crate::frf::FrfSet>) -> Result<Noise, StageError> {
+    Ok(match n {
+        NoiseParams::Estimated => {
+            return Err(StageError::input(
+                "noise",
+                "TMCMC needs the noise stated (`sigma`, `relative` or `snr_db`)",
+            ));
+        }
+        NoiseParams::Sigma(OneOrMany::One(s)) => Noise::Absolute(vec![s.get()]),
+        NoiseParams::Sigma(OneOrMany::Many(s)) => {
+            Noise::Absolute(s.iter().map(|v| v.get()).collect())
+        }
+        NoiseParams::Relative(c) => Noise::Relative(c.get()),
+        NoiseParams::SnrDb(snr) => match measured {
+            Some(m) => Noise::Absolute(snr_sigmas(m, *snr)),
+            None => {
+                return Err(StageError::input(
+                    "noise",
+                    "`snr_db` describes FRF noise: give `sigma` or `relative` for natural frequencies",
+                ));
+            }
+        },
+    })
+}
+
+fn noise_name(n: &NoiseParams) -> &'static str {
+    match n {
+        NoiseParams::Estimated => "estimated",
+        NoiseParams::Sigma(_) => "sigma",
+        NoiseParams::Relative(_) => "relative",
+        NoiseParams::SnrDb(_) => "snr_db",
+    }
+}
+
+/// Adds the marginal and pair figures of `samples` to a posterior artefact as the blobs
+/// `marginals.{png,svg}` and `pairs.{png,svg}`; `gaussian`: the Laplace marginals drawn over
+/// the histograms. A figure that cannot be drawn is left out with a warning.
+pub(crate) fn with_figures(
+    mut a: Artefact,
+    title: &str,
+    names: Vec<String>,
+    samples: &[Vec<f64>],
+    truth: Option<Vec<f64>>,
+    gaussian: Option<Vec<(f64, f64)>>,
+) -> Artefact {
+    if samples.is_empty() || names.is_empty() {
+        return a;
+    }
+    let plot = PosteriorPlot {
+        title: title.into(),
+        names,
+        samples,
+        truth,
+        gaussian,
+    };
+    for (name, fig) in [
+        ("marginals", marginal_plot(&plot)),
+        ("pairs", pair_plot(&plot)),
+    ] {
+        match fig {
+            Ok(f) => {
+                a.blobs.insert(format!("{name}.png"), f.png);
+                a.blobs.insert(format!("{name}.svg"), f.svg.into_bytes());
+            }
+            Err(e) => tracing::warn!("the posterior figure `{name}` was not drawn: {e}"),
+        }
+    }
+    a
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::pipeline::{Stage, Typed};
+
+    fn check(
+        with: serde_json::Value,
+        ports: &[&str],
+    ) -> Result<serde_json::Value, Vec<ParamIssue>> {
+        Typed::<BayesTmcmc>::new().check(&with, &CheckContext::with_ports(ports))
+    }
+
+    #[test]
+    fn bad_parameters_are_named() {
+        let ports = ["model", "measured"];
+        let e = check(
+            serde_json::json!({"priors": {"m1": {"uniform": [0.5, 2.0]}}, "noise": "estimated"}),
+            &ports,
+        )
+        .unwrap_err();
+        assert_eq!(e[0].path, vec!["noise"]);
+        let e = check(
+            serde_json::json!({"priors": {"m1": {"normal": {"mean": 1.0, "sd": -1.0}}}, "noise": {"sigma": 1e-6}}),
+            &ports,
+        )
+        .unwrap_err();
+        assert_eq!(e[0].path, vec!["priors", "m1"]);
+        let e = check(
+            serde_json::json!({"priors": {"m1": {"uniform": [0.5, 2.0]}}, "truth": {"m2": 1.0}, "noise": {"sigma": 1e-6}}),
+            &ports,
+        )
+        .unwrap_err();
+        assert_eq!(e[0].path, vec!["truth", "m2"]);
+        let e = check(
+            serde_json::json!({"priors": {"m1": {"uniform": [0.5, 2.0]}}, "noise": {"sigma": 1e-6}, "likelihood": "natural_frequencies"}),
+            &ports,
+        )
+        .unwrap_err();
+        assert_eq!(e[0].path, vec!["likelihood"]);
+        let v = check(
+            serde_json::json!({"priors": {"m1": {"lognormal": {"median": 1.0, "log_sd": 0.2}}}, "noise": {"snr_db": 30.0}}),
+            &ports,
+        )
+        .unwrap();
+        assert_eq!(v["samples"], 1000);
+        assert_eq!(v["proposal_scale"], 0.04);
+    }
+}
