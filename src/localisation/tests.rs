@@ -97,6 +97,7 @@ fn chunked_equals_all_at_once() {
             projected: Vec::new(),
             reduced: None,
             factor: None,
+            sensors: None,
         };
         let mdofs = measured.dofs();
         let shapes = state.shapes_at(&mdofs).unwrap();
