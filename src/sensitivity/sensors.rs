@@ -191,7 +191,9 @@ mod tests {
 
     #[test]
     fn unit_weights_read_rows_bit_for_bit_and_both_sides_is_w_a_wt() {
-        let a = Mat::from_fn(3, 3, |i, j| (i as f64 + 1.0) * 0.1 - (j as f64) * 0.37 - 0.0);
+        let a = Mat::from_fn(3, 3, |i, j| {
+            (i as f64 + 1.0) * 0.1 - (j as f64) * 0.37 - 0.0
+        });
         let unit = RowWeights(vec![vec![(2, 1.0)], vec![(0, 1.0)]]);
         let r = unit.rows(a.as_ref());
         for j in 0..3 {

@@ -394,9 +394,7 @@ pub(crate) fn sensor_map(
         return Ok(None);
     };
     let map = crate::artefact::kinds::test_map::test_map_from_artefact(a)?;
-    Ok(Some(crate::sensitivity::SensorMap::new(
-        map.combinations(),
-    )))
+    Ok(Some(crate::sensitivity::SensorMap::new(map.combinations())))
 }
 
 /// [`build_model`] without the map.
