@@ -815,9 +815,12 @@ fn an_identity_relabelling_map_changes_nothing() {
             },
         )
     };
+    // Compared as text: the records hold NaN (no subset limit), which is never equal to itself.
+    let same =
+        |a: &UpdateHistory, b: &UpdateHistory| assert_eq!(format!("{a:?}"), format!("{b:?}"));
     let plain = run(&pc(&data), &chain_model(&start), 15).unwrap();
     let mapped = run(&pc(&renamed), &through, 15).unwrap();
-    assert_eq!(plain, mapped);
+    same(&plain, &mapped);
 
     let rfm = |set| ResponseFunctionMethod {
         measured: set,
@@ -829,7 +832,7 @@ fn an_identity_relabelling_map_changes_nothing() {
     };
     let plain = run(&rfm(&data), &chain_model(&start), 10).unwrap();
     let mapped = run(&rfm(&renamed), &through, 10).unwrap();
-    assert_eq!(plain, mapped);
+    same(&plain, &mapped);
 
     let damped = measured_with_modal_damping(&ModalDamping::Structural(vec![0.02; 4]), &freqs);
     let (damped_renamed, _) = relabelled(&damped);
@@ -856,7 +859,7 @@ fn an_identity_relabelling_map_changes_nothing() {
         let params = DampingParameters::new(&method, model.evaluate(&[1.0; 4]).unwrap().system);
         histories.push(run(&method, &params, 30).unwrap());
     }
-    assert_eq!(histories[0], histories[1]);
+    same(&histories[0], &histories[1]);
 
     let lines: Vec<usize> = (0..freqs.len()).step_by(37).collect();
     let plain_model = chain_model(&start);
@@ -890,7 +893,8 @@ fn an_identity_relabelling_map_changes_nothing() {
 /// names (14.7), and every sensitivity the same combination of the model's (14.8), for the
 /// modal prediction (on a complete and on a truncated, statically corrected basis) and the
 /// direct one; and the sensitivities through the map equal central differences of the
-/// predictions through the map (complete basis and direct: exact derivatives, to 1e-5).
+/// predictions through the map (complete basis and direct: exact derivatives, to 1e-4 of the
+/// largest, the differences' own error at a relative step of 1e-5).
 #[test]
 fn predictions_and_sensitivities_through_interpolation_weights() {
     use super::model::ThroughMap;
@@ -987,7 +991,7 @@ fn predictions_and_sensitivities_through_interpolation_weights() {
                     .predict(v, j)
                     .unwrap()
             }),
-            Some(1e-5),
+            Some(1e-4),
         ),
         (
             "modal, 200 Hz basis with the static correction",
@@ -1011,7 +1015,7 @@ fn predictions_and_sensitivities_through_interpolation_weights() {
                     .predict(v, j)
                     .unwrap()
             }),
-            Some(1e-5),
+            Some(1e-4),
         ),
     ];
     for (name, predict, fd_tol) in routes {
@@ -1045,4 +1049,65 @@ fn predictions_and_sensitivities_through_interpolation_weights() {
             );
         }
     }
+}
+
+/// Lab-like data (10 % thesis noise on the chain's FRFs) and a small mass error: every line
+/// off the resonances correlates above the default `κ_f = 0.95` while the mean stays below the
+/// stop figure 0.99 — the case where the P-C used to stop with `nothing_to_update`. With the
+/// defaults it now takes the worst-correlated lines, one per parameter, and reaches its own
+/// stop rule.
+#[test]
+fn pc_defaults_reach_their_stop_rule_when_no_line_passes_kappa_f() {
+    use super::pc::{LineCorrelation, off_resonance_lines, predict};
+    let freqs = frequency_lines(0.5, 40.0, 0.1);
+    let mut data = measured(0.01, &freqs);
+    crate::frf::noise::add_noise(
+        &mut data,
+        &crate::frf::noise::NoiseModel::Multiplicative {
+            level: 0.1,
+            lower: -1.0,
+            upper: 1.0,
+        },
+        25,
+    );
+    let settings = PcSettings {
+        damping: ModalDamping::Structural(vec![0.01]),
+        ..Default::default()
+    };
+    let defaults = PcSettings::default();
+    // The smallest error of m2 that reproduces the stop: no off-resonance line at or below
+    // κ_f, the mean below the stop figure.
+    let reproduces = |m2: f64| {
+        let model = chain_model(&[1.0, m2, 1.0, 1.0]);
+        let (state, _) = model
+            .modal_state(&model.initial_values(), ModeSelection::All)
+            .unwrap();
+        let predicted = predict(&state, &data, &settings.damping).unwrap();
+        let lines = LineCorrelation::new(&data, &predicted);
+        let off = off_resonance_lines(
+            &freqs,
+            &state.modes.frequencies_hz(),
+            defaults.resonance_lines,
+        );
+        let worst = off
+            .iter()
+            .map(|&k| 0.5 * (lines.chi_s[k] + lines.chi_a[k]))
+            .fold(1.0_f64, f64::min);
+        worst > defaults.kappa_f && lines.mean_chi() < defaults.stop_chi
+    };
+    let m2 = [1.005, 1.01, 1.015, 1.02, 1.03, 1.04, 1.05]
+        .into_iter()
+        .find(|&m2| reproduces(m2))
+        .expect("a mass error that leaves every line above kappa_f below the stop figure");
+    let method = PredictorCorrector::new(&data, settings);
+    let h = run(&method, &chain_model(&[1.0, m2, 1.0, 1.0]), 15).unwrap();
+    assert_eq!(h.iterations[0].lines_used, 4, "m2 = {m2}");
+    assert!(h.iterations[0].mean_chi() < 0.99);
+    assert_eq!(
+        h.stop,
+        StopReason::Converged,
+        "m2 = {m2}: {:#?}",
+        h.iterations
+    );
+    assert!(h.iterations.last().unwrap().mean_chi() >= 0.99);
 }
