@@ -382,6 +382,7 @@ fn pc_basis(
         projected,
         reduced: None,
         factor: factor.map(std::sync::Arc::new),
+        sensors: None,
     };
     Ok(PcBasis {
         state,

@@ -96,6 +96,8 @@ pub struct LeverageSettings {
     pub weighted: bool,
     /// Candidates per chunk.
     pub chunk: usize,
+    /// The test map the measured DOFs are read through (14.7); `None`: they are model DOFs.
+    pub sensors: Option<std::sync::Arc<crate::sensitivity::SensorMap>>,
 }
 
 impl Default for LeverageSettings {
@@ -110,6 +112,7 @@ impl Default for LeverageSettings {
             static_correction: true,
             weighted: false,
             chunk: 256,
+            sensors: None,
         }
     }
 }
@@ -204,19 +207,33 @@ pub fn leverage_map(
         projected: Vec::new(),
         reduced: None,
         factor: None,
+        sensors: s.sensors.clone(),
     };
     let mdofs = measured.dofs();
-    let shapes = state.shapes_at(&mdofs)?;
+    // Through a test map everything is read at the model DOFs it names (`udofs`) and combined
+    // with `W`: shapes `W Φ`, corrections `W ρ`, flexibilities `W R Wᵀ` (14.7)–(14.9).
+    let through = state.sensor_rows(&mdofs)?;
+    let udofs = through.as_ref().map_or(&mdofs, |(u, _)| u);
+    let weights = through.as_ref().map(|(_, w)| w);
+    let ushapes = state.model_shapes_at(udofs)?;
+    let shapes = match weights {
+        Some(w) => w.rows(ushapes.as_ref()),
+        None => ushapes.clone(),
+    };
     let phi = state.modes.shapes.as_ref();
     let eigenvalues = &state.modes.eigenvalues;
     let share = if s.static_correction {
-        Some(StaticShare::new(&sys, &state.modes, &mdofs)?)
+        Some(StaticShare::new(&sys, &state.modes, udofs)?)
     } else {
         None
     };
     let mut predicted = predict(&state, measured, &s.damping)?;
     if let Some(share) = &share {
-        let r = share.flexibility(eigenvalues, shapes.as_ref());
+        let r = share.flexibility(eigenvalues, ushapes.as_ref());
+        let r = match weights {
+            Some(w) => w.both_sides(r.as_ref()),
+            None => r,
+        };
         leverage::add_receptance(&mut predicted, r.as_ref(), &mdofs)?;
     }
     let lines = LineCorrelation::new(measured, &predicted);
@@ -251,7 +268,12 @@ pub fn leverage_map(
                 let d = LocalDerivative::new(model, c, &sys.dofs, &index, s.mass)?;
                 let p = d.projected(phi, c.value);
                 let extra = share.as_ref().map(|sh| {
-                    sh.candidate_terms(&d, c.value, eigenvalues, phi, shapes.as_ref(), &p)
+                    let (rho, dr) =
+                        sh.candidate_terms(&d, c.value, eigenvalues, phi, ushapes.as_ref(), &p);
+                    match weights {
+                        Some(w) => (w.rows(rho.as_ref()), w.both_sides(dr.as_ref())),
+                        None => (rho, dr),
+                    }
                 });
                 Ok((p, extra))
             })

@@ -97,6 +97,7 @@ fn chunked_equals_all_at_once() {
             projected: Vec::new(),
             reduced: None,
             factor: None,
+            sensors: None,
         };
         let mdofs = measured.dofs();
         let shapes = state.shapes_at(&mdofs).unwrap();
@@ -209,4 +210,60 @@ fn bad_settings_are_named() {
     )
     .unwrap_err();
     assert!(e.to_string().starts_with("candidates"), "{e}");
+}
+
+/// Through a test map the leverage is that of the model read at the map's DOFs: a map that
+/// renames the measured DOFs (weight 1) gives the plain leverage exactly, and so does one that
+/// mounts the responses upside down (weight −1, the measured FRFs negated with them), with and
+/// without the static share (`W R Wᵀ`, `W ρ`).
+#[test]
+fn leverage_through_a_map_reads_the_model_at_its_dofs() {
+    use crate::frf::FrfPair;
+    use crate::sensitivity::SensorMap;
+    let model = bent_plate(&BentPlate::default());
+    let plain = measured();
+    let cands = element_candidates(&model, &ParameterKind::YoungsModulus, &[]).unwrap();
+    let excitation: DofId = "120:uz".parse().unwrap();
+    for flip in [1.0, -1.0] {
+        let moved = |d: DofId| DofId::new(d.node + 9000, d.comp);
+        // The excitation keeps weight 1; every other measured DOF gets `flip`.
+        let weight = |d: DofId| if d == excitation { 1.0 } else { flip };
+        let map = SensorMap::new(
+            plain
+                .dofs()
+                .into_iter()
+                .map(|d| (moved(d), vec![(d, weight(d))])),
+        );
+        let renamed = FrfSet {
+            pairs: (plain.pairs.iter())
+                .map(|p| FrfPair {
+                    response: moved(p.response),
+                    excitation: moved(p.excitation),
+                })
+                .collect(),
+            values: faer::Mat::from_fn(plain.freqs_hz.len(), plain.pairs.len(), |k, q| {
+                let p = &plain.pairs[q];
+                plain.values[(k, q)] * (weight(p.response) * weight(p.excitation))
+            }),
+            ..plain.clone()
+        };
+        for static_correction in [false, true] {
+            let s = LeverageSettings {
+                static_correction,
+                ..settings(256)
+            };
+            let a = leverage_map(&model, cands.clone(), &plain, &s).unwrap();
+            let through = LeverageSettings {
+                sensors: Some(std::sync::Arc::new(map.clone())),
+                ..s
+            };
+            let b = leverage_map(&model, cands.clone(), &renamed, &through).unwrap();
+            assert_eq!(a.chosen, b.chosen, "flip {flip}");
+            assert_eq!(
+                format!("{:?}", a.fits),
+                format!("{:?}", b.fits),
+                "flip {flip}, static correction {static_correction}"
+            );
+        }
+    }
 }

@@ -411,6 +411,11 @@ impl TypedStage for LocaliseLeverage {
                 "the finite-element model (with declared parameters for `candidates: parameters`)",
             ),
             PortSpec::required("measured", ArtefactKind::Frf, "measured FRFs"),
+            PortSpec::optional(
+                "map",
+                ArtefactKind::TestMap,
+                "test.pair's map: every measured DOF is its weighted sum of model DOFs (14.7)",
+            ),
         ]
     }
 
@@ -498,6 +503,7 @@ impl TypedStage for LocaliseLeverage {
             static_correction: p.static_correction,
             weighted: p.weighted,
             chunk: p.chunk,
+            sensors: crate::stages::update::sensor_map(inputs)?.map(std::sync::Arc::new),
         };
         let n = candidates.len();
         let start = std::time::Instant::now();

@@ -17,6 +17,7 @@ use crate::fe::model_assembly::{assemble_model, parameter_derivatives};
 use crate::model::{Model, Parameter};
 use crate::reduction::{Method, Partition, ReducedModel};
 use crate::sensitivity::ProjectedDerivative;
+use crate::sensitivity::{RowWeights, SensorMap};
 use faer::{Mat, MatRef};
 use rayon::prelude::*;
 use std::collections::HashMap;
@@ -116,6 +117,55 @@ pub trait ParametricModel: Sync {
         let evaluated = self.evaluate(values)?;
         let state = ModalState::new(&evaluated, values, selection)?;
         Ok((state, Some(evaluated)))
+    }
+    /// The test map measured DOFs are read through ([`ThroughMap`]); `None`: they are model DOFs.
+    fn sensors(&self) -> Option<&SensorMap> {
+        None
+    }
+}
+
+/// A model whose measured DOFs are read through a test map (14.7): its modal states carry the
+/// map, so every prediction and sensitivity the methods read at measured DOFs follows it.
+pub struct ThroughMap {
+    inner: Box<dyn ParametricModel>,
+    sensors: std::sync::Arc<SensorMap>,
+}
+
+impl ThroughMap {
+    /// `inner` read through `sensors`.
+    pub fn new(inner: Box<dyn ParametricModel>, sensors: SensorMap) -> Self {
+        ThroughMap {
+            inner,
+            sensors: std::sync::Arc::new(sensors),
+        }
+    }
+}
+
+impl ParametricModel for ThroughMap {
+    fn parameters(&self) -> &[UpdatingParameter] {
+        self.inner.parameters()
+    }
+
+    fn evaluate(&self, values: &[f64]) -> Result<Evaluated, UpdatingError> {
+        self.inner.evaluate(values)
+    }
+
+    fn initial_values(&self) -> Vec<f64> {
+        self.inner.initial_values()
+    }
+
+    fn modal_state(
+        &self,
+        values: &[f64],
+        selection: ModeSelection,
+    ) -> Result<(ModalState, Option<Evaluated>), UpdatingError> {
+        let (mut state, evaluated) = self.inner.modal_state(values, selection)?;
+        state.sensors = Some(self.sensors.clone());
+        Ok((state, evaluated))
+    }
+
+    fn sensors(&self) -> Option<&SensorMap> {
+        Some(&self.sensors)
     }
 }
 
@@ -324,6 +374,9 @@ pub struct ModalState {
     /// The eigensolver's factor of `K − σM`, which the static correction reuses instead of
     /// paying for a second factorisation; `None` on the dense path and for reduced models.
     pub factor: Option<std::sync::Arc<ShiftedFactor>>,
+    /// The test map through which measured DOFs are read (14.7); `None`: measured DOFs are
+    /// model DOFs.
+    pub sensors: Option<std::sync::Arc<SensorMap>>,
 }
 
 impl ModalState {
@@ -354,6 +407,7 @@ impl ModalState {
             projected,
             reduced: None,
             factor: factor.map(std::sync::Arc::new),
+            sensors: None,
         })
     }
 
@@ -362,8 +416,38 @@ impl ModalState {
         self.dofs.iter().enumerate().map(|(i, d)| (*d, i)).collect()
     }
 
-    /// Mode shapes restricted to `dofs` (rows in that order), or the first DOF not in the model.
+    /// Through the test map, the model DOFs the measured `dofs` read and their weights `W`
+    /// (model DOFs that are not free taken as zero); `None` without a map.
+    pub fn sensor_rows(
+        &self,
+        dofs: &[DofId],
+    ) -> Result<Option<(Vec<DofId>, RowWeights)>, UpdatingError> {
+        let Some(map) = &self.sensors else {
+            return Ok(None);
+        };
+        let resolved = match &self.reduced {
+            Some(_) => map.resolve(dofs, |_| true),
+            None => {
+                let index = self.index();
+                map.resolve(dofs, |d| index.contains_key(d))
+            }
+        };
+        resolved
+            .map(Some)
+            .map_err(|e| UpdatingError::Data(e.to_string()))
+    }
+
+    /// Mode shapes at the measured `dofs` (rows in that order): the model's rows, or through
+    /// the test map `W Φ` (14.7); an error names the first DOF the model (or map) lacks.
     pub fn shapes_at(&self, dofs: &[DofId]) -> Result<Mat<f64>, UpdatingError> {
+        match self.sensor_rows(dofs)? {
+            None => self.model_shapes_at(dofs),
+            Some((model, w)) => Ok(w.rows(self.model_shapes_at(&model)?.as_ref())),
+        }
+    }
+
+    /// Mode shapes at model DOFs `dofs` (rows in that order), the test map not applied.
+    pub fn model_shapes_at(&self, dofs: &[DofId]) -> Result<Mat<f64>, UpdatingError> {
         if let Some(r) = &self.reduced {
             return r
                 .expand(self.modes.shapes.as_ref(), dofs)
@@ -386,12 +470,30 @@ impl ModalState {
         }))
     }
 
-    /// The static correction `ρ` of every mode-shape derivative at `dofs`, per parameter
+    /// The static correction `ρ` of every mode-shape derivative at the measured `dofs` (through
+    /// the test map `W ρ`, (14.8)), per parameter
     /// (see [`crate::sensitivity::frf::static_shape_correction`]): one solve per DOF with the
     /// eigensolver's factor of `K − σM`, or, without one, a factorisation with `σ` a hundredth
     /// of the first elastic eigenvalue below zero (free-free models factor too). `evaluated`
     /// must be the model the state was computed from.
     pub fn shape_corrections(
+        &self,
+        evaluated: &Evaluated,
+        values: &[f64],
+        dofs: &[DofId],
+    ) -> Result<Vec<Mat<f64>>, UpdatingError> {
+        match self.sensor_rows(dofs)? {
+            None => self.model_shape_corrections(evaluated, values, dofs),
+            Some((model, w)) => Ok(self
+                .model_shape_corrections(evaluated, values, &model)?
+                .iter()
+                .map(|rho| w.rows(rho.as_ref()))
+                .collect()),
+        }
+    }
+
+    /// [`Self::shape_corrections`] at model DOFs `dofs`, the test map not applied.
+    pub fn model_shape_corrections(
         &self,
         evaluated: &Evaluated,
         values: &[f64],
@@ -428,7 +530,7 @@ impl ModalState {
                 e => UpdatingError::Model(e.to_string()),
             })?;
         let (x, shift) = (solved.x, solved.shift);
-        let shapes = self.shapes_at(dofs)?;
+        let shapes = self.model_shapes_at(dofs)?;
         let phi = self.modes.shapes.as_ref();
         Ok(evaluated
             .derivatives
@@ -631,6 +733,7 @@ impl ParametricModel for ReducedFeModel {
                 projected,
                 reduced: Some(reduced),
                 factor: None,
+                sensors: None,
             },
             None,
         ))

@@ -1176,7 +1176,8 @@ fn spmv(a: &SparseMatrix, x: &[c64]) -> Vec<c64> {
 
 /// The output-error likelihood of the full model's direct FRFs (the RFM's predictions):
 /// `α = Z(ω)⁻¹`, `Z = (1 + iη)K − ω²M`, and the exact sensitivity
-/// `∂α_ij/∂u = −φ_p (Z⁻¹e_i)ᵀ (∂Z/∂φ_p) (Z⁻¹e_j)` (§3, `Z` symmetric), in the measured quantity.
+/// `∂α_ij/∂u = −φ_p (Z⁻¹e_i)ᵀ (∂Z/∂φ_p) (Z⁻¹e_j)` (§3, `Z` symmetric), in the measured quantity;
+/// through a test map `e_i` is the measured DOF's weights `w_i` on model DOFs (14.7).
 pub struct DirectFrfLikelihood<'a> {
     model: &'a dyn ParametricModel,
     measured: &'a FrfSet,
@@ -1218,14 +1219,33 @@ impl Likelihood for DirectFrfLikelihood<'_> {
                 }
             }
         }
-        let rows: Vec<usize> = dofs
-            .iter()
-            .map(|d| {
-                index.get(d).copied().ok_or_else(|| {
-                    UpdatingError::Data(format!("measured DOF {d} is not a free DOF of the model"))
+        // Each measured DOF as weighted unit loads on model rows: itself with weight 1, or
+        // through a test map `w_t` (14.7), so that `h_ij = w_iᵀ Z⁻¹ w_j`.
+        let loads: Vec<Vec<(usize, f64)>> = match self.model.sensors() {
+            None => dofs
+                .iter()
+                .map(|d| {
+                    index.get(d).map(|&r| vec![(r, 1.0)]).ok_or_else(|| {
+                        UpdatingError::Data(format!(
+                            "measured DOF {d} is not a free DOF of the model"
+                        ))
+                    })
                 })
-            })
-            .collect::<Result<_, _>>()?;
+                .collect::<Result<_, _>>()?,
+            Some(map) => {
+                let (model, w) = map
+                    .resolve(&dofs, |d| index.contains_key(d))
+                    .map_err(|e| UpdatingError::Data(e.to_string()))?;
+                let rows: Vec<usize> = model.iter().map(|d| index[d]).collect();
+                w.0.into_iter()
+                    .map(|t| t.into_iter().map(|(k, w)| (rows[k], w)).collect())
+                    .collect()
+            }
+        };
+        let at = |x: &Mat<c64>, i: usize, j: usize| {
+            let (&(r0, w0), rest) = loads[i].split_first().expect("a load has a term");
+            (rest.iter()).fold(x[(r0, j)] * w0, |acc, &(r, w)| acc + x[(r, j)] * w)
+        };
         let col = |d: &crate::core::DofId| dofs.iter().position(|x| x == d).unwrap_or(0);
         let pairs: Vec<(usize, usize)> = (self.measured.pairs.iter())
             .map(|p| (col(&p.response), col(&p.excitation)))
@@ -1252,18 +1272,17 @@ impl Likelihood for DirectFrfLikelihood<'_> {
                 } else {
                     factor
                 };
-                let mut b = Mat::<c64>::zeros(n, rows.len());
-                for (c, &r) in rows.iter().enumerate() {
-                    b[(r, c)] = c64::new(1.0, 0.0);
+                let mut b = Mat::<c64>::zeros(n, loads.len());
+                for (c, load) in loads.iter().enumerate() {
+                    for &(r, w) in load {
+                        b[(r, c)] += c64::new(w, 0.0);
+                    }
                 }
                 let x = z.solve(f, b.as_ref(), faer::Par::Seq)?;
-                let h: Vec<c64> = pairs
-                    .iter()
-                    .map(|&(i, j)| x[(rows[i], j)] * factor)
-                    .collect();
+                let h: Vec<c64> = pairs.iter().map(|&(i, j)| at(&x, i, j) * factor).collect();
                 let mut d = Vec::new();
                 if jacobian {
-                    let cols: Vec<Vec<c64>> = (0..rows.len())
+                    let cols: Vec<Vec<c64>> = (0..loads.len())
                         .map(|c| (0..n).map(|i| x[(i, c)]).collect())
                         .collect();
                     for ((dk, dm), &v) in ev.derivatives.iter().zip(values) {

@@ -7,7 +7,10 @@
 //! taken from the model (Visser and Imregun). `α_A` comes from a sparse solution of
 //! `Z(ω) X = [e_r …, e_i]` (measured rows by symmetry of `Z`). Real and imaginary parts are
 //! stacked (2.24), solved by SVD least squares, and the whole is iterated because the
-//! sensitivity is a secant evaluated at the current model (2.27).
+//! sensitivity is a secant evaluated at the current model (2.27). Through a test map
+//! (docs/theory.md (14.7)) a measured DOF must be one model DOF times a weight `w` (a grid along
+//! a model axis, e.g. a −Z sensor): the measured value enters `α_X` divided by `w_r w_e` and
+//! each equation is scaled back by `w_r w_e`.
 
 use super::model::{ParametricModel, UpdatingError};
 use super::solve::{diagnostics, least_squares};
@@ -111,7 +114,7 @@ impl UpdateMethod for ResponseFunctionMethod<'_> {
         let ev = model.evaluate(values)?;
         let sys = &ev.system;
         let index: HashMap<DofId, usize> = sys.dof_index();
-        let row = |d: &DofId| {
+        let free = |d: &DofId| {
             index.get(d).copied().ok_or_else(|| {
                 UpdatingError::Data(format!(
                     "measured DOF {d} is not a free DOF of the model ({} DOFs)",
@@ -119,13 +122,37 @@ impl UpdateMethod for ResponseFunctionMethod<'_> {
                 ))
             })
         };
-        // Measured pairs grouped by excitation.
-        let mut groups: Vec<(usize, Vec<(usize, usize)>)> = Vec::new(); // (exc row, [(resp row, pair)])
+        // A measured DOF's model row and weight: itself with 1, or through a test map the one
+        // model DOF it is a multiple of (the RFM puts measured values into the model's
+        // receptance column, which a combination of several DOFs cannot enter).
+        let row = |d: &DofId| -> Result<(usize, f64), UpdatingError> {
+            let Some(map) = model.sensors() else {
+                return Ok((free(d)?, 1.0));
+            };
+            match map.get(d) {
+                Some([(a, w)]) if *w != 0.0 => Ok((free(a)?, *w)),
+                Some(terms) => Err(UpdatingError::Data(format!(
+                    "the RFM reads measured DOF {d} as one model DOF, but the test map makes it a combination of {} ({}); pair the test points to grids (method: nearest) along model axes, or use the P-C",
+                    terms.len(),
+                    terms
+                        .iter()
+                        .map(|(a, w)| format!("{w:.4} × {a}"))
+                        .collect::<Vec<_>>()
+                        .join(" + ")
+                ))),
+                None => Err(UpdatingError::Data(format!(
+                    "measured DOF {d} is not in the test map"
+                ))),
+            }
+        };
+        // Measured pairs grouped by excitation, with the product of the pair's map weights.
+        type Group = (usize, Vec<(usize, usize, f64)>); // (exc row, [(resp row, pair, w_r w_e)])
+        let mut groups: Vec<Group> = Vec::new();
         for (q, p) in self.measured.pairs.iter().enumerate() {
-            let (r, e) = (row(&p.response)?, row(&p.excitation)?);
+            let ((r, wr), (e, we)) = (row(&p.response)?, row(&p.excitation)?);
             match groups.iter_mut().find(|g| g.0 == e) {
-                Some(g) => g.1.push((r, q)),
-                None => groups.push((e, vec![(r, q)])),
+                Some(g) => g.1.push((r, q, wr * we)),
+                None => groups.push((e, vec![(r, q, wr * we)])),
             }
         }
         let z = DynamicStiffness::new(
@@ -155,7 +182,7 @@ impl UpdateMethod for ResponseFunctionMethod<'_> {
                 let (mut xs, mut as_) = (Vec::new(), Vec::new());
                 for (e, resp) in &groups {
                     // Columns: every measured response row, then the excitation.
-                    let mut cols: Vec<usize> = resp.iter().map(|(r, _)| *r).collect();
+                    let mut cols: Vec<usize> = resp.iter().map(|(r, ..)| *r).collect();
                     cols.push(*e);
                     let mut b = Mat::<c64>::zeros(n, cols.len());
                     for (c, &j) in cols.iter().enumerate() {
@@ -166,8 +193,9 @@ impl UpdateMethod for ResponseFunctionMethod<'_> {
                     // α̂_Xi: analytical column with the measured entries in place.
                     let mut hat: Vec<c64> = (0..n).map(|i| x[(i, exc)]).collect();
                     let mut measured = Vec::with_capacity(resp.len());
-                    for &(r, q) in resp {
-                        let v = self.measured.values[(k, q)] / factor;
+                    for &(r, q, w) in resp {
+                        // The model's receptance between the two model DOFs (14.7).
+                        let v = self.measured.values[(k, q)] / factor / w;
                         hat[r] = v;
                         measured.push(v);
                     }
@@ -185,7 +213,7 @@ impl UpdateMethod for ResponseFunctionMethod<'_> {
                                 .collect()
                         })
                         .collect();
-                    for (c, &(r, _)) in resp.iter().enumerate() {
+                    for (c, &(r, _, wq)) in resp.iter().enumerate() {
                         // Row r of α_A is column r (Z symmetric).
                         let coeffs: Vec<c64> = dz_hat
                             .iter()
@@ -193,13 +221,14 @@ impl UpdateMethod for ResponseFunctionMethod<'_> {
                                 (0..n).fold(c64::new(0.0, 0.0), |acc, i| acc + x[(i, c)] * dzh[i])
                             })
                             .collect();
-                        let res = x[(r, exc)] - measured[c];
-                        rows.push(coeffs.iter().map(|v| v.re).collect());
+                        // In the measured pair's own scale: `w_r w_e` times the model's.
+                        let res = (x[(r, exc)] - measured[c]) * wq;
+                        rows.push(coeffs.iter().map(|v| (v * wq).re).collect());
                         rhs.push(res.re);
-                        rows.push(coeffs.iter().map(|v| v.im).collect());
+                        rows.push(coeffs.iter().map(|v| (v * wq).im).collect());
                         rhs.push(res.im);
-                        xs.push(measured[c]);
-                        as_.push(x[(r, exc)]);
+                        xs.push(measured[c] * wq);
+                        as_.push(x[(r, exc)] * wq);
                     }
                 }
                 Ok((

@@ -271,6 +271,11 @@ impl TypedStage for Update {
                 ArtefactKind::Modes,
                 "measured modes (eigensensitivity)",
             ),
+            PortSpec::optional(
+                "map",
+                ArtefactKind::TestMap,
+                "test.pair's map: every measured DOF is its weighted sum of model DOFs (14.7)",
+            ),
         ]
     }
 
@@ -367,6 +372,12 @@ fn wiring_issues(method: Method, ctx: &CheckContext) -> Vec<ParamIssue> {
             "a partition reduces a mesh: connect `mesh` (not `model`) with it",
         ));
     }
+    if ctx.is_connected("map") && !mesh {
+        issues.push(ParamIssue::at(
+            "",
+            "a test map names grids of a mesh: connect `mesh` (not `model`) with `map`",
+        ));
+    }
     if ctx.is_connected("partition") && method == Method::Rfm {
         issues.push(ParamIssue::at(
             "method",
@@ -379,7 +390,34 @@ fn wiring_issues(method: Method, ctx: &CheckContext) -> Vec<ParamIssue> {
 /// The model updated: a mesh (through the partition's reduction when one is connected) or
 /// linear matrices. `parameters`: the names to update (empty: all); `None`: none (a fixed
 /// model, for the damping identification). `modes_given`: whether the user chose the basis.
+/// With a test map on `map`, the measured DOFs are read through it (14.7).
 pub(crate) fn build_model(
+    inputs: &StageInputs,
+    parameters: Option<&[String]>,
+    mass: MassKind,
+    reduction: &Reduction,
+    modes_given: bool,
+) -> Result<Box<dyn ParametricModel>, StageError> {
+    let model = model_of(inputs, parameters, mass, reduction, modes_given)?;
+    Ok(match sensor_map(inputs)? {
+        Some(map) => Box::new(crate::updating::model::ThroughMap::new(model, map)),
+        None => model,
+    })
+}
+
+/// The test map on the input `map`, as measured DOF → weighted model DOFs (14.6).
+pub(crate) fn sensor_map(
+    inputs: &StageInputs,
+) -> Result<Option<crate::sensitivity::SensorMap>, StageError> {
+    let Some(a) = inputs.get("map") else {
+        return Ok(None);
+    };
+    let map = crate::artefact::kinds::test_map::test_map_from_artefact(a)?;
+    Ok(Some(crate::sensitivity::SensorMap::new(map.combinations())))
+}
+
+/// [`build_model`] without the map.
+fn model_of(
     inputs: &StageInputs,
     parameters: Option<&[String]>,
     mass: MassKind,
