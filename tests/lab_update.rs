@@ -292,4 +292,38 @@ fn lab_plate_update_recovers_the_thicknesses() {
         .collect();
     assert!(text.contains("PSHELL"), "{text}");
     assert!(!text.contains("PSHELL  1       1       .002    "), "{text}");
+    // The lab's file: the updated FRFs at the measured pairs and lines, six modes at the
+    // measured DOFs, read back by the reader.
+    let file = output(
+        &report,
+        &cache,
+        "lab_file",
+        "file",
+        ArtefactKind::UniversalFile,
+    );
+    let bytes = &file.blobs["plate-updated.uff"];
+    let uff = femu::frf::io::uff::parse_uff(bytes, "plate-updated.uff").unwrap();
+    let measured = femu::artefact::kinds::frf_from_artefact(&output(
+        &report,
+        &cache,
+        "lab",
+        "frf",
+        ArtefactKind::Frf,
+    ))
+    .unwrap();
+    let back = femu::frf::io::uff::to_frf_set(&uff.frfs).unwrap();
+    assert_eq!(back.pairs, measured.pairs);
+    assert_eq!(back.freqs_hz, measured.freqs_hz);
+    let modes = femu::frf::io::uff::to_test_modes(&uff).unwrap();
+    assert_eq!(modes.freqs_hz.len(), 6);
+    let measured_dofs: std::collections::BTreeSet<_> = measured
+        .pairs
+        .iter()
+        .flat_map(|p| [p.response, p.excitation])
+        .collect();
+    assert!(
+        modes.dofs.iter().all(|d| measured_dofs.contains(d)),
+        "{:?}",
+        modes.dofs
+    );
 }
