@@ -8,5 +8,6 @@ pub mod box_plot;
 pub mod figure;
 pub mod frf_plot;
 pub mod line_plot;
+pub mod mac_plot;
 pub mod mesh_plot;
 pub mod pairing_plot;
