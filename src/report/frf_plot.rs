@@ -1539,6 +1539,12 @@ mod tests {
         std::fs::write("/tmp/frf_plot_example.svg", &fig.svg).unwrap();
         let fig = frf_overlay(&m, None, None, &opts).unwrap();
         std::fs::write("/tmp/frf_plot_example_measured.png", &fig.png).unwrap();
+        let panels = SmallMultiplesOptions {
+            title: "Two-DOF check: one panel per FRF".to_string(),
+            pairs: None,
+        };
+        let fig = frf_small_multiples(&m, Some(&p), Some(&c), &panels).unwrap();
+        std::fs::write("/tmp/frf_plot_example_panels.png", &fig.png).unwrap();
     }
 
     /// One framed panel per FRF, each caption with its FRAC, the mean χ under the title; the

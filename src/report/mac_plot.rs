@@ -430,6 +430,30 @@ mod tests {
         assert_ne!(img.get_pixel(x as u32, y as u32).0, [220, 20, 30]);
     }
 
+    /// `cargo test --release mac_plot::tests::write_example -- --ignored`.
+    #[test]
+    #[ignore = "writes an example figure to /tmp for a visual check; run on demand"]
+    fn write_example() {
+        let mac = Mat::from_fn(6, 6, |i, j| {
+            if i == j {
+                0.97 - 0.03 * i as f64
+            } else {
+                0.3 / (1.0 + (i as f64 - j as f64).abs())
+            }
+        });
+        let fig = mac_plot(&MacPlot {
+            title: "MAC matrix (1.18)".into(),
+            mac: mac.as_ref(),
+            reference: (7..13).map(|k| k.to_string()).collect(),
+            predicted: (7..13).map(|k| k.to_string()).collect(),
+            pairs: (0..6).map(|i| (i, i)).collect(),
+            reference_label: "reference mode no.".into(),
+            predicted_label: "predicted mode no.".into(),
+        })
+        .unwrap();
+        std::fs::write("/tmp/mac_plot_example.png", &fig.png).unwrap();
+    }
+
     /// A large matrix keeps one cell per entry but prints no values and thins the ticks.
     #[test]
     fn large_matrices_thin_their_labels() {

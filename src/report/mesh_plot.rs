@@ -568,6 +568,9 @@ mod tests {
             assert_eq!(a.svg.matches(&format!(">\n{name}\n<")).count(), 2, "{name}");
         }
         assert!(image::load_from_memory(&a.png).is_ok());
+        if std::env::var_os("FEMU_WRITE_FIGURES").is_some() {
+            std::fs::write("/tmp/mesh_plot_example.png", &a.png).unwrap();
+        }
     }
 
     /// The triad follows the view: `z` points straight up on the screen from the default view
