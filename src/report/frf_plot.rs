@@ -1073,11 +1073,13 @@ impl SmPlan {
         }
         let subtitle = match correlation {
             Some(c) => format!(
-                "measured ─ dark, predicted ─ colour; mean χs = {:.3}, mean χa = {:.3}",
+                "measured: dark line, predicted: coloured line; mean χs = {:.3}, mean χa = {:.3}",
                 c.mean_chi_s(),
                 c.mean_chi_a()
             ),
-            None if predicted.is_some() => "measured ─ dark, predicted ─ colour".to_string(),
+            None if predicted.is_some() => {
+                "measured: dark line, predicted: coloured line".to_string()
+            }
             None => "measured".to_string(),
         };
         let columns = (panels.len() as f64).sqrt().ceil().clamp(1.0, 8.0) as usize;
@@ -1087,36 +1089,51 @@ impl SmPlan {
             y_desc: format!("|H| ({})", pretty_unit(measured.quantity)),
             columns,
             panels,
-            x_axis: Axis::log_decades(flo, fhi, 4),
-            y_axis: Axis::log_decades(mlo, mhi, 4),
+            x_axis: Axis::log_decades(flo, fhi, 4, false),
+            y_axis: Axis::log_decades(mlo, mhi, 4, true),
         })
     }
 }
 
 impl Axis {
-    /// A logarithmic axis in `log10` units over whole decades around `[lo, hi]`: labelled ticks
-    /// on at most `labels` decades, minor ticks at 2…9 times each decade.
-    fn log_decades(lo: f64, hi: f64, labels: usize) -> Axis {
-        let (mut lo, mut hi) = (lo.floor(), hi.ceil());
-        if hi <= lo {
-            hi = lo + 1.0;
-        }
+    /// A logarithmic axis in `log10` units over `[lo, hi]`, snapped out to whole decades when
+    /// `snap`: labelled ticks on at most `labels` decades (on 1, 2 and 5 times a decade when
+    /// fewer than two decades fall inside), minor ticks at 1…9 times each decade.
+    fn log_decades(lo: f64, hi: f64, labels: usize, snap: bool) -> Axis {
+        let (mut lo, mut hi) = if snap {
+            (lo.floor(), hi.ceil())
+        } else {
+            (lo, hi)
+        };
         if !(lo.is_finite() && hi.is_finite()) {
             (lo, hi) = (0.0, 1.0);
         }
-        let decades = (hi - lo) as usize;
-        let every = decades.div_ceil(labels.max(1)).max(1);
-        let major: Vec<f64> = (0..=decades)
-            .step_by(every)
-            .map(|k| lo + k as f64)
-            .collect();
-        let minor: Vec<f64> = if decades <= 8 {
-            (0..decades)
-                .flat_map(|k| (1..10).map(move |m| lo + k as f64 + (m as f64).log10()))
-                .chain(std::iter::once(hi))
+        if hi - lo < 1e-9 {
+            (lo, hi) = (lo - 0.5, hi + 0.5);
+        }
+        let tol = 1e-9;
+        let (first, last) = (lo.floor() as i64, hi.ceil() as i64);
+        let inside = |v: &f64| *v >= lo - tol && *v <= hi + tol;
+        let decades: Vec<f64> = (first..=last).map(|k| k as f64).filter(inside).collect();
+        let every = decades
+            .len()
+            .saturating_sub(1)
+            .div_ceil(labels.max(1))
+            .max(1);
+        let mut major: Vec<f64> = decades.iter().copied().step_by(every).collect();
+        if major.len() < 2 {
+            major = (first..=last)
+                .flat_map(|k| [1.0f64, 2.0, 5.0].map(|m| k as f64 + m.log10()))
+                .filter(inside)
+                .collect();
+        }
+        let minor: Vec<f64> = if last - first <= 8 {
+            (first..=last)
+                .flat_map(|k| (1..10).map(move |m| k as f64 + (m as f64).log10()))
+                .filter(inside)
                 .collect()
         } else {
-            (0..=decades).map(|k| lo + k as f64).collect()
+            decades
         };
         Axis {
             lo,
@@ -1128,14 +1145,18 @@ impl Axis {
     }
 }
 
-/// A decade's label: `10^k` written out for moderate `k`, else as `1e±k`.
+/// The label of `10^v` (a tick of a log axis, one significant digit): written out for
+/// moderate sizes, else as `m e±k`.
 fn decade_label(v: f64) -> String {
-    let k = v.round() as i32;
+    let k = v.floor() as i32;
+    let m = 10f64.powf(v - k as f64).round();
+    let (m, k) = if m >= 10.0 { (1.0, k + 1) } else { (m, k) };
     let s = if (-3..=4).contains(&k) {
-        let x = 10f64.powi(k);
-        format!("{x:.*}", (-k).max(0) as usize)
-    } else {
+        format!("{:.*}", (-k).max(0) as usize, m * 10f64.powi(k))
+    } else if m == 1.0 {
         format!("1e{k}")
+    } else {
+        format!("{m}e{k}")
     };
     s.replace('-', "−")
 }
@@ -1602,13 +1623,22 @@ mod tests {
     /// Log axes snap to whole decades and label them readably.
     #[test]
     fn log_axes_use_decades() {
-        let a = Axis::log_decades(0.3, 2.2, 4);
+        let a = Axis::log_decades(0.3, 2.2, 4, true);
         assert_eq!((a.lo, a.hi), (0.0, 3.0));
         assert_eq!(a.major, [0.0, 1.0, 2.0, 3.0]);
         assert_eq!(a.minor.len(), 28);
-        assert_eq!(Axis::log_decades(-9.0, 1.0, 4).major.len(), 4);
+        assert_eq!(Axis::log_decades(-9.0, 1.0, 4, true).major.len(), 4);
+        // Not snapped: the data extent, with the decades inside labelled.
+        let b = Axis::log_decades(0.0, 40f64.log10(), 4, false);
+        assert_eq!((b.lo, b.hi), (0.0, 40f64.log10()));
+        assert_eq!(b.major, [0.0, 1.0]);
+        // Less than two decades inside: 1, 2 and 5 times a decade.
+        let c = Axis::log_decades(0.5, 1.5, 4, false);
+        let labels: Vec<String> = c.major.iter().map(|v| decade_label(*v)).collect();
+        assert_eq!(labels, ["5", "10", "20"]);
         assert_eq!(decade_label(2.0), "100");
         assert_eq!(decade_label(-2.0), "0.01");
         assert_eq!(decade_label(-7.0), "1e−7");
+        assert_eq!(decade_label(-7.0 + 5f64.log10()), "5e−7");
     }
 }

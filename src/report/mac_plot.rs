@@ -35,7 +35,7 @@ pub struct MacPlot<'a> {
 const INK: RGBColor = RGBColor(33, 33, 33);
 /// Outline of a chosen pair.
 pub(crate) const PAIR: RGBColor = RGBColor(220, 20, 30);
-const SIZE: (u32, u32) = (640, 600);
+const SIZE: (u32, u32) = (640, 560);
 const TITLE_H: i32 = 44;
 const LEFT: i32 = 92;
 const BOTTOM: i32 = 84;
