@@ -863,7 +863,7 @@ fn posterior_view(id: &str, a: &Artefact) -> Option<PosteriorView> {
     let names = t.strs("parameters", "parameter").ok()?.to_vec();
     let column = |c: &str| -> Vec<Option<f64>> {
         t.f64s("parameters", c)
-            .map(|v| finite(v))
+            .map(finite)
             .unwrap_or_else(|_| vec![None; names.len()])
     };
     let (updated, mean, sd, lower, upper) = (

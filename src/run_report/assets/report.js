@@ -391,7 +391,7 @@
           c.strokeStyle = '#1d2330'; c.lineWidth = 1; c.stroke();
           markers.push({ x: at[0], y: at[1], p: p });
         });
-        root.setAttribute('data-test-points', String(markers.length));
+        canvas.setAttribute('data-test-points', String(markers.length));
         var px0 = w - 60, py0 = 30, ph0 = h - 80;
         for (var s2 = 0; s2 < 100; s2++) {
           c.fillStyle = 'rgb(' + ramp(1 - s2 / 99).join(',') + ')';
