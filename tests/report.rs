@@ -236,3 +236,107 @@ fn the_commands_write_the_page() {
     assert!(String::from_utf8_lossy(&bad.stderr).contains("femu run --out"));
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// Test points paired to a plate (the lab fixture of tests/pairing.rs): drawn as markers in the
+/// 3-D mesh view, listed with what they were paired to and how far.
+#[test]
+fn pairing_report_shows_the_test_points_on_the_mesh() {
+    let dir = temp("pairing");
+    std::fs::copy(
+        common::root().join("tests/fixtures/uff/lab-plate.uff"),
+        dir.join("lab-plate.uff"),
+    )
+    .unwrap();
+    let yaml = "name: lab-pair\nstages:\n  plate:\n    kind: mesh.generate\n    with: {geometry: flat_plate, a_m: 0.4, b_m: 0.3, nx: 4, ny: 3, thickness_m: 0.002}\n  lab:\n    kind: frf.import\n    with: {path: lab-plate.uff}\n  pair:\n    kind: test.pair\n    inputs: {mesh: plate, geometry: lab.geometry, frf: lab.frf}\n    with: {tolerance_m: 0.002, alignment: {fit: [{test: 101, fe: 1}, {test: 105, fe: 5}, {test: 120, fe: 20}, {test: 116, fe: 16}]}}\n";
+    let file = dir.join("lab-pair.yaml");
+    std::fs::write(&file, yaml).unwrap();
+    let (plan, report, cache) = common::run(&file, &dir.join("cache"), &[]);
+    let lock = LockFile::from_run(&plan, &report);
+    let out = dir.join("out");
+    materialise_with_lock(&report, &cache, &out, Some(&lock)).unwrap();
+    let opts = ReportOptions::from_run(&report, Some("femu run lab-pair.yaml".into()));
+    let page = write_report(&out, None, &opts).unwrap();
+    let html = std::fs::read_to_string(&page).unwrap();
+    let view = femu::run_report::collect(&out, &ReportOptions::default()).unwrap();
+    assert_eq!(view.test_points.len(), 1);
+    let points = &view.test_points[0];
+    assert_eq!(points.mesh.as_deref(), Some("plate.mesh"));
+    assert!(points.points.len() >= 8, "{}", points.points.len());
+    for must in [
+        "id=\"pairing\"",
+        "<th>distance (mm)</th>",
+        "tolerance 2 mm",
+        "<td>9001</td><td>element 6</td>",
+        "<td>101</td><td>node 1</td>",
+        "\"test_points\":[{\"id\":\"pair.map\",\"mesh\":\"plate.mesh\"",
+    ] {
+        assert!(html.contains(must), "missing {must}");
+    }
+    check_in_browser(&page, &dir, &["mesh-viewer"]);
+    if let Some(browser) = chromium() {
+        let (dom, _) = render(&browser, &page, &dir);
+        let n = format!("data-test-points=\"{}\"", points.points.len());
+        assert!(dom.contains(&n), "the test points were not drawn ({n})");
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// The Bayesian four-DOF study: per mass its posterior mean, sd and interval, the correlation
+/// matrix, the ridge sentence for every pair of masses correlated beyond ±0.9 (or that there is
+/// none), the predictive bands in the FRF viewer; the version and command in the header.
+#[test]
+fn posterior_report_shows_intervals_correlations_and_ridges() {
+    let dir = temp("bayes");
+    let page = report_of("four-dof-bayes", &dir);
+    let html = std::fs::read_to_string(&page).unwrap();
+    let view = femu::run_report::collect(&dir.join("out"), &ReportOptions::default()).unwrap();
+    let ids: Vec<&str> = view.posteriors.iter().map(|p| p.id.as_str()).collect();
+    assert_eq!(ids, ["pc.posterior", "pc_estimated.posterior"]);
+    for must in [
+        "id=\"posterior\"",
+        "id=\"posterior-viewer\"",
+        "<th>90 % interval</th>",
+        "<td>m2</td>",
+        "svg class=\"correlation\"",
+        "m1 and m2: correlation",
+        &format!("run by femu {}", env!("CARGO_PKG_VERSION")),
+        "command: <code>femu run four-dof-bayes.yaml</code>",
+    ] {
+        assert!(html.contains(must), "missing {must}");
+    }
+    let p = &view.posteriors[0];
+    assert_eq!(p.parameters.len(), 4);
+    assert!(!p.bands.is_empty(), "the study has predictive bands of |H|");
+    check_in_browser(
+        &page,
+        &dir,
+        &["posterior-viewer", "frf-viewer", "update-viewer"],
+    );
+    let dom = chromium().map(|b| render(&b, &page, &dir).0);
+    for p in &view.posteriors {
+        // Every pair beyond ±0.9 is named, and only those.
+        let mut beyond = Vec::new();
+        for i in 0..4 {
+            for j in i + 1..4 {
+                if p.correlation[i][j].is_some_and(|r| r.abs() > 0.9) {
+                    beyond.push((i, j));
+                }
+            }
+        }
+        assert_eq!(p.ridges.len(), beyond.len());
+        for (a, b, r) in &p.ridges {
+            let r = format!("{r:.2}").replace('-', "−");
+            let sentence = format!(
+                "{a} and {b} are correlated at {r}: the data determine their combination, not each."
+            );
+            assert!(html.contains(&sentence), "missing {sentence}");
+            if let Some(dom) = &dom {
+                assert!(dom.contains(&sentence), "not in the DOM: {sentence}");
+            }
+        }
+    }
+    if view.posteriors.iter().any(|p| p.ridges.is_empty()) {
+        assert!(html.contains("No two parameters are correlated beyond ±0.9"));
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}

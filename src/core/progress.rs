@@ -10,8 +10,12 @@
 //! they are (callers in every layer, tests and benchmarks would otherwise pass a no-op), a stage
 //! needs no plumbing to have its numerics report, and stages that run side by side in one wave
 //! each have their own thread and so their own sink. Work fanned out with rayon captures a
-//! [`Task`] on the calling thread and advances it from the workers (a `Task` is `Send + Sync`);
-//! a computation started on a rayon worker that captured nothing reports nothing.
+//! [`Task`] on the calling thread and advances it from the workers (a `Task` is `Send + Sync`).
+//! A computation that itself reports (an eigensolve inside a substructure's reduction) and runs
+//! on a rayon worker takes the caller's sink along: [`carry`] on the calling thread, then
+//! [`Carry::run`] around each job. `run` installs exactly the carried sink (or none) for the
+//! job and restores the worker's own afterwards, so a worker that steals another stage's job
+//! while it waits reports that job to that stage, never lines of two stages mixed in one.
 
 use std::cell::RefCell;
 use std::sync::Arc;
@@ -56,9 +60,31 @@ impl Drop for Restore {
 
 /// Runs `f` with `sink` receiving the progress reported on this thread.
 pub fn scope<R>(sink: Arc<dyn Sink>, f: impl FnOnce() -> R) -> R {
-    let previous = CURRENT.with(|c| c.borrow_mut().replace(sink));
+    installed(Some(sink), f)
+}
+
+/// Runs `f` with exactly `sink` (or none) installed on this thread, restoring the previous one.
+fn installed<R>(sink: Option<Arc<dyn Sink>>, f: impl FnOnce() -> R) -> R {
+    let previous = CURRENT.with(|c| std::mem::replace(&mut *c.borrow_mut(), sink));
     let _restore = Restore(previous);
     f()
+}
+
+/// This thread's sink, captured to be installed around jobs on other threads (rayon workers).
+#[derive(Clone, Default)]
+pub struct Carry(Option<Arc<dyn Sink>>);
+
+/// Captures the sink installed on this thread (none: jobs run with it report nothing).
+pub fn carry() -> Carry {
+    Carry(current())
+}
+
+impl Carry {
+    /// Runs `f` on the current thread with the carried sink installed (or none, when nothing
+    /// was carried), whatever sink the thread had, and restores that one afterwards.
+    pub fn run<R>(&self, f: impl FnOnce() -> R) -> R {
+        installed(self.0.clone(), f)
+    }
 }
 
 /// The sink installed on this thread, if any.
@@ -195,6 +221,51 @@ mod tests {
                 "iteration 1"
             ]
         );
+    }
+
+    /// Two "stages" on their own threads fan out on the shared rayon pool: every job's notes
+    /// reach its own stage's sink, none is lost and none lands in the other's.
+    #[test]
+    fn carried_sinks_reach_rayon_workers_without_mixing() {
+        use rayon::prelude::*;
+        let stage = |name: &'static str| {
+            let record = Arc::new(Record::default());
+            let r = record.clone();
+            let handle = std::thread::spawn(move || {
+                scope(r, || {
+                    let carried = carry();
+                    (0..64u32).into_par_iter().for_each(|k| {
+                        carried.run(|| {
+                            // A nested fan-out carries again.
+                            let inner = carry();
+                            rayon::join(
+                                || inner.run(|| note(|| format!("{name} {k} a"))),
+                                || inner.run(|| note(|| format!("{name} {k} b"))),
+                            );
+                        })
+                    });
+                })
+            });
+            (record, handle)
+        };
+        let (a, ha) = stage("A");
+        let (b, hb) = stage("B");
+        ha.join().unwrap();
+        hb.join().unwrap();
+        for (record, name) in [(a, "A"), (b, "B")] {
+            let mut got = record.0.lock().unwrap().clone();
+            got.sort();
+            let mut want: Vec<String> = (0..64)
+                .flat_map(|k| [format!("{name} {k} a"), format!("{name} {k} b")])
+                .collect();
+            want.sort();
+            assert_eq!(got, want);
+        }
+        // A carried "none" clears a worker's sink for the job.
+        let outer = Arc::new(Record::default());
+        let nothing = carry();
+        scope(outer.clone(), || nothing.run(|| note(|| "hidden".into())));
+        assert!(outer.0.lock().unwrap().is_empty());
     }
 
     #[test]

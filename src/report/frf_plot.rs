@@ -939,6 +939,319 @@ enum Swatch {
     Gap,
 }
 
+// ---------------------------------------------------------------------------------------------
+// Small multiples: one small panel per FRF, |H| against frequency on log axes.
+
+/// Most panels in one small-multiples figure.
+pub const MAX_PANELS: usize = 64;
+/// Panel size in pixels.
+const SM_PANEL: (u32, u32) = (320, 250);
+/// Height of the title and legend band.
+const SM_HEAD: u32 = 92;
+
+/// What to draw as small multiples.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SmallMultiplesOptions {
+    /// Figure title.
+    pub title: String,
+    /// FRFs to draw, in panel order; `None` draws every measured FRF (at most [`MAX_PANELS`]).
+    pub pairs: Option<Vec<FrfPair>>,
+}
+
+/// One panel of the small multiples: its caption and its curves as `(log10 f, log10 |H|)`.
+struct SmPanel {
+    caption: String,
+    measured: Runs,
+    predicted: Option<Runs>,
+}
+
+/// Everything the small multiples draw, validated.
+struct SmPlan {
+    title: String,
+    subtitle: String,
+    y_desc: String,
+    panels: Vec<SmPanel>,
+    columns: usize,
+    x_axis: Axis,
+    y_axis: Axis,
+}
+
+/// Renders one panel per FRF — measured (dark line) and predicted (coloured line) magnitude on
+/// logarithmic frequency and magnitude axes shared by all panels, the FRAC (4.10) in each
+/// caption and the mean `χ_s`, `χ_a` (4.5, 4.6) under the title when a correlation is given —
+/// as PNG and SVG. More than [`MAX_PANELS`] FRFs draw the first ones and say so in the title.
+pub fn frf_small_multiples(
+    measured: &FrfSet,
+    predicted: Option<&FrfSet>,
+    correlation: Option<&FrfCorrelation>,
+    opts: &SmallMultiplesOptions,
+) -> Result<Figure, PlotError> {
+    let plan = SmPlan::new(measured, predicted, correlation, opts)?;
+    let rows = plan.panels.len().div_ceil(plan.columns);
+    let w = SM_PANEL.0 * plan.columns as u32 + 24;
+    let h = SM_HEAD + SM_PANEL.1 * rows as u32 + 8;
+    render(w, h, &|root| draw_small_multiples(root, &plan), &|root| {
+        draw_small_multiples(root, &plan)
+    })
+}
+
+/// `log10` of the finite positive points of dB runs (`|H|` in dB → `log10 |H|`), keeping only
+/// positive frequencies.
+fn log_runs(db: &Runs) -> Runs {
+    let mut out = RunBuilder::default();
+    for run in db {
+        for &(f, d) in run {
+            if f > 0.0 && f.is_finite() {
+                out.push(f.log10(), d / 20.0);
+            } else {
+                out.gap();
+            }
+        }
+        out.gap();
+    }
+    out.finish()
+}
+
+impl SmPlan {
+    fn new(
+        measured: &FrfSet,
+        predicted: Option<&FrfSet>,
+        correlation: Option<&FrfCorrelation>,
+        opts: &SmallMultiplesOptions,
+    ) -> Result<SmPlan, PlotError> {
+        let all = opts
+            .pairs
+            .as_ref()
+            .map_or(measured.pairs.len(), |p| p.len());
+        let checked = FrfPlotOptions {
+            title: opts.title.clone(),
+            max_frfs: usize::MAX,
+            pairs: opts.pairs.clone(),
+            ..FrfPlotOptions::default()
+        };
+        check_inputs(
+            measured,
+            predicted,
+            correlation,
+            &FrfPlotOptions {
+                max_frfs: MAX_FRFS,
+                ..checked.clone()
+            },
+        )?;
+        let mut selected = select_pairs(measured, &checked)?;
+        selected.truncate(MAX_PANELS);
+        let curves = curves(measured, predicted, correlation, &selected)?;
+        let (mut fx, mut mag) = (Extent::default(), Extent::default());
+        let panels: Vec<SmPanel> = curves
+            .iter()
+            .map(|c| {
+                let m = log_runs(&c.measured_db);
+                let p = c.predicted_db.as_ref().map(log_runs);
+                for &(f, v) in m.iter().chain(p.iter().flatten()).flatten() {
+                    fx.add(f);
+                    mag.add(v);
+                }
+                let caption = match c.frac {
+                    Some(frac) => format!("{} · FRAC {frac:.2}", c.label),
+                    None => c.label.clone(),
+                };
+                SmPanel {
+                    caption,
+                    measured: m,
+                    predicted: p,
+                }
+            })
+            .collect();
+        for f in measured.freqs_hz.iter().filter(|f| **f > 0.0) {
+            fx.add(f.log10());
+        }
+        let (flo, fhi) = fx.get().ok_or(PlotError::NoFrequencies)?;
+        let (mlo, mhi) = mag.get().unwrap_or((-6.0, 0.0));
+        let mut title = opts.title.clone();
+        if all > selected.len() {
+            title.push_str(&format!(" (first {} of {all} FRFs)", selected.len()));
+        }
+        let subtitle = match correlation {
+            Some(c) => format!(
+                "measured: dark line, predicted: coloured line; mean χs = {:.3}, mean χa = {:.3}",
+                c.mean_chi_s(),
+                c.mean_chi_a()
+            ),
+            None if predicted.is_some() => {
+                "measured: dark line, predicted: coloured line".to_string()
+            }
+            None => "measured".to_string(),
+        };
+        let columns = (panels.len() as f64).sqrt().ceil().clamp(1.0, 8.0) as usize;
+        Ok(SmPlan {
+            title,
+            subtitle,
+            y_desc: format!("|H| ({})", pretty_unit(measured.quantity)),
+            columns,
+            panels,
+            x_axis: Axis::log_decades(flo, fhi, 4, false),
+            y_axis: Axis::log_decades(mlo, mhi, 4, true),
+        })
+    }
+}
+
+impl Axis {
+    /// A logarithmic axis in `log10` units over `[lo, hi]`, snapped out to whole decades when
+    /// `snap`: labelled ticks on at most `labels` decades (on 1, 2 and 5 times a decade when
+    /// fewer than two decades fall inside), minor ticks at 1…9 times each decade.
+    fn log_decades(lo: f64, hi: f64, labels: usize, snap: bool) -> Axis {
+        let (mut lo, mut hi) = if snap {
+            (lo.floor(), hi.ceil())
+        } else {
+            (lo, hi)
+        };
+        if !(lo.is_finite() && hi.is_finite()) {
+            (lo, hi) = (0.0, 1.0);
+        }
+        if hi - lo < 1e-9 {
+            (lo, hi) = (lo - 0.5, hi + 0.5);
+        }
+        let tol = 1e-9;
+        let (first, last) = (lo.floor() as i64, hi.ceil() as i64);
+        let inside = |v: &f64| *v >= lo - tol && *v <= hi + tol;
+        let decades: Vec<f64> = (first..=last).map(|k| k as f64).filter(inside).collect();
+        let every = decades
+            .len()
+            .saturating_sub(1)
+            .div_ceil(labels.max(1))
+            .max(1);
+        let mut major: Vec<f64> = decades.iter().copied().step_by(every).collect();
+        if major.len() < 2 {
+            major = (first..=last)
+                .flat_map(|k| [1.0f64, 2.0, 5.0].map(|m| k as f64 + m.log10()))
+                .filter(inside)
+                .collect();
+        }
+        let minor: Vec<f64> = if last - first <= 8 {
+            (first..=last)
+                .flat_map(|k| (1..10).map(move |m| k as f64 + (m as f64).log10()))
+                .filter(inside)
+                .collect()
+        } else {
+            decades
+        };
+        Axis {
+            lo,
+            hi,
+            major,
+            minor,
+            decimals: 0,
+        }
+    }
+}
+
+/// The label of `10^v` (a tick of a log axis, one significant digit): written out for
+/// moderate sizes, else as `m e±k`.
+fn decade_label(v: f64) -> String {
+    let k = v.floor() as i32;
+    let m = 10f64.powf(v - k as f64).round();
+    let (m, k) = if m >= 10.0 { (1.0, k + 1) } else { (m, k) };
+    let s = if (-3..=4).contains(&k) {
+        format!("{:.*}", (-k).max(0) as usize, m * 10f64.powi(k))
+    } else if m == 1.0 {
+        format!("1e{k}")
+    } else {
+        format!("{m}e{k}")
+    };
+    s.replace('-', "−")
+}
+
+fn draw_small_multiples<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    plan: &SmPlan,
+) -> Result<(), PlotError> {
+    root.fill(&WHITE).map_err(backend_error)?;
+    let (w, _) = root.dim_in_pixel();
+    let centre = Pos::new(HPos::Center, VPos::Center);
+    root.draw(&Text::new(
+        plan.title.clone(),
+        (w as i32 / 2, 24),
+        text_style(22.0, FontStyle::Bold, INK, centre),
+    ))
+    .map_err(backend_error)?;
+    root.draw(&Text::new(
+        plan.subtitle.clone(),
+        (w as i32 / 2, 62),
+        text_style(18.0, FontStyle::Normal, MUTED, centre),
+    ))
+    .map_err(backend_error)?;
+    let body = root.margin(SM_HEAD as i32, 8, 8, 16);
+    let rows = plan.panels.len().div_ceil(plan.columns);
+    let tick_font = ("sans-serif", 16.0).into_font().color(&INK);
+    let desc_font = ("sans-serif", 18.0).into_font().color(&INK);
+    let cap_style = text_style(16.0, FontStyle::Normal, INK, centre);
+    let x_fmt = |v: &f64| decade_label(*v);
+    for (k, panel) in plan.panels.iter().enumerate() {
+        let (c, r) = (k % plan.columns, k / plan.columns);
+        let (left, top) = (
+            (c as u32 * SM_PANEL.0) as i32,
+            (r as u32 * SM_PANEL.1) as i32,
+        );
+        let area = body.clone().shrink((left, top), SM_PANEL);
+        let (first_col, last_row) = (c == 0, r + 1 == rows);
+        let mut chart = ChartBuilder::on(&area)
+            .margin_top(30)
+            .margin_right(10)
+            .set_label_area_size(LabelAreaPosition::Left, if first_col { 78 } else { 52 })
+            .set_label_area_size(LabelAreaPosition::Bottom, if last_row { 58 } else { 28 })
+            .build_cartesian_2d(plan.x_axis.clone(), plan.y_axis.clone())
+            .map_err(backend_error)?;
+        let mut mesh = chart.configure_mesh();
+        mesh.x_label_formatter(&x_fmt)
+            .y_label_formatter(&x_fmt)
+            .label_style(tick_font.clone())
+            .axis_desc_style(desc_font.clone())
+            .bold_line_style(RGBColor(205, 205, 205).stroke_width(1))
+            .light_line_style(RGBColor(238, 238, 238).stroke_width(1))
+            .axis_style(INK.stroke_width(1))
+            .set_all_tick_mark_size(4);
+        if first_col {
+            mesh.y_desc(plan.y_desc.as_str());
+        }
+        if last_row {
+            mesh.x_desc("Frequency (Hz)");
+        }
+        mesh.draw().map_err(backend_error)?;
+        let (x, y) = (&plan.x_axis, &plan.y_axis);
+        // The panel's frame: one per FRF.
+        chart
+            .plotting_area()
+            .draw(&Rectangle::new(
+                [(x.lo, y.lo), (x.hi, y.hi)],
+                INK.stroke_width(1),
+            ))
+            .map_err(backend_error)?;
+        for run in &panel.measured {
+            chart
+                .draw_series(std::iter::once(PathElement::new(
+                    run.clone(),
+                    INK.stroke_width(1),
+                )))
+                .map_err(backend_error)?;
+        }
+        for run in panel.predicted.iter().flatten() {
+            chart
+                .draw_series(std::iter::once(PathElement::new(
+                    run.clone(),
+                    PALETTE[1].stroke_width(2),
+                )))
+                .map_err(backend_error)?;
+        }
+        area.draw(&Text::new(
+            panel.caption.clone(),
+            (SM_PANEL.0 as i32 / 2 + 16, 14),
+            cap_style.clone(),
+        ))
+        .map_err(backend_error)?;
+    }
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -1247,5 +1560,85 @@ mod tests {
         std::fs::write("/tmp/frf_plot_example.svg", &fig.svg).unwrap();
         let fig = frf_overlay(&m, None, None, &opts).unwrap();
         std::fs::write("/tmp/frf_plot_example_measured.png", &fig.png).unwrap();
+        let panels = SmallMultiplesOptions {
+            title: "Two-DOF check: one panel per FRF".to_string(),
+            pairs: None,
+        };
+        let fig = frf_small_multiples(&m, Some(&p), Some(&c), &panels).unwrap();
+        std::fs::write("/tmp/frf_plot_example_panels.png", &fig.png).unwrap();
+    }
+
+    /// One framed panel per FRF, each caption with its FRAC, the mean χ under the title; the
+    /// figure is valid SVG and PNG with a row of two panels; a set without prediction draws
+    /// only the measured curves.
+    #[test]
+    fn small_multiples_draw_one_panel_per_frf() {
+        use crate::report::mac_plot::check::{count_with, svg_elements};
+        let (measured, predicted, corr) = example();
+        let opts = SmallMultiplesOptions {
+            title: "FRFs".into(),
+            pairs: None,
+        };
+        let fig = frf_small_multiples(&measured, Some(&predicted), Some(&corr), &opts).unwrap();
+        assert_eq!(
+            fig,
+            frf_small_multiples(&measured, Some(&predicted), Some(&corr), &opts).unwrap()
+        );
+        svg_elements(&fig.svg).unwrap();
+        assert_eq!(count_with(&fig.svg, "rect", "stroke=\"#1E1E1E\""), 2);
+        for (k, p) in measured.pairs.iter().enumerate() {
+            let caption = format!("H {} · FRAC {:.2}", pair_name(p), corr.frac[k]);
+            assert_eq!(fig.svg.matches(&caption).count(), 1, "{caption}");
+        }
+        assert!(fig.svg.contains("mean χs ="));
+        assert!(fig.svg.contains("|H| (m/N)") && fig.svg.contains("Frequency (Hz)"));
+        // Predicted curves in the second palette colour, one per panel.
+        assert_eq!(count_with(&fig.svg, "polyline", "stroke=\"#D55E00\""), 2);
+        assert_eq!(
+            png_size(&fig.png),
+            (2 * SM_PANEL.0 + 24, SM_HEAD + SM_PANEL.1 + 8)
+        );
+        let alone = frf_small_multiples(
+            &measured,
+            None,
+            None,
+            &SmallMultiplesOptions {
+                title: "FRFs".into(),
+                pairs: Some(vec![pair(2, 1)]),
+            },
+        )
+        .unwrap();
+        assert_eq!(count_with(&alone.svg, "rect", "stroke=\"#1E1E1E\""), 1);
+        assert_eq!(count_with(&alone.svg, "polyline", "stroke=\"#D55E00\""), 0);
+        let unknown = SmallMultiplesOptions {
+            title: "FRFs".into(),
+            pairs: Some(vec![pair(9, 1)]),
+        };
+        assert!(matches!(
+            frf_small_multiples(&measured, None, None, &unknown),
+            Err(PlotError::UnknownPair { .. })
+        ));
+    }
+
+    /// Log axes snap to whole decades and label them readably.
+    #[test]
+    fn log_axes_use_decades() {
+        let a = Axis::log_decades(0.3, 2.2, 4, true);
+        assert_eq!((a.lo, a.hi), (0.0, 3.0));
+        assert_eq!(a.major, [0.0, 1.0, 2.0, 3.0]);
+        assert_eq!(a.minor.len(), 28);
+        assert_eq!(Axis::log_decades(-9.0, 1.0, 4, true).major.len(), 4);
+        // Not snapped: the data extent, with the decades inside labelled.
+        let b = Axis::log_decades(0.0, 40f64.log10(), 4, false);
+        assert_eq!((b.lo, b.hi), (0.0, 40f64.log10()));
+        assert_eq!(b.major, [0.0, 1.0]);
+        // Less than two decades inside: 1, 2 and 5 times a decade.
+        let c = Axis::log_decades(0.5, 1.5, 4, false);
+        let labels: Vec<String> = c.major.iter().map(|v| decade_label(*v)).collect();
+        assert_eq!(labels, ["5", "10", "20"]);
+        assert_eq!(decade_label(2.0), "100");
+        assert_eq!(decade_label(-2.0), "0.01");
+        assert_eq!(decade_label(-7.0), "1e−7");
+        assert_eq!(decade_label(-7.0 + 5f64.log10()), "5e−7");
     }
 }

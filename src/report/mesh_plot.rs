@@ -6,6 +6,7 @@
 //! depth, ties broken by element id), filled by a colour map of the value — a viridis-like ramp
 //! for values in `[0, 1]`, a blue-white-red ramp when some are negative (`[−1, 1]`) — with dark
 //! edges; elements without a value are light grey; highlighted elements get thick red edges.
+//! An orientation triad in each panel's lower left corner shows where `x`, `y` and `z` point.
 //! Equal inputs give byte-identical files.
 
 use std::collections::{BTreeMap, BTreeSet};
@@ -173,6 +174,112 @@ fn outline(corners: &[u64], midside: &[Option<u64>]) -> Vec<u64> {
         .collect()
 }
 
+/// The fit of projected points into a box of the figure: screen pixel of a projected point.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Fit {
+    /// Pixels per metre.
+    pub(super) s: f64,
+    /// Pixel of the projected origin.
+    pub(super) ox: f64,
+    pub(super) oy: f64,
+}
+
+impl Fit {
+    /// Fits the finite `points` (projected, m) centred into the box at `(left, top)` of size
+    /// `w × h` pixels with `margin` on every side; a degenerate extent is widened.
+    pub(super) fn new<'p>(
+        points: impl IntoIterator<Item = &'p (f64, f64)>,
+        (left, top, w, h): (f64, f64, f64, f64),
+        margin: f64,
+    ) -> Fit {
+        let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
+        for p in points {
+            if p.0.is_finite() && p.1.is_finite() {
+                x0 = x0.min(p.0);
+                x1 = x1.max(p.0);
+                y0 = y0.min(p.1);
+                y1 = y1.max(p.1);
+            }
+        }
+        if !(x1 > x0) {
+            (x0, x1) = (x0.min(0.0) - 1.0, x1.max(0.0) + 1.0);
+        }
+        if !(y1 > y0) {
+            (y0, y1) = (y0.min(0.0) - 1.0, y1.max(0.0) + 1.0);
+        }
+        let s = ((w - 2.0 * margin) / (x1 - x0)).min((h - 2.0 * margin) / (y1 - y0));
+        Fit {
+            s,
+            ox: left + w / 2.0 - s * (x0 + x1) / 2.0,
+            oy: top + h / 2.0 + s * (y0 + y1) / 2.0,
+        }
+    }
+
+    /// The pixel of a projected point.
+    pub(super) fn px(&self, p: &(f64, f64)) -> (i32, i32) {
+        (
+            (self.ox + self.s * p.0).round() as i32,
+            (self.oy - self.s * p.1).round() as i32,
+        )
+    }
+}
+
+/// The triad's arrows: each axis's label and its screen direction (right, down) for a unit
+/// vector along it, as seen along `view`.
+pub(super) fn triad(view: View) -> [(&'static str, (f64, f64)); 3] {
+    let (right, up, _) = axes(view);
+    let dir = |e: [f64; 3]| (dot(e, right), -dot(e, up));
+    [
+        ("x", dir([1.0, 0.0, 0.0])),
+        ("y", dir([0.0, 1.0, 0.0])),
+        ("z", dir([0.0, 0.0, 1.0])),
+    ]
+}
+
+/// Draws the orientation triad with its origin at `at`: an arrow of `len` pixels (projected)
+/// per axis, labelled at its tip.
+pub(super) fn draw_triad<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    view: View,
+    at: (i32, i32),
+    len: f64,
+) -> Result<(), PlotError> {
+    let centre = Pos::new(HPos::Center, VPos::Center);
+    for (name, (dx, dy)) in triad(view) {
+        let tip = (
+            at.0 + (len * dx).round() as i32,
+            at.1 + (len * dy).round() as i32,
+        );
+        root.draw(&PathElement::new(vec![at, tip], INK.stroke_width(2)))
+            .map_err(backend_error)?;
+        let n = dx.hypot(dy);
+        if n > 0.2 {
+            // Arrow head: two strokes back from the tip at ±25°.
+            let (ux, uy) = (dx / n, dy / n);
+            for a in [0.44_f64, -0.44] {
+                let (c, s) = (a.cos(), a.sin());
+                let back = (
+                    tip.0 - (8.0 * (ux * c - uy * s)).round() as i32,
+                    tip.1 - (8.0 * (ux * s + uy * c)).round() as i32,
+                );
+                root.draw(&PathElement::new(vec![tip, back], INK.stroke_width(2)))
+                    .map_err(backend_error)?;
+            }
+        }
+        let label = (
+            at.0 + ((len + 13.0) * dx).round() as i32,
+            at.1 + ((len + 13.0) * dy).round() as i32,
+        );
+        root.draw(&Text::new(
+            name.to_string(),
+            label,
+            text_style(16.0, FontStyle::Italic, INK, centre),
+        ))
+        .map_err(backend_error)?;
+    }
+    Ok(())
+}
+
 /// Projected faces and beams, far to near.
 pub(super) fn items(model: &Model, view: View) -> Vec<Item> {
     let (right, up, toward) = axes(view);
@@ -266,23 +373,14 @@ fn draw<DB: DrawingBackend>(
         text(20.0, true, centre),
     ))
     .map_err(backend_error)?;
-    // One fit for every panel: the projected bounding box.
-    let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
-    for p in items.iter().flat_map(|i| &i.points) {
-        x0 = x0.min(p.0);
-        x1 = x1.max(p.0);
-        y0 = y0.min(p.1);
-        y1 = y1.max(p.1);
-    }
-    if !(x1 > x0) {
-        (x0, x1) = (-1.0, 1.0);
-    }
-    if !(y1 > y0) {
-        (y0, y1) = (-1.0, 1.0);
-    }
     let (pw, ph) = (PANEL.0 as f64, PANEL.1 as f64);
     let (margin, caption) = (24.0, 34.0);
-    let s = ((pw - 2.0 * margin) / (x1 - x0)).min((ph - 2.0 * margin - caption) / (y1 - y0));
+    // One fit for every panel (the projected bounding box), shifted to each panel.
+    let fit = Fit::new(
+        items.iter().flat_map(|i| &i.points),
+        (0.0, caption, pw, ph - caption),
+        margin,
+    );
     let scale = Scale::of(&plot.panels);
     for (k, panel) in plot.panels.iter().enumerate() {
         let (c, r) = ((k % columns) as f64, (k / columns) as f64);
@@ -294,9 +392,12 @@ fn draw<DB: DrawingBackend>(
             text(16.0, false, centre),
         ))
         .map_err(backend_error)?;
-        let ox = left + pw / 2.0 - s * (x0 + x1) / 2.0;
-        let oy = top + caption + (ph - caption) / 2.0 + s * (y0 + y1) / 2.0;
-        let px = |p: &(f64, f64)| ((ox + s * p.0).round() as i32, (oy - s * p.1).round() as i32);
+        let at = Fit {
+            ox: fit.ox + left,
+            oy: fit.oy + top,
+            ..fit
+        };
+        let px = |p: &(f64, f64)| at.px(p);
         for item in items {
             let value = panel.values.get(&item.id).copied();
             let fill = value.map_or(NO_VALUE, |v| scale.colour(v));
@@ -324,6 +425,12 @@ fn draw<DB: DrawingBackend>(
                     .map_err(backend_error)?;
             }
         }
+        draw_triad(
+            root,
+            plot.view,
+            ((left + 44.0) as i32, (top + ph - 44.0) as i32),
+            26.0,
+        )?;
     }
     draw_colour_bar(root, plot, &scale, w)
 }
@@ -451,5 +558,54 @@ mod tests {
         let a = mesh_plot(&plot).unwrap();
         assert_eq!(a, mesh_plot(&plot).unwrap());
         assert!(a.png.starts_with(b"\x89PNG") && a.svg.contains("<svg"));
+        // A triad per panel: three italic axis labels each.
+        crate::report::mac_plot::check::svg_elements(&a.svg).unwrap();
+        assert_eq!(
+            crate::report::mac_plot::check::count_with(&a.svg, "text", "font-style=\"italic\""),
+            2 * 3
+        );
+        for name in ["x", "y", "z"] {
+            assert_eq!(a.svg.matches(&format!(">\n{name}\n<")).count(), 2, "{name}");
+        }
+        assert!(image::load_from_memory(&a.png).is_ok());
+        if std::env::var_os("FEMU_WRITE_FIGURES").is_some() {
+            std::fs::write("/tmp/mesh_plot_example.png", &a.png).unwrap();
+        }
+    }
+
+    /// The triad follows the view: `z` points straight up on the screen from the default view
+    /// and vanishes into the screen from above, where `x` points right and `y` up.
+    #[test]
+    fn triad_follows_the_view() {
+        let close =
+            |a: (f64, f64), b: (f64, f64)| (a.0 - b.0).abs() < 1e-12 && (a.1 - b.1).abs() < 1e-12;
+        let t = triad(View::default());
+        assert_eq!(t.map(|a| a.0), ["x", "y", "z"]);
+        let e = 30f64.to_radians();
+        assert!(close(t[2].1, (0.0, -e.cos())));
+        assert!(
+            t[0].1.0 > 0.0 && t[1].1.0 > 0.0,
+            "x and y both lean right from azimuth −60°"
+        );
+        let top = triad(View {
+            azimuth_deg: -90.0,
+            elevation_deg: 90.0,
+        });
+        assert!(close(top[0].1, (1.0, 0.0)));
+        assert!(close(top[1].1, (0.0, -1.0)));
+        assert!(top[2].1.0.hypot(top[2].1.1) < 1e-12);
+    }
+
+    /// The shared fit centres the points in the box and keeps the aspect ratio.
+    #[test]
+    fn fit_centres_and_keeps_aspect() {
+        let pts = [(0.0, 0.0), (2.0, 1.0)];
+        let f = Fit::new(&pts, (100.0, 50.0, 400.0, 300.0), 20.0);
+        assert_eq!(f.s, 180.0);
+        assert_eq!(f.px(&(1.0, 0.5)), (300, 200));
+        assert_eq!(f.px(&(0.0, 0.0)), (120, 290));
+        // Nothing finite: a unit box around the origin.
+        let g = Fit::new(&[(f64::NAN, 0.0)], (0.0, 0.0, 200.0, 200.0), 0.0);
+        assert_eq!(g.px(&(0.0, 0.0)), (100, 100));
     }
 }

@@ -8,6 +8,7 @@ pub mod box_plot;
 pub mod figure;
 pub mod frf_plot;
 pub mod line_plot;
+pub mod mac_plot;
 pub mod mesh_plot;
 pub mod pairing_plot;
 pub mod posterior_plot;

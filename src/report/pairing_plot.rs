@@ -1,14 +1,15 @@
 //! Test points over the model (the pairing of docs/theory.md §14): the mesh in light grey,
 //! seen along a fixed view as in [`super::mesh_plot`], each aligned test point a dot coloured by
 //! its pairing distance on a scale up to the tolerance, labelled with its node, and ringed in
-//! red when beyond the tolerance. Equal inputs give byte-identical files.
+//! red when beyond the tolerance, with the orientation triad of the mesh plots. Equal inputs give
+//! byte-identical files.
 
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use super::figure::{Figure, PlotError, backend_error, render, text_style};
-use super::mesh_plot::{EDGE, NO_VALUE, SEQUENTIAL, View, axes, dot, items, ramp};
+use super::mesh_plot::{EDGE, Fit, NO_VALUE, SEQUENTIAL, View, axes, dot, draw_triad, items, ramp};
 use crate::model::Model;
 
 /// One test point to draw.
@@ -80,26 +81,13 @@ fn draw<DB: DrawingBackend>(
         .map(|p| (dot(p.xyz, right), dot(p.xyz, up)))
         .collect();
     // One fit for the mesh and the points.
-    let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
-    for p in faces.iter().flat_map(|i| &i.points).chain(&projected) {
-        if p.0.is_finite() && p.1.is_finite() {
-            x0 = x0.min(p.0);
-            x1 = x1.max(p.0);
-            y0 = y0.min(p.1);
-            y1 = y1.max(p.1);
-        }
-    }
-    if !(x1 > x0) {
-        (x0, x1) = (x0.min(0.0) - 1.0, x1.max(0.0) + 1.0);
-    }
-    if !(y1 > y0) {
-        (y0, y1) = (y0.min(0.0) - 1.0, y1.max(0.0) + 1.0);
-    }
-    let (pw, ph, margin) = (SIZE.0 as f64, SIZE.1 as f64, 40.0);
-    let s = ((pw - 2.0 * margin) / (x1 - x0)).min((ph - 2.0 * margin) / (y1 - y0));
-    let ox = pw / 2.0 - s * (x0 + x1) / 2.0;
-    let oy = TITLE_H as f64 + ph / 2.0 + s * (y0 + y1) / 2.0;
-    let px = |p: &(f64, f64)| ((ox + s * p.0).round() as i32, (oy - s * p.1).round() as i32);
+    let (pw, ph) = (SIZE.0 as f64, SIZE.1 as f64);
+    let fit = Fit::new(
+        faces.iter().flat_map(|i| &i.points).chain(&projected),
+        (0.0, TITLE_H as f64, pw, ph),
+        40.0,
+    );
+    let px = |p: &(f64, f64)| fit.px(p);
     for item in &faces {
         let pts: Vec<(i32, i32)> = item.points.iter().map(px).collect();
         if item.face {
@@ -137,6 +125,12 @@ fn draw<DB: DrawingBackend>(
         ))
         .map_err(backend_error)?;
     }
+    draw_triad(
+        root,
+        plot.view,
+        (48, TITLE_H as i32 + SIZE.1 as i32 - 48),
+        30.0,
+    )?;
     colour_bar(root, plot)
 }
 
@@ -234,5 +228,12 @@ mod tests {
         let a = pairing_plot(&plot).unwrap();
         assert_eq!(a, pairing_plot(&plot).unwrap());
         assert!(a.png.starts_with(b"\x89PNG") && a.svg.contains("9001"));
+        crate::report::mac_plot::check::svg_elements(&a.svg).unwrap();
+        assert_eq!(
+            crate::report::mac_plot::check::count_with(&a.svg, "text", "font-style=\"italic\""),
+            3,
+            "one orientation triad"
+        );
+        assert!(image::load_from_memory(&a.png).is_ok());
     }
 }

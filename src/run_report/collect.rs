@@ -159,6 +159,91 @@ pub struct MacView {
     pub pairs: BTreeSet<(i64, i64)>,
 }
 
+/// One aligned test point and what it was paired to.
+#[derive(Clone, Debug, Serialize)]
+pub struct TestPointView {
+    /// Test node label.
+    pub node: i64,
+    /// Aligned position in model coordinates, m.
+    pub xyz: [f64; 3],
+    /// `node` or `element`.
+    pub method: String,
+    /// The grid paired to, if paired to a node.
+    pub fe_node: Option<i64>,
+    /// The element interpolated in, if paired to an element.
+    pub fe_element: Option<i64>,
+    /// Pairing distance, m (null when not finite).
+    pub distance_m: Option<f64>,
+    /// `ok` or `beyond_tolerance`.
+    pub status: String,
+}
+
+/// The test points of a `test_map`, drawn on the mesh they were paired to.
+#[derive(Clone, Debug, Serialize)]
+pub struct TestPointsView {
+    /// `stage.port`.
+    pub id: String,
+    /// The mesh (`stage.port`) they were paired to, when wired in this run and drawn.
+    pub mesh: Option<String>,
+    /// The largest accepted distance, m.
+    pub tolerance_m: Option<f64>,
+    /// The points, in the table's order.
+    pub points: Vec<TestPointView>,
+}
+
+/// One parameter's marginal posterior.
+#[derive(Clone, Debug, Serialize)]
+pub struct ParameterPosterior {
+    /// Parameter name.
+    pub name: String,
+    /// The update's result.
+    pub updated: Option<f64>,
+    /// Posterior mean.
+    pub mean: Option<f64>,
+    /// Posterior standard deviation.
+    pub sd: Option<f64>,
+    /// Credible interval, lower end.
+    pub lower: Option<f64>,
+    /// Credible interval, upper end.
+    pub upper: Option<f64>,
+}
+
+/// A predictive band of `|H|` for one FRF: centre and `± 2 sd` per line.
+#[derive(Clone, Debug, Serialize)]
+pub struct BandView {
+    /// `response/excitation`.
+    pub pair: String,
+    /// Lines, Hz.
+    pub freqs: Vec<Option<f64>>,
+    /// `|H|` at the posterior mean.
+    pub abs: Vec<Option<f64>>,
+    /// `|H| − 2 sd` (sampled sd when present, else linearised), clipped at 0.
+    pub lower: Vec<Option<f64>>,
+    /// `|H| + 2 sd`.
+    pub upper: Vec<Option<f64>>,
+}
+
+/// A posterior of the parameters (docs/theory.md §12): marginals, correlations, ridges and
+/// predictive bands.
+#[derive(Clone, Debug, Serialize)]
+pub struct PosteriorView {
+    /// `stage.port`.
+    pub id: String,
+    /// Probability of the credible intervals, when recorded.
+    pub level: Option<f64>,
+    /// Per parameter, in the table's order.
+    pub parameters: Vec<ParameterPosterior>,
+    /// Correlation of parameter `i` with `j` (order of `parameters`).
+    pub correlation: Vec<Vec<Option<f64>>>,
+    /// Parameter pairs with `|correlation| >` [`RUN_RIDGE`]: names and the correlation.
+    pub ridges: Vec<(String, String, f64)>,
+    /// Predictive bands of `|H|`, when the posterior carries them.
+    pub bands: Vec<BandView>,
+}
+
+/// The `|correlation|` above which two parameters are said to lie on a ridge.
+pub const RUN_RIDGE: f64 = 0.9;
+
 /// A figure a stage drew.
 #[derive(Clone, Debug)]
 pub struct FigureView {
@@ -231,6 +316,10 @@ pub struct RunView {
     pub frequencies: Vec<(String, Vec<f64>)>,
     /// Figures.
     pub figures: Vec<FigureView>,
+    /// Test points of `test_map` artefacts.
+    pub test_points: Vec<TestPointsView>,
+    /// Posteriors.
+    pub posteriors: Vec<PosteriorView>,
     /// Every artefact.
     pub artefacts: Vec<ArtefactView>,
     /// Warnings by stage, in stage order.
@@ -419,11 +508,27 @@ pub fn collect(out: &Path, opts: &ReportOptions) -> Result<RunView, ReportError>
                         view.figures.push(f);
                     }
                 }
+                ArtefactKind::TestMap => {
+                    if let Some(t) = test_points_view(&id, s.inputs.get("mesh").cloned(), &a) {
+                        view.test_points.push(t);
+                    }
+                }
+                ArtefactKind::Posterior => {
+                    if let Some(p) = posterior_view(&id, &a) {
+                        view.posteriors.push(p);
+                    }
+                }
                 _ => {}
             }
         }
         for w in stage_warnings(&metas) {
             view.warnings.push((name.clone(), w));
+        }
+    }
+    // Test points are drawn on their mesh only when that mesh is in the viewer.
+    for t in &mut view.test_points {
+        if t.mesh.as_ref().is_some_and(|m| !meshes.contains_key(m)) {
+            t.mesh = None;
         }
     }
     for (id, mesh, a) in leverage {
@@ -711,4 +816,148 @@ fn figure_view(id: &str, a: &Artefact) -> Option<FigureView> {
             .to_string(),
         images: images.into_values().collect(),
     })
+}
+
+fn test_points_view(id: &str, mesh: Option<String>, a: &Artefact) -> Option<TestPointsView> {
+    let t = a.table("points").ok()?;
+    let name = "points";
+    let node = t.i64s(name, "test_node").ok()?;
+    let (x, y, z) = (
+        t.f64s(name, "x_m").ok()?,
+        t.f64s(name, "y_m").ok()?,
+        t.f64s(name, "z_m").ok()?,
+    );
+    let method = t.strs(name, "method").ok()?;
+    let fe_node = t.i64s(name, "fe_node").ok()?;
+    let fe_element = t.i64s(name, "fe_element").ok()?;
+    let distance = t.f64s(name, "distance_m").ok()?;
+    let status = t.strs(name, "status").ok()?;
+    let id_of = |v: i64| (v >= 0).then_some(v);
+    let points = (0..node.len())
+        .map(|k| TestPointView {
+            node: node[k],
+            xyz: [x[k], y[k], z[k]],
+            method: method[k].clone(),
+            fe_node: id_of(fe_node[k]),
+            fe_element: id_of(fe_element[k]),
+            distance_m: distance[k].is_finite().then_some(distance[k]),
+            status: status[k].clone(),
+        })
+        .collect();
+    Some(TestPointsView {
+        id: id.to_string(),
+        mesh,
+        tolerance_m: a
+            .meta
+            .get("tolerance_m")
+            .and_then(|v| v.as_f64())
+            .filter(|v| v.is_finite() && *v > 0.0),
+        points,
+    })
+}
+
+/// Reads a posterior by its tables, so every method writing the `posterior` kind shows: the
+/// marginals from `parameters`, the correlations from `covariance`, the bands from `frf_band`.
+fn posterior_view(id: &str, a: &Artefact) -> Option<PosteriorView> {
+    let t = a.table("parameters").ok()?;
+    let names = t.strs("parameters", "parameter").ok()?.to_vec();
+    let column = |c: &str| -> Vec<Option<f64>> {
+        t.f64s("parameters", c)
+            .map(finite)
+            .unwrap_or_else(|_| vec![None; names.len()])
+    };
+    let (updated, mean, sd, lower, upper) = (
+        column("updated"),
+        column("mean"),
+        column("sd"),
+        column("lower"),
+        column("upper"),
+    );
+    let parameters = (0..names.len())
+        .map(|k| ParameterPosterior {
+            name: names[k].clone(),
+            updated: updated[k],
+            mean: mean[k],
+            sd: sd[k],
+            lower: lower[k],
+            upper: upper[k],
+        })
+        .collect();
+    let at: BTreeMap<&str, usize> = names
+        .iter()
+        .enumerate()
+        .map(|(k, n)| (n.as_str(), k))
+        .collect();
+    let mut correlation = vec![vec![None; names.len()]; names.len()];
+    if let Ok(c) = a.table("covariance")
+        && let (Ok(pi), Ok(pj), Ok(r)) = (
+            c.strs("covariance", "parameter_i"),
+            c.strs("covariance", "parameter_j"),
+            c.f64s("covariance", "correlation"),
+        )
+    {
+        for ((i, j), v) in pi.iter().zip(pj).zip(r) {
+            if let (Some(&i), Some(&j)) = (at.get(i.as_str()), at.get(j.as_str())) {
+                correlation[i][j] = v.is_finite().then_some(*v);
+            }
+        }
+    }
+    let mut ridges = Vec::new();
+    for i in 0..names.len() {
+        for j in i + 1..names.len() {
+            let r = correlation[i][j].or(correlation[j][i]);
+            if let Some(r) = r.filter(|r| r.abs() > RUN_RIDGE) {
+                ridges.push((names[i].clone(), names[j].clone(), r));
+            }
+        }
+    }
+    Some(PosteriorView {
+        id: id.to_string(),
+        level: a.meta.get("credible_level").and_then(|v| v.as_f64()),
+        parameters,
+        correlation,
+        ridges,
+        bands: bands(a).unwrap_or_default(),
+    })
+}
+
+/// The `frf_band` table as one band per FRF, lines in the table's order.
+fn bands(a: &Artefact) -> Option<Vec<BandView>> {
+    let t = a.table("frf_band").ok()?;
+    let n = "frf_band";
+    let (f, pair, abs) = (
+        t.f64s(n, "freq_hz").ok()?,
+        t.strs(n, "pair").ok()?,
+        t.f64s(n, "abs").ok()?,
+    );
+    let linear = t.f64s(n, "sd_linear").ok();
+    let sampled = t.f64s(n, "sd_sampled").ok();
+    let mut out: Vec<BandView> = Vec::new();
+    for k in 0..f.len() {
+        let sd = sampled
+            .map(|s| s[k])
+            .filter(|v| v.is_finite())
+            .or_else(|| linear.map(|s| s[k]).filter(|v| v.is_finite()));
+        let i = match out.iter().position(|b| b.pair == pair[k]) {
+            Some(i) => i,
+            None => {
+                out.push(BandView {
+                    pair: pair[k].clone(),
+                    freqs: Vec::new(),
+                    abs: Vec::new(),
+                    lower: Vec::new(),
+                    upper: Vec::new(),
+                });
+                out.len() - 1
+            }
+        };
+        let b = &mut out[i];
+        let ok = |v: f64| v.is_finite().then_some(v);
+        b.freqs.push(ok(f[k]));
+        b.abs.push(ok(abs[k]));
+        b.lower
+            .push(sd.and_then(|s| ok((abs[k] - 2.0 * s).max(0.0))));
+        b.upper.push(sd.and_then(|s| ok(abs[k] + 2.0 * s)));
+    }
+    Some(out)
 }

@@ -1,7 +1,7 @@
 //! The report page: HTML with the styles, the script and the data inlined.
 
-use super::collect::{ArtefactView, RunView};
-use super::svg::{escape, mac_heat_map, pipeline_graph};
+use super::collect::{ArtefactView, PosteriorView, RUN_RIDGE, RunView, TestPointsView};
+use super::svg::{correlation_heat_map, escape, mac_heat_map, pipeline_graph};
 use crate::artefact::Table;
 use std::fmt::Write;
 
@@ -46,6 +46,12 @@ pub fn render_html(view: &RunView) -> String {
     if !view.meshes.is_empty() {
         sections.push(("mesh", "Mesh"));
     }
+    if !view.test_points.is_empty() {
+        sections.push(("pairing", "Test points"));
+    }
+    if !view.posteriors.is_empty() {
+        sections.push(("posterior", "Posterior"));
+    }
     if !view.figures.is_empty() {
         sections.push(("figures", "Figures"));
     }
@@ -89,6 +95,16 @@ pub fn render_html(view: &RunView) -> String {
         }
         h.push_str("<div id=\"mesh-viewer\" class=\"viewer\"></div></section>");
     }
+    for t in &view.test_points {
+        pairing_section(&mut h, t);
+    }
+    if !view.posteriors.is_empty() {
+        h.push_str("<section id=\"posterior\"><h2>Posterior of the parameters</h2><p class=\"hint\">Marginal mean, standard deviation and credible interval per parameter (docs/theory.md §12), and how the parameters are correlated.</p>");
+        for p in &view.posteriors {
+            posterior_section(&mut h, p);
+        }
+        h.push_str("<div id=\"posterior-viewer\" class=\"viewer\"></div></section>");
+    }
     if !view.figures.is_empty() {
         h.push_str("<section id=\"figures\"><h2>Figures</h2>");
         for f in &view.figures {
@@ -120,6 +136,8 @@ pub fn render_html(view: &RunView) -> String {
         "meshes": view.meshes,
         "fields": view.fields,
         "updates": view.updates,
+        "test_points": view.test_points,
+        "posteriors": view.posteriors,
     });
     // `<` never appears raw inside the script element, so no text can close it.
     let json = data.to_string().replace('<', "\\u003c");
@@ -128,6 +146,111 @@ pub fn render_html(view: &RunView) -> String {
         "<script type=\"application/json\" id=\"femu-data\">{json}</script><script>{SCRIPT}</script></body></html>"
     );
     h
+}
+
+/// A number as a reader wants it, with a typographic minus.
+fn number(v: Option<f64>) -> String {
+    match v {
+        None => "—".into(),
+        Some(x) if x == 0.0 || (1e-3..1e5).contains(&x.abs()) => {
+            format!("{}", (x * 1e4).round() / 1e4).replace('-', "−")
+        }
+        Some(x) => format!("{x:.4e}").replace('-', "−"),
+    }
+}
+
+/// The test points of one `test_map`: what each was paired to and how far, farthest first.
+fn pairing_section(h: &mut String, t: &TestPointsView) {
+    let _ = write!(
+        h,
+        "<section id=\"pairing\"><h2>Test points: {}</h2><p class=\"hint\">{} point(s){}{}. Farthest first; in the mesh view each point is a marker coloured by its distance.</p>",
+        escape(&t.id),
+        t.points.len(),
+        t.tolerance_m
+            .map(|v| format!(", tolerance {} mm", number(Some(v * 1e3))))
+            .unwrap_or_default(),
+        t.mesh
+            .as_ref()
+            .map(|m| format!(", paired to the mesh {}", escape(m)))
+            .unwrap_or_default()
+    );
+    let mut order: Vec<usize> = (0..t.points.len()).collect();
+    order.sort_by(|&a, &b| {
+        let d = |k: usize| t.points[k].distance_m.unwrap_or(f64::INFINITY);
+        d(b).total_cmp(&d(a)).then(a.cmp(&b))
+    });
+    h.push_str("<div class=\"scroll\"><table class=\"pairing\"><thead><tr><th>test point</th><th>paired to</th><th>distance (mm)</th><th>status</th></tr></thead><tbody>");
+    for k in order {
+        let p = &t.points[k];
+        let to = match (p.fe_node, p.fe_element) {
+            (Some(n), _) => format!("node {n}"),
+            (None, Some(e)) => format!("element {e}"),
+            (None, None) => "—".into(),
+        };
+        let bad = p.status != "ok";
+        let _ = write!(
+            h,
+            "<tr{}><td>{}</td><td>{}</td><td class=\"num\">{}</td><td>{}</td></tr>",
+            if bad { " class=\"bad\"" } else { "" },
+            p.node,
+            escape(&to),
+            number(p.distance_m.map(|d| d * 1e3)),
+            escape(&p.status)
+        );
+    }
+    h.push_str("</tbody></table></div></section>");
+}
+
+/// The sentence on two parameters on a ridge of the likelihood.
+pub(super) fn ridge_sentence(a: &str, b: &str, r: f64) -> String {
+    let r = format!("{r:.2}").replace('-', "−");
+    format!("{a} and {b} are correlated at {r}: the data determine their combination, not each.")
+}
+
+/// One posterior: the marginals, the ridges in words, the correlation matrix.
+fn posterior_section(h: &mut String, p: &PosteriorView) {
+    let level = p
+        .level
+        .map(|l| format!("{} %", (l * 1000.0).round() / 10.0))
+        .unwrap_or_else(|| "credible".into());
+    let _ = write!(
+        h,
+        "<h3>{}</h3><div class=\"scroll\"><table><thead><tr><th>parameter</th><th>updated</th><th>mean</th><th>sd</th><th>{} interval</th></tr></thead><tbody>",
+        escape(&p.id),
+        escape(&level)
+    );
+    for q in &p.parameters {
+        let _ = write!(
+            h,
+            "<tr><td>{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td><td class=\"num\">[{}, {}]</td></tr>",
+            escape(&q.name),
+            number(q.updated),
+            number(q.mean),
+            number(q.sd),
+            number(q.lower),
+            number(q.upper)
+        );
+    }
+    h.push_str("</tbody></table></div>");
+    if p.ridges.is_empty() {
+        let _ = write!(
+            h,
+            "<p class=\"ridge none\">No two parameters are correlated beyond ±{RUN_RIDGE}: the data determine each of them.</p>"
+        );
+    }
+    for (a, b, r) in &p.ridges {
+        let _ = write!(
+            h,
+            "<p class=\"ridge\">{}</p>",
+            escape(&ridge_sentence(a, b, *r))
+        );
+    }
+    if p.parameters.len() > 1 {
+        let _ = write!(h, "<div class=\"scroll\">{}</div>", correlation_heat_map(p));
+    }
+    if !p.bands.is_empty() {
+        h.push_str("<p class=\"hint\">Its predictive bands of |H| (± 2 sd) are drawn in the FRF viewer.</p>");
+    }
 }
 
 fn pipeline_section(h: &mut String, view: &RunView) {

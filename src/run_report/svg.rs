@@ -1,6 +1,7 @@
-//! The report's static drawings, as inline SVG: the pipeline graph and the MAC heat map.
+//! The report's static drawings, as inline SVG: the pipeline graph, the MAC heat map and the
+//! posterior's correlation matrix.
 
-use super::collect::{MacView, StageView};
+use super::collect::{MacView, PosteriorView, StageView};
 use std::collections::BTreeMap;
 use std::fmt::Write;
 
@@ -231,6 +232,104 @@ pub fn mac_heat_map(m: &MacView) -> String {
         top + bh,
         bx - 4.0,
         top - 6.0
+    );
+    svg
+}
+
+/// Blue (−1) through white (0) to red (+1).
+fn diverging(v: f64) -> String {
+    let t = v.clamp(-1.0, 1.0);
+    let (end, a) = if t < 0.0 {
+        ((33.0, 102.0, 172.0), -t)
+    } else {
+        ((178.0, 24.0, 43.0), t)
+    };
+    let lerp = |e: f64| (247.0 + (e - 247.0) * a).round() as u8;
+    format!("#{:02x}{:02x}{:02x}", lerp(end.0), lerp(end.1), lerp(end.2))
+}
+
+/// The posterior's correlation matrix as a heat map on `[−1, 1]`: parameters down and across,
+/// the correlation written in each cell when it fits and on hover, a colour bar.
+pub fn correlation_heat_map(p: &PosteriorView) -> String {
+    let n = p.parameters.len();
+    let cell = (400.0 / n.max(1) as f64).clamp(8.0, 48.0);
+    let longest = p
+        .parameters
+        .iter()
+        .map(|q| q.name.chars().count())
+        .max()
+        .unwrap_or(1) as f64;
+    let (left, top) = ((longest * 7.0 + 16.0).clamp(40.0, 200.0), 24.0);
+    let w = left + n as f64 * cell + 90.0;
+    let h = top + n as f64 * cell + 20.0 + longest.min(28.0) * 6.0;
+    let mut svg = String::new();
+    let _ = write!(
+        svg,
+        r##"<svg class="correlation" xmlns="http://www.w3.org/2000/svg" width="{w}" height="{h}" viewBox="0 0 {w} {h}" role="img" aria-label="posterior correlation matrix">"##
+    );
+    let every = (14.0 / cell).ceil().max(1.0) as usize;
+    for (i, a) in p.parameters.iter().enumerate() {
+        if i % every == 0 {
+            let _ = write!(
+                svg,
+                r##"<text x="{}" y="{}" text-anchor="end" class="tick">{}</text>"##,
+                left - 6.0,
+                top + (i as f64 + 0.5) * cell + 4.0,
+                escape(&a.name)
+            );
+            let (x, y) = (left + (i as f64 + 0.5) * cell, top + n as f64 * cell + 8.0);
+            let _ = write!(
+                svg,
+                r##"<text x="{x}" y="{y}" text-anchor="end" class="tick" transform="rotate(-60,{x},{y})">{}</text>"##,
+                escape(&a.name)
+            );
+        }
+        for (j, b) in p.parameters.iter().enumerate() {
+            let v = p.correlation[i][j];
+            let (x, y) = (left + j as f64 * cell, top + i as f64 * cell);
+            let shown = v.map_or("—".to_string(), |v| format!("{v:.2}").replace('-', "−"));
+            let _ = write!(
+                svg,
+                r##"<rect class="corr" x="{x}" y="{y}" width="{cell}" height="{cell}" fill="{}"><title>{} and {}: correlation {shown}</title></rect>"##,
+                v.map_or("#dddddd".to_string(), diverging),
+                escape(&a.name),
+                escape(&b.name)
+            );
+            if cell >= 36.0 {
+                let ink = if v.is_some_and(|v| v.abs() > 0.6) {
+                    "#fff"
+                } else {
+                    "#223"
+                };
+                let _ = write!(
+                    svg,
+                    r##"<text x="{}" y="{}" text-anchor="middle" class="cell" fill="{ink}">{shown}</text>"##,
+                    x + cell / 2.0,
+                    y + cell / 2.0 + 4.0
+                );
+            }
+        }
+    }
+    let (bx, bh) = (left + n as f64 * cell + 24.0, n as f64 * cell);
+    for k in 0..50 {
+        let v = 1.0 - 2.0 * k as f64 / 49.0;
+        let _ = write!(
+            svg,
+            r##"<rect x="{bx}" y="{}" width="14" height="{}" fill="{}"/>"##,
+            top + k as f64 * bh / 50.0,
+            bh / 50.0 + 0.5,
+            diverging(v)
+        );
+    }
+    let _ = write!(
+        svg,
+        r##"<text x="{}" y="{}" class="tick">1</text><text x="{}" y="{}" class="tick">−1</text><text x="{}" y="{}" class="tick">correlation</text></svg>"##,
+        bx + 18.0,
+        top + 8.0,
+        bx + 18.0,
+        top + bh,
+        bx - 20.0,
+        top - 8.0
     );
     svg
 }

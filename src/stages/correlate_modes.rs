@@ -1,7 +1,8 @@
 //! `correlate.modes`: two sets of modes compared, the thesis's check of a reduced model against
 //! the full one (3.54) and the usual test–analysis modal correlation: elastic modes paired by
 //! MAC (1.18), the relative eigenvalue and frequency errors of each pair, the MAC matrix and
-//! the COMAC, as a table and a bar chart of the errors and MACs per mode.
+//! the COMAC, as a table, a bar chart of the errors and MACs per mode and the MAC matrix as a
+//! heat map with the pairs outlined.
 
 use super::params::Positive;
 use crate::artefact::ArtefactKind;
@@ -12,6 +13,7 @@ use crate::pipeline::{
     CheckContext, ParamIssue, PortSpec, StageError, StageInputs, StageOutputs, TypedStage,
 };
 use crate::report::bar_plot::{BarPanel, BarPlot, bar_plot};
+use crate::report::mac_plot::{MacPlot, mac_plot};
 use faer::Mat;
 use std::collections::HashMap;
 
@@ -66,7 +68,7 @@ impl TypedStage for CorrelateModes {
     const KIND: &'static str = "correlate.modes";
     const SUMMARY: &'static str =
         "Modes against reference modes: MAC pairing, relative eigenvalue error (3.54), COMAC";
-    const IMPL_VERSION: u32 = 1;
+    const IMPL_VERSION: u32 = 2;
 
     fn inputs() -> Vec<PortSpec> {
         vec![
@@ -94,6 +96,11 @@ impl TypedStage for CorrelateModes {
                 "plot",
                 ArtefactKind::Plot,
                 "errors.png/svg: |eigenvalue error| (log axis) and MAC per reference mode",
+            ),
+            PortSpec::required(
+                "mac",
+                ArtefactKind::Plot,
+                "mac.png/svg: the MAC matrix (1.18) of the elastic modes as a heat map, pairs outlined",
             ),
         ]
     }
@@ -237,9 +244,29 @@ impl TypedStage for CorrelateModes {
                 .unwrap_or_default(),
         })
         .map_err(StageError::failed)?;
+        let mac_title = "MAC matrix (1.18)";
+        let mac_fig = mac_plot(&MacPlot {
+            title: mac_title.into(),
+            mac: c.mac.as_ref(),
+            reference: (0..c.mac.nrows())
+                .map(|i| (ref_rigid + i + 1).to_string())
+                .collect(),
+            predicted: (0..c.mac.ncols())
+                .map(|j| (pred_rigid + j + 1).to_string())
+                .collect(),
+            pairs: c
+                .pairs
+                .iter()
+                .map(|x| (x.reference - ref_rigid, x.predicted - pred_rigid))
+                .collect(),
+            reference_label: "reference mode no.".into(),
+            predicted_label: "predicted mode no.".into(),
+        })
+        .map_err(StageError::failed)?;
         Ok(StageOutputs::from([
             ("correlation".to_string(), artefact),
             ("plot".to_string(), plot_artefact("errors", &p.title, fig)),
+            ("mac".to_string(), plot_artefact("mac", mac_title, mac_fig)),
         ]))
     }
 }
@@ -288,6 +315,15 @@ mod tests {
         assert_eq!(c.meta["n_dofs"], 3);
         assert_eq!(c.meta["n_pairs"], 2);
         assert_eq!(c.meta["max_abs_eigenvalue_error_in_band"], 0.0);
+        // The heat map: one cell per pair of elastic modes, both pairs outlined.
+        let svg = String::from_utf8(out["mac"].blobs["mac.svg"].clone()).unwrap();
+        let cells = crate::report::mac_plot::check::svg_elements(&svg).unwrap();
+        assert_eq!(cells["polygon"], 2 * 2);
+        assert_eq!(
+            crate::report::mac_plot::check::count_with(&svg, "rect", "stroke=\"#DC141E\""),
+            2 + 1
+        );
+        assert!(out["mac"].blobs["mac.png"].starts_with(b"\x89PNG"));
         // Shifted by one node, two rows are shared and the shapes no longer match one to one.
         let shifted = CorrelateModes::run(&params(), &inputs(1, 2)).unwrap();
         assert_eq!(shifted["correlation"].meta["n_dofs"], 2);

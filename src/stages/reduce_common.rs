@@ -157,12 +157,15 @@ pub fn run(
     // component ever holds a junction-sized basis.
     let lean_interface = match (&method, interface) {
         (Method::CraigBampton { .. }, Some(selection)) => {
+            let carried = crate::core::progress::carry();
             let condensations = part
                 .substructures
                 .par_iter()
                 .map(|sub| {
-                    junction_condensation(&sub.name, &matrices(sub)?, &sub.junction)
-                        .map_err(StageError::from_numerics(""))
+                    carried.run(|| {
+                        junction_condensation(&sub.name, &matrices(sub)?, &sub.junction)
+                            .map_err(StageError::from_numerics(""))
+                    })
                 })
                 .collect::<Result<Vec<_>, StageError>>()?;
             interface_basis_from_condensations(&part.junction, condensations, selection)
@@ -171,53 +174,57 @@ pub fn run(
         _ => None,
     };
     let done = crate::reduction::substructures_task(&part);
+    // The eigensolves of each substructure report to this stage from the rayon workers.
+    let carried = crate::core::progress::carry();
     let components = part
         .substructures
         .par_iter()
         .map(|sub| {
-            let sys = matrices(sub)?;
-            let rows = match &lean_interface {
-                Some(psi) => Some(
-                    interface_rows(&part.junction, &sub.junction, psi.as_ref())
-                        .map_err(StageError::from_numerics(""))?,
-                ),
-                None => None,
-            };
-            let mut key = serde_json::json!({
-                "method": method_json(&method),
-                "substructure": sub.name,
-                "junction": sub.junction.iter().map(|d| d.to_string()).collect::<Vec<_>>(),
-                "matrices": matrices_digest(&sys),
-            });
-            if let Some(rows) = &rows {
-                key["interface_rows"] = dense_digest(rows).into();
-            }
-            // A component computed here is used as it is; only one read from the cache is
-            // decoded (the round trip is exact, tested in `artefact::reduced`).
-            let mut computed = None;
-            let a = inputs.part(
-                COMPONENT_PART,
-                COMPONENT_VERSION,
-                &key,
-                ArtefactKind::ReducedComponent,
-                || {
-                    let c = match &rows {
-                        Some(rows) => {
-                            reduce_assembled_on_interface(sub, &sys, &method, rows.as_ref())
+            carried.run(|| {
+                let sys = matrices(sub)?;
+                let rows = match &lean_interface {
+                    Some(psi) => Some(
+                        interface_rows(&part.junction, &sub.junction, psi.as_ref())
+                            .map_err(StageError::from_numerics(""))?,
+                    ),
+                    None => None,
+                };
+                let mut key = serde_json::json!({
+                    "method": method_json(&method),
+                    "substructure": sub.name,
+                    "junction": sub.junction.iter().map(|d| d.to_string()).collect::<Vec<_>>(),
+                    "matrices": matrices_digest(&sys),
+                });
+                if let Some(rows) = &rows {
+                    key["interface_rows"] = dense_digest(rows).into();
+                }
+                // A component computed here is used as it is; only one read from the cache is
+                // decoded (the round trip is exact, tested in `artefact::reduced`).
+                let mut computed = None;
+                let a = inputs.part(
+                    COMPONENT_PART,
+                    COMPONENT_VERSION,
+                    &key,
+                    ArtefactKind::ReducedComponent,
+                    || {
+                        let c = match &rows {
+                            Some(rows) => {
+                                reduce_assembled_on_interface(sub, &sys, &method, rows.as_ref())
+                            }
+                            None => reduce_assembled(sub, &sys, &method),
                         }
-                        None => reduce_assembled(sub, &sys, &method),
-                    }
-                    .map_err(StageError::from_numerics(""))?;
-                    let a = component_to_artefact(&c);
-                    computed = Some(c);
-                    Ok(a)
-                },
-            )?;
-            done.advance(1);
-            match computed {
-                Some(c) => Ok(c),
-                None => Ok(component_from_artefact(&a)?),
-            }
+                        .map_err(StageError::from_numerics(""))?;
+                        let a = component_to_artefact(&c);
+                        computed = Some(c);
+                        Ok(a)
+                    },
+                )?;
+                done.advance(1);
+                match computed {
+                    Some(c) => Ok(c),
+                    None => Ok(component_from_artefact(&a)?),
+                }
+            })
         })
         .collect::<Result<Vec<_>, StageError>>()?;
     let psi = match (lean_interface, interface) {

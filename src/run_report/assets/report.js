@@ -1,5 +1,6 @@
-// femu run report: the FRF viewer, the updating history and the 3-D mesh viewer, drawn on
-// canvases from the JSON inlined in the page. No network, no libraries.
+// femu run report: the FRF viewer (with posterior predictive bands), the updating history, the
+// 3-D mesh viewer (with test points) and the posterior intervals, drawn on canvases from the
+// JSON inlined in the page. No network, no libraries.
 (function () {
   'use strict';
   var errors = [];
@@ -235,6 +236,12 @@
         mag.series.push({ name: f.id, colour: f.colour, x: f.freqs, y: m });
         phase.series.push({ name: f.id, colour: f.colour, x: f.freqs, y: ph });
       });
+      (data.posteriors || []).forEach(function (po) {
+        var b = po.bands.find(function (q) { return q.pair === label; });
+        if (!b) { return; }
+        mag.series.push({ name: po.id + ' − 2 sd', colour: '#7f7f7f', x: b.freqs, y: b.lower, dash: [3, 3], width: 1 });
+        mag.series.push({ name: po.id + ' + 2 sd', colour: '#7f7f7f', x: b.freqs, y: b.upper, dash: [3, 3], width: 1 });
+      });
       var notes = [];
       if (chi) {
         chi.series = [];
@@ -283,16 +290,30 @@
     var controls = el('div', { 'class': 'controls' }, root);
     var choices = [];
     data.fields.forEach(function (f, i) { choices.push(['f' + i, f.id + ' on ' + f.mesh]); });
+    (data.test_points || []).forEach(function (t, i) { if (t.mesh) { choices.push(['t' + i, 'test points of ' + t.id + ' on ' + t.mesh]); } });
     data.meshes.forEach(function (m, i) { choices.push(['m' + i, m.id + ' (geometry)']); });
     var pick = select(controls, 'show', choices, function () { reset(); draw(); });
     var canvas = el('canvas', { height: '520', 'aria-label': 'mesh' }, root);
     var readout = el('div', { 'class': 'readout' }, root);
     var state = { az: -0.6, el: 0.5, zoom: 1 };
-    var mesh, field, items = [];
+    var mesh, field, points, items = [], markers = [];
     function reset() {
       var v = pick.value, k = Number(v.slice(1));
       field = v[0] === 'f' ? data.fields[k] : null;
-      mesh = field ? data.meshes.find(function (m) { return m.id === field.mesh; }) : data.meshes[k];
+      points = v[0] === 't' ? data.test_points[k] : null;
+      var on = field ? field.mesh : points ? points.mesh : null;
+      mesh = on ? data.meshes.find(function (m) { return m.id === on; }) : data.meshes[k];
+    }
+    // A test point's colour: its pairing distance on the scale up to the tolerance (or the
+    // largest distance when none is recorded).
+    function pointScale(t) {
+      var top = t.tolerance_m || 0;
+      if (!(top > 0)) { t.points.forEach(function (p) { if (p.distance_m !== null) { top = Math.max(top, p.distance_m); } }); }
+      return top > 0 ? top : 1;
+    }
+    function describe(p) {
+      var to = p.fe_node !== null ? 'node ' + p.fe_node : p.fe_element !== null ? 'element ' + p.fe_element : 'nothing';
+      return 'test point ' + p.node + ' → ' + to + ' · distance ' + (p.distance_m === null ? '—' : fmt(p.distance_m * 1e3) + ' mm') + (p.status === 'ok' ? '' : ' · ' + p.status);
     }
     function basis() {
       var ca = Math.cos(state.az), sa = Math.sin(state.az), ce = Math.cos(state.el), se = Math.sin(state.el);
@@ -323,6 +344,10 @@
       };
       var P = new Array(n);
       for (i = 0; i < n; i++) { P[i] = proj(i); }
+      var projectPoint = function (q) {
+        var p = [q[0] - mid[0], q[1] - mid[1], q[2] - mid[2]];
+        return [cx + scale * dot(p, b.right), cy - scale * dot(p, b.up)];
+      };
       var top = 0;
       if (field) { Object.keys(field.values).forEach(function (e) { top = Math.max(top, field.values[e]); }); }
       for (i = 0; i < mesh.faces.length; i++) {
@@ -350,6 +375,33 @@
           c.strokeStyle = 'rgb(' + (v === undefined ? [60, 70, 90] : rgb).join(',') + ')'; c.lineWidth = 2.2; c.stroke();
         }
       });
+      markers = [];
+      if (points) {
+        var tol = pointScale(points);
+        points.points.forEach(function (p) {
+          var at = projectPoint(p.xyz);
+          if (!isFinite(at[0]) || !isFinite(at[1])) { return; }
+          var rgb = ramp(p.distance_m === null ? 1 : p.distance_m / tol);
+          if (p.status !== 'ok') {
+            c.strokeStyle = '#d62728'; c.lineWidth = 2.5;
+            c.beginPath(); c.arc(at[0], at[1], 9, 0, 2 * Math.PI); c.stroke();
+          }
+          c.fillStyle = 'rgb(' + rgb.join(',') + ')';
+          c.beginPath(); c.arc(at[0], at[1], 5.5, 0, 2 * Math.PI); c.fill();
+          c.strokeStyle = '#1d2330'; c.lineWidth = 1; c.stroke();
+          markers.push({ x: at[0], y: at[1], p: p });
+        });
+        canvas.setAttribute('data-test-points', String(markers.length));
+        var px0 = w - 60, py0 = 30, ph0 = h - 80;
+        for (var s2 = 0; s2 < 100; s2++) {
+          c.fillStyle = 'rgb(' + ramp(1 - s2 / 99).join(',') + ')';
+          c.fillRect(px0, py0 + s2 * ph0 / 100, 16, ph0 / 100 + 1);
+        }
+        c.fillStyle = '#1d2330'; c.font = '11px system-ui, sans-serif'; c.textAlign = 'left';
+        c.fillText(fmt(tol * 1e3), px0 + 20, py0 + 8); c.fillText('0', px0 + 20, py0 + ph0);
+        c.save(); c.translate(px0 - 8, py0 + ph0 / 2); c.rotate(-Math.PI / 2); c.textAlign = 'center';
+        c.fillText('pairing distance (mm)', 0, 0); c.restore();
+      }
       // Orientation triad.
       var o = [46, h - 46];
       [['x', [1, 0, 0], '#d62728'], ['y', [0, 1, 0], '#2ca02c'], ['z', [0, 0, 1], '#1f77b4']].forEach(function (ax) {
@@ -389,6 +441,12 @@
         return;
       }
       var r = canvas.getBoundingClientRect(), x = e.clientX - r.left, y = e.clientY - r.top;
+      for (var m = markers.length - 1; m >= 0; m--) {
+        if (Math.hypot(markers[m].x - x, markers[m].y - y) <= 8) {
+          readout.textContent = describe(markers[m].p);
+          return;
+        }
+      }
       for (var i = items.length - 1; i >= 0; i--) {
         if (items[i].pts.length > 2 && inside(items[i].pts, x, y)) {
           var v = field ? field.values[String(items[i].e)] : undefined;
@@ -408,6 +466,68 @@
     root.setAttribute('data-ready', '1');
   }
 
+  // Per posterior, one row per parameter: the credible interval as a bar, the mean as a dot and
+  // the update's result as a diamond, all relative to the posterior mean so that parameters of
+  // different size share the axis.
+  function posteriorViewer(root, data) {
+    data.posteriors.forEach(function (po) {
+      var level = po.level ? Math.round(po.level * 1000) / 10 + ' %' : 'credible';
+      el('h3', { text: po.id + ': ' + level + ' intervals relative to the posterior mean' }, root);
+      var rows = po.parameters.length, rowH = 30, f = { l: 150, r: 20, t: 10, b: 44 };
+      var canvas = el('canvas', { 'class': 'intervals', 'aria-label': 'credible intervals of ' + po.id }, root);
+      var readout = el('div', { 'class': 'readout' }, root);
+      var lo = Infinity, hi = -Infinity;
+      var rel = po.parameters.map(function (q) {
+        var m = q.mean, ok = m !== null && m !== 0;
+        var r = function (v) { return ok && v !== null ? v / Math.abs(m) : null; };
+        var out = { q: q, lower: r(q.lower), upper: r(q.upper), mean: ok ? m / Math.abs(m) : null, updated: r(q.updated) };
+        [out.lower, out.upper, out.mean, out.updated].forEach(function (v) { if (v !== null && isFinite(v)) { lo = Math.min(lo, v); hi = Math.max(hi, v); } });
+        return out;
+      });
+      if (!isFinite(lo)) { lo = 0; hi = 2; }
+      if (hi === lo) { lo -= 0.5; hi += 0.5; }
+      var pad = 0.08 * (hi - lo); lo -= pad; hi += pad;
+      function draw() {
+        var w = Math.max(360, canvas.clientWidth || 800), h = f.t + f.b + rows * rowH, dpr = window.devicePixelRatio || 1;
+        canvas.width = Math.round(w * dpr); canvas.height = Math.round(h * dpr); canvas.style.height = h + 'px';
+        var c = canvas.getContext('2d');
+        c.setTransform(dpr, 0, 0, dpr, 0, 0);
+        c.clearRect(0, 0, w, h);
+        var pw = w - f.l - f.r;
+        var tx = function (v) { return f.l + (v - lo) / (hi - lo) * pw; };
+        c.font = '11px system-ui, sans-serif'; c.strokeStyle = '#e3e6eb'; c.fillStyle = '#1d2330'; c.lineWidth = 1;
+        linearTicks(lo, hi).forEach(function (t) {
+          var px = tx(t);
+          c.beginPath(); c.moveTo(px, f.t); c.lineTo(px, h - f.b); c.stroke();
+          c.textAlign = 'center'; c.fillText(fmt(t), px, h - f.b + 14);
+        });
+        c.textAlign = 'center';
+        c.fillText('value / |posterior mean|  (bar: interval, dot: mean, diamond: updated)', f.l + pw / 2, h - 8);
+        rel.forEach(function (r, i) {
+          var y = f.t + (i + 0.5) * rowH;
+          c.fillStyle = '#1d2330'; c.textAlign = 'right';
+          c.fillText(r.q.name, f.l - 8, y + 4);
+          if (r.lower !== null && r.upper !== null) {
+            c.fillStyle = 'rgba(31,119,180,0.35)'; c.fillRect(tx(r.lower), y - 7, Math.max(1, tx(r.upper) - tx(r.lower)), 14);
+            c.strokeStyle = '#1f77b4'; c.strokeRect(tx(r.lower), y - 7, Math.max(1, tx(r.upper) - tx(r.lower)), 14);
+          }
+          if (r.mean !== null) { c.fillStyle = '#1f77b4'; c.beginPath(); c.arc(tx(r.mean), y, 4, 0, 2 * Math.PI); c.fill(); }
+          if (r.updated !== null) {
+            var ux = tx(r.updated);
+            c.fillStyle = '#d62728'; c.beginPath(); c.moveTo(ux, y - 6); c.lineTo(ux + 5, y); c.lineTo(ux, y + 6); c.lineTo(ux - 5, y); c.closePath(); c.fill();
+          }
+        });
+      }
+      canvas.addEventListener('mousemove', function (e) {
+        var r = canvas.getBoundingClientRect(), i = Math.floor((e.clientY - r.top - f.t) / rowH);
+        var q = po.parameters[i];
+        readout.textContent = q ? q.name + ': mean ' + (q.mean === null ? '—' : fmt(q.mean)) + ', sd ' + (q.sd === null ? '—' : fmt(q.sd)) + ', interval [' + (q.lower === null ? '—' : fmt(q.lower)) + ', ' + (q.upper === null ? '—' : fmt(q.upper)) + ']' : '';
+      });
+      draw();
+    });
+    root.setAttribute('data-ready', '1');
+  }
+
   try {
     var data = JSON.parse(document.getElementById('femu-data').textContent);
     var frf = document.getElementById('frf-viewer');
@@ -416,6 +536,8 @@
     if (upd) { updateViewer(upd, data); }
     var mesh = document.getElementById('mesh-viewer');
     if (mesh) { meshViewer(mesh, data); }
+    var post = document.getElementById('posterior-viewer');
+    if (post) { posteriorViewer(post, data); }
     if (!errors.length) { document.body.setAttribute('data-rendered', 'ok'); }
   } catch (e) {
     fail(e && e.stack ? e.stack : e);
