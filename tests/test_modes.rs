@@ -89,8 +89,10 @@ fn modes_and_frfs_go_out_at_the_measured_dofs_and_come_back() {
     .unwrap();
     std::fs::write(dir.path().join("predicted.uff"), &uff.bytes).unwrap();
 
+    // Read back beside the first pipeline's stages (cached), and correlated through the map.
     let back = format!(
-        "name: lab-in\nstages:\n  test_modes:\n    kind: modes.import\n    with: {{path: predicted.uff}}\n  test_frf:\n    kind: frf.import\n    with: {{path: predicted.uff}}\n"
+        "{}  test_modes:\n    kind: modes.import\n    with: {{path: predicted.uff}}\n  test_frf:\n    kind: frf.import\n    with: {{path: predicted.uff}}\n  mac:\n    kind: correlate.modes\n    inputs: {{reference: test_modes.modes, predicted: modes.modes, map: pair.map}}\n",
+        yaml.replace("name: lab-out", "name: lab-in")
     );
     let file = write(dir.path(), "in.yaml", &back);
     let (_, report, cache) = common::run(&file, &dir.path().join("cache"), &[]);

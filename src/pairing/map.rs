@@ -152,6 +152,33 @@ pub struct TestMap {
 }
 
 impl TestMap {
+    /// Vectors at the model's `dofs` (one column each, e.g. mode shapes) at the measured DOFs:
+    /// `φ_t = Σ w φ` over each measured DOF's terms (14.7), rows in the map's order. A model DOF
+    /// the vectors lack is an error naming it.
+    pub fn shapes_at_test_dofs(
+        &self,
+        dofs: &[DofId],
+        shapes: faer::MatRef<'_, f64>,
+    ) -> Result<(Vec<DofId>, faer::Mat<f64>), String> {
+        let row: std::collections::HashMap<DofId, usize> =
+            dofs.iter().enumerate().map(|(i, d)| (*d, i)).collect();
+        let combos = self.combinations();
+        let mut out = faer::Mat::<f64>::zeros(combos.len(), shapes.ncols());
+        for (t, (test_dof, terms)) in combos.iter().enumerate() {
+            for (fe, w) in terms {
+                let Some(&i) = row.get(fe) else {
+                    return Err(format!(
+                        "the map's measured DOF {test_dof} uses model DOF {fe}, which the modes do not hold (a constrained or dependent DOF, or modes of another model)"
+                    ));
+                };
+                for c in 0..shapes.ncols() {
+                    out[(t, c)] += w * shapes[(i, c)];
+                }
+            }
+        }
+        Ok((combos.into_iter().map(|(d, _)| d).collect(), out))
+    }
+
     /// The weighted model DOFs of each measured DOF, in the order of first appearance.
     pub fn combinations(&self) -> Vec<(DofId, Vec<(DofId, f64)>)> {
         let mut out: Vec<(DofId, Vec<(DofId, f64)>)> = Vec::new();

@@ -82,6 +82,11 @@ impl TypedStage for CorrelateModes {
                 ArtefactKind::Modes,
                 "modes to judge (reduced or updated model), sharing DOFs with the reference",
             ),
+            PortSpec::optional(
+                "map",
+                ArtefactKind::TestMap,
+                "test.pair's map: the predicted (model) modes are taken at the reference's measured DOFs, φ_t = Σ w φ",
+            ),
         ]
     }
 
@@ -118,7 +123,15 @@ impl TypedStage for CorrelateModes {
 
     fn run(p: &Params, inputs: &StageInputs) -> Result<StageOutputs, StageError> {
         let reference = modes_from_artefact(inputs.require("reference")?)?;
-        let predicted = modes_from_artefact(inputs.require("predicted")?)?;
+        let mut predicted = modes_from_artefact(inputs.require("predicted")?)?;
+        if let Some(m) = inputs.get("map") {
+            let map = crate::artefact::kinds::test_map::test_map_from_artefact(m)?;
+            let (dofs, shapes) = map
+                .shapes_at_test_dofs(&predicted.dofs, predicted.modes.shapes.as_ref())
+                .map_err(|e| StageError::input("map", e))?;
+            predicted.dofs = dofs;
+            predicted.modes.shapes = shapes;
+        }
         // Rows of the reference that the prediction also has, in the reference's order.
         let at: HashMap<_, usize> = predicted
             .dofs

@@ -12,15 +12,11 @@ use crate::artefact::kinds::test_geometry::test_geometry_from_artefact;
 use crate::artefact::kinds::test_map::test_map_from_artefact;
 use crate::artefact::kinds::universal_file::{UniversalFile, UniversalFileKind};
 use crate::artefact::kinds::{Kind, frf_from_artefact, modes_from_artefact};
-use crate::core::DofId;
 use crate::frf::io::uff::write::{ModeRecord, UffEncoding, write_uff55, write_uff2411};
 use crate::frf::io::uff::write_uff58_as;
-use crate::pairing::TestMap;
 use crate::pipeline::{
     CheckContext, ParamIssue, PortSpec, StageError, StageInputs, StageOutputs, TypedStage,
 };
-use faer::Mat;
-use std::collections::HashMap;
 
 /// The stage.
 pub struct TestExport;
@@ -74,30 +70,6 @@ fn plain_name(name: &str) -> bool {
         && name != ".."
         && !name.contains(['/', '\\', '\0'])
         && name.len() <= 255
-}
-
-/// Shapes at the measured DOFs: `φ_t = Σ w φ_fe` for every measured DOF of the map.
-pub fn shapes_through_map(
-    map: &TestMap,
-    dofs: &[DofId],
-    shapes: faer::MatRef<'_, f64>,
-) -> Result<(Vec<DofId>, Mat<f64>), String> {
-    let row: HashMap<DofId, usize> = dofs.iter().enumerate().map(|(i, d)| (*d, i)).collect();
-    let combos = map.combinations();
-    let mut out = Mat::<f64>::zeros(combos.len(), shapes.ncols());
-    for (t, (test_dof, terms)) in combos.iter().enumerate() {
-        for (fe, w) in terms {
-            let Some(&i) = row.get(fe) else {
-                return Err(format!(
-                    "the map's measured DOF {test_dof} uses model DOF {fe}, which the modes do not hold (a constrained or dependent DOF, or modes of another model)"
-                ));
-            };
-            for c in 0..shapes.ncols() {
-                out[(t, c)] += w * shapes[(i, c)];
-            }
-        }
-    }
-    Ok((combos.into_iter().map(|(d, _)| d).collect(), out))
 }
 
 impl TypedStage for TestExport {
@@ -196,7 +168,7 @@ impl TypedStage for TestExport {
             let (dofs, shapes) = match inputs.get("map") {
                 Some(a) => {
                     let map = test_map_from_artefact(a)?;
-                    shapes_through_map(&map, &modes.dofs, modes.modes.shapes.as_ref())
+                    map.shapes_at_test_dofs(&modes.dofs, modes.modes.shapes.as_ref())
                         .map_err(|e| StageError::input("map", e))?
                 }
                 None => (modes.dofs.clone(), modes.modes.shapes.clone()),
