@@ -24,8 +24,8 @@ use faer::{Mat, MatRef, c64};
 /// Settings of the P-C.
 #[derive(Clone, Debug)]
 pub struct PcSettings {
-    /// Lines with `(χ_s + χ_a)/2 > κ_f` are left out (4.20); when fewer lines than parameters
-    /// remain, the worst-correlated lines are taken instead ([`worst_lines`]).
+    /// Lines with `(χ_s + χ_a)/2 > κ_f` are left out (4.20); when no line remains, the
+    /// worst-correlated lines, one per parameter, are taken instead ([`worst_lines`]).
     pub kappa_f: f64,
     /// Lines within this many line spacings of a predicted natural frequency are left out.
     pub resonance_lines: f64,
@@ -154,7 +154,7 @@ pub fn select_lines(
 }
 
 /// The `count` worst-correlated lines (lowest `(χ_s + χ_a)/2`, ascending line order) among the
-/// [`off_resonance_lines`]: the updating lines when fewer than one per parameter pass `κ_f`
+/// [`off_resonance_lines`]: the updating lines when no line passes `κ_f`
 /// (4.20), docs/theory.md (14.10). On ordinary lab data every line can correlate above the thesis's `κ_f = 0.95`
 /// while the mean stays below the stop figure (4.23) (noise and small model errors spread
 /// `1 − χ` thinly over the band), and the P-C would end with nothing to update; the worst
@@ -278,8 +278,8 @@ pub fn merit_equations(s: &mut Mat<f64>, eps: &mut [f64]) {
 
 /// The opening every correlation-based iteration shares: the record of the prediction's
 /// correlation, then a stop by the rule (4.23) or for want of lines, or the updating lines
-/// (4.20) — topped up to the [`worst_lines`], one per parameter, with a warning, when fewer
-/// pass `κ_f`.
+/// (4.20) — the [`worst_lines`], one per parameter, with a warning, when none passes `κ_f`
+/// (the thesis's selection is kept whenever it leaves any line).
 #[allow(clippy::too_many_arguments)]
 pub(super) fn open_iteration(
     measured: &FrfSet,
@@ -317,12 +317,11 @@ pub(super) fn open_iteration(
         kappa_f,
         resonance_lines,
     );
-    if chosen.len() < n {
+    if chosen.is_empty() {
         let worst = worst_lines(&measured.freqs_hz, &lines, natural_hz, resonance_lines, n);
         if worst.len() > chosen.len() {
             tracing::warn!(
-                "P-C iteration {iteration}: only {} line(s) have (χ_s + χ_a)/2 ≤ kappa_f = {kappa_f} (mean χ {:.4}, stop at {stop_chi}); the {} worst-correlated lines off the resonances are used instead, one per parameter (raise kappa_f to choose the lines yourself)",
-                chosen.len(),
+                "P-C iteration {iteration}: no line has (χ_s + χ_a)/2 ≤ kappa_f = {kappa_f} (mean χ {:.4}, stop at {stop_chi}); the {} worst-correlated lines off the resonances are used instead, one per parameter (raise kappa_f to choose the lines yourself)",
                 record.mean_chi(),
                 worst.len()
             );
