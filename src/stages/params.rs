@@ -514,6 +514,56 @@ impl Damping {
     }
 }
 
+/// The measured DOFs (responses and excitations) of `set` that are not free DOFs of `model`, as
+/// one preflight issue naming the input port, the first few with the reason, and what would be
+/// valid: a grid or scalar point the model lacks, or a constrained DOF. `None` when all are
+/// DOFs of the model.
+pub fn measured_dofs_issue(
+    model: &crate::model::Model,
+    set: &FrfSet,
+    port: &str,
+) -> Option<ParamIssue> {
+    use crate::core::Component;
+    let constrained: std::collections::BTreeSet<_> = model.constraints.iter().copied().collect();
+    let mut seen = std::collections::BTreeSet::new();
+    let mut bad: Vec<String> = Vec::new();
+    for p in &set.pairs {
+        for (dof, role) in [(p.response, "response"), (p.excitation, "excitation")] {
+            if !seen.insert(dof) {
+                continue;
+            }
+            let scalar = dof.comp == Component::Scalar;
+            let why = if scalar && !model.scalar_points.contains(&dof.node) {
+                format!("no scalar point {}", dof.node)
+            } else if !scalar && !model.nodes.contains_key(&dof.node) {
+                format!("no grid {}", dof.node)
+            } else if constrained.contains(&dof) {
+                "constrained (SPC)".to_string()
+            } else {
+                continue;
+            };
+            bad.push(format!("{dof} ({role}: {why})"));
+        }
+    }
+    if bad.is_empty() {
+        return None;
+    }
+    let shown = bad.len().min(5);
+    let more = if bad.len() > shown {
+        format!(" and {} more", bad.len() - shown)
+    } else {
+        String::new()
+    };
+    Some(ParamIssue {
+        path: Vec::new(),
+        message: format!(
+            "input `{port}`: {} measured DOF(s) are not DOFs of the model: {}{more}. Measured DOFs must be model DOFs: pair the test to the model with `test.pair` and connect its `map`, or measure at model DOFs",
+            bad.len(),
+            bad[..shown].join(", ")
+        ),
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -575,54 +625,4 @@ mod tests {
         assert_eq!(issues[0].path, vec!["modes"]);
         assert_eq!(found[0].old, "modes_max_hz");
     }
-}
-
-/// The measured DOFs (responses and excitations) of `set` that are not free DOFs of `model`, as
-/// one preflight issue naming the input port, the first few with the reason, and what would be
-/// valid: a grid or scalar point the model lacks, or a constrained DOF. `None` when all are
-/// DOFs of the model.
-pub fn measured_dofs_issue(
-    model: &crate::model::Model,
-    set: &FrfSet,
-    port: &str,
-) -> Option<ParamIssue> {
-    use crate::core::Component;
-    let constrained: std::collections::BTreeSet<_> = model.constraints.iter().copied().collect();
-    let mut seen = std::collections::BTreeSet::new();
-    let mut bad: Vec<String> = Vec::new();
-    for p in &set.pairs {
-        for (dof, role) in [(p.response, "response"), (p.excitation, "excitation")] {
-            if !seen.insert(dof) {
-                continue;
-            }
-            let scalar = dof.comp == Component::Scalar;
-            let why = if scalar && !model.scalar_points.contains(&dof.node) {
-                format!("no scalar point {}", dof.node)
-            } else if !scalar && !model.nodes.contains_key(&dof.node) {
-                format!("no grid {}", dof.node)
-            } else if constrained.contains(&dof) {
-                "constrained (SPC)".to_string()
-            } else {
-                continue;
-            };
-            bad.push(format!("{dof} ({role}: {why})"));
-        }
-    }
-    if bad.is_empty() {
-        return None;
-    }
-    let shown = bad.len().min(5);
-    let more = if bad.len() > shown {
-        format!(" and {} more", bad.len() - shown)
-    } else {
-        String::new()
-    };
-    Some(ParamIssue {
-        path: Vec::new(),
-        message: format!(
-            "input `{port}`: {} measured DOF(s) are not DOFs of the model: {}{more}. Measured DOFs must be model DOFs: pair the test to the model with `test.pair` and connect its `map`, or measure at model DOFs",
-            bad.len(),
-            bad[..shown].join(", ")
-        ),
-    })
 }
