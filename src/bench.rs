@@ -875,6 +875,15 @@ pub struct FrfBench {
     pub ldlt_seconds: f64,
     /// Lines the `LDLᵀ` handed to the pivoted LU (a zero pivot or a poor backward error).
     pub lines_by_lu: usize,
+    /// Supernodes of the `LDLᵀ` factor.
+    pub supernodes: usize,
+    /// Stored entries of the factor.
+    pub factor_entries: usize,
+    /// Real floating-point operations (millions) of one numeric factorisation.
+    pub factor_mflop: f64,
+    /// The factorisations' operations over the `LDLᵀ` run's time (solves and checks counted
+    /// as time, not as operations).
+    pub gflop_per_second: f64,
     /// Lines also solved by the plain pivoted LU per line, an even subset of the lines.
     pub lu_lines: usize,
     /// Seconds of the LU on those lines.
@@ -886,6 +895,19 @@ pub struct FrfBench {
     pub max_relative_difference: f64,
     /// Peak resident memory of the `LDLᵀ` run, MiB (Linux only).
     pub peak_rss_mib: Option<f64>,
+    /// Seconds of the Krylov sweep (`method: krylov`) over every line, at its default options.
+    pub krylov_seconds: f64,
+    /// Its expansion points and basis columns.
+    pub krylov_points: usize,
+    /// Columns of its basis.
+    pub krylov_basis: usize,
+    /// Its tolerance on the relative load residual.
+    pub krylov_tolerance: f64,
+    /// The largest estimate (relative load residual) of its lines.
+    pub krylov_worst_estimate: f64,
+    /// Largest difference from the `LDLᵀ` over every line, relative to each pair's largest
+    /// value.
+    pub krylov_difference: f64,
 }
 
 /// Times the direct FRF of the clamped 1 m × 1 m × 5 mm steel plate of about `target_dofs`
@@ -944,6 +966,28 @@ pub fn frf_bench(
     .map_err(|e| e.to_string())?;
     let ldlt_seconds = t.elapsed().as_secs_f64();
     let peak_rss_mib = peak_rss_mib();
+    let t = Instant::now();
+    let options = crate::frf::KrylovOptions::default();
+    let (krylov, krylov_report) = crate::frf::krylov_receptance(
+        &sys,
+        &damping,
+        &pairs,
+        &freqs,
+        Quantity::Receptance,
+        &options,
+    )
+    .map_err(|e| e.to_string())?;
+    let krylov_seconds = t.elapsed().as_secs_f64();
+    let mut krylov_difference = 0.0f64;
+    for p in 0..pairs.len() {
+        let scale = (0..lines)
+            .map(|k| ldlt.values[(k, p)].norm())
+            .fold(0.0, f64::max);
+        for k in 0..lines {
+            let d = (krylov.values[(k, p)] - ldlt.values[(k, p)]).norm() / scale;
+            krylov_difference = krylov_difference.max(d);
+        }
+    }
     let lu_lines = lu_lines.clamp(1, lines);
     let subset: Vec<usize> = (0..lu_lines)
         .map(|k| (2 * k + 1) * lines / (2 * lu_lines))
@@ -977,10 +1021,20 @@ pub fn frf_bench(
         assembly_seconds,
         ldlt_seconds,
         lines_by_lu: report.lines_by_lu,
+        supernodes: report.supernodes,
+        factor_entries: report.factor_entries,
+        factor_mflop: report.factor_flops / 1e6,
+        gflop_per_second: report.factor_flops * lines as f64 / ldlt_seconds / 1e9,
         lu_lines,
         lu_seconds,
         speed_up: (lu_seconds / lu_lines as f64) / (ldlt_seconds / lines as f64),
         max_relative_difference,
         peak_rss_mib,
+        krylov_seconds,
+        krylov_points: krylov_report.expansion_hz.len(),
+        krylov_basis: krylov_report.basis_size,
+        krylov_tolerance: options.tolerance,
+        krylov_worst_estimate: krylov_report.estimates.iter().copied().fold(0.0, f64::max),
+        krylov_difference,
     })
 }

@@ -64,6 +64,26 @@ fn frf(a: BenchArgs) -> Result<u8, Failure> {
             b.max_relative_difference,
             b.peak_rss_mib.unwrap_or(f64::NAN)
         );
+        println!(
+            "{:>9} factor: {} supernodes, {} entries ({:.1} MiB), {:.1} Mflop a line, {:.2} GFlop/s over the band",
+            "",
+            b.supernodes,
+            b.factor_entries,
+            b.factor_entries as f64 * 16.0 / 1048576.0,
+            b.factor_mflop,
+            b.gflop_per_second
+        );
+        println!(
+            "{:>9} Krylov sweep: {:.2} s ({:.1}x the LDLt), {} expansion points, {} basis vectors, worst estimate {:.1e} (tolerance {:.0e}), largest difference from the LDLt {:.1e} of each FRF's peak",
+            "",
+            b.krylov_seconds,
+            b.ldlt_seconds / b.krylov_seconds,
+            b.krylov_points,
+            b.krylov_basis,
+            b.krylov_worst_estimate,
+            b.krylov_tolerance,
+            b.krylov_difference
+        );
         all.push(b);
     }
     if let Some(path) = a.json {

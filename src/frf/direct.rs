@@ -73,11 +73,17 @@ pub enum DirectSolver {
 }
 
 /// What a direct FRF did besides its values.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct DirectReport {
     /// Lines solved by the pivoted LU because the `LDLᵀ` met a zero pivot or left a backward
     /// error above [`BACKWARD_ERROR_LIMIT`] (every line with [`DirectSolver::Lu`]).
     pub lines_by_lu: usize,
+    /// Supernodes of the `LDLᵀ` factor.
+    pub supernodes: usize,
+    /// Stored entries of the factor (dense supernodal panels).
+    pub factor_entries: usize,
+    /// Real floating-point operations of one numeric factorisation.
+    pub factor_flops: f64,
 }
 
 /// Receptance (converted to `quantity`) of `pairs` at `freqs_hz` by `α = Z⁻¹`.
@@ -165,7 +171,13 @@ pub fn direct_receptance_by(
         }
     }
     let mut values = Mat::<c64>::zeros(freqs_hz.len(), pairs.len());
-    let mut report = DirectReport::default();
+    let (supernodes, factor_flops) = z.ldlt.shape();
+    let mut report = DirectReport {
+        supernodes,
+        factor_entries: z.ldlt.factor_entries(),
+        factor_flops,
+        ..DirectReport::default()
+    };
     for (k, line) in lines.into_iter().enumerate() {
         let (line, by_lu) = line?;
         report.lines_by_lu += usize::from(by_lu);
@@ -273,6 +285,35 @@ impl DynamicStiffness {
     /// Size of `Z`.
     pub fn n(&self) -> usize {
         self.n
+    }
+
+    /// Storage for one factor of `Z`'s pattern.
+    pub(crate) fn workspace(&self) -> LdltWorkspace {
+        self.ldlt.workspace()
+    }
+
+    /// Factors the undamped `K − ω²M` at `f_hz` into `ws`, on `Z`'s pattern and ordering (the
+    /// Krylov sweep's expansion points, [`super::krylov`]).
+    pub(crate) fn factor_undamped(
+        &self,
+        ws: &mut LdltWorkspace,
+        f_hz: f64,
+        par: Par,
+    ) -> Result<(), crate::sparse::LdltError> {
+        let w = 2.0 * PI * f_hz;
+        self.ldlt.factorize(
+            ws,
+            |e| {
+                let [k, m, _, _] = self.coef[e];
+                c64::new(k - w * w * m, 0.0)
+            },
+            par,
+        )
+    }
+
+    /// `X ← A⁻¹ X` by the factor in `ws`.
+    pub(crate) fn solve_factored(&self, ws: &LdltWorkspace, x: faer::MatMut<'_, c64>) {
+        self.ldlt.solve_in_place(ws, x);
     }
 
     /// `Z(ω) X = rhs` at `f_hz`: by `LDLᵀ`, or by the pivoted LU where that leaves a poor

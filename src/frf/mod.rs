@@ -3,6 +3,7 @@
 
 pub mod direct;
 pub mod io;
+pub mod krylov;
 pub mod modal;
 pub mod noise;
 pub mod smoothing;
@@ -11,6 +12,7 @@ use crate::core::DofId;
 use faer::{Mat, c64};
 
 pub use direct::{DirectDamping, DirectError, direct_receptance};
+pub use krylov::{KrylovError, KrylovOptions, KrylovReport, krylov_receptance};
 pub use modal::{ModalDamping, ModalError, modal_receptance};
 pub use noise::{NoiseModel, add_noise};
 pub use smoothing::FrequencySmoothing;

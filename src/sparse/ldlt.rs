@@ -199,6 +199,23 @@ impl SymbolicLdlt {
         self.value_ptr[self.value_ptr.len() - 1]
     }
 
+    /// Supernodes and the real floating-point operations of one numeric factorisation: each
+    /// factor column with `c` entries below its diagonal costs `c (c + 1) / 2` complex
+    /// multiply-adds (8 real operations each) for its update of the trailing lower triangle.
+    pub fn shape(&self) -> (usize, f64) {
+        let ns = self.begin.len() - 1;
+        let mut macs = 0.0;
+        for s in 0..ns {
+            let (_, w, rows) = self.supernode(s);
+            let m = w + rows.len();
+            for j in 0..w {
+                let c = (m - j - 1) as f64;
+                macs += c * (c + 1.0) / 2.0;
+            }
+        }
+        (ns, 8.0 * macs)
+    }
+
     /// The storage of one factor and its scratch.
     pub fn workspace(&self) -> LdltWorkspace {
         LdltWorkspace {

@@ -1,0 +1,484 @@
+//! Receptance by a reduced-order frequency sweep: multi-point Krylov moment matching with an
+//! a-posteriori estimate per line (docs/theory.md §1, 1.15–1.17).
+//!
+//! About an expansion frequency `ω_j` the dynamic stiffness is `Z(ω) = A_j − (ω² − ω_j²) M + …`
+//! with `A_j = K − ω_j² M`, so the block Krylov space
+//! `span{A_j⁻¹F, (A_j⁻¹M) A_j⁻¹F, …, (A_j⁻¹M)^(b−1) A_j⁻¹F}` holds the first `b` moments of
+//! the undamped receptance in `ω² − ω_j²` (1.15). The union over the expansion points,
+//! orthonormalised, is a real basis `V`; the model is projected by Galerkin,
+//! `Z_r(ω) = Vᵀ Z(ω) V = K_r + iD_r + iωC_r − ω² M_r` with every damping of the model and of the
+//! request (proportional or not), and a line solves `Z_r(ω) y = Vᵀ F`, `x = V y` (1.16).
+//!
+//! The estimate of a line is its relative load residual `max_k ‖Z(ω) V y_k − f_k‖₂ / ‖f_k‖₂`
+//! over the excitations (1.17): the reduced answer is the exact response to the load `F − R`,
+//! so the estimate is a backward error, computed with the full matrices. Points are added
+//! greedily, each at the line of the largest estimate, until every line meets the tolerance.
+
+use super::direct::{DirectDamping, DirectError, DynamicStiffness};
+use super::{FrfPair, FrfSet, Quantity, convert_from_receptance};
+use crate::fe::SystemMatrices;
+use crate::sparse::sym_matvec;
+use faer::linalg::matmul::matmul;
+use faer::linalg::solvers::Solve;
+use faer::{Accum, Mat, MatRef, Par, c64};
+use rayon::prelude::*;
+use std::collections::HashMap;
+use std::f64::consts::PI;
+
+/// How the sweep builds its basis and when it stops.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct KrylovOptions {
+    /// Largest relative load residual accepted at any line (1.17).
+    pub tolerance: f64,
+    /// Krylov blocks per expansion point (each one column per excitation).
+    pub blocks_per_point: usize,
+    /// Most expansion points before the sweep gives up.
+    pub max_points: usize,
+}
+
+impl Default for KrylovOptions {
+    fn default() -> Self {
+        KrylovOptions {
+            tolerance: 1e-6,
+            blocks_per_point: 8,
+            max_points: 40,
+        }
+    }
+}
+
+/// What a sweep did besides its values.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct KrylovReport {
+    /// Expansion frequencies, Hz, in the order they were added.
+    pub expansion_hz: Vec<f64>,
+    /// Columns of the final basis.
+    pub basis_size: usize,
+    /// The estimate (1.17) of every line.
+    pub estimates: Vec<f64>,
+}
+
+/// Why a sweep failed.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum KrylovError {
+    /// The model, a DOF or a factorisation failed as for a direct FRF.
+    #[error(transparent)]
+    Direct(#[from] DirectError),
+    /// The estimate stayed above the tolerance.
+    #[error(
+        "the Krylov sweep did not meet its tolerance: after {points} expansion points ({basis} basis vectors) the line at {worst_hz} Hz has a relative load residual of {estimate:.2e} > {tolerance:.0e}; raise `krylov.max_points` or `krylov.blocks_per_point`, loosen `krylov.tolerance`, or use `method: direct`"
+    )]
+    NotConverged {
+        /// Expansion points used.
+        points: usize,
+        /// Basis columns.
+        basis: usize,
+        /// The worst line, Hz.
+        worst_hz: f64,
+        /// Its estimate.
+        estimate: f64,
+        /// The tolerance asked for.
+        tolerance: f64,
+    },
+}
+
+impl crate::core::InputFault for KrylovError {
+    fn is_input(&self) -> bool {
+        match self {
+            KrylovError::Direct(e) => e.is_input(),
+            KrylovError::NotConverged { .. } => false,
+        }
+    }
+}
+
+/// Receptance (converted to `quantity`) of `pairs` at `freqs_hz` by the reduced sweep.
+pub fn krylov_receptance(
+    sys: &SystemMatrices,
+    damping: &DirectDamping,
+    pairs: &[FrfPair],
+    freqs_hz: &[f64],
+    quantity: Quantity,
+    options: &KrylovOptions,
+) -> Result<(FrfSet, KrylovReport), KrylovError> {
+    let n = sys.n();
+    let index = sys.dof_index();
+    let row = |d: &crate::core::DofId| index.get(d).copied().ok_or(DirectError::UnknownDof(*d, n));
+    let mut excitations: Vec<usize> = Vec::new();
+    let mut responses: Vec<usize> = Vec::new();
+    let (mut exc_slot, mut resp_slot) = (HashMap::new(), HashMap::new());
+    let mut reads = Vec::with_capacity(pairs.len());
+    for p in pairs {
+        let (i, j) = (row(&p.response)?, row(&p.excitation)?);
+        let e = *exc_slot.entry(j).or_insert_with(|| {
+            excitations.push(j);
+            excitations.len() - 1
+        });
+        let r = *resp_slot.entry(i).or_insert_with(|| {
+            responses.push(i);
+            responses.len() - 1
+        });
+        reads.push((r, e));
+    }
+    let mut set = FrfSet {
+        quantity: Quantity::Receptance,
+        freqs_hz: freqs_hz.to_vec(),
+        pairs: pairs.to_vec(),
+        values: Mat::zeros(freqs_hz.len(), pairs.len()),
+    };
+    let mut report = KrylovReport::default();
+    if pairs.is_empty() || freqs_hz.is_empty() {
+        convert_from_receptance(&mut set, quantity);
+        return Ok((set, report));
+    }
+    let z = DynamicStiffness::new(sys, damping)?;
+    let load = Mat::<f64>::from_fn(n, excitations.len(), |i, k| {
+        f64::from(u8::from(i == excitations[k]))
+    });
+    let coefficients = Coefficients::new(damping);
+    let mut basis = Basis::new(sys, &load);
+    let mut tried: Vec<f64> = Vec::new();
+    let done = crate::core::progress::task(
+        || format!("FRF lines (Krylov, {n} DOFs): expansion points"),
+        options.max_points as u64,
+    );
+    let mut next = freqs_hz[freqs_hz.len() / 2];
+    loop {
+        tried.push(next);
+        done.advance(1);
+        if let Some(hz) = basis.add_point(&z, next, options.blocks_per_point, n)? {
+            report.expansion_hz.push(hz);
+        }
+        let lines = basis.evaluate(&coefficients, freqs_hz, &responses);
+        let worst = lines
+            .iter()
+            .enumerate()
+            .filter(|(k, _)| !tried.contains(&freqs_hz[*k]))
+            .max_by(|a, b| a.1.1.total_cmp(&b.1.1))
+            .map(|(k, l)| (k, l.1));
+        let max_estimate = lines.iter().map(|l| l.1).fold(0.0, f64::max);
+        if max_estimate <= options.tolerance {
+            for (k, (x, estimate)) in lines.into_iter().enumerate() {
+                for (p, &(r, e)) in reads.iter().enumerate() {
+                    set.values[(k, p)] = x[(r, e)];
+                }
+                report.estimates.push(estimate);
+            }
+            report.basis_size = basis.v.ncols();
+            convert_from_receptance(&mut set, quantity);
+            return Ok((set, report));
+        }
+        let (worst_line, estimate) = lines
+            .iter()
+            .enumerate()
+            .max_by(|a, b| a.1.1.total_cmp(&b.1.1))
+            .map(|(k, l)| (k, l.1))
+            .unwrap_or((0, f64::INFINITY));
+        match worst {
+            Some((k, _)) if tried.len() < options.max_points => next = freqs_hz[k],
+            _ => {
+                return Err(KrylovError::NotConverged {
+                    points: report.expansion_hz.len(),
+                    basis: basis.v.ncols(),
+                    worst_hz: freqs_hz[worst_line],
+                    estimate,
+                    tolerance: options.tolerance,
+                });
+            }
+        }
+    }
+}
+
+/// The scalars of `Z(ω) = a K + b M + i D + iω C` for the model's own `C`, `D` and the
+/// request's damping: `a = 1 + iη + iωβ`, `b = −ω² + iωα`.
+struct Coefficients {
+    eta: f64,
+    alpha: f64,
+    beta: f64,
+}
+
+impl Coefficients {
+    fn new(d: &DirectDamping) -> Self {
+        let (alpha, beta) = d.rayleigh.unwrap_or((0.0, 0.0));
+        Coefficients {
+            eta: d.structural_eta,
+            alpha,
+            beta,
+        }
+    }
+
+    /// `(a, b)` at `ω` (rad/s).
+    fn at(&self, w: f64) -> (c64, c64) {
+        (
+            c64::new(1.0, self.eta + w * self.beta),
+            c64::new(-w * w, w * self.alpha),
+        )
+    }
+}
+
+/// The orthonormal basis, the full matrices' products with it and the reduced matrices.
+struct Basis<'a> {
+    sys: &'a SystemMatrices,
+    load: &'a Mat<f64>,
+    /// `n × q`, orthonormal columns.
+    v: Mat<f64>,
+    /// `K V`, `M V`, `C V`, `D V` (the model's own `C`, `D` where it has them).
+    kv: Mat<f64>,
+    mv: Mat<f64>,
+    cv: Option<Mat<f64>>,
+    dv: Option<Mat<f64>>,
+    /// `Vᵀ K V`, `Vᵀ M V`, `Vᵀ C V`, `Vᵀ D V`, `Vᵀ F`.
+    kr: Mat<f64>,
+    mr: Mat<f64>,
+    cr: Option<Mat<f64>>,
+    dr: Option<Mat<f64>>,
+    fr: Mat<f64>,
+}
+
+/// Relative norm below which a new direction is taken as already in the basis.
+const DEFLATION: f64 = 1e-10;
+
+impl<'a> Basis<'a> {
+    fn new(sys: &'a SystemMatrices, load: &'a Mat<f64>) -> Self {
+        let n = sys.n();
+        let empty = || Mat::<f64>::zeros(n, 0);
+        Basis {
+            sys,
+            load,
+            v: empty(),
+            kv: empty(),
+            mv: empty(),
+            cv: sys.c.as_ref().map(|_| empty()),
+            dv: sys.d.as_ref().map(|_| empty()),
+            kr: Mat::zeros(0, 0),
+            mr: Mat::zeros(0, 0),
+            cr: sys.c.as_ref().map(|_| Mat::zeros(0, 0)),
+            dr: sys.d.as_ref().map(|_| Mat::zeros(0, 0)),
+            fr: Mat::zeros(0, load.ncols()),
+        }
+    }
+
+    /// Adds the Krylov blocks of the undamped `A_j = K − ω_j² M` at `f_hz` (1.15); an exactly
+    /// singular `A_j` moves the point by a part in 10⁴. The frequency used, or `None` when no
+    /// nearby `A_j` could be factored.
+    fn add_point(
+        &mut self,
+        z: &DynamicStiffness,
+        f_hz: f64,
+        blocks: usize,
+        n: usize,
+    ) -> Result<Option<f64>, KrylovError> {
+        let mut ws = z.workspace();
+        let Some(hz) = [f_hz, f_hz * (1.0 + 1e-4) + 1e-4]
+            .into_iter()
+            .find(|&hz| z.factor_undamped(&mut ws, hz, Par::rayon(0)).is_ok())
+        else {
+            return Ok(None);
+        };
+        let p = self.load.ncols();
+        let mut block = Mat::<c64>::from_fn(n, p, |i, k| c64::new(self.load[(i, k)], 0.0));
+        let mut real = Mat::<f64>::zeros(n, p);
+        for _ in 0..blocks {
+            z.solve_factored(&ws, block.as_mut());
+            for k in 0..p {
+                for i in 0..n {
+                    real[(i, k)] = block[(i, k)].re;
+                }
+            }
+            let added = self.extend(real.as_ref());
+            if added == 0 {
+                break;
+            }
+            // The next block: A_j⁻¹ M times this block's new directions.
+            let q = self.v.ncols();
+            let fresh = self.v.subcols(q - added, added);
+            let mut product = Mat::<f64>::zeros(n, added);
+            sym_matvec(&self.sys.m, fresh, product.as_mut(), Par::rayon(0));
+            block = Mat::from_fn(n, added, |i, k| c64::new(product[(i, k)], 0.0));
+            real = Mat::zeros(n, added);
+        }
+        Ok(Some(hz))
+    }
+
+    /// Orthonormalises `x`'s columns against the basis and each other (two passes of block
+    /// Gram-Schmidt), appends those that are not already in it, and extends the products and
+    /// the reduced matrices. The number of columns added.
+    fn extend(&mut self, x: MatRef<'_, f64>) -> usize {
+        let n = self.v.nrows();
+        let mut fresh: Vec<Vec<f64>> = Vec::new();
+        for k in 0..x.ncols() {
+            let mut col: Vec<f64> = x.col(k).iter().copied().collect();
+            let before = norm(&col);
+            if before == 0.0 || !before.is_finite() {
+                continue;
+            }
+            for _ in 0..2 {
+                let c = self.v.transpose() * MatRef::from_column_major_slice(&col, n, 1);
+                let back = &self.v * &c;
+                for (i, v) in col.iter_mut().enumerate() {
+                    *v -= back[(i, 0)];
+                }
+                for f in &fresh {
+                    let d = dot(f, &col);
+                    for (v, &u) in col.iter_mut().zip(f) {
+                        *v -= d * u;
+                    }
+                }
+            }
+            let after = norm(&col);
+            if after > DEFLATION * before {
+                col.iter_mut().for_each(|v| *v /= after);
+                fresh.push(col);
+            }
+        }
+        let added = fresh.len();
+        if added == 0 {
+            return 0;
+        }
+        let q = self.v.ncols();
+        let x = Mat::<f64>::from_fn(n, added, |i, k| fresh[k][i]);
+        let v = concat(&self.v, &x);
+        let product = |a: &crate::core::sparse::SparseMatrix| {
+            let mut y = Mat::<f64>::zeros(n, added);
+            sym_matvec(a, x.as_ref(), y.as_mut(), Par::rayon(0));
+            y
+        };
+        let (kx, mx) = (product(&self.sys.k), product(&self.sys.m));
+        self.kr = grow(&self.kr, v.as_ref(), kx.as_ref());
+        self.mr = grow(&self.mr, v.as_ref(), mx.as_ref());
+        self.kv = concat(&self.kv, &kx);
+        self.mv = concat(&self.mv, &mx);
+        if let (Some(c), Some(cv), Some(cr)) = (self.sys.c.as_ref(), &mut self.cv, &mut self.cr) {
+            let cx = product(c);
+            *cr = grow(cr, v.as_ref(), cx.as_ref());
+            *cv = concat(cv, &cx);
+        }
+        if let (Some(d), Some(dv), Some(dr)) = (self.sys.d.as_ref(), &mut self.dv, &mut self.dr) {
+            let dx = product(d);
+            *dr = grow(dr, v.as_ref(), dx.as_ref());
+            *dv = concat(dv, &dx);
+        }
+        let fx = x.transpose() * self.load;
+        self.fr = Mat::from_fn(q + added, self.load.ncols(), |i, k| {
+            if i < q {
+                self.fr[(i, k)]
+            } else {
+                fx[(i - q, k)]
+            }
+        });
+        self.v = v;
+        added
+    }
+
+    /// The reduced solution of every line at the `responses` rows (response × excitation)
+    /// and its estimate (1.16, 1.17); lines in parallel chunks, each line's arithmetic fixed.
+    fn evaluate(
+        &self,
+        c: &Coefficients,
+        freqs_hz: &[f64],
+        responses: &[usize],
+    ) -> Vec<(Mat<c64>, f64)> {
+        let q = self.v.ncols();
+        let p = self.load.ncols();
+        let rows = Mat::<f64>::from_fn(responses.len(), q, |i, k| self.v[(responses[i], k)]);
+        let load_norms: Vec<f64> = (0..p)
+            .map(|k| norm(&self.load.col(k).iter().copied().collect::<Vec<_>>()))
+            .collect();
+        let chunk = 16;
+        freqs_hz
+            .par_chunks(chunk)
+            .flat_map_iter(|lines| {
+                // The reduced solutions of the chunk, real and imaginary parts side by side.
+                let mut y = Mat::<f64>::zeros(q, 2 * p * lines.len());
+                for (l, &f) in lines.iter().enumerate() {
+                    let w = 2.0 * PI * f;
+                    let (a, b) = c.at(w);
+                    let zr = Mat::<c64>::from_fn(q, q, |i, j| {
+                        let mut v = a * self.kr[(i, j)] + b * self.mr[(i, j)];
+                        if let Some(d) = &self.dr {
+                            v += c64::new(0.0, d[(i, j)]);
+                        }
+                        if let Some(cr) = &self.cr {
+                            v += c64::new(0.0, w * cr[(i, j)]);
+                        }
+                        v
+                    });
+                    let rhs = Mat::<c64>::from_fn(q, p, |i, k| c64::new(self.fr[(i, k)], 0.0));
+                    let sol = zr.partial_piv_lu().solve(&rhs);
+                    for k in 0..p {
+                        for i in 0..q {
+                            y[(i, 2 * p * l + k)] = sol[(i, k)].re;
+                            y[(i, 2 * p * l + p + k)] = sol[(i, k)].im;
+                        }
+                    }
+                }
+                let times = |m: &Mat<f64>| {
+                    let mut out = Mat::<f64>::zeros(m.nrows(), y.ncols());
+                    matmul(out.as_mut(), Accum::Replace, m, &y, 1.0, Par::Seq);
+                    out
+                };
+                let (ky, my) = (times(&self.kv), times(&self.mv));
+                let cy = self.cv.as_ref().map(times);
+                let dy = self.dv.as_ref().map(times);
+                let xy = times(&rows);
+                lines
+                    .iter()
+                    .enumerate()
+                    .map(|(l, &f)| {
+                        let w = 2.0 * PI * f;
+                        let (a, b) = c.at(w);
+                        let at = |m: &Mat<f64>, i: usize, k: usize| {
+                            c64::new(m[(i, 2 * p * l + k)], m[(i, 2 * p * l + p + k)])
+                        };
+                        let mut estimate = 0.0f64;
+                        for k in 0..p {
+                            let mut sum = 0.0;
+                            for i in 0..ky.nrows() {
+                                let mut r = a * at(&ky, i, k) + b * at(&my, i, k)
+                                    - c64::new(self.load[(i, k)], 0.0);
+                                if let Some(d) = &dy {
+                                    r += c64::new(0.0, 1.0) * at(d, i, k);
+                                }
+                                if let Some(cy) = &cy {
+                                    r += c64::new(0.0, w) * at(cy, i, k);
+                                }
+                                sum += r.norm_sqr();
+                            }
+                            let e = sum.sqrt() / load_norms[k];
+                            estimate = estimate.max(if e.is_finite() { e } else { f64::INFINITY });
+                        }
+                        let x = Mat::<c64>::from_fn(responses.len(), p, |i, k| at(&xy, i, k));
+                        (x, estimate)
+                    })
+                    .collect::<Vec<_>>()
+            })
+            .collect()
+    }
+}
+
+/// `[a b]`, columns side by side.
+fn concat(a: &Mat<f64>, b: &Mat<f64>) -> Mat<f64> {
+    let q = a.ncols();
+    Mat::from_fn(a.nrows(), q + b.ncols(), |i, j| {
+        if j < q { a[(i, j)] } else { b[(i, j - q)] }
+    })
+}
+
+/// The reduced matrix `Vᵀ A V` grown by the new columns: `v` is the whole new basis and `ax`
+/// the product of `A` with its last `ax.ncols()` columns; the new rows mirror the new columns.
+fn grow(old: &Mat<f64>, v: MatRef<'_, f64>, ax: MatRef<'_, f64>) -> Mat<f64> {
+    let q = old.nrows();
+    let block = v.transpose() * ax;
+    let size = v.ncols();
+    Mat::from_fn(size, size, |i, j| match (i < q, j < q) {
+        (true, true) => old[(i, j)],
+        (_, false) => block[(i, j - q)],
+        (false, true) => block[(j, i - q)],
+    })
+}
+
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
+}
+
+fn norm(a: &[f64]) -> f64 {
+    dot(a, a).sqrt()
+}
