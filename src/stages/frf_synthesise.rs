@@ -1,6 +1,7 @@
 //! `frf.synthesise`: receptance, mobility or accelerance at chosen DOFs over a band, by modal
-//! summation (structural `η_r` or viscous `ζ_r`, uniform or per mode, optionally truncated) or by
-//! direct solution of `Z(ω)` (docs/theory.md §1).
+//! summation (structural `η_r` or viscous `ζ_r`, uniform or per mode, optionally truncated), by
+//! direct solution of `Z(ω)`, or by a Krylov reduced-order sweep checked at every line by its
+//! load residual (docs/theory.md §1).
 //!
 //! With a measured FRF artefact on `template`, the prediction follows the test: its lines, its
 //! response/excitation pairs and its quantity, nothing retyped. With a `test.pair` map on `map`
@@ -18,8 +19,8 @@ use crate::artefact::kinds::{
 };
 use crate::core::DofId;
 use crate::frf::{
-    FrfPair, FrfSet, Quantity, direct_receptance, frequency_line_count, frequency_lines,
-    modal_receptance,
+    FrfPair, FrfSet, KrylovOptions, KrylovReport, Quantity, direct_receptance,
+    frequency_line_count, frequency_lines, krylov_receptance, modal_receptance,
 };
 use crate::pipeline::{
     CheckContext, ParamIssue, PortSpec, StageError, StageInputs, StageOutputs, TypedStage,
@@ -40,15 +41,69 @@ pub enum Method {
     Modal,
     /// `α = Z(ω)⁻¹` from the `model` input.
     Direct,
+    /// A Krylov reduced-order model of the `model` input, refined until every line's relative
+    /// load residual meets `krylov.tolerance`: for many lines on large models.
+    Krylov,
+}
+
+/// Settings of `method: krylov`.
+#[derive(Clone, Debug, serde::Deserialize, serde::Serialize, schemars::JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct KrylovParams {
+    /// Largest relative load residual `‖Z(ω)x − f‖/‖f‖` accepted at any line (default 1e-6).
+    #[serde(default = "krylov_tolerance")]
+    pub tolerance: Positive,
+    /// Krylov blocks per expansion point, one vector per excitation each (default 8).
+    #[serde(default = "krylov_blocks")]
+    pub blocks_per_point: Count,
+    /// Most expansion points before the stage fails (default 40).
+    #[serde(default = "krylov_points")]
+    pub max_points: Count,
+}
+
+impl Default for KrylovParams {
+    fn default() -> Self {
+        KrylovParams {
+            tolerance: krylov_tolerance(),
+            blocks_per_point: krylov_blocks(),
+            max_points: krylov_points(),
+        }
+    }
+}
+
+fn krylov_tolerance() -> Positive {
+    Positive::new(KrylovOptions::default().tolerance).expect("a positive default")
+}
+
+fn krylov_blocks() -> Count {
+    Count::new(KrylovOptions::default().blocks_per_point).expect("a positive default")
+}
+
+fn krylov_points() -> Count {
+    Count::new(KrylovOptions::default().max_points).expect("a positive default")
+}
+
+impl KrylovParams {
+    fn options(&self) -> KrylovOptions {
+        KrylovOptions {
+            tolerance: self.tolerance.get(),
+            blocks_per_point: self.blocks_per_point.get(),
+            max_points: self.max_points.get(),
+        }
+    }
 }
 
 /// Parameters of `frf.synthesise`.
 #[derive(Clone, Debug, serde::Deserialize, serde::Serialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct Params {
-    /// `modal` (needs `modes`) or `direct` (needs `model`); default: modal when `modes` is connected.
+    /// `modal` (needs `modes`), `direct` or `krylov` (need `model`); default: modal when
+    /// `modes` is connected, else direct.
     #[serde(default)]
     pub method: Option<Method>,
+    /// Settings of `method: krylov`.
+    #[serde(default)]
+    pub krylov: KrylovParams,
     /// receptance (m/N), mobility (m/s/N) or accelerance (m/s²/N); with `template`, the
     /// template's.
     #[serde(default = "receptance")]
@@ -237,10 +292,12 @@ impl TypedStage for FrfSynthesise {
                 "method",
                 "`modal` needs the `modes` input connected (or use `method: direct` with `model`)",
             )),
-            Method::Direct if !ctx.is_connected("model") => issues.push(ParamIssue::at(
-                "method",
-                "`direct` needs the `model` input connected (or use `method: modal` with `modes`)",
-            )),
+            Method::Direct | Method::Krylov if !ctx.is_connected("model") => {
+                issues.push(ParamIssue::at(
+                    "method",
+                    "`direct` and `krylov` need the `model` input connected (or use `method: modal` with `modes`)",
+                ))
+            }
             _ => {}
         }
         if ctx.is_connected("map") && !ctx.is_connected("template") {
@@ -282,13 +339,14 @@ impl TypedStage for FrfSynthesise {
                 "damping values must be finite and >= 0",
             ));
         }
+        let physical = matches!(method, Method::Direct | Method::Krylov);
         match (method, &p.damping) {
-            (Method::Direct, Damping::Viscous(_)) => issues.push(ParamIssue::at("damping", "modal viscous ratios need `method: modal`; for `direct` use `rayleigh: {alpha, beta}` or the model's own C")),
-            (Method::Direct, d) if d.is_per_mode() => issues.push(ParamIssue::at("damping", "per-mode loss factors need `method: modal`; `direct` takes one uniform value")),
-            (Method::Modal, Damping::Rayleigh { .. }) => issues.push(ParamIssue::at("damping", "Rayleigh damping needs `method: direct`; for `modal` give `viscous` ratios per mode")),
+            (_, Damping::Viscous(_)) if physical => issues.push(ParamIssue::at("damping", "modal viscous ratios need `method: modal`; for `direct` and `krylov` use `rayleigh: {alpha, beta}` or the model's own C")),
+            (_, d) if physical && d.is_per_mode() => issues.push(ParamIssue::at("damping", "per-mode loss factors need `method: modal`; `direct` and `krylov` take one uniform value")),
+            (Method::Modal, Damping::Rayleigh { .. }) => issues.push(ParamIssue::at("damping", "Rayleigh damping needs `method: direct` or `krylov`; for `modal` give `viscous` ratios per mode")),
             _ => {}
         }
-        if method == Method::Direct && p.modes.is_given() {
+        if physical && p.modes.is_given() {
             issues.push(ParamIssue::at(
                 "modes",
                 "mode truncation applies to `method: modal` only",
@@ -297,10 +355,21 @@ impl TypedStage for FrfSynthesise {
         issues
     }
 
+    /// The Krylov settings enter the key only when the Krylov sweep runs.
+    fn key_params(params: &serde_json::Value) -> serde_json::Value {
+        let mut key = params.clone();
+        if key.get("method").and_then(|m| m.as_str()) != Some("krylov") {
+            if let Some(o) = key.as_object_mut() {
+                o.remove("krylov");
+            }
+        }
+        key
+    }
+
     fn run(p: &Params, inputs: &StageInputs) -> Result<StageOutputs, StageError> {
         if let Some(t) = inputs.get("template") {
             let template = frf_from_artefact(t)?;
-            let set = match inputs.get("map") {
+            let (set, report) = match inputs.get("map") {
                 Some(m) => through_map(p, inputs, &template, &test_map_from_artefact(m)?)?,
                 None => synthesise(
                     p,
@@ -310,10 +379,7 @@ impl TypedStage for FrfSynthesise {
                     template.quantity,
                 )?,
             };
-            return Ok(StageOutputs::from([(
-                "frf".to_string(),
-                frf_to_artefact(&set),
-            )]));
+            return Ok(frf_output(&set, report, p));
         }
         let lines = p.lines();
         // Responses: the listed DOFs, then every model DOF of the listed components.
@@ -327,17 +393,14 @@ impl TypedStage for FrfSynthesise {
             }
             out
         };
-        let set = synthesise(
+        let (set, report) = synthesise(
             p,
             inputs,
             |dofs| FrfSet::all_pairs(&with_components(dofs), &p.excitations),
             &lines,
             p.quantity,
         )?;
-        Ok(StageOutputs::from([(
-            "frf".to_string(),
-            frf_to_artefact(&set),
-        )]))
+        Ok(frf_output(&set, report, p))
     }
 }
 
@@ -349,7 +412,7 @@ fn synthesise(
     pairs_of: impl FnOnce(&[DofId]) -> Vec<FrfPair>,
     lines: &[f64],
     quantity: Quantity,
-) -> Result<FrfSet, StageError> {
+) -> Result<(FrfSet, Option<KrylovReport>), StageError> {
     match p.method {
         Some(Method::Modal) => {
             if let Some(model) = inputs.get("model") {
@@ -379,12 +442,22 @@ fn synthesise(
                 .modal_for(modes.len())
                 .map_err(StageError::input_at("damping"))?;
             modal_receptance(&modes, &m.dofs, &damping, &pairs, lines, quantity)
+                .map(|set| (set, None))
+                .map_err(StageError::from_numerics(""))
+        }
+        Some(Method::Krylov) => {
+            let sys = matrices_from_artefact(inputs.require("model")?)?;
+            let pairs = pairs_of(&sys.dofs);
+            let options = p.krylov.options();
+            krylov_receptance(&sys, &p.damping.direct(), &pairs, lines, quantity, &options)
+                .map(|(set, report)| (set, Some(report)))
                 .map_err(StageError::from_numerics(""))
         }
         _ => {
             let sys = matrices_from_artefact(inputs.require("model")?)?;
             let pairs = pairs_of(&sys.dofs);
             direct_receptance(&sys, &p.damping.direct(), &pairs, lines, quantity)
+                .map(|set| (set, None))
                 .map_err(StageError::from_numerics(""))
         }
     }
@@ -407,7 +480,7 @@ fn through_map(
     inputs: &StageInputs,
     template: &FrfSet,
     map: &crate::pairing::TestMap,
-) -> Result<FrfSet, StageError> {
+) -> Result<(FrfSet, Option<KrylovReport>), StageError> {
     let free: BTreeSet<DofId> = model_dofs(inputs, p.method)?.into_iter().collect();
     let combos: BTreeMap<DofId, Vec<(DofId, f64)>> = map.combinations().into_iter().collect();
     let mut dropped: BTreeSet<DofId> = BTreeSet::new();
@@ -478,7 +551,7 @@ fn through_map(
                 .join(", ")
         );
     }
-    let fe = synthesise(
+    let (fe, report) = synthesise(
         p,
         inputs,
         |_| needed.clone(),
@@ -503,12 +576,32 @@ fn through_map(
                 acc + fe.values[(l, column[k])] * w
             })
     });
-    Ok(FrfSet {
+    let set = FrfSet {
         quantity: template.quantity,
         freqs_hz: template.freqs_hz.clone(),
         pairs: template.pairs.clone(),
         values,
-    })
+    };
+    Ok((set, report))
+}
+
+/// The FRF artefact, with the Krylov sweep's expansion points, basis size and estimates in
+/// its meta when it made the values.
+fn frf_output(set: &FrfSet, report: Option<KrylovReport>, p: &Params) -> StageOutputs {
+    let mut a = frf_to_artefact(set);
+    if let Some(r) = report {
+        let worst = r.estimates.iter().copied().fold(0.0, f64::max);
+        a.meta.insert(
+            "krylov".into(),
+            serde_json::json!({
+                "expansion_hz": r.expansion_hz,
+                "basis_size": r.basis_size,
+                "tolerance": p.krylov.tolerance.get(),
+                "worst_estimate": worst,
+            }),
+        );
+    }
+    StageOutputs::from([("frf".to_string(), a)])
 }
 
 #[cfg(test)]
