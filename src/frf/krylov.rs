@@ -1,16 +1,16 @@
 //! Receptance by a reduced-order frequency sweep: multi-point Krylov moment matching with an
-//! a-posteriori estimate per line (docs/theory.md §1, 1.15–1.17).
+//! a-posteriori estimate per line (docs/theory.md §13).
 //!
 //! About an expansion frequency `ω_j` the dynamic stiffness is `Z(ω) = A_j − (ω² − ω_j²) M + …`
 //! with `A_j = K − ω_j² M`, so the block Krylov space
 //! `span{A_j⁻¹F, (A_j⁻¹M) A_j⁻¹F, …, (A_j⁻¹M)^(b−1) A_j⁻¹F}` holds the first `b` moments of
-//! the undamped receptance in `ω² − ω_j²` (1.15). The union over the expansion points,
+//! the undamped receptance in `ω² − ω_j²` (13.1). The union over the expansion points,
 //! orthonormalised, is a real basis `V`; the model is projected by Galerkin,
 //! `Z_r(ω) = Vᵀ Z(ω) V = K_r + iD_r + iωC_r − ω² M_r` with every damping of the model and of the
-//! request (proportional or not), and a line solves `Z_r(ω) y = Vᵀ F`, `x = V y` (1.16).
+//! request (proportional or not), and a line solves `Z_r(ω) y = Vᵀ F`, `x = V y` (13.2).
 //!
 //! The estimate of a line is its relative load residual `max_k ‖Z(ω) V y_k − f_k‖₂ / ‖f_k‖₂`
-//! over the excitations (1.17): the reduced answer is the exact response to the load `F − R`,
+//! over the excitations (13.3): the reduced answer is the exact response to the load `F − R`,
 //! so the estimate is a backward error, computed with the full matrices. Points are added
 //! greedily, each at the line of the largest estimate, until every line meets the tolerance.
 
@@ -28,7 +28,7 @@ use std::f64::consts::PI;
 /// How the sweep builds its basis and when it stops.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct KrylovOptions {
-    /// Largest relative load residual accepted at any line (1.17).
+    /// Largest relative load residual accepted at any line (13.3).
     pub tolerance: f64,
     /// Krylov blocks per expansion point (each one column per excitation).
     pub blocks_per_point: usize,
@@ -53,7 +53,7 @@ pub struct KrylovReport {
     pub expansion_hz: Vec<f64>,
     /// Columns of the final basis.
     pub basis_size: usize,
-    /// The estimate (1.17) of every line.
+    /// The estimate (13.3) of every line.
     pub estimates: Vec<f64>,
 }
 
@@ -256,7 +256,7 @@ impl<'a> Basis<'a> {
         }
     }
 
-    /// Adds the Krylov blocks of the undamped `A_j = K − ω_j² M` at `f_hz` (1.15); an exactly
+    /// Adds the Krylov blocks of the undamped `A_j = K − ω_j² M` at `f_hz` (13.1); an exactly
     /// singular `A_j` moves the point by a part in 10⁴. Each block is orthonormalised against
     /// the point's earlier blocks (its own Arnoldi process) before it joins the basis, and the
     /// next block is `A_j⁻¹ [M W, C W, D W]` with the model's own `C`, `D` (non-proportional
@@ -357,7 +357,7 @@ impl<'a> Basis<'a> {
     }
 
     /// The reduced solution of every line at the `responses` rows (response × excitation)
-    /// and its estimate (1.16, 1.17); lines in parallel chunks, each line's arithmetic fixed.
+    /// and its estimate (13.2, 13.3); lines in parallel chunks, each line's arithmetic fixed.
     fn evaluate(
         &self,
         c: &Coefficients,
