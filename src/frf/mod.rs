@@ -6,6 +6,7 @@ pub mod io;
 pub mod krylov;
 pub mod modal;
 pub mod noise;
+pub mod residual;
 pub mod smoothing;
 
 use crate::core::DofId;
@@ -15,6 +16,7 @@ pub use direct::{DirectDamping, DirectError, direct_receptance};
 pub use krylov::{KrylovError, KrylovOptions, KrylovReport, krylov_receptance};
 pub use modal::{ModalDamping, ModalError, modal_receptance};
 pub use noise::{NoiseModel, add_noise};
+pub use residual::{ResidualError, add_residual, static_residual};
 pub use smoothing::FrequencySmoothing;
 
 /// Which response quantity an FRF holds (1.4).

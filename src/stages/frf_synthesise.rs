@@ -19,8 +19,9 @@ use crate::artefact::kinds::{
 };
 use crate::core::DofId;
 use crate::frf::{
-    FrfPair, FrfSet, KrylovOptions, KrylovReport, Quantity, direct_receptance,
-    frequency_line_count, frequency_lines, krylov_receptance, modal_receptance,
+    FrfPair, FrfSet, KrylovOptions, KrylovReport, Quantity, add_residual, convert_from_receptance,
+    direct_receptance, frequency_line_count, frequency_lines, krylov_receptance, modal_receptance,
+    static_residual,
 };
 use crate::pipeline::{
     CheckContext, ParamIssue, PortSpec, StageError, StageInputs, StageOutputs, TypedStage,
@@ -44,6 +45,27 @@ pub enum Method {
     /// A Krylov reduced-order model of the `model` input, refined until every line's relative
     /// load residual meets `krylov.tolerance`: for many lines on large models.
     Krylov,
+}
+
+/// A correction for the modes a modal sum leaves out.
+#[derive(
+    Clone,
+    Copy,
+    Debug,
+    Default,
+    PartialEq,
+    serde::Deserialize,
+    serde::Serialize,
+    schemars::JsonSchema,
+)]
+#[serde(rename_all = "snake_case")]
+pub enum Residual {
+    /// The modes given, nothing more.
+    #[default]
+    None,
+    /// Their static flexibility `K⁻¹ − Σ φφᵀ/λ` added (docs/theory.md (13.4)); needs `model`
+    /// (constrained: no rigid-body modes).
+    Static,
 }
 
 /// Settings of `method: krylov`.
@@ -104,6 +126,10 @@ pub struct Params {
     /// Settings of `method: krylov`.
     #[serde(default)]
     pub krylov: KrylovParams,
+    /// `static`: a modal sum gets the static flexibility of the modes it leaves out (needs the
+    /// `model` input too); default `none`.
+    #[serde(default)]
+    pub residual: Residual,
     /// receptance (m/N), mobility (m/s/N) or accelerance (m/s²/N); with `template`, the
     /// template's.
     #[serde(default = "receptance")]
@@ -346,6 +372,19 @@ impl TypedStage for FrfSynthesise {
             (Method::Modal, Damping::Rayleigh { .. }) => issues.push(ParamIssue::at("damping", "Rayleigh damping needs `method: direct` or `krylov`; for `modal` give `viscous` ratios per mode")),
             _ => {}
         }
+        if p.residual == Residual::Static {
+            if physical {
+                issues.push(ParamIssue::at(
+                    "residual",
+                    "the static correction is for `method: modal`; `direct` and `krylov` are complete",
+                ));
+            } else if !ctx.is_connected("model") {
+                issues.push(ParamIssue::at(
+                    "residual",
+                    "`residual: static` needs the `model` input connected (its K gives the static flexibility)",
+                ));
+            }
+        }
         if physical && p.modes.is_given() {
             issues.push(ParamIssue::at(
                 "modes",
@@ -355,12 +394,18 @@ impl TypedStage for FrfSynthesise {
         issues
     }
 
-    /// The Krylov settings enter the key only when the Krylov sweep runs.
+    /// The Krylov settings enter the key only when the Krylov sweep runs, the residual only
+    /// when asked for.
     fn key_params(params: &serde_json::Value) -> serde_json::Value {
         let mut key = params.clone();
-        if key.get("method").and_then(|m| m.as_str()) != Some("krylov") {
-            if let Some(o) = key.as_object_mut() {
+        let method = key.get("method").and_then(|m| m.as_str()) == Some("krylov");
+        let residual = key.get("residual").and_then(|m| m.as_str()) != Some("none");
+        if let Some(o) = key.as_object_mut() {
+            if !method {
                 o.remove("krylov");
+            }
+            if !residual {
+                o.remove("residual");
             }
         }
         key
@@ -441,9 +486,26 @@ fn synthesise(
                 .damping
                 .modal_for(modes.len())
                 .map_err(StageError::input_at("damping"))?;
-            modal_receptance(&modes, &m.dofs, &damping, &pairs, lines, quantity)
-                .map(|set| (set, None))
-                .map_err(StageError::from_numerics(""))
+            if p.residual == Residual::None {
+                return modal_receptance(&modes, &m.dofs, &damping, &pairs, lines, quantity)
+                    .map(|set| (set, None))
+                    .map_err(StageError::from_numerics(""));
+            }
+            let sys = matrices_from_artefact(inputs.require("model")?)?;
+            let residual = static_residual(&sys, &modes, &m.dofs, &pairs)
+                .map_err(StageError::from_numerics("residual"))?;
+            let mut set = modal_receptance(
+                &modes,
+                &m.dofs,
+                &damping,
+                &pairs,
+                lines,
+                Quantity::Receptance,
+            )
+            .map_err(StageError::from_numerics(""))?;
+            add_residual(&mut set, &residual, &damping);
+            convert_from_receptance(&mut set, quantity);
+            Ok((set, None))
         }
         Some(Method::Krylov) => {
             let sys = matrices_from_artefact(inputs.require("model")?)?;
