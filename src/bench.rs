@@ -1038,3 +1038,81 @@ pub fn frf_bench(
         krylov_difference,
     })
 }
+
+/// Figures of the plate pipeline run through the executor, as `femu run` runs it, beside the
+/// kernels on the same plate (issue 26: what users run must be as fast as the benchmark).
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct PipelineBench {
+    /// Free DOFs.
+    pub dofs: usize,
+    /// Modes asked for.
+    pub modes: usize,
+    /// Wall seconds of each stage (`mesh.generate`, `assemble`, `modes`), in order.
+    pub stage_seconds: Vec<(String, f64)>,
+    /// Wall seconds of the whole run (planning, cache writes and reads included).
+    pub run_seconds: f64,
+    /// Peak resident memory of the run, MiB (Linux only).
+    pub run_peak_rss_mib: Option<f64>,
+    /// The kernels on the same plate: generation, assembly and the modes.
+    pub kernel_generate_seconds: f64,
+    /// Kernel assembly seconds.
+    pub kernel_assembly_seconds: f64,
+    /// Kernel eigensolver seconds.
+    pub kernel_modes_seconds: f64,
+    /// Peak resident memory of the kernels' eigen solve, MiB.
+    pub kernel_peak_rss_mib: Option<f64>,
+}
+
+/// Runs `mesh.generate` (the clamped 1 m × 1 m × 5 mm steel plate of about `target_dofs`
+/// DOFs) → `assemble` → `modes` (`count`, tolerance 1e-8) through the pipeline executor on a
+/// fresh cache in a temporary folder, then the same steps by the kernels.
+pub fn pipeline_bench(target_dofs: usize, count: usize) -> Result<PipelineBench, String> {
+    use crate::pipeline::{ProgressMode, RunOptions, execute, plan, read_pipeline};
+    let side = ((target_dofs as f64 / 6.0).sqrt().round() as usize).max(2);
+    let folder = std::env::temp_dir().join(format!("femu-bench-pipeline-{}", std::process::id()));
+    std::fs::create_dir_all(&folder).map_err(|e| format!("{}: {e}", folder.display()))?;
+    let result = (|| {
+        let file = folder.join("plate-modes.yaml");
+        let text = format!(
+            "name: plate-modes\nstages:\n  plate:\n    kind: mesh.generate\n    with: {{geometry: flat_plate, a_m: 1.0, b_m: 1.0, nx: {side}, ny: {side}, thickness_m: 0.005, support: clamped_edge}}\n  matrices:\n    kind: assemble\n    inputs: {{mesh: plate}}\n  modes:\n    kind: modes\n    inputs: {{model: matrices}}\n    with: {{count: {count}, tolerance: 1.0e-8}}\n"
+        );
+        std::fs::write(&file, text).map_err(|e| format!("{}: {e}", file.display()))?;
+        let spec = read_pipeline(&file).map_err(|e| e.to_string())?;
+        let plan = plan(&spec, &crate::stages::registry()).map_err(|e| e.to_string())?;
+        let cache = crate::cache::Cache::open(&folder.join("cache")).map_err(|e| e.to_string())?;
+        let opts = RunOptions {
+            progress: ProgressMode::Quiet,
+            ..Default::default()
+        };
+        reset_peak_rss();
+        let t = Instant::now();
+        let report = execute(&plan, &cache, &opts).map_err(|e| e.to_string())?;
+        let run_seconds = t.elapsed().as_secs_f64();
+        let run_peak_rss_mib = peak_rss_mib();
+        let stage_seconds = report
+            .stages
+            .iter()
+            .map(|s| (s.kind.clone(), s.elapsed.as_secs_f64()))
+            .collect();
+        Ok::<_, String>((stage_seconds, run_seconds, run_peak_rss_mib))
+    })();
+    std::fs::remove_dir_all(&folder).ok();
+    let (stage_seconds, run_seconds, run_peak_rss_mib) = result?;
+    reset_peak_rss();
+    let kernel = plate_bench(target_dofs, &[count])?;
+    let solve = kernel
+        .modes
+        .first()
+        .ok_or("the kernel benchmark solved nothing")?;
+    Ok(PipelineBench {
+        dofs: kernel.dofs,
+        modes: count,
+        stage_seconds,
+        run_seconds,
+        run_peak_rss_mib,
+        kernel_generate_seconds: kernel.generate_seconds,
+        kernel_assembly_seconds: kernel.assembly_seconds,
+        kernel_modes_seconds: solve.seconds,
+        kernel_peak_rss_mib: solve.peak_rss_mib,
+    })
+}

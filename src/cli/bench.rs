@@ -6,7 +6,9 @@ use super::{BenchArgs, Failure};
 
 /// `femu bench`: `--cms`, `--pc-iteration` or the model benchmark, in that precedence.
 pub(super) fn run(a: BenchArgs) -> Result<u8, Failure> {
-    if a.frf {
+    if a.pipeline {
+        pipeline(a)
+    } else if a.frf {
         frf(a)
     } else if a.import {
         import(a)
@@ -17,6 +19,66 @@ pub(super) fn run(a: BenchArgs) -> Result<u8, Failure> {
     } else {
         models(a)
     }
+}
+
+/// `femu bench --pipeline`.
+fn pipeline(a: BenchArgs) -> Result<u8, Failure> {
+    let dofs = if a.dofs.is_empty() {
+        vec![300_000]
+    } else {
+        a.dofs
+    };
+    let count = a.modes.first().copied().unwrap_or(50);
+    println!(
+        "clamped plate through the pipeline executor (mesh.generate -> assemble -> modes, {count} modes, tolerance 1e-8, fresh cache) and by the kernels, {} threads",
+        rayon::current_num_threads()
+    );
+    println!(
+        "{:>9} {:>10} {:>10} {:>10} {:>9} {:>10} {:>10} {:>10} {:>10} {:>10}",
+        "dofs",
+        "generate s",
+        "assemble s",
+        "modes s",
+        "run s",
+        "run MiB",
+        "k.assem s",
+        "k.modes s",
+        "k.MiB",
+        "run/kernel"
+    );
+    let mut all = Vec::new();
+    for n in dofs {
+        let b = crate::bench::pipeline_bench(n, count).map_err(|e| anyhow::anyhow!(e))?;
+        let stage = |kind: &str| {
+            b.stage_seconds
+                .iter()
+                .find(|s| s.0 == kind)
+                .map_or(f64::NAN, |s| s.1)
+        };
+        let kernel = b.kernel_generate_seconds + b.kernel_assembly_seconds + b.kernel_modes_seconds;
+        println!(
+            "{:>9} {:>10.2} {:>10.2} {:>10.2} {:>9.2} {:>10.0} {:>10.2} {:>10.2} {:>10.0} {:>9.2}x",
+            b.dofs,
+            stage("mesh.generate"),
+            stage("assemble"),
+            stage("modes"),
+            b.run_seconds,
+            b.run_peak_rss_mib.unwrap_or(f64::NAN),
+            b.kernel_assembly_seconds,
+            b.kernel_modes_seconds,
+            b.kernel_peak_rss_mib.unwrap_or(f64::NAN),
+            b.run_seconds / kernel
+        );
+        all.push(b);
+    }
+    if let Some(path) = a.json {
+        std::fs::write(
+            &path,
+            serde_json::to_string_pretty(&all).unwrap_or_default(),
+        )
+        .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+    }
+    Ok(0)
 }
 
 /// `femu bench --frf`.

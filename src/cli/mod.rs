@@ -218,6 +218,11 @@ struct BenchArgs {
     /// Frequency lines for `--frf` (default: 801 up to 10000 DOFs, 100 above).
     #[arg(long, value_name = "L")]
     lines: Option<usize>,
+    /// Run the plate pipeline instead (`mesh.generate` → `assemble` → `modes`, as `femu run`
+    /// runs it, on a fresh cache) at each `--dofs` size (default 300000) for the first
+    /// `--modes` mode count (default 50), beside the same steps by the kernels.
+    #[arg(long)]
+    pipeline: bool,
 }
 
 /// Entry point of the binary.
