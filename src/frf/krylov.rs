@@ -458,7 +458,8 @@ impl<'a> Basis<'a> {
 }
 
 /// The columns of `x` orthonormalised against the orthonormal columns of `v` and each other
-/// (two passes of Gram-Schmidt), without those whose remainder is below [`DEFLATION`] of their
+/// (two passes of Gram-Schmidt; the products sequential, as their sums over the rows must not
+/// depend on the thread count), without those whose remainder is below [`DEFLATION`] of their
 /// norm (already in the span).
 fn orthonormal_against(v: &Mat<f64>, x: MatRef<'_, f64>) -> Mat<f64> {
     let n = x.nrows();
@@ -469,15 +470,8 @@ fn orthonormal_against(v: &Mat<f64>, x: MatRef<'_, f64>) -> Mat<f64> {
     if v.ncols() > 0 {
         for _ in 0..2 {
             let mut c = Mat::<f64>::zeros(v.ncols(), x.ncols());
-            matmul(
-                c.as_mut(),
-                Accum::Replace,
-                v.transpose(),
-                &x,
-                1.0,
-                Par::rayon(0),
-            );
-            matmul(x.as_mut(), Accum::Add, v, &c, -1.0, Par::rayon(0));
+            matmul(c.as_mut(), Accum::Replace, v.transpose(), &x, 1.0, Par::Seq);
+            matmul(x.as_mut(), Accum::Add, v, &c, -1.0, Par::Seq);
         }
     }
     let mut fresh: Vec<Vec<f64>> = Vec::new();
@@ -522,7 +516,7 @@ fn grow(old: &Mat<f64>, v: MatRef<'_, f64>, ax: MatRef<'_, f64>) -> Mat<f64> {
         v.transpose(),
         ax,
         1.0,
-        Par::rayon(0),
+        Par::Seq,
     );
     let size = v.ncols();
     Mat::from_fn(size, size, |i, j| match (i < q, j < q) {
@@ -680,6 +674,35 @@ mod tests {
         }
         // One point of three blocks leaves the far lines visibly unconverged.
         assert!(report.estimates[2] > 1e-3, "{report:?}");
+    }
+
+    /// The same numbers on one thread and on two, bit for bit (digests must not depend on the
+    /// machine's cores).
+    #[test]
+    fn the_sweep_does_not_depend_on_the_thread_count() {
+        let (sys, damping) = damped_plate();
+        let pairs = FrfSet::all_pairs(&sys.dofs[40..43], &sys.dofs[41..42]);
+        let freqs = crate::frf::frequency_lines(0.0, 1000.0, 5.0);
+        let sweep = |threads: usize| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap()
+                .install(|| {
+                    krylov_receptance(
+                        &sys,
+                        &damping,
+                        &pairs,
+                        &freqs,
+                        Quantity::Mobility,
+                        &KrylovOptions::default(),
+                    )
+                    .unwrap()
+                })
+        };
+        let ((one, r1), (two, r2)) = (sweep(1), sweep(2));
+        assert_eq!(one.values, two.values);
+        assert_eq!(r1, r2);
     }
 
     /// A tolerance the points allowed cannot meet is an error naming the worst line and what
