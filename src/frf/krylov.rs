@@ -432,7 +432,7 @@ impl<'a> Basis<'a> {
                             c64::new(m[(i, 2 * p * l + k)], m[(i, 2 * p * l + p + k)])
                         };
                         let mut estimate = 0.0f64;
-                        for k in 0..p {
+                        for (k, load_norm) in load_norms.iter().enumerate() {
                             let mut sum = 0.0;
                             for i in 0..ky.nrows() {
                                 let mut r = a * at(&ky, i, k) + b * at(&my, i, k)
@@ -445,7 +445,7 @@ impl<'a> Basis<'a> {
                                 }
                                 sum += r.norm_sqr();
                             }
-                            let e = sum.sqrt() / load_norms[k];
+                            let e = sum.sqrt() / load_norm;
                             estimate = estimate.max(if e.is_finite() { e } else { f64::INFINITY });
                         }
                         let x = Mat::<c64>::from_fn(responses.len(), p, |i, k| at(&xy, i, k));
@@ -612,13 +612,9 @@ mod tests {
             let peak = (0..freqs.len())
                 .map(|k| direct.values[(k, p)].norm())
                 .fold(0.0, f64::max);
-            for k in 0..freqs.len() {
+            for (k, f) in freqs.iter().enumerate() {
                 let d = (rom.values[(k, p)] - direct.values[(k, p)]).norm();
-                assert!(
-                    d <= 1e-8 * peak,
-                    "pair {p} at {} Hz: {d:e} of {peak:e}",
-                    freqs[k]
-                );
+                assert!(d <= 1e-8 * peak, "pair {p} at {f} Hz: {d:e} of {peak:e}");
             }
         }
     }
