@@ -234,14 +234,45 @@ fn to_batch(table: &Table) -> Result<RecordBatch, ArtefactError> {
     let mut fields = Vec::new();
     let mut arrays: Vec<ArrayRef> = Vec::new();
     for (name, col) in &table.columns {
-        let (dt, arr): (DataType, ArrayRef) = match col {
-            Column::F64(v) => (DataType::Float64, Arc::new(Float64Array::from(v.clone()))),
-            Column::I64(v) => (DataType::Int64, Arc::new(Int64Array::from(v.clone()))),
-            Column::Str(v) => (DataType::Utf8, Arc::new(StringArray::from(v.clone()))),
-        };
+        let (dt, arr) = column_array(col, 0, col.len());
         fields.push(Field::new(name, dt, false));
         arrays.push(arr);
     }
+    batch_of(fields, arrays)
+}
+
+/// Rows `start..end` of a table whose columns all have at least `end` rows, as a record batch.
+fn to_batch_rows(table: &Table, start: usize, end: usize) -> Result<RecordBatch, ArtefactError> {
+    let mut fields = Vec::new();
+    let mut arrays: Vec<ArrayRef> = Vec::new();
+    for (name, col) in &table.columns {
+        let (dt, arr) = column_array(col, start, end);
+        fields.push(Field::new(name, dt, false));
+        arrays.push(arr);
+    }
+    batch_of(fields, arrays)
+}
+
+/// Rows `start..end` of a column as an Arrow array.
+fn column_array(col: &Column, start: usize, end: usize) -> (DataType, ArrayRef) {
+    match col {
+        Column::F64(v) => (
+            DataType::Float64,
+            Arc::new(Float64Array::from(v[start..end].to_vec())),
+        ),
+        Column::I64(v) => (
+            DataType::Int64,
+            Arc::new(Int64Array::from(v[start..end].to_vec())),
+        ),
+        Column::Str(v) => (
+            DataType::Utf8,
+            Arc::new(StringArray::from(v[start..end].to_vec())),
+        ),
+    }
+}
+
+/// The record batch of these columns (an empty one without columns).
+fn batch_of(fields: Vec<Field>, arrays: Vec<ArrayRef>) -> Result<RecordBatch, ArtefactError> {
     let schema = Arc::new(Schema::new(fields));
     if arrays.is_empty() {
         return Ok(RecordBatch::new_empty(schema));
@@ -419,18 +450,50 @@ fn read_parquet_unguarded(path: &Path) -> Result<Table, ArtefactError> {
 
 /// Writes one table as an Arrow IPC file.
 pub fn write_ipc(table: &Table, path: &Path) -> Result<(), ArtefactError> {
-    let batch = to_batch(table)?;
     let file = File::create(path).map_err(|e| ArtefactError::io(path, e))?;
     let enc = |e: arrow_schema::ArrowError| ArtefactError::Decode {
         path: path.to_path_buf(),
         message: e.to_string(),
     };
-    let mut w = arrow_ipc::writer::FileWriter::try_new(BufWriter::new(file), &batch.schema())
-        .map_err(enc)?;
-    w.write(&batch).map_err(enc)?;
-    w.finish().map_err(enc)?;
+    // Record batches of at most IPC_BATCH_ROWS rows: a matrix table of 10⁸ entries is then
+    // copied into Arrow's buffers a few megabytes at a time, not whole beside itself.
+    let rows = table.rows();
+    let even = table.columns.iter().all(|(_, c)| c.len() == rows);
+    let mut start = 0;
+    let mut writer = None;
+    loop {
+        // Columns of unequal length are refused by `to_batch` as a whole.
+        let end = if even {
+            (start + IPC_BATCH_ROWS).min(rows)
+        } else {
+            rows
+        };
+        let batch = if even {
+            to_batch_rows(table, start, end)?
+        } else {
+            to_batch(table)?
+        };
+        let w = match &mut writer {
+            Some(w) => w,
+            None => writer.insert(
+                arrow_ipc::writer::FileWriter::try_new(BufWriter::new(&file), &batch.schema())
+                    .map_err(enc)?,
+            ),
+        };
+        w.write(&batch).map_err(enc)?;
+        start = end;
+        if start >= rows {
+            break;
+        }
+    }
+    if let Some(mut w) = writer {
+        w.finish().map_err(enc)?;
+    }
     Ok(())
 }
+
+/// Most rows in one record batch of an Arrow IPC file femu writes.
+const IPC_BATCH_ROWS: usize = 1 << 20;
 
 /// Reads an Arrow IPC file into a table. Hostile bytes give an error naming the file, never a
 /// panic (see [`guard_decoder`]).
