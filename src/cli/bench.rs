@@ -71,13 +71,7 @@ fn pipeline(a: BenchArgs) -> Result<u8, Failure> {
         );
         all.push(b);
     }
-    if let Some(path) = a.json {
-        std::fs::write(
-            &path,
-            serde_json::to_string_pretty(&all).unwrap_or_default(),
-        )
-        .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
-    }
+    write_json(a.json, &all)?;
     Ok(0)
 }
 
@@ -148,13 +142,7 @@ fn frf(a: BenchArgs) -> Result<u8, Failure> {
         );
         all.push(b);
     }
-    if let Some(path) = a.json {
-        std::fs::write(
-            &path,
-            serde_json::to_string_pretty(&all).unwrap_or_default(),
-        )
-        .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
-    }
+    write_json(a.json, &all)?;
     Ok(0)
 }
 
@@ -184,13 +172,7 @@ fn import(a: BenchArgs) -> Result<u8, Failure> {
         );
         all.push(b);
     }
-    if let Some(path) = a.json {
-        std::fs::write(
-            &path,
-            serde_json::to_string_pretty(&all).unwrap_or_default(),
-        )
-        .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
-    }
+    write_json(a.json, &all)?;
     Ok(0)
 }
 
@@ -258,9 +240,7 @@ fn cms(a: BenchArgs) -> Result<u8, Failure> {
         }
         all.push(b);
     }
-    if let Some(path) = json {
-        std::fs::write(&path, serde_json::to_string_pretty(&all)?)?;
-    }
+    write_json(json, &all)?;
     Ok(0)
 }
 
@@ -305,9 +285,7 @@ fn pc_iteration(a: BenchArgs) -> Result<u8, Failure> {
         );
         all.push(b);
     }
-    if let Some(path) = json {
-        std::fs::write(&path, serde_json::to_string_pretty(&all)?)?;
-    }
+    write_json(json, &all)?;
     Ok(0)
 }
 
@@ -383,8 +361,18 @@ fn models(a: BenchArgs) -> Result<u8, Failure> {
         }
         all.push(b);
     }
-    if let Some(f) = json {
-        std::fs::write(&f, serde_json::to_string_pretty(&all)?)?;
-    }
+    write_json(json, &all)?;
     Ok(0)
+}
+
+/// Writes the figures as JSON to `path`, when given.
+fn write_json(
+    path: Option<std::path::PathBuf>,
+    figures: &impl serde::Serialize,
+) -> Result<(), Failure> {
+    if let Some(path) = path {
+        let text = serde_json::to_string_pretty(figures).map_err(|e| anyhow::anyhow!(e))?;
+        std::fs::write(&path, text).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+    }
+    Ok(())
 }

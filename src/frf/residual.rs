@@ -118,24 +118,12 @@ pub fn add_residual(set: &mut FrfSet, residual: &[f64], damping: &ModalDamping) 
 mod tests {
     use super::*;
     use crate::eigen::{ModeSelection, dense_generalized};
-    use crate::fe::element::MassKind;
-    use crate::fe::model_assembly::assemble_model;
     use crate::frf::direct::{DirectDamping, direct_receptance};
     use crate::frf::modal_receptance;
-    use crate::model::generate::{FlatPlate, PlateSupport, flat_plate, steel};
 
     /// The clamped 8 × 8 plate (294 DOFs), all its modes, three `uz` pairs.
     fn plate() -> (SystemMatrices, Modes, Vec<FrfPair>) {
-        let model = flat_plate(&FlatPlate {
-            a: 0.6,
-            b: 0.4,
-            nx: 8,
-            ny: 8,
-            thickness: 0.004,
-            material: steel(),
-            support: PlateSupport::ClampedEdge,
-        });
-        let (sys, _) = assemble_model(&model, MassKind::Consistent).unwrap();
+        let sys = crate::frf::krylov::tests::clamped_plate();
         let modes = dense_generalized(
             sys.k_dense().as_ref(),
             sys.m_dense().as_ref(),
