@@ -116,7 +116,8 @@ impl TypedStage for MeshGenerate {
     const KIND: &'static str = "mesh.generate";
     const SUMMARY: &'static str =
         "Case-study geometries (bent plate, flat plate, three-beam) with a mesh-density knob";
-    const IMPL_VERSION: u32 = 1;
+    /// 2: the C5 generators carry measurement points with fixed ids and zone sets.
+    const IMPL_VERSION: u32 = 2;
     const PREFLIGHT: bool = true;
 
     fn inputs() -> Vec<PortSpec> {

@@ -122,6 +122,22 @@ pub trait ParametricModel: Sync {
     fn sensors(&self) -> Option<&SensorMap> {
         None
     }
+    /// For a model analysed by component mode synthesis, how much of its re-analyses reused
+    /// substructures reduced before; `None` for other models.
+    fn reanalysis(&self) -> Option<Reanalysis> {
+        None
+    }
+}
+
+/// The component mode synthesis work of an update (see [`ReducedFeModel`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+pub struct Reanalysis {
+    /// Substructures of the partition.
+    pub substructures: usize,
+    /// Reduced models analysed (parameter points).
+    pub analyses: usize,
+    /// Substructure reductions computed; `analyses · substructures` without the reuse.
+    pub reductions: usize,
 }
 
 /// A model whose measured DOFs are read through a test map (14.7): its modal states carry the
@@ -166,6 +182,10 @@ impl ParametricModel for ThroughMap {
 
     fn sensors(&self) -> Option<&SensorMap> {
         Some(&self.sensors)
+    }
+
+    fn reanalysis(&self) -> Option<Reanalysis> {
+        self.inner.reanalysis()
     }
 }
 
@@ -567,6 +587,7 @@ pub struct ReducedFeModel {
     interface: Option<ModeSelection>,
     last: std::sync::Mutex<Option<(Vec<f64>, std::sync::Arc<ReducedModel>)>>,
     reductions: std::sync::atomic::AtomicUsize,
+    analyses: std::sync::atomic::AtomicUsize,
 }
 
 impl ReducedFeModel {
@@ -579,6 +600,7 @@ impl ReducedFeModel {
             interface: None,
             last: std::sync::Mutex::new(None),
             reductions: std::sync::atomic::AtomicUsize::new(0),
+            analyses: std::sync::atomic::AtomicUsize::new(0),
         }
     }
 
@@ -608,6 +630,7 @@ impl ReducedFeModel {
     ) -> Result<std::sync::Arc<ReducedModel>, UpdatingError> {
         use std::sync::atomic::Ordering;
         let err = |e: crate::reduction::ReductionError| UpdatingError::Reduction(Box::new(e));
+        self.analyses.fetch_add(1, Ordering::Relaxed);
         let previous = self
             .last
             .lock()
@@ -678,6 +701,15 @@ impl ReducedFeModel {
 impl ParametricModel for ReducedFeModel {
     fn parameters(&self) -> &[UpdatingParameter] {
         self.fe.parameters()
+    }
+
+    fn reanalysis(&self) -> Option<Reanalysis> {
+        use std::sync::atomic::Ordering;
+        Some(Reanalysis {
+            substructures: self.partition.substructures.len(),
+            analyses: self.analyses.load(Ordering::Relaxed),
+            reductions: self.reductions(),
+        })
     }
 
     /// The full model (for methods that need physical matrices, and for the updated output).

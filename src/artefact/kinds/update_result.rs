@@ -77,6 +77,10 @@ impl Kind for UpdateResultKind {
                     "sensitive_start",
                     "parameters moved off a start the sensitivities vanish at",
                 ),
+                meta_opt(
+                    "cms",
+                    "with a partition: substructures, analyses, substructure reductions computed and reused",
+                ),
             ],
             blobs: vec![],
         }

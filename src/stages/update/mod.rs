@@ -246,7 +246,8 @@ impl TypedStage for Update {
     const KIND: &'static str = "update";
     const SUMMARY: &'static str =
         "Update model parameters from measured FRFs (P-C, RFM) or modes (inverse eigensensitivity)";
-    const IMPL_VERSION: u32 = 5;
+    /// 6: the result records the component mode synthesis reuse (`cms`).
+    const IMPL_VERSION: u32 = 6;
 
     fn inputs() -> Vec<PortSpec> {
         vec![
@@ -553,6 +554,25 @@ fn run_and_write(
     let mut result = update_result_to_artefact(&history, method.name());
     if !moved.is_empty() {
         result = result.with_meta("sensitive_start", serde_json::Value::Array(moved));
+    }
+    if let Some(cms) = model.reanalysis() {
+        let without_reuse = cms.analyses * cms.substructures;
+        tracing::info!(
+            "component mode synthesis: {} substructure reductions for {} analyses of {} substructures ({} reused)",
+            cms.reductions,
+            cms.analyses,
+            cms.substructures,
+            without_reuse.saturating_sub(cms.reductions)
+        );
+        result = result.with_meta(
+            "cms",
+            serde_json::json!({
+                "substructures": cms.substructures,
+                "analyses": cms.analyses,
+                "reductions": cms.reductions,
+                "reused": without_reuse.saturating_sub(cms.reductions),
+            }),
+        );
     }
     let posterior = posterior(&history)?;
     Ok(StageOutputs::from([

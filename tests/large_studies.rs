@@ -1,0 +1,103 @@
+//! The C5 studies of CASES.md as shipped pipelines, run at a few thousand DOFs: the S123-like
+//! three-plate two-beam assembly (`pipelines/s123-update.yaml`) and the muffler
+//! (`pipelines/muffler-update.yaml`).
+
+mod common;
+
+use common::*;
+use femu::artefact::codec::read_dir;
+use femu::artefact::leverage::leverages;
+use femu::artefact::update::final_values;
+use std::collections::BTreeMap;
+use std::path::Path;
+
+fn results(out: &Path, stage: &str) -> BTreeMap<String, f64> {
+    let a = read_dir(&out.join(stage).join("result")).unwrap();
+    final_values(&a).unwrap().into_iter().collect()
+}
+
+fn meta(out: &Path, stage: &str, key: &str) -> serde_json::Value {
+    let a = read_dir(&out.join(stage).join("result")).unwrap();
+    a.meta.get(key).cloned().unwrap_or_default()
+}
+
+/// Relative changes of the final values against `nominal`, largest magnitude first.
+fn changes(v: &BTreeMap<String, f64>, nominal: &dyn Fn(&str) -> f64) -> Vec<(String, f64)> {
+    let mut c: Vec<(String, f64)> = v
+        .iter()
+        .map(|(name, x)| (name.clone(), x / nominal(name) - 1.0))
+        .collect();
+    c.sort_by(|a, b| b.1.abs().total_cmp(&a.1.abs()));
+    c
+}
+
+/// Nominal zone thickness of the three plates (3, 2, 3 mm).
+fn plate_thickness(name: &str) -> f64 {
+    if name.starts_with("t2_") { 2e-3 } else { 3e-3 }
+}
+
+/// C5, S123: the P-C on the Craig-Bampton model finds the two seeded zone errors (t2_2 15 %
+/// thin, t3_5 15 % thick) among 18 zones. Noise-free data to the 0.999 stop rule: both within
+/// 3 % of their true thickness and every other zone within 3 % of its nominal one (reached:
+/// 1.5 %, 0.4 %, others ≤ 1.6 %). With 5 % thesis noise to 0.995: the seeded zones are the two
+/// largest changes, each in the right direction by more than 40 % of its error (reached: 62 %,
+/// 53 %), no other zone moves 7 % (reached: 4.8 %). The columns are never reduced again.
+#[test]
+fn s123_update_finds_the_seeded_zones() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("out");
+    let (_, report, cache) = run(&pipeline("s123-update"), &tmp.path().join("cache"), &[]);
+    femu::pipeline::materialise(&report, &cache, &out).unwrap();
+    let truth = |name: &str| {
+        plate_thickness(name)
+            * match name {
+                "t2_2" => 0.85,
+                "t3_5" => 1.15,
+                _ => 1.0,
+            }
+    };
+
+    let clean = results(&out, "update_noise_free");
+    assert_eq!(clean.len(), 18);
+    for (name, v) in &clean {
+        assert!(
+            (v / truth(name) - 1.0).abs() < 0.03,
+            "noise-free {name} = {v}"
+        );
+    }
+
+    let noisy = results(&out, "update");
+    assert_eq!(meta(&out, "update", "stop"), "converged");
+    let c = changes(&noisy, &plate_thickness);
+    println!("S123, 5 % noise: {c:?}");
+    let mut first_two: Vec<&str> = c[..2].iter().map(|x| x.0.as_str()).collect();
+    first_two.sort_unstable();
+    assert_eq!(first_two, ["t2_2", "t3_5"], "{c:?}");
+    assert!(noisy["t2_2"] / 2e-3 - 1.0 < -0.06, "{c:?}");
+    assert!(noisy["t3_5"] / 3e-3 - 1.0 > 0.06, "{c:?}");
+    assert!(c[2].1.abs() < 0.07, "{c:?}");
+
+    // Re-analysis: every analysis after the first reuses the columns' reduction.
+    let cms = meta(&out, "update", "cms");
+    let (analyses, reductions) = (
+        cms["analyses"].as_u64().unwrap(),
+        cms["reductions"].as_u64().unwrap(),
+    );
+    assert_eq!(cms["substructures"], 4);
+    assert!(
+        analyses > 1 && reductions <= 4 + 3 * (analyses - 1),
+        "{cms}"
+    );
+    assert_eq!(cms["reused"].as_u64().unwrap(), 4 * analyses - reductions);
+
+    // Localisation over the zones and over every shell: one candidate each, ranks 1..n.
+    let zones =
+        leverages(&read_dir(&out.join("localise_zones").join("leverage")).unwrap()).unwrap();
+    assert_eq!(zones.len(), 18);
+    let elements =
+        leverages(&read_dir(&out.join("localise_elements").join("leverage")).unwrap()).unwrap();
+    assert_eq!(elements.len(), 486);
+    let mut ranks: Vec<i64> = elements.iter().map(|r| r.2).collect();
+    ranks.sort_unstable();
+    assert_eq!(ranks, (1..=486).collect::<Vec<i64>>());
+}
