@@ -1116,3 +1116,122 @@ pub fn pipeline_bench(target_dofs: usize, count: usize) -> Result<PipelineBench,
         kernel_peak_rss_mib: solve.peak_rss_mib,
     })
 }
+
+/// One stage of a study run by [`study_bench`].
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct StudyStage {
+    /// Stage name.
+    pub stage: String,
+    /// Stage kind.
+    pub kind: String,
+    /// Wall-clock seconds.
+    pub seconds: f64,
+    /// What the stage reported: DOFs of a model, an update's iterations, stop, final mean
+    /// correlation, seconds per analysis and component mode synthesis reuse.
+    pub notes: String,
+}
+
+/// A study pipeline run through the executor (`femu bench --study`).
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct StudyBench {
+    /// Pipeline name.
+    pub pipeline: String,
+    /// The overrides applied.
+    pub sets: Vec<String>,
+    /// Per stage, in run order.
+    pub stages: Vec<StudyStage>,
+    /// Whole run, seconds.
+    pub run_seconds: f64,
+    /// Peak resident memory of the process during the run, MiB (where the platform tells).
+    pub run_peak_rss_mib: Option<f64>,
+}
+
+/// Runs the pipeline `file` with the overrides `sets` (only the stages `only` and what they
+/// need, when given) on a fresh temporary cache, timing every stage.
+pub fn study_bench(
+    file: &std::path::Path,
+    sets: &[String],
+    only: &[String],
+) -> Result<StudyBench, String> {
+    use crate::pipeline::{ProgressMode, RunOptions, execute, plan, read_pipeline};
+    let folder = std::env::temp_dir().join(format!("femu-bench-study-{}", std::process::id()));
+    std::fs::create_dir_all(&folder).map_err(|e| format!("{}: {e}", folder.display()))?;
+    let result = (|| {
+        let mut spec = read_pipeline(file).map_err(|e| e.to_string())?;
+        spec.apply_overrides(sets).map_err(|e| e.to_string())?;
+        let plan = plan(&spec, &crate::stages::registry()).map_err(|e| e.to_string())?;
+        let cache = crate::cache::Cache::open(&folder.join("cache")).map_err(|e| e.to_string())?;
+        let opts = RunOptions {
+            only: only.to_vec(),
+            progress: ProgressMode::Quiet,
+            ..Default::default()
+        };
+        reset_peak_rss();
+        let t = Instant::now();
+        let report = execute(&plan, &cache, &opts).map_err(|e| e.to_string())?;
+        let run_seconds = t.elapsed().as_secs_f64();
+        let run_peak_rss_mib = peak_rss_mib();
+        let out = folder.join("out");
+        crate::pipeline::materialise(&report, &cache, &out).map_err(|e| e.to_string())?;
+        let stages = report
+            .stages
+            .iter()
+            .map(|st| {
+                let seconds = st.elapsed.as_secs_f64();
+                StudyStage {
+                    stage: st.name.clone(),
+                    kind: st.kind.clone(),
+                    seconds,
+                    notes: study_notes(&out.join(&st.name), seconds),
+                }
+            })
+            .collect();
+        Ok::<_, String>(StudyBench {
+            pipeline: spec.spec.name.clone(),
+            sets: sets.to_vec(),
+            stages,
+            run_seconds,
+            run_peak_rss_mib,
+        })
+    })();
+    std::fs::remove_dir_all(&folder).ok();
+    result
+}
+
+/// What a study stage's artefacts say about its size and work (see [`StudyStage::notes`]).
+fn study_notes(dir: &std::path::Path, seconds: f64) -> String {
+    use crate::artefact::codec::read_dir;
+    if let Ok(a) = read_dir(&dir.join("result")) {
+        let meta = |k: &str| a.meta.get(k).cloned().unwrap_or_default();
+        let iterations = meta("iterations").as_u64().unwrap_or(0);
+        let mut notes = format!(
+            "{iterations} iterations, stop {}, mean chi {:.4}",
+            meta("stop").as_str().unwrap_or("?"),
+            meta("final_mean_chi").as_f64().unwrap_or(f64::NAN)
+        );
+        let cms = meta("cms");
+        if let (Some(analyses), Some(reductions), Some(parts)) = (
+            cms["analyses"].as_u64(),
+            cms["reductions"].as_u64(),
+            cms["substructures"].as_u64(),
+        ) {
+            notes += &format!(
+                ", {analyses} analyses ({:.2} s each), {reductions} of {} substructure reductions computed",
+                seconds / analyses.max(1) as f64,
+                analyses * parts
+            );
+        } else {
+            notes += &format!(", {:.2} s per iteration", seconds / (iterations + 1) as f64);
+        }
+        return notes;
+    }
+    for port in ["model", "matrices"] {
+        if let Some(n) = read_dir(&dir.join(port))
+            .ok()
+            .and_then(|a| a.meta.get("n_dofs").and_then(|v| v.as_u64()))
+        {
+            return format!("{n} DOFs");
+        }
+    }
+    String::new()
+}

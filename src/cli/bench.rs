@@ -6,7 +6,9 @@ use super::{BenchArgs, Failure};
 
 /// `femu bench`: `--cms`, `--pc-iteration` or the model benchmark, in that precedence.
 pub(super) fn run(a: BenchArgs) -> Result<u8, Failure> {
-    if a.pipeline {
+    if a.study.is_some() {
+        study(a)
+    } else if a.pipeline {
         pipeline(a)
     } else if a.frf {
         frf(a)
@@ -19,6 +21,49 @@ pub(super) fn run(a: BenchArgs) -> Result<u8, Failure> {
     } else {
         models(a)
     }
+}
+
+/// `femu bench --study PIPELINE`.
+fn study(a: BenchArgs) -> Result<u8, Failure> {
+    let Some(file) = a.study.clone() else {
+        return Ok(0);
+    };
+    let sizes: Vec<Option<usize>> = if a.dofs.is_empty() {
+        vec![None]
+    } else {
+        a.dofs.iter().copied().map(Some).collect()
+    };
+    println!(
+        "{} through the pipeline executor on a fresh cache, {} threads",
+        file.display(),
+        rayon::current_num_threads()
+    );
+    let mut all = Vec::new();
+    for size in sizes {
+        let mut sets = a.set.clone();
+        if let Some(n) = size {
+            sets.push(format!("nominal.dofs={n}"));
+        }
+        let b = crate::bench::study_bench(&file, &sets, &a.only).map_err(|e| anyhow::anyhow!(e))?;
+        println!(
+            "\n{} (nominal.dofs = {}): {:.1} s, peak {} MiB",
+            b.pipeline,
+            size.map_or_else(|| "as in the file".to_string(), |n| n.to_string()),
+            b.run_seconds,
+            b.run_peak_rss_mib
+                .map_or_else(|| "?".to_string(), |m| format!("{m:.0}"))
+        );
+        println!("{:<32} {:<20} {:>9}  notes", "stage", "kind", "s");
+        for st in &b.stages {
+            println!(
+                "{:<32} {:<20} {:>9.2}  {}",
+                st.stage, st.kind, st.seconds, st.notes
+            );
+        }
+        all.push(b);
+    }
+    write_json(a.json, &all)?;
+    Ok(0)
 }
 
 /// `femu bench --pipeline`.

@@ -223,6 +223,18 @@ struct BenchArgs {
     /// `--modes` mode count (default 50), beside the same steps by the kernels.
     #[arg(long)]
     pipeline: bool,
+    /// Run a study pipeline (e.g. `pipelines/s123-update.yaml`) through the executor on a
+    /// fresh cache at each `--dofs` size (set as `nominal.dofs`, default the pipeline's own):
+    /// seconds per stage, peak memory, each update's iterations and component mode synthesis
+    /// reuse.
+    #[arg(long, value_name = "PIPELINE")]
+    study: Option<PathBuf>,
+    /// With `--study`: run only these stages and what they need (repeatable).
+    #[arg(long = "only", value_name = "STAGE")]
+    only: Vec<String>,
+    /// With `--study`: further parameter overrides, `STAGE.PARAM=VALUE` (repeatable).
+    #[arg(long = "set", value_name = "STAGE.PARAM=VALUE")]
+    set: Vec<String>,
 }
 
 /// Entry point of the binary.
