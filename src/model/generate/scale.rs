@@ -20,6 +20,17 @@ use super::steel;
 use crate::model::{BeamProperty, BeamSection, Element, Model, ShellProperty};
 use std::collections::HashMap;
 
+/// A rectangular panel: set name, origin, edge vectors `u`, `v`, divisions, and its
+/// measurement points `(id, s, t)` at fractions of `u` and `v`.
+type Panel<'a> = (
+    &'a str,
+    [f64; 3],
+    [f64; 3],
+    [f64; 3],
+    (usize, usize),
+    &'a [(u64, f64, f64)],
+);
+
 /// Id of the first grid point that is not a measurement point.
 pub const FIRST_MESH_NODE: u64 = 1001;
 
@@ -257,14 +268,7 @@ pub fn muffler(h: f64, baffles: usize) -> Model {
     );
     let (ex, ey, ez) = ([lx, 0.0, 0.0], [0.0, ly, 0.0], [0.0, 0.0, lz]);
     // Outer skin: six panels `(name, origin, u, v, divisions, measurement points)`.
-    let panels: [(
-        &str,
-        [f64; 3],
-        [f64; 3],
-        [f64; 3],
-        (usize, usize),
-        &[(u64, f64, f64)],
-    ); 6] = [
+    let panels: [Panel; 6] = [
         (
             "bottom",
             [0.0; 3],
