@@ -74,8 +74,8 @@ impl Builder {
 
     /// The measurement point `id` at the grid vertex of the patch `origin + s·u + t·v`
     /// (`nu × nv` quads) nearest to the fractions `(s, t)`, created before the patch so the
-    /// patch shares it. Two points on one vertex (a mesh coarser than the point grid) keep the
-    /// first id; the caller checks with [`Builder::missing_sensors`].
+    /// patch shares it. Two points on one vertex would keep the first id: the generators'
+    /// least divisions keep their points apart (tested at every density).
     fn sensor(
         &mut self,
         id: u64,
