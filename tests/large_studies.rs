@@ -102,11 +102,12 @@ fn s123_update_finds_the_seeded_zones() {
     assert_eq!(ranks, (1..=486).collect::<Vec<i64>>());
 }
 
-/// C5, muffler: the P-C (as a continuation) on the full model finds the top panel 10 % thin and
-/// the first baffle 20 % thick among nine panel thicknesses, from 10 points and two forces.
-/// With 5 % noise: both within 3 % of their true thickness (reached: 0.1 %, 1.3 %), every other
-/// panel within 4 % of nominal (reached: 2.3 %). Without noise: 1.5 % and 1.5 % (reached: 0.7 %,
-/// 0.9 %). The leverage ranks the top panel first.
+/// C5, muffler: the P-C (as a continuation, with the residual flexibility) on the full model
+/// finds the top panel 10 % thin and the first baffle 20 % thick among nine panel thicknesses,
+/// from 10 points and two forces. With 5 % noise: both within 3 % of their true thickness
+/// (reached: 0.1 %, 0.9 %), every other panel within 2.5 % of nominal (reached: 1.3 %).
+/// Without noise, to the 0.999 stop rule: 1 % and 1 % (reached: 0.04 %, 0.12 %; 0.5 %). The
+/// leverage ranks the top panel first.
 #[test]
 fn muffler_update_finds_the_thin_top_and_the_thick_baffle() {
     let tmp = tempfile::tempdir().unwrap();
@@ -126,7 +127,7 @@ fn muffler_update_finds_the_thin_top_and_the_thick_baffle() {
                 _ => 1.0,
             }
     };
-    for (stage, seeded, others) in [("update", 0.03, 0.04), ("update_noise_free", 0.015, 0.015)] {
+    for (stage, seeded, others) in [("update", 0.03, 0.025), ("update_noise_free", 0.01, 0.01)] {
         assert_eq!(meta(&out, stage, "stop"), "converged", "{stage}");
         let v = results(&out, stage);
         assert_eq!(v.len(), 9);

@@ -223,6 +223,24 @@ impl LocalDerivative {
         Ok(LocalDerivative { rows, dk, dm })
     }
 
+    /// A derivative given on all free DOFs (a parameter's `∂K/∂φ`, `∂M/∂φ`), restricted to the
+    /// rows where either has an entry.
+    pub fn from_global(dk: &SparseMatrix, dm: &SparseMatrix) -> Result<Self, LocalisationError> {
+        let (tk, tm) = (sparse_triplets(dk), sparse_triplets(dm));
+        let mut rows: Vec<usize> = tk.iter().chain(&tm).flat_map(|t| [t.0, t.1]).collect();
+        rows.sort_unstable();
+        rows.dedup();
+        let local = |t: Vec<(usize, usize, f64)>| {
+            let at = |g: usize| rows.binary_search(&g).unwrap_or_default();
+            let t: Vec<(usize, usize, f64)> =
+                t.into_iter().map(|(i, j, v)| (at(i), at(j), v)).collect();
+            sparse_from_triplets("derivative", rows.len(), &t)
+                .map_err(|e| LocalisationError::Model(e.to_string()))
+        };
+        let (dk, dm) = (local(tk)?, local(tm)?);
+        Ok(LocalDerivative { rows, dk, dm })
+    }
+
     /// The rows of `a` (`N × c`) at the local DOFs.
     pub fn gather(&self, a: MatRef<'_, f64>) -> Mat<f64> {
         Mat::from_fn(self.rows.len(), a.ncols(), |i, c| a[(self.rows[i], c)])

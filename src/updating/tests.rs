@@ -57,7 +57,7 @@ fn measured(eta: f64, freqs: &[f64]) -> FrfSet {
 /// on the truth and the second confirms it. Tolerance 1e-8 (issue 5).
 /// The C2 bent plate of `geometry` with the thicknesses of `strips` as parameters (bounds
 /// 0.1–10 mm), named `t<strip>`.
-fn bent_plate_with_strip_thicknesses(
+pub(super) fn bent_plate_with_strip_thicknesses(
     geometry: crate::model::generate::BentPlate,
     strips: &[usize],
 ) -> crate::model::Model {

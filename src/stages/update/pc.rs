@@ -114,6 +114,13 @@ pub struct PcParams {
     /// still rises toward the solution; these steps do not. Off: the thesis's steps alone.
     #[serde(default = "merit_steps")]
     pub merit_steps: bool,
+    /// Add the truncated modes' residual (static) flexibility at the measured DOFs to every
+    /// prediction and its derivative to the sensitivities (full models; one more sparse
+    /// factorisation of `K − σM` per analysis). Default `false`: the modal sum alone, as in
+    /// the thesis. (A partition's Craig-Bampton model holds the static share already; the
+    /// Laplace `posterior` still linearises the modal sum without it.)
+    #[serde(default)]
+    pub residual_flexibility: bool,
 }
 
 fn kappa_f() -> Fraction {
@@ -148,6 +155,7 @@ impl Default for PcParams {
             static_correction: d.static_correction,
             smoothing: Vec::new(),
             merit_steps: d.merit_steps,
+            residual_flexibility: d.residual_flexibility,
         }
     }
 }
@@ -201,6 +209,7 @@ impl PcMethod {
             static_correction: pc.static_correction,
             smoothing,
             merit_steps: pc.merit_steps,
+            residual_flexibility: pc.residual_flexibility,
         }
     }
 
