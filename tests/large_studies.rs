@@ -148,3 +148,59 @@ fn muffler_update_finds_the_thin_top_and_the_thick_baffle() {
     let top = leverage.iter().find(|r| r.0 == "t_top").unwrap();
     assert_eq!(top.2, 1, "{leverage:?}");
 }
+
+/// `femu bench --study` runs a study at the size asked (`nominal.dofs`) through the executor
+/// and reports every stage it ran with its time, and the model's size.
+#[test]
+fn bench_study_reports_each_stage_at_the_size_asked() {
+    let tmp = tempfile::tempdir().unwrap();
+    let json = tmp.path().join("study.json");
+    let run = femu()
+        .args(["bench", "--study"])
+        .arg(pipeline("s123-update"))
+        .args(["--dofs", "1000", "--only", "measured", "--json"])
+        .arg(&json)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&run.stdout);
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    assert!(
+        stdout.contains("s123-update (nominal.dofs = 1000)"),
+        "{stdout}"
+    );
+    let all: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
+    let b = &all[0];
+    assert_eq!(b["sets"][0], "nominal.dofs=1000");
+    let stages = b["stages"].as_array().unwrap();
+    let names: Vec<&str> = stages
+        .iter()
+        .map(|s| s["stage"].as_str().unwrap())
+        .collect();
+    for want in [
+        "nominal",
+        "initial",
+        "truth",
+        "truth_matrices",
+        "measured_clean",
+        "measured",
+    ] {
+        assert!(names.contains(&want), "{names:?}");
+    }
+    assert!(!names.contains(&"update"), "{names:?}");
+    let matrices = stages
+        .iter()
+        .find(|s| s["stage"] == "truth_matrices")
+        .unwrap();
+    let dofs: usize = matrices["notes"]
+        .as_str()
+        .unwrap()
+        .trim_end_matches(" DOFs")
+        .parse()
+        .unwrap();
+    assert!((1_000..3_000).contains(&dofs), "{dofs} DOFs");
+    assert!(stages.iter().all(|s| s["seconds"].as_f64().unwrap() >= 0.0));
+}

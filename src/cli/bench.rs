@@ -44,7 +44,9 @@ fn study(a: BenchArgs) -> Result<u8, Failure> {
         if let Some(n) = size {
             sets.push(format!("nominal.dofs={n}"));
         }
-        let b = crate::bench::study_bench(&file, &sets, &a.only).map_err(|e| anyhow::anyhow!(e))?;
+        // The pipeline's own diagnostics already say `error:`.
+        let b = crate::bench::study_bench(&file, &sets, &a.only)
+            .map_err(|e| anyhow::anyhow!(e.trim_start_matches("error: ").to_string()))?;
         println!(
             "\n{} (nominal.dofs = {}): {:.1} s, peak {} MiB",
             b.pipeline,
