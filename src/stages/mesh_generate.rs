@@ -53,12 +53,14 @@ pub enum Params {
         #[serde(default = "free")]
         support: PlateSupport,
     },
-    /// C5: three stacked plates held by two beam columns, sized by a DOF target.
+    /// C5: three stacked plates held by two beam columns, sized by a DOF target; measurement
+    /// points 101–122, 201–222, 301–322 and zone sets `plate_k_zone_1..6` at every size.
     ThreePlateTwoBeam {
         /// About how many DOFs (sets the element size).
         dofs: usize,
     },
-    /// C5: a muffler-like closed shell box with baffles and tubes, sized by a DOF target.
+    /// C5: a muffler-like closed shell box with baffles and tubes, sized by a DOF target;
+    /// measurement points 1–10 and panel sets (`top`, `side_1`, …, `baffle_k`) at every size.
     Muffler {
         /// About how many DOFs (sets the element size).
         dofs: usize,
@@ -114,8 +116,7 @@ const MAX_NODES: usize = 200_000;
 impl TypedStage for MeshGenerate {
     type Params = Params;
     const KIND: &'static str = "mesh.generate";
-    const SUMMARY: &'static str =
-        "Case-study geometries (bent plate, flat plate, three-beam) with a mesh-density knob";
+    const SUMMARY: &'static str = "Case-study geometries (bent plate, flat plate, three-beam, three plates and two beams, muffler) with a mesh-density knob";
     /// 2: the C5 generators carry measurement points with fixed ids and zone sets.
     const IMPL_VERSION: u32 = 2;
     const PREFLIGHT: bool = true;
