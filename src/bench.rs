@@ -1063,41 +1063,73 @@ pub struct PipelineBench {
     pub kernel_peak_rss_mib: Option<f64>,
 }
 
+/// Runs `f` with a fresh scratch folder under the system's temporary directory, removed after.
+fn in_scratch_folder<T>(
+    tag: &str,
+    f: impl FnOnce(&std::path::Path) -> Result<T, String>,
+) -> Result<T, String> {
+    let folder = std::env::temp_dir().join(format!("femu-bench-{tag}-{}", std::process::id()));
+    std::fs::create_dir_all(&folder).map_err(|e| format!("{}: {e}", folder.display()))?;
+    let result = f(&folder);
+    std::fs::remove_dir_all(&folder).ok();
+    result
+}
+
+/// A pipeline run through the executor on a fresh cache, as `femu run` runs it.
+struct TimedRun {
+    report: crate::pipeline::RunReport,
+    cache: crate::cache::Cache,
+    seconds: f64,
+    peak_rss_mib: Option<f64>,
+}
+
+/// Runs `spec` (only the stages `only` and what they need, when given) on a fresh cache in
+/// `folder`, quietly, timing the whole run and its peak memory.
+fn run_on_fresh_cache(
+    folder: &std::path::Path,
+    spec: &crate::pipeline::SourcedSpec,
+    only: &[String],
+) -> Result<TimedRun, String> {
+    use crate::pipeline::{ProgressMode, RunOptions, execute, plan};
+    let plan = plan(spec, &crate::stages::registry()).map_err(|e| e.to_string())?;
+    let cache = crate::cache::Cache::open(&folder.join("cache")).map_err(|e| e.to_string())?;
+    let opts = RunOptions {
+        only: only.to_vec(),
+        progress: ProgressMode::Quiet,
+        ..Default::default()
+    };
+    reset_peak_rss();
+    let t = Instant::now();
+    let report = execute(&plan, &cache, &opts).map_err(|e| e.to_string())?;
+    Ok(TimedRun {
+        report,
+        cache,
+        seconds: t.elapsed().as_secs_f64(),
+        peak_rss_mib: peak_rss_mib(),
+    })
+}
+
 /// Runs `mesh.generate` (the clamped 1 m × 1 m × 5 mm steel plate of about `target_dofs`
 /// DOFs) → `assemble` → `modes` (`count`, tolerance 1e-8) through the pipeline executor on a
 /// fresh cache in a temporary folder, then the same steps by the kernels.
 pub fn pipeline_bench(target_dofs: usize, count: usize) -> Result<PipelineBench, String> {
-    use crate::pipeline::{ProgressMode, RunOptions, execute, plan, read_pipeline};
     let side = ((target_dofs as f64 / 6.0).sqrt().round() as usize).max(2);
-    let folder = std::env::temp_dir().join(format!("femu-bench-pipeline-{}", std::process::id()));
-    std::fs::create_dir_all(&folder).map_err(|e| format!("{}: {e}", folder.display()))?;
-    let result = (|| {
+    let (stage_seconds, run_seconds, run_peak_rss_mib) = in_scratch_folder("pipeline", |folder| {
         let file = folder.join("plate-modes.yaml");
         let text = format!(
             "name: plate-modes\nstages:\n  plate:\n    kind: mesh.generate\n    with: {{geometry: flat_plate, a_m: 1.0, b_m: 1.0, nx: {side}, ny: {side}, thickness_m: 0.005, support: clamped_edge}}\n  matrices:\n    kind: assemble\n    inputs: {{mesh: plate}}\n  modes:\n    kind: modes\n    inputs: {{model: matrices}}\n    with: {{count: {count}, tolerance: 1.0e-8}}\n"
         );
         std::fs::write(&file, text).map_err(|e| format!("{}: {e}", file.display()))?;
-        let spec = read_pipeline(&file).map_err(|e| e.to_string())?;
-        let plan = plan(&spec, &crate::stages::registry()).map_err(|e| e.to_string())?;
-        let cache = crate::cache::Cache::open(&folder.join("cache")).map_err(|e| e.to_string())?;
-        let opts = RunOptions {
-            progress: ProgressMode::Quiet,
-            ..Default::default()
-        };
-        reset_peak_rss();
-        let t = Instant::now();
-        let report = execute(&plan, &cache, &opts).map_err(|e| e.to_string())?;
-        let run_seconds = t.elapsed().as_secs_f64();
-        let run_peak_rss_mib = peak_rss_mib();
-        let stage_seconds = report
+        let spec = crate::pipeline::read_pipeline(&file).map_err(|e| e.to_string())?;
+        let run = run_on_fresh_cache(folder, &spec, &[])?;
+        let stage_seconds = run
+            .report
             .stages
             .iter()
             .map(|s| (s.kind.clone(), s.elapsed.as_secs_f64()))
             .collect();
-        Ok::<_, String>((stage_seconds, run_seconds, run_peak_rss_mib))
-    })();
-    std::fs::remove_dir_all(&folder).ok();
-    let (stage_seconds, run_seconds, run_peak_rss_mib) = result?;
+        Ok((stage_seconds, run.seconds, run.peak_rss_mib))
+    })?;
     reset_peak_rss();
     let kernel = plate_bench(target_dofs, &[count])?;
     let solve = kernel
@@ -1153,27 +1185,12 @@ pub fn study_bench(
     sets: &[String],
     only: &[String],
 ) -> Result<StudyBench, String> {
-    use crate::pipeline::{ProgressMode, RunOptions, execute, plan, read_pipeline};
-    let folder = std::env::temp_dir().join(format!("femu-bench-study-{}", std::process::id()));
-    std::fs::create_dir_all(&folder).map_err(|e| format!("{}: {e}", folder.display()))?;
-    let result = (|| {
-        let mut spec = read_pipeline(file).map_err(|e| e.to_string())?;
-        spec.apply_overrides(sets).map_err(|e| e.to_string())?;
-        let plan = plan(&spec, &crate::stages::registry()).map_err(|e| e.to_string())?;
-        let cache = crate::cache::Cache::open(&folder.join("cache")).map_err(|e| e.to_string())?;
-        let opts = RunOptions {
-            only: only.to_vec(),
-            progress: ProgressMode::Quiet,
-            ..Default::default()
-        };
-        reset_peak_rss();
-        let t = Instant::now();
-        let report = execute(&plan, &cache, &opts).map_err(|e| e.to_string())?;
-        let run_seconds = t.elapsed().as_secs_f64();
-        let run_peak_rss_mib = peak_rss_mib();
-        let out = folder.join("out");
-        crate::pipeline::materialise(&report, &cache, &out).map_err(|e| e.to_string())?;
-        let stages = report
+    let mut spec = crate::pipeline::read_pipeline(file).map_err(|e| e.to_string())?;
+    spec.apply_overrides(sets).map_err(|e| e.to_string())?;
+    in_scratch_folder("study", |folder| {
+        let run = run_on_fresh_cache(folder, &spec, only)?;
+        let stages = run
+            .report
             .stages
             .iter()
             .map(|st| {
@@ -1182,27 +1199,30 @@ pub fn study_bench(
                     stage: st.name.clone(),
                     kind: st.kind.clone(),
                     seconds,
-                    notes: study_notes(&out.join(&st.name), seconds),
+                    notes: study_notes(&run.cache, &st.key, seconds),
                 }
             })
             .collect();
-        Ok::<_, String>(StudyBench {
+        Ok(StudyBench {
             pipeline: spec.spec.name.clone(),
             sets: sets.to_vec(),
             stages,
-            run_seconds,
-            run_peak_rss_mib,
+            run_seconds: run.seconds,
+            run_peak_rss_mib: run.peak_rss_mib,
         })
-    })();
-    std::fs::remove_dir_all(&folder).ok();
-    result
+    })
 }
 
-/// What a study stage's artefacts say about its size and work (see [`StudyStage::notes`]).
-fn study_notes(dir: &std::path::Path, seconds: f64) -> String {
-    use crate::artefact::codec::read_dir;
-    if let Ok(a) = read_dir(&dir.join("result")) {
-        let meta = |k: &str| a.meta.get(k).cloned().unwrap_or_default();
+/// What a study stage's outputs say about its size and work (see [`StudyStage::notes`]),
+/// from their `meta.json` in the cache alone (a 1M-DOF matrices artefact is not read).
+fn study_notes(cache: &crate::cache::Cache, key: &str, seconds: f64) -> String {
+    let meta_of = |port: &str| {
+        let dir = cache.artefact_dir(key, port).ok()?;
+        let raw = crate::artefact::codec::read_meta(&dir).ok()?.raw;
+        raw.get("meta")?.as_object().cloned()
+    };
+    if let Some(meta) = meta_of("result") {
+        let meta = |k: &str| meta.get(k).cloned().unwrap_or_default();
         let iterations = meta("iterations").as_u64().unwrap_or(0);
         let mut notes = format!(
             "{iterations} iterations, stop {}, mean chi {:.4}",
@@ -1225,13 +1245,7 @@ fn study_notes(dir: &std::path::Path, seconds: f64) -> String {
         }
         return notes;
     }
-    for port in ["model", "matrices"] {
-        if let Some(n) = read_dir(&dir.join(port))
-            .ok()
-            .and_then(|a| a.meta.get("n_dofs").and_then(|v| v.as_u64()))
-        {
-            return format!("{n} DOFs");
-        }
-    }
-    String::new()
+    meta_of("model")
+        .and_then(|m| m.get("n_dofs").and_then(|v| v.as_u64()))
+        .map_or_else(String::new, |n| format!("{n} DOFs"))
 }

@@ -7,19 +7,7 @@ mod common;
 use common::*;
 use femu::artefact::codec::read_dir;
 use femu::artefact::leverage::leverages;
-use femu::artefact::update::final_values;
 use std::collections::BTreeMap;
-use std::path::Path;
-
-fn results(out: &Path, stage: &str) -> BTreeMap<String, f64> {
-    let a = read_dir(&out.join(stage).join("result")).unwrap();
-    final_values(&a).unwrap().into_iter().collect()
-}
-
-fn meta(out: &Path, stage: &str, key: &str) -> serde_json::Value {
-    let a = read_dir(&out.join(stage).join("result")).unwrap();
-    a.meta.get(key).cloned().unwrap_or_default()
-}
 
 /// Relative changes of the final values against `nominal`, largest magnitude first.
 fn changes(v: &BTreeMap<String, f64>, nominal: &dyn Fn(&str) -> f64) -> Vec<(String, f64)> {

@@ -4,19 +4,7 @@ mod common;
 
 use common::*;
 use femu::artefact::codec::read_dir;
-use femu::artefact::update::final_values;
-use std::collections::BTreeMap;
 use std::path::Path;
-
-fn results(out: &Path, stage: &str) -> BTreeMap<String, f64> {
-    let a = read_dir(&out.join(stage).join("result")).unwrap();
-    final_values(&a).unwrap().into_iter().collect()
-}
-
-fn meta(out: &Path, stage: &str, key: &str) -> serde_json::Value {
-    let a = read_dir(&out.join(stage).join("result")).unwrap();
-    a.meta.get(key).cloned().unwrap_or_default()
-}
 
 /// C1 (thesis §2.5.3): the RFM with complete noise-free data recovers all four masses to 1e-8
 /// at any non-resonant line; incomplete noise-free data with three coordinates (the fourth from

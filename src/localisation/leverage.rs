@@ -14,7 +14,7 @@ use crate::frf::FrfSet;
 use crate::sensitivity::frf::pair_rows;
 use crate::sensitivity::{ModalFrfModel, ProjectedDerivative, frf_sensitivities};
 use crate::updating::pc::correlation_equations;
-use faer::{Mat, MatRef};
+use faer::{Mat, MatRef, c64};
 use rayon::prelude::*;
 use std::ops::Range;
 
@@ -107,15 +107,7 @@ impl Equations<'_> {
         if let Some(flex) = &terms.flexibility {
             let rows = pair_rows(self.modal.dofs, &self.measured.pairs)?;
             for (s, dr) in sens.iter_mut().zip(flex) {
-                for (k, &f) in freqs.iter().enumerate() {
-                    let factor = self
-                        .measured
-                        .quantity
-                        .factor(2.0 * std::f64::consts::PI * f);
-                    for (q, &(i, j)) in rows.iter().enumerate() {
-                        s[(k, q)] += factor * dr[(i, j)];
-                    }
-                }
+                add_static_receptance(s, &freqs, self.measured.quantity, &rows, dr.as_ref());
             }
         }
         Ok(correlation_equations(
@@ -137,13 +129,25 @@ pub fn add_receptance(
     dofs: &[DofId],
 ) -> Result<(), LocalisationError> {
     let rows = pair_rows(dofs, &set.pairs)?;
-    for (k, &f) in set.freqs_hz.iter().enumerate() {
-        let factor = set.quantity.factor(2.0 * std::f64::consts::PI * f);
+    add_static_receptance(&mut set.values, &set.freqs_hz, set.quantity, &rows, r);
+    Ok(())
+}
+
+/// Adds a frequency-independent receptance `r` to `values` (lines × pairs, at `freqs_hz`),
+/// converted to `quantity`; `rows` are each pair's (response, excitation) rows of `r`.
+pub fn add_static_receptance(
+    values: &mut Mat<c64>,
+    freqs_hz: &[f64],
+    quantity: crate::frf::Quantity,
+    rows: &[(usize, usize)],
+    r: MatRef<'_, f64>,
+) {
+    for (k, &f) in freqs_hz.iter().enumerate() {
+        let factor = quantity.factor(2.0 * std::f64::consts::PI * f);
         for (q, &(i, j)) in rows.iter().enumerate() {
-            set.values[(k, q)] += factor * r[(i, j)];
+            values[(k, q)] += factor * r[(i, j)];
         }
     }
-    Ok(())
 }
 
 /// What a chunk of candidates contributes to `S`: their unity-scaled projected derivatives

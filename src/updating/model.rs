@@ -140,6 +140,13 @@ pub struct Reanalysis {
     pub reductions: usize,
 }
 
+impl Reanalysis {
+    /// Substructure reductions taken from an earlier analysis instead of computed.
+    pub fn reused(&self) -> usize {
+        (self.analyses * self.substructures).saturating_sub(self.reductions)
+    }
+}
+
 /// A model whose measured DOFs are read through a test map (14.7): its modal states carry the
 /// map, so every prediction and sensitivity the methods read at measured DOFs follows it.
 pub struct ThroughMap {

@@ -18,6 +18,7 @@ use super::{IterationRecord, Step, StopReason, UpdateMethod};
 use crate::correlation::frf::{amplitude_correlation, shape_correlation};
 use crate::eigen::ModeSelection;
 use crate::frf::{FrequencySmoothing, FrfSet, ModalDamping, modal_receptance};
+use crate::localisation::leverage::add_static_receptance;
 use crate::sensitivity::{ModalFrfModel, chi_sensitivity, frf_sensitivities};
 use faer::{Mat, MatRef, c64};
 
@@ -494,15 +495,15 @@ impl ResidualFlexibility {
     }
 
     /// Adds `R` to every line of `set` (the measured pairs, in `set`'s quantity).
-    fn add_to(&self, set: &mut FrfSet, eigenvalues: &[f64]) -> Result<(), UpdatingError> {
+    fn add_to(&self, set: &mut FrfSet, eigenvalues: &[f64]) {
         let r = self.combined(self.share.flexibility(eigenvalues, self.shapes.as_ref()));
-        for (k, &f) in set.freqs_hz.iter().enumerate() {
-            let factor = set.quantity.factor(2.0 * std::f64::consts::PI * f);
-            for (q, &(i, j)) in self.rows.iter().enumerate() {
-                set.values[(k, q)] += factor * r[(i, j)];
-            }
-        }
-        Ok(())
+        add_static_receptance(
+            &mut set.values,
+            &set.freqs_hz,
+            set.quantity,
+            &self.rows,
+            r.as_ref(),
+        );
     }
 
     /// Per parameter, unity-scaled: Wang's correction `ρ` of the kept mode-shape derivatives
@@ -551,12 +552,7 @@ impl ResidualFlexibility {
         quantity: crate::frf::Quantity,
     ) {
         for (s, (_, dr)) in sens.iter_mut().zip(terms) {
-            for (k, &f) in freqs_hz.iter().enumerate() {
-                let factor = quantity.factor(2.0 * std::f64::consts::PI * f);
-                for (q, &(i, j)) in self.rows.iter().enumerate() {
-                    s[(k, q)] += factor * dr[(i, j)];
-                }
-            }
+            add_static_receptance(s, freqs_hz, quantity, &self.rows, dr.as_ref());
         }
     }
 }
@@ -574,7 +570,7 @@ impl UpdateMethod for PredictorCorrector<'_> {
         let residual = match (&evaluated, s.residual_flexibility) {
             (Some(ev), true) => {
                 let r = ResidualFlexibility::new(ev, &state, self.measured)?;
-                r.add_to(&mut raw, state.modes.eigenvalues.as_slice())?;
+                r.add_to(&mut raw, state.modes.eigenvalues.as_slice());
                 Some((r, ev))
             }
             _ => None,
@@ -707,7 +703,6 @@ mod tests {
     use super::*;
     use crate::fe::element::MassKind;
     use crate::frf::Quantity;
-    use crate::model::generate::BentPlate;
     use crate::updating::model::FeModel;
 
     /// The residual flexibility on the thesis's truncated basis (modes to 200 Hz, lines to
@@ -720,20 +715,10 @@ mod tests {
     /// vanishes to rounding.
     #[test]
     fn residual_flexibility_prediction_and_derivative() {
-        let model = crate::updating::tests::bent_plate_with_strip_thicknesses(
-            BentPlate {
-                clamped: true,
-                with_bar: false,
-                ..Default::default()
-            },
-            &[1, 4, 9],
-        );
-        let fe = FeModel::new(model, &[], MassKind::Consistent).unwrap();
+        use crate::updating::tests::{clamped_plate_three_strips, three_measured_dofs};
+        let fe = FeModel::new(clamped_plate_three_strips(), &[], MassKind::Consistent).unwrap();
         let values = fe.initial_values();
-        let dofs: Vec<crate::core::DofId> = ["113:uz", "56:uz", "110:uz"]
-            .iter()
-            .map(|s| s.parse().unwrap())
-            .collect();
+        let dofs = three_measured_dofs();
         let pairs = FrfSet::all_pairs(&dofs, &dofs[..1]);
         let freqs = [13.0, 37.5, 61.0, 88.0];
         let damping = ModalDamping::Structural(vec![0.01]);
@@ -753,8 +738,7 @@ mod tests {
             if residual {
                 ResidualFlexibility::new(&ev, &st, &h)
                     .unwrap()
-                    .add_to(&mut h, &st.modes.eigenvalues)
-                    .unwrap();
+                    .add_to(&mut h, &st.modes.eigenvalues);
             }
             h
         };

@@ -57,7 +57,28 @@ fn measured(eta: f64, freqs: &[f64]) -> FrfSet {
 /// on the truth and the second confirms it. Tolerance 1e-8 (issue 5).
 /// The C2 bent plate of `geometry` with the thicknesses of `strips` as parameters (bounds
 /// 0.1–10 mm), named `t<strip>`.
-pub(super) fn bent_plate_with_strip_thicknesses(
+/// The clamped bent plate without its bar, thickness parameters on strips 1, 4 and 9: the
+/// model of the FRF sensitivity checks.
+pub(super) fn clamped_plate_three_strips() -> crate::model::Model {
+    bent_plate_with_strip_thicknesses(
+        crate::model::generate::BentPlate {
+            clamped: true,
+            with_bar: false,
+            ..Default::default()
+        },
+        &[1, 4, 9],
+    )
+}
+
+/// Its three measured DOFs, uz at the free corner (the excitation) and two more.
+pub(super) fn three_measured_dofs() -> Vec<crate::core::DofId> {
+    ["113:uz", "56:uz", "110:uz"]
+        .iter()
+        .map(|s| s.parse().unwrap())
+        .collect()
+}
+
+fn bent_plate_with_strip_thicknesses(
     geometry: crate::model::generate::BentPlate,
     strips: &[usize],
 ) -> crate::model::Model {
@@ -195,17 +216,9 @@ fn eigensensitivity_recovers_the_masses_from_four_frequencies() {
 fn chi_sensitivities_of_an_fe_model_match_central_differences() {
     use crate::correlation::frf::{amplitude_correlation, shape_correlation};
     use crate::fe::element::MassKind;
-    use crate::model::generate::BentPlate;
     use crate::sensitivity::{ModalFrfModel, chi_sensitivity, frf_sensitivities};
     use faer::c64;
-    let model = bent_plate_with_strip_thicknesses(
-        BentPlate {
-            clamped: true,
-            with_bar: false,
-            ..Default::default()
-        },
-        &[1, 4, 9],
-    );
+    let model = clamped_plate_three_strips();
     let truth = FeModel::new(model.clone(), &[], MassKind::Consistent).unwrap();
     let mut wrong = model.clone();
     wrong
@@ -213,10 +226,7 @@ fn chi_sensitivities_of_an_fe_model_match_central_differences() {
         .unwrap();
     let fe = FeModel::new(wrong, &[], MassKind::Consistent).unwrap();
     let values = fe.initial_values();
-    let dofs: Vec<crate::core::DofId> = ["113:uz", "56:uz", "110:uz"]
-        .iter()
-        .map(|s| s.parse().unwrap())
-        .collect();
+    let dofs = three_measured_dofs();
     let pairs = FrfSet::all_pairs(&dofs, &dofs[..1]);
     let freqs = [13.0, 37.5, 61.0, 88.0];
     let damping = ModalDamping::Structural(vec![0.01]);
@@ -902,15 +912,7 @@ fn predictions_and_sensitivities_through_interpolation_weights() {
     use crate::core::DofId;
     use crate::fe::element::MassKind;
     use crate::frf::FrfPair;
-    use crate::model::generate::BentPlate;
-    let model = bent_plate_with_strip_thicknesses(
-        BentPlate {
-            clamped: true,
-            with_bar: false,
-            ..Default::default()
-        },
-        &[1, 4, 9],
-    );
+    let model = clamped_plate_three_strips();
     let d = |s: &str| -> DofId { s.parse().unwrap() };
     let combos: Vec<(DofId, Vec<(DofId, f64)>)> = vec![
         (d("9001:uz"), vec![(d("113:uz"), 0.25), (d("56:uz"), 0.75)]),

@@ -123,3 +123,18 @@ pub fn check_golden(name: &str, out: &Path, stages: &[&str]) {
     }
     assert!(failures.is_empty(), "{name}:\n{}", failures.join("\n"));
 }
+
+/// Final parameter values of an `update` stage's result in a run's `--out` directory.
+pub fn results(out: &Path, stage: &str) -> std::collections::BTreeMap<String, f64> {
+    let a = read_dir(&out.join(stage).join("result")).unwrap();
+    femu::artefact::update::final_values(&a)
+        .unwrap()
+        .into_iter()
+        .collect()
+}
+
+/// One meta value of an `update` stage's result in a run's `--out` directory (null if absent).
+pub fn meta(out: &Path, stage: &str, key: &str) -> serde_json::Value {
+    let a = read_dir(&out.join(stage).join("result")).unwrap();
+    a.meta.get(key).cloned().unwrap_or_default()
+}

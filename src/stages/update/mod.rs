@@ -556,13 +556,12 @@ fn run_and_write(
         result = result.with_meta("sensitive_start", serde_json::Value::Array(moved));
     }
     if let Some(cms) = model.reanalysis() {
-        let without_reuse = cms.analyses * cms.substructures;
         tracing::info!(
             "component mode synthesis: {} substructure reductions for {} analyses of {} substructures ({} reused)",
             cms.reductions,
             cms.analyses,
             cms.substructures,
-            without_reuse.saturating_sub(cms.reductions)
+            cms.reused()
         );
         result = result.with_meta(
             "cms",
@@ -570,7 +569,7 @@ fn run_and_write(
                 "substructures": cms.substructures,
                 "analyses": cms.analyses,
                 "reductions": cms.reductions,
-                "reused": without_reuse.saturating_sub(cms.reductions),
+                "reused": cms.reused(),
             }),
         );
     }
