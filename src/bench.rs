@@ -1236,8 +1236,9 @@ fn study_notes(cache: &crate::cache::Cache, key: &str, seconds: f64) -> String {
             cms["substructures"].as_u64(),
         ) {
             notes += &format!(
-                ", {analyses} analyses ({:.2} s each), {reductions} of {} substructure reductions computed",
-                seconds / analyses.max(1) as f64,
+                ", {:.2} s per iteration, {analyses} full analyses and {} candidate steps ranked on held bases, {reductions} of {} substructure reductions computed",
+                seconds / (iterations + 1) as f64,
+                cms["trials"].as_u64().unwrap_or(0),
                 analyses * parts
             );
         } else {

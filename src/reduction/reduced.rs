@@ -496,6 +496,47 @@ impl ReducedModel {
     /// `ε λ_max`, far above the full model's), so the pencil is solved as `(K_c + sM_c, M_c)`
     /// with `s = 10⁻¹⁰ max_i K_ii/M_ii`, and `λ = μ − s`; `|λ| ≤ s/2` is a rigid-body mode.
     pub fn modes(&self, selection: ModeSelection) -> Result<Modes, ReductionError> {
+        self.modes_of(&self.k, &self.m, selection)
+    }
+
+    /// `K_c`, `M_c` on this model's held bases with the projected matrices of some components
+    /// replaced (`(k, T_locᵀ K_k T_loc, T_locᵀ M_k T_loc)`, e.g. from
+    /// [`project_on_held_basis`]): the Rayleigh-Ritz re-analysis of a parameter change on the
+    /// transformations of the last reduction (3.59 holds them for the derivatives). The
+    /// couplings and expansion stay this model's, so [`Self::modes_of`] and [`Self::expand`]
+    /// apply. `None` for a second-level force coupling, whose reduced matrices are not the
+    /// coupled sum of the components'.
+    pub fn held_basis_matrices(
+        &self,
+        replaced: &[(usize, Mat<f64>, Mat<f64>)],
+    ) -> Option<(Mat<f64>, Mat<f64>)> {
+        if let Method::ForceCoupling {
+            second_level: Some(_),
+            ..
+        } = &self.method
+        {
+            return None;
+        }
+        let n = self.n();
+        let (mut k, mut m) = (Mat::zeros(n, n), Mat::zeros(n, n));
+        for (i, (c, cp)) in self.components.iter().zip(&self.couplings).enumerate() {
+            let (ck, cm) = match replaced.iter().find(|(at, _, _)| *at == i) {
+                Some((_, ck, cm)) => (ck, cm),
+                None => (&c.k, &c.m),
+            };
+            cp.accumulate(ck.as_ref(), &mut k);
+            cp.accumulate(cm.as_ref(), &mut m);
+        }
+        Some((super::linalg::symmetrise(&k), super::linalg::symmetrise(&m)))
+    }
+
+    /// [`Self::modes`] of reduced matrices `k`, `m` over this model's coordinates.
+    pub fn modes_of(
+        &self,
+        k: &Mat<f64>,
+        m: &Mat<f64>,
+        selection: ModeSelection,
+    ) -> Result<Modes, ReductionError> {
         // Labels only name DOFs in error messages; modal coordinates (unit modal mass, never
         // massless) carry the placeholder 0:ux.
         let labels: Vec<DofId> = self
@@ -510,11 +551,11 @@ impl ReducedModel {
             .collect();
         let n = self.n();
         let ratio = (0..n)
-            .filter(|i| self.m[(*i, *i)] > 0.0)
-            .map(|i| self.k[(i, i)] / self.m[(i, i)])
+            .filter(|i| m[(*i, *i)] > 0.0)
+            .map(|i| k[(i, i)] / m[(i, i)])
             .fold(0.0f64, f64::max);
         let s = if ratio > 0.0 { 1e-10 * ratio } else { 1e-10 };
-        let kp = &self.k + &self.m * faer::Scale(s);
+        let kp = k + m * faer::Scale(s);
         let selection = match selection {
             ModeSelection::BelowHz(f) => {
                 let l = (2.0 * std::f64::consts::PI * f).powi(2) + s;
@@ -523,7 +564,7 @@ impl ReducedModel {
             other => other,
         };
         let mut modes = if n <= 2000 {
-            dense_generalized(kp.as_ref(), self.m.as_ref(), &labels, selection)
+            dense_generalized(kp.as_ref(), m.as_ref(), &labels, selection)
                 .map_err(ReductionError::ReducedEigen)?
         } else {
             let sparse = |a: &Mat<f64>| {
@@ -538,7 +579,7 @@ impl ReducedModel {
                 crate::core::sparse::sparse_from_triplets("reduced", a.nrows(), &trip)
                     .map_err(|e| ReductionError::Replace(e.to_string()))
             };
-            let (k, m) = (sparse(&kp)?, sparse(&self.m)?);
+            let (k, m) = (sparse(&kp)?, sparse(m)?);
             lowest_modes(&k, &m, &labels, selection, &SparseEigenParams::default())
                 .map(|(modes, _)| modes)
                 .map_err(ReductionError::ReducedEigen)?
@@ -693,6 +734,32 @@ pub fn substructure_matrices(
         expected: sub.dofs.len(),
         found: sys.dofs.len(),
     })
+}
+
+/// Substructure `k`'s matrices from `model` projected on the basis `held` holds:
+/// `(T_locᵀ K_k T_loc, T_locᵀ M_k T_loc)` for [`ReducedModel::held_basis_matrices`]. Only the
+/// assembly and two products: no eigenproblem and no factorisation, the reduction's costs.
+pub fn project_on_held_basis(
+    model: &Model,
+    partition: &Partition,
+    k: usize,
+    mass: MassKind,
+    held: &ComponentReduction,
+) -> Result<(Mat<f64>, Mat<f64>), ReductionError> {
+    let sub = &partition.substructures[k];
+    let sys = substructure_matrices(model, sub, mass)?;
+    if sys.dofs != held.dofs {
+        return Err(ReductionError::Replace(format!(
+            "substructure `{}`: {} DOFs assembled, its held basis has {}; connectivity must not change",
+            sub.name,
+            sys.dofs.len(),
+            held.dofs.len()
+        )));
+    }
+    Ok((
+        project(&sys.k, held.t.as_ref()),
+        project(&sys.m, held.t.as_ref()),
+    ))
 }
 
 /// Eigen settings for component modes: all modes use the dense path whatever the size.

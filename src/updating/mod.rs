@@ -151,6 +151,135 @@ pub trait UpdateMethod {
     fn merit(&self, _record: &IterationRecord) -> Option<f64> {
         None
     }
+    /// The merit at `values` from a trial analysis cheaper than [`Self::iterate`]'s, to rank
+    /// candidate steps ([`ParametricModel::trial_modal_state`]); `None` when there is none and
+    /// each candidate is analysed in full.
+    fn trial_merit(
+        &self,
+        _model: &dyn ParametricModel,
+        _values: &[f64],
+    ) -> Result<Option<f64>, UpdatingError> {
+        Ok(None)
+    }
+}
+
+/// A candidate step of the trust-region search in [`run_from`].
+struct Candidate {
+    values: Vec<f64>,
+    applied: Vec<f64>,
+    /// The trial merit, or the full analysis's when `full` holds it.
+    merit: f64,
+    full: Option<Step>,
+}
+
+impl Candidate {
+    /// The step `delta` from `values`, ranked by its trial merit where the method has one, else
+    /// analysed in full.
+    fn assess(
+        method: &dyn UpdateMethod,
+        model: &dyn ParametricModel,
+        params: &[UpdatingParameter],
+        values: &[f64],
+        delta: &[f64],
+        iteration: usize,
+    ) -> Result<Candidate, UpdatingError> {
+        let (values, applied) = apply_step(params, values, delta);
+        let (merit, full) = match method.trial_merit(model, &values)? {
+            Some(m) => (m, None),
+            None => {
+                let step = method.iterate(model, &values, iteration)?;
+                (
+                    method.merit(&step.record).unwrap_or(f64::NEG_INFINITY),
+                    Some(step),
+                )
+            }
+        };
+        Ok(Candidate {
+            values,
+            applied,
+            merit: if merit.is_nan() {
+                f64::NEG_INFINITY
+            } else {
+                merit
+            },
+            full,
+        })
+    }
+}
+
+/// The trust-region search of [`run_from`]: the step in `current` and its fallbacks (and, when
+/// none of them raises the merit above `before`, its rescues) ranked by merit, and the best one
+/// analysed in full. When trial merits ranked them and the full analysis of the best does not
+/// raise the merit, the next ones are analysed in full in their order until one does, and the
+/// best full analysis wins. Returns the values, the change applied and the analysis there.
+fn trust_region_step(
+    method: &dyn UpdateMethod,
+    model: &dyn ParametricModel,
+    params: &[UpdatingParameter],
+    values: &[f64],
+    current: &Step,
+    before: f64,
+    iteration: usize,
+) -> Result<(Vec<f64>, Vec<f64>, Step), UpdatingError> {
+    let assess =
+        |delta: &Vec<f64>| Candidate::assess(method, model, params, values, delta, iteration);
+    let mut candidates = std::iter::once(&current.record.relative_change)
+        .chain(&current.fallbacks)
+        .map(assess)
+        .collect::<Result<Vec<_>, _>>()?;
+    if candidates.iter().all(|c| c.merit <= before) {
+        for r in &current.rescues {
+            candidates.push(assess(r)?);
+        }
+    }
+    // Best first; among equals the earlier (the undamped step before its damped relatives).
+    let mut order: Vec<usize> = (0..candidates.len()).collect();
+    order.sort_by(|&a, &b| candidates[b].merit.total_cmp(&candidates[a].merit));
+    tracing::debug!(
+        "iteration {iteration}: candidates ranked {:?}",
+        order
+            .iter()
+            .map(|&i| format!("{i}: {:.6}", candidates[i].merit))
+            .collect::<Vec<_>>()
+    );
+    let mut best: Option<(usize, Step, f64)> = None;
+    let mut misled = false;
+    for (rank, &i) in order.iter().enumerate() {
+        let exact = candidates[i].full.is_some();
+        let step = match candidates[i].full.take() {
+            Some(step) => step,
+            None => method.iterate(model, &candidates[i].values, iteration)?,
+        };
+        let merit = method.merit(&step.record).unwrap_or(f64::NEG_INFINITY);
+        tracing::debug!(
+            "iteration {iteration}: candidate {i} of {}: merit {:.6} ranked, {merit:.6} analysed (from {before:.6})",
+            candidates.len(),
+            candidates[i].merit
+        );
+        if best.as_ref().is_none_or(|(_, _, m)| merit > *m) {
+            best = Some((i, step, merit));
+        }
+        // A full merit ranks exactly: the first is the best. Trial merits rank while the
+        // analyses confirm them: once one misses its analysed merit by more than
+        // TRIAL_ACCURACY of the gain it promised (either way: a step the held bases cannot
+        // follow), every candidate is analysed. Trusted, the search ends when the best
+        // analysed raises the merit and no candidate left is ranked above it, or after
+        // MAX_CONFIRMATIONS analyses that raised it.
+        let promised = candidates[i].merit - before;
+        misled |= (merit - candidates[i].merit).abs() > TRIAL_ACCURACY * promised.abs();
+        let best_merit = best.as_ref().map_or(f64::NEG_INFINITY, |b| b.2);
+        let next = order.get(rank + 1).map(|&j| candidates[j].merit);
+        if exact
+            || (!misled
+                && best_merit > before
+                && (next.is_none_or(|m| m <= best_merit) || rank + 1 >= MAX_CONFIRMATIONS))
+        {
+            break;
+        }
+    }
+    let (i, step, _) = best.ok_or_else(|| UpdatingError::Settings("no candidate step".into()))?;
+    let c = candidates.swap_remove(i);
+    Ok((c.values, c.applied, step))
 }
 
 /// The history of a run.
@@ -189,6 +318,14 @@ pub fn apply_step(
 
 /// Most halvings of a step that made the method's merit worse.
 pub const MAX_HALVINGS: usize = 6;
+
+/// How closely, as a share of the merit gain a trial analysis promised, the full analysis must
+/// confirm it for the trial merits to keep ranking the candidates ([`run_from`]).
+pub const TRIAL_ACCURACY: f64 = 0.5;
+
+/// Most full analyses of trial-ranked candidate steps per iteration once one of them has
+/// raised the merit ([`run_from`]'s trust-region search).
+pub const MAX_CONFIRMATIONS: usize = 3;
 
 /// Iterates `method` from the model's initial values: at most `max_iterations` steps, then one
 /// last analysis of the final model. Where the method has a merit (the P-C's mean
@@ -299,43 +436,31 @@ pub fn run_from(
         if let Some(stop) = current.stop {
             return finish(current.record, iterations, values, stop);
         }
-        let mut delta = current.record.relative_change.clone();
-        let (mut next_values, mut applied) = apply_step(&params, &values, &delta);
-        let mut next = method.iterate(model, &next_values, it + 1)?;
-        if let (Some(before), Some(_)) = (method.merit(&current.record), method.merit(&next.record))
-        {
-            if !current.fallbacks.is_empty() {
-                // A trust-region search: the candidate with the highest merit wins.
-                for f in &current.fallbacks {
-                    let (v, a) = apply_step(&params, &values, f);
-                    let candidate = method.iterate(model, &v, it + 1)?;
-                    if method.merit(&candidate.record) > method.merit(&next.record) {
-                        (next_values, applied, next) = (v, a, candidate);
-                    }
-                }
-                if method.merit(&next.record) <= Some(before) {
-                    for f in &current.rescues {
-                        let (v, a) = apply_step(&params, &values, f);
-                        let candidate = method.iterate(model, &v, it + 1)?;
-                        if method.merit(&candidate.record) > method.merit(&next.record) {
-                            (next_values, applied, next) = (v, a, candidate);
-                        }
-                    }
-                }
-            } else {
-                let mut tries = 0;
-                while tries < MAX_HALVINGS
-                    && method
-                        .merit(&next.record)
-                        .is_some_and(|after| after < before)
-                {
-                    delta.iter_mut().for_each(|d| *d *= 0.5);
-                    (next_values, applied) = apply_step(&params, &values, &delta);
-                    next = method.iterate(model, &next_values, it + 1)?;
-                    tries += 1;
-                }
+        let before = method.merit(&current.record);
+        let (next_values, applied, next) = match before {
+            Some(before) if !current.fallbacks.is_empty() => {
+                trust_region_step(method, model, &params, &values, &current, before, it + 1)?
             }
-        }
+            _ => {
+                let mut delta = current.record.relative_change.clone();
+                let (mut next_values, mut applied) = apply_step(&params, &values, &delta);
+                let mut next = method.iterate(model, &next_values, it + 1)?;
+                if let Some(before) = before {
+                    let mut tries = 0;
+                    while tries < MAX_HALVINGS
+                        && method
+                            .merit(&next.record)
+                            .is_some_and(|after| after < before)
+                    {
+                        delta.iter_mut().for_each(|d| *d *= 0.5);
+                        (next_values, applied) = apply_step(&params, &values, &delta);
+                        next = method.iterate(model, &next_values, it + 1)?;
+                        tries += 1;
+                    }
+                }
+                (next_values, applied, next)
+            }
+        };
         let converged = method.converged_by_step(&applied)
             || method.converged_by_merit(&current.record, &next.record);
         let stalled = applied.iter().all(|d| d.abs() < 1e-12);

@@ -127,6 +127,31 @@ pub trait ParametricModel: Sync {
     fn reanalysis(&self) -> Option<Reanalysis> {
         None
     }
+    /// Modes at `values` from an analysis cheaper than [`Self::modal_state`], good enough to
+    /// rank candidate steps by their merit, without projected derivatives (`projected` is
+    /// empty); `None` when the model has none (the candidates are then analysed fully). A
+    /// reduced model answers on the bases of its last analysis ([`ReducedFeModel`]).
+    fn trial_modal_state(
+        &self,
+        _values: &[f64],
+        _selection: ModeSelection,
+    ) -> Result<Option<ModalState>, UpdatingError> {
+        Ok(None)
+    }
+}
+
+/// Modes at `values` for a point that only needs a prediction (a trial step, a posterior
+/// sample): the model's trial state ([`ParametricModel::trial_modal_state`]) where it has
+/// one, else its full analysis.
+pub fn sample_state(
+    model: &dyn ParametricModel,
+    values: &[f64],
+    selection: ModeSelection,
+) -> Result<ModalState, UpdatingError> {
+    match model.trial_modal_state(values, selection)? {
+        Some(state) => Ok(state),
+        None => Ok(model.modal_state(values, selection)?.0),
+    }
 }
 
 /// The component mode synthesis work of an update (see [`ReducedFeModel`]).
@@ -138,6 +163,9 @@ pub struct Reanalysis {
     pub analyses: usize,
     /// Substructure reductions computed; `analyses · substructures` without the reuse.
     pub reductions: usize,
+    /// Candidate steps ranked on the held bases of the last analysis
+    /// ([`ParametricModel::trial_modal_state`]), each without any reduction.
+    pub trials: usize,
 }
 
 impl Reanalysis {
@@ -189,6 +217,18 @@ impl ParametricModel for ThroughMap {
 
     fn sensors(&self) -> Option<&SensorMap> {
         Some(&self.sensors)
+    }
+
+    fn trial_modal_state(
+        &self,
+        values: &[f64],
+        selection: ModeSelection,
+    ) -> Result<Option<ModalState>, UpdatingError> {
+        let mut state = self.inner.trial_modal_state(values, selection)?;
+        if let Some(state) = &mut state {
+            state.sensors = Some(self.sensors.clone());
+        }
+        Ok(state)
     }
 
     fn reanalysis(&self) -> Option<Reanalysis> {
@@ -580,6 +620,9 @@ impl ModalState {
     }
 }
 
+/// The values of a reduced model's last analysis and the reduced model there.
+type LastAnalysis = (Vec<f64>, std::sync::Arc<ReducedModel>);
+
 /// Reduced models up to this size are analysed on their complete modal basis.
 pub const COMPLETE_REDUCED_BASIS: usize = 2000;
 
@@ -592,9 +635,10 @@ pub struct ReducedFeModel {
     partition: Partition,
     method: Method,
     interface: Option<ModeSelection>,
-    last: std::sync::Mutex<Option<(Vec<f64>, std::sync::Arc<ReducedModel>)>>,
+    last: std::sync::Mutex<Option<LastAnalysis>>,
     reductions: std::sync::atomic::AtomicUsize,
     analyses: std::sync::atomic::AtomicUsize,
+    trials: std::sync::atomic::AtomicUsize,
 }
 
 impl ReducedFeModel {
@@ -608,6 +652,7 @@ impl ReducedFeModel {
             last: std::sync::Mutex::new(None),
             reductions: std::sync::atomic::AtomicUsize::new(0),
             analyses: std::sync::atomic::AtomicUsize::new(0),
+            trials: std::sync::atomic::AtomicUsize::new(0),
         }
     }
 
@@ -630,6 +675,36 @@ impl ReducedFeModel {
         self.partition.substructures_of(&ids)
     }
 
+    /// The last analysis's values and reduced model.
+    fn last(&self) -> Result<Option<LastAnalysis>, UpdatingError> {
+        Ok(self
+            .last
+            .lock()
+            .map_err(|_| UpdatingError::Model("a reduction panicked".into()))?
+            .clone())
+    }
+
+    /// Substructures holding a parameter whose value differs between `old` and `values`.
+    fn changed_substructures(&self, old: &[f64], values: &[f64]) -> Vec<usize> {
+        let mut changed: Vec<usize> = (0..values.len())
+            .filter(|&i| old[i] != values[i])
+            .flat_map(|i| self.substructures_of(i))
+            .collect();
+        changed.sort_unstable();
+        changed.dedup();
+        changed
+    }
+
+    /// A small reduced model uses its complete modal basis: cheap, and then the mode-shape
+    /// derivatives within the reduced space are exact (no truncation, no static correction).
+    fn selection_for(reduced: &ReducedModel, selection: ModeSelection) -> ModeSelection {
+        if reduced.n() <= COMPLETE_REDUCED_BASIS {
+            ModeSelection::All
+        } else {
+            selection
+        }
+    }
+
     fn reduced_at(
         &self,
         model: &Model,
@@ -638,19 +713,9 @@ impl ReducedFeModel {
         use std::sync::atomic::Ordering;
         let err = |e: crate::reduction::ReductionError| UpdatingError::Reduction(Box::new(e));
         self.analyses.fetch_add(1, Ordering::Relaxed);
-        let previous = self
-            .last
-            .lock()
-            .map_err(|_| UpdatingError::Model("a reduction panicked".into()))?
-            .clone();
-        let reduced = match previous {
+        let reduced = match self.last()? {
             Some((old, reduced)) if old.len() == values.len() => {
-                let mut changed: Vec<usize> = (0..values.len())
-                    .filter(|&i| old[i] != values[i])
-                    .flat_map(|i| self.substructures_of(i))
-                    .collect();
-                changed.sort_unstable();
-                changed.dedup();
+                let changed = self.changed_substructures(&old, values);
                 if changed.is_empty() {
                     reduced
                 } else {
@@ -716,7 +781,59 @@ impl ParametricModel for ReducedFeModel {
             substructures: self.partition.substructures.len(),
             analyses: self.analyses.load(Ordering::Relaxed),
             reductions: self.reductions(),
+            trials: self.trials.load(Ordering::Relaxed),
         })
+    }
+
+    /// Rayleigh-Ritz on the bases of the last analysis: the changed substructures' matrices
+    /// assembled at `values` and projected on their held transformations, coupled, solved —
+    /// no component eigenproblem, no factorisation. The eigenvalues are upper bounds that err
+    /// to second order in the change of the component modes, enough to rank trial steps; the
+    /// chosen step is then analysed in full.
+    fn trial_modal_state(
+        &self,
+        values: &[f64],
+        selection: ModeSelection,
+    ) -> Result<Option<ModalState>, UpdatingError> {
+        let Some((old, reduced)) = self.last()? else {
+            return Ok(None);
+        };
+        if old.len() != values.len() {
+            return Ok(None);
+        }
+        let model = self.fe.model_at(values)?;
+        let replaced = self
+            .changed_substructures(&old, values)
+            .par_iter()
+            .map(|&k| {
+                let (pk, pm) = crate::reduction::project_on_held_basis(
+                    &model,
+                    &self.partition,
+                    k,
+                    self.fe.mass,
+                    &reduced.components[k],
+                )?;
+                Ok((k, pk, pm))
+            })
+            .collect::<Result<Vec<_>, crate::reduction::ReductionError>>()?;
+        let Some((k, m)) = reduced.held_basis_matrices(&replaced) else {
+            return Ok(None);
+        };
+        let modes = reduced.modes_of(&k, &m, Self::selection_for(&reduced, selection))?;
+        if modes.is_empty() {
+            return Ok(None);
+        }
+        self.trials
+            .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        let dofs = vec![DofId::new(0, crate::core::Component::Ux); reduced.n()];
+        Ok(Some(ModalState {
+            modes,
+            dofs,
+            projected: Vec::new(),
+            reduced: Some(reduced),
+            factor: None,
+            sensors: None,
+        }))
     }
 
     /// The full model (for methods that need physical matrices, and for the updated output).
@@ -731,14 +848,9 @@ impl ParametricModel for ReducedFeModel {
     ) -> Result<(ModalState, Option<Evaluated>), UpdatingError> {
         let model = self.fe.model_at(values)?;
         let reduced = self.reduced_at(&model, values)?;
-        // A small reduced model uses its complete modal basis: cheap, and then the mode-shape
-        // derivatives within the reduced space are exact (no truncation, no static correction).
-        let selection = if reduced.n() <= COMPLETE_REDUCED_BASIS {
-            ModeSelection::All
-        } else {
-            selection
-        };
-        let modes = reduced.modes(selection).map_err(UpdatingError::from)?;
+        let modes = reduced
+            .modes(Self::selection_for(&reduced, selection))
+            .map_err(UpdatingError::from)?;
         if modes.is_empty() {
             return Err(UpdatingError::Settings(
                 "the reduced model has no mode in the basis: raise the mode count or limit".into(),

@@ -566,15 +566,8 @@ impl UpdateMethod for PredictorCorrector<'_> {
     ) -> Result<Step, UpdatingError> {
         let s = &self.settings;
         let (state, evaluated) = model.modal_state(values, s.modes)?;
-        let mut raw = predict(&state, self.measured, &s.damping)?;
-        let residual = match (&evaluated, s.residual_flexibility) {
-            (Some(ev), true) => {
-                let r = ResidualFlexibility::new(ev, &state, self.measured)?;
-                r.add_to(&mut raw, state.modes.eigenvalues.as_slice());
-                Some((r, ev))
-            }
-            _ => None,
-        };
+        let (raw, residual) = self.prediction(&state, evaluated.as_ref())?;
+        let residual = residual.zip(evaluated.as_ref());
         let natural_hz = state.modes.frequencies_hz();
         // Smoothed responses are defined at resonances: no line is left out for being next to
         // one.
@@ -695,6 +688,43 @@ impl UpdateMethod for PredictorCorrector<'_> {
             Some(_) => record.smoothed_mean_chi,
             None => record.mean_chi(),
         })
+    }
+
+    /// [`Self::merit`] of the prediction on the model's trial state, without sensitivities.
+    fn trial_merit(
+        &self,
+        model: &dyn ParametricModel,
+        values: &[f64],
+    ) -> Result<Option<f64>, UpdatingError> {
+        let Some(state) = model.trial_modal_state(values, self.settings.modes)? else {
+            return Ok(None);
+        };
+        let (raw, _) = self.prediction(&state, None)?;
+        Ok(Some(match &self.smoothed {
+            Some((op, m)) => LineCorrelation::new(m, &smooth_set(op, &raw)).mean_chi(),
+            None => LineCorrelation::new(self.measured, &raw).mean_chi(),
+        }))
+    }
+}
+
+impl PredictorCorrector<'_> {
+    /// The predicted FRFs at the measured pairs and lines, with the residual flexibility added
+    /// when asked for and the physical matrices are at hand (`evaluated`).
+    fn prediction(
+        &self,
+        state: &ModalState,
+        evaluated: Option<&super::model::Evaluated>,
+    ) -> Result<(FrfSet, Option<ResidualFlexibility>), UpdatingError> {
+        let mut raw = predict(state, self.measured, &self.settings.damping)?;
+        let residual = match (evaluated, self.settings.residual_flexibility) {
+            (Some(ev), true) => {
+                let r = ResidualFlexibility::new(ev, state, self.measured)?;
+                r.add_to(&mut raw, state.modes.eigenvalues.as_slice());
+                Some(r)
+            }
+            _ => None,
+        };
+        Ok((raw, residual))
     }
 }
 

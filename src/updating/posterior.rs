@@ -13,7 +13,10 @@
 //! `Σ_u = (JᵀΣ_ε⁻¹J + P)⁻¹`, `P = diag(φ̂_j²/s₀_j²)` (0 for a flat prior), and
 //! `Σ_φ = diag(φ̂) Σ_u diag(φ̂)`. Directions of `F = JᵀΣ_ε⁻¹J + P` whose eigenvalue is below
 //! [`UNIDENTIFIED`]`·μ_max` are unidentified: their variance is unbounded and every parameter
-//! with a share in them gets an infinite standard deviation.
+//! with a share in them gets an infinite standard deviation. The correlations take every
+//! direction above round-off ([`RIDGE_ROUNDOFF`]), so a ridge — parameters that compensate each
+//! other — shows as `|ρ| → 1` with the sign of the trade-off; a parameter the data do not see
+//! at all (its column of `J` at round-off) is split off as its own unidentified direction.
 //!
 //! With the noise estimated, `σ_g² = (r_gᵀr_g / m_g) · m/(m − n)` per noise group `g` (an FRF;
 //! all modes pooled), recomputed at the mode: `σ̂² = rᵀr/(m − n)` when there is one group.
@@ -41,6 +44,10 @@ use std::f64::consts::PI;
 /// Eigenvalues of the posterior precision below this fraction of the largest are unidentified.
 pub const UNIDENTIFIED: f64 = 1e-12;
 
+/// Eigenvalues of the posterior precision below this fraction of the largest are round-off
+/// (16 ε): the correlations take every direction above it, identified or not.
+pub const RIDGE_ROUNDOFF: f64 = 16.0 * f64::EPSILON;
+
 /// The model's predictions of the fitted quantities at parameter values.
 #[derive(Clone, Debug)]
 pub struct Prediction {
@@ -65,6 +72,12 @@ pub trait Likelihood: Sync {
     fn scale(&self) -> Vec<f64>;
     /// `f(φ)` and, with `jacobian`, `∂f/∂u`.
     fn predict(&self, values: &[f64], jacobian: bool) -> Result<Prediction, UpdatingError>;
+    /// `f(φ)` at a posterior sample: a reduced model answers on the held bases of its last
+    /// full analysis (the mode's, or the refinement's last trial point beside it), by
+    /// [`super::model::sample_state`].
+    fn predict_sample(&self, values: &[f64]) -> Result<Vec<f64>, UpdatingError> {
+        Ok(self.predict(values, false)?.values)
+    }
     /// The complex layout of FRF rows: per line, per pair, real then imaginary part.
     fn frf_layout(&self) -> Option<FrfLayout> {
         None
@@ -195,7 +208,9 @@ pub struct Posterior {
     pub marginals: Vec<Marginal>,
     /// Covariance `Σ_φ` (SI²), row-major, `n × n`; infinite entries for unidentified ones.
     pub covariance: Vec<Vec<f64>>,
-    /// Correlations `ρ_ij` (NaN where a variance is infinite).
+    /// Correlations `ρ_ij` over every direction of the precision above round-off
+    /// ([`RIDGE_ROUNDOFF`]): along a ridge they tend to ±1 even where the standard deviations
+    /// are infinite; NaN for a parameter the data do not see.
     pub correlation: Vec<Vec<f64>>,
     /// Principal directions, largest variance first.
     pub directions: Vec<Direction>,
@@ -437,6 +452,8 @@ fn refine(
             let scaled: Vec<f64> = delta.iter().map(|d| t * d).collect();
             let (next, _) = super::apply_step(params, &values, &scaled);
             // A trial point the model cannot be analysed at is a rejected step.
+            // Analysed in full: a long Gauss-Newton step along a poorly determined direction
+            // can leave what the held bases of a reduced model describe.
             let Ok(p) = lik.predict(&next, false) else {
                 t *= 0.5;
                 continue;
@@ -492,13 +509,31 @@ fn precision_eigen(a: MatRef<'_, f64>) -> Result<(Vec<f64>, Mat<f64>), UpdatingE
             "the posterior precision is not finite (a noise level of zero?)".into(),
         ));
     }
-    let evd = f.self_adjoint_eigen(Side::Lower).map_err(|_| {
+    // A parameter the data do not see (`F_ii` at round-off, e.g. an out-of-plane stiffness
+    // under in-plane measurements) is an unidentified direction of its own: left in, the
+    // null space's eigenvectors would mix it with every other parameter at round-off level
+    // and leave none identified.
+    let largest = (0..n).map(|i| f[(i, i)]).fold(0.0_f64, f64::max);
+    let (seen, unseen): (Vec<usize>, Vec<usize>) =
+        (0..n).partition(|&i| f[(i, i)] > UNIDENTIFIED * largest);
+    let sub = Mat::from_fn(seen.len(), seen.len(), |i, j| f[(seen[i], seen[j])]);
+    let evd = sub.self_adjoint_eigen(Side::Lower).map_err(|_| {
         UpdatingError::Model("eigen-decomposition of the posterior precision".into())
     })?;
-    // Ascending from faer: reverse to descending.
-    let mu: Vec<f64> = (0..n).rev().map(|i| evd.S()[i].max(0.0)).collect();
+    // Ascending from faer: reversed to descending, then the unseen parameters at μ = 0.
+    let k = seen.len();
+    let mut mu: Vec<f64> = (0..k).rev().map(|i| evd.S()[i].max(0.0)).collect();
+    mu.extend(std::iter::repeat_n(0.0, unseen.len()));
     let u = evd.U();
-    let v = Mat::from_fn(n, n, |i, j| u[(i, n - 1 - j)]);
+    let mut v = Mat::<f64>::zeros(n, n);
+    for (a, &i) in seen.iter().enumerate() {
+        for j in 0..k {
+            v[(i, j)] = u[(a, k - 1 - j)];
+        }
+    }
+    for (j, &i) in unseen.iter().enumerate() {
+        v[(i, k + j)] = 1.0;
+    }
     Ok((mu, v))
 }
 
@@ -573,8 +608,12 @@ pub fn laplace(
         .iter()
         .map(|&m| mu_max > 0.0 && m > UNIDENTIFIED * mu_max)
         .collect();
-    // Σ_u = V diag(1/μ) Vᵀ over the identified directions; infinite along the others.
+    // Σ_u = V diag(1/μ) Vᵀ over the identified directions; infinite along the others. The
+    // correlations also take the directions below the identification level but above the
+    // precision's round-off: a ridge of the likelihood is such a direction, and the sign of
+    // its parameters' correlation says which way it runs (one up, the other down).
     let mut cov_u = vec![vec![0.0; n]; n];
+    let mut cov_ridge = vec![vec![0.0; n]; n];
     let mut unbounded = vec![false; n];
     for k in 0..n {
         if identified[k] {
@@ -586,6 +625,13 @@ pub fn laplace(
         } else {
             for (i, u) in unbounded.iter_mut().enumerate() {
                 *u |= v[(i, k)].abs() > 1e-8;
+            }
+        }
+        if mu_max > 0.0 && mu[k] > RIDGE_ROUNDOFF * mu_max {
+            for i in 0..n {
+                for j in 0..n {
+                    cov_ridge[i][j] += v[(i, k)] * v[(j, k)] / mu[k];
+                }
             }
         }
     }
@@ -608,10 +654,11 @@ pub fn laplace(
         .map(|i| {
             (0..n)
                 .map(|j| {
-                    if sd[i].is_finite() && sd[j].is_finite() && sd[i] > 0.0 && sd[j] > 0.0 {
-                        cov[i][j] / (sd[i] * sd[j])
-                    } else if i == j {
+                    let (a, b) = (cov_ridge[i][i], cov_ridge[j][j]);
+                    if i == j {
                         1.0
+                    } else if a > 0.0 && b > 0.0 {
+                        cov_ridge[i][j] / (a * b).sqrt()
                     } else {
                         f64::NAN
                     }
@@ -701,7 +748,7 @@ pub fn laplace(
         // Samples the model cannot be analysed at are left out of the band.
         let sampled: Vec<Vec<f64>> = within
             .par_iter()
-            .filter_map(|s| lik.predict(s, false).ok().map(|p| abs_of(&p.values)))
+            .filter_map(|s| lik.predict_sample(s).ok().map(|p| abs_of(&p)))
             .collect();
         for (k, &f) in layout.freqs_hz.iter().enumerate() {
             for (q, label) in layout.pairs.iter().enumerate() {
@@ -732,7 +779,7 @@ pub fn laplace(
         let (f, g) = nat.at(&mode)?;
         let sampled: Vec<Vec<f64>> = within
             .par_iter()
-            .filter_map(|s| nat.at(s).ok().map(|x| x.0))
+            .filter_map(|s| nat.sampled(s).ok())
             .collect();
         let sampled: Vec<Vec<f64>> = sampled.into_iter().filter(|s| s.len() >= f.len()).collect();
         for (r, &fr) in f.iter().enumerate() {
@@ -840,6 +887,29 @@ pub struct NaturalFrequencies<'a> {
 }
 
 impl NaturalFrequencies<'_> {
+    /// The reported modes: the first `count` elastic ones up to `max_hz`.
+    fn elastic(&self, eigenvalues: &[f64]) -> Vec<usize> {
+        (0..eigenvalues.len())
+            .filter(|&r| eigenvalues[r] > 0.0 && eigenvalues[r].sqrt() / (2.0 * PI) <= self.max_hz)
+            .take(self.count)
+            .collect()
+    }
+
+    /// Their natural frequencies, Hz.
+    fn elastic_hz(&self, eigenvalues: &[f64]) -> Vec<f64> {
+        self.elastic(eigenvalues)
+            .iter()
+            .map(|&r| eigenvalues[r].sqrt() / (2.0 * PI))
+            .collect()
+    }
+
+    /// The frequencies of [`Self::at`] at a posterior sample, from
+    /// [`super::model::sample_state`] and without sensitivities.
+    pub fn sampled(&self, values: &[f64]) -> Result<Vec<f64>, UpdatingError> {
+        let state = super::model::sample_state(self.model, values, self.selection)?;
+        Ok(self.elastic_hz(&state.modes.eigenvalues))
+    }
+
     /// `(f_r, ∂f_r/∂u)` of the first `count` elastic modes at `values`.
     #[allow(clippy::type_complexity)]
     pub fn at(&self, values: &[f64]) -> Result<(Vec<f64>, Vec<Vec<f64>>), UpdatingError> {
@@ -849,17 +919,8 @@ impl NaturalFrequencies<'_> {
             .iter()
             .map(|d| eigenvalue_sensitivity(&state.modes.eigenvalues, d))
             .collect();
-        let elastic: Vec<usize> = (0..state.modes.len())
-            .filter(|&r| {
-                let l = state.modes.eigenvalues[r];
-                l > 0.0 && l.sqrt() / (2.0 * PI) <= self.max_hz
-            })
-            .take(self.count)
-            .collect();
-        let f: Vec<f64> = elastic
-            .iter()
-            .map(|&r| state.modes.eigenvalues[r].sqrt() / (2.0 * PI))
-            .collect();
+        let elastic = self.elastic(&state.modes.eigenvalues);
+        let f = self.elastic_hz(&state.modes.eigenvalues);
         let g = elastic
             .iter()
             .zip(&f)
@@ -1021,6 +1082,14 @@ fn restrict(set: &FrfSet, lines: &[usize]) -> Mat<c64> {
 
 impl Likelihood for ModalFrfLikelihood<'_> {
     frf_data_rows!();
+
+    fn predict_sample(&self, values: &[f64]) -> Result<Vec<f64>, UpdatingError> {
+        let state = super::model::sample_state(self.model, values, self.selection)?;
+        let predicted = super::pc::predict(&state, self.measured, &self.damping)?;
+        let h = restrict(&predicted, &self.lines);
+        let all: Vec<usize> = (0..self.lines.len()).collect();
+        Ok(stack_frf(h.as_ref(), &all))
+    }
 
     fn predict(&self, values: &[f64], jacobian: bool) -> Result<Prediction, UpdatingError> {
         let (state, evaluated) = self.model.modal_state(values, self.selection)?;
@@ -1366,6 +1435,24 @@ impl<'a> FrequencyLikelihood<'a> {
     }
 }
 
+impl FrequencyLikelihood<'_> {
+    /// `f_a/f_x` of every pair from the eigenvalues.
+    fn ratios(&self, lambda: &[f64]) -> Result<Vec<f64>, UpdatingError> {
+        if let Some(&(_, a)) = self.pairs.iter().find(|(_, a)| *a >= lambda.len()) {
+            return Err(UpdatingError::Data(format!(
+                "mode {} left the modal basis of {} modes",
+                a + 1,
+                lambda.len()
+            )));
+        }
+        Ok(self
+            .pairs
+            .iter()
+            .map(|&(fx, a)| lambda[a].max(0.0).sqrt() / (2.0 * PI) / fx)
+            .collect())
+    }
+}
+
 impl Likelihood for FrequencyLikelihood<'_> {
     fn measured(&self) -> &[f64] {
         &self.y
@@ -1386,18 +1473,16 @@ impl Likelihood for FrequencyLikelihood<'_> {
         vec![1.0; self.pairs.len()]
     }
 
+    fn predict_sample(&self, values: &[f64]) -> Result<Vec<f64>, UpdatingError> {
+        let state = super::model::sample_state(self.model, values, self.selection)?;
+        self.ratios(&state.modes.eigenvalues)
+    }
+
     fn predict(&self, values: &[f64], jacobian: bool) -> Result<Prediction, UpdatingError> {
         let (state, _) = self.model.modal_state(values, self.selection)?;
         let lambda = &state.modes.eigenvalues;
-        if let Some(&(_, a)) = self.pairs.iter().find(|(_, a)| *a >= lambda.len()) {
-            return Err(UpdatingError::Data(format!(
-                "mode {} left the modal basis of {} modes",
-                a + 1,
-                lambda.len()
-            )));
-        }
+        let out = self.ratios(lambda)?;
         let f = |a: usize| lambda[a].max(0.0).sqrt() / (2.0 * PI);
-        let out: Vec<f64> = self.pairs.iter().map(|&(fx, a)| f(a) / fx).collect();
         let jacobian = jacobian.then(|| {
             let dl: Vec<Vec<f64>> = state
                 .projected
@@ -1601,6 +1686,43 @@ mod tests {
         assert!(post.directions[0].sd.is_infinite());
         let d = &post.directions[0].vector;
         assert!(d[1].abs() < 1e-8, "{d:?}");
+    }
+
+    /// A ridge: two parameters that compensate each other (equal columns but for 3e-7 of
+    /// another shape) are unidentified — infinite standard deviations — and their correlation
+    /// says which way the ridge runs, −1 to 1e-6 (one up, the other down); a parameter the data
+    /// do not see (a zero column) has no correlation at all, and its own direction.
+    #[test]
+    fn a_ridge_shows_in_the_correlations() {
+        let a = Mat::from_fn(8, 3, |i, j| {
+            let x = 1.0 + i as f64;
+            match j {
+                0 => x,
+                1 => x + 3e-7 * (x * 0.7).sin(),
+                _ => 0.0,
+            }
+        });
+        let y = (0..8).map(|i| 3.0 + i as f64).collect();
+        let lik = Linear {
+            a,
+            y,
+            groups: vec![0; 8],
+        };
+        let start = [1.0, 1.0, 1.0];
+        let settings = PosteriorSettings {
+            noise: Noise::Absolute(vec![0.1]),
+            ..Default::default()
+        };
+        let post = laplace(&lik, &params(&start), &start, &settings, None).unwrap();
+        assert!(post.marginals.iter().all(|m| m.sd.is_infinite()));
+        assert!(
+            (post.correlation[0][1] + 1.0).abs() < 1e-6,
+            "{:?}",
+            post.correlation
+        );
+        assert!(post.correlation[0][2].is_nan() && post.correlation[2][1].is_nan());
+        assert_eq!(post.correlation[2][2], 1.0);
+        assert!(post.directions.iter().any(|d| d.vector == [0.0, 0.0, 1.0]));
     }
 
     /// Estimated noise with no degree of freedom left: reported as unknown, not as certainty.

@@ -170,7 +170,7 @@ fn tables() -> Vec<TableLayout> {
                     "correlation",
                     "float64",
                     "",
-                    "rho_ij (NaN where a variance is infinite)",
+                    "rho_ij over every direction above round-off, ridges included (NaN for a parameter the data do not see)",
                 ),
             ],
         ),

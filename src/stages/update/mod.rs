@@ -247,7 +247,7 @@ impl TypedStage for Update {
     const SUMMARY: &'static str =
         "Update model parameters from measured FRFs (P-C, RFM) or modes (inverse eigensensitivity)";
     /// 6: the result records the component mode synthesis reuse (`cms`).
-    const IMPL_VERSION: u32 = 6;
+    const IMPL_VERSION: u32 = 7;
 
     fn inputs() -> Vec<PortSpec> {
         vec![
@@ -557,11 +557,12 @@ fn run_and_write(
     }
     if let Some(cms) = model.reanalysis() {
         tracing::info!(
-            "component mode synthesis: {} substructure reductions for {} analyses of {} substructures ({} reused)",
+            "component mode synthesis: {} substructure reductions for {} analyses of {} substructures ({} reused); {} candidate steps ranked on held bases",
             cms.reductions,
             cms.analyses,
             cms.substructures,
-            cms.reused()
+            cms.reused(),
+            cms.trials
         );
         result = result.with_meta(
             "cms",
@@ -570,6 +571,7 @@ fn run_and_write(
                 "analyses": cms.analyses,
                 "reductions": cms.reductions,
                 "reused": cms.reused(),
+                "trials": cms.trials,
             }),
         );
     }
