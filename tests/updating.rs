@@ -141,6 +141,9 @@ fn bent_plate_pc_recovers_the_thin_strip() {
         let plot = read_dir(&out.join(stage).join("plot")).unwrap();
         assert!(plot.blobs["frf.png"].starts_with(b"\x89PNG"));
     }
+    // The updated model's three FRFs also one to a panel (small multiples).
+    let plot = read_dir(&out.join("updated_plot").join("plot")).unwrap();
+    assert!(plot.blobs["frf_panels.png"].starts_with(b"\x89PNG"));
     // A parameter the result does not hold is named, with the ones it does.
     let run = femu()
         .args(["run", pipeline("bent-plate-pc").to_str().unwrap()])

@@ -9,6 +9,7 @@
 
 pub mod damping;
 pub mod eigensensitivity;
+pub mod likelihoods;
 pub mod model;
 pub mod pc;
 pub mod posterior;
