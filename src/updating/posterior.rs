@@ -1030,16 +1030,9 @@ mod tests {
         assert!(post.sigma_estimated);
     }
 
-    /// A dependent column: the direction it spans is unidentified, the parameters in it have
-    /// infinite standard deviations, the other stays finite, and the largest-variance direction
-    /// is the null-space direction.
-    #[test]
-    fn an_unidentified_direction_is_reported() {
-        let a = Mat::from_fn(8, 3, |i, j| match j {
-            0 => 1.0 + i as f64,
-            1 => (i as f64).sin(),
-            _ => 2.0 * (1.0 + i as f64),
-        });
+    /// The posterior of three parameters at 1 from the linear likelihood `a` (8 rows, data
+    /// `3 + i`, noise 0.1).
+    fn eight_rows_at_unit_values(a: Mat<f64>) -> Posterior {
         let y = (0..8).map(|i| 3.0 + i as f64).collect();
         let lik = Linear {
             a,
@@ -1051,7 +1044,20 @@ mod tests {
             noise: Noise::Absolute(vec![0.1]),
             ..Default::default()
         };
-        let post = laplace(&lik, &params(&start), &start, &settings, None).unwrap();
+        laplace(&lik, &params(&start), &start, &settings, None).unwrap()
+    }
+
+    /// A dependent column: the direction it spans is unidentified, the parameters in it have
+    /// infinite standard deviations, the other stays finite, and the largest-variance direction
+    /// is the null-space direction.
+    #[test]
+    fn an_unidentified_direction_is_reported() {
+        let a = Mat::from_fn(8, 3, |i, j| match j {
+            0 => 1.0 + i as f64,
+            1 => (i as f64).sin(),
+            _ => 2.0 * (1.0 + i as f64),
+        });
+        let post = eight_rows_at_unit_values(a);
         assert!(post.marginals[0].sd.is_infinite() && post.marginals[2].sd.is_infinite());
         assert!(post.marginals[1].sd.is_finite());
         assert!(post.directions[0].sd.is_infinite());
@@ -1073,18 +1079,7 @@ mod tests {
                 _ => 0.0,
             }
         });
-        let y = (0..8).map(|i| 3.0 + i as f64).collect();
-        let lik = Linear {
-            a,
-            y,
-            groups: vec![0; 8],
-        };
-        let start = [1.0, 1.0, 1.0];
-        let settings = PosteriorSettings {
-            noise: Noise::Absolute(vec![0.1]),
-            ..Default::default()
-        };
-        let post = laplace(&lik, &params(&start), &start, &settings, None).unwrap();
+        let post = eight_rows_at_unit_values(a);
         assert!(post.marginals.iter().all(|m| m.sd.is_infinite()));
         assert!(
             (post.correlation[0][1] + 1.0).abs() < 1e-6,

@@ -335,6 +335,25 @@ fn chi_sensitivities_of_an_fe_model_match_central_differences() {
     }
 }
 
+/// The C2 bent plate with strips 6 and 10 as thickness parameters, on a Craig-Bampton model of
+/// its two plates and the bar (component modes to 200 Hz).
+fn bent_plate_craig_bampton() -> super::ReducedFeModel {
+    use crate::fe::element::MassKind;
+    use crate::model::generate::BentPlate;
+    use crate::reduction::{Method, Partition};
+    let model = bent_plate_with_strip_thicknesses(BentPlate::default(), &[6, 10]);
+    let names: Vec<String> = ["plate_1", "plate_2", "bar"].map(String::from).to_vec();
+    let partition = Partition::from_sets(&model, &names, MassKind::Consistent).unwrap();
+    let fe = FeModel::new(model, &[], MassKind::Consistent).unwrap();
+    super::ReducedFeModel::new(
+        fe,
+        partition,
+        Method::CraigBampton {
+            modes: ModeSelection::BelowHz(200.0),
+        },
+    )
+}
+
 /// Updating through Craig-Bampton (two plates and the bar of C2, component modes to 200 Hz):
 /// a parameter change re-reduces only the substructures holding the parameter's elements, and
 /// the FRF sensitivities of the reduced model (on its complete modal basis, transformations
@@ -343,21 +362,8 @@ fn chi_sensitivities_of_an_fe_model_match_central_differences() {
 /// the fixed-interface modes' own dependence on the thickness, which 3.59 drops by design.
 #[test]
 fn reduced_model_reanalyses_only_changed_substructures() {
-    use crate::fe::element::MassKind;
-    use crate::model::generate::BentPlate;
-    use crate::reduction::{Method, Partition};
     use crate::sensitivity::{ModalFrfModel, frf_sensitivities};
-    let model = bent_plate_with_strip_thicknesses(BentPlate::default(), &[6, 10]);
-    let names: Vec<String> = ["plate_1", "plate_2", "bar"].map(String::from).to_vec();
-    let partition = Partition::from_sets(&model, &names, MassKind::Consistent).unwrap();
-    let fe = FeModel::new(model, &[], MassKind::Consistent).unwrap();
-    let reduced = super::ReducedFeModel::new(
-        fe,
-        partition,
-        Method::CraigBampton {
-            modes: ModeSelection::BelowHz(200.0),
-        },
-    );
+    let reduced = bent_plate_craig_bampton();
     let values = reduced.initial_values();
     let selection = ModeSelection::BelowHz(200.0);
     let (state, physical) = reduced.modal_state(&values, selection).unwrap();
@@ -425,20 +431,7 @@ fn reduced_model_reanalyses_only_changed_substructures() {
 /// that analysis. No reduction is computed for a trial.
 #[test]
 fn trial_state_is_rayleigh_ritz_on_the_held_bases() {
-    use crate::fe::element::MassKind;
-    use crate::model::generate::BentPlate;
-    use crate::reduction::{Method, Partition};
-    let model = bent_plate_with_strip_thicknesses(BentPlate::default(), &[6, 10]);
-    let names: Vec<String> = ["plate_1", "plate_2", "bar"].map(String::from).to_vec();
-    let partition = Partition::from_sets(&model, &names, MassKind::Consistent).unwrap();
-    let fe = FeModel::new(model, &[], MassKind::Consistent).unwrap();
-    let reduced = super::ReducedFeModel::new(
-        fe,
-        partition,
-        Method::CraigBampton {
-            modes: ModeSelection::BelowHz(200.0),
-        },
-    );
+    let reduced = bent_plate_craig_bampton();
     let selection = ModeSelection::BelowHz(100.0);
     let values = reduced.initial_values();
     assert!(
