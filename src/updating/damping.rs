@@ -17,7 +17,7 @@ use super::{IterationRecord, Step, UpdateMethod};
 use crate::fe::SystemMatrices;
 use crate::frf::{FrfSet, ModalDamping};
 use crate::sensitivity::{ModalFrfModel, damping_sensitivities};
-use faer::Mat;
+use faer::{Mat, c64};
 
 /// Which modal damping model is identified.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -191,6 +191,23 @@ impl<'a> DampingIdentification<'a> {
     }
 }
 
+/// Unity-based columns `v_r ∂H/∂v_r` of the identified `modes` (one per damping value) from
+/// every mode's `∂H/∂v_r` (`per_mode`).
+pub(super) fn unity_columns(
+    per_mode: &[Mat<c64>],
+    modes: &[usize],
+    values: &[f64],
+) -> Vec<Mat<c64>> {
+    modes
+        .iter()
+        .zip(values)
+        .map(|(&r, &v)| {
+            let d = &per_mode[r];
+            Mat::from_fn(d.nrows(), d.ncols(), |i, j| d[(i, j)] * v)
+        })
+        .collect()
+}
+
 impl UpdateMethod for DampingIdentification<'_> {
     fn iterate(
         &self,
@@ -224,16 +241,7 @@ impl UpdateMethod for DampingIdentification<'_> {
         let freqs: Vec<f64> = chosen.iter().map(|&k| self.measured.freqs_hz[k]).collect();
         let per_mode =
             damping_sensitivities(&modal, &self.measured.pairs, &freqs, self.measured.quantity)?;
-        // Unity-based columns `v_r ∂H/∂v_r` of the identified modes only.
-        let columns: Vec<_> = s
-            .modes
-            .iter()
-            .zip(values)
-            .map(|(&r, &v)| {
-                let d = &per_mode[r];
-                Mat::from_fn(d.nrows(), d.ncols(), |i, j| d[(i, j)] * v)
-            })
-            .collect();
+        let columns = unity_columns(&per_mode, &s.modes, values);
         let (sw, ew) = correlation_equations(self.measured, &predicted, &chosen, &columns, true);
         Ok(close_iteration(
             record,

@@ -355,15 +355,7 @@ impl Likelihood for DampingLikelihood<'_> {
                 &self.data.layout.freqs_hz,
                 self.measured.quantity,
             )?;
-            let cols: Vec<Mat<c64>> = self
-                .modes
-                .iter()
-                .zip(values)
-                .map(|(&r, &v)| {
-                    let d = &per_mode[r];
-                    Mat::from_fn(d.nrows(), d.ncols(), |i, j| d[(i, j)] * v)
-                })
-                .collect();
+            let cols = super::damping::unity_columns(&per_mode, &self.modes, values);
             Some(stack_jacobian(&cols, out.len()))
         } else {
             None
