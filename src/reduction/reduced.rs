@@ -315,20 +315,18 @@ impl ReducedModel {
                 ));
             }
         };
-        let n = coords.len();
-        let (mut k, mut m) = (Mat::zeros(n, n), Mat::zeros(n, n));
-        for (c, cp) in components.iter().zip(&couplings) {
-            cp.accumulate(c.k.as_ref(), &mut k);
-            cp.accumulate(c.m.as_ref(), &mut m);
-        }
+        let (k, m) = coupled_sum(
+            coords.len(),
+            components.iter().map(|c| (&c.k, &c.m)).zip(&couplings),
+        );
         let mut r = ReducedModel {
             method,
             coords,
             components,
             couplings,
             junction,
-            k: super::linalg::symmetrise(&k),
-            m: super::linalg::symmetrise(&m),
+            k,
+            m,
             interface,
         };
         if let Method::ForceCoupling {
@@ -517,17 +515,13 @@ impl ReducedModel {
         {
             return None;
         }
-        let n = self.n();
-        let (mut k, mut m) = (Mat::zeros(n, n), Mat::zeros(n, n));
-        for (i, (c, cp)) in self.components.iter().zip(&self.couplings).enumerate() {
-            let (ck, cm) = match replaced.iter().find(|(at, _, _)| *at == i) {
-                Some((_, ck, cm)) => (ck, cm),
+        let parts = self.components.iter().enumerate().map(|(i, c)| {
+            match replaced.iter().find(|(at, _, _)| *at == i) {
+                Some((_, k, m)) => (k, m),
                 None => (&c.k, &c.m),
-            };
-            cp.accumulate(ck.as_ref(), &mut k);
-            cp.accumulate(cm.as_ref(), &mut m);
-        }
-        Some((super::linalg::symmetrise(&k), super::linalg::symmetrise(&m)))
+            }
+        });
+        Some(coupled_sum(self.n(), parts.zip(&self.couplings)))
     }
 
     /// [`Self::modes`] of reduced matrices `k`, `m` over this model's coordinates.
@@ -611,6 +605,20 @@ impl ReducedModel {
             },
         ))
     }
+}
+
+/// `K_c = Σ_k C_kᵀ K_k C_k`, likewise `M_c`, over `n` reduced coordinates from each component's
+/// projected matrices and coupling (3.14), symmetrised.
+fn coupled_sum<'a>(
+    n: usize,
+    parts: impl Iterator<Item = ((&'a Mat<f64>, &'a Mat<f64>), &'a Coupling)>,
+) -> (Mat<f64>, Mat<f64>) {
+    let (mut k, mut m) = (Mat::zeros(n, n), Mat::zeros(n, n));
+    for ((ck, cm), cp) in parts {
+        cp.accumulate(ck.as_ref(), &mut k);
+        cp.accumulate(cm.as_ref(), &mut m);
+    }
+    (super::linalg::symmetrise(&k), super::linalg::symmetrise(&m))
 }
 
 /// Global coordinates of the classical methods: every junction DOF, then each component's

@@ -224,23 +224,27 @@ fn restrict(set: &FrfSet, lines: &[usize]) -> Mat<c64> {
     })
 }
 
+impl ModalFrfLikelihood<'_> {
+    /// The stacked rows of the modal prediction at `state`, at the likelihood's lines.
+    fn rows_at(&self, state: &ModalState) -> Result<Vec<f64>, UpdatingError> {
+        let predicted = super::pc::predict(state, self.measured, &self.damping)?;
+        let h = restrict(&predicted, &self.lines);
+        let all: Vec<usize> = (0..self.lines.len()).collect();
+        Ok(stack_frf(h.as_ref(), &all))
+    }
+}
+
 impl Likelihood for ModalFrfLikelihood<'_> {
     frf_data_rows!();
 
     fn predict_sample(&self, values: &[f64]) -> Result<Vec<f64>, UpdatingError> {
         let state = super::model::sample_state(self.model, values, self.selection)?;
-        let predicted = super::pc::predict(&state, self.measured, &self.damping)?;
-        let h = restrict(&predicted, &self.lines);
-        let all: Vec<usize> = (0..self.lines.len()).collect();
-        Ok(stack_frf(h.as_ref(), &all))
+        self.rows_at(&state)
     }
 
     fn predict(&self, values: &[f64], jacobian: bool) -> Result<Prediction, UpdatingError> {
         let (state, evaluated) = self.model.modal_state(values, self.selection)?;
-        let predicted = super::pc::predict(&state, self.measured, &self.damping)?;
-        let h = restrict(&predicted, &self.lines);
-        let all: Vec<usize> = (0..self.lines.len()).collect();
-        let out = stack_frf(h.as_ref(), &all);
+        let out = self.rows_at(&state)?;
         let jacobian = if jacobian {
             Some(modal_jacobian(
                 &state,

@@ -110,12 +110,10 @@ pub struct Step {
     pub record: IterationRecord,
     /// Why to stop now, if so (no change was applied then).
     pub stop: Option<StopReason>,
-    /// Safer steps to try, in order, when the step in `record` lowers the merit (e.g.
-    /// increasingly damped ones); when empty the step is halved instead.
+    /// Other candidate steps beside the one in `record` (e.g. increasingly damped ones), for
+    /// the trust-region search of [`run_from`]; when empty a step that lowers the merit is
+    /// halved instead.
     pub fallbacks: Vec<Vec<f64>>,
-    /// Steps of another kind, tried only when neither the step nor a fallback raises the merit
-    /// (the P-C's Gauss-Newton steps on its stop figure, which rescue a stalled iteration).
-    pub rescues: Vec<Vec<f64>>,
 }
 
 impl Step {
@@ -125,7 +123,6 @@ impl Step {
             record,
             stop,
             fallbacks: Vec::new(),
-            rescues: Vec::new(),
         }
     }
 }
@@ -208,11 +205,11 @@ impl Candidate {
     }
 }
 
-/// The trust-region search of [`run_from`]: the step in `current` and its fallbacks (and, when
-/// none of them raises the merit above `before`, its rescues) ranked by merit, and the best one
-/// analysed in full. When trial merits ranked them and the full analysis of the best does not
-/// raise the merit, the next ones are analysed in full in their order until one does, and the
-/// best full analysis wins. Returns the values, the change applied and the analysis there.
+/// The trust-region search of [`run_from`]: the step in `current` and its fallbacks ranked by
+/// merit — a trial merit where the method has one ([`UpdateMethod::trial_merit`]), else a full
+/// analysis's — and analysed in full in that order until the best analysed is confirmed (see
+/// the loop); the best full analysis wins. Returns the values, the change applied and the
+/// analysis there.
 fn trust_region_step(
     method: &dyn UpdateMethod,
     model: &dyn ParametricModel,
@@ -228,11 +225,6 @@ fn trust_region_step(
         .chain(&current.fallbacks)
         .map(assess)
         .collect::<Result<Vec<_>, _>>()?;
-    if candidates.iter().all(|c| c.merit <= before) {
-        for r in &current.rescues {
-            candidates.push(assess(r)?);
-        }
-    }
     // Best first; among equals the earlier (the undamped step before its damped relatives).
     let mut order: Vec<usize> = (0..candidates.len()).collect();
     order.sort_by(|&a, &b| candidates[b].merit.total_cmp(&candidates[a].merit));
@@ -330,11 +322,12 @@ pub const MAX_CONFIRMATIONS: usize = 3;
 
 /// Iterates `method` from the model's initial values: at most `max_iterations` steps, then one
 /// last analysis of the final model. Where the method has a merit (the P-C's mean
-/// correlation) and offers fallback steps (the P-C's Levenberg-Marquardt damped steps), every
-/// candidate is analysed and the one with the highest merit is taken — a small trust-region
-/// search: far from the solution the undamped linearised step can improve the merit by a hair
-/// and land badly. Without fallbacks a step that lowers the merit is halved, at most
-/// [`MAX_HALVINGS`] times. The analysis at the chosen candidate is the next iteration's.
+/// correlation) and offers fallback steps (the P-C's Levenberg-Marquardt damped steps), the
+/// candidate with the highest merit is taken — a small trust-region search
+/// ([`trust_region_step`]; far from the solution the undamped linearised step can improve the
+/// merit by a hair and land badly), ranked on trial analyses where the model has them. Without
+/// fallbacks a step that lowers the merit is halved, at most [`MAX_HALVINGS`] times. The
+/// analysis at the chosen candidate is the next iteration's.
 pub fn run(
     method: &dyn UpdateMethod,
     model: &dyn ParametricModel,

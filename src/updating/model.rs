@@ -447,6 +447,23 @@ pub struct ModalState {
 }
 
 impl ModalState {
+    /// Modes of a reduced model: their rows are its coordinates (labelled `0:ux`; shapes at
+    /// physical DOFs come from its expansion).
+    fn on_reduced(
+        modes: Modes,
+        reduced: std::sync::Arc<ReducedModel>,
+        projected: Vec<ProjectedDerivative>,
+    ) -> Self {
+        ModalState {
+            dofs: vec![DofId::new(0, crate::core::Component::Ux); reduced.n()],
+            modes,
+            projected,
+            reduced: Some(reduced),
+            factor: None,
+            sensors: None,
+        }
+    }
+
     /// Solves for the modes and projects the derivatives.
     pub fn new(
         evaluated: &Evaluated,
@@ -825,15 +842,7 @@ impl ParametricModel for ReducedFeModel {
         }
         self.trials
             .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-        let dofs = vec![DofId::new(0, crate::core::Component::Ux); reduced.n()];
-        Ok(Some(ModalState {
-            modes,
-            dofs,
-            projected: Vec::new(),
-            reduced: Some(reduced),
-            factor: None,
-            sensors: None,
-        }))
+        Ok(Some(ModalState::on_reduced(modes, reduced, Vec::new())))
     }
 
     /// The full model (for methods that need physical matrices, and for the updated output).
@@ -876,17 +885,6 @@ impl ParametricModel for ReducedFeModel {
                 Ok(ProjectedDerivative { k: pk, m: pm }.scaled(v))
             })
             .collect::<Result<_, UpdatingError>>()?;
-        let dofs = vec![DofId::new(0, crate::core::Component::Ux); reduced.n()];
-        Ok((
-            ModalState {
-                modes,
-                dofs,
-                projected,
-                reduced: Some(reduced),
-                factor: None,
-                sensors: None,
-            },
-            None,
-        ))
+        Ok((ModalState::on_reduced(modes, reduced, projected), None))
     }
 }

@@ -395,7 +395,6 @@ pub(super) fn close_iteration(
         record,
         stop: None,
         fallbacks,
-        rescues: Vec::new(),
     }
 }
 

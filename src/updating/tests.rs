@@ -535,7 +535,6 @@ impl UpdateMethod for TrialMethod {
             record,
             stop,
             fallbacks: vec![vec![1.0], vec![-0.5]],
-            rescues: Vec::new(),
         })
     }
 
