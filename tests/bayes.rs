@@ -639,6 +639,37 @@ fn bayes_tmcmc_stage_writes_the_posterior_with_evidence_and_figures() {
     assert!(l.blobs.contains_key("marginals.png") && l.blobs.contains_key("pairs.svg"));
     let (_, again, _) = run(&path, &tmp.path().join("cache"), &[]);
     assert!(executed(&again).is_empty(), "{:?}", executed(&again));
+
+    // Resumption: a run stopped after two tempering stages (here by `max_stages`) keeps their
+    // populations in the cache; the run again takes them from there, computes only the rest,
+    // and writes the posterior an uninterrupted run writes, to the bit.
+    let stage_of = |r: &femu::pipeline::RunReport| {
+        r.stages.iter().find(|s| s.name == "tmcmc").unwrap().clone()
+    };
+    let whole = stage_of(&report);
+    assert!(whole.parts.computed > 3, "{:?}", whole.parts);
+    let resumed_cache = femu::cache::Cache::open(&tmp.path().join("resumed")).unwrap();
+    let opts = femu::pipeline::RunOptions {
+        progress: femu::pipeline::ProgressMode::Quiet,
+        ..Default::default()
+    };
+    let stopped =
+        femu::pipeline::execute(&load(&path, &["tmcmc.max_stages=2"]), &resumed_cache, &opts)
+            .err()
+            .expect("the run stops at max_stages")
+            .to_string();
+    assert!(
+        stopped.contains("did not reach β = 1 in 2 stages"),
+        "{stopped}"
+    );
+    let resumed =
+        stage_of(&femu::pipeline::execute(&load(&path, &[]), &resumed_cache, &opts).unwrap());
+    assert_eq!(resumed.parts.reused, 3, "{:?}", resumed.parts);
+    assert_eq!(resumed.parts.computed, whole.parts.computed - 3);
+    assert_eq!(
+        resumed.outputs["posterior"].digest,
+        whole.outputs["posterior"].digest
+    );
 }
 
 /// The shipped pipeline `bent-plate-bayes` (issue 28, reduced C2): among three candidate

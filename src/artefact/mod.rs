@@ -89,6 +89,8 @@ pub enum ArtefactKind {
     TestMap,
     /// A Universal File written for a lab's software: test points, FRFs, modes.
     UniversalFile,
+    /// The samples of one TMCMC tempering stage, kept so that a stopped run resumes.
+    TmcmcPopulation,
 }
 
 impl ArtefactKind {

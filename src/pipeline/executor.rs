@@ -598,6 +598,10 @@ fn node_inputs(
         ..Default::default()
     };
     for (port, r) in &node.inputs {
+        inputs.digests.insert(
+            port.clone(),
+            upstream(plan, i, reports, port).1.digest.clone(),
+        );
         let cached = produced
             .lock()
             .ok()

@@ -201,6 +201,9 @@ pub struct StageInputs {
     pub base_dir: PathBuf,
     /// The cache for parts of the stage kept on their own (none outside a pipeline run).
     pub parts: Option<std::sync::Arc<super::memo::PartCache>>,
+    /// The content digest of each connected input, by port (empty outside a pipeline run):
+    /// what a part's key names its inputs by.
+    pub digests: BTreeMap<String, String>,
 }
 
 impl StageInputs {

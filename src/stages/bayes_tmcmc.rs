@@ -8,6 +8,7 @@
 
 use crate::artefact::kinds::Kind;
 use crate::artefact::kinds::posterior::{PosteriorKind, PosteriorRecord, Sampling};
+use crate::artefact::kinds::tmcmc_population::{PopulationRecord, TmcmcPopulationKind};
 use crate::artefact::{Artefact, ArtefactKind};
 use crate::eigen::ModeSelection;
 use crate::fe::element::MassKind;
@@ -20,11 +21,14 @@ use crate::stages::params::{Band, Count, Damping, Modes, OpenFraction, Positive}
 use crate::stages::update::{
     NoiseParams, OneOrMany, Reduction, build_model, measured_frf, measured_modes, snr_sigmas,
 };
+use crate::updating::UpdatingError;
 use crate::updating::posterior::{
     DirectFrfLikelihood, FrequencyLikelihood, Likelihood, ModalFrfLikelihood, Noise,
     likelihood_lines,
 };
-use crate::updating::tmcmc::{ParamPrior, TmcmcSettings, tmcmc, to_posterior};
+use crate::updating::tmcmc::{
+    ParamPrior, Population, PopulationStore, TmcmcSettings, tmcmc_stored, to_posterior,
+};
 use indexmap::IndexMap;
 
 /// The stage.
@@ -369,8 +373,13 @@ impl TypedStage for BayesTmcmc {
             _ => Some(measured_frf(inputs, p.band_hz, &p.exclude_hz)?),
         };
         let noise = noise(&p.noise, measured.as_ref())?;
+        let store = CachedPopulations {
+            inputs,
+            key: populations_key(p, inputs),
+            parameters: params.iter().map(|q| q.name.clone()).collect(),
+        };
         let run = |lik: &dyn Likelihood| {
-            tmcmc(lik, &priors, &noise, &settings)
+            tmcmc_stored(lik, &priors, &noise, &settings, &store)
                 .map_err(StageError::from_numerics(""))
                 .map(|t| (t, lik.group_names()))
         };
@@ -455,6 +464,78 @@ impl TypedStage for BayesTmcmc {
         });
         let a = with_figures(a, "TMCMC posterior", names, &posterior.samples, truth, None);
         Ok(StageOutputs::from([("posterior".to_string(), a)]))
+    }
+}
+
+/// The part kind and version of a stored population ([`CachedPopulations`]); the version is
+/// bumped whenever the numbers a stage computes change.
+const POPULATION_PART: &str = "bayes.tmcmc/population";
+const POPULATION_VERSION: u32 = 1;
+
+/// What every population of a run depends on: the inputs' digests and every setting but those
+/// that only shape the summary (`truth`, `credible_level`) or end the run (`max_stages`), so
+/// that a run stopped at `max_stages` resumes when it is raised.
+fn populations_key(p: &Params, inputs: &StageInputs) -> serde_json::Value {
+    let mut settings = serde_json::to_value(p).unwrap_or_default();
+    if let Some(o) = settings.as_object_mut() {
+        for k in ["truth", "credible_level", "max_stages"] {
+            o.remove(k);
+        }
+    }
+    serde_json::json!({"inputs": inputs.digests, "settings": settings})
+}
+
+/// The populations of the tempering stages as parts of the run's cache, so that a stopped
+/// run (interrupted, failed, or ended at `max_stages`) resumes from its last finished stage
+/// and gives the samples an uninterrupted run gives.
+struct CachedPopulations<'a> {
+    inputs: &'a StageInputs,
+    key: serde_json::Value,
+    parameters: Vec<String>,
+}
+
+impl PopulationStore for CachedPopulations<'_> {
+    fn population(
+        &self,
+        stage: usize,
+        compute: &mut dyn FnMut() -> Result<Population, UpdatingError>,
+    ) -> Result<Population, UpdatingError> {
+        let mut key = self.key.clone();
+        key["stage"] = stage.into();
+        let (mut computed, mut failure) = (None, None);
+        let part = self.inputs.part(
+            POPULATION_PART,
+            POPULATION_VERSION,
+            &key,
+            ArtefactKind::TmcmcPopulation,
+            || match compute() {
+                Ok(population) => {
+                    let a = TmcmcPopulationKind::to_artefact(&PopulationRecord {
+                        parameters: self.parameters.clone(),
+                        population,
+                    });
+                    computed = Some(a.clone());
+                    Ok(a)
+                }
+                Err(e) => {
+                    let message = e.to_string();
+                    failure = Some(e);
+                    Err(StageError::Failed(message))
+                }
+            },
+        );
+        if let Some(e) = failure {
+            return Err(e);
+        }
+        let a = computed.map_or_else(
+            || part.map_err(|e| UpdatingError::Data(format!("TMCMC stage {stage}: {e}"))),
+            Ok,
+        )?;
+        TmcmcPopulationKind::from_artefact(&a)
+            .map(|r| r.population)
+            .map_err(|e| {
+                UpdatingError::Data(format!("the stored population of TMCMC stage {stage}: {e}"))
+            })
     }
 }
 

@@ -30,6 +30,7 @@ use super::posterior::{
     Direction, Likelihood, Marginal, Noise, Posterior, Refinement, normal_cdf, normal_quantile,
     row_sigmas,
 };
+use crate::core::progress;
 use faer::{Mat, Side};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -273,6 +274,74 @@ pub struct Tmcmc {
     pub failed: usize,
 }
 
+/// The samples after a tempering stage: the prior's for stage 0, those of `p_j` after stage
+/// `j` (resampled and moved).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Population {
+    /// Samples (absolute values), `N × n`.
+    pub samples: Vec<Vec<f64>>,
+    /// `ln p(y|φ_k)` of every sample (`−∞` where the model could not be analysed).
+    pub log_likelihood: Vec<f64>,
+    /// The stages so far, in order.
+    pub stages: Vec<TmcmcStage>,
+    /// Evaluations that failed so far.
+    pub failed: usize,
+}
+
+impl Population {
+    /// The tempering exponent `β_j` the samples follow.
+    pub fn exponent(&self) -> f64 {
+        self.stages.last().map_or(0.0, |s| s.exponent)
+    }
+
+    /// `Σ ln S_j` over the stages so far (15.4).
+    pub fn log_evidence(&self) -> f64 {
+        self.stages.iter().map(|s| s.log_evidence).sum()
+    }
+
+    /// That a population read from a store is the one asked for.
+    fn check_shape(&self, stage: usize, samples: usize, n: usize) -> Result<(), UpdatingError> {
+        let ok = self.stages.len() == stage
+            && self.samples.len() == samples
+            && self.log_likelihood.len() == samples
+            && self.samples.iter().all(|x| x.len() == n);
+        if ok {
+            Ok(())
+        } else {
+            Err(UpdatingError::Data(format!(
+                "the stored population of TMCMC stage {stage} has {} samples of {} parameters after {} stages where {samples} of {n} after {stage} were asked for: the store is inconsistent (clear the cache entry)",
+                self.samples.len(),
+                self.samples.first().map_or(0, Vec::len),
+                self.stages.len()
+            )))
+        }
+    }
+}
+
+/// Where the populations of finished stages are kept so that a stopped run resumes (a pipeline
+/// stage keeps them in the run's cache).
+pub trait PopulationStore: Sync {
+    /// The population after stage `stage`: read from the store, or `compute`d and stored.
+    fn population(
+        &self,
+        stage: usize,
+        compute: &mut dyn FnMut() -> Result<Population, UpdatingError>,
+    ) -> Result<Population, UpdatingError>;
+}
+
+/// No store: every population is computed.
+pub struct Unstored;
+
+impl PopulationStore for Unstored {
+    fn population(
+        &self,
+        _stage: usize,
+        compute: &mut dyn FnMut() -> Result<Population, UpdatingError>,
+    ) -> Result<Population, UpdatingError> {
+        compute()
+    }
+}
+
 /// A ChaCha8 stream of its own for `(seed, stage, chain)`.
 pub fn chain_rng(seed: u64, stage: u64, chain: u64) -> ChaCha8Rng {
     let mut key = [0u8; 32];
@@ -404,6 +473,19 @@ pub fn tmcmc(
     noise: &Noise,
     settings: &TmcmcSettings,
 ) -> Result<Tmcmc, UpdatingError> {
+    tmcmc_stored(lik, priors, noise, settings, &Unstored)
+}
+
+/// [`tmcmc`] with every stage's population kept in `store`: a run that stopped (interrupted,
+/// or at `max_stages`) resumes from the last population stored, and gives the samples an
+/// uninterrupted run gives (every stage draws from streams seeded by `(seed, stage, chain)`).
+pub fn tmcmc_stored(
+    lik: &dyn Likelihood,
+    priors: &[ParamPrior],
+    noise: &Noise,
+    settings: &TmcmcSettings,
+    store: &dyn PopulationStore,
+) -> Result<Tmcmc, UpdatingError> {
     let n = priors.len();
     let big_n = settings.samples;
     if n == 0 {
@@ -446,154 +528,197 @@ pub fn tmcmc(
         sigma: sigma_rows,
         constant,
     };
-    let seed = settings.seed;
-
-    // Stage 0: the prior.
-    let first: Vec<(Vec<f64>, Option<f64>)> = (0..big_n)
-        .into_par_iter()
-        .map(|k| {
-            let mut rng = chain_rng(seed, 0, k as u64);
-            let x: Vec<f64> = priors.iter().map(|p| p.sample(&mut rng)).collect();
-            let l = ll.eval(&x);
-            (x, l)
-        })
-        .collect();
-    let mut failed = first.iter().filter(|s| s.1.is_none()).count();
-    if failed == big_n {
+    let mut population =
+        store.population(0, &mut || Ok(prior_population(&ll, priors, settings)))?;
+    population.check_shape(0, big_n, n)?;
+    if population.failed == big_n {
         return Err(UpdatingError::Model(
             "the model could not be analysed at any sample of the prior".into(),
         ));
     }
-    let mut x: Vec<Vec<f64>> = first.iter().map(|s| s.0.clone()).collect();
-    let mut l: Vec<f64> = first
-        .iter()
-        .map(|s| s.1.unwrap_or(f64::NEG_INFINITY))
-        .collect();
-    let mut beta = 0.0;
-    let mut log_evidence = 0.0;
-    let mut stages = Vec::new();
-    while beta < 1.0 {
-        let stage = stages.len() + 1;
+    while population.exponent() < 1.0 {
+        let stage = population.stages.len() + 1;
         if stage > settings.max_stages {
-            return Err(UpdatingError::Model(format!(
-                "TMCMC did not reach β = 1 in {} stages (β = {beta:.3e}): raise max_stages or the target coefficient of variation",
-                settings.max_stages
+            return Err(UpdatingError::Settings(format!(
+                "TMCMC did not reach β = 1 in {} stages (β = {:.3e}): raise max_stages or the target coefficient of variation",
+                settings.max_stages,
+                population.exponent()
             )));
         }
-        let next = next_exponent(&l, beta, settings.target_cov);
-        let delta = next - beta;
-        // ln S_j = ln((1/N) Σ exp(Δ ℓ_k)), log-sum-exp (15.4).
-        let a: Vec<f64> = l
-            .iter()
-            .map(|v| {
-                if *v == f64::NEG_INFINITY {
-                    f64::NEG_INFINITY
-                } else {
-                    delta * v
-                }
-            })
-            .collect();
-        let lse = log_sum_exp(&a);
-        let log_s = lse - (big_n as f64).ln();
-        log_evidence += log_s;
-        let w: Vec<f64> = a.iter().map(|v| (v - lse).exp()).collect();
-        // Weighted mean and covariance (15.5).
-        let mean: Vec<f64> = (0..n)
-            .map(|i| (0..big_n).map(|k| w[k] * x[k][i]).sum())
-            .collect();
-        let cov: Vec<Vec<f64>> = (0..n)
-            .map(|i| {
-                (0..n)
-                    .map(|j| {
-                        settings.proposal_scale
-                            * (0..big_n)
-                                .map(|k| w[k] * (x[k][i] - mean[i]) * (x[k][j] - mean[j]))
-                                .sum::<f64>()
-                    })
-                    .collect()
-            })
-            .collect();
-        let chol = cholesky(&cov);
-        // Multinomial resampling from one stream of its own (chain index N).
-        let mut rng = chain_rng(seed, stage as u64, big_n as u64);
-        let cdf: Vec<f64> = w
-            .iter()
-            .scan(0.0, |s, v| {
-                *s += v;
-                Some(*s)
-            })
-            .collect();
-        let total = *cdf.last().unwrap_or(&1.0);
-        let mut picks: Vec<usize> = (0..big_n)
-            .map(|_| {
-                let u = rng.random::<f64>() * total;
-                cdf.partition_point(|c| *c <= u).min(big_n - 1)
-            })
-            .collect();
-        picks.sort_unstable();
-        let mut distinct = picks.clone();
-        distinct.dedup();
-        // Metropolis-Hastings under p_{j+1} ∝ p(y|φ)^{β'} p(φ), chains in parallel.
-        let moved: Vec<(Vec<f64>, f64, usize, usize)> = picks
-            .par_iter()
-            .enumerate()
-            .map(|(c, &k)| {
-                let mut rng = chain_rng(seed, stage as u64, c as u64);
-                let (mut cur, mut cur_l) = (x[k].clone(), l[k]);
-                let mut cur_p = log_prior(priors, &cur);
-                let (mut accepted, mut failures) = (0, 0);
-                for _ in 0..settings.mh_steps {
-                    let z: Vec<f64> = (0..n).map(|_| StandardNormal.sample(&mut rng)).collect();
-                    let prop: Vec<f64> = (0..n)
-                        .map(|i| cur[i] + (0..=i).map(|j| chol[i][j] * z[j]).sum::<f64>())
-                        .collect();
-                    let u: f64 = rng.random();
-                    let prop_p = log_prior(priors, &prop);
-                    if prop_p == f64::NEG_INFINITY {
-                        continue;
-                    }
-                    let Some(prop_l) = ll.eval(&prop) else {
-                        failures += 1;
-                        continue;
-                    };
-                    let log_ratio = next * (prop_l - cur_l) + prop_p - cur_p;
-                    if cur_l == f64::NEG_INFINITY || u.ln() < log_ratio {
-                        cur = prop;
-                        cur_l = prop_l;
-                        cur_p = prop_p;
-                        accepted += 1;
-                    }
-                }
-                (cur, cur_l, accepted, failures)
-            })
-            .collect();
-        let accepted: usize = moved.iter().map(|m| m.2).sum();
-        failed += moved.iter().map(|m| m.3).sum::<usize>();
-        x = moved.iter().map(|m| m.0.clone()).collect();
-        l = moved.iter().map(|m| m.1).collect();
-        let acceptance = accepted as f64 / (big_n * settings.mh_steps).max(1) as f64;
-        tracing::debug!(
-            "TMCMC stage {stage}: β = {next:.4e}, ln S = {log_s:.4}, acceptance {acceptance:.3}, {} distinct",
-            distinct.len()
-        );
-        stages.push(TmcmcStage {
-            exponent: next,
-            log_evidence: log_s,
-            acceptance,
-            distinct: distinct.len(),
-        });
-        beta = next;
+        let before = &population;
+        let next = store.population(stage, &mut || {
+            Ok(next_population(&ll, priors, settings, before))
+        })?;
+        next.check_shape(stage, big_n, n)?;
+        population = next;
     }
     Ok(Tmcmc {
         weights: vec![1.0 / big_n as f64; big_n],
-        samples: x,
-        log_likelihood: l,
-        log_evidence,
-        stages,
+        log_evidence: population.log_evidence(),
+        samples: population.samples,
+        log_likelihood: population.log_likelihood,
+        stages: population.stages,
         sigma,
         rows: m,
-        failed,
+        failed: population.failed,
     })
+}
+
+/// Stage 0: samples of the prior and their log-likelihoods.
+fn prior_population(
+    ll: &LogLik<'_>,
+    priors: &[ParamPrior],
+    settings: &TmcmcSettings,
+) -> Population {
+    let done = progress::task(
+        || "TMCMC stage 0 (the prior): samples".into(),
+        settings.samples as u64,
+    );
+    let first: Vec<(Vec<f64>, Option<f64>)> = (0..settings.samples)
+        .into_par_iter()
+        .map(|k| {
+            let mut rng = chain_rng(settings.seed, 0, k as u64);
+            let x: Vec<f64> = priors.iter().map(|p| p.sample(&mut rng)).collect();
+            let l = ll.eval(&x);
+            done.advance(1);
+            (x, l)
+        })
+        .collect();
+    Population {
+        failed: first.iter().filter(|s| s.1.is_none()).count(),
+        log_likelihood: first
+            .iter()
+            .map(|s| s.1.unwrap_or(f64::NEG_INFINITY))
+            .collect(),
+        samples: first.into_iter().map(|s| s.0).collect(),
+        stages: Vec::new(),
+    }
+}
+
+/// One tempering stage from `before` (15.3–15.5): the next exponent, the stage's share of the
+/// evidence, resampling by the plausibility weights and one Metropolis-Hastings chain per
+/// sample under the new tempered density.
+fn next_population(
+    ll: &LogLik<'_>,
+    priors: &[ParamPrior],
+    settings: &TmcmcSettings,
+    before: &Population,
+) -> Population {
+    let (x, l) = (&before.samples, &before.log_likelihood);
+    let (n, big_n, seed) = (priors.len(), settings.samples, settings.seed);
+    let stage = before.stages.len() + 1;
+    let next = next_exponent(l, before.exponent(), settings.target_cov);
+    let delta = next - before.exponent();
+    // ln S_j = ln((1/N) Σ exp(Δ ℓ_k)), log-sum-exp (15.4).
+    let a: Vec<f64> = l
+        .iter()
+        .map(|v| {
+            if *v == f64::NEG_INFINITY {
+                f64::NEG_INFINITY
+            } else {
+                delta * v
+            }
+        })
+        .collect();
+    let lse = log_sum_exp(&a);
+    let log_s = lse - (big_n as f64).ln();
+    let w: Vec<f64> = a.iter().map(|v| (v - lse).exp()).collect();
+    // Weighted mean and covariance (15.5).
+    let mean: Vec<f64> = (0..n)
+        .map(|i| (0..big_n).map(|k| w[k] * x[k][i]).sum())
+        .collect();
+    let cov: Vec<Vec<f64>> = (0..n)
+        .map(|i| {
+            (0..n)
+                .map(|j| {
+                    settings.proposal_scale
+                        * (0..big_n)
+                            .map(|k| w[k] * (x[k][i] - mean[i]) * (x[k][j] - mean[j]))
+                            .sum::<f64>()
+                })
+                .collect()
+        })
+        .collect();
+    let chol = cholesky(&cov);
+    // Multinomial resampling from one stream of its own (chain index N).
+    let mut rng = chain_rng(seed, stage as u64, big_n as u64);
+    let cdf: Vec<f64> = w
+        .iter()
+        .scan(0.0, |s, v| {
+            *s += v;
+            Some(*s)
+        })
+        .collect();
+    let total = *cdf.last().unwrap_or(&1.0);
+    let mut picks: Vec<usize> = (0..big_n)
+        .map(|_| {
+            let u = rng.random::<f64>() * total;
+            cdf.partition_point(|c| *c <= u).min(big_n - 1)
+        })
+        .collect();
+    picks.sort_unstable();
+    let mut distinct = picks.clone();
+    distinct.dedup();
+    // Metropolis-Hastings under p_{j+1} ∝ p(y|φ)^{β'} p(φ), chains in parallel.
+    let done = progress::task(
+        || format!("TMCMC stage {stage} (β = {next:.3e}): chains"),
+        big_n as u64,
+    );
+    let moved: Vec<(Vec<f64>, f64, usize, usize)> = picks
+        .par_iter()
+        .enumerate()
+        .map(|(c, &k)| {
+            let mut rng = chain_rng(seed, stage as u64, c as u64);
+            let (mut cur, mut cur_l) = (x[k].clone(), l[k]);
+            let mut cur_p = log_prior(priors, &cur);
+            let (mut accepted, mut failures) = (0, 0);
+            for _ in 0..settings.mh_steps {
+                let z: Vec<f64> = (0..n).map(|_| StandardNormal.sample(&mut rng)).collect();
+                let prop: Vec<f64> = (0..n)
+                    .map(|i| cur[i] + (0..=i).map(|j| chol[i][j] * z[j]).sum::<f64>())
+                    .collect();
+                let u: f64 = rng.random();
+                let prop_p = log_prior(priors, &prop);
+                if prop_p == f64::NEG_INFINITY {
+                    continue;
+                }
+                let Some(prop_l) = ll.eval(&prop) else {
+                    failures += 1;
+                    continue;
+                };
+                let log_ratio = next * (prop_l - cur_l) + prop_p - cur_p;
+                if cur_l == f64::NEG_INFINITY || u.ln() < log_ratio {
+                    cur = prop;
+                    cur_l = prop_l;
+                    cur_p = prop_p;
+                    accepted += 1;
+                }
+            }
+            done.advance(1);
+            (cur, cur_l, accepted, failures)
+        })
+        .collect();
+    let accepted: usize = moved.iter().map(|m| m.2).sum();
+    let acceptance = accepted as f64 / (big_n * settings.mh_steps).max(1) as f64;
+    let summary = format!(
+        "TMCMC stage {stage}: β = {next:.4e}, ln S = {log_s:.4}, acceptance {acceptance:.3}, {} distinct",
+        distinct.len()
+    );
+    tracing::debug!("{summary}");
+    progress::note(|| summary);
+    let mut stages = before.stages.clone();
+    stages.push(TmcmcStage {
+        exponent: next,
+        log_evidence: log_s,
+        acceptance,
+        distinct: distinct.len(),
+    });
+    Population {
+        failed: before.failed + moved.iter().map(|m| m.3).sum::<usize>(),
+        log_likelihood: moved.iter().map(|m| m.1).collect(),
+        samples: moved.into_iter().map(|m| m.0).collect(),
+        stages,
+    }
 }
 
 /// The `q`-quantile of sorted values (linear interpolation between order statistics).

@@ -29,6 +29,7 @@
 //! | `posterior` | [`posterior`] |
 //! | `test_geometry` | [`test_geometry`] |
 //! | `test_map` | [`test_map`] |
+//! | `tmcmc_population` | [`tmcmc_population`] |
 
 use super::{Artefact, ArtefactError, ArtefactKind, Column, Storage, Table};
 use crate::core::DofId;
@@ -54,6 +55,7 @@ pub mod test_geometry;
 pub mod test_map;
 #[cfg(test)]
 mod tests;
+pub mod tmcmc_population;
 pub mod universal_file;
 pub mod update_result;
 
@@ -153,6 +155,7 @@ registry! {
     TestGeometry => test_geometry::TestGeometryKind,
     TestMap => test_map::TestMapKind,
     UniversalFile => universal_file::UniversalFileKind,
+    TmcmcPopulation => tmcmc_population::TmcmcPopulationKind,
 }
 
 // ---------------------------------------------------------------------------------------------

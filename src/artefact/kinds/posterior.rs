@@ -272,34 +272,71 @@ fn tables() -> Vec<TableLayout> {
                 ),
             ],
         ),
-        table(
-            "tmcmc_stages",
-            s,
-            false,
-            vec![
-                col("stage", "int64", "", "1-based tempering stage"),
-                col("exponent", "float64", "", "tempering exponent beta reached"),
-                col(
-                    "log_evidence",
-                    "float64",
-                    "",
-                    "ln S_j, the stage's share of ln p(y)",
-                ),
-                col(
-                    "acceptance",
-                    "float64",
-                    "",
-                    "fraction of Metropolis-Hastings proposals accepted",
-                ),
-                col(
-                    "distinct",
-                    "int64",
-                    "",
-                    "distinct samples kept by the resampling",
-                ),
-            ],
-        ),
+        stages_layout(),
     ]
+}
+
+/// The `tmcmc_stages` table of a TMCMC run (also kept with each stored population).
+pub(crate) fn stages_layout() -> TableLayout {
+    table(
+        "tmcmc_stages",
+        Storage::Parquet,
+        false,
+        vec![
+            col("stage", "int64", "", "1-based tempering stage"),
+            col("exponent", "float64", "", "tempering exponent beta reached"),
+            col(
+                "log_evidence",
+                "float64",
+                "",
+                "ln S_j, the stage's share of ln p(y)",
+            ),
+            col(
+                "acceptance",
+                "float64",
+                "",
+                "fraction of Metropolis-Hastings proposals accepted",
+            ),
+            col(
+                "distinct",
+                "int64",
+                "",
+                "distinct samples kept by the resampling",
+            ),
+        ],
+    )
+}
+
+/// The stages as the `tmcmc_stages` table.
+pub(crate) fn stages_table(st: &[TmcmcStage]) -> Table {
+    Table::new()
+        .with("stage", Column::I64((1..=st.len() as i64).collect()))
+        .with("exponent", f64s(st.iter().map(|x| x.exponent)))
+        .with("log_evidence", f64s(st.iter().map(|x| x.log_evidence)))
+        .with("acceptance", f64s(st.iter().map(|x| x.acceptance)))
+        .with(
+            "distinct",
+            Column::I64(st.iter().map(|x| x.distinct as i64).collect()),
+        )
+}
+
+/// The stages from the `tmcmc_stages` table.
+pub(crate) fn read_stages(t: &Table) -> Result<Vec<TmcmcStage>, ArtefactError> {
+    let n = "tmcmc_stages";
+    let (e, l, acc, d) = (
+        t.f64s(n, "exponent")?,
+        t.f64s(n, "log_evidence")?,
+        t.f64s(n, "acceptance")?,
+        t.i64s(n, "distinct")?,
+    );
+    Ok((0..e.len())
+        .map(|k| TmcmcStage {
+            exponent: e[k],
+            log_evidence: l[k],
+            acceptance: acc[k],
+            distinct: d[k].max(0) as usize,
+        })
+        .collect())
 }
 
 fn f64s(v: impl Iterator<Item = f64>) -> Column {
@@ -403,22 +440,9 @@ fn write(r: &PosteriorRecord) -> Artefact {
         );
     }
     if let Some(smp) = &r.sampling {
-        let st = &smp.stages;
         a = a
             .with_meta("log_evidence", smp.log_evidence.into())
-            .with_table(
-                "tmcmc_stages",
-                Table::new()
-                    .with("stage", Column::I64((1..=st.len() as i64).collect()))
-                    .with("exponent", f64s(st.iter().map(|x| x.exponent)))
-                    .with("log_evidence", f64s(st.iter().map(|x| x.log_evidence)))
-                    .with("acceptance", f64s(st.iter().map(|x| x.acceptance)))
-                    .with(
-                        "distinct",
-                        Column::I64(st.iter().map(|x| x.distinct as i64).collect()),
-                    ),
-                Storage::Parquet,
-            );
+            .with_table("tmcmc_stages", stages_table(&smp.stages), Storage::Parquet);
     }
     a
 }
@@ -513,26 +537,10 @@ fn read(a: &Artefact) -> Result<PosteriorRecord, ArtefactError> {
     )?;
     let sampling = match a.table("tmcmc_stages") {
         Err(_) => None,
-        Ok(t) => {
-            let n = "tmcmc_stages";
-            let (e, l, acc, d) = (
-                t.f64s(n, "exponent")?,
-                t.f64s(n, "log_evidence")?,
-                t.f64s(n, "acceptance")?,
-                t.i64s(n, "distinct")?,
-            );
-            Some(Sampling {
-                log_evidence: meta_f64(a, "log_evidence")?,
-                stages: (0..e.len())
-                    .map(|k| TmcmcStage {
-                        exponent: e[k],
-                        log_evidence: l[k],
-                        acceptance: acc[k],
-                        distinct: d[k].max(0) as usize,
-                    })
-                    .collect(),
-            })
-        }
+        Ok(t) => Some(Sampling {
+            log_evidence: meta_f64(a, "log_evidence")?,
+            stages: read_stages(t)?,
+        }),
     };
     Ok(PosteriorRecord {
         sampling,

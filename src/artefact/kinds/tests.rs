@@ -830,3 +830,31 @@ impl Example for posterior::PosteriorKind {
         ]
     }
 }
+
+impl Example for tmcmc_population::TmcmcPopulationKind {
+    fn examples() -> Vec<tmcmc_population::PopulationRecord> {
+        use crate::updating::tmcmc::{Population, TmcmcStage};
+        let prior = Population {
+            samples: vec![vec![1.5, 2.0e-3], vec![0.75, 1.25e-3], vec![1.0, 3.0e-3]],
+            log_likelihood: vec![-12.5, f64::NEG_INFINITY, -3.25],
+            stages: vec![],
+            failed: 1,
+        };
+        let tempered = Population {
+            stages: vec![TmcmcStage {
+                exponent: 0.125,
+                log_evidence: -4.5,
+                acceptance: 0.5,
+                distinct: 2,
+            }],
+            ..prior.clone()
+        };
+        [prior, tempered]
+            .into_iter()
+            .map(|population| tmcmc_population::PopulationRecord {
+                parameters: vec!["m2".into(), "t".into()],
+                population,
+            })
+            .collect()
+    }
+}

@@ -1,0 +1,136 @@
+//! The `tmcmc_population` kind: the samples of one TMCMC tempering stage and their
+//! log-likelihoods, kept in the run's cache as a part of a `bayes.tmcmc` stage so that a stopped
+//! run resumes from its last finished stage (docs/theory.md §15).
+//!
+//! | table (Parquet) | columns |
+//! |---|---|
+//! | `samples` | `sample`, `parameter`, `value` (long format, sample-major) |
+//! | `chains` | `sample`, `log_likelihood` (`-inf`: the model could not be analysed there) |
+//! | `tmcmc_stages` | the stages so far, as in a `posterior` |
+
+use super::posterior::{read_stages, stages_layout, stages_table};
+use super::{Kind, Layout, col, expect_kind, meta, meta_value, strs, table};
+use crate::artefact::{Artefact, ArtefactError, ArtefactKind, Column, Storage, Table};
+use crate::updating::tmcmc::Population;
+
+/// A population with the names of its parameters.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PopulationRecord {
+    /// Parameter names, in the order of every sample.
+    pub parameters: Vec<String>,
+    /// The population.
+    pub population: Population,
+}
+
+/// The `tmcmc_population` kind.
+pub struct TmcmcPopulationKind;
+
+const K: ArtefactKind = ArtefactKind::TmcmcPopulation;
+
+impl Kind for TmcmcPopulationKind {
+    const KIND: ArtefactKind = K;
+    const NAME: &'static str = "tmcmc_population";
+    type Value = PopulationRecord;
+
+    fn layout() -> Layout {
+        let s = Storage::Parquet;
+        let mut stages = stages_layout();
+        stages.required = true;
+        Layout {
+            tables: vec![
+                table(
+                    "samples",
+                    s,
+                    true,
+                    vec![
+                        col("sample", "int64", "", "0-based sample number"),
+                        col("parameter", "string", "", "parameter"),
+                        col("value", "float64", "SI", "sampled value"),
+                    ],
+                ),
+                table(
+                    "chains",
+                    s,
+                    true,
+                    vec![
+                        col("sample", "int64", "", "0-based sample number"),
+                        col(
+                            "log_likelihood",
+                            "float64",
+                            "",
+                            "ln p(y|phi) (-inf: the model could not be analysed there)",
+                        ),
+                    ],
+                ),
+                stages,
+            ],
+            meta: vec![
+                meta(
+                    "stage",
+                    "tempering stages finished (0: samples of the prior)",
+                ),
+                meta("exponent", "tempering exponent beta the samples follow"),
+                meta("parameters", "parameter names, in sample order"),
+                meta("failed", "evaluations that failed so far"),
+            ],
+            blobs: vec![],
+        }
+    }
+
+    fn to_artefact(r: &PopulationRecord) -> Artefact {
+        let p = &r.population;
+        let n = r.parameters.len();
+        let s = &p.samples;
+        let sm = || (0..s.len()).flat_map(move |k| (0..n).map(move |i| (k, i)));
+        let samples = Table::new()
+            .with("sample", Column::I64(sm().map(|(k, _)| k as i64).collect()))
+            .with(
+                "parameter",
+                strs(sm().map(|(_, i)| r.parameters[i].clone())),
+            )
+            .with("value", Column::F64(sm().map(|(k, i)| s[k][i]).collect()));
+        let chains = Table::new()
+            .with("sample", Column::I64((0..s.len() as i64).collect()))
+            .with("log_likelihood", Column::F64(p.log_likelihood.clone()));
+        Artefact::new(K)
+            .with_table("samples", samples, Storage::Parquet)
+            .with_table("chains", chains, Storage::Parquet)
+            .with_table("tmcmc_stages", stages_table(&p.stages), Storage::Parquet)
+            .with_meta("stage", p.stages.len().into())
+            .with_meta("exponent", p.exponent().into())
+            .with_meta("parameters", serde_json::json!(r.parameters))
+            .with_meta("failed", p.failed.into())
+    }
+
+    fn from_artefact(a: &Artefact) -> Result<PopulationRecord, ArtefactError> {
+        expect_kind(a, K)?;
+        let bad = |m: String| ArtefactError::schema(K, m);
+        let parameters: Vec<String> = meta_value(a, "parameters")?;
+        let n = parameters.len();
+        let values = a.table("samples")?.f64s("samples", "value")?;
+        let log_likelihood = a
+            .table("chains")?
+            .f64s("chains", "log_likelihood")?
+            .to_vec();
+        if n == 0 || values.len() != n * log_likelihood.len() {
+            return Err(bad(format!(
+                "{} sampled values for {} samples of {n} parameters",
+                values.len(),
+                log_likelihood.len()
+            )));
+        }
+        let stages = read_stages(a.table("tmcmc_stages")?)?;
+        if meta_value::<usize>(a, "stage")? != stages.len() {
+            return Err(bad("`stage` is not the number of stages listed".into()));
+        }
+        Ok(PopulationRecord {
+            parameters,
+            population: Population {
+                samples: values.chunks(n).map(<[f64]>::to_vec).collect(),
+                log_likelihood,
+                stages,
+                failed: meta_value(a, "failed")?,
+            },
+        })
+    }
+}
