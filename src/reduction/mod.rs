@@ -41,8 +41,8 @@ pub use interface::{interface_basis, interface_basis_from_condensations};
 pub use partition::{Boundary, Partition, Substructure};
 pub use reduced::{
     ComponentReduction, Coordinate, Coupling, JunctionFlexibility, Method, ReducedModel,
-    ReductionInfo, SecondLevel, check_method, interface_rows, project_on_held_basis, reduce,
-    reduce_assembled, reduce_assembled_on_interface, reduce_substructure,
+    ReductionInfo, SecondLevel, check_method, interface_rows, project_on_held_basis,
+    projected_modes, reduce, reduce_assembled, reduce_assembled_on_interface, reduce_substructure,
     reduce_substructure_on_interface, reduce_with_interface, reduced_parameter_derivative,
     substructure_matrices, substructures_task,
 };

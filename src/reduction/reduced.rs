@@ -259,6 +259,66 @@ impl ComponentReduction {
     }
 }
 
+/// The modes of small dense `k`, `m` (a reduced or Ritz-projected model), shifted by
+/// `s = 1e-10 max k_ii/m_ii` so that rigid-body modes factor, and unshifted after: eigenvalues
+/// within `s/2` of zero are rigid-body modes, more negative ones an error. Dense up to 2,000
+/// coordinates, sparse Lanczos above. `labels` only name rows in error messages.
+pub fn projected_modes(
+    k: &Mat<f64>,
+    m: &Mat<f64>,
+    labels: &[DofId],
+    selection: ModeSelection,
+) -> Result<Modes, ReductionError> {
+    let n = labels.len();
+    let ratio = (0..n)
+        .filter(|i| m[(*i, *i)] > 0.0)
+        .map(|i| k[(i, i)] / m[(i, i)])
+        .fold(0.0f64, f64::max);
+    let s = if ratio > 0.0 { 1e-10 * ratio } else { 1e-10 };
+    let kp = k + m * faer::Scale(s);
+    let selection = match selection {
+        ModeSelection::BelowHz(f) => {
+            let l = (2.0 * std::f64::consts::PI * f).powi(2) + s;
+            ModeSelection::BelowHz(l.sqrt() / (2.0 * std::f64::consts::PI))
+        }
+        other => other,
+    };
+    let mut modes = if n <= 2000 {
+        dense_generalized(kp.as_ref(), m.as_ref(), labels, selection)
+            .map_err(ReductionError::ReducedEigen)?
+    } else {
+        let sparse = |a: &Mat<f64>| {
+            let mut trip = Vec::new();
+            for j in 0..a.ncols() {
+                for i in 0..a.nrows() {
+                    if a[(i, j)] != 0.0 {
+                        trip.push((i, j, a[(i, j)]));
+                    }
+                }
+            }
+            crate::core::sparse::sparse_from_triplets("reduced", a.nrows(), &trip)
+                .map_err(|e| ReductionError::Replace(e.to_string()))
+        };
+        let (k, m) = (sparse(&kp)?, sparse(m)?);
+        lowest_modes(&k, &m, labels, selection, &SparseEigenParams::default())
+            .map(|(modes, _)| modes)
+            .map_err(ReductionError::ReducedEigen)?
+    };
+    let largest = modes.eigenvalues.iter().fold(0.0f64, |a, b| a.max(b.abs()));
+    for l in modes.eigenvalues.iter_mut() {
+        *l -= s;
+        if l.abs() <= 0.5 * s {
+            *l = 0.0;
+        } else if *l < 0.0 {
+            return Err(ReductionError::ReducedEigen(
+                crate::eigen::EigenError::IndefiniteStiffness { value: *l, largest },
+            ));
+        }
+    }
+    modes.rigid_body_modes = modes.eigenvalues.iter().filter(|l| **l == 0.0).count();
+    Ok(modes)
+}
+
 /// A reduced model: `K_c`, `M_c` over its coordinates, and everything needed to re-analyse one
 /// substructure, project derivatives and expand solutions.
 #[derive(Clone, Debug, PartialEq)]
@@ -543,54 +603,7 @@ impl ReducedModel {
                 }
             })
             .collect();
-        let n = self.n();
-        let ratio = (0..n)
-            .filter(|i| m[(*i, *i)] > 0.0)
-            .map(|i| k[(i, i)] / m[(i, i)])
-            .fold(0.0f64, f64::max);
-        let s = if ratio > 0.0 { 1e-10 * ratio } else { 1e-10 };
-        let kp = k + m * faer::Scale(s);
-        let selection = match selection {
-            ModeSelection::BelowHz(f) => {
-                let l = (2.0 * std::f64::consts::PI * f).powi(2) + s;
-                ModeSelection::BelowHz(l.sqrt() / (2.0 * std::f64::consts::PI))
-            }
-            other => other,
-        };
-        let mut modes = if n <= 2000 {
-            dense_generalized(kp.as_ref(), m.as_ref(), &labels, selection)
-                .map_err(ReductionError::ReducedEigen)?
-        } else {
-            let sparse = |a: &Mat<f64>| {
-                let mut trip = Vec::new();
-                for j in 0..a.ncols() {
-                    for i in 0..a.nrows() {
-                        if a[(i, j)] != 0.0 {
-                            trip.push((i, j, a[(i, j)]));
-                        }
-                    }
-                }
-                crate::core::sparse::sparse_from_triplets("reduced", a.nrows(), &trip)
-                    .map_err(|e| ReductionError::Replace(e.to_string()))
-            };
-            let (k, m) = (sparse(&kp)?, sparse(m)?);
-            lowest_modes(&k, &m, &labels, selection, &SparseEigenParams::default())
-                .map(|(modes, _)| modes)
-                .map_err(ReductionError::ReducedEigen)?
-        };
-        let largest = modes.eigenvalues.iter().fold(0.0f64, |a, b| a.max(b.abs()));
-        for l in modes.eigenvalues.iter_mut() {
-            *l -= s;
-            if l.abs() <= 0.5 * s {
-                *l = 0.0;
-            } else if *l < 0.0 {
-                return Err(ReductionError::ReducedEigen(
-                    crate::eigen::EigenError::IndefiniteStiffness { value: *l, largest },
-                ));
-            }
-        }
-        modes.rigid_body_modes = modes.eigenvalues.iter().filter(|l| **l == 0.0).count();
-        Ok(modes)
+        projected_modes(k, m, &labels, selection)
     }
 
     /// Reduced modes expanded to every physical DOF of the model (ascending DOFs).

@@ -182,7 +182,13 @@ impl Candidate {
         iteration: usize,
     ) -> Result<Candidate, UpdatingError> {
         let (values, applied) = apply_step(params, values, delta);
-        let (merit, full) = match method.trial_merit(model, &values)? {
+        // A trial that fails (its held basis no longer fits) is no verdict: the candidate is
+        // analysed in full, and an error there is the model's.
+        let trial = method.trial_merit(model, &values).unwrap_or_else(|e| {
+            tracing::debug!("trial merit failed ({e}): analysing the candidate in full");
+            None
+        });
+        let (merit, full) = match trial {
             Some(m) => (m, None),
             None => {
                 let step = method.iterate(model, &values, iteration)?;

@@ -243,6 +243,30 @@ pub struct FeModel {
     parameters: Vec<Parameter>,
     info: Vec<UpdatingParameter>,
     mass: MassKind,
+    held: HeldModes,
+}
+
+/// The values and mode shapes of a full model's last modal analysis: the Ritz basis of its
+/// trial states ([`FeModel`]'s [`ParametricModel::trial_modal_state`]). A clone starts empty.
+#[derive(Debug, Default)]
+struct HeldModes(std::sync::Mutex<Option<(Vec<f64>, std::sync::Arc<Mat<f64>>)>>);
+
+impl Clone for HeldModes {
+    fn clone(&self) -> Self {
+        HeldModes::default()
+    }
+}
+
+impl HeldModes {
+    fn get(&self) -> Option<(Vec<f64>, std::sync::Arc<Mat<f64>>)> {
+        self.0.lock().ok()?.clone()
+    }
+
+    fn set(&self, values: &[f64], shapes: &Mat<f64>) {
+        if let Ok(mut held) = self.0.lock() {
+            *held = Some((values.to_vec(), std::sync::Arc::new(shapes.clone())));
+        }
+    }
 }
 
 impl FeModel {
@@ -296,6 +320,7 @@ impl FeModel {
             parameters,
             info,
             mass,
+            held: HeldModes::default(),
         })
     }
 
@@ -307,6 +332,7 @@ impl FeModel {
             parameters: Vec::new(),
             info: Vec::new(),
             mass,
+            held: HeldModes::default(),
         }
     }
 
@@ -336,6 +362,58 @@ impl ParametricModel for FeModel {
             system,
             derivatives,
         })
+    }
+
+    /// The full analysis; its mode shapes are held as the basis of later trial states.
+    fn modal_state(
+        &self,
+        values: &[f64],
+        selection: ModeSelection,
+    ) -> Result<(ModalState, Option<Evaluated>), UpdatingError> {
+        let evaluated = self.evaluate(values)?;
+        let state = ModalState::new(&evaluated, values, selection)?;
+        self.held.set(values, &state.modes.shapes);
+        Ok((state, Some(evaluated)))
+    }
+
+    /// Rayleigh-Ritz on the mode shapes `Φ` of the last full analysis: `K(φ)`, `M(φ)` assembled
+    /// at `values` and projected, `ΦᵀKΦ q = λ ΦᵀMΦ q`, shapes `Φq` — no factorisation, no
+    /// eigensolver iterations. The eigenvalues bound the full model's from above and err to
+    /// second order in the change of the mode shapes: enough to rank trial steps, after which
+    /// the chosen step is analysed in full.
+    fn trial_modal_state(
+        &self,
+        values: &[f64],
+        _selection: ModeSelection,
+    ) -> Result<Option<ModalState>, UpdatingError> {
+        let Some((old, held)) = self.held.get() else {
+            return Ok(None);
+        };
+        if old.len() != values.len() {
+            return Ok(None);
+        }
+        let basis: &Mat<f64> = &held;
+        let model = self.model_at(values)?;
+        let (system, _) = assemble_model(&model, self.mass).map_err(UpdatingError::from)?;
+        if system.n() != basis.nrows() {
+            return Ok(None);
+        }
+        let (k, m) = rayon::join(
+            || crate::reduction::linalg::project(&system.k, basis.as_ref()),
+            || crate::reduction::linalg::project(&system.m, basis.as_ref()),
+        );
+        // Ritz coordinates carry no DOF: the labels only name rows in error messages.
+        let labels = vec![DofId::new(0, crate::core::Component::Ux); basis.ncols()];
+        let ritz = crate::reduction::projected_modes(&k, &m, &labels, ModeSelection::All)?;
+        let shapes = basis.as_ref() * &ritz.shapes;
+        Ok(Some(ModalState {
+            modes: Modes { shapes, ..ritz },
+            dofs: system.dofs,
+            projected: Vec::new(),
+            reduced: None,
+            factor: None,
+            sensors: None,
+        }))
     }
 }
 

@@ -90,6 +90,10 @@ pub struct PredictorCorrector<'a> {
     settings: PcSettings,
     /// With `settings.smoothing > 0`: the operator and the smoothed measurement.
     smoothed: Option<(FrequencySmoothing, FrfSet)>,
+    /// With `settings.residual_flexibility`: the last full analysis's `R` at the measured pairs
+    /// (each pair's rows, the matrix), added to trial predictions, which have no physical
+    /// matrices to form their own.
+    held_residual: std::sync::Mutex<Option<(Vec<(usize, usize)>, Mat<f64>)>>,
 }
 
 impl<'a> PredictorCorrector<'a> {
@@ -104,6 +108,7 @@ impl<'a> PredictorCorrector<'a> {
             measured,
             settings,
             smoothed,
+            held_residual: std::sync::Mutex::new(None),
         }
     }
 }
@@ -493,16 +498,9 @@ impl ResidualFlexibility {
         }
     }
 
-    /// Adds `R` to every line of `set` (the measured pairs, in `set`'s quantity).
-    fn add_to(&self, set: &mut FrfSet, eigenvalues: &[f64]) {
-        let r = self.combined(self.share.flexibility(eigenvalues, self.shapes.as_ref()));
-        add_static_receptance(
-            &mut set.values,
-            &set.freqs_hz,
-            set.quantity,
-            &self.rows,
-            r.as_ref(),
-        );
+    /// `R` at the measured DOFs (through the map, `W R Wᵀ`).
+    fn matrix(&self, eigenvalues: &[f64]) -> Mat<f64> {
+        self.combined(self.share.flexibility(eigenvalues, self.shapes.as_ref()))
     }
 
     /// Per parameter, unity-scaled: Wang's correction `ρ` of the kept mode-shape derivatives
@@ -715,16 +713,36 @@ impl PredictorCorrector<'_> {
         evaluated: Option<&super::model::Evaluated>,
     ) -> Result<(FrfSet, Option<ResidualFlexibility>), UpdatingError> {
         let mut raw = predict(state, self.measured, &self.settings.damping)?;
-        let residual = match (evaluated, self.settings.residual_flexibility) {
-            (Some(ev), true) => {
+        if !self.settings.residual_flexibility {
+            return Ok((raw, None));
+        }
+        let residual = match evaluated {
+            Some(ev) => {
                 let r = ResidualFlexibility::new(ev, state, self.measured)?;
-                r.add_to(&mut raw, state.modes.eigenvalues.as_slice());
+                let matrix = r.matrix(state.modes.eigenvalues.as_slice());
+                if let Ok(mut held) = self.held_residual.lock() {
+                    *held = Some((r.rows.clone(), matrix.clone()));
+                }
+                add_residual(&mut raw, &r.rows, matrix.as_ref());
                 Some(r)
             }
-            _ => None,
+            // A trial state: the residual flexibility of the last full analysis, held like its
+            // basis (it changes with the parameters far less than the kept modes do).
+            None => {
+                let held = self.held_residual.lock().ok().and_then(|h| h.clone());
+                if let Some((rows, matrix)) = held {
+                    add_residual(&mut raw, &rows, matrix.as_ref());
+                }
+                None
+            }
         };
         Ok((raw, residual))
     }
+}
+
+/// Adds the static receptance `r` (measured DOFs²) to every line of `set` at the pairs' `rows`.
+fn add_residual(set: &mut FrfSet, rows: &[(usize, usize)], r: MatRef<'_, f64>) {
+    add_static_receptance(&mut set.values, &set.freqs_hz, set.quantity, rows, r);
 }
 
 #[cfg(test)]
@@ -765,9 +783,8 @@ mod tests {
             )
             .unwrap();
             if residual {
-                ResidualFlexibility::new(&ev, &st, &h)
-                    .unwrap()
-                    .add_to(&mut h, &st.modes.eigenvalues);
+                let r = ResidualFlexibility::new(&ev, &st, &h).unwrap();
+                add_residual(&mut h, &r.rows, r.matrix(&st.modes.eigenvalues).as_ref());
             }
             h
         };
