@@ -655,8 +655,7 @@ fn bayes_tmcmc_stage_writes_the_posterior_with_evidence_and_figures() {
     };
     let stopped =
         femu::pipeline::execute(&load(&path, &["tmcmc.max_stages=2"]), &resumed_cache, &opts)
-            .err()
-            .expect("the run stops at max_stages")
+            .expect_err("the run stops at max_stages")
             .to_string();
     assert!(
         stopped.contains("did not reach β = 1 in 2 stages"),

@@ -249,7 +249,10 @@ pub struct FeModel {
 /// The values and mode shapes of a full model's last modal analysis: the Ritz basis of its
 /// trial states ([`FeModel`]'s [`ParametricModel::trial_modal_state`]). A clone starts empty.
 #[derive(Debug, Default)]
-struct HeldModes(std::sync::Mutex<Option<(Vec<f64>, std::sync::Arc<Mat<f64>>)>>);
+struct HeldModes(std::sync::Mutex<Option<Held>>);
+
+/// The values of an analysis and its mode shapes.
+type Held = (Vec<f64>, std::sync::Arc<Mat<f64>>);
 
 impl Clone for HeldModes {
     fn clone(&self) -> Self {
@@ -258,7 +261,7 @@ impl Clone for HeldModes {
 }
 
 impl HeldModes {
-    fn get(&self) -> Option<(Vec<f64>, std::sync::Arc<Mat<f64>>)> {
+    fn get(&self) -> Option<Held> {
         self.0.lock().ok()?.clone()
     }
 

@@ -93,8 +93,11 @@ pub struct PredictorCorrector<'a> {
     /// With `settings.residual_flexibility`: the last full analysis's `R` at the measured pairs
     /// (each pair's rows, the matrix), added to trial predictions, which have no physical
     /// matrices to form their own.
-    held_residual: std::sync::Mutex<Option<(Vec<(usize, usize)>, Mat<f64>)>>,
+    held_residual: std::sync::Mutex<Option<HeldResidual>>,
 }
+
+/// Each measured pair's (response, excitation) rows and `R` at the measured DOFs.
+type HeldResidual = (Vec<(usize, usize)>, Mat<f64>);
 
 impl<'a> PredictorCorrector<'a> {
     /// The P-C against `measured` (smoothed once here when `settings.smoothing > 0`).
