@@ -86,6 +86,18 @@ use faer::Mat;
 /// Smallest accepted cosine between a nodal director and the element's mean normal.
 pub const MIN_DIRECTOR_COSINE: f64 = 0.5;
 
+/// `N`, `∂N/∂ξ`, `∂N/∂η` of the eight-node serendipity quadrilateral (CQUAD8, `ξ, η ∈ [−1, 1]`,
+/// corners then midside nodes G5–G8 on edges 1–2, 2–3, 3–4, 4–1) at `(ξ, η)`.
+pub fn quad8_shape(xi: f64, eta: f64) -> [Vec<f64>; 3] {
+    Shape::Quad8.eval(xi, eta)
+}
+
+/// `N`, `∂N/∂r`, `∂N/∂s` of the six-node quadratic triangle (CTRIA6, area coordinates
+/// `L = (1 − r − s, r, s)`, midside nodes G4–G6 on edges 1–2, 2–3, 3–1) at `(r, s)`.
+pub fn tria6_shape(r: f64, s: f64) -> [Vec<f64>; 3] {
+    Shape::Tria6.eval(r, s)
+}
+
 /// Which element.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Shape {

@@ -53,6 +53,17 @@ impl StaticShare {
         modes: &Modes,
         at: &[DofId],
     ) -> Result<Self, LocalisationError> {
+        Self::with_factor(sys, modes, at, None)
+    }
+
+    /// [`Self::new`], solving with the eigensolver's factor of `K − σ_e M` where it serves
+    /// (see [`shifted_static_solutions`]) instead of a factorisation of its own.
+    pub fn with_factor(
+        sys: &SystemMatrices,
+        modes: &Modes,
+        at: &[DofId],
+        eigen_factor: Option<crate::sensitivity::frf::EigenFactor<'_>>,
+    ) -> Result<Self, LocalisationError> {
         let index = sys.dof_index();
         let rows: Vec<usize> = at
             .iter()
@@ -64,7 +75,7 @@ impl StaticShare {
                 })
             })
             .collect::<Result<_, _>>()?;
-        let solved = shifted_static_solutions(&sys.k, &sys.m, &modes.eigenvalues, &rows, None)
+        let solved = shifted_static_solutions(&sys.k, &sys.m, &modes.eigenvalues, &rows, eigen_factor)
             .map_err(|e| match e {
                 ShiftedStaticError::NotPositiveDefinite => LocalisationError::Model(
                     "K - sigma M is not positive definite; the static correction needs a model without mechanisms (set `static_correction: false`)".into(),

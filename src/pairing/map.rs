@@ -195,26 +195,71 @@ impl TestMap {
 struct Candidate {
     id: u64,
     shape: Shape,
+    /// The element's nodes in its shape's order (an omitted midside node's entry unused).
     nodes: Vec<u64>,
+    /// Their coordinates (an omitted midside node at its edge's midpoint).
     xyz: Vec<[f64; 3]>,
+    /// Omitted midside nodes `(index, corner, corner)`: their edge is straight, and their
+    /// shape function's value goes half to each corner (the linear edge's interpolation).
+    omitted: Vec<(usize, usize, usize)>,
     lo: [f64; 3],
     hi: [f64; 3],
 }
 
-fn shape_of(e: &Element) -> Option<(Shape, Vec<u64>)> {
+impl Candidate {
+    /// The weight of each node, an omitted midside node's given to its edge's corners.
+    fn node_weights(&self, weights: &[f64]) -> Vec<(u64, f64)> {
+        let mut w = weights.to_vec();
+        for &(k, a, b) in &self.omitted {
+            let half = 0.5 * w[k];
+            w[a] += half;
+            w[b] += half;
+            w[k] = 0.0;
+        }
+        self.nodes
+            .iter()
+            .zip(w)
+            .filter(|(_, w)| w.abs() > 1e-12)
+            .map(|(n, w)| (*n, w))
+            .collect()
+    }
+}
+
+/// The shape of `e`, its nodes in that shape's order (`None`: an omitted midside node) and
+/// the corners of each midside node's edge.
+fn shape_of(e: &Element) -> Option<(Shape, Vec<Option<u64>>, Vec<[usize; 2]>)> {
+    let all = |nodes: &[u64]| nodes.iter().map(|n| Some(*n)).collect::<Vec<_>>();
+    let curved = |corners: &[u64], midside: &[Option<u64>]| {
+        let c = corners.len();
+        let nodes = all(corners)
+            .into_iter()
+            .chain(midside.iter().copied())
+            .collect();
+        (nodes, (0..c).map(|k| [k, (k + 1) % c]).collect())
+    };
     match e {
-        Element::Quad4 { nodes, .. } => Some((Shape::Quad4, nodes.to_vec())),
-        Element::Tria3 { nodes, .. } => Some((Shape::Tria3, nodes.to_vec())),
-        Element::Solid {
-            kind: SolidKind::Hexa8,
-            nodes,
-            ..
-        } => Some((Shape::Hexa8, nodes.clone())),
-        Element::Solid {
-            kind: SolidKind::Tetra4,
-            nodes,
-            ..
-        } => Some((Shape::Tetra4, nodes.clone())),
+        Element::Quad4 { nodes, .. } => Some((Shape::Quad4, all(nodes), vec![])),
+        Element::Tria3 { nodes, .. } => Some((Shape::Tria3, all(nodes), vec![])),
+        Element::Quad8 {
+            corners, midside, ..
+        } => {
+            let (nodes, edges) = curved(corners, midside);
+            Some((Shape::Quad8, nodes, edges))
+        }
+        Element::Tria6 {
+            corners, midside, ..
+        } => {
+            let (nodes, edges) = curved(corners, midside);
+            Some((Shape::Tria6, nodes, edges))
+        }
+        Element::Solid { kind, nodes, .. } => {
+            let shape = match kind {
+                SolidKind::Hexa8 => Shape::Hexa8,
+                SolidKind::Tetra4 => Shape::Tetra4,
+                other => Shape::Solid(*other),
+            };
+            Some((shape, all(nodes), vec![]))
+        }
         _ => None,
     }
 }
@@ -222,16 +267,29 @@ fn shape_of(e: &Element) -> Option<(Shape, Vec<u64>)> {
 fn candidates(model: &Model) -> Vec<Candidate> {
     let mut out = Vec::new();
     for (&id, e) in &model.elements {
-        let Some((shape, nodes)) = shape_of(e) else {
+        let Some((shape, listed, edges)) = shape_of(e) else {
             continue;
         };
-        let Some(xyz) = nodes
+        let corners = listed.len() - edges.len();
+        let Some(mut xyz) = listed
             .iter()
-            .map(|n| model.nodes.get(n).copied())
+            .map(|n| match n {
+                Some(n) => model.nodes.get(n).copied(),
+                None => Some([f64::NAN; 3]),
+            })
             .collect::<Option<Vec<_>>>()
         else {
             continue;
         };
+        let mut omitted = Vec::new();
+        for (m, [a, b]) in edges.iter().enumerate() {
+            let k = corners + m;
+            if listed[k].is_none() {
+                xyz[k] = [0, 1, 2].map(|c| 0.5 * (xyz[*a][c] + xyz[*b][c]));
+                omitted.push((k, *a, *b));
+            }
+        }
+        let nodes: Vec<u64> = listed.iter().map(|n| n.unwrap_or(0)).collect();
         let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
         for p in &xyz {
             for k in 0..3 {
@@ -244,6 +302,7 @@ fn candidates(model: &Model) -> Vec<Candidate> {
             shape,
             nodes,
             xyz,
+            omitted,
             lo,
             hi,
         });
@@ -294,7 +353,8 @@ pub fn pair_points(
     let elements = candidates(model);
     if params.method == PairMethod::Interpolate && elements.is_empty() {
         return Err(PairingError::EmptyModel {
-            what: "elements that can be interpolated (quad4, tria3, hexa8, tetra4); use `method: nearest`".into(),
+            what: "elements that can be interpolated (shells and solids); use `method: nearest`"
+                .into(),
         });
     }
     let tol = params.tolerance;
@@ -349,13 +409,7 @@ pub fn pair_points(
             if let Some((d, _, c, l)) = best
                 && (d <= tol || d < nearest.1)
             {
-                let nodes: Vec<(u64, f64)> = c
-                    .nodes
-                    .iter()
-                    .zip(&l.weights)
-                    .filter(|(_, w)| w.abs() > 1e-12)
-                    .map(|(n, w)| (*n, *w))
-                    .collect();
+                let nodes = c.node_weights(&l.weights);
                 pairing = PointPairing {
                     paired_by: PairedBy::Element {
                         id: c.id,
@@ -589,6 +643,63 @@ mod tests {
         assert_eq!(rows.len(), 4);
         assert!(rows.iter().all(|r| r.fe_dof.comp == Component::Uz));
         assert!((rows.iter().map(|r| r.weight).sum::<f64>() - 1.0).abs() < 1e-14);
+    }
+
+    /// A CQUAD8 with a midside node omitted pairs like the plate's quad4 there: its straight
+    /// edge's omitted node gives its weight to the two corners, the weights reproduce the point
+    /// and sum to one, and no weight falls on an absent node.
+    #[test]
+    fn quad8_with_an_omitted_midside_node() {
+        let mut m = plate();
+        // Element 6 (corners 7, 8, 13, 12) as a CQUAD8 with midside nodes on three edges.
+        let mut next = 100;
+        let mut midside = [None; 4];
+        let corners = [7, 8, 13, 12];
+        for (k, slot) in midside.iter_mut().enumerate() {
+            if k == 1 {
+                continue;
+            }
+            let (a, b) = (m.nodes[&corners[k]], m.nodes[&corners[(k + 1) % 4]]);
+            m.nodes.insert(next, [0, 1, 2].map(|c| 0.5 * (a[c] + b[c])));
+            *slot = Some(next);
+            next += 1;
+        }
+        let property = match m.elements[&6] {
+            Element::Quad4 { property, .. } => property,
+            _ => unreachable!(),
+        };
+        m.elements.insert(
+            6,
+            Element::Quad8 {
+                corners,
+                midside,
+                property,
+            },
+        );
+        let geo = [TestPoint::global(1, [0.175, 0.125, 0.0])];
+        let (p, _) = pair_points(
+            &m,
+            &geo,
+            &RigidTransform::identity(),
+            &params(PairMethod::Interpolate),
+        )
+        .unwrap();
+        let PairedBy::Element { id, shape, .. } = p[0].paired_by else {
+            panic!("{:?}", p[0]);
+        };
+        assert_eq!((id, shape), (6, Shape::Quad8));
+        assert!(p[0].distance < 1e-14);
+        assert!((p[0].nodes.iter().map(|n| n.1).sum::<f64>() - 1.0).abs() < 1e-13);
+        let mut image = [0.0; 3];
+        for (n, w) in &p[0].nodes {
+            assert!(m.nodes.contains_key(n), "weight on absent node {n}");
+            for c in 0..3 {
+                image[c] += w * m.nodes[n][c];
+            }
+        }
+        for c in 0..3 {
+            assert!((image[c] - geo[0].xyz[c]).abs() < 1e-14, "{image:?}");
+        }
     }
 
     /// A skewed sensor's weights are its direction cosines; a sensor along −z gets −1; a model

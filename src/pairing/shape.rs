@@ -1,10 +1,14 @@
 //! Where a point lies in an element: its natural coordinates by inverting the isoparametric
 //! map, the element's shape functions there as weights on its nodes, and its distance from the
-//! element (docs/theory.md §14, (14.4)). Shells (four-node bilinear, three-node linear) are
-//! surfaces: a point off them is projected along the normal, and the distance is the
-//! out-of-plane one. Solids (eight-node trilinear, four-node linear) enclose the point or not.
-//! A point beyond an element's edges is taken to the nearest point of the element (natural
-//! coordinates clamped to it), so the distance is then to that point.
+//! element (docs/theory.md §14, (14.4)). Shells (four-node bilinear, three-node linear, and the
+//! curved eight- and six-node ones) are surfaces: a point off them is projected along the
+//! normal, and the distance is the out-of-plane one. Solids (every isoparametric solid of
+//! `fe::solid`, linear and quadratic) enclose the point or not. A point beyond an element's
+//! edges is taken to a point of the element: the nearest one for the linear triangle and
+//! tetrahedron, the one whose natural coordinates are the clamped ones (the parent domain's
+//! nearest point) for the others, so the distance is then to that point.
+
+use crate::model::SolidKind;
 
 /// The element shapes interpolated.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -17,9 +21,32 @@ pub enum Shape {
     Hexa8,
     /// Four-node linear tetrahedron (CTETRA4).
     Tetra4,
+    /// Eight-node serendipity quadrilateral (CQUAD8): corners, then midside nodes on edges
+    /// 1–2, 2–3, 3–4, 4–1.
+    Quad8,
+    /// Six-node quadratic triangle (CTRIA6): corners, then midside nodes on 1–2, 2–3, 3–1.
+    Tria6,
+    /// Another isoparametric solid (`hexa20`, `penta6`, `penta15`, `tetra10`, `pyram5`), by the
+    /// shape functions of `fe::solid::shape` in the QRG's node order.
+    Solid(SolidKind),
 }
 
 impl Shape {
+    /// Every shape, in the order of their names.
+    pub const ALL: [Shape; 11] = [
+        Shape::Quad4,
+        Shape::Tria3,
+        Shape::Hexa8,
+        Shape::Tetra4,
+        Shape::Quad8,
+        Shape::Tria6,
+        Shape::Solid(SolidKind::Hexa20),
+        Shape::Solid(SolidKind::Penta6),
+        Shape::Solid(SolidKind::Penta15),
+        Shape::Solid(SolidKind::Tetra10),
+        Shape::Solid(SolidKind::Pyram5),
+    ];
+
     /// Its name in artefacts and messages.
     pub fn name(self) -> &'static str {
         match self {
@@ -27,8 +54,95 @@ impl Shape {
             Shape::Tria3 => "tria3",
             Shape::Hexa8 => "hexa8",
             Shape::Tetra4 => "tetra4",
+            Shape::Quad8 => "quad8",
+            Shape::Tria6 => "tria6",
+            Shape::Solid(kind) => kind.name(),
         }
     }
+
+    /// The shape named `name` ([`Self::name`]).
+    pub fn from_name(name: &str) -> Option<Shape> {
+        Self::ALL.into_iter().find(|s| s.name() == name)
+    }
+}
+
+/// The parent domain of a shape's natural coordinates, for the clamping of a point beyond it.
+#[derive(Clone, Copy)]
+enum Domain {
+    /// `[−1, 1]` in the first `dims` coordinates.
+    Cube(usize),
+    /// `r, s ≥ 0`, `r + s ≤ 1` (triangles).
+    Triangle,
+    /// `r, s, t ≥ 0`, `r + s + t ≤ 1` (tetrahedra).
+    Tetrahedron,
+    /// A triangle in `r, s` times `ζ ∈ [−1, 1]` (pentahedra).
+    Wedge,
+}
+
+impl Domain {
+    /// Where Gauss-Newton starts: the domain's centre.
+    fn centre(self) -> [f64; 3] {
+        match self {
+            Domain::Cube(_) => [0.0; 3],
+            Domain::Triangle | Domain::Wedge => [1.0 / 3.0, 1.0 / 3.0, 0.0],
+            Domain::Tetrahedron => [0.25; 3],
+        }
+    }
+
+    /// Whether `x` lies in the domain (to [`INSIDE`]).
+    fn contains(self, x: [f64; 3]) -> bool {
+        let simplex =
+            |v: &[f64]| v.iter().all(|c| *c >= -INSIDE) && v.iter().sum::<f64>() <= 1.0 + INSIDE;
+        match self {
+            Domain::Cube(d) => x[..d].iter().all(|v| v.abs() <= 1.0 + INSIDE),
+            Domain::Triangle => simplex(&x[..2]),
+            Domain::Tetrahedron => simplex(&x),
+            Domain::Wedge => simplex(&x[..2]) && x[2].abs() <= 1.0 + INSIDE,
+        }
+    }
+
+    /// The point of the domain nearest to `x` (Euclidean in natural coordinates).
+    fn clamp(self, x: [f64; 3]) -> [f64; 3] {
+        match self {
+            Domain::Cube(d) => {
+                let mut c = x;
+                for v in &mut c[..d] {
+                    *v = v.clamp(-1.0, 1.0);
+                }
+                c
+            }
+            Domain::Triangle => {
+                let [r, s] = simplex_projection([x[0], x[1]]);
+                [r, s, 0.0]
+            }
+            Domain::Tetrahedron => simplex_projection(x),
+            Domain::Wedge => {
+                let [r, s] = simplex_projection([x[0], x[1]]);
+                [r, s, x[2].clamp(-1.0, 1.0)]
+            }
+        }
+    }
+}
+
+/// The Euclidean projection of `v` onto `{v ≥ 0, Σ v ≤ 1}`.
+fn simplex_projection<const N: usize>(v: [f64; N]) -> [f64; N] {
+    let clipped = v.map(|c| c.max(0.0));
+    if clipped.iter().sum::<f64>() <= 1.0 {
+        return clipped;
+    }
+    // Onto the face Σ v = 1, v ≥ 0: v − τ clipped at zero, τ from the sorted values.
+    let mut sorted = v;
+    sorted.sort_by(|a, b| b.total_cmp(a));
+    let mut tau = 0.0;
+    let mut sum = 0.0;
+    for (k, u) in sorted.iter().enumerate() {
+        sum += u;
+        let t = (sum - 1.0) / (k + 1) as f64;
+        if u - t > 0.0 {
+            tau = t;
+        }
+    }
+    v.map(|c| (c - tau).max(0.0))
 }
 
 /// A point located in one element.
@@ -132,16 +246,17 @@ fn solve(mut a: [[f64; 3]; 3], mut b: [f64; 3], n: usize) -> Option<[f64; 3]> {
     Some(x)
 }
 
-/// Gauss–Newton on `min |x(ξ) − p|²` over `dims` natural coordinates from the centre;
+/// Gauss–Newton on `min |x(ξ) − p|²` over `dims` natural coordinates from `start`;
 /// `eval` gives the shape functions and their derivatives. Stops when the step is below 1e-14
 /// or after 50 steps.
 fn invert(
     x: &[[f64; 3]],
     p: [f64; 3],
     dims: usize,
+    start: [f64; 3],
     eval: impl Fn([f64; 3]) -> (Vec<f64>, Vec<Vec<f64>>),
 ) -> Option<[f64; 3]> {
-    let mut xi = [0.0; 3];
+    let mut xi = start;
     for _ in 0..50 {
         let (n, d) = eval(xi);
         let r = sub(p, combine(x, &n));
@@ -172,12 +287,32 @@ fn invert(
 /// `None` for a degenerate element or a projection that does not converge.
 pub fn locate(shape: Shape, x: &[[f64; 3]], p: [f64; 3]) -> Option<Location> {
     match shape {
+        Shape::Quad8 => locate_isoparametric(x, p, 2, Domain::Cube(2), |v| {
+            let [n, a, b] = crate::fe::shell_quadratic::quad8_shape(v[0], v[1]);
+            (n, vec![a, b])
+        }),
+        Shape::Tria6 => locate_isoparametric(x, p, 2, Domain::Triangle, |v| {
+            let [n, a, b] = crate::fe::shell_quadratic::tria6_shape(v[0], v[1]);
+            (n, vec![a, b])
+        }),
+        Shape::Solid(kind) => {
+            let domain = match kind {
+                SolidKind::Tetra4 | SolidKind::Tetra10 => Domain::Tetrahedron,
+                SolidKind::Penta6 | SolidKind::Penta15 => Domain::Wedge,
+                SolidKind::Hexa8 | SolidKind::Hexa20 | SolidKind::Pyram5 => Domain::Cube(3),
+            };
+            locate_isoparametric(x, p, 3, domain, |v| {
+                let (n, d) = crate::fe::solid::shape::shape(kind, v);
+                let d = (0..3).map(|k| d.iter().map(|g| g[k]).collect()).collect();
+                (n, d)
+            })
+        }
         Shape::Quad4 => {
             let eval = |v: [f64; 3]| {
                 let (n, a, b) = quad4_n(v[0], v[1]);
                 (n.to_vec(), vec![a.to_vec(), b.to_vec()])
             };
-            let xi = invert(x, p, 2, eval)?;
+            let xi = invert(x, p, 2, [0.0; 3], eval)?;
             let inside = xi[0].abs() <= 1.0 + INSIDE && xi[1].abs() <= 1.0 + INSIDE;
             let c = [xi[0].clamp(-1.0, 1.0), xi[1].clamp(-1.0, 1.0), 0.0];
             let (n, _, _) = quad4_n(c[0], c[1]);
@@ -193,7 +328,7 @@ pub fn locate(shape: Shape, x: &[[f64; 3]], p: [f64; 3]) -> Option<Location> {
                 let (n, d) = hexa8_n(v);
                 (n.to_vec(), d.iter().map(|r| r.to_vec()).collect())
             };
-            let xi = invert(x, p, 3, eval)?;
+            let xi = invert(x, p, 3, [0.0; 3], eval)?;
             let inside = xi.iter().all(|v| v.abs() <= 1.0 + INSIDE);
             let c = xi.map(|v| v.clamp(-1.0, 1.0));
             let (n, _) = hexa8_n(c);
@@ -269,6 +404,27 @@ pub fn locate(shape: Shape, x: &[[f64; 3]], p: [f64; 3]) -> Option<Location> {
             })
         }
     }
+}
+
+/// [`locate`] for the shapes located by Gauss-Newton in their parent `domain` of `dims`
+/// coordinates, with the shape functions `eval`.
+fn locate_isoparametric(
+    x: &[[f64; 3]],
+    p: [f64; 3],
+    dims: usize,
+    domain: Domain,
+    eval: impl Fn([f64; 3]) -> (Vec<f64>, Vec<Vec<f64>>),
+) -> Option<Location> {
+    let xi = invert(x, p, dims, domain.centre(), &eval)?;
+    let inside = domain.contains(xi);
+    let c = domain.clamp(xi);
+    let (n, _) = eval(c);
+    Some(Location {
+        natural: c,
+        distance: dist(p, combine(x, &n)),
+        weights: n,
+        inside,
+    })
 }
 
 /// Barycentric weights of the point of triangle `x` nearest to `p` (inside, on an edge or at a
@@ -358,6 +514,135 @@ mod tests {
         assert!(dot(r, combine(&x, &a)).abs() < 1e-12);
         assert!(dot(r, combine(&x, &b)).abs() < 1e-12);
         assert!((l.weights.iter().sum::<f64>() - 1.0).abs() < 1e-14);
+    }
+
+    /// The serendipity quadrilateral's weights on a flat rectangle with straight edges, at a
+    /// point of known natural coordinates, against the shape functions written out by hand
+    /// (corner `¼(1+ξᵢξ)(1+ηᵢη)(ξᵢξ+ηᵢη−1)`, midside `½(1−ξ²)(1+ηᵢη)` and `½(1+ξᵢξ)(1−η²)`).
+    #[test]
+    fn quad8_weights_at_a_known_point() {
+        let c = [[0.0, 0.0], [0.2, 0.0], [0.2, 0.1], [0.0, 0.1]];
+        let mut x: Vec<[f64; 3]> = c.iter().map(|p| [p[0], p[1], 0.0]).collect();
+        for k in 0..4 {
+            let (a, b) = (c[k], c[(k + 1) % 4]);
+            x.push([0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1]), 0.0]);
+        }
+        let l = locate(Shape::Quad8, &x, [0.05, 0.075, -0.004]).unwrap();
+        let (xi, eta) = (-0.5, 0.5);
+        let corner =
+            |a: f64, b: f64| 0.25 * (1.0 + a * xi) * (1.0 + b * eta) * (a * xi + b * eta - 1.0);
+        let want = [
+            corner(-1.0, -1.0),
+            corner(1.0, -1.0),
+            corner(1.0, 1.0),
+            corner(-1.0, 1.0),
+            0.5 * (1.0 - xi * xi) * (1.0 - eta),
+            0.5 * (1.0 + xi) * (1.0 - eta * eta),
+            0.5 * (1.0 - xi * xi) * (1.0 + eta),
+            0.5 * (1.0 - xi) * (1.0 - eta * eta),
+        ];
+        for (w, want) in l.weights.iter().zip(want) {
+            assert!((w - want).abs() < 1e-13, "{:?} vs {want:?}", l.weights);
+        }
+        assert!(l.inside && (l.distance - 0.004).abs() < 1e-14);
+    }
+
+    /// Curved quadratic elements: a point made by the element's own map at chosen natural
+    /// coordinates (and, for the surfaces, moved along the normal) is found there again, with
+    /// the shape functions there as weights (1e-10), inside, at the distance it was moved; a
+    /// point beyond a quadratic tetrahedron is clamped onto its parent domain.
+    #[test]
+    fn curved_quadratic_elements_invert_their_own_map() {
+        // Midside nodes pushed off the straight edges: curved edges and faces.
+        let bulge = |x: &mut Vec<[f64; 3]>, from: usize, amount: f64| {
+            for (k, p) in x.iter_mut().enumerate().skip(from) {
+                p[2] += amount * (1.0 + 0.3 * k as f64);
+                p[0] += 0.4 * amount;
+            }
+        };
+        // CQUAD8 on a saddle.
+        let mut q: Vec<[f64; 3]> = vec![
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [1.0, 0.8, 0.0],
+            [0.0, 0.8, 0.0],
+            [0.5, 0.0, 0.0],
+            [1.0, 0.4, 0.0],
+            [0.5, 0.8, 0.0],
+            [0.0, 0.4, 0.0],
+        ];
+        bulge(&mut q, 4, 0.05);
+        let at = [0.3, -0.6, 0.0];
+        let [n, _, _] = crate::fe::shell_quadratic::quad8_shape(at[0], at[1]);
+        let on = combine(&q, &n);
+        let l = locate(Shape::Quad8, &q, on).unwrap();
+        assert!(l.inside && l.distance < 1e-12, "{l:?}");
+        for (w, want) in l.weights.iter().zip(&n) {
+            assert!((w - want).abs() < 1e-10, "{:?} vs {n:?}", l.weights);
+        }
+        // CTRIA6, curved.
+        let mut t: Vec<[f64; 3]> = vec![
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [0.5, 0.0, 0.0],
+            [0.5, 0.5, 0.0],
+            [0.0, 0.5, 0.0],
+        ];
+        bulge(&mut t, 3, 0.04);
+        let [n, _, _] = crate::fe::shell_quadratic::tria6_shape(0.2, 0.5);
+        let l = locate(Shape::Tria6, &t, combine(&t, &n)).unwrap();
+        assert!(l.inside && l.distance < 1e-12);
+        assert!((l.natural[0] - 0.2).abs() < 1e-10 && (l.natural[1] - 0.5).abs() < 1e-10);
+        // The solids of fe::solid, midside nodes moved inwards and outwards.
+        for (kind, at) in [
+            (SolidKind::Hexa20, [0.3, -0.2, 0.7]),
+            (SolidKind::Tetra10, [0.2, 0.3, 0.1]),
+            (SolidKind::Penta6, [0.2, 0.5, -0.4]),
+            (SolidKind::Penta15, [0.6, 0.1, 0.3]),
+            (SolidKind::Pyram5, [0.2, -0.3, 0.1]),
+        ] {
+            let mut x: Vec<[f64; 3]> = crate::fe::solid::shape::node_coordinates(kind)
+                .iter()
+                .map(|c| [0.1 * c[0] + 1.0, 0.2 * c[1], 0.05 * c[2] + 0.02 * c[0]])
+                .collect();
+            let corners = match kind {
+                SolidKind::Hexa20 => 8,
+                SolidKind::Tetra10 => 4,
+                SolidKind::Penta15 => 6,
+                _ => x.len(),
+            };
+            for (k, p) in x.iter_mut().enumerate().skip(corners) {
+                p[2] += if k % 2 == 0 { 0.004 } else { -0.003 };
+            }
+            let (n, _) = crate::fe::solid::shape::shape(kind, at);
+            let l = locate(Shape::Solid(kind), &x, combine(&x, &n)).unwrap();
+            assert!(l.inside && l.distance < 1e-12, "{kind:?}: {l:?}");
+            for (a, b) in l.natural.iter().zip(at) {
+                assert!((a - b).abs() < 1e-10, "{kind:?}: {:?} vs {at:?}", l.natural);
+            }
+        }
+        let tet: Vec<[f64; 3]> = crate::fe::solid::shape::node_coordinates(SolidKind::Tetra10);
+        let l = locate(Shape::Solid(SolidKind::Tetra10), &tet, [0.8, 0.6, -0.1]).unwrap();
+        assert!(!l.inside);
+        let [r, s, t] = l.natural;
+        assert!(
+            r >= 0.0 && s >= 0.0 && t >= 0.0 && r + s + t <= 1.0 + 1e-15,
+            "{l:?}"
+        );
+        assert!((l.weights.iter().sum::<f64>() - 1.0).abs() < 1e-13);
+    }
+
+    /// The projection onto the simplex: inside unchanged, a negative coordinate to zero, beyond
+    /// the face `Σ = 1` onto it along its normal.
+    #[test]
+    fn simplex_projection_is_the_nearest_point() {
+        assert_eq!(simplex_projection([0.2, 0.3]), [0.2, 0.3]);
+        assert_eq!(simplex_projection([-0.2, 0.5]), [0.0, 0.5]);
+        let [a, b] = simplex_projection([0.8, 0.6]);
+        assert!((a - 0.6).abs() < 1e-15 && (b - 0.4).abs() < 1e-15);
+        let [a, b, c] = simplex_projection([1.5, -0.5, 0.2]);
+        assert!((a - 1.0).abs() < 1e-15 && b == 0.0 && c == 0.0);
     }
 
     #[test]

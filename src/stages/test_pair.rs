@@ -106,8 +106,8 @@ pub enum Method {
     Auto,
     /// The nearest grid.
     Nearest,
-    /// The shape functions of the enclosing (or nearest, projected) quad4, tria3, hexa8 or
-    /// tetra4 element.
+    /// The shape functions of the enclosing (or nearest, projected) shell or solid element,
+    /// linear or quadratic.
     Interpolate,
 }
 

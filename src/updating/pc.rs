@@ -483,8 +483,22 @@ impl ResidualFlexibility {
         let through = state.sensor_rows(&dofs)?;
         let udofs = through.as_ref().map_or(&dofs, |(u, _)| u);
         let shapes = state.model_shapes_at(udofs)?;
-        let share = crate::localisation::StaticShare::new(&evaluated.system, &state.modes, udofs)
-            .map_err(|e| UpdatingError::Model(format!("residual_flexibility: {e}")))?;
+        // The eigensolver's factor serves when it factored this model (a trial state has none).
+        let eigen_factor =
+            state
+                .factor
+                .as_deref()
+                .map(|factor| crate::sensitivity::frf::EigenFactor {
+                    factor,
+                    shapes: state.modes.shapes.as_ref(),
+                });
+        let share = crate::localisation::StaticShare::with_factor(
+            &evaluated.system,
+            &state.modes,
+            udofs,
+            eigen_factor,
+        )
+        .map_err(|e| UpdatingError::Model(format!("residual_flexibility: {e}")))?;
         let rows = crate::sensitivity::frf::pair_rows(&dofs, &measured.pairs)?;
         Ok(ResidualFlexibility {
             share,

@@ -121,12 +121,6 @@ impl Kind for TestMapKind {
     }
 }
 
-fn shape_from(s: &str) -> Option<Shape> {
-    [Shape::Quad4, Shape::Tria3, Shape::Hexa8, Shape::Tetra4]
-        .into_iter()
-        .find(|k| k.name() == s)
-}
-
 /// A test map as an artefact.
 pub fn test_map_to_artefact(m: &TestMap) -> Artefact {
     let map = Table::new()
@@ -319,7 +313,7 @@ pub fn test_map_from_artefact(a: &Artefact) -> Result<TestMap, ArtefactError> {
             "node" => PairedBy::Node(id(fe_node[i], "fe_node", i)?),
             "element" => PairedBy::Element {
                 id: id(fe_el[i], "fe_element", i)?,
-                shape: shape_from(&shape[i])
+                shape: Shape::from_name(&shape[i])
                     .ok_or_else(|| bad(format!("table `points` row {i}: shape `{}`", shape[i])))?,
                 natural: [xi[i], eta[i], zeta[i]],
             },
