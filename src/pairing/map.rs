@@ -225,9 +225,12 @@ impl Candidate {
     }
 }
 
-/// The shape of `e`, its nodes in that shape's order (`None`: an omitted midside node) and
+/// An element's shape, its nodes in that shape's order (`None`: an omitted midside node) and
 /// the corners of each midside node's edge.
-fn shape_of(e: &Element) -> Option<(Shape, Vec<Option<u64>>, Vec<[usize; 2]>)> {
+type Interpolable = (Shape, Vec<Option<u64>>, Vec<[usize; 2]>);
+
+/// [`Interpolable`] of `e`, if it has one.
+fn shape_of(e: &Element) -> Option<Interpolable> {
     let all = |nodes: &[u64]| nodes.iter().map(|n| Some(*n)).collect::<Vec<_>>();
     let curved = |corners: &[u64], midside: &[Option<u64>]| {
         let c = corners.len();
@@ -693,12 +696,12 @@ mod tests {
         let mut image = [0.0; 3];
         for (n, w) in &p[0].nodes {
             assert!(m.nodes.contains_key(n), "weight on absent node {n}");
-            for c in 0..3 {
-                image[c] += w * m.nodes[n][c];
+            for (x, g) in image.iter_mut().zip(m.nodes[n]) {
+                *x += w * g;
             }
         }
-        for c in 0..3 {
-            assert!((image[c] - geo[0].xyz[c]).abs() < 1e-14, "{image:?}");
+        for (x, want) in image.iter().zip(geo[0].xyz) {
+            assert!((x - want).abs() < 1e-14, "{image:?}");
         }
     }
 
