@@ -422,7 +422,7 @@ pub fn laminate(plies: &[Ply], z0: f64, nsm: f64) -> Result<ShellLaw, ElementErr
 // ---------------------------------------------------------------------------------------------
 // From the model.
 
-use crate::model::laminates::ShellMaterial;
+use crate::model::laminates::{LaminateTerms, ShellMaterial};
 use crate::model::{Model, ShellProperty};
 
 /// Whether a shell property needs the general law: a laminate, a membrane–bending coupling
@@ -538,7 +538,8 @@ fn law_of(model: &Model, p: &ShellProperty, part: Part) -> Result<ShellLaw, Elem
             });
             weights.push(stiff(ply.material)?);
         }
-        return laminate_weighted(&plies, &weights, lam.bottom(), nsm);
+        let law = laminate_weighted(&plies, &weights, lam.bottom(), nsm)?;
+        return Ok(with_terms(law, lam.terms, lam.bottom()));
     }
     let t = p.thickness;
     let mut law = ShellLaw::zero(p.membrane, p.bending);
@@ -568,6 +569,35 @@ fn law_of(model: &Model, p: &ShellProperty, part: Part) -> Result<ShellLaw, Elem
     law.mu = rho * t;
     law.inertia = rho * t * t * t / 12.0;
     Ok(law)
+}
+
+/// The terms of a laminate's law that its LAM option keeps ([`LaminateTerms`]), for a stack
+/// whose bottom lies at `z0`. Linear in the law, so it applies to derivatives alike.
+fn with_terms(mut law: ShellLaw, terms: LaminateTerms, z0: f64) -> ShellLaw {
+    const ZERO3: M3 = [[0.0; 3]; 3];
+    match terms {
+        LaminateTerms::All => {}
+        LaminateTerms::Membrane => {
+            (law.b, law.d, law.g, law.bending) = (ZERO3, ZERO3, [[0.0; 2]; 2], false);
+        }
+        LaminateTerms::Bending => {
+            (law.a, law.b, law.membrane) = (ZERO3, ZERO3, false);
+        }
+        LaminateTerms::Smeared => {
+            // The smeared section about its middle surface (B = 0, D = A T²/12, density
+            // uniform through the thickness), then moved to the reference plane.
+            let t = law.thickness;
+            let middle = ShellLaw {
+                b: ZERO3,
+                d: scaled3(&law.a, t * t / 12.0),
+                first_moment: 0.0,
+                inertia: law.mu * t * t / 12.0,
+                ..law
+            };
+            law = middle.offset(z0 + 0.5 * t);
+        }
+    }
+    law
 }
 
 /// [`laminate`] with ply `k`'s stiffness times `weights[k]` (the mass as the plies' densities
@@ -824,6 +854,57 @@ mod tests {
             1e-12
         ));
         assert!(close(law.g[1][1], law.g[0][0], 1e-12));
+    }
+
+    /// LAM = MEM, BEND, SMEAR on the unsymmetric [0/90] of two 0.5 mm carbon plies: MEM keeps
+    /// the stack's `A` and nothing of bending; BEND its `D` and transverse shear and no
+    /// membrane; SMEAR ignores the sequence, `B = 0` and `D = A T²/12` — for this cross-ply
+    /// `D11 = (Q11 + Q22) t T²/12` by hand, where the stacked `D11` is also `(Q11 + Q22) T³/24`
+    /// (the same, the plies being of equal thickness) but `B11 = (Q22 − Q11) t²/2 ≠ 0` — and,
+    /// the stack moved up by `e` (Z0 = −T/2 + e), `B = e A` as for an offset shell.
+    #[test]
+    fn lam_options_keep_their_terms() {
+        let t = 0.5e-3;
+        let ply = |deg: f64| Ply {
+            material: carbon(),
+            thickness: t,
+            theta: deg.to_radians(),
+            rho: 1600.0,
+        };
+        let plies = [ply(0.0), ply(90.0)];
+        let full = laminate(&plies, -t, 0.0).unwrap();
+        let (q11, q22, _, _) = q_hand();
+        let membrane = with_terms(full, LaminateTerms::Membrane, -t);
+        assert_eq!(membrane.a, full.a);
+        assert!(!membrane.bending && membrane.membrane);
+        assert!(membrane.b == [[0.0; 3]; 3] && membrane.d == [[0.0; 3]; 3]);
+        assert!(membrane.g == [[0.0; 2]; 2]);
+        assert_eq!(membrane.mu, full.mu);
+        let bending = with_terms(full, LaminateTerms::Bending, -t);
+        assert!(bending.bending && !bending.membrane);
+        assert_eq!((bending.d, bending.g), (full.d, full.g));
+        assert!(bending.a == [[0.0; 3]; 3] && bending.b == [[0.0; 3]; 3]);
+        let smeared = with_terms(full, LaminateTerms::Smeared, -t);
+        let big_t = 2.0 * t;
+        assert_eq!(smeared.a, full.a);
+        assert!(smeared.b.iter().flatten().all(|v| *v == 0.0));
+        assert!(close(
+            smeared.d[0][0],
+            (q11 + q22) * t * big_t * big_t / 12.0,
+            1e-12
+        ));
+        assert!(close(smeared.d[1][1], smeared.d[0][0], 1e-12));
+        assert!(close(smeared.inertia, 1600.0 * big_t.powi(3) / 12.0, 1e-12));
+        let e = 0.2e-3;
+        let raised = laminate(&plies, -t + e, 0.0).unwrap();
+        let moved = with_terms(raised, LaminateTerms::Smeared, -t + e);
+        assert!(close(moved.b[0][0], e * full.a[0][0], 1e-12));
+        assert!(close(
+            moved.d[0][0],
+            smeared.d[0][0] + e * e * full.a[0][0],
+            1e-12
+        ));
+        assert!(close(moved.first_moment, e * full.mu, 1e-12));
     }
 
     #[test]

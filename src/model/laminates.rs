@@ -102,6 +102,45 @@ pub struct Laminate {
     /// PCOMPG's global ply ids (empty for PCOMP).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub global_ids: Vec<u64>,
+    /// Which stiffness terms the laminate develops (LAM = MEM, BEND, SMEAR).
+    #[serde(default, skip_serializing_if = "LaminateTerms::is_all")]
+    pub terms: LaminateTerms,
+}
+
+/// The stiffness terms a laminate develops (PCOMP's LAM, QRG): all of them, or the derived
+/// shell's membrane (MEM) or bending (BEND) terms only, or the smeared ones (SMEAR).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum LaminateTerms {
+    /// LAM blank or SYM: `A`, `B`, `D` and the transverse shear of the stack.
+    #[default]
+    All,
+    /// LAM = MEM: the membrane stiffness `A` only (a membrane: no bending, coupling or
+    /// transverse shear stiffness; the mass as the stack's).
+    Membrane,
+    /// LAM = BEND: the bending stiffness `D` (about the reference plane) and the transverse
+    /// shear only (no membrane stiffness or coupling).
+    Bending,
+    /// LAM = SMEAR: the stacking sequence ignored — the smeared membrane stiffness `A` and
+    /// `D = A T²/12` about the laminate's middle surface (the derived shell's MID2 = MID1, no
+    /// MID4), shifted to the reference plane like an offset when `Z0 ≠ −T/2`.
+    Smeared,
+}
+
+impl LaminateTerms {
+    fn is_all(&self) -> bool {
+        *self == LaminateTerms::All
+    }
+
+    /// The LAM word (blank for all terms; SYM is written from [`Laminate::symmetric`]).
+    pub fn lam(self) -> &'static str {
+        match self {
+            LaminateTerms::All => "",
+            LaminateTerms::Membrane => "MEM",
+            LaminateTerms::Bending => "BEND",
+            LaminateTerms::Smeared => "SMEAR",
+        }
+    }
 }
 
 fn is_false(v: &bool) -> bool {

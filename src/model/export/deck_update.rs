@@ -840,6 +840,7 @@ fn laminate(
     let same_shape = fields.len() == l0.plies.len()
         && l.plies.len() == l0.plies.len()
         && l.symmetric == l0.symmetric
+        && l.terms == l0.terms
         && l.global_ids == l0.global_ids
         && l.z0.is_some() == l0.z0.is_some()
         && l.plies

@@ -374,8 +374,10 @@ fn write_laminate(
         F::Blank,
         if l.symmetric {
             F::Text("SYM".into())
-        } else {
+        } else if l.terms.lam().is_empty() {
             F::Blank
+        } else {
+            F::Text(l.terms.lam().into())
         },
     ];
     for (j, ply) in l.plies.iter().enumerate() {

@@ -3,7 +3,7 @@
 //! The lamination theory is `crate::fe::laminate`.
 
 use super::*;
-use crate::model::laminates::{Laminate, Ply, ShellMaterial, ShellPlacement};
+use crate::model::laminates::{Laminate, LaminateTerms, Ply, ShellMaterial, ShellPlacement};
 
 /// An element's material axis as the card gives it.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -127,8 +127,9 @@ impl Builder {
 
     /// PCOMP and PCOMPG (QRG): `PID Z0 NSM SB FT TREF GE LAM`, then plies bottom to top — PCOMP
     /// four fields each (`MIDi Ti THETAi SOUTi`, blank MIDi/Ti repeat the previous ply's), PCOMPG
-    /// one line each (`GPLYIDi MIDi Ti THETAi SOUTi`). LAM blank or SYM (plies mirrored); MEM,
-    /// BEND, SMEAR, SMCORE and the sandwich options are errors. Z0 blank: −T/2. SB, FT, TREF and
+    /// one line each (`GPLYIDi MIDi Ti THETAi SOUTi`). LAM blank or SYM (plies mirrored), MEM
+    /// (membrane terms only), BEND (bending terms only), SMEAR (stacking sequence ignored; see
+    /// [`LaminateTerms`]); SMCORE and the sandwich options are errors. Z0 blank: −T/2. SB, FT, TREF and
     /// SOUT are stress-recovery data and not used; GE ≠ 0 (structural damping) is not applied,
     /// with a warning.
     pub(super) fn pcomp(&mut self, c: &Card) -> Result<(), NastranError> {
@@ -146,15 +147,18 @@ impl Builder {
             );
         }
         let lam = c.word(8);
-        let symmetric = match lam.as_str() {
-            "" => false,
-            "SYM" => true,
+        let (symmetric, terms) = match lam.as_str() {
+            "" => (false, LaminateTerms::All),
+            "SYM" => (true, LaminateTerms::All),
+            "MEM" => (false, LaminateTerms::Membrane),
+            "BEND" => (false, LaminateTerms::Bending),
+            "SMEAR" => (false, LaminateTerms::Smeared),
             other => {
                 return Err(c.err(
                     8,
                     "LAM",
                     format!("LAM = {other} is not supported"),
-                    "blank (all plies given) or SYM (plies mirrored about the middle)",
+                    "blank (all plies given), SYM (plies mirrored about the middle), MEM (membrane terms only), BEND (bending terms only) or SMEAR (stacking sequence ignored)",
                 ));
             }
         };
@@ -263,6 +267,7 @@ impl Builder {
             z0,
             symmetric,
             global_ids,
+            terms,
         };
         self.new_property(c, 1, "PID", id)?;
         let mut p = ShellProperty::homogeneous(lam.plies[0].material, lam.thickness(), nsm);

@@ -63,7 +63,10 @@
 //!   Nastran's drilling formulation: a warning once per deck.
 //! - PCOMP/PCOMPG: classical lamination theory (`crate::fe::laminate`) of MAT1, MAT2 or MAT8
 //!   plies, bottom to top from Z0 (blank: −T/2); blank MIDi/Ti repeat the previous ply's; LAM
-//!   blank or SYM (MEM, BEND, SMEAR, SMCORE and the sandwich options are errors); NSM per area.
+//!   blank, SYM, MEM (only the membrane terms `A`), BEND (only `D` and the transverse shear) or
+//!   SMEAR (stacking ignored: the derived shell's MID2 = MID1, `D = A T²/12` about the middle
+//!   surface, no MID4; femu keeps the stack's transverse shear, as for a PSHELL without MID3);
+//!   SMCORE and the sandwich options are errors; NSM per area.
 //!   Deviation: the transverse shear stiffness is `5/6 Σ Ḡ_k t_k` (first-order shear theory),
 //!   not Nastran's equilibrium-based laminate shear (equal for one material; O((T/λ)²) on
 //!   frequencies otherwise). SB, FT, TREF, SOUT are not used; GE ≠ 0 is not applied (warning).

@@ -97,6 +97,26 @@ fn single_isotropic_ply_is_the_pshell() {
         "{GRIDS}{elements}MAT1,1,{E:e},,{NU},2700.\nPCOMP,1,,.3,,,,,SYM\n,1,.001\n"
     ));
     same_elements(&pshell.model, &sym.model, 1e-12, "PCOMP SYM");
+    // LAM = MEM and BEND against the membrane-only (MID2 blank) and bending-only (MID1 blank)
+    // PSHELL; SMEAR of one isotropic ply is the PSHELL itself.
+    for (lam, card) in [
+        ("MEM", "PSHELL,1,1,.002,,,,,.3"),
+        ("BEND", "PSHELL,1,,.002,1,,1,,.3"),
+        ("SMEAR", "PSHELL,1,1,.002,1,,1,,.3"),
+    ] {
+        let shell = parse(&format!(
+            "{GRIDS}{elements}MAT1,1,{E:e},,{NU},2700.\n{card}\n"
+        ));
+        let comp = parse(&format!(
+            "{GRIDS}{elements}MAT1,1,{E:e},,{NU},2700.\nPCOMP,1,,.3,,,,,{lam}\n,1,.002\n"
+        ));
+        same_elements(
+            &shell.model,
+            &comp.model,
+            1e-12,
+            &format!("PCOMP LAM = {lam}"),
+        );
+    }
 }
 
 /// Hand CLT values of the [0/90]s and [0/90] laminates reach the element: the general law of
@@ -273,8 +293,8 @@ fn laminate_cards_refuse_what_femu_cannot_take() {
     let mat8 = "MAT8,8,1.4+11,1.+10,.3,5.+9,5.+9,3.5+9,1600.\n";
     let cases = [
         (
-            format!("{mat8}PCOMP,1,,,,,,,MEM\n,8,.001\n"),
-            "PCOMP field 9 (LAM): LAM = MEM is not supported",
+            format!("{mat8}PCOMP,1,,,,,,,SMCORE\n,8,.001\n"),
+            "PCOMP field 9 (LAM): LAM = SMCORE is not supported",
         ),
         (
             format!("{mat8}PCOMP,1\n,8,,45.\n"),
@@ -563,8 +583,8 @@ PSHELL,2,1,.002,1,,1,,.1\n"
     );
 }
 
-/// write_bulk writes PCOMP, PCOMPG, MAT8, MAT2, PSHELL MID4 and THETA/MCID/ZOFFS, and reading
-/// them back gives the model (the MCID axis to round-off through its CORD2R).
+/// write_bulk writes PCOMP (SYM), PCOMPG (SMEAR), MAT8, MAT2, PSHELL MID4 and THETA/MCID/ZOFFS,
+/// and reading them back gives the model (the MCID axis to round-off through its CORD2R).
 #[test]
 fn written_laminates_read_back() {
     let deck = format!(
@@ -572,10 +592,15 @@ fn written_laminates_read_back() {
 CORD2R,7,,0.,0.,0.,0.,0.,1.\n,.6,.8,0.\n\
 MAT8,8,1.4+11,1.+10,.3,5.+9,5.+9,3.5+9,1600.\nMAT2,2,8.+10,2.+10,1.+9,6.+10,-2.+9,2.5+10,1500.\n\
 MAT1,1,7.+10,,.33,2700.\n\
-PCOMP,1,-.0003,.2,,,,,SYM\n,8,.0001,0.,,2,.0002,45.\nPCOMPG,2\n,11,8,.0004,10.\n,12,1,.0003,-10.\n\
+PCOMP,1,-.0003,.2,,,,,SYM\n,8,.0001,0.,,2,.0002,45.\nPCOMPG,2,,,,,,,SMEAR\n,11,8,.0004,10.\n,12,1,.0003,-10.\n\
 PSHELL,3,2,.002,2,,1,,,\n,,,8\n"
     );
     let a = parse(&deck).model;
+    let smeared = a.shell_properties[&2].laminate.as_ref().unwrap();
+    assert_eq!(
+        smeared.terms,
+        crate::model::laminates::LaminateTerms::Smeared
+    );
     let text = crate::model::export::nastran::write_bulk(&a);
     let b = parse(&text).model;
     let (pa, pb) = (&a.shell_placements[&1], &b.shell_placements[&1]);
