@@ -162,6 +162,13 @@ impl Builder {
                 ));
             }
         };
+        if terms == LaminateTerms::Smeared {
+            self.warn(
+                &c.loc,
+                id,
+                "LAM = SMEAR: Nastran's derived shell has no MID3 (no transverse shear flexibility); femu keeps the laminate's transverse shear 5/6 Σ G t (an O((T/wavelength)²) effect on frequencies)",
+            );
+        }
         let mut plies = Vec::new();
         let mut global_ids = Vec::new();
         let (mut last_mid, mut last_t): (Option<u64>, Option<f64>) = (None, None);
