@@ -669,6 +669,58 @@ fn bayes_tmcmc_stage_writes_the_posterior_with_evidence_and_figures() {
         resumed.outputs["posterior"].digest,
         whole.outputs["posterior"].digest
     );
+
+    // Sharing: with `workers: 2` each stage's chains are two batches kept in the cache. One
+    // worker alone computes both (its own first) and writes the same posterior; the other
+    // worker then finds every population in the cache and computes nothing; two workers run
+    // at once on a fresh cache both write the same posterior again, whoever computed what.
+    let shared = |cache: &femu::cache::Cache, worker: usize| {
+        let sets = [
+            "tmcmc.workers=2".to_string(),
+            format!("tmcmc.worker={worker}"),
+        ];
+        let sets: Vec<&str> = sets.iter().map(String::as_str).collect();
+        stage_of(&femu::pipeline::execute(&load(&path, &sets), cache, &opts).unwrap())
+    };
+    let one_cache = femu::cache::Cache::open(&tmp.path().join("one")).unwrap();
+    let first = shared(&one_cache, 1);
+    assert_eq!(
+        first.outputs["posterior"].digest,
+        whole.outputs["posterior"].digest
+    );
+    let stages = whole.parts.computed;
+    assert_eq!(
+        first.parts.computed,
+        stages + 2 * stages,
+        "{:?}",
+        first.parts
+    );
+    let second = shared(&one_cache, 0);
+    assert_eq!(
+        second.outputs["posterior"].digest,
+        whole.outputs["posterior"].digest
+    );
+    assert_eq!(second.parts.computed, 0, "{:?}", second.parts);
+    let together = tmp.path().join("together");
+    let digests: Vec<String> = std::thread::scope(|s| {
+        let runs: Vec<_> = (0..2)
+            .map(|w| {
+                let together = &together;
+                let shared = &shared;
+                s.spawn(move || {
+                    let cache = femu::cache::Cache::open(together).unwrap();
+                    shared(&cache, w).outputs["posterior"].digest.clone()
+                })
+            })
+            .collect();
+        runs.into_iter().map(|r| r.join().unwrap()).collect()
+    });
+    assert!(
+        digests
+            .iter()
+            .all(|d| *d == whole.outputs["posterior"].digest),
+        "{digests:?}"
+    );
 }
 
 /// The shipped pipeline `bent-plate-bayes` (issue 28, reduced C2): among three candidate

@@ -8,7 +8,7 @@
 
 use crate::artefact::kinds::Kind;
 use crate::artefact::kinds::posterior::{PosteriorKind, PosteriorRecord, Sampling};
-use crate::artefact::kinds::tmcmc_population::{PopulationRecord, TmcmcPopulationKind};
+use crate::artefact::kinds::tmcmc_population::{ChainBatch, PopulationRecord, TmcmcPopulationKind};
 use crate::artefact::{Artefact, ArtefactKind};
 use crate::eigen::ModeSelection;
 use crate::fe::element::MassKind;
@@ -27,7 +27,7 @@ use crate::updating::posterior::{
     likelihood_lines,
 };
 use crate::updating::tmcmc::{
-    ParamPrior, Population, PopulationStore, TmcmcSettings, tmcmc_stored, to_posterior,
+    Chains, ParamPrior, Population, PopulationStore, TmcmcSettings, tmcmc_stored, to_posterior,
 };
 use indexmap::IndexMap;
 
@@ -180,6 +180,24 @@ pub struct Params {
     /// Measured lines inside any of these bands are left out.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub exclude_hz: Vec<Band>,
+    /// Processes that share every stage's chains through the cache: each stage's chains are
+    /// split into this many batches, each kept in the cache as it is done, so that runs of the
+    /// same pipeline with `worker: 0 … workers − 1` (e.g. the points of a sweep over `worker`,
+    /// local or a Slurm job array, on one cache) compute a stage together; every one of them
+    /// writes the posterior one process alone writes.
+    #[serde(default = "one", skip_serializing_if = "is_one")]
+    pub workers: Count,
+    /// This process's batch (0-based, below `workers`): the one it computes first.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub worker: u64,
+}
+
+fn is_zero(v: &u64) -> bool {
+    *v == 0
+}
+
+fn is_one(c: &Count) -> bool {
+    c.get() == 1
 }
 
 fn samples() -> Count {
@@ -276,6 +294,17 @@ impl TypedStage for BayesTmcmc {
                 ))
             }
             _ => {}
+        }
+        if p.worker >= p.workers.get() as u64 {
+            issues.push(ParamIssue::at(
+                "worker",
+                format!(
+                    "worker {} of {}: give 0 … {} (one per process that shares the stages)",
+                    p.worker,
+                    p.workers.get(),
+                    p.workers.get() - 1
+                ),
+            ));
         }
         if p.samples.get() < 2 {
             issues.push(ParamIssue::at(
@@ -377,6 +406,7 @@ impl TypedStage for BayesTmcmc {
             inputs,
             key: populations_key(p, inputs),
             parameters: params.iter().map(|q| q.name.clone()).collect(),
+            sharing: (p.workers.get(), p.worker as usize),
         };
         let run = |lik: &dyn Likelihood| {
             tmcmc_stored(lik, &priors, &noise, &settings, &store)
@@ -473,12 +503,13 @@ const POPULATION_PART: &str = "bayes.tmcmc/population";
 const POPULATION_VERSION: u32 = 1;
 
 /// What every population of a run depends on: the inputs' digests and every setting but those
-/// that only shape the summary (`truth`, `credible_level`) or end the run (`max_stages`), so
-/// that a run stopped at `max_stages` resumes when it is raised.
+/// that only shape the summary (`truth`, `credible_level`), end the run (`max_stages`) or say
+/// who computes what (`workers`, `worker`), so that a run stopped at `max_stages` resumes when
+/// it is raised, and any process finds what another one computed.
 fn populations_key(p: &Params, inputs: &StageInputs) -> serde_json::Value {
     let mut settings = serde_json::to_value(p).unwrap_or_default();
     if let Some(o) = settings.as_object_mut() {
-        for k in ["truth", "credible_level", "max_stages"] {
+        for k in ["truth", "credible_level", "max_stages", "workers", "worker"] {
             o.remove(k);
         }
     }
@@ -492,31 +523,28 @@ struct CachedPopulations<'a> {
     inputs: &'a StageInputs,
     key: serde_json::Value,
     parameters: Vec<String>,
+    /// `(workers, worker)`.
+    sharing: (usize, usize),
 }
 
-impl PopulationStore for CachedPopulations<'_> {
-    fn population(
+impl CachedPopulations<'_> {
+    /// The record of `key`'s part: read, or computed by `compute` and committed; a computing
+    /// error is returned as it is.
+    fn part<T>(
         &self,
-        stage: usize,
-        compute: &mut dyn FnMut() -> Result<Population, UpdatingError>,
-    ) -> Result<Population, UpdatingError> {
-        let mut key = self.key.clone();
-        key["stage"] = stage.into();
-        let (mut computed, mut failure) = (None, None);
+        key: &serde_json::Value,
+        what: &str,
+        compute: &mut dyn FnMut() -> Result<T, UpdatingError>,
+        record: impl Fn(&T) -> PopulationRecord,
+    ) -> Result<PopulationRecord, UpdatingError> {
+        let mut failure = None;
         let part = self.inputs.part(
             POPULATION_PART,
             POPULATION_VERSION,
-            &key,
+            key,
             ArtefactKind::TmcmcPopulation,
             || match compute() {
-                Ok(population) => {
-                    let a = TmcmcPopulationKind::to_artefact(&PopulationRecord {
-                        parameters: self.parameters.clone(),
-                        population,
-                    });
-                    computed = Some(a.clone());
-                    Ok(a)
-                }
+                Ok(value) => Ok(TmcmcPopulationKind::to_artefact(&record(&value))),
                 Err(e) => {
                     let message = e.to_string();
                     failure = Some(e);
@@ -527,15 +555,71 @@ impl PopulationStore for CachedPopulations<'_> {
         if let Some(e) = failure {
             return Err(e);
         }
-        let a = computed.map_or_else(
-            || part.map_err(|e| UpdatingError::Data(format!("TMCMC stage {stage}: {e}"))),
-            Ok,
-        )?;
+        let a = part.map_err(|e| UpdatingError::Data(format!("{what}: {e}")))?;
         TmcmcPopulationKind::from_artefact(&a)
-            .map(|r| r.population)
-            .map_err(|e| {
-                UpdatingError::Data(format!("the stored population of TMCMC stage {stage}: {e}"))
-            })
+            .map_err(|e| UpdatingError::Data(format!("the stored {what}: {e}")))
+    }
+}
+
+impl PopulationStore for CachedPopulations<'_> {
+    fn population(
+        &self,
+        stage: usize,
+        compute: &mut dyn FnMut() -> Result<Population, UpdatingError>,
+    ) -> Result<Population, UpdatingError> {
+        let mut key = self.key.clone();
+        key["stage"] = stage.into();
+        let what = format!("population of TMCMC stage {stage}");
+        let r = self.part(&key, &what, compute, |population| PopulationRecord {
+            parameters: self.parameters.clone(),
+            population: population.clone(),
+            batch: None,
+        })?;
+        Ok(r.population)
+    }
+
+    fn sharing(&self) -> (usize, usize) {
+        self.sharing
+    }
+
+    fn chains(
+        &self,
+        stage: usize,
+        batch: usize,
+        batches: usize,
+        compute: &mut dyn FnMut() -> Result<Chains, UpdatingError>,
+    ) -> Result<Chains, UpdatingError> {
+        if batches == 1 {
+            return compute();
+        }
+        let mut key = self.key.clone();
+        key["stage"] = stage.into();
+        key["batch"] = serde_json::json!([batch, batches]);
+        let what = format!("batch {batch} of {batches} of TMCMC stage {stage}");
+        let r = self.part(&key, &what, compute, |c: &Chains| PopulationRecord {
+            parameters: self.parameters.clone(),
+            population: Population {
+                samples: c.samples.clone(),
+                log_likelihood: c.log_likelihood.clone(),
+                stages: Vec::new(),
+                failed: c.failed,
+            },
+            batch: Some(ChainBatch {
+                stage,
+                index: batch,
+                of: batches,
+                accepted: c.accepted,
+            }),
+        })?;
+        let b = r
+            .batch
+            .ok_or_else(|| UpdatingError::Data(format!("the stored {what} is a population")))?;
+        Ok(Chains {
+            samples: r.population.samples,
+            log_likelihood: r.population.log_likelihood,
+            accepted: b.accepted,
+            failed: r.population.failed,
+        })
     }
 }
 

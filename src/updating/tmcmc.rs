@@ -327,6 +327,24 @@ pub trait PopulationStore: Sync {
         stage: usize,
         compute: &mut dyn FnMut() -> Result<Population, UpdatingError>,
     ) -> Result<Population, UpdatingError>;
+
+    /// How this process shares each stage's chains with others that run the same sampling
+    /// against the same store: `(batches, own batch)`; `(1, 0)` when it works alone.
+    fn sharing(&self) -> (usize, usize) {
+        (1, 0)
+    }
+
+    /// Batch `batch` of `batches` of stage `stage`'s chains: read from the store, or
+    /// `compute`d and stored.
+    fn chains(
+        &self,
+        _stage: usize,
+        _batch: usize,
+        _batches: usize,
+        compute: &mut dyn FnMut() -> Result<Chains, UpdatingError>,
+    ) -> Result<Chains, UpdatingError> {
+        compute()
+    }
 }
 
 /// No store: every population is computed.
@@ -528,8 +546,17 @@ pub fn tmcmc_stored(
         sigma: sigma_rows,
         constant,
     };
-    let mut population =
-        store.population(0, &mut || Ok(prior_population(&ll, priors, settings)))?;
+    let mut population = store.population(0, &mut || {
+        let chains = shared_chains(store, 0, big_n, &|range| {
+            Ok(prior_chains(&ll, priors, settings, range))
+        })?;
+        Ok(Population {
+            samples: chains.samples,
+            log_likelihood: chains.log_likelihood,
+            stages: Vec::new(),
+            failed: chains.failed,
+        })
+    })?;
     population.check_shape(0, big_n, n)?;
     if population.failed == big_n {
         return Err(UpdatingError::Model(
@@ -547,7 +574,11 @@ pub fn tmcmc_stored(
         }
         let before = &population;
         let next = store.population(stage, &mut || {
-            Ok(next_population(&ll, priors, settings, before))
+            let plan = StagePlan::new(settings, before);
+            let chains = shared_chains(store, stage, big_n, &|range| {
+                Ok(plan.move_chains(&ll, priors, settings, before, range))
+            })?;
+            Ok(plan.finish(settings, before, chains))
         })?;
         next.check_shape(stage, big_n, n)?;
         population = next;
@@ -564,17 +595,88 @@ pub fn tmcmc_stored(
     })
 }
 
-/// Stage 0: samples of the prior and their log-likelihoods.
-fn prior_population(
+/// The chains of `range` of a stage (or the samples of the prior), in chain order.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Chains {
+    /// Samples (absolute values).
+    pub samples: Vec<Vec<f64>>,
+    /// `ln p(y|φ_k)` of each (`−∞` where the model could not be analysed).
+    pub log_likelihood: Vec<f64>,
+    /// Metropolis-Hastings proposals accepted (0 for the prior).
+    pub accepted: usize,
+    /// Evaluations that failed.
+    pub failed: usize,
+}
+
+/// Chain ranges of `n` chains split into `batches` contiguous ones, the first ones one longer.
+pub fn batch_ranges(n: usize, batches: usize) -> Vec<std::ops::Range<usize>> {
+    let b = batches.clamp(1, n.max(1));
+    let (size, extra) = (n / b, n % b);
+    let mut start = 0;
+    (0..b)
+        .map(|i| {
+            let len = size + usize::from(i < extra);
+            let r = start..start + len;
+            start += len;
+            r
+        })
+        .collect()
+}
+
+/// The chains of stage `stage` through `store`'s sharing: each batch read from the store or
+/// computed by `compute` (this process's own batch first, then the others in turn, so that
+/// processes started together work on different batches and a slow or lost one is covered by
+/// the others), joined in chain order.
+fn shared_chains(
+    store: &dyn PopulationStore,
+    stage: usize,
+    n: usize,
+    compute: &(dyn Fn(std::ops::Range<usize>) -> Result<Chains, UpdatingError> + Sync),
+) -> Result<Chains, UpdatingError> {
+    let (batches, own) = store.sharing();
+    let ranges = batch_ranges(n, batches);
+    let b = ranges.len();
+    let mut parts: Vec<Option<Chains>> = vec![None; b];
+    for r in 0..b {
+        let i = (own + r) % b;
+        let range = ranges[i].clone();
+        let chains = store.chains(stage, i, b, &mut || compute(range.clone()))?;
+        if chains.samples.len() != range.len() || chains.log_likelihood.len() != range.len() {
+            return Err(UpdatingError::Data(format!(
+                "the stored batch {i} of {b} of TMCMC stage {stage} has {} chains where {} were asked for: the store is inconsistent (clear the cache entry)",
+                chains.samples.len(),
+                range.len()
+            )));
+        }
+        parts[i] = Some(chains);
+    }
+    let mut all = Chains {
+        samples: Vec::with_capacity(n),
+        log_likelihood: Vec::with_capacity(n),
+        accepted: 0,
+        failed: 0,
+    };
+    for c in parts.into_iter().flatten() {
+        all.samples.extend(c.samples);
+        all.log_likelihood.extend(c.log_likelihood);
+        all.accepted += c.accepted;
+        all.failed += c.failed;
+    }
+    Ok(all)
+}
+
+/// Stage 0: samples `range` of the prior and their log-likelihoods.
+fn prior_chains(
     ll: &LogLik<'_>,
     priors: &[ParamPrior],
     settings: &TmcmcSettings,
-) -> Population {
+    range: std::ops::Range<usize>,
+) -> Chains {
     let done = progress::task(
         || "TMCMC stage 0 (the prior): samples".into(),
-        settings.samples as u64,
+        range.len() as u64,
     );
-    let first: Vec<(Vec<f64>, Option<f64>)> = (0..settings.samples)
+    let first: Vec<(Vec<f64>, Option<f64>)> = range
         .into_par_iter()
         .map(|k| {
             let mut rng = chain_rng(settings.seed, 0, k as u64);
@@ -584,140 +686,188 @@ fn prior_population(
             (x, l)
         })
         .collect();
-    Population {
+    Chains {
         failed: first.iter().filter(|s| s.1.is_none()).count(),
         log_likelihood: first
             .iter()
             .map(|s| s.1.unwrap_or(f64::NEG_INFINITY))
             .collect(),
         samples: first.into_iter().map(|s| s.0).collect(),
-        stages: Vec::new(),
+        accepted: 0,
     }
 }
 
-/// One tempering stage from `before` (15.3–15.5): the next exponent, the stage's share of the
-/// evidence, resampling by the plausibility weights and one Metropolis-Hastings chain per
-/// sample under the new tempered density.
-fn next_population(
-    ll: &LogLik<'_>,
-    priors: &[ParamPrior],
-    settings: &TmcmcSettings,
-    before: &Population,
-) -> Population {
-    let (x, l) = (&before.samples, &before.log_likelihood);
-    let (n, big_n, seed) = (priors.len(), settings.samples, settings.seed);
-    let stage = before.stages.len() + 1;
-    let next = next_exponent(l, before.exponent(), settings.target_cov);
-    let delta = next - before.exponent();
-    // ln S_j = ln((1/N) Σ exp(Δ ℓ_k)), log-sum-exp (15.4).
-    let a: Vec<f64> = l
-        .iter()
-        .map(|v| {
-            if *v == f64::NEG_INFINITY {
-                f64::NEG_INFINITY
-            } else {
-                delta * v
-            }
-        })
-        .collect();
-    let lse = log_sum_exp(&a);
-    let log_s = lse - (big_n as f64).ln();
-    let w: Vec<f64> = a.iter().map(|v| (v - lse).exp()).collect();
-    // Weighted mean and covariance (15.5).
-    let mean: Vec<f64> = (0..n)
-        .map(|i| (0..big_n).map(|k| w[k] * x[k][i]).sum())
-        .collect();
-    let cov: Vec<Vec<f64>> = (0..n)
-        .map(|i| {
-            (0..n)
-                .map(|j| {
-                    settings.proposal_scale
-                        * (0..big_n)
-                            .map(|k| w[k] * (x[k][i] - mean[i]) * (x[k][j] - mean[j]))
-                            .sum::<f64>()
-                })
-                .collect()
-        })
-        .collect();
-    let chol = cholesky(&cov);
-    // Multinomial resampling from one stream of its own (chain index N).
-    let mut rng = chain_rng(seed, stage as u64, big_n as u64);
-    let cdf: Vec<f64> = w
-        .iter()
-        .scan(0.0, |s, v| {
-            *s += v;
-            Some(*s)
-        })
-        .collect();
-    let total = *cdf.last().unwrap_or(&1.0);
-    let mut picks: Vec<usize> = (0..big_n)
-        .map(|_| {
-            let u = rng.random::<f64>() * total;
-            cdf.partition_point(|c| *c <= u).min(big_n - 1)
-        })
-        .collect();
-    picks.sort_unstable();
-    let mut distinct = picks.clone();
-    distinct.dedup();
-    // Metropolis-Hastings under p_{j+1} ∝ p(y|φ)^{β'} p(φ), chains in parallel.
-    let done = progress::task(
-        || format!("TMCMC stage {stage} (β = {next:.3e}): chains"),
-        big_n as u64,
-    );
-    let moved: Vec<(Vec<f64>, f64, usize, usize)> = picks
-        .par_iter()
-        .enumerate()
-        .map(|(c, &k)| {
-            let mut rng = chain_rng(seed, stage as u64, c as u64);
-            let (mut cur, mut cur_l) = (x[k].clone(), l[k]);
-            let mut cur_p = log_prior(priors, &cur);
-            let (mut accepted, mut failures) = (0, 0);
-            for _ in 0..settings.mh_steps {
-                let z: Vec<f64> = (0..n).map(|_| StandardNormal.sample(&mut rng)).collect();
-                let prop: Vec<f64> = (0..n)
-                    .map(|i| cur[i] + (0..=i).map(|j| chol[i][j] * z[j]).sum::<f64>())
-                    .collect();
-                let u: f64 = rng.random();
-                let prop_p = log_prior(priors, &prop);
-                if prop_p == f64::NEG_INFINITY {
-                    continue;
+/// What every chain of a tempering stage shares, from the population `before` (15.3–15.5):
+/// the next exponent, the stage's share of the evidence, the proposal's Cholesky factor and
+/// the resampled starting points. Deterministic, so every process that shares the stage's
+/// chains forms the same plan.
+struct StagePlan {
+    stage: usize,
+    next: f64,
+    log_s: f64,
+    chol: Vec<Vec<f64>>,
+    picks: Vec<usize>,
+    distinct: usize,
+}
+
+impl StagePlan {
+    fn new(settings: &TmcmcSettings, before: &Population) -> StagePlan {
+        let (x, l) = (&before.samples, &before.log_likelihood);
+        let (n, big_n, seed) = (
+            x.first().map_or(0, Vec::len),
+            settings.samples,
+            settings.seed,
+        );
+        let stage = before.stages.len() + 1;
+        let next = next_exponent(l, before.exponent(), settings.target_cov);
+        let delta = next - before.exponent();
+        // ln S_j = ln((1/N) Σ exp(Δ ℓ_k)), log-sum-exp (15.4).
+        let a: Vec<f64> = l
+            .iter()
+            .map(|v| {
+                if *v == f64::NEG_INFINITY {
+                    f64::NEG_INFINITY
+                } else {
+                    delta * v
                 }
-                let Some(prop_l) = ll.eval(&prop) else {
-                    failures += 1;
-                    continue;
-                };
-                let log_ratio = next * (prop_l - cur_l) + prop_p - cur_p;
-                if cur_l == f64::NEG_INFINITY || u.ln() < log_ratio {
-                    cur = prop;
-                    cur_l = prop_l;
-                    cur_p = prop_p;
-                    accepted += 1;
+            })
+            .collect();
+        let lse = log_sum_exp(&a);
+        let log_s = lse - (big_n as f64).ln();
+        let w: Vec<f64> = a.iter().map(|v| (v - lse).exp()).collect();
+        // Weighted mean and covariance (15.5).
+        let mean: Vec<f64> = (0..n)
+            .map(|i| (0..big_n).map(|k| w[k] * x[k][i]).sum())
+            .collect();
+        let cov: Vec<Vec<f64>> = (0..n)
+            .map(|i| {
+                (0..n)
+                    .map(|j| {
+                        settings.proposal_scale
+                            * (0..big_n)
+                                .map(|k| w[k] * (x[k][i] - mean[i]) * (x[k][j] - mean[j]))
+                                .sum::<f64>()
+                    })
+                    .collect()
+            })
+            .collect();
+        let chol = cholesky(&cov);
+        // Multinomial resampling from one stream of its own (chain index N).
+        let mut rng = chain_rng(seed, stage as u64, big_n as u64);
+        let cdf: Vec<f64> = w
+            .iter()
+            .scan(0.0, |s, v| {
+                *s += v;
+                Some(*s)
+            })
+            .collect();
+        let total = *cdf.last().unwrap_or(&1.0);
+        let mut picks: Vec<usize> = (0..big_n)
+            .map(|_| {
+                let u = rng.random::<f64>() * total;
+                cdf.partition_point(|c| *c <= u).min(big_n - 1)
+            })
+            .collect();
+        picks.sort_unstable();
+        let mut distinct = picks.clone();
+        distinct.dedup();
+        StagePlan {
+            stage,
+            next,
+            log_s,
+            chol,
+            picks,
+            distinct: distinct.len(),
+        }
+    }
+
+    /// Chains `range`: each from its resampled start, `mh_steps` Metropolis-Hastings steps under
+    /// `p_{j+1} ∝ p(y|φ)^{β'} p(φ)`, in parallel.
+    fn move_chains(
+        &self,
+        ll: &LogLik<'_>,
+        priors: &[ParamPrior],
+        settings: &TmcmcSettings,
+        before: &Population,
+        range: std::ops::Range<usize>,
+    ) -> Chains {
+        let (x, l) = (&before.samples, &before.log_likelihood);
+        let (n, seed, stage, next, chol) = (
+            priors.len(),
+            settings.seed,
+            self.stage,
+            self.next,
+            &self.chol,
+        );
+        let done = progress::task(
+            || format!("TMCMC stage {stage} (β = {next:.3e}): chains"),
+            range.len() as u64,
+        );
+        let moved: Vec<(Vec<f64>, f64, usize, usize)> = range
+            .into_par_iter()
+            .map(|c| {
+                let k = self.picks[c];
+                let mut rng = chain_rng(seed, stage as u64, c as u64);
+                let (mut cur, mut cur_l) = (x[k].clone(), l[k]);
+                let mut cur_p = log_prior(priors, &cur);
+                let (mut accepted, mut failures) = (0, 0);
+                for _ in 0..settings.mh_steps {
+                    let z: Vec<f64> = (0..n).map(|_| StandardNormal.sample(&mut rng)).collect();
+                    let prop: Vec<f64> = (0..n)
+                        .map(|i| cur[i] + (0..=i).map(|j| chol[i][j] * z[j]).sum::<f64>())
+                        .collect();
+                    let u: f64 = rng.random();
+                    let prop_p = log_prior(priors, &prop);
+                    if prop_p == f64::NEG_INFINITY {
+                        continue;
+                    }
+                    let Some(prop_l) = ll.eval(&prop) else {
+                        failures += 1;
+                        continue;
+                    };
+                    let log_ratio = next * (prop_l - cur_l) + prop_p - cur_p;
+                    if cur_l == f64::NEG_INFINITY || u.ln() < log_ratio {
+                        cur = prop;
+                        cur_l = prop_l;
+                        cur_p = prop_p;
+                        accepted += 1;
+                    }
                 }
-            }
-            done.advance(1);
-            (cur, cur_l, accepted, failures)
-        })
-        .collect();
-    let accepted: usize = moved.iter().map(|m| m.2).sum();
-    let acceptance = accepted as f64 / (big_n * settings.mh_steps).max(1) as f64;
-    let summary = format!(
-        "TMCMC stage {stage}: β = {next:.4e}, ln S = {log_s:.4}, acceptance {acceptance:.3}, {} distinct",
-        distinct.len()
-    );
-    tracing::debug!("{summary}");
-    progress::note(|| summary);
-    let mut stages = before.stages.clone();
-    stages.push(TmcmcStage {
-        exponent: next,
-        log_evidence: log_s,
-        acceptance,
-        distinct: distinct.len(),
-    });
-    Population {
-        failed: before.failed + moved.iter().map(|m| m.3).sum::<usize>(),
-        log_likelihood: moved.iter().map(|m| m.1).collect(),
-        samples: moved.into_iter().map(|m| m.0).collect(),
-        stages,
+                done.advance(1);
+                (cur, cur_l, accepted, failures)
+            })
+            .collect();
+        Chains {
+            accepted: moved.iter().map(|m| m.2).sum(),
+            failed: moved.iter().map(|m| m.3).sum(),
+            log_likelihood: moved.iter().map(|m| m.1).collect(),
+            samples: moved.into_iter().map(|m| m.0).collect(),
+        }
+    }
+
+    /// The population after the stage from its moved `chains`.
+    fn finish(&self, settings: &TmcmcSettings, before: &Population, chains: Chains) -> Population {
+        let acceptance =
+            chains.accepted as f64 / (settings.samples * settings.mh_steps).max(1) as f64;
+        let summary = format!(
+            "TMCMC stage {}: β = {:.4e}, ln S = {:.4}, acceptance {acceptance:.3}, {} distinct",
+            self.stage, self.next, self.log_s, self.distinct
+        );
+        tracing::debug!("{summary}");
+        progress::note(|| summary);
+        let mut stages = before.stages.clone();
+        stages.push(TmcmcStage {
+            exponent: self.next,
+            log_evidence: self.log_s,
+            acceptance,
+            distinct: self.distinct,
+        });
+        Population {
+            samples: chains.samples,
+            log_likelihood: chains.log_likelihood,
+            stages,
+            failed: before.failed + chains.failed,
+        }
     }
 }
 

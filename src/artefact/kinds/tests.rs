@@ -834,12 +834,13 @@ impl Example for posterior::PosteriorKind {
 impl Example for tmcmc_population::TmcmcPopulationKind {
     fn examples() -> Vec<tmcmc_population::PopulationRecord> {
         use crate::updating::tmcmc::{Population, TmcmcStage};
-        let prior = Population {
+        let prior_like = || Population {
             samples: vec![vec![1.5, 2.0e-3], vec![0.75, 1.25e-3], vec![1.0, 3.0e-3]],
             log_likelihood: vec![-12.5, f64::NEG_INFINITY, -3.25],
             stages: vec![],
             failed: 1,
         };
+        let prior = prior_like();
         let tempered = Population {
             stages: vec![TmcmcStage {
                 exponent: 0.125,
@@ -849,11 +850,18 @@ impl Example for tmcmc_population::TmcmcPopulationKind {
             }],
             ..prior.clone()
         };
-        [prior, tempered]
+        let batch = Some(tmcmc_population::ChainBatch {
+            stage: 3,
+            index: 1,
+            of: 4,
+            accepted: 2,
+        });
+        [(prior, None), (tempered, None), (prior_like(), batch)]
             .into_iter()
-            .map(|population| tmcmc_population::PopulationRecord {
+            .map(|(population, batch)| tmcmc_population::PopulationRecord {
                 parameters: vec!["m2".into(), "t".into()],
                 population,
+                batch,
             })
             .collect()
     }

@@ -1,6 +1,7 @@
 //! The `tmcmc_population` kind: the samples of one TMCMC tempering stage and their
 //! log-likelihoods, kept in the run's cache as a part of a `bayes.tmcmc` stage so that a stopped
-//! run resumes from its last finished stage (docs/theory.md §15).
+//! run resumes from its last finished stage (docs/theory.md §15) — or one batch of a stage's
+//! chains, when processes share the stage (`workers`).
 //!
 //! | table (Parquet) | columns |
 //! |---|---|
@@ -9,7 +10,7 @@
 //! | `tmcmc_stages` | the stages so far, as in a `posterior` |
 
 use super::posterior::{read_stages, stages_layout, stages_table};
-use super::{Kind, Layout, col, expect_kind, meta, meta_value, strs, table};
+use super::{Kind, Layout, col, expect_kind, meta, meta_opt, meta_value, strs, table};
 use crate::artefact::{Artefact, ArtefactError, ArtefactKind, Column, Storage, Table};
 use crate::updating::tmcmc::Population;
 
@@ -18,8 +19,23 @@ use crate::updating::tmcmc::Population;
 pub struct PopulationRecord {
     /// Parameter names, in the order of every sample.
     pub parameters: Vec<String>,
-    /// The population.
+    /// The population (for a batch: its chains, no stages listed).
     pub population: Population,
+    /// Set when the record is one batch of a stage's chains.
+    pub batch: Option<ChainBatch>,
+}
+
+/// Which batch of which stage's chains a record holds.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub struct ChainBatch {
+    /// The tempering stage (0: the prior's samples).
+    pub stage: usize,
+    /// 0-based batch.
+    pub index: usize,
+    /// Batches of the stage.
+    pub of: usize,
+    /// Metropolis-Hastings proposals its chains accepted.
+    pub accepted: usize,
 }
 
 /// The `tmcmc_population` kind.
@@ -71,7 +87,14 @@ impl Kind for TmcmcPopulationKind {
                 ),
                 meta("exponent", "tempering exponent beta the samples follow"),
                 meta("parameters", "parameter names, in sample order"),
-                meta("failed", "evaluations that failed so far"),
+                meta(
+                    "failed",
+                    "evaluations that failed so far (for a batch: in it)",
+                ),
+                meta_opt(
+                    "batch",
+                    "for one batch of a stage's chains: {stage, index, of, accepted}",
+                ),
             ],
             blobs: vec![],
         }
@@ -92,14 +115,18 @@ impl Kind for TmcmcPopulationKind {
         let chains = Table::new()
             .with("sample", Column::I64((0..s.len() as i64).collect()))
             .with("log_likelihood", Column::F64(p.log_likelihood.clone()));
-        Artefact::new(K)
+        let a = Artefact::new(K)
             .with_table("samples", samples, Storage::Parquet)
             .with_table("chains", chains, Storage::Parquet)
             .with_table("tmcmc_stages", stages_table(&p.stages), Storage::Parquet)
             .with_meta("stage", p.stages.len().into())
             .with_meta("exponent", p.exponent().into())
             .with_meta("parameters", serde_json::json!(r.parameters))
-            .with_meta("failed", p.failed.into())
+            .with_meta("failed", p.failed.into());
+        match &r.batch {
+            Some(b) => a.with_meta("batch", serde_json::json!(b)),
+            None => a,
+        }
     }
 
     fn from_artefact(a: &Artefact) -> Result<PopulationRecord, ArtefactError> {
@@ -123,7 +150,15 @@ impl Kind for TmcmcPopulationKind {
         if meta_value::<usize>(a, "stage")? != stages.len() {
             return Err(bad("`stage` is not the number of stages listed".into()));
         }
+        let batch = match a.meta.get("batch") {
+            None => None,
+            Some(v) => Some(
+                serde_json::from_value::<ChainBatch>(v.clone())
+                    .map_err(|e| bad(format!("`batch`: {e}")))?,
+            ),
+        };
         Ok(PopulationRecord {
+            batch,
             parameters,
             population: Population {
                 samples: values.chunks(n).map(<[f64]>::to_vec).collect(),
