@@ -214,16 +214,7 @@ fn tables() -> Vec<TableLayout> {
                 ),
             ],
         ),
-        table(
-            "samples",
-            s,
-            true,
-            vec![
-                col("sample", "int64", "", "0-based sample number"),
-                col("parameter", "string", "", "parameter"),
-                col("value", "float64", "SI", "sampled value"),
-            ],
-        ),
+        samples_layout(),
         table(
             "natural_frequencies",
             s,
@@ -274,6 +265,37 @@ fn tables() -> Vec<TableLayout> {
         ),
         stages_layout(),
     ]
+}
+
+/// The `samples` table: parameter samples in long format, sample-major (also kept with each
+/// stored TMCMC population).
+pub(crate) fn samples_layout() -> TableLayout {
+    table(
+        "samples",
+        Storage::Parquet,
+        true,
+        vec![
+            col("sample", "int64", "", "0-based sample number"),
+            col("parameter", "string", "", "parameter"),
+            col("value", "float64", "SI", "sampled value"),
+        ],
+    )
+}
+
+/// `samples` (each of `names.len()` values) as the `samples` table.
+pub(crate) fn samples_table(names: &[String], samples: &[Vec<f64>]) -> Table {
+    let n = names.len();
+    let sm = || (0..samples.len()).flat_map(move |k| (0..n).map(move |i| (k, i)));
+    Table::new()
+        .with("sample", Column::I64(sm().map(|(k, _)| k as i64).collect()))
+        .with("parameter", strs(sm().map(|(_, i)| &names[i])))
+        .with("value", f64s(sm().map(|(k, i)| samples[k][i])))
+}
+
+/// The values of the `samples` table, `n` per sample.
+pub(crate) fn read_samples(t: &Table, n: usize) -> Result<Vec<Vec<f64>>, ArtefactError> {
+    let values = t.f64s("samples", "value")?;
+    Ok(values.chunks(n.max(1)).map(<[f64]>::to_vec).collect())
 }
 
 /// The `tmcmc_stages` table of a TMCMC run (also kept with each stored population).
@@ -383,11 +405,7 @@ fn write(r: &PosteriorRecord) -> Artefact {
         .with("group", strs(p.groups.iter()))
         .with("sigma", f64s(p.sigma.iter().copied()));
     let s = &p.samples;
-    let sm = || (0..s.len()).flat_map(move |k| (0..n).map(move |i| (k, i)));
-    let samples = Table::new()
-        .with("sample", Column::I64(sm().map(|(k, _)| k as i64).collect()))
-        .with("parameter", strs(sm().map(|(_, i)| &names[i])))
-        .with("value", f64s(sm().map(|(k, i)| s[k][i])));
+    let samples = samples_table(&names, s);
     let unidentified: Vec<&String> = m
         .iter()
         .filter(|x| x.sd.is_infinite())
@@ -496,9 +514,7 @@ fn read(a: &Artefact) -> Result<PosteriorRecord, ArtefactError> {
         })
         .collect();
     let nt = a.table("noise")?;
-    let st = a.table("samples")?;
-    let values = st.f64s("samples", "value")?;
-    let samples = values.chunks(n.max(1)).map(|c| c.to_vec()).collect();
+    let samples = read_samples(a.table("samples")?, n)?;
     let band = |name: &str,
                 label: &dyn Fn(&Table, usize) -> Result<String, ArtefactError>,
                 cols: [&str; 4]|

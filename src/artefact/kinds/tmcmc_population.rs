@@ -9,8 +9,10 @@
 //! | `chains` | `sample`, `log_likelihood` (`-inf`: the model could not be analysed there) |
 //! | `tmcmc_stages` | the stages so far, as in a `posterior` |
 
-use super::posterior::{read_stages, stages_layout, stages_table};
-use super::{Kind, Layout, col, expect_kind, meta, meta_opt, meta_value, strs, table};
+use super::posterior::{
+    read_samples, read_stages, samples_layout, samples_table, stages_layout, stages_table,
+};
+use super::{Kind, Layout, col, expect_kind, meta, meta_opt, meta_value, table};
 use crate::artefact::{Artefact, ArtefactError, ArtefactKind, Column, Storage, Table};
 use crate::updating::tmcmc::Population;
 
@@ -54,16 +56,7 @@ impl Kind for TmcmcPopulationKind {
         stages.required = true;
         Layout {
             tables: vec![
-                table(
-                    "samples",
-                    s,
-                    true,
-                    vec![
-                        col("sample", "int64", "", "0-based sample number"),
-                        col("parameter", "string", "", "parameter"),
-                        col("value", "float64", "SI", "sampled value"),
-                    ],
-                ),
+                samples_layout(),
                 table(
                     "chains",
                     s,
@@ -102,18 +95,9 @@ impl Kind for TmcmcPopulationKind {
 
     fn to_artefact(r: &PopulationRecord) -> Artefact {
         let p = &r.population;
-        let n = r.parameters.len();
-        let s = &p.samples;
-        let sm = || (0..s.len()).flat_map(move |k| (0..n).map(move |i| (k, i)));
-        let samples = Table::new()
-            .with("sample", Column::I64(sm().map(|(k, _)| k as i64).collect()))
-            .with(
-                "parameter",
-                strs(sm().map(|(_, i)| r.parameters[i].clone())),
-            )
-            .with("value", Column::F64(sm().map(|(k, i)| s[k][i]).collect()));
+        let samples = samples_table(&r.parameters, &p.samples);
         let chains = Table::new()
-            .with("sample", Column::I64((0..s.len() as i64).collect()))
+            .with("sample", Column::I64((0..p.samples.len() as i64).collect()))
             .with("log_likelihood", Column::F64(p.log_likelihood.clone()));
         let a = Artefact::new(K)
             .with_table("samples", samples, Storage::Parquet)
@@ -134,15 +118,15 @@ impl Kind for TmcmcPopulationKind {
         let bad = |m: String| ArtefactError::schema(K, m);
         let parameters: Vec<String> = meta_value(a, "parameters")?;
         let n = parameters.len();
-        let values = a.table("samples")?.f64s("samples", "value")?;
+        let samples = read_samples(a.table("samples")?, n)?;
         let log_likelihood = a
             .table("chains")?
             .f64s("chains", "log_likelihood")?
             .to_vec();
-        if n == 0 || values.len() != n * log_likelihood.len() {
+        if n == 0 || samples.len() != log_likelihood.len() || samples.iter().any(|x| x.len() != n) {
             return Err(bad(format!(
-                "{} sampled values for {} samples of {n} parameters",
-                values.len(),
+                "{} samples of {n} parameters for {} log-likelihoods",
+                samples.len(),
                 log_likelihood.len()
             )));
         }
@@ -161,7 +145,7 @@ impl Kind for TmcmcPopulationKind {
             batch,
             parameters,
             population: Population {
-                samples: values.chunks(n).map(<[f64]>::to_vec).collect(),
+                samples,
                 log_likelihood,
                 stages,
                 failed: meta_value(a, "failed")?,
