@@ -810,6 +810,16 @@ mod tests {
         assert!(close(law.drilling_rigidity(), g * t, 1e-12));
     }
 
+    /// A carbon ply (1,600 kg/m³) of thickness `t` at `deg` degrees.
+    fn carbon_ply(deg: f64, t: f64) -> Ply {
+        Ply {
+            material: carbon(),
+            thickness: t,
+            theta: deg.to_radians(),
+            rho: 1600.0,
+        }
+    }
+
     /// Hand values for the carbon ply: ν21 = 0.3·10/140, 1 − ν12 ν21 = 0.993571…,
     /// Q11 = 140e9/0.993571, Q22 = 10e9/0.993571, Q12 = 3e9/0.993571, Q66 = 5e9.
     fn q_hand() -> (f64, f64, f64, f64) {
@@ -821,12 +831,7 @@ mod tests {
     fn symmetric_cross_ply_has_no_coupling_and_the_hand_values() {
         // [0/90]s, plies 0.25 mm: A = 2t(Q11 + Q22) on 11 and 22, D from the z-integrals.
         let t = 0.25e-3;
-        let ply = |deg: f64| Ply {
-            material: carbon(),
-            thickness: t,
-            theta: deg.to_radians(),
-            rho: 1600.0,
-        };
+        let ply = |deg: f64| carbon_ply(deg, t);
         let plies = [ply(0.0), ply(90.0), ply(90.0), ply(0.0)];
         let law = laminate(&plies, -2.0 * t, 0.0).unwrap();
         let (q11, q22, q12, q66) = q_hand();
@@ -865,12 +870,7 @@ mod tests {
     #[test]
     fn lam_options_keep_their_terms() {
         let t = 0.5e-3;
-        let ply = |deg: f64| Ply {
-            material: carbon(),
-            thickness: t,
-            theta: deg.to_radians(),
-            rho: 1600.0,
-        };
+        let ply = |deg: f64| carbon_ply(deg, t);
         let plies = [ply(0.0), ply(90.0)];
         let full = laminate(&plies, -t, 0.0).unwrap();
         let (q11, q22, _, _) = q_hand();
@@ -912,12 +912,7 @@ mod tests {
         // [0/90] of two plies of t about the mid-plane: B11 = (Q22 − Q11) t²/2 = −B22
         // (Jones 1999, §4.3.2: B11 = −B22 = (Q11 − Q22)(−t²/2)), the other entries zero.
         let t = 0.5e-3;
-        let ply = |deg: f64| Ply {
-            material: carbon(),
-            thickness: t,
-            theta: deg.to_radians(),
-            rho: 1600.0,
-        };
+        let ply = |deg: f64| carbon_ply(deg, t);
         let law = laminate(&[ply(0.0), ply(90.0)], -t, 0.0).unwrap();
         let (q11, q22, _, _) = q_hand();
         let b11 = (q22 - q11) * t * t / 2.0;

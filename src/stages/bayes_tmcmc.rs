@@ -528,23 +528,28 @@ struct CachedPopulations<'a> {
 }
 
 impl CachedPopulations<'_> {
-    /// The record of `key`'s part: read, or computed by `compute` and committed; a computing
-    /// error is returned as it is.
+    /// The value of `key`'s part: computed by `compute` and committed as `record` of it (and
+    /// used as computed), or read and `decode`d; a computing error is returned as it is.
     fn part<T>(
         &self,
         key: &serde_json::Value,
         what: &str,
         compute: &mut dyn FnMut() -> Result<T, UpdatingError>,
         record: impl Fn(&T) -> PopulationRecord,
-    ) -> Result<PopulationRecord, UpdatingError> {
-        let mut failure = None;
+        decode: impl FnOnce(PopulationRecord) -> Result<T, UpdatingError>,
+    ) -> Result<T, UpdatingError> {
+        let (mut computed, mut failure) = (None, None);
         let part = self.inputs.part(
             POPULATION_PART,
             POPULATION_VERSION,
             key,
             ArtefactKind::TmcmcPopulation,
             || match compute() {
-                Ok(value) => Ok(TmcmcPopulationKind::to_artefact(&record(&value))),
+                Ok(value) => {
+                    let a = TmcmcPopulationKind::to_artefact(&record(&value));
+                    computed = Some(value);
+                    Ok(a)
+                }
                 Err(e) => {
                     let message = e.to_string();
                     failure = Some(e);
@@ -556,8 +561,12 @@ impl CachedPopulations<'_> {
             return Err(e);
         }
         let a = part.map_err(|e| UpdatingError::Data(format!("{what}: {e}")))?;
-        TmcmcPopulationKind::from_artefact(&a)
-            .map_err(|e| UpdatingError::Data(format!("the stored {what}: {e}")))
+        if let Some(value) = computed {
+            return Ok(value);
+        }
+        let r = TmcmcPopulationKind::from_artefact(&a)
+            .map_err(|e| UpdatingError::Data(format!("the stored {what}: {e}")))?;
+        decode(r)
     }
 }
 
@@ -570,12 +579,17 @@ impl PopulationStore for CachedPopulations<'_> {
         let mut key = self.key.clone();
         key["stage"] = stage.into();
         let what = format!("population of TMCMC stage {stage}");
-        let r = self.part(&key, &what, compute, |population| PopulationRecord {
-            parameters: self.parameters.clone(),
-            population: population.clone(),
-            batch: None,
-        })?;
-        Ok(r.population)
+        self.part(
+            &key,
+            &what,
+            compute,
+            |population| PopulationRecord {
+                parameters: self.parameters.clone(),
+                population: population.clone(),
+                batch: None,
+            },
+            |r| Ok(r.population),
+        )
     }
 
     fn sharing(&self) -> (usize, usize) {
@@ -596,7 +610,7 @@ impl PopulationStore for CachedPopulations<'_> {
         key["stage"] = stage.into();
         key["batch"] = serde_json::json!([batch, batches]);
         let what = format!("batch {batch} of {batches} of TMCMC stage {stage}");
-        let r = self.part(&key, &what, compute, |c: &Chains| PopulationRecord {
+        let record = |c: &Chains| PopulationRecord {
             parameters: self.parameters.clone(),
             population: Population {
                 samples: c.samples.clone(),
@@ -610,16 +624,19 @@ impl PopulationStore for CachedPopulations<'_> {
                 of: batches,
                 accepted: c.accepted,
             }),
-        })?;
-        let b = r
-            .batch
-            .ok_or_else(|| UpdatingError::Data(format!("the stored {what} is a population")))?;
-        Ok(Chains {
-            samples: r.population.samples,
-            log_likelihood: r.population.log_likelihood,
-            accepted: b.accepted,
-            failed: r.population.failed,
-        })
+        };
+        let decode = |r: PopulationRecord| {
+            let b = r
+                .batch
+                .ok_or_else(|| UpdatingError::Data(format!("the stored {what} is a population")))?;
+            Ok(Chains {
+                samples: r.population.samples,
+                log_likelihood: r.population.log_likelihood,
+                accepted: b.accepted,
+                failed: r.population.failed,
+            })
+        };
+        self.part(&key, &what, compute, record, decode)
     }
 }
 
