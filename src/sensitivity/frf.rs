@@ -19,6 +19,7 @@
 //! `c_sr` ill-conditioned; between them the projection form is used instead, whose limit it is:
 //! `−φ_ir φ_js [(1 + iγ')P^K_rs − ω² P^M_rs + iκ P^M_rs]/(d_r d_s)`, `κ = γ − λγ'`.
 
+use super::modes::{clusters, expansion_coefficients};
 use super::projection::{ProjectedDerivative, eigenvalue_sensitivity};
 use crate::core::DofId;
 use crate::frf::{FrfPair, ModalDamping, ModalError, Quantity};
@@ -85,19 +86,6 @@ impl ModalFrfModel<'_> {
             })
             .collect()
     }
-
-    /// Cluster id of each mode: consecutive eigenvalues within [`CLUSTER_TOLERANCE`].
-    fn clusters(&self) -> Vec<usize> {
-        let mut id = Vec::with_capacity(self.eigenvalues.len());
-        for (r, &l) in self.eigenvalues.iter().enumerate() {
-            let same = r > 0 && {
-                let p = self.eigenvalues[r - 1];
-                (l - p).abs() <= CLUSTER_TOLERANCE * l.abs().max(p.abs())
-            };
-            id.push(if same { id[r - 1] } else { r });
-        }
-        id
-    }
 }
 
 /// `∂H/∂φ` per parameter (`N_f × N_pairs` each, in `quantity`) of the modal FRF, from each
@@ -119,7 +107,7 @@ pub fn frf_sensitivities(
     model.damping.check(m)?;
     let rows = model.rows(pairs)?;
     let (nq, np, nf) = (pairs.len(), derivatives.len(), freqs_hz.len());
-    let cluster = model.clusters();
+    let cluster = clusters(model.eigenvalues);
     let lambda = model.eigenvalues;
     let phi = model.shapes;
 
@@ -138,15 +126,7 @@ pub fn frf_sensitivities(
             let rho = shape_corrections.and_then(|c| c.get(p));
             let dl = eigenvalue_sensitivity(lambda, d);
             // c_sr with s the row, r the column; zero inside a cluster (off the diagonal).
-            let c = Mat::from_fn(m, m, |s, r| {
-                if s == r {
-                    -0.5 * d.m[(r, r)]
-                } else if cluster[s] == cluster[r] {
-                    0.0
-                } else {
-                    (d.k[(s, r)] - lambda[r] * d.m[(s, r)]) / (lambda[r] - lambda[s])
-                }
-            });
+            let c = expansion_coefficients(lambda, &cluster, d);
             // u_i = Cᵀ φ_i for every DOF row a pair uses.
             let mut coef = Mat::<f64>::zeros(nq, 2 * m);
             for (q, &(i, j)) in rows.iter().enumerate() {

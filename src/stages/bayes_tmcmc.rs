@@ -1,15 +1,17 @@
 //! `bayes.tmcmc`: samples the posterior of a model's parameters by transitional MCMC and
 //! reports the model evidence (docs/theory.md §15). The likelihood is the update's output
 //! error (§12): the complex FRFs at the measured lines (modal summation, `frf_modal`, or the
-//! direct solution, `frf_direct`; `band_hz`/`exclude_hz` select the lines) or the measured
-//! natural frequencies (`natural_frequencies`, paired with the model's elastic modes in order),
-//! under a stated noise. Writes a `posterior` artefact (sample statistics, the samples, the
+//! direct solution, `frf_direct`; `band_hz`/`exclude_hz` select the lines), the FRFs up to the
+//! scale or phase the correlation coefficients are blind to (`chi_s`, `chi_a`), the measured natural
+//! frequencies (`natural_frequencies`, paired with the model's elastic modes in order), or
+//! frequencies and mode shapes (`modes`, MAC-paired at every sample), under a stated noise. Writes a `posterior` artefact (sample statistics, the samples, the
 //! evidence and the stages) with the marginal and pair figures.
 
 use crate::artefact::kinds::Kind;
 use crate::artefact::kinds::posterior::{PosteriorKind, PosteriorRecord, Sampling};
 use crate::artefact::kinds::tmcmc_population::{ChainBatch, PopulationRecord, TmcmcPopulationKind};
 use crate::artefact::{Artefact, ArtefactKind};
+use crate::core::DofId;
 use crate::eigen::ModeSelection;
 use crate::fe::element::MassKind;
 use crate::frf::ModalDamping;
@@ -19,12 +21,13 @@ use crate::pipeline::{
 use crate::report::posterior_plot::{PosteriorPlot, marginal_plot, pair_plot};
 use crate::stages::params::{Band, Count, Damping, Modes, OpenFraction, Positive};
 use crate::stages::update::{
-    NoiseParams, OneOrMany, Reduction, build_model, measured_frf, measured_modes, snr_sigmas,
+    NoiseParams, OneOrMany, Reduction, build_model, elastic_measured_modes, measured_frf,
+    measured_modes, snr_sigmas,
 };
 use crate::updating::UpdatingError;
 use crate::updating::posterior::{
-    DirectFrfLikelihood, FrequencyLikelihood, Likelihood, ModalFrfLikelihood, Noise,
-    likelihood_lines,
+    Coefficient, CorrelationLikelihood, DirectFrfLikelihood, Likelihood, ModalDataLikelihood,
+    ModalFrfLikelihood, Noise, likelihood_lines,
 };
 use crate::updating::tmcmc::{
     Chains, ParamPrior, Population, PopulationStore, TmcmcSettings, tmcmc_stored, to_posterior,
@@ -54,6 +57,18 @@ pub enum LikelihoodChoice {
     FrfDirect,
     /// Measured natural frequencies (input `measured_modes`), relative errors.
     NaturalFrequencies,
+    /// Measured natural frequencies and mode shapes at `measured_dofs` (input
+    /// `measured_modes`), each measured mode paired by MAC with a model mode at every sample;
+    /// shape rows are the measured shape scaled to unit length against the model's scaled by
+    /// the modal scale factor (noise `shape_noise`).
+    Modes,
+    /// The shape correlation `χ_s` (4.8): the FRFs by modal summation up to a complex scale
+    /// fitted at every line, so the squared residual of a line is `|x|² (1 − χ_s)` (data whose
+    /// force calibration is not trusted; two FRFs at least).
+    ChiS,
+    /// The amplitude correlation `χ_a` (4.9): the FRFs by modal summation up to a phase fitted
+    /// at every line, so the squared residual of a line is `(|x|² + |a|²)(1 − χ_a)`.
+    ChiA,
 }
 
 impl LikelihoodChoice {
@@ -62,7 +77,18 @@ impl LikelihoodChoice {
             LikelihoodChoice::FrfModal => "frf_modal",
             LikelihoodChoice::FrfDirect => "frf_direct",
             LikelihoodChoice::NaturalFrequencies => "natural_frequencies",
+            LikelihoodChoice::Modes => "modes",
+            LikelihoodChoice::ChiS => "chi_s",
+            LikelihoodChoice::ChiA => "chi_a",
         }
+    }
+
+    /// Whether it reads measured modes (else measured FRFs).
+    fn on_modes(self) -> bool {
+        matches!(
+            self,
+            LikelihoodChoice::NaturalFrequencies | LikelihoodChoice::Modes
+        )
     }
 }
 
@@ -124,7 +150,9 @@ impl PriorSpec {
 #[derive(Clone, Debug, serde::Deserialize, serde::Serialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct Params {
-    /// The likelihood: `frf_modal` (default), `frf_direct` or `natural_frequencies`.
+    /// The likelihood: `frf_modal` (default), `frf_direct`, `chi_s` or `chi_a` (FRFs up to a
+    /// scale or phase per line), `natural_frequencies`, or `modes` (frequencies and MAC-paired
+    /// shapes).
     #[serde(default)]
     pub likelihood: LikelihoodChoice,
     /// The prior of every sampled parameter by name, e.g. `m2: {uniform: [0.5, 2.0]}`,
@@ -136,9 +164,17 @@ pub struct Params {
     #[serde(default, skip_serializing_if = "IndexMap::is_empty")]
     pub truth: IndexMap<String, f64>,
     /// The measurement noise, stated: `{sigma: 1e-6}` or one per FRF (per mode), `{relative:
-    /// 0.05}`, `{snr_db: 30}` (as in `update`'s posterior); `estimated` is refused: the
-    /// evidence needs a proper noise model.
+    /// 0.05}`, `{snr_db: 30}` (FRF likelihoods; as in `update`'s posterior); `estimated` is refused: the evidence needs a
+    /// proper noise model. For `modes` it is the frequencies' (relative errors).
     pub noise: NoiseParams,
+    /// With `likelihood: modes`: the standard deviation of every component of a measured shape
+    /// scaled to unit length (default: the frequencies' noise).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub shape_noise: Option<Positive>,
+    /// With `likelihood: modes`: the DOFs of the measured shapes used, e.g. `["12:uz"]`
+    /// (default: every DOF of `measured_modes`).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub measured_dofs: Vec<DofId>,
     /// Samples per stage.
     #[serde(default = "samples")]
     pub samples: Count,
@@ -287,12 +323,10 @@ impl TypedStage for BayesTmcmc {
             NoiseParams::SnrDb(s) if !s.is_finite() => {
                 issues.push(ParamIssue::at("noise.snr_db", "give a finite SNR in dB"))
             }
-            NoiseParams::SnrDb(_) if p.likelihood == LikelihoodChoice::NaturalFrequencies => {
-                issues.push(ParamIssue::at(
-                    "noise",
-                    "`snr_db` describes FRF noise: give `sigma` (relative frequency errors) or `relative`",
-                ))
-            }
+            NoiseParams::SnrDb(_) if p.likelihood.on_modes() => issues.push(ParamIssue::at(
+                "noise",
+                "`snr_db` describes FRF noise: give `sigma` (relative frequency errors) or `relative`",
+            )),
             _ => {}
         }
         if p.worker >= p.workers.get() as u64 {
@@ -313,11 +347,28 @@ impl TypedStage for BayesTmcmc {
             ));
         }
         issues.extend(p.modes.issues("modes"));
-        let modal = p.likelihood == LikelihoodChoice::FrfModal;
+        if p.likelihood != LikelihoodChoice::Modes {
+            if p.shape_noise.is_some() {
+                issues.push(ParamIssue::at(
+                    "shape_noise",
+                    "a shape noise is for `likelihood: modes`: drop it or choose that likelihood",
+                ));
+            }
+            if !p.measured_dofs.is_empty() {
+                issues.push(ParamIssue::at(
+                    "measured_dofs",
+                    "measured shape DOFs are for `likelihood: modes`: drop them or choose that likelihood",
+                ));
+            }
+        }
+        let modal = matches!(
+            p.likelihood,
+            LikelihoodChoice::FrfModal | LikelihoodChoice::ChiS | LikelihoodChoice::ChiA
+        );
         if modal && matches!(p.damping, Damping::Rayleigh { .. }) {
             issues.push(ParamIssue::at(
                 "damping",
-                "frf_modal predicts by modal summation: give `structural` or `viscous` modal damping",
+                "frf_modal, chi_s and chi_a predict by modal summation: give `structural` or `viscous` modal damping",
             ));
         }
         if p.likelihood == LikelihoodChoice::FrfDirect
@@ -343,9 +394,10 @@ impl TypedStage for BayesTmcmc {
                 "connect exactly one of the inputs `mesh` (a finite-element model) and `model` (matrices from model.lumped)",
             ));
         }
-        let port = match p.likelihood {
-            LikelihoodChoice::NaturalFrequencies => "measured_modes",
-            _ => "measured",
+        let port = if p.likelihood.on_modes() {
+            "measured_modes"
+        } else {
+            "measured"
         };
         if !ctx.is_connected(port) {
             issues.push(ParamIssue::at(
@@ -397,9 +449,9 @@ impl TypedStage for BayesTmcmc {
             seed: p.seed,
         };
         let initial = model.initial_values();
-        let measured = match p.likelihood {
-            LikelihoodChoice::NaturalFrequencies => None,
-            _ => Some(measured_frf(inputs, p.band_hz, &p.exclude_hz)?),
+        let measured = match p.likelihood.on_modes() {
+            true => None,
+            false => Some(measured_frf(inputs, p.band_hz, &p.exclude_hz)?),
         };
         let noise = noise(&p.noise, measured.as_ref())?;
         let store = CachedPopulations {
@@ -408,8 +460,8 @@ impl TypedStage for BayesTmcmc {
             parameters: params.iter().map(|q| q.name.clone()).collect(),
             sharing: (p.workers.get(), p.worker as usize),
         };
-        let run = |lik: &dyn Likelihood| {
-            tmcmc_stored(lik, &priors, &noise, &settings, &store)
+        let run = |lik: &dyn Likelihood, noise: &Noise| {
+            tmcmc_stored(lik, &priors, noise, &settings, &store)
                 .map_err(StageError::from_numerics(""))
                 .map(|t| (t, lik.group_names()))
         };
@@ -421,20 +473,60 @@ impl TypedStage for BayesTmcmc {
                 let undamped = matches!(damping, ModalDamping::None);
                 let lines = likelihood_lines(model, measured, &initial, modes, undamped, 1.0)
                     .map_err(StageError::from_numerics(""))?;
-                run(&ModalFrfLikelihood::new(
-                    model, measured, lines, modes, damping,
-                ))?
+                run(
+                    &ModalFrfLikelihood::new(model, measured, lines, modes, damping),
+                    &noise,
+                )?
             }
             (LikelihoodChoice::FrfDirect, Some(measured)) => {
                 let lines = (0..measured.freqs_hz.len()).collect();
                 let eta = p.damping.direct().structural_eta;
-                run(&DirectFrfLikelihood::new(model, measured, lines, eta))?
+                run(
+                    &DirectFrfLikelihood::new(model, measured, lines, eta),
+                    &noise,
+                )?
+            }
+            (LikelihoodChoice::ChiS | LikelihoodChoice::ChiA, Some(measured)) => {
+                if p.likelihood == LikelihoodChoice::ChiS && measured.pairs.len() < 2 {
+                    return Err(StageError::input(
+                        "likelihood",
+                        "chi_s fits a scale at every line: with one measured FRF nothing is left to learn; use chi_a or frf_modal",
+                    ));
+                }
+                let coefficient = match p.likelihood {
+                    LikelihoodChoice::ChiS => Coefficient::Shape,
+                    _ => Coefficient::Amplitude,
+                };
+                let top_hz = measured.freqs_hz.last().copied().unwrap_or(0.0);
+                let modes = p.modes.selection_or(ModeSelection::BelowHz(2.0 * top_hz));
+                let damping = p.damping.modal();
+                let undamped = matches!(damping, ModalDamping::None);
+                let lines = likelihood_lines(model, measured, &initial, modes, undamped, 1.0)
+                    .map_err(StageError::from_numerics(""))?;
+                run(
+                    &CorrelationLikelihood::new(
+                        model,
+                        measured,
+                        lines,
+                        modes,
+                        damping,
+                        coefficient,
+                    ),
+                    &noise,
+                )?
             }
             _ => {
-                let m = measured_modes(inputs)?;
-                let fx: Vec<f64> = (0..m.modes.len())
-                    .filter(|&r| m.modes.eigenvalues[r] > 0.0)
-                    .map(|r| m.modes.eigenvalues[r].sqrt() / (2.0 * std::f64::consts::PI))
+                let shapes = p.likelihood == LikelihoodChoice::Modes;
+                let dofs = match (shapes, p.measured_dofs.is_empty()) {
+                    (false, _) => Vec::new(),
+                    (true, true) => measured_modes(inputs)?.dofs,
+                    (true, false) => p.measured_dofs.clone(),
+                };
+                let m = elastic_measured_modes(inputs, None, &dofs)?;
+                let fx: Vec<f64> = m
+                    .eigenvalues
+                    .iter()
+                    .map(|l| l.sqrt() / (2.0 * std::f64::consts::PI))
                     .collect();
                 let selection = p.modes.selection_or(ModeSelection::Count(3 * fx.len() + 6));
                 let (state, _) = model
@@ -454,7 +546,20 @@ impl TypedStage for BayesTmcmc {
                     ));
                 }
                 let pairs = fx.iter().copied().zip(elastic.iter().copied()).collect();
-                run(&FrequencyLikelihood::new(model, selection, pairs))?
+                let lik = ModalDataLikelihood::new(model, selection, pairs);
+                match m.shapes {
+                    None => run(&lik, &noise)?,
+                    Some((dofs, x)) => {
+                        let noise = match p.shape_noise {
+                            Some(s) => with_shape_noise(noise.clone(), fx.len(), s.get())?,
+                            None => noise.clone(),
+                        };
+                        let lik = lik
+                            .with_shapes(dofs, x.as_ref())
+                            .map_err(StageError::from_numerics("measured_modes"))?;
+                        run(&lik, &noise)?
+                    }
+                }
             }
         };
         tracing::info!(
@@ -664,6 +769,32 @@ fn noise(n: &NoiseParams, measured: Option<&crate::frf::FrfSet>) -> Result<Noise
             }
         },
     })
+}
+
+/// The noise of `modes`: the frequencies' noise for the first `modes` groups, `shape` for the
+/// shapes' (one group per mode each).
+fn with_shape_noise(noise: Noise, modes: usize, shape: f64) -> Result<Noise, StageError> {
+    let frequencies = match noise {
+        Noise::Absolute(s) if s.len() == 1 => vec![s[0]; modes],
+        Noise::Absolute(s) if s.len() == modes => s,
+        Noise::Absolute(s) => {
+            return Err(StageError::input(
+                "noise.sigma",
+                format!(
+                    "{} noise levels for {modes} measured modes: give one, or one per mode",
+                    s.len()
+                ),
+            ));
+        }
+        // Frequency rows are ratios to the measured frequency: relative and absolute agree.
+        Noise::Relative(c) => vec![c; modes],
+        Noise::Estimated => {
+            return Err(StageError::input("noise", "TMCMC needs the noise stated"));
+        }
+    };
+    let mut all = frequencies;
+    all.extend(std::iter::repeat_n(shape, modes));
+    Ok(Noise::Absolute(all))
 }
 
 fn noise_name(n: &NoiseParams) -> &'static str {

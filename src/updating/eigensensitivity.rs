@@ -15,7 +15,7 @@ use crate::core::DofId;
 use crate::correlation::mac;
 use crate::eigen::ModeSelection;
 use crate::sensitivity::eigenvalue_sensitivity;
-use faer::Mat;
+use faer::{Mat, MatRef};
 
 /// Measured modes: eigenvalues and, optionally, shapes at measured DOFs.
 #[derive(Clone, Debug)]
@@ -80,33 +80,43 @@ impl InverseEigensensitivity<'_> {
             }
             Some((dofs, shapes)) => {
                 let a = state.shapes_at(dofs)?;
-                let mut used = vec![false; state.modes.len()];
-                let mut out = Vec::with_capacity(nx);
-                for x in 0..nx {
-                    let xs: Vec<f64> = (0..dofs.len()).map(|i| shapes[(i, x)]).collect();
-                    let best = elastic
-                        .iter()
-                        .filter(|&&r| !used[r])
-                        .map(|&r| {
-                            let ar: Vec<f64> = (0..dofs.len()).map(|i| a[(i, r)]).collect();
-                            (r, mac(&xs, &ar))
-                        })
-                        .fold(None, |best: Option<(usize, f64)>, c| match best {
-                            Some(b) if b.1 >= c.1 => Some(b),
-                            _ => Some(c),
-                        });
-                    match best {
-                        Some((r, m)) if m >= self.settings.min_mac => {
-                            used[r] = true;
-                            out.push(Some(r));
-                        }
-                        _ => out.push(None),
-                    }
-                }
-                Ok(out)
+                let pairs = mac_pairs(shapes.as_ref(), a.as_ref(), &elastic, self.settings.min_mac);
+                Ok(pairs.into_iter().map(|p| p.map(|(r, _)| r)).collect())
             }
         }
     }
+}
+
+/// Greedy MAC pairing: each measured shape (column of `measured`), in order, takes the
+/// candidate model mode (column of `model`, same rows) of highest MAC not taken before, with
+/// that MAC, when it reaches `min_mac`; `None` when none does (that mode stays free).
+pub fn mac_pairs(
+    measured: MatRef<'_, f64>,
+    model: MatRef<'_, f64>,
+    candidates: &[usize],
+    min_mac: f64,
+) -> Vec<Option<(usize, f64)>> {
+    let column =
+        |a: MatRef<'_, f64>, j: usize| -> Vec<f64> { (0..a.nrows()).map(|i| a[(i, j)]).collect() };
+    let mut used = vec![false; model.ncols()];
+    (0..measured.ncols())
+        .map(|x| {
+            let xs = column(measured, x);
+            let best = candidates
+                .iter()
+                .filter(|&&r| !used[r])
+                .map(|&r| (r, mac(&xs, &column(model, r))))
+                .fold(None, |best: Option<(usize, f64)>, c| match best {
+                    Some(b) if b.1 >= c.1 => Some(b),
+                    _ => Some(c),
+                })
+                .filter(|&(_, m)| m >= min_mac);
+            if let Some((r, _)) = best {
+                used[r] = true;
+            }
+            best
+        })
+        .collect()
 }
 
 impl UpdateMethod for InverseEigensensitivity<'_> {

@@ -1,17 +1,22 @@
 //! The likelihoods of the Laplace posterior and of TMCMC ([`super::posterior`], docs/theory.md
 //! §12, §15): what each updating method fits, predicted at parameter values with its Jacobian
 //! in unity coordinates — modal FRFs (P-C), FRFs by direct solution (RFM), FRFs over modal
-//! damping (damping identification), natural-frequency ratios (inverse eigensensitivity) — and
+//! damping (damping identification), natural-frequency ratios and MAC-paired mode shapes
+//! (inverse eigensensitivity, TMCMC), FRFs up to the scale or phase the correlation coefficients
+//! `χ_s`, `χ_a` are blind to (TMCMC) — and
 //! the natural frequencies of the predictive bands.
 
+use super::eigensensitivity::mac_pairs;
 use super::model::{ModalState, ParametricModel, UpdatingError};
 use super::posterior::{FrfLayout, Likelihood, Prediction};
+use crate::core::DofId;
 use crate::core::sparse::SparseMatrix;
 use crate::eigen::ModeSelection;
 use crate::frf::direct::DynamicStiffness;
 use crate::frf::{DirectDamping, FrfSet, ModalDamping, Quantity};
 use crate::sensitivity::{
     ModalFrfModel, damping_sensitivities, eigenvalue_sensitivity, frf_sensitivities,
+    mode_shape_sensitivities,
 };
 use faer::{Mat, MatRef, c64};
 use rayon::prelude::*;
@@ -544,20 +549,33 @@ impl Likelihood for DirectFrfLikelihood<'_> {
     }
 }
 
-/// The likelihood of measured natural frequencies: rows `f_X,r` against the paired model
-/// frequencies `f_A,r` (pairs held as given), both divided by `f_X,r` so that a noise level is
-/// a relative frequency error; Jacobian `(φ_j ∂λ_r/∂φ_j)/(8π² f_A,r f_X,r)` (5.3).
-pub struct FrequencyLikelihood<'a> {
+/// The likelihood of measured modal data: natural frequencies, and optionally mode shapes.
+///
+/// Frequency rows `f_A,r/f_X,r` against 1, so that a noise level is a relative frequency error;
+/// Jacobian `(φ_j ∂λ_r/∂φ_j)/(8π² f_A,r f_X,r)` (5.3). Without shapes the pairs are held as
+/// given. With shapes at measured DOFs every evaluation pairs each measured mode with the model
+/// mode of highest MAC (greedy, in measured order) and adds one row per measured DOF: the
+/// measured shape scaled to unit length, `x̂`, against the model shape `a` at those DOFs scaled
+/// by the least-squares modal scale factor, `g = a (aᵀx̂)/(aᵀa)` — so `|x̂ − g|² = 1 − MAC` and a
+/// noise level is that of a unit-length measured shape's components. `∂g` follows from the
+/// mode-shape sensitivities `∂a` ([`mode_shape_sensitivities`], with the static correction of
+/// the truncated modes when the model gives its matrices):
+/// `∂g = [∂a (aᵀx̂) + a (∂aᵀx̂)]/(aᵀa) − 2 a (aᵀx̂)(aᵀ∂a)/(aᵀa)²`.
+pub struct ModalDataLikelihood<'a> {
     model: &'a dyn ParametricModel,
     selection: ModeSelection,
-    /// `(measured f_X in Hz, index of the paired model mode)`.
+    /// `(measured f_X in Hz, index of the paired model mode)`; the index is only used without
+    /// shapes.
     pairs: Vec<(f64, usize)>,
+    /// The measured DOFs and the unit-length measured shapes there (`DOFs × modes`).
+    shapes: Option<(Vec<DofId>, Mat<f64>)>,
     y: Vec<f64>,
     groups: Vec<usize>,
 }
 
-impl<'a> FrequencyLikelihood<'a> {
-    /// `pairs`: each measured frequency (Hz) with the index of its model mode in the basis.
+impl<'a> ModalDataLikelihood<'a> {
+    /// Natural frequencies only. `pairs`: each measured frequency (Hz) with the index of its
+    /// model mode in the basis.
     pub fn new(
         model: &'a dyn ParametricModel,
         selection: ModeSelection,
@@ -565,35 +583,117 @@ impl<'a> FrequencyLikelihood<'a> {
     ) -> Self {
         let y = vec![1.0; pairs.len()];
         let groups = (0..pairs.len()).collect();
-        FrequencyLikelihood {
+        ModalDataLikelihood {
             model,
             selection,
             pairs,
+            shapes: None,
             y,
             groups,
         }
     }
-}
 
-impl FrequencyLikelihood<'_> {
-    /// `f_a/f_x` of every pair from the eigenvalues.
-    fn ratios(&self, lambda: &[f64]) -> Result<Vec<f64>, UpdatingError> {
-        if let Some(&(_, a)) = self.pairs.iter().find(|(_, a)| *a >= lambda.len()) {
+    /// With the measured shapes at `dofs` (`DOFs × modes`, one column per measured frequency,
+    /// in order): MAC-paired at every evaluation, one row per DOF and mode; the noise group of
+    /// mode `r`'s shape rows is `modes + r`.
+    pub fn with_shapes(
+        mut self,
+        dofs: Vec<DofId>,
+        shapes: MatRef<'_, f64>,
+    ) -> Result<Self, UpdatingError> {
+        let nx = self.pairs.len();
+        if shapes.ncols() != nx || shapes.nrows() != dofs.len() || dofs.is_empty() {
             return Err(UpdatingError::Data(format!(
-                "mode {} left the modal basis of {} modes",
-                a + 1,
-                lambda.len()
+                "{} measured shapes at {} DOFs for {nx} measured frequencies and {} DOFs",
+                shapes.ncols(),
+                shapes.nrows(),
+                dofs.len()
             )));
         }
-        Ok(self
+        let mut unit = shapes.to_owned();
+        for r in 0..nx {
+            let norm = (0..dofs.len())
+                .map(|i| unit[(i, r)].powi(2))
+                .sum::<f64>()
+                .sqrt();
+            if !(norm > 0.0 && norm.is_finite()) {
+                return Err(UpdatingError::Data(format!(
+                    "the measured shape of the mode at {:.4} Hz is zero (or not finite) at the measured DOFs",
+                    self.pairs[r].0
+                )));
+            }
+            for i in 0..dofs.len() {
+                unit[(i, r)] /= norm;
+            }
+        }
+        for r in 0..nx {
+            for i in 0..dofs.len() {
+                self.y.push(unit[(i, r)]);
+                self.groups.push(nx + r);
+            }
+        }
+        self.shapes = Some((dofs, unit));
+        Ok(self)
+    }
+
+    /// The paired model mode of every measured mode at `state`, and the model shapes at the
+    /// measured DOFs (with shapes).
+    fn paired(&self, state: &ModalState) -> Result<(Vec<usize>, Option<Mat<f64>>), UpdatingError> {
+        let lambda = &state.modes.eigenvalues;
+        let Some((dofs, unit)) = &self.shapes else {
+            let modes: Vec<usize> = self.pairs.iter().map(|&(_, a)| a).collect();
+            if let Some(&a) = modes.iter().find(|&&a| a >= lambda.len()) {
+                return Err(UpdatingError::Data(format!(
+                    "mode {} left the modal basis of {} modes",
+                    a + 1,
+                    lambda.len()
+                )));
+            }
+            return Ok((modes, None));
+        };
+        let a = state.shapes_at(dofs)?;
+        let elastic: Vec<usize> = (0..lambda.len()).filter(|&r| lambda[r] > 0.0).collect();
+        let modes = mac_pairs(unit.as_ref(), a.as_ref(), &elastic, 0.0)
+            .into_iter()
+            .zip(&self.pairs)
+            .map(|(p, &(fx, _))| {
+                p.map(|(r, _)| r).ok_or_else(|| {
+                    UpdatingError::Data(format!(
+                        "no elastic model mode is left to pair with the measured mode at {fx:.4} Hz: widen the modal basis"
+                    ))
+                })
+            })
+            .collect::<Result<_, _>>()?;
+        Ok((modes, Some(a)))
+    }
+
+    /// The rows at `state` for the paired `modes`.
+    fn rows(&self, lambda: &[f64], modes: &[usize], a: Option<&Mat<f64>>) -> Vec<f64> {
+        let mut out: Vec<f64> = self
             .pairs
             .iter()
-            .map(|&(fx, a)| lambda[a].max(0.0).sqrt() / (2.0 * PI) / fx)
-            .collect())
+            .zip(modes)
+            .map(|(&(fx, _), &r)| lambda[r].max(0.0).sqrt() / (2.0 * PI) / fx)
+            .collect();
+        if let (Some((_, unit)), Some(a)) = (&self.shapes, a) {
+            for (x, &r) in modes.iter().enumerate() {
+                let (aa, ax) = shape_products(a.as_ref(), r, unit.as_ref(), x);
+                let msf = if aa > 0.0 { ax / aa } else { 0.0 };
+                out.extend((0..a.nrows()).map(|i| msf * a[(i, r)]));
+            }
+        }
+        out
     }
 }
 
-impl Likelihood for FrequencyLikelihood<'_> {
+/// `(aᵀa, aᵀx̂)` of model mode `r` and measured mode `x`.
+fn shape_products(a: MatRef<'_, f64>, r: usize, unit: MatRef<'_, f64>, x: usize) -> (f64, f64) {
+    (0..a.nrows()).fold((0.0, 0.0), |(aa, ax), i| {
+        (aa + a[(i, r)] * a[(i, r)], ax + a[(i, r)] * unit[(i, x)])
+    })
+}
+
+impl Likelihood for ModalDataLikelihood<'_> {
     fn measured(&self) -> &[f64] {
         &self.y
     }
@@ -601,42 +701,224 @@ impl Likelihood for FrequencyLikelihood<'_> {
         &self.groups
     }
     fn group_names(&self) -> Vec<String> {
-        self.pairs
-            .iter()
-            .map(|(f, _)| format!("{f:.6} Hz"))
-            .collect()
+        let freq = self.pairs.iter().map(|(f, _)| format!("{f:.6} Hz"));
+        match &self.shapes {
+            None => freq.collect(),
+            Some(_) => {
+                let shapes = self.pairs.iter().map(|(f, _)| format!("shape {f:.6} Hz"));
+                freq.chain(shapes).collect()
+            }
+        }
     }
     fn pooled(&self) -> bool {
         true
     }
     fn scale(&self) -> Vec<f64> {
-        vec![1.0; self.pairs.len()]
+        vec![1.0; self.y.len()]
     }
 
     fn predict_sample(&self, values: &[f64]) -> Result<Vec<f64>, UpdatingError> {
         let state = super::model::sample_state(self.model, values, self.selection)?;
-        self.ratios(&state.modes.eigenvalues)
+        let (modes, a) = self.paired(&state)?;
+        Ok(self.rows(&state.modes.eigenvalues, &modes, a.as_ref()))
     }
 
     fn predict(&self, values: &[f64], jacobian: bool) -> Result<Prediction, UpdatingError> {
-        let (state, _) = self.model.modal_state(values, self.selection)?;
+        let (state, evaluated) = self.model.modal_state(values, self.selection)?;
         let lambda = &state.modes.eigenvalues;
-        let out = self.ratios(lambda)?;
-        let f = |a: usize| lambda[a].max(0.0).sqrt() / (2.0 * PI);
-        let jacobian = jacobian.then(|| {
-            let dl: Vec<Vec<f64>> = state
-                .projected
-                .iter()
-                .map(|d| eigenvalue_sensitivity(lambda, d))
-                .collect();
-            Mat::from_fn(self.pairs.len(), values.len(), |i, j| {
-                let (fx, a) = self.pairs[i];
-                dl[j][a] / (8.0 * PI * PI * f(a).max(f64::MIN_POSITIVE) * fx)
-            })
-        });
+        let (modes, a) = self.paired(&state)?;
+        let out = self.rows(lambda, &modes, a.as_ref());
+        if !jacobian {
+            return Ok(Prediction {
+                values: out,
+                jacobian: None,
+            });
+        }
+        let np = values.len();
+        let nx = self.pairs.len();
+        let mut jac = Mat::<f64>::zeros(out.len(), np);
+        for (j, d) in state.projected.iter().enumerate() {
+            let dl = eigenvalue_sensitivity(lambda, d);
+            for (x, (&(fx, _), &r)) in self.pairs.iter().zip(&modes).enumerate() {
+                let fa = lambda[r].max(0.0).sqrt() / (2.0 * PI);
+                jac[(x, j)] = dl[r] / (8.0 * PI * PI * fa.max(f64::MIN_POSITIVE) * fx);
+            }
+        }
+        if let (Some((dofs, unit)), Some(a)) = (&self.shapes, &a) {
+            let corrections = match &evaluated {
+                Some(ev) => Some(state.shape_corrections(ev, values, dofs)?),
+                None => None,
+            };
+            let da = mode_shape_sensitivities(
+                lambda,
+                a.as_ref(),
+                &modes,
+                &state.projected,
+                corrections.as_deref(),
+            );
+            let nd = dofs.len();
+            for (j, da) in da.iter().enumerate() {
+                for (x, &r) in modes.iter().enumerate() {
+                    let (aa, ax) = shape_products(a.as_ref(), r, unit.as_ref(), x);
+                    if aa <= 0.0 {
+                        continue;
+                    }
+                    let (mut dax, mut ada) = (0.0, 0.0);
+                    for i in 0..nd {
+                        dax += da[(i, x)] * unit[(i, x)];
+                        ada += a[(i, r)] * da[(i, x)];
+                    }
+                    for i in 0..nd {
+                        jac[(nx + x * nd + i, j)] = (da[(i, x)] * ax + a[(i, r)] * dax) / aa
+                            - 2.0 * a[(i, r)] * ax * ada / (aa * aa);
+                    }
+                }
+            }
+        }
         Ok(Prediction {
             values: out,
-            jacobian,
+            jacobian: Some(jac),
         })
+    }
+}
+
+/// Which correlation coefficient a [`CorrelationLikelihood`] is built on.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Coefficient {
+    /// `χ_s` (4.8): the FRFs up to a complex scale per line.
+    Shape,
+    /// `χ_a` (4.9): the FRFs up to a phase per line.
+    Amplitude,
+}
+
+/// The likelihood of a correlation coefficient (the P-C's objective, §4): the measured FRFs at
+/// a line, `x`, against the modal prediction `a` with what the coefficient is blind to fitted
+/// at that line — for `χ_s` a complex scale, `p = a (aᴴx)/(aᴴa)`, and then
+/// `|x − p|² = X (1 − χ_s)`; for `χ_a` a phase, `p = a e^{i arg(aᴴx)}`, and
+/// `|x − p|² = X + A − 2|c| = (X + A)(1 − χ_a)`. The rows are those of the FRF likelihoods
+/// (per line, per pair, real then imaginary part) and so is the noise: the Gaussian of the
+/// residuals is the FRF output error with the scale (phase) of every line profiled out — the
+/// likelihood of data whose force calibration (phase reference) is not trusted, on the
+/// coefficient the P-C drives to 1. The evidence counts every row; the two (one) degrees of
+/// freedom a line's fit takes are not subtracted. `∂p` from the modal FRF sensitivities:
+/// `∂p = (∂s) a + s ∂a`, `s = u/A` (`u = aᴴx`) with `∂s = (∂a)ᴴx/A − u 2Re(aᴴ∂a)/A²`, or
+/// `s = u/|u|` with `∂s = ∂u/|u| − u Re(ū ∂u)/|u|³`.
+pub struct CorrelationLikelihood<'a> {
+    frf: ModalFrfLikelihood<'a>,
+    coefficient: Coefficient,
+}
+
+impl<'a> CorrelationLikelihood<'a> {
+    /// On `lines` (indices of measured lines) of `measured`, predicted by modal summation.
+    pub fn new(
+        model: &'a dyn ParametricModel,
+        measured: &'a FrfSet,
+        lines: Vec<usize>,
+        selection: ModeSelection,
+        damping: ModalDamping,
+        coefficient: Coefficient,
+    ) -> Self {
+        CorrelationLikelihood {
+            frf: ModalFrfLikelihood::new(model, measured, lines, selection, damping),
+            coefficient,
+        }
+    }
+
+    /// The fitted predictions and, given the FRF Jacobian, theirs, from the FRF rows `h`
+    /// (stacked as [`stack_frf`]).
+    fn fitted(&self, h: &[f64], dh: Option<&Mat<f64>>) -> (Vec<f64>, Option<Mat<f64>>) {
+        let nq = self.frf.measured.pairs.len();
+        let np = dh.map_or(0, |d| d.ncols());
+        let mut out = vec![0.0; h.len()];
+        let mut jac = dh.map(|_| Mat::<f64>::zeros(h.len(), np));
+        let y = &self.frf.data.y;
+        let at = |v: &dyn Fn(usize) -> f64, base: usize, q: usize| {
+            c64::new(v(base + 2 * q), v(base + 2 * q + 1))
+        };
+        for l in 0..self.frf.lines.len() {
+            let base = 2 * nq * l;
+            let x: Vec<c64> = (0..nq).map(|q| at(&|i| y[i], base, q)).collect();
+            let a: Vec<c64> = (0..nq).map(|q| at(&|i| h[i], base, q)).collect();
+            let u = a
+                .iter()
+                .zip(&x)
+                .fold(c64::new(0.0, 0.0), |s, (a, x)| s + a.conj() * x);
+            let aa: f64 = a.iter().map(|a| a.norm_sqr()).sum();
+            let s = match self.coefficient {
+                _ if aa == 0.0 || u.norm() == 0.0 => c64::new(0.0, 0.0),
+                Coefficient::Shape => u / aa,
+                Coefficient::Amplitude => u / u.norm(),
+            };
+            for q in 0..nq {
+                let p = s * a[q];
+                out[base + 2 * q] = p.re;
+                out[base + 2 * q + 1] = p.im;
+            }
+            let (Some(d), Some(j)) = (dh, jac.as_mut()) else {
+                continue;
+            };
+            if s == c64::new(0.0, 0.0) {
+                continue;
+            }
+            for c in 0..np {
+                let da: Vec<c64> = (0..nq).map(|q| at(&|i| d[(i, c)], base, q)).collect();
+                let du = da
+                    .iter()
+                    .zip(&x)
+                    .fold(c64::new(0.0, 0.0), |s, (d, x)| s + d.conj() * x);
+                let ds = match self.coefficient {
+                    Coefficient::Shape => {
+                        let daa: f64 = 2.0
+                            * a.iter()
+                                .zip(&da)
+                                .map(|(a, d)| (a.conj() * d).re)
+                                .sum::<f64>();
+                        du / aa - u * (daa / (aa * aa))
+                    }
+                    Coefficient::Amplitude => {
+                        let n = u.norm();
+                        du / n - u * ((u.conj() * du).re / (n * n * n))
+                    }
+                };
+                for q in 0..nq {
+                    let dp = ds * a[q] + s * da[q];
+                    j[(base + 2 * q, c)] = dp.re;
+                    j[(base + 2 * q + 1, c)] = dp.im;
+                }
+            }
+        }
+        (out, jac)
+    }
+}
+
+impl Likelihood for CorrelationLikelihood<'_> {
+    fn measured(&self) -> &[f64] {
+        self.frf.measured()
+    }
+    fn groups(&self) -> &[usize] {
+        self.frf.groups()
+    }
+    fn group_names(&self) -> Vec<String> {
+        self.frf.group_names()
+    }
+    fn pooled(&self) -> bool {
+        false
+    }
+    fn scale(&self) -> Vec<f64> {
+        self.frf.scale()
+    }
+    fn frf_layout(&self) -> Option<FrfLayout> {
+        self.frf.frf_layout()
+    }
+
+    fn predict_sample(&self, values: &[f64]) -> Result<Vec<f64>, UpdatingError> {
+        let h = self.frf.predict_sample(values)?;
+        Ok(self.fitted(&h, None).0)
+    }
+
+    fn predict(&self, values: &[f64], jacobian: bool) -> Result<Prediction, UpdatingError> {
+        let h = self.frf.predict(values, jacobian)?;
+        let (values, jacobian) = self.fitted(&h.values, h.jacobian.as_ref());
+        Ok(Prediction { values, jacobian })
     }
 }

@@ -26,8 +26,8 @@
 //! sample evaluated through the model.
 
 pub use super::likelihoods::{
-    DampingLikelihood, DirectFrfLikelihood, FrequencyLikelihood, ModalFrfLikelihood,
-    NaturalFrequencies, likelihood_lines,
+    Coefficient, CorrelationLikelihood, DampingLikelihood, DirectFrfLikelihood,
+    ModalDataLikelihood, ModalFrfLikelihood, NaturalFrequencies, likelihood_lines,
 };
 use super::model::{UpdatingError, UpdatingParameter};
 use super::solve::least_squares;
@@ -1158,10 +1158,15 @@ mod tests {
     /// Every Jacobian column against a central difference `(f(φ(1+h)) − f(φ(1−h)))/2h`,
     /// `h = 1e-6`, to 1e-6 of the column's largest entry.
     fn check_jacobian(lik: &dyn Likelihood, values: &[f64]) {
+        check_columns(lik, values, 0..values.len());
+    }
+
+    /// [`check_jacobian`] on the columns `columns` only.
+    fn check_columns(lik: &dyn Likelihood, values: &[f64], columns: std::ops::Range<usize>) {
         let p = lik.predict(values, true).unwrap();
         let j = p.jacobian.unwrap();
         let h = 1e-6;
-        for c in 0..values.len() {
+        for c in columns {
             let mut up = values.to_vec();
             let mut dn = values.to_vec();
             up[c] *= 1.0 + h;
@@ -1183,10 +1188,12 @@ mod tests {
         }
     }
 
-    /// The modal, direct, frequency and damping Jacobians against central differences on the
-    /// damped four-DOF chain (m2 = 1.3 kg).
+    /// The modal, direct, modal-data (frequencies, and MAC-paired shapes), correlation and
+    /// damping Jacobians against central differences on the damped four-DOF chain (m2 = 1.3 kg).
     #[test]
     fn jacobians_match_central_differences() {
+        use crate::correlation::frf::{amplitude_correlation, shape_correlation};
+        use faer::c64;
         let model = chain(&[1.0, 1.3, 1.0, 1.0]);
         let values = model.initial_values();
         let freqs = frequency_lines(1.0, 40.0, 0.5);
@@ -1211,8 +1218,80 @@ mod tests {
         for (u, v) in a.values.iter().zip(&b.values) {
             assert!((u - v).abs() < 1e-9 * big);
         }
-        let freq = FrequencyLikelihood::new(&model, ModeSelection::All, vec![(9.8, 0), (18.7, 1)]);
+        let freq = ModalDataLikelihood::new(&model, ModeSelection::All, vec![(9.8, 0), (18.7, 1)]);
         check_jacobian(&freq, &values);
+        // Frequencies and MAC-paired shapes at three DOFs, the shapes of the true chain scaled
+        // and flipped (the rows see neither).
+        let truth = chain(&[1.0; 4]);
+        let (t, _) = truth
+            .modal_state(&truth.initial_values(), ModeSelection::All)
+            .unwrap();
+        let dofs = t.dofs[1..].to_vec();
+        let shapes = t.shapes_at(&dofs).unwrap();
+        let shapes = Mat::from_fn(3, 2, |i, r| [2.5, -0.1][r] * shapes[(i, r + 1)]);
+        let fx = t.modes.frequencies_hz();
+        let modal_data =
+            ModalDataLikelihood::new(&model, ModeSelection::All, vec![(fx[1], 1), (fx[2], 2)])
+                .with_shapes(dofs, shapes.as_ref())
+                .unwrap();
+        assert_eq!(modal_data.measured().len(), 2 + 2 * 3);
+        check_jacobian(&modal_data, &values);
+        // At the truth every row matches: frequency ratios 1, shapes equal after scaling.
+        let at_truth = modal_data
+            .predict(&truth.initial_values(), false)
+            .unwrap()
+            .values;
+        for (p, y) in at_truth.iter().zip(modal_data.measured()) {
+            assert!((p - y).abs() < 1e-12, "{p} vs {y}");
+        }
+        // The correlation likelihoods: their residuals at a line are X(1 − χ_s) and
+        // (X + A)(1 − χ_a) of the correlation module (squared norms).
+        let predicted = modal.predict(&values, false).unwrap().values;
+        for coefficient in [Coefficient::Shape, Coefficient::Amplitude] {
+            let lik = CorrelationLikelihood::new(
+                &model,
+                &x,
+                lines.clone(),
+                ModeSelection::All,
+                ModalDamping::Structural(vec![0.02; 4]),
+                coefficient,
+            );
+            let p = lik.predict(&values, true).unwrap();
+            if coefficient == Coefficient::Shape {
+                // The direction of the response to a force at mass 1 does not depend on the
+                // dynamic stiffness there (`(Z + δ e₁e₁ᵀ)⁻¹e₁ ∥ Z⁻¹e₁`): χ_s is blind to m1.
+                let j = p.jacobian.unwrap();
+                let col = |c: usize| (0..j.nrows()).map(|i| j[(i, c)].abs()).fold(0.0, f64::max);
+                assert!(col(0) < 1e-12 * col(1), "{} vs {}", col(0), col(1));
+                check_columns(&lik, &values, 1..4);
+            } else {
+                check_jacobian(&lik, &values);
+            }
+            let p = p.values;
+            let y = lik.measured();
+            for l in [3, 40, 70] {
+                let rows = 8 * l..8 * (l + 1);
+                let complex = |v: &[f64]| -> Vec<c64> {
+                    (0..4)
+                        .map(|q| c64::new(v[8 * l + 2 * q], v[8 * l + 2 * q + 1]))
+                        .collect()
+                };
+                let (xs, a) = (complex(y), complex(&predicted));
+                let (xx, aa): (f64, f64) = (
+                    xs.iter().map(|v| v.norm_sqr()).sum(),
+                    a.iter().map(|v| v.norm_sqr()).sum(),
+                );
+                let expected = match coefficient {
+                    Coefficient::Shape => xx * (1.0 - shape_correlation(&xs, &a)),
+                    Coefficient::Amplitude => (xx + aa) * (1.0 - amplitude_correlation(&xs, &a)),
+                };
+                let got: f64 = rows.map(|i| (y[i] - p[i]).powi(2)).sum();
+                assert!(
+                    (got - expected).abs() < 1e-9 * xx,
+                    "{coefficient:?} line {l}: {got} vs {expected}"
+                );
+            }
+        }
         let (state, _) = model.modal_state(&values, ModeSelection::All).unwrap();
         let damping = DampingLikelihood::new(
             &state,

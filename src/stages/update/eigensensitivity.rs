@@ -3,8 +3,8 @@
 
 use super::pc::weighting;
 use super::{
-    Method, PosteriorParams, Reduction, SensitiveStartParams, build_model, max_iterations,
-    measured_modes, run_and_write,
+    Method, PosteriorParams, Reduction, SensitiveStartParams, build_model, elastic_measured_modes,
+    max_iterations, run_and_write,
 };
 use crate::core::DofId;
 use crate::eigen::ModeSelection;
@@ -14,8 +14,8 @@ use crate::stages::params::{
     AtLeastOne, Count, Deprecation, Fraction, Modes, NonNegative, OpenFraction, Positive,
     migrate_mode_fields,
 };
-use crate::updating::eigensensitivity::{EigenSettings, InverseEigensensitivity, MeasuredModes};
-use crate::updating::posterior::{FrequencyLikelihood, NaturalFrequencies};
+use crate::updating::eigensensitivity::{EigenSettings, InverseEigensensitivity};
+use crate::updating::posterior::{ModalDataLikelihood, NaturalFrequencies};
 
 /// Parameters of `method: eigensensitivity`.
 #[derive(Clone, Debug, serde::Deserialize, serde::Serialize, schemars::JsonSchema)]
@@ -139,41 +139,6 @@ impl EigensensitivityMethod {
         issues
     }
 
-    /// The elastic measured modes used, with their shapes at `measured_dofs` when given.
-    fn measured(&self, inputs: &StageInputs) -> Result<MeasuredModes, StageError> {
-        let m = measured_modes(inputs)?;
-        let elastic: Vec<usize> = (0..m.modes.len())
-            .filter(|&r| m.modes.eigenvalues[r] > 0.0)
-            .take(self.measured_modes.map_or(usize::MAX, Count::get))
-            .collect();
-        let shapes = if self.measured_dofs.is_empty() {
-            None
-        } else {
-            let index: std::collections::HashMap<DofId, usize> =
-                m.dofs.iter().enumerate().map(|(i, d)| (*d, i)).collect();
-            let rows: Vec<usize> = (self.measured_dofs.iter())
-                .map(|d| {
-                    index.get(d).copied().ok_or_else(|| {
-                        StageError::input(
-                            "measured_dofs",
-                            format!("{d} is not a DOF of the measured modes"),
-                        )
-                    })
-                })
-                .collect::<Result<_, _>>()?;
-            Some((
-                self.measured_dofs.clone(),
-                faer::Mat::from_fn(rows.len(), elastic.len(), |i, j| {
-                    m.modes.shapes[(rows[i], elastic[j])]
-                }),
-            ))
-        };
-        Ok(MeasuredModes {
-            eigenvalues: elastic.iter().map(|&r| m.modes.eigenvalues[r]).collect(),
-            shapes,
-        })
-    }
-
     pub(super) fn run(&self, inputs: &StageInputs) -> Result<StageOutputs, StageError> {
         let model = build_model(
             inputs,
@@ -182,7 +147,11 @@ impl EigensensitivityMethod {
             &self.reduction,
             self.modes.is_given(),
         )?;
-        let measured = self.measured(inputs)?;
+        let measured = elastic_measured_modes(
+            inputs,
+            self.measured_modes.map(Count::get),
+            &self.measured_dofs,
+        )?;
         let count = 3 * measured.eigenvalues.len() + 6;
         let method = InverseEigensensitivity {
             measured: &measured,
@@ -208,7 +177,7 @@ impl EigensensitivityMethod {
                 .zip(&measured.eigenvalues)
                 .filter_map(|(a, &l)| a.map(|a| (l.sqrt() / (2.0 * std::f64::consts::PI), a)))
                 .collect();
-            let lik = FrequencyLikelihood::new(model, selection, pairs);
+            let lik = ModalDataLikelihood::new(model, selection, pairs);
             let natural = NaturalFrequencies {
                 model,
                 selection,

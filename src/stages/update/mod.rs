@@ -29,11 +29,13 @@ use crate::artefact::kinds::{linear_parameters_from_matrices, matrices_from_arte
 use crate::artefact::kinds::{matrices_to_artefact, modes_from_artefact};
 use crate::artefact::mesh::mesh_from_artefact;
 use crate::artefact::update::update_result_to_artefact;
+use crate::core::DofId;
 use crate::eigen::ModeSelection;
 use crate::fe::element::MassKind;
 use crate::pipeline::{
     CheckContext, ParamIssue, PortSpec, StageError, StageInputs, StageOutputs, TypedStage,
 };
+use crate::updating::eigensensitivity::MeasuredModes;
 use crate::updating::sensitive_start::sensitive_start;
 use crate::updating::{
     FeModel, LinearModel, ParametricModel, ReducedFeModel, UpdateHistory, UpdateMethod,
@@ -520,6 +522,57 @@ pub(crate) fn measured_modes(
         .get("measured_modes")
         .ok_or_else(|| missing("measured_modes"))?;
     Ok(modes_from_artefact(a)?)
+}
+
+/// The first `count` (default: all) elastic modes of the input `measured_modes`, with their
+/// shapes at `dofs` when any are given (an unknown DOF is an error of the field
+/// `measured_dofs`).
+pub(crate) fn elastic_measured_modes(
+    inputs: &StageInputs,
+    count: Option<usize>,
+    dofs: &[DofId],
+) -> Result<MeasuredModes, StageError> {
+    let m = measured_modes(inputs)?;
+    let elastic: Vec<usize> = (0..m.modes.len())
+        .filter(|&r| m.modes.eigenvalues[r] > 0.0)
+        .take(count.unwrap_or(usize::MAX))
+        .collect();
+    let shapes = if dofs.is_empty() {
+        None
+    } else {
+        let index: std::collections::HashMap<DofId, usize> =
+            m.dofs.iter().enumerate().map(|(i, d)| (*d, i)).collect();
+        let rows: Vec<usize> = dofs
+            .iter()
+            .map(|d| {
+                index.get(d).copied().ok_or_else(|| {
+                    StageError::input(
+                        "measured_dofs",
+                        format!(
+                            "{d} is not a DOF of the measured modes ({} DOFs, e.g. {})",
+                            m.dofs.len(),
+                            m.dofs
+                                .iter()
+                                .take(3)
+                                .map(|d| d.to_string())
+                                .collect::<Vec<_>>()
+                                .join(", ")
+                        ),
+                    )
+                })
+            })
+            .collect::<Result<_, _>>()?;
+        Some((
+            dofs.to_vec(),
+            faer::Mat::from_fn(rows.len(), elastic.len(), |i, j| {
+                m.modes.shapes[(rows[i], elastic[j])]
+            }),
+        ))
+    };
+    Ok(MeasuredModes {
+        eigenvalues: elastic.iter().map(|&r| m.modes.eigenvalues[r]).collect(),
+        shapes,
+    })
 }
 
 fn missing(port: &str) -> StageError {
