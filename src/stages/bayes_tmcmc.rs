@@ -881,6 +881,31 @@ mod tests {
         )
         .unwrap_err();
         assert_eq!(e[0].path, vec!["likelihood"]);
+        let e = check(
+            serde_json::json!({"priors": {"m1": {"uniform": [0.5, 2.0]}}, "noise": {"sigma": 0.01}, "shape_noise": 0.02, "measured_dofs": ["1:ux"]}),
+            &ports,
+        )
+        .unwrap_err();
+        let paths: Vec<_> = e.iter().map(|i| i.path.join(".")).collect();
+        assert_eq!(paths, ["shape_noise", "measured_dofs"]);
+        let modal = ["model", "measured_modes"];
+        let e = check(
+            serde_json::json!({"priors": {"m1": {"uniform": [0.5, 2.0]}}, "noise": {"snr_db": 30.0}, "likelihood": "modes"}),
+            &modal,
+        )
+        .unwrap_err();
+        assert_eq!(e[0].path, vec!["noise"]);
+        check(
+            serde_json::json!({"priors": {"m1": {"uniform": [0.5, 2.0]}}, "noise": {"sigma": 0.01}, "likelihood": "modes", "shape_noise": 0.02, "measured_dofs": ["1:ux"]}),
+            &modal,
+        )
+        .unwrap();
+        let e = check(
+            serde_json::json!({"priors": {"m1": {"uniform": [0.5, 2.0]}}, "noise": {"snr_db": 30.0}, "likelihood": "chi_s", "damping": {"rayleigh": {"alpha": 1.0, "beta": 1e-5}}}),
+            &ports,
+        )
+        .unwrap_err();
+        assert_eq!(e[0].path, vec!["damping"]);
         let v = check(
             serde_json::json!({"priors": {"m1": {"lognormal": {"median": 1.0, "log_sd": 0.2}}}, "noise": {"snr_db": 30.0}}),
             &ports,
