@@ -232,7 +232,11 @@ fn four_dof_bayes_pipeline_writes_the_posterior() {
         for j in 0..n {
             eprintln!("{stage} {j}: {} ± {}", mean[j], sd[j]);
             assert!(sd[j] > 0.0 && sd[j] < sd_max, "{stage} {j}: sd {}", sd[j]);
-            assert!((mean[j] - 1.0).abs() < 3.0 * sd[j], "{stage} {j}: {}", mean[j]);
+            assert!(
+                (mean[j] - 1.0).abs() < 3.0 * sd[j],
+                "{stage} {j}: {}",
+                mean[j]
+            );
         }
     }
 

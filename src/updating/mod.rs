@@ -10,6 +10,7 @@
 pub mod damping;
 pub mod eigensensitivity;
 pub mod likelihoods;
+pub mod mala;
 pub mod model;
 pub mod pc;
 pub mod posterior;

@@ -156,6 +156,19 @@ impl ParamPrior {
         }
     }
 
+    /// `∂ ln p(φ)/∂φ` inside the support (0 for the uniform prior).
+    pub fn grad_log_density(&self, x: f64) -> f64 {
+        match *self {
+            ParamPrior::Uniform { .. } => 0.0,
+            ParamPrior::Normal { mean, sd } | ParamPrior::Bounded { mean, sd, .. } => {
+                -(x - mean) / (sd * sd)
+            }
+            ParamPrior::LogNormal { median, log_sd } => {
+                -((x.ln() - median.ln()) / (log_sd * log_sd) + 1.0) / x
+            }
+        }
+    }
+
     /// One draw.
     pub fn sample(&self, rng: &mut ChaCha8Rng) -> f64 {
         let z = |rng: &mut ChaCha8Rng| -> f64 { StandardNormal.sample(rng) };
@@ -423,7 +436,7 @@ pub fn next_exponent(log_lik: &[f64], beta: f64, target_cov: f64) -> f64 {
 
 /// Lower Cholesky factor of a small symmetric positive semi-definite matrix, with a diagonal
 /// jitter of `1e-12·max diag` (repeated ×10 as needed) for directions the samples collapsed.
-fn cholesky(c: &[Vec<f64>]) -> Vec<Vec<f64>> {
+pub(crate) fn cholesky(c: &[Vec<f64>]) -> Vec<Vec<f64>> {
     let n = c.len();
     let scale = (0..n)
         .map(|i| c[i][i].abs())
@@ -893,8 +906,43 @@ pub fn to_posterior(
     credible_level: f64,
     seed: u64,
 ) -> Posterior {
+    summarise(
+        &SampleSet {
+            samples: &t.samples,
+            log_likelihood: &t.log_likelihood,
+            sigma: &t.sigma,
+            rows: t.rows,
+        },
+        params,
+        groups,
+        credible_level,
+        seed,
+    )
+}
+
+/// Equally weighted posterior samples and what they were drawn under.
+pub struct SampleSet<'a> {
+    /// Samples (absolute values), `N × n`.
+    pub samples: &'a [Vec<f64>],
+    /// `ln p(y|φ_k)` of every sample.
+    pub log_likelihood: &'a [f64],
+    /// Noise standard deviation per group, as used.
+    pub sigma: &'a [f64],
+    /// Rows of the likelihood.
+    pub rows: usize,
+}
+
+/// [`to_posterior`] of any equally weighted samples (TMCMC's, or a Markov chain's).
+pub fn summarise(
+    set: &SampleSet<'_>,
+    params: &[UpdatingParameter],
+    groups: Vec<String>,
+    credible_level: f64,
+    seed: u64,
+) -> Posterior {
     let n = params.len();
-    let s = &t.samples;
+    let t = set;
+    let s = t.samples;
     let count = s.len().max(1) as f64;
     let mean: Vec<f64> = (0..n)
         .map(|i| s.iter().map(|x| x[i]).sum::<f64>() / count)
@@ -972,7 +1020,7 @@ pub fn to_posterior(
         covariance: cov,
         correlation,
         directions,
-        sigma: t.sigma.clone(),
+        sigma: t.sigma.to_vec(),
         groups,
         sigma_estimated: false,
         rows: t.rows,
@@ -984,7 +1032,7 @@ pub fn to_posterior(
             converged: true,
         },
         credible_level,
-        samples: s.clone(),
+        samples: s.to_vec(),
         predictive_samples: 0,
         natural_frequencies: Vec::new(),
         frf: Vec::new(),
