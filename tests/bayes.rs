@@ -217,6 +217,64 @@ fn four_dof_bayes_pipeline_writes_the_posterior() {
     assert_eq!(band.f64s("frf_band", "abs").unwrap().len(), 4 * 159);
     assert_eq!(a.meta["predictive_samples"], 200);
 
+    // MALA from the Laplace posterior: the same posterior to sampling error (near-linear at
+    // 30 dB), the chains mixed, the Laplace marginals kept for the figure.
+    let m = read_dir(&out.join("pc_mala").join("posterior")).unwrap();
+    check_layout(&m).unwrap();
+    assert_eq!(m.meta["sampler"], "mala");
+    let mt = m.table("parameters").unwrap();
+    let (m_mean, m_sd) = (
+        mt.f64s("parameters", "mean").unwrap(),
+        mt.f64s("parameters", "sd").unwrap(),
+    );
+    let diag = m.table("mcmc_parameters").unwrap();
+    let (r_hat, ess) = (
+        diag.f64s("mcmc_parameters", "r_hat").unwrap(),
+        diag.f64s("mcmc_parameters", "ess").unwrap(),
+    );
+    for j in 0..4 {
+        eprintln!(
+            "m{}: Laplace {} ± {}, MALA {} ± {} (R̂ {}, ESS {})",
+            j + 1,
+            mean[j],
+            sd[j],
+            m_mean[j],
+            m_sd[j],
+            r_hat[j],
+            ess[j]
+        );
+        assert!(
+            r_hat[j] < 1.05 && ess[j] > 300.0,
+            "m{}: R̂ {}, ESS {}",
+            j + 1,
+            r_hat[j],
+            ess[j]
+        );
+        assert!(
+            (m_mean[j] - mean[j]).abs() < 0.25 * sd[j],
+            "m{}: {}",
+            j + 1,
+            m_mean[j]
+        );
+        assert!(
+            (m_sd[j] / sd[j] - 1.0).abs() < 0.15,
+            "m{}: sd {}",
+            j + 1,
+            m_sd[j]
+        );
+    }
+    let chains = m.table("mcmc_chains").unwrap();
+    assert_eq!(chains.f64s("mcmc_chains", "acceptance").unwrap().len(), 4);
+    assert_eq!(
+        m.table("samples")
+            .unwrap()
+            .f64s("samples", "value")
+            .unwrap()
+            .len(),
+        16000
+    );
+    assert!(m.blobs.contains_key("marginals.png"));
+
     // TMCMC from modal data (noise-free, so centred on the truth to sampling error) and from
     // chi_s (the FRFs up to a scale per line: m2-m4).
     for (stage, n, sd_max) in [("tmcmc_modes", 4, 0.02), ("tmcmc_chi_s", 3, 0.05)] {
@@ -924,4 +982,96 @@ fn bent_plate_bayes_evidence_picks_the_true_region() {
         t.f64s("parameters", "sd").unwrap()[0],
     );
     assert!((mean - 1.1e-3).abs() < 4.0 * sd, "{mean} ± {sd}");
+}
+
+/// The gradient-based sampler (docs/theory.md §16) against TMCMC where the posterior is not
+/// Gaussian: the C1 chain at 10 dB SNR on 20 lines (1–39 Hz every 2 Hz), each mass known to
+/// 2–3 %, where the Laplace Gaussian's sds are 5–12 % narrower than the sampled ones (this
+/// run: m1 0.0215 against 0.0236 MALA, 0.0227 TMCMC). MALA (four chains of 2000 from the
+/// Laplace Gaussian, its covariance as the metric, exact gradients; 1100–1600 effective
+/// samples) and TMCMC (4000 samples, evaluations only) share the uniform priors U[0.3, 3] and
+/// the noise: their means agree to 0.1 sd and their sds to 10 % (the sampling errors are near
+/// 0.04 sd and 3 %), every R̂ is below 1.02 and the acceptance near the 0.574 adapted to.
+#[test]
+fn mala_and_tmcmc_agree_where_the_posterior_is_not_gaussian() {
+    use femu::updating::mala::{MalaSettings, mala};
+    let freqs = frequency_lines(1.0, 39.0, 2.0);
+    let x0 = clean(&freqs);
+    let noise = Noise::Absolute(snr_sigmas(&x0, 10.0));
+    let x = noisy_at(&x0, 10.0, 11);
+    let model = chain(&[1.0; 4]);
+    let lik = ModalFrfLikelihood::new(
+        &model,
+        &x,
+        (0..freqs.len()).collect(),
+        ModeSelection::All,
+        ModalDamping::Structural(vec![ETA; 4]),
+    );
+    let laplace = laplace_at_mode(&lik, &model, &[1.0; 4], &noise);
+    let priors = vec![
+        ParamPrior::Uniform {
+            lower: 0.3,
+            upper: 3.0
+        };
+        4
+    ];
+    let mode: Vec<f64> = laplace.marginals.iter().map(|m| m.mean).collect();
+    let m = mala(
+        &lik,
+        &priors,
+        &noise,
+        &mode,
+        &laplace.covariance,
+        &MalaSettings {
+            chains: 4,
+            warmup: 300,
+            samples: 2000,
+            seed: 5,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let t = tmcmc(
+        &lik,
+        &priors,
+        &noise,
+        &TmcmcSettings {
+            samples: 4000,
+            mh_steps: 4,
+            seed: 5,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let stats = |s: &[Vec<f64>], j: usize| {
+        let n = s.len() as f64;
+        let mean = s.iter().map(|x| x[j]).sum::<f64>() / n;
+        let sd = (s.iter().map(|x| (x[j] - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt();
+        (mean, sd)
+    };
+    for j in 0..4 {
+        let ((mm, ms), (tm, ts)) = (stats(&m.samples, j), stats(&t.samples, j));
+        let l = &laplace.marginals[j];
+        eprintln!(
+            "m{}: Laplace {:.5} ± {:.5}, MALA {mm:.5} ± {ms:.5} (R̂ {:.4}, ESS {:.0}), TMCMC {tm:.5} ± {ts:.5}",
+            j + 1,
+            l.mean,
+            l.sd,
+            m.r_hat[j],
+            m.ess[j]
+        );
+        assert!(m.r_hat[j] < 1.02, "m{}: R-hat {}", j + 1, m.r_hat[j]);
+        assert!((mm - tm).abs() < 0.1 * ts, "m{}: means {mm} vs {tm}", j + 1);
+        assert!((ms / ts - 1.0).abs() < 0.1, "m{}: sds {ms} vs {ts}", j + 1);
+    }
+    for c in &m.chains {
+        assert!((c.acceptance - 0.574).abs() < 0.15, "{c:?}");
+    }
+}
+
+/// The C1 receptances with `noise.add`'s Gaussian noise at `snr_db`.
+fn noisy_at(x0: &FrfSet, snr_db: f64, seed: u64) -> FrfSet {
+    let mut x = x0.clone();
+    add_noise(&mut x, &NoiseModel::Gaussian { snr_db }, seed);
+    x
 }

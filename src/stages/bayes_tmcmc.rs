@@ -595,6 +595,7 @@ impl TypedStage for BayesTmcmc {
                 log_evidence: t.log_evidence,
                 stages: t.stages.clone(),
             }),
+            mcmc: None,
             posterior: posterior.clone(),
         });
         let a = with_figures(a, "TMCMC posterior", names, &posterior.samples, truth, None);

@@ -11,12 +11,15 @@
 //! | `natural_frequencies` (optional) | `mode, freq_hz, sd_linear_hz, sd_sampled_hz` |
 //! | `frf_band` (optional) | `freq_hz, pair, abs, sd_linear, sd_sampled` |
 //! | `tmcmc_stages` (optional, `bayes.tmcmc`) | `stage, exponent, log_evidence, acceptance, distinct` |
+//! | `mcmc_chains` (optional, `posterior.mala`) | `chain, step, acceptance, failed` |
+//! | `mcmc_parameters` (optional, `posterior.mala`) | `parameter, r_hat, ess` |
 //!
-//! Sampled posteriors also carry `log_evidence` in the metadata; figures (`marginals`, `pairs`)
+//! TMCMC posteriors also carry `log_evidence` in the metadata, MALA ones `sampler: mala`; figures (`marginals`, `pairs`)
 //! are stored as `<name>.png` and `<name>.svg` blobs.
 
 use super::{Kind, Layout, TableLayout, col, expect_kind, meta, meta_opt, meta_value, table};
 use crate::artefact::{Artefact, ArtefactError, ArtefactKind, Column, Storage, Table};
+use crate::updating::mala::ChainReport;
 use crate::updating::posterior::{Band, Direction, Marginal, Posterior, Refinement};
 use crate::updating::tmcmc::TmcmcStage;
 
@@ -35,6 +38,21 @@ pub struct PosteriorRecord {
     pub posterior: Posterior,
     /// What a sampler adds (`bayes.tmcmc`); `None` for the Laplace posterior.
     pub sampling: Option<Sampling>,
+    /// The Markov chains of a gradient-based sampler (`update`'s `posterior.mala`).
+    pub mcmc: Option<Mcmc>,
+}
+
+/// The chains of a MALA posterior and their diagnostics.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Mcmc {
+    /// The sampler: `mala`.
+    pub sampler: String,
+    /// Every chain's step, acceptance and failed proposals.
+    pub chains: Vec<ChainReport>,
+    /// Split `R̂` per parameter.
+    pub r_hat: Vec<f64>,
+    /// Effective sample size per parameter.
+    pub ess: Vec<f64>,
 }
 
 /// The evidence and the tempering stages of a TMCMC posterior.
@@ -106,6 +124,10 @@ impl Kind for PosteriorKind {
                 meta_opt(
                     "log_evidence",
                     "ln p(y), the log model evidence (sampled posteriors)",
+                ),
+                meta_opt(
+                    "sampler",
+                    "the Markov-chain sampler that drew the samples (mala)",
                 ),
             ],
             blobs: vec!["{name}.png", "{name}.svg"],
@@ -264,6 +286,42 @@ fn tables() -> Vec<TableLayout> {
             ],
         ),
         stages_layout(),
+        table(
+            "mcmc_chains",
+            s,
+            false,
+            vec![
+                col("chain", "int64", "", "0-based chain"),
+                col("step", "float64", "", "step epsilon after the warm-up"),
+                col(
+                    "acceptance",
+                    "float64",
+                    "",
+                    "fraction of the kept steps' proposals accepted",
+                ),
+                col(
+                    "failed",
+                    "int64",
+                    "",
+                    "proposals the model could not be analysed at",
+                ),
+            ],
+        ),
+        table(
+            "mcmc_parameters",
+            s,
+            false,
+            vec![
+                col("parameter", "string", "", "parameter name"),
+                col(
+                    "r_hat",
+                    "float64",
+                    "",
+                    "split potential scale reduction (near 1 when the chains mixed)",
+                ),
+                col("ess", "float64", "", "effective sample size"),
+            ],
+        ),
     ]
 }
 
@@ -462,6 +520,31 @@ fn write(r: &PosteriorRecord) -> Artefact {
             .with_meta("log_evidence", smp.log_evidence.into())
             .with_table("tmcmc_stages", stages_table(&smp.stages), Storage::Parquet);
     }
+    if let Some(m) = &r.mcmc {
+        let c = &m.chains;
+        a = a
+            .with_meta("sampler", m.sampler.clone().into())
+            .with_table(
+                "mcmc_chains",
+                Table::new()
+                    .with("chain", Column::I64((0..c.len() as i64).collect()))
+                    .with("step", f64s(c.iter().map(|x| x.step)))
+                    .with("acceptance", f64s(c.iter().map(|x| x.acceptance)))
+                    .with(
+                        "failed",
+                        Column::I64(c.iter().map(|x| x.failed as i64).collect()),
+                    ),
+                Storage::Parquet,
+            )
+            .with_table(
+                "mcmc_parameters",
+                Table::new()
+                    .with("parameter", strs(p.marginals.iter().map(|m| &m.name)))
+                    .with("r_hat", f64s(m.r_hat.iter().copied()))
+                    .with("ess", f64s(m.ess.iter().copied())),
+                Storage::Parquet,
+            );
+    }
     a
 }
 
@@ -558,8 +641,32 @@ fn read(a: &Artefact) -> Result<PosteriorRecord, ArtefactError> {
             stages: read_stages(t)?,
         }),
     };
+    let mcmc = match (a.table("mcmc_chains"), a.table("mcmc_parameters")) {
+        (Ok(c), Ok(q)) => {
+            let n = "mcmc_chains";
+            let (step, acc, failed) = (
+                c.f64s(n, "step")?,
+                c.f64s(n, "acceptance")?,
+                c.i64s(n, "failed")?,
+            );
+            Some(Mcmc {
+                sampler: a.meta_str("sampler")?.to_string(),
+                chains: (0..step.len())
+                    .map(|k| ChainReport {
+                        step: step[k],
+                        acceptance: acc[k],
+                        failed: failed[k].max(0) as usize,
+                    })
+                    .collect(),
+                r_hat: q.f64s("mcmc_parameters", "r_hat")?.to_vec(),
+                ess: q.f64s("mcmc_parameters", "ess")?.to_vec(),
+            })
+        }
+        _ => None,
+    };
     Ok(PosteriorRecord {
         sampling,
+        mcmc,
         method: a.meta_str("method")?.to_string(),
         likelihood: a.meta_str("likelihood")?.to_string(),
         noise: a.meta_str("noise")?.to_string(),

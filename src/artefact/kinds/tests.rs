@@ -796,6 +796,31 @@ impl Example for posterior::PosteriorKind {
                 noise: "sigma".into(),
                 posterior: frf.clone(),
                 sampling: None,
+                mcmc: None,
+            },
+            posterior::PosteriorRecord {
+                method: "pc".into(),
+                likelihood: "frf_modal".into(),
+                noise: "snr_db".into(),
+                posterior: frf.clone(),
+                sampling: None,
+                mcmc: Some(posterior::Mcmc {
+                    sampler: "mala".into(),
+                    chains: vec![
+                        crate::updating::mala::ChainReport {
+                            step: 1.25,
+                            acceptance: 0.5625,
+                            failed: 0,
+                        },
+                        crate::updating::mala::ChainReport {
+                            step: 1.5,
+                            acceptance: 0.625,
+                            failed: 3,
+                        },
+                    ],
+                    r_hat: frf.marginals.iter().map(|_| 1.0078125).collect(),
+                    ess: frf.marginals.iter().map(|_| 812.5).collect(),
+                }),
             },
             posterior::PosteriorRecord {
                 method: "tmcmc".into(),
@@ -819,6 +844,7 @@ impl Example for posterior::PosteriorKind {
                         },
                     ],
                 }),
+                mcmc: None,
             },
             posterior::PosteriorRecord {
                 method: "eigensensitivity".into(),
@@ -826,6 +852,7 @@ impl Example for posterior::PosteriorKind {
                 noise: "estimated".into(),
                 posterior: unidentified,
                 sampling: None,
+                mcmc: None,
             },
         ]
     }

@@ -3,15 +3,18 @@
 
 use crate::artefact::Artefact;
 use crate::artefact::kinds::Kind;
-use crate::artefact::kinds::posterior::{PosteriorKind, PosteriorRecord};
+use crate::artefact::kinds::posterior::{Mcmc, PosteriorKind, PosteriorRecord};
 use crate::core::InputFault;
 use crate::frf::FrfSet;
 use crate::pipeline::{ParamIssue, StageError};
-use crate::stages::params::{OpenFraction, Positive};
+use crate::stages::params::{Count, OpenFraction, Positive};
 use crate::updating::UpdatingParameter;
+use crate::updating::mala::{MalaSettings, mala};
+use crate::updating::posterior::Posterior;
 use crate::updating::posterior::{
     Likelihood, NaturalFrequencies, Noise, PosteriorSettings, Prior, laplace, unknown,
 };
+use crate::updating::tmcmc::{ParamPrior, SampleSet, summarise};
 
 /// The Laplace posterior computed after the update (docs/theory.md §12): a Gaussian at the
 /// mode of an output-error likelihood on the quantities the method fits (complex FRFs; natural
@@ -48,6 +51,40 @@ pub struct PosteriorParams {
     /// A Gaussian prior on the parameters; omitted: flat.
     #[serde(default)]
     pub prior: Option<PriorParams>,
+    /// Sample the posterior by the gradient-based sampler MALA (docs/theory.md §16), e.g.
+    /// `mala: {samples: 500}`: Markov chains started from the Laplace Gaussian with its
+    /// covariance as the metric, moved along the exact gradient of the log posterior; the
+    /// statistics and samples are then the chains' (the predictive bands stay the Gaussian's),
+    /// with the Laplace marginals drawn over their histograms and `R̂` and the effective sample
+    /// size per parameter. The prior is the Gaussian one, or flat, within the parameters'
+    /// bounds.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mala: Option<MalaParams>,
+}
+
+/// Settings of the MALA chains.
+#[derive(Clone, Debug, serde::Deserialize, serde::Serialize, schemars::JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct MalaParams {
+    /// Independent chains (at least 2: `R̂` compares them).
+    #[serde(default = "chains")]
+    pub chains: Count,
+    /// Warm-up steps of every chain, in which its step adapts to an acceptance of 0.574.
+    #[serde(default = "warmup")]
+    pub warmup: Count,
+    /// Samples kept per chain.
+    #[serde(default = "chain_samples")]
+    pub samples: Count,
+}
+
+fn chains() -> Count {
+    Count::of_default(MalaSettings::default().chains)
+}
+fn warmup() -> Count {
+    Count::of_default(MalaSettings::default().warmup)
+}
+fn chain_samples() -> Count {
+    Count::of_default(MalaSettings::default().samples)
 }
 
 impl Default for PosteriorParams {
@@ -60,6 +97,7 @@ impl Default for PosteriorParams {
             predictive_samples: predictive(),
             seed: 0,
             prior: None,
+            mala: None,
         }
     }
 }
@@ -128,6 +166,22 @@ impl PosteriorParams {
             issues.push(ParamIssue::at(
                 "posterior.prior",
                 "give exactly one of `sd` (one per parameter) and `relative_sd`",
+            ));
+        }
+        if let Some(m) = &self.mala
+            && m.chains.get() < 2
+        {
+            issues.push(ParamIssue::at(
+                "posterior.mala.chains",
+                "give at least 2 chains: R-hat compares them",
+            ));
+        }
+        if let Some(m) = &self.mala
+            && m.samples.get() < 4
+        {
+            issues.push(ParamIssue::at(
+                "posterior.mala.samples",
+                "give at least 4 samples per chain (hundreds for useful statistics)",
             ));
         }
         if let NoiseParams::SnrDb(s) = self.noise
@@ -227,8 +281,16 @@ impl PosteriorParams {
         likelihood: &str,
     ) -> Result<Artefact, StageError> {
         let settings = self.settings(params, measured)?;
+        let mut mcmc = None;
         let posterior = match laplace(lik, params, final_values, &settings, natural) {
-            Ok(p) => p,
+            Ok(p) => match &self.mala {
+                None => p,
+                Some(m) => {
+                    let (sampled, chains) = self.sampled(lik, params, &settings, p, m)?;
+                    mcmc = chains;
+                    sampled
+                }
+            },
             Err(e) if e.is_input() => return Err(StageError::from_numerics("posterior")(e)),
             // The update stands; its posterior is reported as unknown rather than failing it.
             Err(e) => {
@@ -252,6 +314,10 @@ impl PosteriorParams {
         // The figures: the Gaussian's samples with its marginals drawn over them.
         let names = posterior.marginals.iter().map(|m| m.name.clone()).collect();
         let gaussian = posterior.marginals.iter().map(|m| (m.mean, m.sd)).collect();
+        let gaussian = match &mcmc {
+            Some((_, laplace)) => laplace.clone(),
+            None => gaussian,
+        };
         let samples = posterior.samples.clone();
         let a = PosteriorKind::to_artefact(&PosteriorRecord {
             method: method.into(),
@@ -259,15 +325,123 @@ impl PosteriorParams {
             noise: self.noise_name().into(),
             posterior,
             sampling: None,
+            mcmc: mcmc.as_ref().map(|(m, _)| m.clone()),
         });
+        let title = match mcmc {
+            Some(_) => "MALA posterior (Laplace marginals drawn over)",
+            None => "Laplace posterior",
+        };
         Ok(crate::stages::bayes_tmcmc::with_figures(
             a,
-            "Laplace posterior",
+            title,
             names,
             &samples,
             None,
             Some(gaussian),
         ))
+    }
+}
+
+impl PosteriorParams {
+    /// The Laplace posterior `laplace` replaced by MALA's samples and statistics (its bands,
+    /// noise and refinement kept), with the chains and the Laplace marginals `(mean, sd)`;
+    /// unchanged, with a warning, when the Laplace covariance cannot be the metric.
+    #[allow(clippy::type_complexity)]
+    fn sampled(
+        &self,
+        lik: &dyn Likelihood,
+        params: &[UpdatingParameter],
+        settings: &PosteriorSettings,
+        laplace: Posterior,
+        m: &MalaParams,
+    ) -> Result<(Posterior, Option<(Mcmc, Vec<(f64, f64)>)>), StageError> {
+        // The bounds, an unbounded side cut 1000 Laplace sds from the mode (where the flat
+        // prior's density no longer matters: the chains never get there).
+        let priors: Vec<ParamPrior> = params
+            .iter()
+            .zip(&laplace.marginals)
+            .enumerate()
+            .map(|(j, (q, l))| {
+                let lower = q.lower.max(l.mean - 1e3 * l.sd);
+                let upper = q.upper.min(l.mean + 1e3 * l.sd);
+                match &settings.prior {
+                    None => ParamPrior::Uniform { lower, upper },
+                    Some(p) => ParamPrior::Bounded {
+                        mean: p.mean[j],
+                        sd: p.sd[j],
+                        lower,
+                        upper,
+                    },
+                }
+            })
+            .collect();
+        // The noise as the Laplace posterior used it (estimated there, or as stated).
+        let noise = match &settings.noise {
+            Noise::Estimated => Noise::Absolute(laplace.sigma.clone()),
+            n => n.clone(),
+        };
+        let mode: Vec<f64> = laplace.marginals.iter().map(|q| q.mean).collect();
+        let mala_settings = MalaSettings {
+            chains: m.chains.get(),
+            warmup: m.warmup.get(),
+            samples: m.samples.get(),
+            seed: settings.seed,
+            ..Default::default()
+        };
+        let run = mala(
+            lik,
+            &priors,
+            &noise,
+            &mode,
+            &laplace.covariance,
+            &mala_settings,
+        );
+        let r = match run {
+            Ok(r) => r,
+            Err(e) if matches!(e, crate::updating::UpdatingError::Settings(_)) => {
+                tracing::warn!("posterior.mala: {e}; the Laplace posterior is reported");
+                return Ok((laplace, None));
+            }
+            Err(e) => return Err(StageError::from_numerics("posterior.mala")(e)),
+        };
+        for (q, (rh, ess)) in params.iter().zip(r.r_hat.iter().zip(&r.ess)) {
+            tracing::info!("MALA {}: R-hat {rh:.4}, effective samples {ess:.0}", q.name);
+            if *rh > 1.05 || *ess < 100.0 {
+                tracing::warn!(
+                    "MALA {}: R-hat {rh:.3}, {ess:.0} effective samples — the chains have not mixed well; raise `posterior.mala.warmup` or `samples`",
+                    q.name
+                );
+            }
+        }
+        let mut p = summarise(
+            &SampleSet {
+                samples: &r.samples,
+                log_likelihood: &r.log_likelihood,
+                sigma: &laplace.sigma,
+                rows: r.rows,
+            },
+            params,
+            laplace.groups.clone(),
+            settings.credible_level,
+            settings.seed,
+        );
+        for (s, l) in p.marginals.iter_mut().zip(&laplace.marginals) {
+            s.updated = l.updated;
+        }
+        let gaussian = laplace.marginals.iter().map(|q| (q.mean, q.sd)).collect();
+        p.sigma_estimated = laplace.sigma_estimated;
+        p.neg_log_likelihood = laplace.neg_log_likelihood;
+        p.refinement = laplace.refinement;
+        p.predictive_samples = laplace.predictive_samples;
+        p.natural_frequencies = laplace.natural_frequencies;
+        p.frf = laplace.frf;
+        let mcmc = Mcmc {
+            sampler: "mala".into(),
+            chains: r.chains,
+            r_hat: r.r_hat,
+            ess: r.ess,
+        };
+        Ok((p, Some((mcmc, gaussian))))
     }
 }
 
