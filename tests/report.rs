@@ -281,8 +281,9 @@ fn pairing_report_shows_the_test_points_on_the_mesh() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
-/// The Bayesian four-DOF study: per mass its posterior mean, sd and interval, the correlation
-/// matrix, the ridge sentence for every pair of masses correlated beyond ±0.9 (or that there is
+/// The Bayesian four-DOF study: per posterior how it was computed (Laplace, MALA with R̂ and
+/// effective samples per mass, TMCMC with its evidence), per mass its posterior mean, sd and
+/// interval, the correlation matrix, the ridge sentence for every pair of masses correlated beyond ±0.9 (or that there is
 /// none), the predictive bands in the FRF viewer; the version and command in the header.
 #[test]
 fn posterior_report_shows_intervals_correlations_and_ridges() {
@@ -290,13 +291,39 @@ fn posterior_report_shows_intervals_correlations_and_ridges() {
     let page = report_of("four-dof-bayes", &dir);
     let html = std::fs::read_to_string(&page).unwrap();
     let view = femu::run_report::collect(&dir.join("out"), &ReportOptions::default()).unwrap();
-    let ids: Vec<&str> = view.posteriors.iter().map(|p| p.id.as_str()).collect();
-    assert_eq!(ids, ["pc.posterior", "pc_estimated.posterior"]);
+    let mut ids: Vec<&str> = view.posteriors.iter().map(|p| p.id.as_str()).collect();
+    ids.sort_unstable();
+    assert_eq!(
+        ids,
+        [
+            "pc.posterior",
+            "pc_estimated.posterior",
+            "pc_mala.posterior",
+            "tmcmc_chi_s.posterior",
+            "tmcmc_frf.posterior",
+            "tmcmc_modes.posterior"
+        ]
+    );
+    let sampler = |id: &str| {
+        let p = view.posteriors.iter().find(|p| p.id == id).unwrap();
+        (
+            p.sampler.as_str(),
+            p.log_evidence.is_some(),
+            p.parameters[0].r_hat.is_some(),
+        )
+    };
+    assert_eq!(sampler("pc.posterior"), ("Laplace", false, false));
+    assert_eq!(sampler("pc_mala.posterior"), ("MALA", false, true));
+    assert_eq!(sampler("tmcmc_frf.posterior"), ("TMCMC", true, false));
     for must in [
         "id=\"posterior\"",
         "id=\"posterior-viewer\"",
         "<th>90 % interval</th>",
         "<td>m2</td>",
+        "Laplace (Gaussian at the mode)",
+        "MALA samples",
+        "<th>R̂</th><th>effective samples</th>",
+        "TMCMC samples, ln evidence",
         "svg class=\"correlation\"",
         "m1 and m2: correlation",
         &format!("run by femu {}", env!("CARGO_PKG_VERSION")),
@@ -304,7 +331,11 @@ fn posterior_report_shows_intervals_correlations_and_ridges() {
     ] {
         assert!(html.contains(must), "missing {must}");
     }
-    let p = &view.posteriors[0];
+    let p = view
+        .posteriors
+        .iter()
+        .find(|p| p.id == "pc.posterior")
+        .unwrap();
     assert_eq!(p.parameters.len(), 4);
     assert!(!p.bands.is_empty(), "the study has predictive bands of |H|");
     check_in_browser(
@@ -316,8 +347,9 @@ fn posterior_report_shows_intervals_correlations_and_ridges() {
     for p in &view.posteriors {
         // Every pair beyond ±0.9 is named, and only those.
         let mut beyond = Vec::new();
-        for i in 0..4 {
-            for j in i + 1..4 {
+        let n = p.parameters.len();
+        for i in 0..n {
+            for j in i + 1..n {
                 if p.correlation[i][j].is_some_and(|r| r.abs() > 0.9) {
                     beyond.push((i, j));
                 }

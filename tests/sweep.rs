@@ -806,3 +806,37 @@ fn bent_plate_pc_stops_on_the_bend_ridge_for_every_point_choice() {
     }
     assert_eq!(seen, 12);
 }
+
+/// The coverage sweep of the credible intervals, narrowed by `--set` to three seeds: per point
+/// the Laplace and TMCMC posteriors of the four masses, their intervals collected in long form
+/// (a row per mass and point) from which the coverage is counted.
+#[test]
+fn four_dof_bayes_coverage_sweep_narrowed_by_set() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = run_shipped_sweep(
+        dir.path(),
+        "four-dof-bayes-coverage",
+        &["measured.with.seed=[1, 2, 3]"],
+    );
+    assert!(text.contains("3 points run, 0 failed"), "{text}");
+    let table = femu::artefact::codec::read_parquet(
+        &dir.path()
+            .join("sweeps/four-dof-bayes-coverage/collected/collected.parquet"),
+    )
+    .unwrap();
+    assert_eq!(table.rows(), 3 * 4);
+    for method in ["laplace", "tmcmc"] {
+        let (lo, hi) = (
+            table.f64s("t", &format!("{method}.lower")).unwrap(),
+            table.f64s("t", &format!("{method}.upper")).unwrap(),
+        );
+        for i in 0..table.rows() {
+            assert!(
+                lo[i] < hi[i] && hi[i] - lo[i] < 0.05,
+                "{method} row {i}: [{}, {}]",
+                lo[i],
+                hi[i]
+            );
+        }
+    }
+}

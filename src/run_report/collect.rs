@@ -206,6 +206,10 @@ pub struct ParameterPosterior {
     pub lower: Option<f64>,
     /// Credible interval, upper end.
     pub upper: Option<f64>,
+    /// Split `R̂` of a Markov-chain sampler's draws.
+    pub r_hat: Option<f64>,
+    /// Effective sample size of a Markov-chain sampler's draws.
+    pub ess: Option<f64>,
 }
 
 /// A predictive band of `|H|` for one FRF: centre and `± 2 sd` per line.
@@ -231,6 +235,10 @@ pub struct PosteriorView {
     pub id: String,
     /// Probability of the credible intervals, when recorded.
     pub level: Option<f64>,
+    /// How it was computed: `Laplace`, `TMCMC` or `MALA`.
+    pub sampler: String,
+    /// `ln p(y)` of a TMCMC posterior.
+    pub log_evidence: Option<f64>,
     /// Per parameter, in the table's order.
     pub parameters: Vec<ParameterPosterior>,
     /// Correlation of parameter `i` with `j` (order of `parameters`).
@@ -873,16 +881,40 @@ fn posterior_view(id: &str, a: &Artefact) -> Option<PosteriorView> {
         column("lower"),
         column("upper"),
     );
+    // R̂ and effective sample sizes by parameter name, for a Markov-chain sampler's posterior.
+    let mut chains: BTreeMap<String, (Option<f64>, Option<f64>)> = BTreeMap::new();
+    if let Ok(m) = a.table("mcmc_parameters")
+        && let (Ok(p), Ok(r), Ok(e)) = (
+            m.strs("mcmc_parameters", "parameter"),
+            m.f64s("mcmc_parameters", "r_hat"),
+            m.f64s("mcmc_parameters", "ess"),
+        )
+    {
+        for ((p, r), e) in p.iter().zip(finite(r)).zip(finite(e)) {
+            chains.insert(p.clone(), (r, e));
+        }
+    }
     let parameters = (0..names.len())
-        .map(|k| ParameterPosterior {
-            name: names[k].clone(),
-            updated: updated[k],
-            mean: mean[k],
-            sd: sd[k],
-            lower: lower[k],
-            upper: upper[k],
+        .map(|k| {
+            let (r_hat, ess) = chains.get(&names[k]).copied().unwrap_or((None, None));
+            ParameterPosterior {
+                name: names[k].clone(),
+                updated: updated[k],
+                mean: mean[k],
+                sd: sd[k],
+                lower: lower[k],
+                upper: upper[k],
+                r_hat,
+                ess,
+            }
         })
         .collect();
+    let meta_str = |k: &str| a.meta.get(k).and_then(|v| v.as_str());
+    let sampler = match (meta_str("sampler"), meta_str("method")) {
+        (Some("mala"), _) => "MALA",
+        (_, Some("tmcmc")) => "TMCMC",
+        _ => "Laplace",
+    };
     let at: BTreeMap<&str, usize> = names
         .iter()
         .enumerate()
@@ -914,6 +946,12 @@ fn posterior_view(id: &str, a: &Artefact) -> Option<PosteriorView> {
     Some(PosteriorView {
         id: id.to_string(),
         level: a.meta.get("credible_level").and_then(|v| v.as_f64()),
+        sampler: sampler.into(),
+        log_evidence: a
+            .meta
+            .get("log_evidence")
+            .and_then(|v| v.as_f64())
+            .filter(|v| v.is_finite()),
         parameters,
         correlation,
         ridges,

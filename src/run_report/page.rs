@@ -213,16 +213,28 @@ fn posterior_section(h: &mut String, p: &PosteriorView) {
         .level
         .map(|l| format!("{} %", (l * 1000.0).round() / 10.0))
         .unwrap_or_else(|| "credible".into());
+    let chains = p.parameters.iter().any(|q| q.r_hat.is_some());
+    let how = match (p.sampler.as_str(), p.log_evidence) {
+        ("TMCMC", Some(e)) => format!("TMCMC samples, ln evidence {}", number(Some(e))),
+        ("Laplace", _) => "Laplace (Gaussian at the mode)".into(),
+        (s, _) => format!("{s} samples"),
+    };
     let _ = write!(
         h,
-        "<h3>{}</h3><div class=\"scroll\"><table><thead><tr><th>parameter</th><th>updated</th><th>mean</th><th>sd</th><th>{} interval</th></tr></thead><tbody>",
+        "<h3>{} <span class=\"sampler\">{}</span></h3><div class=\"scroll\"><table><thead><tr><th>parameter</th><th>updated</th><th>mean</th><th>sd</th><th>{} interval</th>{}</tr></thead><tbody>",
         escape(&p.id),
-        escape(&level)
+        escape(&how),
+        escape(&level),
+        if chains {
+            "<th>R̂</th><th>effective samples</th>"
+        } else {
+            ""
+        }
     );
     for q in &p.parameters {
         let _ = write!(
             h,
-            "<tr><td>{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td><td class=\"num\">[{}, {}]</td></tr>",
+            "<tr><td>{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td><td class=\"num\">[{}, {}]</td>",
             escape(&q.name),
             number(q.updated),
             number(q.mean),
@@ -230,6 +242,17 @@ fn posterior_section(h: &mut String, p: &PosteriorView) {
             number(q.lower),
             number(q.upper)
         );
+        if chains {
+            let poor = q.r_hat.is_some_and(|r| r > 1.05) || q.ess.is_some_and(|e| e < 100.0);
+            let _ = write!(
+                h,
+                "<td class=\"num{}\">{}</td><td class=\"num\">{}</td>",
+                if poor { " warn" } else { "" },
+                number(q.r_hat),
+                q.ess.map_or("—".into(), |e| format!("{e:.0}"))
+            );
+        }
+        h.push_str("</tr>");
     }
     h.push_str("</tbody></table></div>");
     if p.ridges.is_empty() {

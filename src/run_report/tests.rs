@@ -119,6 +119,8 @@ fn posterior(correlation_23: f64) -> super::collect::PosteriorView {
     super::collect::PosteriorView {
         id: "pc.posterior".into(),
         level: Some(0.9),
+        sampler: "Laplace".into(),
+        log_evidence: None,
         parameters: names
             .iter()
             .map(|n| ParameterPosterior {
@@ -128,6 +130,8 @@ fn posterior(correlation_23: f64) -> super::collect::PosteriorView {
                 sd: Some(0.02),
                 lower: Some(0.98),
                 upper: Some(1.04),
+                r_hat: None,
+                ess: None,
             })
             .collect(),
         ridges: if correlation_23.abs() > super::collect::RUN_RIDGE {
