@@ -404,6 +404,14 @@ impl PosteriorParams {
             }
             Err(e) => return Err(StageError::from_numerics("posterior.mala")(e)),
         };
+        for (c, ch) in r.chains.iter().enumerate() {
+            tracing::info!(
+                "MALA chain {c}: step {:.3e}, acceptance {:.3}, {} proposals failed",
+                ch.step,
+                ch.acceptance,
+                ch.failed
+            );
+        }
         for (q, (rh, ess)) in params.iter().zip(r.r_hat.iter().zip(&r.ess)) {
             tracing::info!("MALA {}: R-hat {rh:.4}, effective samples {ess:.0}", q.name);
             if *rh > 1.05 || *ess < 100.0 {
