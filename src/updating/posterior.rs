@@ -488,6 +488,10 @@ fn refine(
     ))
 }
 
+/// Relative change of a parameter from the update's result to the likelihood's mode beyond
+/// which the posterior warns that it describes another point than the update's.
+const FAR_MODE: f64 = 0.1;
+
 /// Eigen-decomposition of the precision `F` in unity coordinates: `(μ, V)`, μ descending.
 fn precision_eigen(a: MatRef<'_, f64>) -> Result<(Vec<f64>, Mat<f64>), UpdatingError> {
     // `AᵀA` by fixed-order sums: a parallel product's last bits could depend on the thread
@@ -592,6 +596,22 @@ pub fn laplace(
         prior,
         settings.refine_iterations,
     )?;
+    // A mode far from the update's result: the method's objective and this likelihood
+    // disagree (a χ-based method against the FRF output error under a noise model that does
+    // not describe the data), and the posterior describes the likelihood's mode, not the
+    // update's result.
+    if let Some((j, moved)) = (0..n)
+        .map(|j| (j, (mode[j] - updated[j]) / updated[j]))
+        .filter(|(_, m)| m.is_finite())
+        .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))
+        && moved.abs() > FAR_MODE
+    {
+        tracing::warn!(
+            "posterior: the likelihood's mode lies far from the update's result ({} moved by {:+.0} %): this likelihood and the method's objective disagree — check the noise model (e.g. `relative` for noise proportional to |H|), or set `refine_iterations: 0` to describe the update's result",
+            params[j].name,
+            100.0 * moved
+        );
+    }
     let r: Vec<f64> = y.iter().zip(&pred.values).map(|(a, b)| a - b).collect();
     if estimated {
         (sigma, per_group) = row_sigmas(lik, &settings.noise, &r, n)?;
