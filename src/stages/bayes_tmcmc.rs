@@ -2,10 +2,12 @@
 //! reports the model evidence (docs/theory.md §15). The likelihood is the update's output
 //! error (§12): the complex FRFs at the measured lines (modal summation, `frf_modal`, or the
 //! direct solution, `frf_direct`; `band_hz`/`exclude_hz` select the lines), the FRFs up to the
-//! scale or phase the correlation coefficients are blind to (`chi_s`, `chi_a`), the measured natural
-//! frequencies (`natural_frequencies`, paired with the model's elastic modes in order), or
-//! frequencies and mode shapes (`modes`, MAC-paired at every sample), under a stated noise. Writes a `posterior` artefact (sample statistics, the samples, the
-//! evidence and the stages) with the marginal and pair figures.
+//! scale or phase the correlation coefficients are blind to (`chi_s`, `chi_a`), the measured
+//! natural frequencies (`natural_frequencies`, paired with the model's elastic modes in order),
+//! or frequencies and mode shapes (`modes`, MAC-paired at every sample), under a stated noise;
+//! with `map` (test.pair's) the measured DOFs are read through the test map, as `update` reads
+//! them. Writes a `posterior` artefact (sample statistics, the samples, the evidence and the
+//! stages) with the marginal and pair figures.
 
 use crate::artefact::kinds::Kind;
 use crate::artefact::kinds::posterior::{PosteriorKind, PosteriorRecord, Sampling};
@@ -285,6 +287,11 @@ impl TypedStage for BayesTmcmc {
                 ArtefactKind::Partition,
                 "substructures: analyse the mesh through `reduction`",
             ),
+            PortSpec::optional(
+                "map",
+                ArtefactKind::TestMap,
+                "test.pair's map: every measured DOF is its weighted sum of model DOFs (14.7)",
+            ),
         ]
     }
 
@@ -412,6 +419,12 @@ impl TypedStage for BayesTmcmc {
             issues.push(ParamIssue::at(
                 "reduction",
                 "a partition reduces a mesh: connect `mesh` (not `model`) with it",
+            ));
+        }
+        if ctx.is_connected("map") && !ctx.is_connected("mesh") {
+            issues.push(ParamIssue::at(
+                "",
+                "a test map names grids of a mesh: connect `mesh` (not `model`) with `map`",
             ));
         }
         issues
