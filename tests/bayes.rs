@@ -215,6 +215,12 @@ fn four_dof_bayes_pipeline_writes_the_posterior() {
     }
     let band = a.table("frf_band").unwrap();
     assert_eq!(band.f64s("frf_band", "abs").unwrap().len(), 4 * 159);
+    // The FRF overlay with the band, beside the marginal and pair figures.
+    for blob in ["frf_band.png", "frf_band.svg", "marginals.png", "pairs.svg"] {
+        assert!(a.blobs.contains_key(blob), "missing {blob}");
+    }
+    let svg = String::from_utf8_lossy(&a.blobs["frf_band.svg"]);
+    assert!(svg.contains("2:ux/1:ux"), "the overlay names its FRFs");
     assert_eq!(a.meta["predictive_samples"], 200);
 
     // MALA from the Laplace posterior: the same posterior to sampling error (near-linear at

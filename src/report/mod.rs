@@ -3,6 +3,7 @@
 //! Rendering needs no system fonts: the DejaVu Sans faces embedded in the binary are used, so
 //! figures come out the same on any machine, byte for byte.
 
+pub mod band_plot;
 pub mod bar_plot;
 pub mod box_plot;
 pub mod figure;

@@ -319,6 +319,7 @@ impl PosteriorParams {
             None => gaussian,
         };
         let samples = posterior.samples.clone();
+        let band = measured.and_then(|m| band_figure(&posterior.frf, m));
         let a = PosteriorKind::to_artefact(&PosteriorRecord {
             method: method.into(),
             likelihood: likelihood.into(),
@@ -331,14 +332,19 @@ impl PosteriorParams {
             Some(_) => "MALA posterior (Laplace marginals drawn over)",
             None => "Laplace posterior",
         };
-        Ok(crate::stages::bayes_tmcmc::with_figures(
+        let mut a = crate::stages::bayes_tmcmc::with_figures(
             a,
             title,
             names,
             &samples,
             None,
             Some(gaussian),
-        ))
+        );
+        if let Some(f) = band {
+            a.blobs.insert("frf_band.png".into(), f.png);
+            a.blobs.insert("frf_band.svg".into(), f.svg.into_bytes());
+        }
+        Ok(a)
     }
 }
 
@@ -450,6 +456,73 @@ impl PosteriorParams {
             ess: r.ess,
         };
         Ok((p, Some((mcmc, gaussian))))
+    }
+}
+
+/// The FRF overlay of the predictive bands `bands` (`|H| ± 2 sd`, the sampled sd where there
+/// is one, else the first-order one) with the measured `|H|` at the same lines; `None` without
+/// bands, or with a warning when it cannot be drawn.
+fn band_figure(
+    bands: &[crate::updating::posterior::Band],
+    measured: &FrfSet,
+) -> Option<crate::report::figure::Figure> {
+    use crate::report::band_plot::{BandPanel, BandPlot, band_plot};
+    if bands.is_empty() {
+        return None;
+    }
+    let pair_of: std::collections::HashMap<String, usize> = measured
+        .pairs
+        .iter()
+        .enumerate()
+        .map(|(q, p)| (format!("{}/{}", p.response, p.excitation), q))
+        .collect();
+    let line_of: std::collections::HashMap<u64, usize> = measured
+        .freqs_hz
+        .iter()
+        .enumerate()
+        .map(|(k, f)| (f.to_bits(), k))
+        .collect();
+    let mut panels: Vec<BandPanel> = Vec::new();
+    for b in bands {
+        let at = match panels.iter().position(|p| p.label == b.label) {
+            Some(i) => i,
+            None => {
+                panels.push(BandPanel {
+                    label: b.label.clone(),
+                    freqs_hz: Vec::new(),
+                    value: Vec::new(),
+                    sd: Vec::new(),
+                    measured: Vec::new(),
+                });
+                panels.len() - 1
+            }
+        };
+        let p = &mut panels[at];
+        let x = match (pair_of.get(&b.label), line_of.get(&b.freq_hz.to_bits())) {
+            (Some(&q), Some(&k)) => measured.values[(k, q)].norm(),
+            _ => f64::NAN,
+        };
+        p.freqs_hz.push(b.freq_hz);
+        p.value.push(b.value);
+        p.sd.push(if b.sd_sampled.is_finite() {
+            b.sd_sampled
+        } else {
+            b.sd_linear
+        });
+        p.measured.push(x);
+    }
+    let plot = BandPlot {
+        title: "Predicted |H| at the mode (line), its ± 2 sd band (shaded), the measurement (dots)"
+            .into(),
+        panels,
+        unit: measured.quantity.unit().into(),
+    };
+    match band_plot(&plot) {
+        Ok(f) => Some(f),
+        Err(e) => {
+            tracing::warn!("the figure `frf_band` was not drawn: {e}");
+            None
+        }
     }
 }
 
