@@ -381,50 +381,8 @@ pub fn effective_sample_size(chains: &[Vec<f64>]) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::updating::posterior::{FrfLayout, Prediction};
+    use crate::updating::toy::Linear;
     use faer::Mat;
-
-    /// `f(φ) = A φ`, one noise group: a Gaussian posterior under a flat (wide uniform) prior,
-    /// mean `(AᵀA)⁻¹Aᵀy`, covariance `σ²(AᵀA)⁻¹`.
-    struct Linear {
-        a: Vec<Vec<f64>>,
-        y: Vec<f64>,
-        groups: Vec<usize>,
-    }
-
-    impl Likelihood for Linear {
-        fn measured(&self) -> &[f64] {
-            &self.y
-        }
-        fn groups(&self) -> &[usize] {
-            &self.groups
-        }
-        fn group_names(&self) -> Vec<String> {
-            vec!["all".into()]
-        }
-        fn pooled(&self) -> bool {
-            true
-        }
-        fn scale(&self) -> Vec<f64> {
-            vec![1.0; self.y.len()]
-        }
-        fn predict(&self, values: &[f64], jacobian: bool) -> Result<Prediction, UpdatingError> {
-            let f = self
-                .a
-                .iter()
-                .map(|r| r.iter().zip(values).map(|(a, v)| a * v).sum())
-                .collect();
-            let jacobian = jacobian
-                .then(|| Mat::from_fn(self.a.len(), values.len(), |i, j| self.a[i][j] * values[j]));
-            Ok(Prediction {
-                values: f,
-                jacobian,
-            })
-        }
-        fn frf_layout(&self) -> Option<FrfLayout> {
-            None
-        }
-    }
 
     /// On a correlated two-parameter Gaussian, with the metric 1.5 times its covariance (as a
     /// Laplace covariance off by that much), MALA's means agree with the exact ones to 0.1 sd
@@ -463,7 +421,7 @@ mod tests {
         ];
         let exact_sd = [sigma * inv[0][0].sqrt(), sigma * inv[1][1].sqrt()];
         let lik = Linear {
-            a,
+            a: Mat::from_fn(3, 2, |i, j| a[i][j]),
             y,
             groups: vec![0; 3],
         };

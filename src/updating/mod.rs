@@ -18,6 +18,8 @@ pub mod rfm;
 pub mod sensitive_start;
 pub mod solve;
 pub mod tmcmc;
+#[cfg(test)]
+mod toy;
 
 pub use model::{
     Evaluated, FeModel, LinearModel, ModalState, ParametricModel, ReducedFeModel, UpdatingError,

@@ -900,39 +900,7 @@ mod tests {
     use crate::updating::LinearModel;
     use crate::updating::ParametricModel;
 
-    /// `f(φ) = A φ`, a linear-Gaussian problem.
-    struct Linear {
-        a: Mat<f64>,
-        y: Vec<f64>,
-        groups: Vec<usize>,
-    }
-
-    impl Likelihood for Linear {
-        fn measured(&self) -> &[f64] {
-            &self.y
-        }
-        fn groups(&self) -> &[usize] {
-            &self.groups
-        }
-        fn group_names(&self) -> Vec<String> {
-            vec!["all".into()]
-        }
-        fn pooled(&self) -> bool {
-            true
-        }
-        fn scale(&self) -> Vec<f64> {
-            vec![1.0; self.y.len()]
-        }
-        fn predict(&self, values: &[f64], jacobian: bool) -> Result<Prediction, UpdatingError> {
-            let (m, n) = self.a.shape();
-            Ok(Prediction {
-                values: (0..m)
-                    .map(|i| (0..n).map(|j| self.a[(i, j)] * values[j]).sum())
-                    .collect(),
-                jacobian: jacobian.then(|| Mat::from_fn(m, n, |i, j| self.a[(i, j)] * values[j])),
-            })
-        }
-    }
+    use crate::updating::toy::Linear;
 
     fn params(values: &[f64]) -> Vec<UpdatingParameter> {
         values
