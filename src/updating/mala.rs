@@ -392,7 +392,7 @@ mod tests {
     /// matters.)
     #[test]
     fn mala_samples_a_linear_gaussian_posterior() {
-        let a = vec![vec![1.0, 1.0], vec![1.0, 0.6], vec![0.5, 0.2]];
+        let a = [[1.0, 1.0], [1.0, 0.6], [0.5, 0.2]];
         let y = vec![3.0, 2.2, 1.0];
         let sigma = 0.05;
         // Normal equations.
