@@ -480,12 +480,7 @@ impl TypedStage for BayesTmcmc {
         };
         let (t, groups) = match (p.likelihood, &measured) {
             (LikelihoodChoice::FrfModal, Some(measured)) => {
-                let top_hz = measured.freqs_hz.last().copied().unwrap_or(0.0);
-                let modes = p.modes.selection_or(ModeSelection::BelowHz(2.0 * top_hz));
-                let damping = p.damping.modal();
-                let undamped = matches!(damping, ModalDamping::None);
-                let lines = likelihood_lines(model, measured, &initial, modes, undamped, 1.0)
-                    .map_err(StageError::from_numerics(""))?;
+                let (modes, damping, lines) = modal_prediction(p, model, measured, &initial)?;
                 run(
                     &ModalFrfLikelihood::new(model, measured, lines, modes, damping),
                     &noise,
@@ -510,12 +505,7 @@ impl TypedStage for BayesTmcmc {
                     LikelihoodChoice::ChiS => Coefficient::Shape,
                     _ => Coefficient::Amplitude,
                 };
-                let top_hz = measured.freqs_hz.last().copied().unwrap_or(0.0);
-                let modes = p.modes.selection_or(ModeSelection::BelowHz(2.0 * top_hz));
-                let damping = p.damping.modal();
-                let undamped = matches!(damping, ModalDamping::None);
-                let lines = likelihood_lines(model, measured, &initial, modes, undamped, 1.0)
-                    .map_err(StageError::from_numerics(""))?;
+                let (modes, damping, lines) = modal_prediction(p, model, measured, &initial)?;
                 run(
                     &CorrelationLikelihood::new(
                         model,
@@ -783,6 +773,24 @@ fn noise(n: &NoiseParams, measured: Option<&crate::frf::FrfSet>) -> Result<Noise
             }
         },
     })
+}
+
+/// What the modal-summation likelihoods (`frf_modal`, `chi_s`, `chi_a`) predict with: the modal
+/// basis (default: every mode up to twice the highest measured line), the modal damping, and the
+/// lines (off the resonances of the model at `initial` when undamped).
+fn modal_prediction(
+    p: &Params,
+    model: &dyn crate::updating::ParametricModel,
+    measured: &crate::frf::FrfSet,
+    initial: &[f64],
+) -> Result<(ModeSelection, ModalDamping, Vec<usize>), StageError> {
+    let top_hz = measured.freqs_hz.last().copied().unwrap_or(0.0);
+    let modes = p.modes.selection_or(ModeSelection::BelowHz(2.0 * top_hz));
+    let damping = p.damping.modal();
+    let undamped = matches!(damping, ModalDamping::None);
+    let lines = likelihood_lines(model, measured, initial, modes, undamped, 1.0)
+        .map_err(StageError::from_numerics(""))?;
+    Ok((modes, damping, lines))
 }
 
 /// The noise of `modes`: the frequencies' noise for the first `modes` groups, `shape` for the

@@ -120,12 +120,15 @@ impl Target<'_> {
         let p = self.lik.predict(x, true).ok()?;
         let j = p.jacobian?;
         let y = self.lik.measured();
-        let w: Vec<f64> = (y.iter().zip(&p.values).zip(&self.sigma))
-            .map(|((a, b), s)| (a - b) / (s * s))
-            .collect();
-        let q: f64 = (y.iter().zip(&p.values).zip(&self.sigma))
-            .map(|((a, b), s)| ((a - b) / s).powi(2))
-            .sum();
+        // `w_i = r_i/σ_i²` and `Σ (r_i/σ_i)² = Σ w_i r_i` from one pass over the residuals.
+        let (w, q): (Vec<f64>, f64) = (y.iter().zip(&p.values).zip(&self.sigma)).fold(
+            (Vec::with_capacity(y.len()), 0.0),
+            |(mut w, q), ((a, b), s)| {
+                let r = a - b;
+                w.push(r / (s * s));
+                (w, q + (r / s).powi(2))
+            },
+        );
         let log_lik = self.constant - 0.5 * q;
         let grad: Vec<f64> = (0..x.len())
             .map(|c| {

@@ -1043,45 +1043,7 @@ pub fn summarise(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::updating::posterior::{FrfLayout, Prediction};
-
-    /// `f(φ) = A φ` with one noise group.
-    struct Linear {
-        a: Vec<Vec<f64>>,
-        y: Vec<f64>,
-        groups: Vec<usize>,
-    }
-
-    impl Likelihood for Linear {
-        fn measured(&self) -> &[f64] {
-            &self.y
-        }
-        fn groups(&self) -> &[usize] {
-            &self.groups
-        }
-        fn group_names(&self) -> Vec<String> {
-            vec!["all".into()]
-        }
-        fn pooled(&self) -> bool {
-            false
-        }
-        fn scale(&self) -> Vec<f64> {
-            vec![1.0; self.y.len()]
-        }
-        fn predict(&self, v: &[f64], _: bool) -> Result<Prediction, UpdatingError> {
-            Ok(Prediction {
-                values: self
-                    .a
-                    .iter()
-                    .map(|r| r.iter().zip(v).map(|(a, b)| a * b).sum())
-                    .collect(),
-                jacobian: None,
-            })
-        }
-        fn frf_layout(&self) -> Option<FrfLayout> {
-            None
-        }
-    }
+    use crate::updating::toy::Linear;
 
     /// One parameter, `y_i = θ + e_i`, prior `N(μ₀, s₀²)`: the evidence in closed form,
     /// `y ~ N(μ₀ 1, σ² I + s₀² 1 1ᵀ)`.
@@ -1091,7 +1053,7 @@ mod tests {
             .collect();
         let (mu0, s0, sigma) = (0.5, 0.4, 0.1);
         let lin = Linear {
-            a: vec![vec![1.0]; m],
+            a: Mat::from_fn(m, 1, |_, _| 1.0),
             y,
             groups: vec![0; m],
         };
