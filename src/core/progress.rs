@@ -16,6 +16,12 @@
 //! [`Carry::run`] around each job. `run` installs exactly the carried sink (or none) for the
 //! job and restores the worker's own afterwards, so a worker that steals another stage's job
 //! while it waits reports that job to that stage, never lines of two stages mixed in one.
+//!
+//! Carrying is opt-in, and a job that does not carry, run on a worker that is inside another
+//! stage's carried job (stolen while that job waits in a `join`), would report to the wrong
+//! stage. The executor therefore runs each stage in [`scope_with_pool`]: a rayon pool of the
+//! stage's own whose workers all have the stage's sink installed, so every job of the stage
+//! reports to it, carried or not, and no worker ever runs another stage's job.
 
 use std::cell::RefCell;
 use std::sync::Arc;
@@ -61,6 +67,33 @@ impl Drop for Restore {
 /// Runs `f` with `sink` receiving the progress reported on this thread.
 pub fn scope<R>(sink: Arc<dyn Sink>, f: impl FnOnce() -> R) -> R {
     installed(Some(sink), f)
+}
+
+/// Runs `f` with `sink` receiving the progress reported on this thread and on every rayon job
+/// `f` spawns: `f` runs in a rayon pool of its own (as many threads as the pool the caller
+/// would use) whose workers have `sink` installed for their whole life, so jobs that do not
+/// [`carry`] report to `sink` too, and the pool's workers run no one else's jobs. When the
+/// pool cannot be built (the system refuses threads), `f` runs as [`scope`] would, on the
+/// caller's pool. `name` labels the workers (`femu-<name>-<i>`) for profilers and debuggers.
+pub fn scope_with_pool<R: Send>(
+    name: &str,
+    sink: Arc<dyn Sink>,
+    f: impl FnOnce() -> R + Send,
+) -> R {
+    let worker_sink = sink.clone();
+    let label = name.to_string();
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(rayon::current_num_threads())
+        .thread_name(move |i| format!("femu-{label}-{i}"))
+        .start_handler(move |_| {
+            let s = worker_sink.clone();
+            CURRENT.with(|c| *c.borrow_mut() = Some(s));
+        })
+        .build();
+    match pool {
+        Ok(pool) => pool.install(|| scope(sink, f)),
+        Err(_) => scope(sink, f),
+    }
 }
 
 /// Runs `f` with exactly `sink` (or none) installed on this thread, restoring the previous one.
@@ -266,6 +299,58 @@ mod tests {
         let nothing = carry();
         scope(outer.clone(), || nothing.run(|| note(|| "hidden".into())));
         assert!(outer.0.lock().unwrap().is_empty());
+    }
+
+    /// Two "stages" each in a pool of their own fan out with jobs that do not carry: every
+    /// job reports to its own stage (on the shared pool without carrying they would report
+    /// nowhere, or to a stage whose carried job a worker was inside), and nothing leaks out.
+    #[test]
+    fn pooled_stages_receive_their_uncarried_jobs() {
+        use rayon::prelude::*;
+        let stage = |name: &'static str| {
+            let record = Arc::new(Record::default());
+            let r = record.clone();
+            let handle = std::thread::spawn(move || {
+                scope_with_pool(name, r, || {
+                    let t = task(|| format!("{name} jobs"), 64);
+                    (0..64u32).into_par_iter().for_each(|k| {
+                        rayon::join(
+                            || note(|| format!("{name} {k} a")),
+                            || note(|| format!("{name} {k} b")),
+                        );
+                        t.advance(1);
+                    });
+                    // The workers' names say whose they are.
+                    let names: Vec<String> = (0..4u32)
+                        .into_par_iter()
+                        .map(|_| std::thread::current().name().unwrap_or("").to_string())
+                        .collect();
+                    assert!(
+                        names
+                            .iter()
+                            .all(|n| n.starts_with(&format!("femu-{name}-")))
+                    );
+                })
+            });
+            (record, handle)
+        };
+        let (a, ha) = stage("A");
+        let (b, hb) = stage("B");
+        ha.join().unwrap();
+        hb.join().unwrap();
+        for (record, name) in [(a, "A"), (b, "B")] {
+            let got = record.0.lock().unwrap().clone();
+            let mut notes: Vec<&String> = got.iter().filter(|l| !l.contains("jobs")).collect();
+            notes.sort();
+            let mut want: Vec<String> = (0..64)
+                .flat_map(|k| [format!("{name} {k} a"), format!("{name} {k} b")])
+                .collect();
+            want.sort();
+            assert_eq!(notes, want.iter().collect::<Vec<_>>());
+            let steps = got.iter().filter(|l| l.contains("jobs")).count();
+            assert_eq!(steps, 65, "task 0/64 and 64 advances of {name}");
+        }
+        assert!(current().is_none());
     }
 
     #[test]

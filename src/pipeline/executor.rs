@@ -514,7 +514,7 @@ fn run_node(
             stage: node.name.clone(),
             display: display.clone(),
         });
-        crate::core::progress::scope(sink, || run_stage(plan, i, &inputs))?
+        crate::core::progress::scope_with_pool(&node.name, sink, || run_stage(plan, i, &inputs))?
     };
     let parts = parts.counts();
     let version = node.stage.impl_version();
