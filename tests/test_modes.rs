@@ -9,11 +9,14 @@ mod common;
 
 use common::root;
 use femu::artefact::ArtefactKind;
+use femu::artefact::kinds::test_geometry::test_geometry_from_artefact;
 use femu::artefact::kinds::test_map::test_map_from_artefact;
 use femu::artefact::kinds::universal_file::{UniversalFile, UniversalFileKind};
 use femu::artefact::kinds::{Kind, frf_from_artefact, modes_from_artefact};
 use femu::cache::Cache;
+use femu::frf::io::uff::parse_uff;
 use femu::pipeline::RunReport;
+use femu::stages::frf_import::geometry_of;
 use std::path::Path;
 
 const PLATE: &str = "  plate:\n    kind: mesh.generate\n    with: {geometry: flat_plate, a_m: 0.4, b_m: 0.3, nx: 4, ny: 3, thickness_m: 0.002}\n";
@@ -29,6 +32,10 @@ fn output(
 ) -> femu::artefact::Artefact {
     let key = &report.stages.iter().find(|s| s.name == stage).unwrap().key;
     cache.read(key, port, kind).unwrap()
+}
+
+fn global() -> [[f64; 3]; 3] {
+    [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
 }
 
 fn write(dir: &Path, name: &str, yaml: &str) -> std::path::PathBuf {
@@ -63,7 +70,8 @@ fn modes_and_frfs_go_out_at_the_measured_dofs_and_come_back() {
     ))
     .unwrap();
     assert_eq!(uff.name, "predicted.uff");
-    assert_eq!(uff.datasets[1], (55, 12));
+    assert_eq!(uff.datasets[0], (164, 1));
+    assert_eq!(uff.datasets[2], (55, 12));
     let model = modes_from_artefact(&output(
         &report,
         &cache,
@@ -155,10 +163,11 @@ fn modes_and_frfs_go_out_at_the_measured_dofs_and_come_back() {
     }
 }
 
-/// The lab geometry's skewed and upside-down frames cannot be written without dataset 2420:
-/// refused, naming the point; a map without modes is refused before running.
+/// The lab geometry's skewed and upside-down sensor frames go out as dataset 2420 systems that
+/// the points' 2411 records name, and come back as they were (17 digits: to 1e-15); a map
+/// without modes is refused before running.
 #[test]
-fn what_cannot_be_written_is_refused_by_name() {
+fn frames_go_out_as_2420_and_what_cannot_be_written_is_refused() {
     let dir = tempfile::tempdir().unwrap();
     std::fs::copy(
         root().join("tests/fixtures/uff/lab-plate.uff"),
@@ -167,23 +176,44 @@ fn what_cannot_be_written_is_refused_by_name() {
     .unwrap();
     let yaml = "name: lab-geo\nstages:\n  lab:\n    kind: frf.import\n    with: {path: lab-plate.uff}\n  export:\n    kind: test.export\n    inputs: {geometry: lab.geometry}\n";
     let file = write(dir.path(), "geo.yaml", yaml);
-    let plan = common::load(&file, &[]);
-    let cache = Cache::open(&dir.path().join("cache")).unwrap();
-    let opts = femu::pipeline::RunOptions {
-        progress: femu::pipeline::ProgressMode::Quiet,
-        ..Default::default()
-    };
-    let e = femu::pipeline::execute(&plan, &cache, &opts).unwrap_err();
-    let mut text = e.to_string();
-    let mut src = std::error::Error::source(&e);
-    while let Some(x) = src {
-        text.push_str(&format!(": {x}"));
-        src = x.source();
+    let (_, report, cache) = common::run(&file, &dir.path().join("cache"), &[]);
+    let uff: UniversalFile = UniversalFileKind::from_artefact(&output(
+        &report,
+        &cache,
+        "export",
+        "file",
+        ArtefactKind::UniversalFile,
+    ))
+    .unwrap();
+    let lab = test_geometry_from_artefact(&output(
+        &report,
+        &cache,
+        "lab",
+        "geometry",
+        ArtefactKind::TestGeometry,
+    ))
+    .unwrap();
+    let framed = lab.points.iter().filter(|p| p.axes != global()).count();
+    assert!(framed >= 2, "the fixture has a skewed and a -Z sensor");
+    assert_eq!(uff.datasets[1].0, 2420);
+    assert_eq!(uff.datasets[2], (2411, lab.points.len()));
+    let back = geometry_of(&parse_uff(&uff.bytes, "geo.uff").unwrap());
+    assert_eq!(back.points.len(), lab.points.len());
+    for (a, b) in back.points.iter().zip(&lab.points) {
+        assert_eq!(a.node, b.node);
+        for k in 0..3 {
+            assert!((a.xyz[k] - b.xyz[k]).abs() <= 1e-15 * b.xyz[k].abs().max(1.0));
+            for j in 0..3 {
+                assert!(
+                    (a.axes[k][j] - b.axes[k][j]).abs() <= 1e-15,
+                    "node {}: axes {:?} vs {:?}",
+                    a.node,
+                    a.axes,
+                    b.axes
+                );
+            }
+        }
     }
-    assert!(
-        text.contains("test point 9002") && text.contains("displacement frame"),
-        "{text}"
-    );
 
     let yaml = format!(
         "name: lab-bad\nstages:\n{PLATE}  lab:\n    kind: frf.import\n    with: {{path: lab-plate.uff}}\n  pair:\n    kind: test.pair\n    inputs: {{mesh: plate, geometry: lab.geometry}}\n    with: {{tolerance_m: 0.002, alignment: {FIT}}}\n  export:\n    kind: test.export\n    inputs: {{frf: lab.frf, map: pair.map}}\n"

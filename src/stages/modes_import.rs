@@ -4,6 +4,8 @@
 //! ([`crate::frf::io::uff::to_test_modes`]); shapes keep their measured scale. Values are in
 //! each node's displacement frame, as `frf.import` reads FRF directions, so `test.pair` maps
 //! them to the model the same way. The file's nodes leave as `geometry`, for `test.pair`.
+//! Translations in a dataset 164's length unit are converted to metres (rotations kept), and
+//! the conversion is one of the notes printed and recorded.
 //!
 //! The file is read when the pipeline is checked, so a malformed record is reported then; the
 //! cache key holds the digests of the modes and the geometry, not the path.
@@ -45,6 +47,7 @@ fn import(base: &Path, p: &Params) -> Result<(TestModes, TestGeometry), String> 
     let full = base.join(&p.path);
     let file = read_uff(&full).map_err(|e| e.to_string())?;
     let mut modes = to_test_modes(&file).map_err(|e| format!("{}: {e}", full.display()))?;
+    modes.notes.extend(file.conversions.iter().cloned());
     modes.notes.extend(file.warnings.iter().cloned());
     if let Some([lo, hi]) = p.band_hz {
         let keep: Vec<usize> = (0..modes.freqs_hz.len())
@@ -85,7 +88,7 @@ impl TypedStage for ModesImport {
     const KIND: &'static str = "modes.import";
     const SUMMARY: &'static str =
         "Test modes from a Universal File (dataset 55), complex shapes made real";
-    const IMPL_VERSION: u32 = 1;
+    const IMPL_VERSION: u32 = 2;
     const PREFLIGHT: bool = true;
 
     fn inputs() -> Vec<PortSpec> {

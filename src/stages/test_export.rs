@@ -1,5 +1,7 @@
 //! `test.export`: predictions written as a Universal File for the lab's own software: the
-//! test points (dataset 2411), FRFs (dataset 58, or 58b), and modes (dataset 55).
+//! test points (dataset 2411) with their displacement frames (dataset 2420: a skewed or
+//! upside-down sensor's directions), FRFs (dataset 58, or 58b), and modes (dataset 55), after
+//! a dataset 164 stating SI units.
 //!
 //! FRFs are written at their own DOFs: a prediction made with `frf.synthesise`'s `template`
 //! and `map` is already at the measured DOFs, in the test's quantity. Modes are written at
@@ -12,8 +14,12 @@ use crate::artefact::kinds::test_geometry::test_geometry_from_artefact;
 use crate::artefact::kinds::test_map::test_map_from_artefact;
 use crate::artefact::kinds::universal_file::{UniversalFile, UniversalFileKind};
 use crate::artefact::kinds::{Kind, frf_from_artefact, modes_from_artefact};
-use crate::frf::io::uff::write::{ModeRecord, UffEncoding, write_uff55, write_uff2411};
+use crate::frf::io::uff::write::{
+    CartesianSystem, ModeRecord, UffEncoding, write_uff55, write_uff164_si, write_uff2411_framed,
+    write_uff2420,
+};
 use crate::frf::io::uff::write_uff58_as;
+use crate::pairing::TestPoint;
 use crate::pipeline::{
     CheckContext, ParamIssue, PortSpec, StageError, StageInputs, StageOutputs, TypedStage,
 };
@@ -63,6 +69,38 @@ fn default_name() -> String {
     "femu.uff".into()
 }
 
+/// The displacement frames of `points` as Cartesian systems (dataset 2420), one per distinct
+/// frame in order of first use, labelled from 1, and each point with its system's label (0 for
+/// the global frame). A point read in a cylindrical or spherical system carries that system's
+/// directions at the point, so it gets a Cartesian system of its own: the directions its DOFs
+/// measure along are what a reader needs, and they are kept exactly.
+fn frames_of(points: &[TestPoint]) -> (Vec<CartesianSystem>, Vec<(u64, [f64; 3], u32)>) {
+    const GLOBAL: [[f64; 3]; 3] = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+    let mut systems: Vec<CartesianSystem> = Vec::new();
+    let nodes = points
+        .iter()
+        .map(|pt| {
+            if pt.axes == GLOBAL {
+                return (pt.node, pt.xyz, 0);
+            }
+            let label = match systems.iter().find(|s| s.axes == pt.axes) {
+                Some(s) => s.label,
+                None => {
+                    let label = systems.len() as u32 + 1;
+                    systems.push(CartesianSystem {
+                        label,
+                        axes: pt.axes,
+                        origin: [0.0; 3],
+                    });
+                    label
+                }
+            };
+            (pt.node, pt.xyz, label)
+        })
+        .collect();
+    (systems, nodes)
+}
+
 /// A plain file name: no folder, not empty, not `.`/`..`.
 fn plain_name(name: &str) -> bool {
     !name.is_empty()
@@ -75,16 +113,15 @@ fn plain_name(name: &str) -> bool {
 impl TypedStage for TestExport {
     type Params = Params;
     const KIND: &'static str = "test.export";
-    const SUMMARY: &'static str =
-        "Test points, FRFs and modes as a Universal File (datasets 2411, 58/58b, 55) for the lab";
-    const IMPL_VERSION: u32 = 1;
+    const SUMMARY: &'static str = "Test points, FRFs and modes as a Universal File (datasets 2420, 2411, 58/58b, 55) for the lab";
+    const IMPL_VERSION: u32 = 2;
 
     fn inputs() -> Vec<PortSpec> {
         vec![
             PortSpec::optional(
                 "geometry",
                 ArtefactKind::TestGeometry,
-                "test points, written as dataset 2411 (global frames only)",
+                "test points, written as dataset 2411, their displacement frames as dataset 2420",
             ),
             PortSpec::optional("frf", ArtefactKind::Frf, "FRFs, written as dataset 58"),
             PortSpec::optional("modes", ArtefactKind::Modes, "modes, written as dataset 55"),
@@ -131,25 +168,19 @@ impl TypedStage for TestExport {
     }
 
     fn run(p: &Params, inputs: &StageInputs) -> Result<StageOutputs, StageError> {
-        let mut bytes = Vec::new();
-        let mut datasets = Vec::new();
+        // Everything below is in SI; the file says so first.
+        let mut bytes = write_uff164_si();
+        let mut datasets = vec![(164, 1)];
         let mut source = Vec::new();
         if let Some(g) = inputs.get("geometry") {
             let geometry = test_geometry_from_artefact(g)?;
-            let global = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
-            if let Some(pt) = geometry.points.iter().find(|pt| pt.axes != global) {
-                return Err(StageError::input(
-                    "geometry",
-                    format!(
-                        "test point {} has its own displacement frame; writing frames (dataset 2420) is not supported, so its directions would be misread: leave `geometry` unconnected and keep the lab's own geometry file",
-                        pt.node
-                    ),
-                ));
+            let (systems, nodes) = frames_of(&geometry.points);
+            if !systems.is_empty() {
+                bytes.extend(write_uff2420("femu test geometry", &systems));
+                datasets.push((2420, systems.len()));
             }
-            let nodes: Vec<(u64, [f64; 3])> =
-                geometry.points.iter().map(|pt| (pt.node, pt.xyz)).collect();
-            bytes.extend(write_uff2411(&nodes));
-            datasets.push((2411, 1));
+            bytes.extend(write_uff2411_framed(&nodes));
+            datasets.push((2411, nodes.len()));
             source.push(format!("geometry {}", &g.digest()[..16]));
         }
         if let Some(f) = inputs.get("frf") {

@@ -40,6 +40,9 @@ pub(super) struct Ctx<'f> {
     pub(super) datasets: usize,
     /// Dataset 58 records met so far.
     pub(super) frf_records: usize,
+    /// Dataset 55 shapes whose translations were converted to m, by the units' source: factor,
+    /// count and the first's line.
+    pub(super) converted_shapes: BTreeMap<String, (f64, usize, usize)>,
 }
 
 impl Ctx<'_> {

@@ -8,12 +8,19 @@
 //! (`I10`, node) and 10 (`6E13.5`, NDV values, complex as real then imaginary part) repeat per
 //! node. A node left out has all values zero (note 9 of the dataset description).
 //!
+//! With a dataset 164 before it whose length unit is not the metre, the translational values
+//! (displacement, velocity or acceleration: lengths over time) are converted to metres and the
+//! rotational ones (radians in every unit system) kept, so that a shape with both is consistent
+//! (a MAC over translations in mm and rotations in rad would weight them 1000:1); the
+//! conversion is recorded once per file. Modal mass and modal A/B are kept as written.
+//!
 //! Only shapes of motion are modes: analysis types other than 2, 3 and 7, data characteristics
 //! other than 2 and 3, and specific data types other than unknown, general, displacement,
 //! velocity and acceleration are skipped, counted and warned about.
 
 use super::block::{Block, Ctx};
 use super::lex::{At, fields, parse_real, split_numbers, text};
+use super::mesh::length_conversion;
 use super::{UffError, UffFile};
 use faer::c64;
 
@@ -250,7 +257,18 @@ pub(super) fn parse_55(
             second_order: analysis == 7,
         }
     };
-    let nodes = node_values(b, file, next, per_node, complex)?;
+    let mut nodes = node_values(b, file, next, per_node, complex)?;
+    if let Some((f, source)) = length_conversion(ctx) {
+        // Translations (and their rates) are lengths; rotations are radians in any system.
+        for (_, values) in &mut nodes {
+            values.iter_mut().take(3).for_each(|v| *v *= f);
+        }
+        let entry = ctx
+            .converted_shapes
+            .entry(source)
+            .or_insert((f, 0, b.header_line));
+        entry.1 += 1;
+    }
     out.shapes.push(Uff55 {
         file: file.to_string(),
         line: b.header_line,

@@ -79,8 +79,8 @@ pub use types::{
     UffFile, UffHeader, UffTraceLine, UffUnits,
 };
 pub use write::{
-    UffEncoding, even_spacing, records_from_set, write_uff58, write_uff58_as, write_uff58_records,
-    write_uff2411,
+    CartesianSystem, UffEncoding, even_spacing, records_from_set, write_uff58, write_uff58_as,
+    write_uff58_records, write_uff164_si, write_uff2411, write_uff2411_framed, write_uff2420,
 };
 
 use block::{Ctx, next_block};
@@ -125,6 +125,7 @@ pub fn parse_uff(bytes: &[u8], file_name: &str) -> Result<UffFile, UffError> {
         skipped_functions: BTreeMap::new(),
         datasets: 0,
         frf_records: 0,
+        converted_shapes: BTreeMap::new(),
     };
     let mut out = UffFile::default();
     let mut skipped: BTreeMap<u32, usize> = BTreeMap::new();
@@ -155,6 +156,11 @@ pub fn parse_uff(bytes: &[u8], file_name: &str) -> Result<UffFile, UffError> {
         ctx.warnings.push(format!(
             "{file_name}: {count} dataset 58 record(s) of function type {ty} ({}) skipped, the first at line {line}; only type 4 (frequency response function) is read",
             function_name(*ty)
+        ));
+    }
+    for (source, (f, count, line)) in &ctx.converted_shapes {
+        out.conversions.push(format!(
+            "{file_name}:{line}: translations of {count} dataset 55 mode shape(s) converted to m from {source}: ×{f:e} (rotations in rad unchanged; modal masses as written)"
         ));
     }
     systems::resolve_18(&ctx, &mut out, pending18)?;

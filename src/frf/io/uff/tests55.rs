@@ -243,3 +243,67 @@ fn malformed_records_are_refused() {
         "{e}"
     );
 }
+
+/// Under a dataset 164 in millimetres, a shape's translations come in metres and its rotations
+/// stay in radians (a mixed shape would otherwise weigh translations 1000:1), and the
+/// conversion is recorded once for the file.
+#[test]
+fn translations_follow_the_164_length_unit_and_rotations_do_not() {
+    let dofs = vec![
+        dof(1, Component::Ux),
+        dof(1, Component::Uz),
+        dof(1, Component::Rx),
+        dof(2, Component::Uz),
+        dof(2, Component::Ry),
+    ];
+    let s1 = [2.5, -4.0, 0.003, 8.0, -0.002];
+    let s2 = [1.0, 2.0, -0.001, -3.0, 0.004];
+    let records = [(1, 10.0, &s1), (2, 25.0, &s2)].map(|(mode, freq_hz, shape)| ModeRecord {
+        mode,
+        freq_hz,
+        modal_mass: 0.0,
+        damping_ratio: 0.0,
+        shape,
+    });
+    let units = concat!(
+        "    -1\n   164\n",
+        "         5mm (milli newton)            2\n",
+        "  1.00000000000000000D+03  1.00000000000000000D+03  1.00000000000000000D+00\n",
+        "  2.73150000000000000D+02\n",
+        "    -1\n"
+    );
+    let mut bytes = units.as_bytes().to_vec();
+    bytes.extend(write_uff55(&dofs, &records, "mm shapes").unwrap());
+    let file = parse_uff(&bytes, "mm.uff").unwrap();
+    let notes: Vec<&String> = file
+        .conversions
+        .iter()
+        .filter(|c| c.contains("dataset 55"))
+        .collect();
+    assert_eq!(notes.len(), 1, "{:?}", file.conversions);
+    assert!(notes[0].contains("2 dataset 55 mode shape(s)") && notes[0].contains("rad unchanged"));
+    let t = to_test_modes(&file).unwrap();
+    assert_eq!(t.dofs, dofs);
+    for (c, s) in [s1, s2].iter().enumerate() {
+        for (i, v) in s.iter().enumerate() {
+            let want = if dofs[i].comp.is_rotation() {
+                *v
+            } else {
+                v * 1e-3
+            };
+            let got = t.shapes[(i, c)];
+            // Each shape's sign is fixed by its largest component (a translation here).
+            assert!(
+                (got.abs() - want.abs()).abs() <= 1e-6 * want.abs() && got * want > 0.0,
+                "mode {c} {}: {got} vs {want}",
+                dofs[i]
+            );
+        }
+    }
+
+    // The same file in metres (no dataset 164) is read as written.
+    let plain = parse_uff(&write_uff55(&dofs, &records, "m").unwrap(), "m.uff").unwrap();
+    assert!(plain.conversions.is_empty());
+    let t = to_test_modes(&plain).unwrap();
+    assert!((t.shapes[(0, 0)] - 2.5).abs() < 1e-6 && (t.shapes[(2, 0)] - 0.003).abs() < 1e-9);
+}

@@ -108,13 +108,68 @@ pub fn write_uff58_records(records: &[Uff58], encoding: UffEncoding) -> Vec<u8> 
 /// Dataset 2411 (nodes, double precision) with 17 significant digits: exact; coordinates in
 /// the global system (definition and displacement system 0).
 pub fn write_uff2411(nodes: &[(u64, [f64; 3])]) -> Vec<u8> {
+    let framed: Vec<(u64, [f64; 3], u32)> = nodes.iter().map(|&(id, x)| (id, x, 0)).collect();
+    write_uff2411_framed(&framed)
+}
+
+/// Dataset 2411 as [`write_uff2411`], each node with its displacement coordinate system (its
+/// record 1 field 3; 0 global), which a dataset 2420 of the same file must define.
+pub fn write_uff2411_framed(nodes: &[(u64, [f64; 3], u32)]) -> Vec<u8> {
     let mut s = String::from("    -1\n  2411\n");
-    for (id, xyz) in nodes {
-        let _ = writeln!(s, "{id:>10}{:>10}{:>10}{:>10}", 0, 0, 11);
+    for (id, xyz, disp) in nodes {
+        let _ = writeln!(s, "{id:>10}{:>10}{disp:>10}{:>10}", 0, 11);
         for x in xyz {
             s.push_str(&fmt_e(*x, 25));
         }
         s.push('\n');
+    }
+    s.push_str("    -1\n");
+    s.into_bytes()
+}
+
+/// Dataset 164 (units) declaring SI (code 1, metre and newton, temperature in kelvin): what
+/// every value femu writes is in, stated so that no reader has to assume it.
+pub fn write_uff164_si() -> Vec<u8> {
+    let mut s = String::from("    -1\n   164\n");
+    let _ = writeln!(s, "{:>10}{:<20}{:>10}", 1, "SI: meter (newton)", 2);
+    for x in [1.0, 1.0, 1.0] {
+        s.push_str(&fmt_e(x, 25));
+    }
+    s.push('\n');
+    s.push_str(&fmt_e(273.15, 25));
+    s.push_str("\n    -1\n");
+    s.into_bytes()
+}
+
+/// A Cartesian coordinate system for dataset 2420: its label (≥ 1), its axes as unit rows in
+/// global components, and its origin in global (m).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CartesianSystem {
+    /// Label, ≥ 1 (0 is the global system, never written).
+    pub label: u32,
+    /// The local x, y, z axes (rows), in global components.
+    pub axes: [[f64; 3]; 3],
+    /// Origin in global.
+    pub origin: [f64; 3],
+}
+
+/// Dataset 2420 (coordinate systems) with Cartesian systems: record 1 the part UID (1),
+/// record 2 the part name, then per system Format(3I10) label, type 0, colour 8, its name, and
+/// the transformation as four Format(1P3D25.16) rows (the axes, then the origin) with 17
+/// significant digits: exact.
+pub fn write_uff2420(part: &str, systems: &[CartesianSystem]) -> Vec<u8> {
+    let mut s = String::from("    -1\n  2420\n");
+    let _ = writeln!(s, "{:>10}", 1);
+    let _ = writeln!(s, "{}", id_line(part));
+    for sys in systems {
+        let _ = writeln!(s, "{:>10}{:>10}{:>10}", sys.label, 0, 8);
+        let _ = writeln!(s, "{}", id_line(&format!("CS{}", sys.label)));
+        for row in sys.axes.iter().chain(std::iter::once(&sys.origin)) {
+            for x in row {
+                s.push_str(&fmt_e(*x, 25));
+            }
+            s.push('\n');
+        }
     }
     s.push_str("    -1\n");
     s.into_bytes()
