@@ -69,12 +69,15 @@ fn default_name() -> String {
     "femu.uff".into()
 }
 
+/// A test point for dataset 2411: label, position (m) and displacement system label.
+type FramedNode = (u64, [f64; 3], u32);
+
 /// The displacement frames of `points` as Cartesian systems (dataset 2420), one per distinct
 /// frame in order of first use, labelled from 1, and each point with its system's label (0 for
 /// the global frame). A point read in a cylindrical or spherical system carries that system's
 /// directions at the point, so it gets a Cartesian system of its own: the directions its DOFs
 /// measure along are what a reader needs, and they are kept exactly.
-fn frames_of(points: &[TestPoint]) -> (Vec<CartesianSystem>, Vec<(u64, [f64; 3], u32)>) {
+fn frames_of(points: &[TestPoint]) -> (Vec<CartesianSystem>, Vec<FramedNode>) {
     const GLOBAL: [[f64; 3]; 3] = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
     let mut systems: Vec<CartesianSystem> = Vec::new();
     let nodes = points

@@ -8,9 +8,10 @@
 //! `Z(ω) X = [e_r …, e_i]` (measured rows by symmetry of `Z`). Real and imaginary parts are
 //! stacked (2.24), solved by SVD least squares, and the whole is iterated because the
 //! sensitivity is a secant evaluated at the current model (2.27). Through a test map
-//! (docs/theory.md (14.7)) a measured DOF must be one model DOF times a weight `w` (a grid along
-//! a model axis, e.g. a −Z sensor): the measured value enters `α_X` divided by `w_r w_e` and
-//! each equation is scaled back by `w_r w_e`.
+//! (docs/theory.md (14.7)) a measured DOF is a load `w` on the model (its weighted model DOFs):
+//! the equations read `w_rᵀ α_A ΔZ α̂_X w_e = w_rᵀ (α_A − α_X) w_e` in the test's own units, and
+//! the measured values enter the column `α̂_X w_e` as the least change of the analytical one
+//! that reproduces them (14.11) — the plain substitution when a measured DOF is one model DOF.
 
 use super::model::{ParametricModel, UpdatingError};
 use super::solve::{diagnostics, least_squares};
@@ -55,6 +56,72 @@ pub struct ResponseFunctionMethod<'a> {
     pub measured: &'a FrfSet,
     /// Settings.
     pub settings: RfmSettings,
+}
+
+/// A measured DOF's load on the model: `(free DOF index, weight)` terms, `w` of (14.6).
+type Load = Vec<(usize, f64)>;
+
+/// `wᵀ v` for a load `w` and a model vector given by `v(i)`.
+fn read(load: &Load, v: impl Fn(usize) -> c64) -> c64 {
+    load.iter()
+        .fold(c64::new(0.0, 0.0), |acc, &(i, w)| acc + v(i) * w)
+}
+
+/// Puts the measured responses into the analytical column `hat = α_A w_e` (Visser and
+/// Imregun's substitution), so that `w_rᵀ hat` is the measured value for every measured
+/// response `r`. A response that is one model DOF `a` times `w` sets `hat[a] = h_r / w` — the
+/// plain substitution, exactly as without a map when `w = 1`. Responses that combine several
+/// model DOFs (interpolated or skewed sensors) cannot be written into entries; `hat` then gets
+/// the least change that makes the measured values exact, `hat += W_rᵀ g` with
+/// `(W_r W_rᵀ) g = h − W_r α_A w_e` (minimum norm; dependent rows by the pseudo-inverse at
+/// `rcond`), which is the substitution again when the loads are single DOFs.
+fn measured_in_place(
+    hat: &mut [c64],
+    resp: &[(Load, usize)],
+    measured: &[c64],
+    model_h: &[c64],
+    rcond: f64,
+) {
+    let single = resp.iter().all(|(l, _)| l.len() == 1);
+    let mut rows: Vec<usize> = resp.iter().map(|(l, _)| l[0].0).collect();
+    rows.sort_unstable();
+    rows.dedup();
+    if single && rows.len() == resp.len() {
+        for ((l, _), h) in resp.iter().zip(measured) {
+            let (a, w) = l[0];
+            hat[a] = h / w;
+        }
+        return;
+    }
+    let m = resp.len();
+    let gram = Mat::from_fn(m, m, |c, d| {
+        let mut g = 0.0;
+        for &(a, wa) in &resp[c].0 {
+            for &(b, wb) in &resp[d].0 {
+                if a == b {
+                    g += wa * wb;
+                }
+            }
+        }
+        g
+    });
+    let gap: Vec<c64> = measured.iter().zip(model_h).map(|(h, a)| h - a).collect();
+    let re = least_squares(
+        gram.as_ref(),
+        &gap.iter().map(|v| v.re).collect::<Vec<_>>(),
+        rcond,
+    );
+    let im = least_squares(
+        gram.as_ref(),
+        &gap.iter().map(|v| v.im).collect::<Vec<_>>(),
+        rcond,
+    );
+    for (c, (l, _)) in resp.iter().enumerate() {
+        let g = c64::new(re[c], im[c]);
+        for &(a, w) in l {
+            hat[a] += g * w;
+        }
+    }
 }
 
 /// `A x` for sparse `A` and complex `x`.
@@ -122,37 +189,40 @@ impl UpdateMethod for ResponseFunctionMethod<'_> {
                 ))
             })
         };
-        // A measured DOF's model row and weight: itself with 1, or through a test map the one
-        // model DOF it is a multiple of (the RFM puts measured values into the model's
-        // receptance column, which a combination of several DOFs cannot enter).
-        let row = |d: &DofId| -> Result<(usize, f64), UpdatingError> {
+        // A measured DOF's load on the model: itself with weight 1, or through a test map its
+        // weighted model DOFs (14.6), constrained ones dropped (they move with zero).
+        let load = |d: &DofId| -> Result<Load, UpdatingError> {
             let Some(map) = model.sensors() else {
-                return Ok((free(d)?, 1.0));
+                return Ok(vec![(free(d)?, 1.0)]);
             };
-            match map.get(d) {
-                Some([(a, w)]) if *w != 0.0 => Ok((free(a)?, *w)),
-                Some(terms) => Err(UpdatingError::Data(format!(
-                    "the RFM reads measured DOF {d} as one model DOF, but the test map makes it a combination of {} ({}); pair the test points to grids (method: nearest) along model axes, or use the P-C",
-                    terms.len(),
+            let terms = map.get(d).ok_or_else(|| {
+                UpdatingError::Data(format!("measured DOF {d} is not in the test map"))
+            })?;
+            let l: Load = terms
+                .iter()
+                .filter(|(_, w)| *w != 0.0)
+                .filter_map(|(a, w)| index.get(a).map(|&i| (i, *w)))
+                .collect();
+            if l.is_empty() {
+                return Err(UpdatingError::Data(format!(
+                    "measured DOF {d}: the test map names only constrained DOFs or DOFs the model does not have ({})",
                     terms
                         .iter()
                         .map(|(a, w)| format!("{w:.4} × {a}"))
                         .collect::<Vec<_>>()
                         .join(" + ")
-                ))),
-                None => Err(UpdatingError::Data(format!(
-                    "measured DOF {d} is not in the test map"
-                ))),
+                )));
             }
+            Ok(l)
         };
-        // Measured pairs grouped by excitation, with the product of the pair's map weights.
-        type Group = (usize, Vec<(usize, usize, f64)>); // (exc row, [(resp row, pair, w_r w_e)])
+        // Measured pairs grouped by excitation: (excitation load, [(response load, pair)]).
+        type Group = (DofId, Load, Vec<(Load, usize)>);
         let mut groups: Vec<Group> = Vec::new();
         for (q, p) in self.measured.pairs.iter().enumerate() {
-            let ((r, wr), (e, we)) = (row(&p.response)?, row(&p.excitation)?);
-            match groups.iter_mut().find(|g| g.0 == e) {
-                Some(g) => g.1.push((r, q, wr * we)),
-                None => groups.push((e, vec![(r, q, wr * we)])),
+            let r = load(&p.response)?;
+            match groups.iter_mut().find(|g| g.0 == p.excitation) {
+                Some(g) => g.2.push((r, q)),
+                None => groups.push((p.excitation, load(&p.excitation)?, vec![(r, q)])),
             }
         }
         let z = DynamicStiffness::new(
@@ -180,26 +250,28 @@ impl UpdateMethod for ResponseFunctionMethod<'_> {
                 let mut rows: Vec<Vec<f64>> = Vec::new();
                 let mut rhs: Vec<f64> = Vec::new();
                 let (mut xs, mut as_) = (Vec::new(), Vec::new());
-                for (e, resp) in &groups {
-                    // Columns: every measured response row, then the excitation.
-                    let mut cols: Vec<usize> = resp.iter().map(|(r, ..)| *r).collect();
-                    cols.push(*e);
-                    let mut b = Mat::<c64>::zeros(n, cols.len());
-                    for (c, &j) in cols.iter().enumerate() {
-                        b[(j, c)] = c64::new(1.0, 0.0);
+                for (_, exc_load, resp) in &groups {
+                    // Columns: every measured response's load `w_r`, then the excitation's
+                    // `w_e`; by the symmetry of `Z`, column `c` is `(w_cᵀ α_A)ᵀ`.
+                    let loads: Vec<&Load> = resp.iter().map(|(l, _)| l).chain([exc_load]).collect();
+                    let mut b = Mat::<c64>::zeros(n, loads.len());
+                    for (c, l) in loads.iter().enumerate() {
+                        for &(j, wj) in l.iter() {
+                            b[(j, c)] += c64::new(wj, 0.0);
+                        }
                     }
                     let x = z.solve(f, b.as_ref(), faer::Par::rayon(0))?;
-                    let exc = cols.len() - 1;
-                    // α̂_Xi: analytical column with the measured entries in place.
+                    let exc = loads.len() - 1;
+                    let model_h: Vec<c64> =
+                        resp.iter().map(|(l, _)| read(l, |i| x[(i, exc)])).collect();
+                    let measured: Vec<c64> = resp
+                        .iter()
+                        .map(|&(_, q)| self.measured.values[(k, q)] / factor)
+                        .collect();
+                    // α̂_X w_e: the analytical column with the measured values in place.
                     let mut hat: Vec<c64> = (0..n).map(|i| x[(i, exc)]).collect();
-                    let mut measured = Vec::with_capacity(resp.len());
-                    for &(r, q, w) in resp {
-                        // The model's receptance between the two model DOFs (14.7).
-                        let v = self.measured.values[(k, q)] / factor / w;
-                        hat[r] = v;
-                        measured.push(v);
-                    }
-                    // φ_j ∂Z_j α̂ for every parameter.
+                    measured_in_place(&mut hat, resp, &measured, &model_h, s.rcond);
+                    // φ_j ∂Z_j α̂ w_e for every parameter.
                     let dz_hat: Vec<Vec<c64>> = ev
                         .derivatives
                         .iter()
@@ -213,22 +285,21 @@ impl UpdateMethod for ResponseFunctionMethod<'_> {
                                 .collect()
                         })
                         .collect();
-                    for (c, &(r, _, wq)) in resp.iter().enumerate() {
-                        // Row r of α_A is column r (Z symmetric).
+                    for c in 0..resp.len() {
+                        // w_rᵀ α_A ∂Z α̂ w_e = (α_A w_r)ᵀ ∂Z α̂ w_e.
                         let coeffs: Vec<c64> = dz_hat
                             .iter()
                             .map(|dzh| {
                                 (0..n).fold(c64::new(0.0, 0.0), |acc, i| acc + x[(i, c)] * dzh[i])
                             })
                             .collect();
-                        // In the measured pair's own scale: `w_r w_e` times the model's.
-                        let res = (x[(r, exc)] - measured[c]) * wq;
-                        rows.push(coeffs.iter().map(|v| (v * wq).re).collect());
+                        let res = model_h[c] - measured[c];
+                        rows.push(coeffs.iter().map(|v| v.re).collect());
                         rhs.push(res.re);
-                        rows.push(coeffs.iter().map(|v| (v * wq).im).collect());
+                        rows.push(coeffs.iter().map(|v| v.im).collect());
                         rhs.push(res.im);
-                        xs.push(measured[c] * wq);
-                        as_.push(x[(r, exc)] * wq);
+                        xs.push(measured[c]);
+                        as_.push(model_h[c]);
                     }
                 }
                 Ok((

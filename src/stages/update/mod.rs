@@ -248,8 +248,9 @@ impl TypedStage for Update {
     const KIND: &'static str = "update";
     const SUMMARY: &'static str =
         "Update model parameters from measured FRFs (P-C, RFM) or modes (inverse eigensensitivity)";
-    /// 6: the result records the component mode synthesis reuse (`cms`).
-    const IMPL_VERSION: u32 = 7;
+    /// 6: the result records the component mode synthesis reuse (`cms`); 8: the RFM reads
+    /// measured DOFs through multi-term test maps (14.11).
+    const IMPL_VERSION: u32 = 8;
 
     fn inputs() -> Vec<PortSpec> {
         vec![
