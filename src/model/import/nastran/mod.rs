@@ -7,8 +7,9 @@
 //! continuation half-lines), free field (commas; `NAME*,` for four fields per line), explicit
 //! (`+name`/`*name`) and implicit (blank first field) continuations, `$` comments, `INCLUDE`
 //! (quoted or bare, relative to the including file, quoted names may run over several lines,
-//! cycles rejected), `BEGIN BULK` (anything before it is skipped when present) and `ENDDATA`
-//! (anything after it is ignored), the real number shorthands `1.5-3`, `7.+4`, `.5`, `1+3`,
+//! cycles rejected), `BEGIN BULK` (anything before it is skipped when present; a later
+//! `BEGIN SUPER`/`BEGIN AUXMODEL` section — a part superelement — is an error that lists every
+//! such section with its line and size) and `ENDDATA` (anything after it is ignored), the real number shorthands `1.5-3`, `7.+4`, `.5`, `1+3`,
 //! `1.E3` and `1D3`, and blank fields taking the QRG defaults.
 //!
 //! Cards read: GRID with GRDSET defaults, CORD1R/C/S and CORD2R/C/S (nested, in any order),

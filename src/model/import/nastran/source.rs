@@ -202,10 +202,11 @@ impl Loader {
                 }
                 return Err(syntax(
                     format!(
-                        "`{}` starts a part superelement or auxiliary model",
-                        q(text)
+                        "`{}` starts a part superelement or auxiliary model; this file has {}",
+                        q(text),
+                        part_sections(&raw[i..], line_no)
                     ),
-                    "only one BEGIN BULK section is supported",
+                    "femu reads one BEGIN BULK section (the residual structure): merge the parts' bulk data into it (renumbering ids that repeat) and partition the model with `model.partition` for femu's own component mode synthesis",
                 ));
             }
             self.lines.push(SrcLine {
@@ -386,4 +387,29 @@ pub(super) fn include_name(
         }
         name.push_str(piece);
     }
+}
+
+/// The `BEGIN` sections from `rest` on (the first at line `first`): each with its line and the
+/// number of bulk data lines in it (comments and blank lines not counted), for the message
+/// that refuses part superelements, so the user sees the whole of what is not read.
+fn part_sections(rest: &[&str], first: usize) -> String {
+    let mut sections: Vec<(String, usize, usize)> = Vec::new();
+    for (k, l) in rest.iter().enumerate() {
+        let text = strip_comment(l).trim();
+        if starts_with_ci(text, "ENDDATA") {
+            break;
+        }
+        if starts_with_ci(text, "BEGIN") {
+            sections.push((text.to_string(), first + k, 0));
+        } else if !text.is_empty() {
+            if let Some(s) = sections.last_mut() {
+                s.2 += 1;
+            }
+        }
+    }
+    let listed: Vec<String> = sections
+        .iter()
+        .map(|(t, line, n)| format!("`{}` at line {line} ({n} lines)", q(t)))
+        .collect();
+    format!("{} such section(s): {}", sections.len(), listed.join(", "))
 }

@@ -630,9 +630,14 @@ fn syntax_errors_name_the_line() {
         e.contains("t.bdf line 7: `1.0 2.0` starts neither a card nor a continuation"),
         "{e}"
     );
-    let e = error(&format!("{BASE}BEGIN SUPER=1\n"));
+    let e = error(&format!(
+        "{BASE}BEGIN SUPER=1\nGRID,101,,0.,0.,0.\n$ a comment\nGRID,102,,1.,0.,0.\nBEGIN SUPER = 2\nGRID,201,,0.,0.,0.\nENDDATA\n"
+    ));
     assert!(
-        e.contains("t.bdf line 7: `BEGIN SUPER=1` starts a part superelement"),
+        e.contains("t.bdf line 7: `BEGIN SUPER=1` starts a part superelement")
+            && e.contains(
+                "2 such section(s): `BEGIN SUPER=1` at line 7 (2 lines), `BEGIN SUPER = 2` at line 11 (1 lines)"
+            ),
         "{e}"
     );
 }
