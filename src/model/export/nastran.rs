@@ -956,6 +956,7 @@ mod tests {
                     material: 2,
                     section: s,
                     nsm: 0.1 * i as f64,
+                    taper: None,
                 },
             );
         }
@@ -993,6 +994,7 @@ mod tests {
                 j: 1.0e-9,
                 c: 0.004,
                 nsm: 0.02,
+                taper: None,
             },
         );
         m.elements.insert(
@@ -1012,6 +1014,7 @@ mod tests {
                     j: 0.0,
                     c: 0.0,
                     nsm: 0.0,
+                    taper: None,
                 }),
             },
         );

@@ -142,6 +142,7 @@ impl Builder {
                     shear_z: k2,
                 },
                 nsm,
+                taper: None,
             },
         );
         Ok(())
@@ -273,6 +274,7 @@ impl Builder {
                     shear_z: k2,
                 },
                 nsm: end_a[5],
+                taper: None,
             },
         );
         Ok(())

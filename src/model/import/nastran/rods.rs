@@ -91,6 +91,7 @@ impl Builder {
                 j,
                 c: 0.0,
                 nsm,
+                taper: None,
             },
         );
         self.tube_pids.insert(id);
@@ -154,6 +155,7 @@ fn rod_section(c: &Card, k: usize) -> Result<RodProperty, NastranError> {
         j: c.nonneg_real(k + 2, "J", 0.0)?,
         c: c.real_or(k + 3, "C", 0.0)?,
         nsm: c.nonneg_real(k + 4, "NSM", 0.0)?,
+        taper: None,
     })
 }
 

@@ -207,6 +207,7 @@ impl Builder {
                 material,
                 section,
                 nsm,
+                taper: None,
             },
         );
         Ok(())
@@ -270,6 +271,7 @@ impl Builder {
                 material,
                 section,
                 nsm,
+                taper: None,
             },
         );
         Ok(())

@@ -1001,7 +1001,8 @@ fn fixture_plate_with_bar() {
                 width: 0.01,
                 height: 0.02
             },
-            nsm: 0.0
+            nsm: 0.0,
+            taper: None,
         }
     );
     let clamped: Vec<DofId> = [1, 6, 11, 16, 21]
