@@ -164,6 +164,26 @@ pub struct TubeTaper {
     pub t: f64,
 }
 
+impl TubeTaper {
+    /// Area and polar moment of a tube of outer diameter `od` and wall `t` as Nastran's PTUBE:
+    /// `A = π (OD − T) T` (solid, `T = 0`: `π OD²/4`), `J = π (OD⁴ − ID⁴)/32`, `ID = OD − 2T`.
+    pub fn section(od: f64, t: f64) -> (f64, f64) {
+        let id = if t == 0.0 { 0.0 } else { od - 2.0 * t };
+        let area = if t == 0.0 {
+            std::f64::consts::PI * od * od / 4.0
+        } else {
+            std::f64::consts::PI * (od - t) * t
+        };
+        let j = std::f64::consts::PI * (od.powi(4) - id.powi(4)) / 32.0;
+        (area, j)
+    }
+
+    /// Area and polar moment at `xi` (0: end A, 1: end B).
+    pub fn at(&self, xi: f64) -> (f64, f64) {
+        TubeTaper::section(self.od_a + xi * (self.od_b - self.od_a), self.t)
+    }
+}
+
 fn is_zero(v: &f64) -> bool {
     *v == 0.0
 }

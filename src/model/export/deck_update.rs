@@ -5,7 +5,9 @@
 //! - shell thickness → PSHELL `T`; Young's modulus and density (of shells, beams, rods, solids)
 //!   → MAT1 `E` and `RHO`, density of a solid's MAT9 → MAT9 `RHO` (with `G`
 //!   kept consistent, `E = 2(1 + ν)G`, when the card gives it; `RHO` divided by `PARAM,WTMASS`);
-//!   beam width and height → PBARL/PBEAML `BAR` `DIM1`/`DIM2`;
+//!   beam width and height → PBARL/PBEAML `BAR` `DIM1`/`DIM2` (not of a tapered beam: a
+//!   changed section of a PBEAM/PBEAML with stations, or of a tapered PTUBE, is an error
+//!   naming the card, which is left as it was);
 //! - bush stiffness → PBUSH `K1`–`K6`, scalar spring stiffness → CELAS2 `K` or PELAS `K1`/`K2`;
 //! - lumped mass → CONM2 `M` and `I11`/`I22`/`I33` (divided by WTMASS);
 //! - laminates: shell thickness → every ply's `Ti` (and an explicit `Z0`) of the PCOMP/PCOMPG,
@@ -773,6 +775,12 @@ fn properties(
             if p.material != p0.material {
                 w.set(i, 2, "MID", mid_text(p.material));
             }
+            if p0.taper.is_some() && (p.section != p0.section || p.taper != p0.taper) {
+                return Err(w.unsupported(
+                    i,
+                    "the section of a tapered beam (PBEAM/PBEAML with stations) changed; its stations cannot be written back (only its material can), so the card is left as it is",
+                ));
+            }
             if p.section != p0.section {
                 beam_section(w, i, &p0.section, &p.section)?;
             }
@@ -783,7 +791,7 @@ fn properties(
             if p.material != p0.material {
                 w.set(i, 2, "MID", mid_text(p.material));
             }
-            if (p.area, p.j, p.nsm) != (p0.area, p0.j, p0.nsm) {
+            if (p.area, p.j, p.nsm, p.taper) != (p0.area, p0.j, p0.nsm, p0.taper) {
                 return Err(w.unsupported(i, "rod sections cannot be written back"));
             }
         } else if let (Some(p), Some(p0)) = (
@@ -949,7 +957,7 @@ fn elements(
                     ..
                 },
             ) if p != p0 => {
-                if (p.area, p.j, p.nsm) != (p0.area, p0.j, p0.nsm) {
+                if (p.area, p.j, p.nsm, p.taper) != (p0.area, p0.j, p0.nsm, p0.taper) {
                     return Err(w.unsupported(i, "rod sections cannot be written back"));
                 }
                 let text = new_materials
