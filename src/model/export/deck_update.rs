@@ -1686,4 +1686,33 @@ mod tests {
             assert!((back - x).abs() <= 1e-10 * x.abs(), "{x} -> {s}");
         }
     }
+    /// A tapered PBEAML BAR: a width parameter scales every station's DIM1 (end A's is the
+    /// value), which the write-back refuses, naming the card; a density update of the same
+    /// beam is written (to the MAT1) and reads back.
+    #[test]
+    fn tapered_beams_are_not_corrupted() {
+        let dir = tempfile::tempdir().unwrap();
+        let top = dir.path().join("main.bdf");
+        let text = "MAT1,1,2.1+11,,.3,7850.\nGRID,1,,0.,0.,0.,,123456\nGRID,2,,1.,0.,0.\nPBEAML,7,1,,BAR\n,.05,.1,.5,NO,.5,.045,.08,.4\n,YES,,.04,.06,.3\nCBEAM,1,7,1,2,0.,1.,0.\nENDDATA\n";
+        std::fs::write(&top, text).unwrap();
+        let model = read_bulk(&top).unwrap().model;
+        let deck = read_deck(&top).unwrap();
+        let mut new = model.clone();
+        new.set_parameter_value(&param("w", ParameterKind::BeamWidth, "pid7"), 0.06)
+            .unwrap();
+        let st = &new.beam_properties[&7].taper.as_ref().unwrap().stations;
+        let dim1: Vec<f64> = st.iter().map(|s| s.values[0]).collect();
+        assert_eq!(dim1[0], 0.06);
+        assert!((dim1[1] - 0.054).abs() < 1e-15 && (dim1[2] - 0.048).abs() < 1e-15);
+        let e = update_deck(&deck, &model, &new, &["test".to_string()])
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("PBEAML 7") && e.contains("tapered"), "{e}");
+        let mut new = model.clone();
+        new.set_parameter_value(&param("rho", ParameterKind::Density, "pid7"), 7000.0)
+            .unwrap();
+        let out = update_deck(&deck, &model, &new, &["test".to_string()]).unwrap();
+        let back = read_bulk(written(dir.path(), &out)).unwrap().model;
+        assert_eq!(back, new);
+    }
 }

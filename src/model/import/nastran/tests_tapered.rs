@@ -40,7 +40,7 @@ fn assembles_as_tapered(m: &Model) {
     // Node 2's six DOFs are the free ones (node 1 is clamped).
     for (i, di) in sys.dofs.iter().enumerate() {
         for (j, dj) in sys.dofs.iter().enumerate() {
-            let (a, b) = (6 + di.component.slot(), 6 + dj.component.slot());
+            let (a, b) = (6 + di.comp.slot(), 6 + dj.comp.slot());
             assert!((k[(i, j)] - e.k[(a, b)]).abs() <= 1e-12 * e.k[(a, a)].abs().max(1.0));
             assert!((mm[(i, j)] - e.m[(a, b)]).abs() <= 1e-12 * e.m[(a, a)].abs().max(1e-30));
         }
@@ -139,13 +139,13 @@ fn ptube_od2_is_a_tapered_rod() {
     assert_eq!((t.od_a, t.od_b, t.t), (0.05, 0.03, 0.0));
     let (sys, _) = assemble_model(&m, MassKind::Lumped).unwrap();
     let k = sys.k.to_dense();
-    let at = |c: Component| sys.dofs.iter().position(|d| d.component == c).unwrap();
+    let at = |c: Component| sys.dofs.iter().position(|d| d.comp == c).unwrap();
     let (e, g, l, da, db) = (2.1e11, 2.1e11 / 2.6, 1.2, 0.05, 0.03);
     let pi = std::f64::consts::PI;
     let ka = e * pi * da * db / (4.0 * l);
     let kt = 3.0 * g * pi * da.powi(3) * db.powi(3) / (32.0 * l * (da * da + da * db + db * db));
     let (kx, krx) = (
-        k[(at(Component::Tx), at(Component::Tx))],
+        k[(at(Component::Ux), at(Component::Ux))],
         k[(at(Component::Rx), at(Component::Rx))],
     );
     assert!((kx - ka).abs() < 1e-12 * ka, "{kx} {ka}");
