@@ -252,10 +252,12 @@ fn frequencies(k: &Mat<f64>, m: &Mat<f64>, count: usize) -> Vec<f64> {
 /// into N uniform elements with the dimensions at their midpoints:
 /// - statics: the one tapered element is exact, the stepped model's error falls as N⁻² (the
 ///   midpoint rule): below 5e-5 at N = 256 and at least 10 times smaller than at N = 64;
-/// - the first six frequencies of 16 tapered elements against 256 stepped ones agree to 1e-4
-///   (both discretisations are within about 2e-5 of the beam here: cubic elements at 16 per
-///   length and the N⁻² stepping error at 256). A mass or stiffness integrated with end A's
-///   section (or the wrong shape functions) misses by 10–50 %.
+/// - the first six frequencies of 64 tapered elements against 256 stepped ones agree to 2e-4.
+///   The tapered mesh's error is dominated by its linear axial and twist interpolation,
+///   `(βh)²/12` ≈ 5e-5 for the first axial mode at 64 elements (at 16 it was 5e-4 on the
+///   fifth and sixth modes, as that estimate says); the stepped mesh's N⁻² error is ~1e-5.
+///   A mass or stiffness integrated with end A's section (or the wrong shape functions)
+///   misses by 10–50 %.
 #[test]
 fn one_tapered_element_is_the_limit_of_fine_uniform_ones() {
     let l = 1.2;
@@ -322,11 +324,11 @@ fn one_tapered_element_is_the_limit_of_fine_uniform_ones() {
     for c in 0..4 {
         assert!(((four[c] - exact[c]) / exact[c]).abs() < 1e-11);
     }
-    let (k, m) = tapered_chain(16);
+    let (k, m) = tapered_chain(64);
     let (ks, ms) = stepped_chain(256);
     let (a, b) = (frequencies(&k, &m, 6), frequencies(&ks, &ms, 6));
     for (x, y) in a.iter().zip(&b) {
-        assert!(((x - y) / y).abs() < 1e-4, "{a:?} against {b:?}");
+        assert!(((x - y) / y).abs() < 2e-4, "{a:?} against {b:?}");
     }
 }
 

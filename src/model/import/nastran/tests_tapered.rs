@@ -162,7 +162,7 @@ fn unsupported_tapers_are_named() {
     let z = format!("{HEAD}PBEAML,7,1,,Z\n,.06,.008,.18,.2,,NO,1.,.05\nCBEAM,1,7,1,2,0.,1.,0.\n");
     let e = error(&z);
     assert!(
-        e.contains("PBEAML field 7 (DIM1) of continuation 1 (line 4)")
+        e.contains("PBEAML field 9 (DIM1) of continuation 1 (line 5)")
             && e.contains("product of inertia"),
         "{e}"
     );
