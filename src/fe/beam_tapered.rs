@@ -589,8 +589,11 @@ pub struct TaperedRod<'a> {
     pub at: &'a dyn Fn(f64) -> (f64, f64, f64),
 }
 
+/// A tapered rod's quadrature point: `ξ`, weight (with `L`), `[A, J, NSM]`.
+type RodPoint = (f64, f64, [f64; 3]);
+
 /// The Gauss points of a tapered rod, with `(A, J, NSM)`; the subdivision as for beams.
-fn rod_points(r: &TaperedRod, l: f64) -> Result<(Vec<(f64, f64, [f64; 3])>, bool), ElementError> {
+fn rod_points(r: &TaperedRod, l: f64) -> Result<(Vec<RodPoint>, bool), ElementError> {
     positive("e", r.e, false)?;
     positive("rho", r.rho, true)?;
     if !(r.nu.is_finite() && r.nu > -1.0 && r.nu <= 0.5) {
@@ -657,7 +660,7 @@ fn rod_points(r: &TaperedRod, l: f64) -> Result<(Vec<(f64, f64, [f64; 3])>, bool
 
 /// The rod's 2 × 2 mass `[[∫m̄(1−ξ)², ∫m̄ξ(1−ξ)], [·, ∫m̄ξ²]]` (consistent) or the first-moment
 /// split (lumped), on each translation, for mass per length `m̄ = ρ A + NSM · with_nsm`.
-fn rod_mass(pts: &[(f64, f64, [f64; 3])], rho: f64, with_nsm: f64, kind: MassKind) -> Mat<f64> {
+fn rod_mass(pts: &[RodPoint], rho: f64, with_nsm: f64, kind: MassKind) -> Mat<f64> {
     let mut s = [0.0; 3];
     for (xi, w, [area, _, nsm]) in pts {
         let mw = (rho * area + with_nsm * nsm) * w;
@@ -679,7 +682,7 @@ fn rod_mass(pts: &[(f64, f64, [f64; 3])], rho: f64, with_nsm: f64, kind: MassKin
 }
 
 /// Axial and torsional stiffness `(1/∫ds/EA, 1/∫ds/GJ)` per unit `E`.
-fn rod_stiffness(pts: &[(f64, f64, [f64; 3])], nu: f64, torsion: bool) -> (f64, f64) {
+fn rod_stiffness(pts: &[RodPoint], nu: f64, torsion: bool) -> (f64, f64) {
     let fa: f64 = pts.iter().map(|(_, w, [a, _, _])| w / a).sum();
     let ft: f64 = pts.iter().map(|(_, w, [_, j, _])| w / j).sum();
     let g = 1.0 / (2.0 * (1.0 + nu));
