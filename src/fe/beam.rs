@@ -230,7 +230,7 @@ pub struct EndConditions {
 }
 
 impl EndConditions {
-    fn released(&self) -> Vec<usize> {
+    pub(super) fn released(&self) -> Vec<usize> {
         (0..12)
             .filter(|&i| {
                 if i < 6 {
@@ -280,7 +280,7 @@ fn bad(field: &'static str, value: f64, hint: &'static str) -> ElementError {
     ElementError::BadValue { field, value, hint }
 }
 
-fn poisson(nu: f64) -> Result<f64, ElementError> {
+pub(super) fn poisson(nu: f64) -> Result<f64, ElementError> {
     if nu.is_finite() && nu > -1.0 && nu < 0.5 {
         Ok(nu)
     } else {
@@ -494,7 +494,7 @@ impl Section {
     }
 
     /// Properties and their derivative by `p` (zero for a material parameter).
-    fn evaluate(
+    pub(super) fn evaluate(
         &self,
         nu: f64,
         p: Option<BeamParameter>,
@@ -724,7 +724,7 @@ pub fn beam_frame(x1: [f64; 3], x2: [f64; 3], v: [f64; 3]) -> Result<BeamFrame, 
 }
 
 /// Arithmetic the local kernel needs; implemented by `f64` and by [`Dual`].
-trait Scalar:
+pub(super) trait Scalar:
     Copy
     + Add<Output = Self>
     + Sub<Output = Self>
@@ -743,9 +743,9 @@ impl Scalar for f64 {
 
 /// Dual number `v + d ε` with `ε² = 0`: forward-mode derivative carried beside the value.
 #[derive(Clone, Copy, Debug, PartialEq)]
-struct Dual {
-    v: f64,
-    d: f64,
+pub(super) struct Dual {
+    pub(super) v: f64,
+    pub(super) d: f64,
 }
 
 impl Add for Dual {
@@ -824,13 +824,13 @@ struct Scalars<T> {
 }
 
 /// Local DOFs of the `x–y` bending plane (`uy1 rz1 uy2 rz2`) and their signs.
-const XY_DOFS: [usize; 4] = [1, 5, 7, 11];
-const XY_SIGNS: [f64; 4] = [1.0, 1.0, 1.0, 1.0];
+pub(super) const XY_DOFS: [usize; 4] = [1, 5, 7, 11];
+pub(super) const XY_SIGNS: [f64; 4] = [1.0, 1.0, 1.0, 1.0];
 /// Local DOFs of the `x–z` bending plane (`uz1 ry1 uz2 ry2`); `ry = −dw/dx` flips its sign.
-const XZ_DOFS: [usize; 4] = [2, 4, 8, 10];
-const XZ_SIGNS: [f64; 4] = [1.0, -1.0, 1.0, -1.0];
+pub(super) const XZ_DOFS: [usize; 4] = [2, 4, 8, 10];
+pub(super) const XZ_SIGNS: [f64; 4] = [1.0, -1.0, 1.0, -1.0];
 
-fn scatter<T: Scalar>(
+pub(super) fn scatter<T: Scalar>(
     target: &mut [[T; 12]; 12],
     block: &[[T; 4]; 4],
     dofs: [usize; 4],
@@ -848,7 +848,7 @@ fn scatter<T: Scalar>(
     }
 }
 
-fn pair<T: Scalar>(target: &mut [[T; 12]; 12], i: usize, j: usize, diag: T, off: T) {
+pub(super) fn pair<T: Scalar>(target: &mut [[T; 12]; 12], i: usize, j: usize, diag: T, off: T) {
     target[i][i] = target[i][i] + diag;
     target[j][j] = target[j][j] + diag;
     target[i][j] = target[i][j] + off;
@@ -980,7 +980,7 @@ fn local_matrices<T: Scalar>(
 }
 
 /// `Tᵀ A T` for `T = diag(R, R, R, R)`, symmetrised, as a faer matrix.
-fn to_basic(a: &[[f64; 12]; 12], r: &[[f64; 3]; 3]) -> Result<Mat<f64>, ElementError> {
+pub(super) fn to_basic(a: &[[f64; 12]; 12], r: &[[f64; 3]; 3]) -> Result<Mat<f64>, ElementError> {
     let mut out = [[0.0f64; 12]; 12];
     for bi in 0..4 {
         for bj in 0..4 {
@@ -1026,13 +1026,13 @@ fn scalars_f64(d: &BeamData, p: &SectionProperties) -> Scalars<f64> {
 }
 
 /// A local stiffness and mass pair.
-type LocalPair<T> = ([[T; 12]; 12], [[T; 12]; 12]);
+pub(super) type LocalPair<T> = ([[T; 12]; 12], [[T; 12]; 12]);
 
 /// Static condensation of the released local DOFs `p` (see the module doc): `K_c`, `Tᵀ M T`.
 /// `K_pp` is symmetric positive definite when the releases leave no mechanism, so elimination
 /// without pivoting is stable; a pivot at or below `1e-10` of the largest diagonal entry of the
 /// (value of the) stiffness means a mechanism.
-fn condense<T: Scalar>(
+pub(super) fn condense<T: Scalar>(
     k: &[[T; 12]; 12],
     m: &[[T; 12]; 12],
     p: &[usize],
@@ -1125,7 +1125,7 @@ fn condense<T: Scalar>(
 
 /// `T_wᵀ A T_w` for the rigid offsets of the ends (see the module doc); `A` as it is when both
 /// offsets are zero.
-fn offset_grid(a: Mat<f64>, ends: &EndConditions) -> Mat<f64> {
+pub(super) fn offset_grid(a: Mat<f64>, ends: &EndConditions) -> Mat<f64> {
     if !ends.has_offset() {
         return a;
     }
@@ -1143,7 +1143,7 @@ fn offset_grid(a: Mat<f64>, ends: &EndConditions) -> Mat<f64> {
     Mat::from_fn(12, 12, |i, j| 0.5 * (out[(i, j)] + out[(j, i)]))
 }
 
-fn ends_frame(
+pub(super) fn ends_frame(
     x1: [f64; 3],
     x2: [f64; 3],
     v: [f64; 3],

@@ -3,6 +3,7 @@
 
 use super::assembly::{AssemblyInfo, Contribution, assemble_points, node_index};
 use super::beam::{BeamData, EndConditions, Section, beam2_with_ends};
+use super::beam_tapered::{PropertyTaper, TaperedBeam, TaperedRod, tapered_beam2, tapered_rod2};
 use super::element::{ElementError, ElementMatrices, MassKind};
 use super::lumped_elements::{LumpedMass, SpringEnds, conm2, scalar_spring, spring6};
 use super::multipoint::{DependentDof, MultipointError, eliminate, independent_dofs, resolve};
@@ -160,6 +161,18 @@ fn rod_data(model: &Model, section: &crate::model::RodSection) -> super::rod::Ro
         j: p.j,
         nsm: p.nsm,
     }
+}
+
+/// The taper and NSM of a tapered tube (PTUBE with OD2 ≠ OD); `None` for a uniform rod.
+fn rod_taper(
+    model: &Model,
+    section: &crate::model::RodSection,
+) -> Option<(crate::model::TubeTaper, f64)> {
+    let p = match section {
+        crate::model::RodSection::Property(id) => &model.rod_properties[id],
+        crate::model::RodSection::Own(p) => p,
+    };
+    p.taper.map(|t| (t, p.nsm))
 }
 
 /// The kernel material of solid property `property` (references already validated): a MAT1's
@@ -340,6 +353,22 @@ fn basic_element_matrices(
         } => {
             let p = &model.beam_properties[property];
             let mat = &model.materials[&p.material];
+            if let Some(taper) = PropertyTaper::new(p, mat.nu) {
+                let b = TaperedBeam {
+                    e: mat.e,
+                    nu: mat.nu,
+                    rho: mat.rho,
+                    taper: &taper,
+                };
+                return tapered_beam2(
+                    xyz(&nodes[0]),
+                    xyz(&nodes[1]),
+                    *orientation,
+                    &b,
+                    mass,
+                    &kernel_ends(ends)?,
+                );
+            }
             let d = BeamData {
                 e: mat.e,
                 nu: mat.nu,
@@ -356,12 +385,28 @@ fn basic_element_matrices(
                 &kernel_ends(ends)?,
             )
         }
-        Element::Rod { nodes, section } => super::rod::rod2(
-            xyz(&nodes[0]),
-            xyz(&nodes[1]),
-            &rod_data(model, section),
-            mass,
-        ),
+        Element::Rod { nodes, section } => match rod_taper(model, section) {
+            Some((taper, nsm)) => {
+                let d = rod_data(model, section);
+                let at = |xi: f64| {
+                    let (area, j) = taper.at(xi);
+                    (area, j, nsm)
+                };
+                let r = TaperedRod {
+                    e: d.e,
+                    nu: d.nu,
+                    rho: d.rho,
+                    at: &at,
+                };
+                tapered_rod2(xyz(&nodes[0]), xyz(&nodes[1]), &r, mass)
+            }
+            None => super::rod::rod2(
+                xyz(&nodes[0]),
+                xyz(&nodes[1]),
+                &rod_data(model, section),
+                mass,
+            ),
+        },
         Element::Solid {
             kind,
             nodes,
@@ -933,6 +978,31 @@ fn element_derivative(
         } => {
             let bp = &model.beam_properties[property];
             let mat = &model.materials[&bp.material];
+            if let Some(taper) = PropertyTaper::new(bp, mat.nu) {
+                let p = match parameter.kind {
+                    P::YoungsModulus => BeamParameter::YoungsModulus,
+                    P::Density => BeamParameter::Density,
+                    P::BeamWidth => BeamParameter::Width,
+                    P::BeamHeight => BeamParameter::Height,
+                    _ => return Err(not_applicable()),
+                };
+                let b = TaperedBeam {
+                    e: mat.e,
+                    nu: mat.nu,
+                    rho: mat.rho,
+                    taper: &taper,
+                };
+                return super::beam_tapered::tapered_beam2_derivative(
+                    xyz(&nodes[0]),
+                    xyz(&nodes[1]),
+                    *orientation,
+                    &b,
+                    mass,
+                    p,
+                    &kernel_ends(ends).map_err(err)?,
+                )
+                .map_err(err);
+            }
             let section = kernel_section(&bp.section);
             let p = match (&parameter.kind, &section) {
                 (P::YoungsModulus, _) => BeamParameter::YoungsModulus,
@@ -967,14 +1037,36 @@ fn element_derivative(
                 P::Density => RodParameter::Density,
                 _ => return Err(not_applicable()),
             };
-            super::rod::rod2_derivative(
-                xyz(&nodes[0]),
-                xyz(&nodes[1]),
-                &rod_data(model, section),
-                mass,
-                p,
-            )
-            .map_err(err)?
+            if let Some((taper, nsm)) = rod_taper(model, section) {
+                let d = rod_data(model, section);
+                let at = |xi: f64| {
+                    let (area, j) = taper.at(xi);
+                    (area, j, nsm)
+                };
+                let r = TaperedRod {
+                    e: d.e,
+                    nu: d.nu,
+                    rho: d.rho,
+                    at: &at,
+                };
+                super::beam_tapered::tapered_rod2_derivative(
+                    xyz(&nodes[0]),
+                    xyz(&nodes[1]),
+                    &r,
+                    mass,
+                    p,
+                )
+                .map_err(err)?
+            } else {
+                super::rod::rod2_derivative(
+                    xyz(&nodes[0]),
+                    xyz(&nodes[1]),
+                    &rod_data(model, section),
+                    mass,
+                    p,
+                )
+                .map_err(err)?
+            }
         }
         Element::Solid {
             kind,

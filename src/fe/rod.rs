@@ -67,7 +67,7 @@ pub enum RodParameter {
 }
 
 /// The unit axis and length of a rod; an error for coincident or non-finite ends.
-fn axis(x1: [f64; 3], x2: [f64; 3]) -> Result<([f64; 3], f64), ElementError> {
+pub(super) fn axis(x1: [f64; 3], x2: [f64; 3]) -> Result<([f64; 3], f64), ElementError> {
     let d = [x2[0] - x1[0], x2[1] - x1[1], x2[2] - x1[2]];
     let l = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
     let scale = x1.iter().chain(&x2).fold(0.0f64, |a, v| a.max(v.abs()));
@@ -80,7 +80,7 @@ fn axis(x1: [f64; 3], x2: [f64; 3]) -> Result<([f64; 3], f64), ElementError> {
 }
 
 /// `ka [[P, −P], [−P, P]]` on the translations plus the same with `kt` on the rotations.
-fn stiffness(e: [f64; 3], ka: f64, kt: f64) -> Mat<f64> {
+pub(super) fn stiffness(e: [f64; 3], ka: f64, kt: f64) -> Mat<f64> {
     Mat::from_fn(12, 12, |r, c| {
         let (a, b) = (r % 6, c % 6);
         if (a < 3) != (b < 3) {

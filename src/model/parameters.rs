@@ -395,9 +395,18 @@ impl Model {
                 Slot::BeamDim(pid, d) => {
                     let bp = self.beam_properties.get_mut(&pid).ok_or_else(broken)?;
                     if let BeamSection::Rectangle { width, height } = &mut bp.section {
-                        match d {
-                            Dim::Width => *width = value,
-                            Dim::Height => *height = value,
+                        // A tapered BAR (PBEAML stations): the value is end A's, and the
+                        // dimension scales at every station in proportion.
+                        let (slot, i) = match d {
+                            Dim::Width => (width, 0),
+                            Dim::Height => (height, 1),
+                        };
+                        let ratio = value / *slot;
+                        *slot = value;
+                        for st in bp.taper.iter_mut().flat_map(|t| t.stations.iter_mut()) {
+                            if let Some(v) = st.values.get_mut(i) {
+                                *v = if st.x == 0.0 { value } else { *v * ratio };
+                            }
                         }
                     }
                 }

@@ -429,6 +429,42 @@ pub fn hat_section(d: [f64; 4]) -> Result<SectionValues, SectionError> {
     ))
 }
 
+/// The values of a PBARL/PBEAML library section other than BAR, ROD, TUBE and TUBE2 (which
+/// are femu's own sections) from its dimensions `d` (as many as the type has); `None` for a
+/// type not in this list.
+pub fn library_values(kind: &str, d: &[f64]) -> Option<Result<SectionValues, SectionError>> {
+    let four = || [d[0], d[1], d[2], d[3]];
+    let six = || [d[0], d[1], d[2], d[3], d[4], d[5]];
+    let n = match kind {
+        "I" | "BOX1" => 6,
+        "I1" | "T" | "T1" | "T2" | "L" | "CHAN" | "CHAN1" | "CHAN2" | "BOX" | "H" | "CROSS"
+        | "Z" | "HAT" => 4,
+        _ => return None,
+    };
+    if d.len() < n {
+        return Some(Err(SectionError {
+            what: format!("a {kind} section has {n} dimensions, {} given", d.len()),
+        }));
+    }
+    Some(match kind {
+        "I" => i_section(six()),
+        "I1" => i1_section(four()),
+        "T" => t_section(four()),
+        "T1" => t1_section(four()),
+        "T2" => t2_section(four()),
+        "L" => l_section(four()),
+        "CHAN" => chan_section(four()),
+        "CHAN1" => chan1_section(four()),
+        "CHAN2" => chan2_section(four()),
+        "BOX" => box_section(four()),
+        "BOX1" => box1_section(six()),
+        "H" => h_section(four()),
+        "CROSS" => cross_section(four()),
+        "Z" => z_section(four()),
+        _ => hat_section(four()),
+    })
+}
+
 /// A section turned to its principal axes: the values about them, and the angle `θ` (rad,
 /// `|θ| ≤ π/4`) from the element `y` axis to the principal axis that becomes the new `y`,
 /// positive from `y` towards `z`. With `S = [[I1, I12], [I12, I2]]`,

@@ -147,6 +147,41 @@ pub struct RodProperty {
     pub c: f64,
     /// Non-structural mass per length, kg/m.
     pub nsm: f64,
+    /// A tapered tube (PTUBE with OD2 ≠ OD): `area`, `j` and `nsm` are then end A's values.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub taper: Option<TubeTaper>,
+}
+
+/// A tapered PTUBE: the outer diameter varies linearly from `od_a` at end A to `od_b` at end B,
+/// the wall thickness `t` is constant (0: a solid rod).
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct TubeTaper {
+    /// Outer diameter at end A (OD), m.
+    pub od_a: f64,
+    /// Outer diameter at end B (OD2), m.
+    pub od_b: f64,
+    /// Wall thickness (T), m; 0 for a solid rod.
+    pub t: f64,
+}
+
+impl TubeTaper {
+    /// Area and polar moment of a tube of outer diameter `od` and wall `t` as Nastran's PTUBE:
+    /// `A = π (OD − T) T` (solid, `T = 0`: `π OD²/4`), `J = π (OD⁴ − ID⁴)/32`, `ID = OD − 2T`.
+    pub fn section(od: f64, t: f64) -> (f64, f64) {
+        let id = if t == 0.0 { 0.0 } else { od - 2.0 * t };
+        let area = if t == 0.0 {
+            std::f64::consts::PI * od * od / 4.0
+        } else {
+            std::f64::consts::PI * (od - t) * t
+        };
+        let j = std::f64::consts::PI * (od.powi(4) - id.powi(4)) / 32.0;
+        (area, j)
+    }
+
+    /// Area and polar moment at `xi` (0: end A, 1: end B).
+    pub fn at(&self, xi: f64) -> (f64, f64) {
+        TubeTaper::section(self.od_a + xi * (self.od_b - self.od_a), self.t)
+    }
 }
 
 fn is_zero(v: &f64) -> bool {
@@ -329,6 +364,33 @@ pub struct BeamProperty {
     pub material: u64,
     /// Cross-section.
     pub section: BeamSection,
+    /// Non-structural mass per length, kg/m.
+    pub nsm: f64,
+    /// A tapered beam's stations (PBEAM, PBEAML); `None`: the section is constant. `section`
+    /// and `nsm` then hold end A's values.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub taper: Option<BeamTaper>,
+}
+
+/// The stations of a tapered beam, from end A (`x = 0`) to end B (`x = 1`), with what varies
+/// linearly between them (Nastran PBEAM, PBEAML).
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct BeamTaper {
+    /// PBEAML: the library type whose dimensions vary linearly (the properties follow from
+    /// them at each point); `None`: PBEAM, whose `A, I1, I2, J` vary linearly.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub library: Option<String>,
+    /// Stations by increasing `x`, the first at 0 (end A) and the last at 1 (end B).
+    pub stations: Vec<BeamStation>,
+}
+
+/// One station of a tapered beam.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct BeamStation {
+    /// Distance from end A over the length (Nastran X/XB), in `[0, 1]`.
+    pub x: f64,
+    /// PBEAML: DIM1, DIM2, …; PBEAM: `A, I1, I2, J` (m², m⁴).
+    pub values: Vec<f64>,
     /// Non-structural mass per length, kg/m.
     pub nsm: f64,
 }

@@ -1002,6 +1002,7 @@ mod tests {
             j: 2e-9,
             c: 0.01,
             nsm: 0.3,
+            taper: None,
         };
         m.rod_properties.insert(5, section.clone());
         m.elements.insert(

@@ -5,7 +5,9 @@
 //! - shell thickness → PSHELL `T`; Young's modulus and density (of shells, beams, rods, solids)
 //!   → MAT1 `E` and `RHO`, density of a solid's MAT9 → MAT9 `RHO` (with `G`
 //!   kept consistent, `E = 2(1 + ν)G`, when the card gives it; `RHO` divided by `PARAM,WTMASS`);
-//!   beam width and height → PBARL/PBEAML `BAR` `DIM1`/`DIM2`;
+//!   beam width and height → PBARL/PBEAML `BAR` `DIM1`/`DIM2` (not of a tapered beam: a
+//!   changed section of a PBEAM/PBEAML with stations, or of a tapered PTUBE, is an error
+//!   naming the card, which is left as it was);
 //! - bush stiffness → PBUSH `K1`–`K6`, scalar spring stiffness → CELAS2 `K` or PELAS `K1`/`K2`;
 //! - lumped mass → CONM2 `M` and `I11`/`I22`/`I33` (divided by WTMASS);
 //! - laminates: shell thickness → every ply's `Ti` (and an explicit `Z0`) of the PCOMP/PCOMPG,
@@ -773,6 +775,12 @@ fn properties(
             if p.material != p0.material {
                 w.set(i, 2, "MID", mid_text(p.material));
             }
+            if p0.taper.is_some() && (p.section != p0.section || p.taper != p0.taper) {
+                return Err(w.unsupported(
+                    i,
+                    "the section of a tapered beam (PBEAM/PBEAML with stations) changed; its stations cannot be written back (only its material can), so the card is left as it is",
+                ));
+            }
             if p.section != p0.section {
                 beam_section(w, i, &p0.section, &p.section)?;
             }
@@ -783,7 +791,7 @@ fn properties(
             if p.material != p0.material {
                 w.set(i, 2, "MID", mid_text(p.material));
             }
-            if (p.area, p.j, p.nsm) != (p0.area, p0.j, p0.nsm) {
+            if (p.area, p.j, p.nsm, p.taper) != (p0.area, p0.j, p0.nsm, p0.taper) {
                 return Err(w.unsupported(i, "rod sections cannot be written back"));
             }
         } else if let (Some(p), Some(p0)) = (
@@ -949,7 +957,7 @@ fn elements(
                     ..
                 },
             ) if p != p0 => {
-                if (p.area, p.j, p.nsm) != (p0.area, p0.j, p0.nsm) {
+                if (p.area, p.j, p.nsm, p.taper) != (p0.area, p0.j, p0.nsm, p0.taper) {
                     return Err(w.unsupported(i, "rod sections cannot be written back"));
                 }
                 let text = new_materials
@@ -1677,5 +1685,34 @@ mod tests {
             let back = parse_real(&s).unwrap();
             assert!((back - x).abs() <= 1e-10 * x.abs(), "{x} -> {s}");
         }
+    }
+    /// A tapered PBEAML BAR: a width parameter scales every station's DIM1 (end A's is the
+    /// value), which the write-back refuses, naming the card; a density update of the same
+    /// beam is written (to the MAT1) and reads back.
+    #[test]
+    fn tapered_beams_are_not_corrupted() {
+        let dir = tempfile::tempdir().unwrap();
+        let top = dir.path().join("main.bdf");
+        let text = "MAT1,1,2.1+11,,.3,7850.\nGRID,1,,0.,0.,0.,,123456\nGRID,2,,1.,0.,0.\nPBEAML,7,1,,BAR\n,.05,.1,.5,NO,.5,.045,.08,.4\n,YES,,.04,.06,.3\nCBEAM,1,7,1,2,0.,1.,0.\nENDDATA\n";
+        std::fs::write(&top, text).unwrap();
+        let model = read_bulk(&top).unwrap().model;
+        let deck = read_deck(&top).unwrap();
+        let mut new = model.clone();
+        new.set_parameter_value(&param("w", ParameterKind::BeamWidth, "pid7"), 0.06)
+            .unwrap();
+        let st = &new.beam_properties[&7].taper.as_ref().unwrap().stations;
+        let dim1: Vec<f64> = st.iter().map(|s| s.values[0]).collect();
+        assert_eq!(dim1[0], 0.06);
+        assert!((dim1[1] - 0.054).abs() < 1e-15 && (dim1[2] - 0.048).abs() < 1e-15);
+        let e = update_deck(&deck, &model, &new, &["test".to_string()])
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("PBEAML 7") && e.contains("tapered"), "{e}");
+        let mut new = model.clone();
+        new.set_parameter_value(&param("rho", ParameterKind::Density, "pid7"), 7000.0)
+            .unwrap();
+        let out = update_deck(&deck, &model, &new, &["test".to_string()]).unwrap();
+        let back = read_bulk(written(dir.path(), &out)).unwrap().model;
+        assert_eq!(back, new);
     }
 }

@@ -2,13 +2,14 @@
 //! [`crate::model::import::nastran::parse_bulk`] reads back to the same model.
 //!
 //! Cards written, in this order, each group by ascending id: MAT1, MAT9, PSHELL, PBAR (general
-//! sections) and PBARL (BAR, ROD, TUBE), PROD, PSOLID (each with material axes preceded by a
+//! sections) and PBARL (BAR, ROD, TUBE), or for a tapered property PBEAM (general) or PBEAML
+//! (library type) with every station (SO = NO), PROD (PTUBE for a tapered tube), PSOLID (each with material axes preceded by a
 //! CORD2R of a fresh id holding them, named in CORDM), PBUSH (one per bush, ids above every
 //! property id; a B line when the bush damps), PVISC (one per viscous damper, ids after the
 //! PBUSHes), CORD2R (one per bush with an element system), CORD2R (one per distinct
 //! displacement system), GRID (basic coordinates, CD), SPOINT (scalar points), CQUAD4, CTRIA3,
-//! CHEXA, CPENTA, CTETRA, CPYRAM, CBAR (orientation X1–X3), CROD (a rod with a
-//! property) or CONROD (a rod with its own section), CBUSH (CID 0, or its CORD2R), CELAS2,
+//! CHEXA, CPENTA, CTETRA, CPYRAM, CBAR (orientation X1–X3; CBEAM, same fields, for a tapered
+//! property), CROD (a rod with a property; CTUBE for a tapered tube) or CONROD (a rod with its own section), CBUSH (CID 0, or its CORD2R), CELAS2,
 //! CMASS2, CDAMP2, CVISC, CONM1 (CID 0), CONM2 (CID 0), SPC1
 //! (SID 1, one card per component list), MPC (SID 1, one card per multipoint constraint
 //! `u_d = Σ cᵢ uᵢ` as `1·u_d − Σ cᵢ uᵢ = 0`, preceded by a comment naming the card it came
@@ -35,7 +36,7 @@
 //! - Non-finite values are written as `NaN`/`inf`, which the reader rejects.
 
 use crate::core::Component;
-use crate::model::structure::{BeamProperty, BeamSection, Element, Model, RodSection};
+use crate::model::structure::{BeamProperty, BeamSection, BeamTaper, Element, Model, RodSection};
 use std::collections::{BTreeMap, BTreeSet};
 use std::fmt::Write;
 
@@ -184,7 +185,7 @@ pub fn write_bulk(model: &Model) -> String {
     for (&id, e) in &model.elements {
         match model.shell_placements.get(&id) {
             Some(pl) => write_placed_shell(&mut out, id, e, pl, &axes),
-            None => write_element(&mut out, id, e, &bush_pid),
+            None => write_element(&mut out, model, id, e, &bush_pid),
         }
     }
     write_constraints(&mut out, model);
@@ -291,6 +292,21 @@ fn write_materials_and_properties(out: &mut String, model: &Model) {
         write_beam_property(out, id, p);
     }
     for (&id, p) in &model.rod_properties {
+        if let Some(t) = p.taper {
+            card(
+                out,
+                "PTUBE",
+                vec![
+                    F::Int(id),
+                    F::Int(p.material),
+                    F::Real(t.od_a),
+                    F::Real(t.t),
+                    F::Real(p.nsm),
+                    F::Real(t.od_b),
+                ],
+            );
+            continue;
+        }
         card(
             out,
             "PROD",
@@ -458,8 +474,62 @@ fn write_placed_shell(
     card(out, name, f);
 }
 
+/// A tapered beam property: PBEAML (dimensions) or PBEAM (properties, K1/K2 from the
+/// section) with every station after end A, SO = NO.
+fn write_tapered_beam_property(out: &mut String, id: u64, p: &BeamProperty, t: &BeamTaper) {
+    let Some(a) = t.stations.first() else {
+        return;
+    };
+    let rest = &t.stations[1..];
+    if let Some(kind) = &t.library {
+        let mut f = vec![
+            F::Int(id),
+            F::Int(p.material),
+            F::Blank,
+            F::Text(kind.clone()),
+            F::Blank,
+            F::Blank,
+            F::Blank,
+            F::Blank,
+        ];
+        f.extend(a.values.iter().map(|v| F::Real(*v)));
+        f.push(F::Real(a.nsm));
+        for s in rest {
+            f.extend([F::Text("NO".into()), F::Real(s.x)]);
+            f.extend(s.values.iter().map(|v| F::Real(*v)));
+            f.push(F::Real(s.nsm));
+        }
+        card(out, "PBEAML", f);
+        return;
+    }
+    let (k1, k2) = match p.section {
+        BeamSection::General {
+            shear_y, shear_z, ..
+        } => (shear_y, shear_z),
+        _ => (0.0, 0.0),
+    };
+    // A I1 I2 I12 J NSM from the stored A I1 I2 J.
+    let props = |s: &crate::model::BeamStation| -> Vec<F> {
+        let v = |i: usize| F::Real(s.values.get(i).copied().unwrap_or(0.0));
+        vec![v(0), v(1), v(2), F::Real(0.0), v(3), F::Real(s.nsm)]
+    };
+    let mut f = vec![F::Int(id), F::Int(p.material)];
+    f.extend(props(a));
+    f.extend((0..8).map(|_| F::Blank));
+    for s in rest {
+        f.extend([F::Text("NO".into()), F::Real(s.x)]);
+        f.extend(props(s));
+    }
+    f.extend([F::Real(k1), F::Real(k2)]);
+    card(out, "PBEAM", f);
+}
+
 /// A beam property: PBARL for the BAR, ROD and TUBE sections, PBAR for a general one.
 fn write_beam_property(out: &mut String, id: u64, p: &BeamProperty) {
+    if let Some(t) = &p.taper {
+        write_tapered_beam_property(out, id, p, t);
+        return;
+    }
     let head = |kind: &str| {
         vec![
             F::Int(id),
@@ -588,7 +658,13 @@ fn write_bush_properties(
 
 /// One element card; a bush refers to its PBUSH id and CORD2R id in `bush_pid` (a viscous
 /// damper to its PVISC id).
-fn write_element(out: &mut String, id: u64, e: &Element, bush_pid: &BTreeMap<u64, (u64, u64)>) {
+fn write_element(
+    out: &mut String,
+    model: &Model,
+    id: u64,
+    e: &Element,
+    bush_pid: &BTreeMap<u64, (u64, u64)>,
+) {
     match e {
         Element::Quad4 { nodes, property } => {
             let mut f = vec![F::Int(id), F::Int(*property)];
@@ -650,12 +726,25 @@ fn write_element(out: &mut String, id: u64, e: &Element, bush_pid: &BTreeMap<u64
                         .map(|v| F::Real(*v)),
                 );
             }
-            card(out, "CBAR", f);
+            // A tapered property is a PBEAM/PBEAML, which CBEAM names (same fields as CBAR).
+            let tapered = model
+                .beam_properties
+                .get(property)
+                .is_some_and(|p| p.taper.is_some());
+            card(out, if tapered { "CBEAM" } else { "CBAR" }, f);
         }
         Element::Rod { nodes, section } => match section {
             RodSection::Property(pid) => card(
                 out,
-                "CROD",
+                if model
+                    .rod_properties
+                    .get(pid)
+                    .is_some_and(|p| p.taper.is_some())
+                {
+                    "CTUBE"
+                } else {
+                    "CROD"
+                },
                 vec![F::Int(id), F::Int(*pid), F::Int(nodes[0]), F::Int(nodes[1])],
             ),
             RodSection::Own(p) => card(
@@ -956,6 +1045,7 @@ mod tests {
                     material: 2,
                     section: s,
                     nsm: 0.1 * i as f64,
+                    taper: None,
                 },
             );
         }
@@ -993,6 +1083,7 @@ mod tests {
                 j: 1.0e-9,
                 c: 0.004,
                 nsm: 0.02,
+                taper: None,
             },
         );
         m.elements.insert(
@@ -1012,6 +1103,7 @@ mod tests {
                     j: 0.0,
                     c: 0.0,
                     nsm: 0.0,
+                    taper: None,
                 }),
             },
         );

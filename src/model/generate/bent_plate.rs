@@ -113,6 +113,7 @@ pub fn bent_plate(p: &BentPlate) -> Model {
                     height: p.bar_width,
                 },
                 nsm: 0.0,
+                taper: None,
             },
         );
         let (a, b) = (id(0, 0), id(nx, ny));

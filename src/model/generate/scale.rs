@@ -193,6 +193,7 @@ pub fn three_plate_two_beam(h: f64) -> Model {
                 height: 0.04,
             },
             nsm: 0.0,
+            taper: None,
         },
     );
     let (lx, ly, gap) = (1.2, 0.6, 0.3);

@@ -59,6 +59,7 @@ pub fn three_beam(p: &ThreeBeam) -> Model {
                 height: 0.008,
             },
             nsm: 0.0,
+            taper: None,
         },
     );
     let gap = 0.008;

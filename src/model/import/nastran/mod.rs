@@ -39,8 +39,8 @@
 //!
 //! Values femu's elements cannot take are refused at the card, so that `femu validate` finds
 //! them: MAT1 E > 0 (given or derived), G ≥ 0, −1 < NU ≤ 0.5 (< 0.5 for shells), RHO ≥ 0;
-//! PSHELL T, 12I/T³, TS/T > 0; PBAR/PBEAM A, I1, I2 > 0, J, K1, K2 ≥ 0; PROD/CONROD A > 0,
-//! J ≥ 0; PTUBE OD > 0, 0 ≤ T ≤ OD/2; NSM ≥ 0; spring stiffnesses ≥ 0; CONM2
+//! PSHELL T, 12I/T³, TS/T > 0; PBAR/PBEAM A, I1, I2 > 0, J, K1, K2 ≥ 0 (at every station);
+//! PROD/CONROD A > 0, J ≥ 0; PTUBE OD, OD2 > 0, 0 ≤ T ≤ OD/2, OD2/2; NSM ≥ 0; spring stiffnesses ≥ 0; CONM2
 //! mass ≥ 0. Every element is then checked as the assembly would check it, naming its card.
 //!
 //! Deviations from Nastran, each stated where it happens:
@@ -111,7 +111,11 @@
 //!   (ρA + NSM)L, Nastran's lumped rod mass (half per end on the translations) or coupled mass
 //!   (`m/6 [[2, 1], [1, 2]]` on all three translations), no torsional inertia (as Nastran). C
 //!   (torsional stress coefficient) is kept for write-back only. PTUBE: A = π(OD − T)T,
-//!   J = π(OD⁴ − ID⁴)/32, T blank or 0 a solid rod; OD2 ≠ OD (tapered) is an error. CROD must
+//!   J = π(OD⁴ − ID⁴)/32, T blank or 0 a solid rod. OD2 ≠ OD (blank or 0: OD) is a tapered tube:
+//!   OD linear from end A to end B at constant T, `A(x)` and `J(x)` from the same formulas,
+//!   stiffness `1/∫ ds/EA` and `1/∫ ds/GJ` (exact for the taper), mass `∫ m̄ NᵢNⱼ` (consistent) or
+//!   split by the first moment (lumped); Nastran's own treatment of OD2 is not specified in the
+//!   QRG. CROD must
 //!   name a PROD and CTUBE a PTUBE (PID blank: the EID). CONROD has no property id: its section
 //!   is the element's own, so it is in no `pid<N>` set (name it in a SET1 to update it).
 //! - PBAR: I1 (plane 1) is the second moment about the element z axis, I2 about y; K1/K2 blank
@@ -129,12 +133,29 @@
 //!   orientation vectors turn by the same angle, and it has no shear flexibility (PBAR remark
 //!   4: K1/K2 are ignored when I12 ≠ 0); a pin releasing one bending direction of such an
 //!   element is an error. Like Nastran, PBARL puts the neutral axis on the shear centre.
-//! - PBEAML: the end-A dimensions and NSM; later stations must repeat them (blank or equal) —
-//!   a tapered beam is an error. Only sections whose shear centre is the centroid (doubly
-//!   symmetric, and Z) are read: Nastran's CBEAM offsets the neutral axis from the shear centre
-//!   on the grid line, which femu's beam does not; others are errors.
-//! - PBEAM: end A only; stations must repeat the end-A values (blank or equal) — a tapered beam
-//!   is an error. K1/K2 default 1.0 (0 = no shear flexibility). I12 ≠ 0 is an error; NSI, CW and
+//! - Tapered beams (`src/fe/beam_tapered.rs`): the stations of a PBEAM or PBEAML (SO, X/XB
+//!   and the station's values; the last station must be end B, X/XB = 1, and X/XB must increase)
+//!   are read. Blank end-B values are end A's; blank values of an intermediate station are
+//!   interpolated linearly between end A and end B at its X/XB (a PBEAML's blank X/XB is 1.0).
+//!   Stations that all repeat end A (to 1e-9 relative) are the uniform beam. PBEAM: `A, I1, I2,
+//!   J` and NSM vary linearly between stations (I12 must be 0 at every station, J > 0 at every
+//!   station or 0 at all); PBEAML: the dimensions and NSM vary linearly and the properties are
+//!   computed from them at each point. The stiffness is the exact flexibility-method matrix of
+//!   the varying Timoshenko beam (K1/K2 as below), the consistent mass integrates the uniform
+//!   element's interpolation against the varying mass and inertia, and the lumped mass puts
+//!   each end's share by the first moment of the mass distribution (total and centre of mass
+//!   exact; half each for a uniform beam, as Nastran). The QRG does not say how Nastran
+//!   integrates a taper, so femu's tapered matrices agree with Nastran's to the accuracy of
+//!   its integration, not digit for digit. The property's `section`/`nsm` hold end A's values.
+//!   Updating: E and density act as on any beam; a tapered BAR's width/height (DIM1/DIM2)
+//!   scale that dimension at every station in proportion (the parameter's value is end A's);
+//!   other section parameters do not apply. The write-back of an update refuses (naming the
+//!   card) to change a tapered property's section.
+//! - PBEAML: only sections whose shear centre is the centroid (doubly symmetric, and Z) are
+//!   read, at every station: Nastran's CBEAM offsets the neutral axis from the shear centre on
+//!   the grid line, which femu's beam does not; others are errors. A tapered section with a
+//!   product of inertia (Z, whose principal axes would turn along the beam) is an error.
+//! - PBEAM: K1/K2 default 1.0 (0 = no shear flexibility). I12 ≠ 0 is an error; NSI, CW and
 //!   the M/N offsets are ignored with a warning.
 //! - MAT1: a blank E, G or NU is derived from the other two (E = 2(1+NU)G). With only E given,
 //!   NU = 0 (Nastran sets G = 0; femu's isotropic material has G = E/2) with a warning. When all
@@ -206,8 +227,8 @@
 use crate::core::input::{EXCERPT_CHARS, InputError, InputPolicy, excerpt, read_input_with};
 use crate::core::{Component, DofId};
 use crate::model::structure::{
-    BeamEnds, BeamProperty, BeamSection, Element, Material, Model, ModelError, Parameter,
-    ShellProperty,
+    BeamEnds, BeamProperty, BeamSection, BeamStation, BeamTaper, Element, Material, Model,
+    ModelError, Parameter, ShellProperty,
 };
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
@@ -253,6 +274,8 @@ mod tests_rods;
 mod tests_scalars;
 #[cfg(test)]
 mod tests_solids;
+#[cfg(test)]
+mod tests_tapered;
 
 use builder::*;
 use card::*;

@@ -142,6 +142,7 @@ impl Builder {
                     shear_z: k2,
                 },
                 nsm,
+                taper: None,
             },
         );
         Ok(())
@@ -180,6 +181,7 @@ impl Builder {
                 "give I1 and I2 about the principal axes and orient the beam along them",
             ));
         }
+        let mut stations: Vec<(usize, f64, [Option<f64>; 6])> = Vec::new();
         let rows = c.fields.len().div_ceil(8);
         let mut r = 1;
         let mut tail = 0;
@@ -197,20 +199,19 @@ impl Builder {
                         "YES, YESA or NO",
                     ));
                 }
-                c.real(k0 + 1, "X/XB")?;
+                let Some(x) = c.real(k0 + 1, "X/XB")? else {
+                    return Err(c.err(
+                        k0 + 1,
+                        "X/XB",
+                        "the field is blank",
+                        "the station's distance from end A over the length, 0 < X/XB <= 1",
+                    ));
+                };
+                let mut given = [None; 6];
                 for (i, label) in labels.iter().enumerate() {
-                    let given = c.real(k0 + 2 + i, label)?;
-                    if let Some(v) =
-                        given.filter(|v| (v - end_a[i]).abs() > 1e-9 * v.abs().max(end_a[i].abs()))
-                    {
-                        return Err(c.err(
-                            k0 + 2 + i,
-                            label,
-                            format!("{label} = {v} differs from {} at end A (a tapered beam)", end_a[i]),
-                            "only constant sections are supported: repeat the end-A values or leave the station fields blank",
-                        ));
-                    }
+                    given[i] = c.real(k0 + 2 + i, label)?;
                 }
+                stations.push((k0, x, given));
                 r += if so == "YES" { 2 } else { 1 };
                 continue;
             }
@@ -259,6 +260,7 @@ impl Builder {
             }
             r += 1;
         }
+        let taper = pbeam_taper(c, &end_a, &stations)?;
         self.new_property(c, 1, "PID", id)?;
         self.beams.insert(
             id,
@@ -273,6 +275,7 @@ impl Builder {
                     shear_z: k2,
                 },
                 nsm: end_a[5],
+                taper,
             },
         );
         Ok(())
@@ -369,4 +372,98 @@ impl Builder {
             .insert(id, (c.loc.clone(), Material { e, nu, rho }));
         Ok(())
     }
+}
+
+/// The stations of a PBEAM (field of SO, X/XB and the six values `A I1 I2 I12 J NSM`, each
+/// `None` when blank) as a [`BeamTaper`] of `A, I1, I2, J` and NSM; `None` when every station
+/// repeats end A. QRG: the last station is end B (X/XB = 1); blank end-B values are end A's,
+/// blank values of an intermediate station are interpolated linearly between end A and end B.
+pub(super) fn pbeam_taper(
+    c: &Card,
+    end_a: &[f64; 6],
+    stations: &[(usize, f64, [Option<f64>; 6])],
+) -> Result<Option<BeamTaper>, NastranError> {
+    let Some(&(kb, xb, given_b)) = stations.last() else {
+        return Ok(None);
+    };
+    if xb != 1.0 {
+        return Err(c.err(
+            kb + 1,
+            "X/XB",
+            format!("the last station is at X/XB = {xb}"),
+            "the last station is end B: X/XB = 1.0",
+        ));
+    }
+    let end_b: [f64; 6] = std::array::from_fn(|i| given_b[i].unwrap_or(end_a[i]));
+    let labels = ["A", "I1", "I2", "I12", "J", "NSM"];
+    let mut previous = 0.0;
+    let mut out = vec![BeamStation {
+        x: 0.0,
+        values: vec![end_a[0], end_a[1], end_a[2], end_a[4]],
+        nsm: end_a[5],
+    }];
+    let mut js = vec![end_a[4]];
+    for &(k0, x, given) in stations {
+        if !(x > previous && x <= 1.0) {
+            return Err(c.err(
+                k0 + 1,
+                "X/XB",
+                format!("station X/XB = {x} does not follow the previous one ({previous})"),
+                "stations by increasing X/XB in (0, 1], the last at 1.0 (end B)",
+            ));
+        }
+        previous = x;
+        let v: [f64; 6] =
+            std::array::from_fn(|i| given[i].unwrap_or(end_a[i] + x * (end_b[i] - end_a[i])));
+        for (i, must, what) in [
+            (0, true, "a real number > 0"),
+            (1, true, "a real number > 0"),
+            (2, true, "a real number > 0"),
+            (4, false, "a real number >= 0"),
+            (5, false, "a real number >= 0"),
+        ] {
+            if !(v[i] > 0.0 || (!must && v[i] == 0.0)) || !v[i].is_finite() {
+                return Err(c.err(
+                    k0 + 2 + i,
+                    labels[i],
+                    format!("{} = {} at station X/XB = {x}", labels[i], v[i]),
+                    what,
+                ));
+            }
+        }
+        if v[3] != 0.0 {
+            return Err(c.err(
+                k0 + 5,
+                "I12",
+                format!("product of inertia {} at station X/XB = {x} is not supported", v[3]),
+                "give I1 and I2 about the principal axes and orient the beam along them (I12 blank or 0)",
+            ));
+        }
+        js.push(v[4]);
+        if js.iter().any(|j| *j > 0.0) && js.contains(&0.0) {
+            return Err(c.err(
+                k0 + 6,
+                "J",
+                format!("J is 0 at some stations and not at others (J so far: {js:?})"),
+                "J > 0 at every station (end A included), or 0 (blank) at all",
+            ));
+        }
+        out.push(BeamStation {
+            x,
+            values: vec![v[0], v[1], v[2], v[4]],
+            nsm: v[5],
+        });
+    }
+    Ok(uniform_or(out, None))
+}
+
+/// `None` when every station repeats end A (to 1e-9 relative, as a deck's printed digits
+/// allow), else the taper.
+pub(super) fn uniform_or(stations: Vec<BeamStation>, library: Option<String>) -> Option<BeamTaper> {
+    let same = |a: f64, b: f64| (a - b).abs() <= 1e-9 * a.abs().max(b.abs());
+    let a = &stations[0];
+    let uniform = stations
+        .iter()
+        .all(|s| s.values.iter().zip(&a.values).all(|(u, v)| same(*u, *v)) && same(s.nsm, a.nsm));
+    (!uniform).then_some(BeamTaper { library, stations })
 }

@@ -4,14 +4,16 @@
 //! is the torsional stress coefficient (stress recovery, no effect on `K` or `M`) and `NSM` a
 //! mass per length. PTUBE gives the outer diameter `OD` and wall thickness `T` of a circular
 //! tube (T blank or 0: a solid rod), converted as Nastran does to `A = π (OD − T) T` and the
-//! polar moment `J = π (OD⁴ − ID⁴) / 32`, `ID = OD − 2T`; a tapered tube (OD2 ≠ OD) is an error.
+//! polar moment `J = π (OD⁴ − ID⁴) / 32`, `ID = OD − 2T`. A tapered tube (OD2 ≠ OD) has OD
+//! linear from end A to end B at constant T, its `A(x)`, `J(x)` from the same formulas
+//! (`crate::fe::beam_tapered::tapered_rod2`); `area`/`j` hold end A's.
 //! CROD must name a PROD and CTUBE a PTUBE (checked once every card is read); PID defaults to
 //! EID on both. CONROD has no property id: its section stays with the element (it is in no
 //! `pid<N>` set; updating parameters reach it through a SET1 of element ids, as Nastran's
 //! DVPREL on a CONROD addresses the element).
 
 use super::*;
-use crate::model::structure::{RodProperty, RodSection};
+use crate::model::structure::{RodProperty, RodSection, TubeTaper};
 
 /// What a valid PTUBE T is.
 const PTUBE_T: &str = "0 <= T <= OD/2 (blank or 0: a solid rod)";
@@ -71,16 +73,22 @@ impl Builder {
             ));
         }
         let nsm = c.nonneg_real(5, "NSM", 0.0)?;
-        if let Some(od2) = c.real(6, "OD2")? {
-            if od2 != od {
-                return Err(c.err(
-                    6,
-                    "OD2",
-                    format!("OD2 = {od2} differs from OD = {od} (a tapered tube)"),
-                    "leave OD2 blank or equal to OD: tapered tubes are not supported",
-                ));
-            }
+        // OD2 blank (or 0, as some writers leave it) is OD: a uniform tube.
+        let od2 = c.real_or(6, "OD2", od)?;
+        let od2 = if od2 == 0.0 { od } else { od2 };
+        if od2 < 0.0 || !(0.0..=0.5 * od2).contains(&t) {
+            return Err(c.err(
+                6,
+                "OD2",
+                format!("OD2 = {od2} with wall thickness T = {t}"),
+                "OD2 > 0 with T <= OD2/2 (blank: OD)",
+            ));
         }
+        let taper = (od2 != od).then_some(TubeTaper {
+            od_a: od,
+            od_b: od2,
+            t,
+        });
         let (area, j) = tube_section(od, t);
         self.new_property(c, 1, "PID", id)?;
         self.rods.insert(
@@ -91,6 +99,7 @@ impl Builder {
                 j,
                 c: 0.0,
                 nsm,
+                taper,
             },
         );
         self.tube_pids.insert(id);
@@ -154,17 +163,11 @@ fn rod_section(c: &Card, k: usize) -> Result<RodProperty, NastranError> {
         j: c.nonneg_real(k + 2, "J", 0.0)?,
         c: c.real_or(k + 3, "C", 0.0)?,
         nsm: c.nonneg_real(k + 4, "NSM", 0.0)?,
+        taper: None,
     })
 }
 
 /// Area and polar moment of a circular tube of outer diameter `od` and wall `t` (0: solid).
 pub(super) fn tube_section(od: f64, t: f64) -> (f64, f64) {
-    let id = if t == 0.0 { 0.0 } else { od - 2.0 * t };
-    let area = if t == 0.0 {
-        std::f64::consts::PI * od * od / 4.0
-    } else {
-        std::f64::consts::PI * (od - t) * t
-    };
-    let j = std::f64::consts::PI * (od.powi(4) - id.powi(4)) / 32.0;
-    (area, j)
+    TubeTaper::section(od, t)
 }

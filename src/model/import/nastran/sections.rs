@@ -92,8 +92,6 @@ pub(super) fn library_section(
             format!("dimensions of the {kind} section as the QRG's PBARL figure draws them"),
         )
     };
-    let four = || [d[0], d[1], d[2], d[3]];
-    let six = || [d[0], d[1], d[2], d[3], d[4], d[5]];
     let values: SectionValues = match kind {
         "BAR" => {
             return Ok((
@@ -127,22 +125,11 @@ pub(super) fn library_section(
                 0.0,
             ));
         }
-        "I" => lib::i_section(six()),
-        "I1" => lib::i1_section(four()),
-        "T" => lib::t_section(four()),
-        "T1" => lib::t1_section(four()),
-        "T2" => lib::t2_section(four()),
-        "L" => lib::l_section(four()),
-        "CHAN" => lib::chan_section(four()),
-        "CHAN1" => lib::chan1_section(four()),
-        "CHAN2" => lib::chan2_section(four()),
-        "BOX" => lib::box_section(four()),
-        "BOX1" => lib::box1_section(six()),
-        "H" => lib::h_section(four()),
-        "CROSS" => lib::cross_section(four()),
-        "Z" => lib::z_section(four()),
-        "HAT" => lib::hat_section(four()),
-        _ => unreachable!("library_type admits only the types of TYPES"),
+        _ => lib::library_values(kind, d).unwrap_or_else(|| {
+            Err(SectionError {
+                what: format!("type {kind} is not in femu's library"),
+            })
+        }),
     }
     .map_err(bad)?;
     let (p, theta) = lib::principal(&values);
@@ -207,21 +194,29 @@ impl Builder {
                 material,
                 section,
                 nsm,
+                taper: None,
             },
         );
         Ok(())
     }
 
-    /// PBEAML: the end-A section; later stations (SO, X/XB, DIMi, NSM) must repeat it (blank
-    /// or equal), else the beam is tapered, which femu does not support.
+    /// PBEAML: the end-A section and the stations (SO, X/XB, DIMi, NSM) after it. The QRG's
+    /// reading: X/XB blank is 1.0 (end B), which must be the last station; blank end-B values
+    /// are end A's, blank intermediate ones linear between end A and end B. The dimensions vary
+    /// linearly between stations (see `crate::fe::beam_tapered`).
     pub(super) fn pbeaml(&mut self, c: &Card) -> Result<(), NastranError> {
         let id = c.id(1, "PID")?;
         let material = c.id(2, "MID")?;
         let (kind, n) = library_type(c)?;
         let (d, nsm) = pbarl_values(c, n)?;
-        let same = |a: f64, b: f64| (a - b).abs() <= 1e-9 * a.abs().max(b.abs());
+        // (first field, X/XB, DIMs and NSM as given) per station.
+        let mut given: Vec<(usize, f64, Vec<Option<f64>>)> = Vec::new();
         let mut k = 10 + n;
         while k <= c.fields.len() {
+            if (k..k + n + 3).all(|j| c.blank(j)) {
+                k += n + 3;
+                continue;
+            }
             let so = c.word(k);
             if !(so.is_empty() || matches!(so.as_str(), "YES" | "YESA" | "NO")) {
                 return Err(c.err(
@@ -231,23 +226,98 @@ impl Builder {
                     "YES, YESA or NO",
                 ));
             }
-            c.real(k + 1, "X/XB")?;
-            for (i, end_a) in d.iter().copied().chain([nsm]).enumerate() {
+            let x = c.real_or(k + 1, "X/XB", 1.0)?;
+            let mut v = Vec::with_capacity(n + 1);
+            for i in 0..=n {
                 let label = if i < n {
                     format!("DIM{}", i + 1)
                 } else {
                     "NSM".to_string()
                 };
-                if let Some(v) = c.real(k + 2 + i, &label)?.filter(|v| !same(*v, end_a)) {
+                v.push(c.real(k + 2 + i, &label)?);
+            }
+            given.push((k, x, v));
+            k += n + 3;
+        }
+        let end_a: Vec<f64> = d.iter().copied().chain([nsm]).collect();
+        let mut stations = vec![BeamStation {
+            x: 0.0,
+            values: d.clone(),
+            nsm,
+        }];
+        if let Some((kb, xb, vb)) = given.last() {
+            if *xb != 1.0 {
+                return Err(c.err(
+                    kb + 1,
+                    "X/XB",
+                    format!("the last station is at X/XB = {xb}"),
+                    "the last station is end B: X/XB = 1.0 (blank)",
+                ));
+            }
+            let end_b: Vec<f64> = vb
+                .iter()
+                .zip(&end_a)
+                .map(|(v, a)| v.unwrap_or(*a))
+                .collect();
+            let mut previous = 0.0;
+            for (k0, x, v) in &given {
+                let x = *x;
+                if !(x > previous && x <= 1.0) {
                     return Err(c.err(
-                        k + 2 + i,
-                        &label,
-                        format!("{label} = {v} differs from {end_a} at end A (a tapered beam)"),
-                        "tapered beams are not supported: repeat the end-A values or leave the station fields blank",
+                        k0 + 1,
+                        "X/XB",
+                        format!("station X/XB = {x} does not follow the previous one ({previous})"),
+                        "stations by increasing X/XB in (0, 1], the last at 1.0 (end B)",
                     ));
                 }
+                previous = x;
+                let values: Vec<f64> = (0..=n)
+                    .map(|i| v[i].unwrap_or(end_a[i] + x * (end_b[i] - end_a[i])))
+                    .collect();
+                for (i, value) in values.iter().enumerate() {
+                    let ok = if i < n { *value > 0.0 } else { *value >= 0.0 };
+                    if !(ok && value.is_finite()) {
+                        let label = if i < n {
+                            format!("DIM{}", i + 1)
+                        } else {
+                            "NSM".to_string()
+                        };
+                        return Err(c.err(
+                            k0 + 2 + i,
+                            &label,
+                            format!("{label} = {value} at station X/XB = {x}"),
+                            if i < n {
+                                "a real number > 0"
+                            } else {
+                                "a real number >= 0"
+                            },
+                        ));
+                    }
+                }
+                let dims = &values[..n];
+                if !centroid_is_shear_centre(&kind, dims) {
+                    return Err(c.err(
+                        k0 + 2,
+                        "DIM1",
+                        format!("the {kind} section at X/XB = {x} (dimensions {dims:?}) has its shear centre away from its centroid"),
+                        "station dimensions that keep the section doubly symmetric (see TYPE)",
+                    ));
+                }
+                let (_, theta) = library_section(c, &kind, k0 + 2, dims)?;
+                if theta != 0.0 {
+                    return Err(c.err(
+                        k0 + 2,
+                        "DIM1",
+                        format!("the {kind} section at X/XB = {x} has a product of inertia (principal axes turned by {theta} rad)"),
+                        "a tapered PBEAML of a section with I12 = 0 (a tapered Z or unequal BOX1 is not supported)",
+                    ));
+                }
+                stations.push(BeamStation {
+                    x,
+                    values: dims.to_vec(),
+                    nsm: values[n],
+                });
             }
-            k += n + 3;
         }
         if !centroid_is_shear_centre(&kind, &d) {
             return Err(c.err(
@@ -259,8 +329,17 @@ impl Builder {
                 "a doubly symmetric section (BAR, ROD, TUBE, TUBE2, I with equal flanges, I1, BOX, BOX1 with equal opposite walls, H, CROSS) or Z; or a PBARL (where Nastran also puts both on the axis)",
             ));
         }
+        let taper = super::properties::uniform_or(stations, Some(kind.clone()));
         let (section, theta) = library_section(c, &kind, 9, &d)?;
         self.new_property(c, 1, "PID", id)?;
+        if theta != 0.0 && taper.is_some() {
+            return Err(c.err(
+                9,
+                "DIM1",
+                format!("the tapered {kind} section at end A has a product of inertia (principal axes turned by {theta} rad)"),
+                "a tapered PBEAML of a section with I12 = 0 (a tapered Z or unequal BOX1 is not supported)",
+            ));
+        }
         if theta != 0.0 {
             self.beam_turns.insert(id, theta);
         }
@@ -270,6 +349,7 @@ impl Builder {
                 material,
                 section,
                 nsm,
+                taper,
             },
         );
         Ok(())

@@ -744,9 +744,14 @@ PBEAM,25,1,2.,3.,4.,,5.
     assert_eq!((shear_y, shear_z), (1.0, 1.0));
 
     let e = error(&format!(
-        "{BASE}PBEAM,24,1,2.,3.,4.,,5.\n,YES,1.,1.,3.,4.,,5.\n"
+        "{BASE}PBEAM,24,1,2.,3.,4.,,5.\n,YES,.5,1.,3.,4.,,5.\n"
     ));
-    assert!(e.contains("PBEAM field 4 (A) of continuation 1 (line 8): A = 1 differs from 2 at end A (a tapered beam)"), "{e}");
+    assert!(
+        e.contains(
+            "PBEAM field 3 (X/XB) of continuation 1 (line 8): the last station is at X/XB = 0.5"
+        ),
+        "{e}"
+    );
     let e = error(&format!("{BASE}PBAR,21,1,1.,1.,1.\n,,,,,,,,\n,,,.5\n"));
     assert!(e.contains("PBAR field 4 (I12) of continuation 2"), "{e}");
 }
@@ -1006,7 +1011,8 @@ fn fixture_plate_with_bar() {
                 width: 0.01,
                 height: 0.02
             },
-            nsm: 0.0
+            nsm: 0.0,
+            taper: None,
         }
     );
     let clamped: Vec<DofId> = [1, 6, 11, 16, 21]

@@ -111,6 +111,7 @@ GRID,4,,-.2,.3,1.
                 j: 3e-8,
                 c: 0.01,
                 nsm: 0.5,
+                taper: None,
             }),
         }
     );
@@ -166,8 +167,8 @@ fn bad_rod_cards_are_named() {
     let base = "MAT1,1,2.1+11,,.3,7850.\nGRID,1,,0.,0.,0.\nGRID,2,,1.,0.,0.\n";
     let cases = [
         (
-            "PTUBE,3,1,.05,.005,,.06\nCTUBE,1,3,1,2\n",
-            "PTUBE field 7 (OD2): OD2 = 0.06 differs from OD = 0.05 (a tapered tube)",
+            "PTUBE,3,1,.05,.005,,-.06\nCTUBE,1,3,1,2\n",
+            "PTUBE field 7 (OD2): OD2 = -0.06 with wall thickness T = 0.005",
         ),
         (
             "PTUBE,3,1,.05,.03\nCTUBE,1,3,1,2\n",
