@@ -259,6 +259,25 @@ fn shape_of(e: &Element) -> Option<Interpolable> {
             let shape = match kind {
                 SolidKind::Hexa8 => Shape::Hexa8,
                 SolidKind::Tetra4 => Shape::Tetra4,
+                SolidKind::Variable { family, .. } => {
+                    // The quadratic shape with the omitted midside nodes at their edges'
+                    // midpoints: the variable-node element's interpolation exactly.
+                    let corners = family.corners();
+                    let mut present = nodes[corners.min(nodes.len())..].iter();
+                    let edges = crate::fe::solid::shape::edges(*family);
+                    let listed = all(&nodes[..corners.min(nodes.len())])
+                        .into_iter()
+                        .chain((0..edges.len()).map(|k| {
+                            if kind.midside() >> k & 1 == 1 {
+                                present.next().copied()
+                            } else {
+                                None
+                            }
+                        }))
+                        .collect();
+                    let edges = edges.to_vec();
+                    return Some((Shape::Solid(family.quadratic()), listed, edges));
+                }
                 other => Shape::Solid(*other),
             };
             Some((shape, all(nodes), vec![]))

@@ -37,7 +37,7 @@ pub mod shape;
 mod tests;
 
 use super::element::{ElementDerivative, ElementError, ElementMatrices, MassKind, positive};
-use crate::model::SolidKind;
+use crate::model::{SolidFamily, SolidKind};
 use faer::Mat;
 use faer::linalg::solvers::Solve;
 
@@ -139,18 +139,18 @@ pub fn rotate_to_basic(g: &Elasticity, axes: &[[f64; 3]; 3]) -> Elasticity {
 
 /// The node order the QRG asks of `kind`, for the bad-Jacobian message.
 fn order_hint(kind: SolidKind) -> &'static str {
-    match kind {
-        SolidKind::Hexa8 | SolidKind::Hexa20 => {
+    match kind.family() {
+        SolidFamily::Hexa => {
             "nodes G1-G4 must go round one face counter-clockwise seen from the opposite face (right-handed about the direction towards it), G5-G8 round the opposite face with G5 opposite G1, G6 opposite G2, and any midside nodes G9-G20 on their edges in the QRG's order"
         }
-        SolidKind::Penta6 | SolidKind::Penta15 => {
+        SolidFamily::Penta => {
             "nodes G1-G3 must go round one triangular face counter-clockwise seen from the opposite face, G4-G6 the opposite face with G4 opposite G1, and any midside nodes G7-G15 on their edges in the QRG's order"
         }
-        SolidKind::Tetra4 | SolidKind::Tetra10 => {
+        SolidFamily::Tetra => {
             "nodes G1-G3 must go counter-clockwise seen from G4 (right-handed about the direction towards G4), and any midside nodes G5-G10 on their edges in the QRG's order"
         }
-        SolidKind::Pyram5 => {
-            "nodes G1-G4 must go round the base counter-clockwise seen from the apex G5"
+        SolidFamily::Pyram => {
+            "nodes G1-G4 must go round the base counter-clockwise seen from the apex G5, and any midside nodes G6-G13 on their edges in the QRG's order (G6-G9 on G1-G2, G2-G3, G3-G4, G4-G1, G10-G13 on G1-G5 ... G4-G5)"
         }
     }
 }
