@@ -1128,8 +1128,9 @@ fn all_or_no_midside_nodes_reduce_to_the_quadratic_and_linear_elements() {
 /// into 6 pyramids to its centre) against HEXA20 on the same cells: both are quadratic and
 /// conforming, so with consistent mass both bound the frequency from above and agree to the
 /// discretisation error of this coarse mesh; tolerance 0.5 % between them and 1.5 % to
-/// Euler–Bernoulli (as the other shapes). PYRAM5 on the same mesh would be far stiffer (linear
-/// pyramids lock in bending), so this fails for a pyramid that is not quadratic.
+/// Euler–Bernoulli (as the other shapes). Measured: EB 20.888 Hz, HEXA20 +1.02 %, PYRAM13
+/// +0.94 % (lumped +0.76 %), PYRAM5 +87 % (linear pyramids lock in bending: the last assertion
+/// fails for a pyramid that is not quadratic).
 #[test]
 fn pyramid_and_hexa_cantilevers_agree() {
     let steel = Material {
