@@ -603,8 +603,9 @@ mod tests {
             (SolidKind::Penta6, [0.2, 0.5, -0.4]),
             (SolidKind::Penta15, [0.6, 0.1, 0.3]),
             (SolidKind::Pyram5, [0.2, -0.3, 0.1]),
+            (SolidKind::Pyram13, [0.2, -0.3, 0.1]),
         ] {
-            let mut x: Vec<[f64; 3]> = crate::fe::solid::shape::node_coordinates(kind)
+            let mut x: Vec<[f64; 3]> = crate::fe::solid::shape::reference_nodes(kind)
                 .iter()
                 .map(|c| [0.1 * c[0] + 1.0, 0.2 * c[1], 0.05 * c[2] + 0.02 * c[0]])
                 .collect();
@@ -612,6 +613,7 @@ mod tests {
                 SolidKind::Hexa20 => 8,
                 SolidKind::Tetra10 => 4,
                 SolidKind::Penta15 => 6,
+                SolidKind::Pyram13 => 5,
                 _ => x.len(),
             };
             for (k, p) in x.iter_mut().enumerate().skip(corners) {

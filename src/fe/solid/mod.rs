@@ -1,5 +1,6 @@
 //! Isoparametric solid elements (Nastran CHEXA, CPENTA, CTETRA, CPYRAM): HEXA8, HEXA20,
-//! PENTA6, PENTA15, TETRA4, TETRA10 and PYRAM5, with three translations per node
+//! PENTA6, PENTA15, TETRA4, TETRA10, PYRAM5 and PYRAM13, and the variable-node elements of each
+//! shape (any subset of midside nodes, [`shape`]), with three translations per node
 //! (docs/theory.md §1; derivatives §2, (2.13)–(2.16)).
 //!
 //! **Stiffness.** `K = ∫ Bᵀ D B dV` with the strain `ε = [εxx, εyy, εzz, γxy, γyz, γzx] = B u`
@@ -11,12 +12,13 @@
 //! Taylor's correction, the 3-D form of femu's QM6 shell membrane; Taylor, Beresford & Wilson
 //! 1976, *IJNME* 10): their derivatives are taken with the centre Jacobian `J₀` and scaled by
 //! `det J₀ / det J`, so that `∫ B_I dV = 0` and the patch test is passed; they are condensed
-//! statically. Plain trilinear HEXA8 locks in bending; the incompatible modes remove that, as
+//! statically (HEXA8 only: a variable-node hexahedron, partial midside set, is plain
+//! isoparametric). Plain trilinear HEXA8 locks in bending; the incompatible modes remove that, as
 //! the "bubble" of MSC Nastran's default CHEXA does (MSC's own formulation is not published, so
 //! femu's HEXA8 agrees with it to discretisation accuracy, not digit for digit).
 //!
 //! **Mass.** Consistent `M = ∫ ρ NᵀN dV` on each translation ([`shape::mass_rule`], exact for
-//! straight-edged elements). Lumped: the HRZ diagonal (Hinton, Rock & Zienkiewicz 1976): each
+//! straight-edged elements; PYRAM13 4×4×4 on the collapsed cube). Lumped: the HRZ diagonal (Hinton, Rock & Zienkiewicz 1976): each
 //! node's consistent diagonal `∫ρNᵢ²dV` scaled so that the sum is the element mass `ρV` — for
 //! every shape, so that quadratic elements never get a zero or negative corner mass (row sums
 //! of HEXA20/TETRA10 are negative at corners). Both conserve `ρV` exactly; both are positive

@@ -305,10 +305,7 @@ fn mesh_kinds() -> Vec<SolidKind> {
         .into_iter()
         .filter(|k| !matches!(k, SolidKind::Variable { .. }))
         .collect();
-    v.extend(FAMILIES.map(|family| SolidKind::Variable {
-        family,
-        midside: 1,
-    }));
+    v.extend(FAMILIES.map(|family| SolidKind::Variable { family, midside: 1 }));
     v
 }
 
@@ -894,9 +891,21 @@ fn solids_carry_no_rotational_stiffness_or_mass() {
 #[test]
 fn quadratic_patch_test() {
     let q = [
-        [[1e-3, 2e-4, -3e-4], [2e-4, -5e-4, 1e-4], [-3e-4, 1e-4, 7e-4]],
-        [[-4e-4, 3e-4, 2e-4], [3e-4, 6e-4, -2e-4], [2e-4, -2e-4, 1e-4]],
-        [[2e-4, -1e-4, 5e-4], [-1e-4, 3e-4, 4e-4], [5e-4, 4e-4, -6e-4]],
+        [
+            [1e-3, 2e-4, -3e-4],
+            [2e-4, -5e-4, 1e-4],
+            [-3e-4, 1e-4, 7e-4],
+        ],
+        [
+            [-4e-4, 3e-4, 2e-4],
+            [3e-4, 6e-4, -2e-4],
+            [2e-4, -2e-4, 1e-4],
+        ],
+        [
+            [2e-4, -1e-4, 5e-4],
+            [-1e-4, 3e-4, 4e-4],
+            [5e-4, 4e-4, -6e-4],
+        ],
     ];
     let a = [
         [1e-3, 2e-4, -3e-4],
@@ -1157,9 +1166,17 @@ fn pyramid_and_hexa_cantilevers_agree() {
     let pyr = f(SolidKind::Pyram13, MassKind::Consistent);
     let pyr_lumped = f(SolidKind::Pyram13, MassKind::Lumped);
     let pyr5 = f(SolidKind::Pyram5, MassKind::Consistent);
-    eprintln!("cantilever: EB {eb}, HEXA20 {hexa}, PYRAM13 {pyr} (lumped {pyr_lumped}), PYRAM5 {pyr5}");
-    assert!(((pyr - hexa) / hexa).abs() < 0.005, "PYRAM13 {pyr} vs HEXA20 {hexa}");
+    eprintln!(
+        "cantilever: EB {eb}, HEXA20 {hexa}, PYRAM13 {pyr} (lumped {pyr_lumped}), PYRAM5 {pyr5}"
+    );
+    assert!(
+        ((pyr - hexa) / hexa).abs() < 0.005,
+        "PYRAM13 {pyr} vs HEXA20 {hexa}"
+    );
     assert!(((pyr - eb) / eb).abs() < 0.015, "PYRAM13 {pyr} vs {eb}");
-    assert!(((pyr_lumped - eb) / eb).abs() < 0.015, "PYRAM13 lumped {pyr_lumped} vs {eb}");
+    assert!(
+        ((pyr_lumped - eb) / eb).abs() < 0.015,
+        "PYRAM13 lumped {pyr_lumped} vs {eb}"
+    );
     assert!(pyr5 > 1.05 * pyr, "PYRAM5 {pyr5} vs PYRAM13 {pyr}");
 }

@@ -84,7 +84,11 @@ impl Builder {
         }
         // The field (1-based G number) of each node.
         let field: Vec<usize> = (1..=corners)
-            .chain((0..family.edges()).filter(|k| midside >> k & 1 == 1).map(|k| corners + 1 + k))
+            .chain(
+                (0..family.edges())
+                    .filter(|k| midside >> k & 1 == 1)
+                    .map(|k| corners + 1 + k),
+            )
             .collect();
         for j in 0..nodes.len() {
             if let Some(i) = (0..j).find(|&i| nodes[i] == nodes[j]) {

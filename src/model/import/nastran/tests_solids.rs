@@ -314,8 +314,9 @@ fn solid_errors_name_the_card() {
         "{base}CPYRAM,1,5,1,2,5,4,7,8\n,9,10,11,12,13,14,15,16\n"
     ));
     assert!(
-        e.starts_with("t.bdf line 15: CPYRAM field 9 ((beyond the grids)) of continuation 1 (line 16)")
-            && e.contains("at most 13 grids"),
+        e.starts_with(
+            "t.bdf line 15: CPYRAM field 9 ((beyond the grids)) of continuation 1 (line 16)"
+        ) && e.contains("at most 13 grids"),
         "{e}"
     );
     let g: Vec<String> = (0..21)
@@ -465,14 +466,18 @@ fn partial_midside_grids_and_the_13_node_pyramid() {
         solid(7),
         (
             hexa,
-            vec![101, 102, 103, 104, 105, 106, 107, 108, 109, 111, 113, 117, 118, 119, 120]
+            vec![
+                101, 102, 103, 104, 105, 106, 107, 108, 109, 111, 113, 117, 118, 119, 120
+            ]
         )
     );
     assert_eq!(
         solid(8),
         (
             SolidKind::Pyram13,
-            vec![105, 106, 107, 108, 200, 117, 118, 119, 120, 201, 202, 203, 204]
+            vec![
+                105, 106, 107, 108, 200, 117, 118, 119, 120, 201, 202, 203, 204
+            ]
         )
     );
     assert_eq!(
