@@ -264,8 +264,8 @@ fn mat9_equals_mat1_and_takes_its_cordm() {
 
 /// Errors name the file, line, card and field: a hexahedron turned inside out, a negative
 /// midside grid, a repeated grid of a partial set, a fluid PSOLID, a repeated grid, a grid
-/// beyond G13 of a CPYRAM, a MAT9 in the element system, a MAT9 that is not positive definite,
-/// a PSOLID naming no material.
+/// beyond G13 of a CPYRAM, a MAT9 in the element system or in a cylindrical system, a MAT9 that
+/// is not positive definite, a PSOLID naming no material.
 #[test]
 fn solid_errors_name_the_card() {
     let base = format!("MAT1,1,2.1+11,,.3,7850.\nPSOLID,5,1\n{}", grids());
@@ -339,6 +339,16 @@ fn solid_errors_name_the_card() {
     assert!(
         e.starts_with("t.bdf line 18: PSOLID field 4 (CORDM)")
             && e.contains("element coordinate system"),
+        "{e}"
+    );
+    // Still refused: a MAT9 in a cylindrical CORDM (axes varying over the mesh).
+    let e = error(&format!(
+        "{base}{mat9}CORD2C,4,,0.,0.,0.,0.,0.,1.\n,1.,0.,0.\nPSOLID,6,2,4\nCTETRA,1,6,1,2,4,7\n"
+    ));
+    assert!(
+        e.starts_with("t.bdf line 20: PSOLID field 4 (CORDM)")
+            && e.contains("cylindrical or spherical")
+            && e.contains("CORD2R"),
         "{e}"
     );
     let bad = mat9.replacen("1.+9", "-1.+9", 1);
