@@ -19,7 +19,7 @@
 //! η_i η)` (in `x, y, z`: Bedrosian's `z(1 − z + ξ_i x)(1 − z + η_i y)/(1 − z)`), corners as below.
 //!
 //! **Variable-node elements** (any subset of midside nodes, Bathe, *Finite Element Procedures*
-//! 1996, §5.3.1, the 4-to-20-node construction carried to each family): the present midside
+//! 1996, §5.3, the 4-to-20-node construction carried to each family): the present midside
 //! functions are those of the quadratic element, and each corner function is the linear
 //! element's minus one half of each present midside function of its edges. An absent midside
 //! function is dropped: the edge stays straight (geometry) and the displacement along it

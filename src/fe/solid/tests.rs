@@ -83,8 +83,8 @@ fn det3(a: &[[f64; 3]; 3]) -> f64 {
 }
 
 /// Shape functions interpolate (Kronecker property), sum to one, and their derivatives equal
-/// central differences (step 1e-6, tolerance 1e-8: the functions are polynomials of degree ≤ 3
-/// on the natural domain, PYRAM13's included).
+/// central differences (step 1e-6, tolerance 1e-8: on the natural domain the functions are
+/// polynomials of degree ≤ 2 in each coordinate, PYRAM13's rational ones included).
 #[test]
 fn shape_functions_interpolate_and_differentiate() {
     for kind in all_kinds() {
