@@ -11,7 +11,7 @@ pub mod structure;
 
 pub use lumped::{LumpedMass, LumpedModel, LumpedModelError, LumpedSpring};
 pub use parameters::ParameterValueError;
-pub use structure::{AnisotropicMaterial, SolidKind, SolidProperty};
+pub use structure::{AnisotropicMaterial, SolidFamily, SolidKind, SolidProperty};
 pub use structure::{
     BeamEnds, BeamProperty, BeamSection, BeamStation, BeamTaper, Element, Material, Model,
     ModelError, MultipointConstraint, Parameter, ParameterKind, RodProperty, RodSection,

@@ -243,27 +243,123 @@ pub enum SolidKind {
     Tetra10,
     /// 5-node pyramid.
     Pyram5,
+    /// 13-node pyramid (CPYRAM with G6–G13).
+    Pyram13,
+    /// A variable-node element of `family` with only some of its midside nodes (Nastran's
+    /// partial set of G9–G20, G7–G15, G5–G10 or G6–G13): bit `k` of `midside` set when the
+    /// midside node of edge `k` (the `k`-th midside field of the card) is present. Nodes: the
+    /// corners, then the present midside nodes in field order; an edge without its midside node
+    /// is straight and its displacement linear.
+    Variable {
+        /// The shape.
+        family: SolidFamily,
+        /// Present midside nodes, bit `k` for edge `k`.
+        midside: u16,
+    },
+}
+
+/// The four solid shapes, whatever their nodes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SolidFamily {
+    /// Hexahedron (CHEXA): 8 corners, 12 edges.
+    Hexa,
+    /// Pentahedron (CPENTA): 6 corners, 9 edges.
+    Penta,
+    /// Tetrahedron (CTETRA): 4 corners, 6 edges.
+    Tetra,
+    /// Pyramid (CPYRAM): 5 corners, 8 edges.
+    Pyram,
+}
+
+impl SolidFamily {
+    /// Number of corners.
+    pub fn corners(self) -> usize {
+        match self {
+            SolidFamily::Hexa => 8,
+            SolidFamily::Penta => 6,
+            SolidFamily::Tetra => 4,
+            SolidFamily::Pyram => 5,
+        }
+    }
+
+    /// Number of edges (possible midside nodes).
+    pub fn edges(self) -> usize {
+        match self {
+            SolidFamily::Hexa => 12,
+            SolidFamily::Penta => 9,
+            SolidFamily::Tetra => 6,
+            SolidFamily::Pyram => 8,
+        }
+    }
+
+    /// The element without midside nodes.
+    pub fn linear(self) -> SolidKind {
+        match self {
+            SolidFamily::Hexa => SolidKind::Hexa8,
+            SolidFamily::Penta => SolidKind::Penta6,
+            SolidFamily::Tetra => SolidKind::Tetra4,
+            SolidFamily::Pyram => SolidKind::Pyram5,
+        }
+    }
+
+    /// The element with every midside node.
+    pub fn quadratic(self) -> SolidKind {
+        match self {
+            SolidFamily::Hexa => SolidKind::Hexa20,
+            SolidFamily::Penta => SolidKind::Penta15,
+            SolidFamily::Tetra => SolidKind::Tetra10,
+            SolidFamily::Pyram => SolidKind::Pyram13,
+        }
+    }
+
+    /// The element with the midside nodes of `midside` (bit `k`: edge `k`): the linear one
+    /// when none, the quadratic one when all, else [`SolidKind::Variable`].
+    pub fn with_midside(self, midside: u16) -> SolidKind {
+        let all = (1u16 << self.edges()) - 1;
+        match midside & all {
+            0 => self.linear(),
+            m if m == all => self.quadratic(),
+            m => SolidKind::Variable {
+                family: self,
+                midside: m,
+            },
+        }
+    }
 }
 
 impl SolidKind {
+    /// Its shape.
+    pub fn family(self) -> SolidFamily {
+        match self {
+            SolidKind::Hexa8 | SolidKind::Hexa20 => SolidFamily::Hexa,
+            SolidKind::Penta6 | SolidKind::Penta15 => SolidFamily::Penta,
+            SolidKind::Tetra4 | SolidKind::Tetra10 => SolidFamily::Tetra,
+            SolidKind::Pyram5 | SolidKind::Pyram13 => SolidFamily::Pyram,
+            SolidKind::Variable { family, .. } => family,
+        }
+    }
+
+    /// The present midside nodes, bit `k` for edge `k` (0 for a linear element).
+    pub fn midside(self) -> u16 {
+        let family = self.family();
+        match self {
+            SolidKind::Hexa8 | SolidKind::Penta6 | SolidKind::Tetra4 | SolidKind::Pyram5 => 0,
+            SolidKind::Variable { midside, .. } => midside & ((1u16 << family.edges()) - 1),
+            _ => (1u16 << family.edges()) - 1,
+        }
+    }
+
     /// Number of nodes.
     pub fn n_nodes(self) -> usize {
-        match self {
-            SolidKind::Hexa8 => 8,
-            SolidKind::Hexa20 => 20,
-            SolidKind::Penta6 => 6,
-            SolidKind::Penta15 => 15,
-            SolidKind::Tetra4 => 4,
-            SolidKind::Tetra10 => 10,
-            SolidKind::Pyram5 => 5,
-        }
+        self.family().corners() + self.midside().count_ones() as usize
     }
 
     /// The faces of the element as lists of corner positions (0-based, into its nodes), each
     /// ordered round the face.
     pub fn corner_faces(self) -> &'static [&'static [usize]] {
-        match self {
-            SolidKind::Hexa8 | SolidKind::Hexa20 => &[
+        match self.family() {
+            SolidFamily::Hexa => &[
                 &[0, 1, 2, 3],
                 &[4, 5, 6, 7],
                 &[0, 1, 5, 4],
@@ -271,17 +367,15 @@ impl SolidKind {
                 &[2, 3, 7, 6],
                 &[3, 0, 4, 7],
             ],
-            SolidKind::Penta6 | SolidKind::Penta15 => &[
+            SolidFamily::Penta => &[
                 &[0, 1, 2],
                 &[3, 4, 5],
                 &[0, 1, 4, 3],
                 &[1, 2, 5, 4],
                 &[2, 0, 3, 5],
             ],
-            SolidKind::Tetra4 | SolidKind::Tetra10 => {
-                &[&[0, 1, 2], &[0, 1, 3], &[1, 2, 3], &[2, 0, 3]]
-            }
-            SolidKind::Pyram5 => &[
+            SolidFamily::Tetra => &[&[0, 1, 2], &[0, 1, 3], &[1, 2, 3], &[2, 0, 3]],
+            SolidFamily::Pyram => &[
                 &[0, 1, 2, 3],
                 &[0, 1, 4],
                 &[1, 2, 4],
@@ -291,7 +385,7 @@ impl SolidKind {
         }
     }
 
-    /// Short type name (`hexa8`, …).
+    /// Short type name (`hexa8`, …; a variable-node element `hexa8-20`, …).
     pub fn name(self) -> &'static str {
         match self {
             SolidKind::Hexa8 => "hexa8",
@@ -301,6 +395,13 @@ impl SolidKind {
             SolidKind::Tetra4 => "tetra4",
             SolidKind::Tetra10 => "tetra10",
             SolidKind::Pyram5 => "pyram5",
+            SolidKind::Pyram13 => "pyram13",
+            SolidKind::Variable { family, .. } => match family {
+                SolidFamily::Hexa => "hexa8-20",
+                SolidFamily::Penta => "penta6-15",
+                SolidFamily::Tetra => "tetra4-10",
+                SolidFamily::Pyram => "pyram5-13",
+            },
         }
     }
 }

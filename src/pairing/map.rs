@@ -259,6 +259,25 @@ fn shape_of(e: &Element) -> Option<Interpolable> {
             let shape = match kind {
                 SolidKind::Hexa8 => Shape::Hexa8,
                 SolidKind::Tetra4 => Shape::Tetra4,
+                SolidKind::Variable { family, .. } => {
+                    // The quadratic shape with the omitted midside nodes at their edges'
+                    // midpoints: the variable-node element's interpolation exactly.
+                    let corners = family.corners();
+                    let mut present = nodes[corners.min(nodes.len())..].iter();
+                    let edges = crate::fe::solid::shape::edges(*family);
+                    let listed = all(&nodes[..corners.min(nodes.len())])
+                        .into_iter()
+                        .chain((0..edges.len()).map(|k| {
+                            if kind.midside() >> k & 1 == 1 {
+                                present.next().copied()
+                            } else {
+                                None
+                            }
+                        }))
+                        .collect();
+                    let edges = edges.to_vec();
+                    return Some((Shape::Solid(family.quadratic()), listed, edges));
+                }
                 other => Shape::Solid(*other),
             };
             Some((shape, all(nodes), vec![]))
@@ -702,6 +721,65 @@ mod tests {
         }
         for (x, want) in image.iter().zip(geo[0].xyz) {
             assert!((x - want).abs() < 1e-14, "{image:?}");
+        }
+    }
+
+    /// A point in a tetrahedron with one curved midside node (a variable-node CTETRA, G5 only)
+    /// pairs in the quadratic shape with the omitted midside nodes given to their corners: the
+    /// weights are the variable-node element's shape functions at the located point (1e-12)
+    /// and reproduce the point (1e-12).
+    #[test]
+    fn a_partial_midside_solid_interpolates_with_its_own_functions() {
+        use crate::model::{SolidFamily, SolidKind};
+        let mut m = Model::default();
+        let xyz = [
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [0.0, 0.0, 1.0],
+            [0.5, -0.06, 0.02],
+        ];
+        for (i, p) in xyz.iter().enumerate() {
+            m.nodes.insert(i as u64 + 1, *p);
+        }
+        let kind = SolidKind::Variable {
+            family: SolidFamily::Tetra,
+            midside: 0b1,
+        };
+        m.elements.insert(
+            1,
+            Element::Solid {
+                kind,
+                nodes: vec![1, 2, 3, 4, 5],
+                property: 1,
+            },
+        );
+        let geo = [TestPoint::global(1, [0.3, 0.05, 0.2])];
+        let (p, _) = pair_points(
+            &m,
+            &geo,
+            &RigidTransform::identity(),
+            &params(PairMethod::Interpolate),
+        )
+        .unwrap();
+        let PairedBy::Element {
+            id, shape, natural, ..
+        } = p[0].paired_by
+        else {
+            panic!("{:?}", p[0]);
+        };
+        assert_eq!((id, shape), (1, Shape::Solid(SolidKind::Tetra10)));
+        let (n, _) = crate::fe::solid::shape::shape(kind, natural);
+        let mut image = [0.0; 3];
+        for (node, w) in &p[0].nodes {
+            let i = (*node - 1) as usize;
+            assert!((w - n[i]).abs() < 1e-12, "node {node}: {w} vs {}", n[i]);
+            for (x, g) in image.iter_mut().zip(xyz[i]) {
+                *x += w * g;
+            }
+        }
+        for (x, want) in image.iter().zip(geo[0].xyz) {
+            assert!((x - want).abs() < 1e-12, "{image:?}");
         }
     }
 

@@ -8,7 +8,7 @@
 //! tetrahedron, the one whose natural coordinates are the clamped ones (the parent domain's
 //! nearest point) for the others, so the distance is then to that point.
 
-use crate::model::SolidKind;
+use crate::model::{SolidFamily, SolidKind};
 
 /// The element shapes interpolated.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -26,14 +26,15 @@ pub enum Shape {
     Quad8,
     /// Six-node quadratic triangle (CTRIA6): corners, then midside nodes on 1–2, 2–3, 3–1.
     Tria6,
-    /// Another isoparametric solid (`hexa20`, `penta6`, `penta15`, `tetra10`, `pyram5`), by the
+    /// Another isoparametric solid (`hexa20`, `penta6`, `penta15`, `tetra10`, `pyram5`,
+    /// `pyram13`), by the
     /// shape functions of `fe::solid::shape` in the QRG's node order.
     Solid(SolidKind),
 }
 
 impl Shape {
     /// Every shape, in the order of their names.
-    pub const ALL: [Shape; 11] = [
+    pub const ALL: [Shape; 12] = [
         Shape::Quad4,
         Shape::Tria3,
         Shape::Hexa8,
@@ -45,6 +46,7 @@ impl Shape {
         Shape::Solid(SolidKind::Penta15),
         Shape::Solid(SolidKind::Tetra10),
         Shape::Solid(SolidKind::Pyram5),
+        Shape::Solid(SolidKind::Pyram13),
     ];
 
     /// Its name in artefacts and messages.
@@ -296,10 +298,10 @@ pub fn locate(shape: Shape, x: &[[f64; 3]], p: [f64; 3]) -> Option<Location> {
             (n, vec![a, b])
         }),
         Shape::Solid(kind) => {
-            let domain = match kind {
-                SolidKind::Tetra4 | SolidKind::Tetra10 => Domain::Tetrahedron,
-                SolidKind::Penta6 | SolidKind::Penta15 => Domain::Wedge,
-                SolidKind::Hexa8 | SolidKind::Hexa20 | SolidKind::Pyram5 => Domain::Cube(3),
+            let domain = match kind.family() {
+                SolidFamily::Tetra => Domain::Tetrahedron,
+                SolidFamily::Penta => Domain::Wedge,
+                SolidFamily::Hexa | SolidFamily::Pyram => Domain::Cube(3),
             };
             locate_isoparametric(x, p, 3, domain, |v| {
                 let (n, d) = crate::fe::solid::shape::shape(kind, v);
@@ -601,8 +603,9 @@ mod tests {
             (SolidKind::Penta6, [0.2, 0.5, -0.4]),
             (SolidKind::Penta15, [0.6, 0.1, 0.3]),
             (SolidKind::Pyram5, [0.2, -0.3, 0.1]),
+            (SolidKind::Pyram13, [0.2, -0.3, 0.1]),
         ] {
-            let mut x: Vec<[f64; 3]> = crate::fe::solid::shape::node_coordinates(kind)
+            let mut x: Vec<[f64; 3]> = crate::fe::solid::shape::reference_nodes(kind)
                 .iter()
                 .map(|c| [0.1 * c[0] + 1.0, 0.2 * c[1], 0.05 * c[2] + 0.02 * c[0]])
                 .collect();
@@ -610,6 +613,7 @@ mod tests {
                 SolidKind::Hexa20 => 8,
                 SolidKind::Tetra10 => 4,
                 SolidKind::Penta15 => 6,
+                SolidKind::Pyram13 => 5,
                 _ => x.len(),
             };
             for (k, p) in x.iter_mut().enumerate().skip(corners) {

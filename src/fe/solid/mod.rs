@@ -1,5 +1,6 @@
 //! Isoparametric solid elements (Nastran CHEXA, CPENTA, CTETRA, CPYRAM): HEXA8, HEXA20,
-//! PENTA6, PENTA15, TETRA4, TETRA10 and PYRAM5, with three translations per node
+//! PENTA6, PENTA15, TETRA4, TETRA10, PYRAM5 and PYRAM13, and the variable-node elements of each
+//! shape (any subset of midside nodes, [`shape`]), with three translations per node
 //! (docs/theory.md §1; derivatives §2, (2.13)–(2.16)).
 //!
 //! **Stiffness.** `K = ∫ Bᵀ D B dV` with the strain `ε = [εxx, εyy, εzz, γxy, γyz, γzx] = B u`
@@ -11,12 +12,13 @@
 //! Taylor's correction, the 3-D form of femu's QM6 shell membrane; Taylor, Beresford & Wilson
 //! 1976, *IJNME* 10): their derivatives are taken with the centre Jacobian `J₀` and scaled by
 //! `det J₀ / det J`, so that `∫ B_I dV = 0` and the patch test is passed; they are condensed
-//! statically. Plain trilinear HEXA8 locks in bending; the incompatible modes remove that, as
+//! statically (HEXA8 only: a variable-node hexahedron, partial midside set, is plain
+//! isoparametric). Plain trilinear HEXA8 locks in bending; the incompatible modes remove that, as
 //! the "bubble" of MSC Nastran's default CHEXA does (MSC's own formulation is not published, so
 //! femu's HEXA8 agrees with it to discretisation accuracy, not digit for digit).
 //!
 //! **Mass.** Consistent `M = ∫ ρ NᵀN dV` on each translation ([`shape::mass_rule`], exact for
-//! straight-edged elements). Lumped: the HRZ diagonal (Hinton, Rock & Zienkiewicz 1976): each
+//! straight-edged elements; PYRAM13 4×4×4 on the collapsed cube). Lumped: the HRZ diagonal (Hinton, Rock & Zienkiewicz 1976): each
 //! node's consistent diagonal `∫ρNᵢ²dV` scaled so that the sum is the element mass `ρV` — for
 //! every shape, so that quadratic elements never get a zero or negative corner mass (row sums
 //! of HEXA20/TETRA10 are negative at corners). Both conserve `ρV` exactly; both are positive
@@ -37,7 +39,7 @@ pub mod shape;
 mod tests;
 
 use super::element::{ElementDerivative, ElementError, ElementMatrices, MassKind, positive};
-use crate::model::SolidKind;
+use crate::model::{SolidFamily, SolidKind};
 use faer::Mat;
 use faer::linalg::solvers::Solve;
 
@@ -139,18 +141,18 @@ pub fn rotate_to_basic(g: &Elasticity, axes: &[[f64; 3]; 3]) -> Elasticity {
 
 /// The node order the QRG asks of `kind`, for the bad-Jacobian message.
 fn order_hint(kind: SolidKind) -> &'static str {
-    match kind {
-        SolidKind::Hexa8 | SolidKind::Hexa20 => {
+    match kind.family() {
+        SolidFamily::Hexa => {
             "nodes G1-G4 must go round one face counter-clockwise seen from the opposite face (right-handed about the direction towards it), G5-G8 round the opposite face with G5 opposite G1, G6 opposite G2, and any midside nodes G9-G20 on their edges in the QRG's order"
         }
-        SolidKind::Penta6 | SolidKind::Penta15 => {
+        SolidFamily::Penta => {
             "nodes G1-G3 must go round one triangular face counter-clockwise seen from the opposite face, G4-G6 the opposite face with G4 opposite G1, and any midside nodes G7-G15 on their edges in the QRG's order"
         }
-        SolidKind::Tetra4 | SolidKind::Tetra10 => {
+        SolidFamily::Tetra => {
             "nodes G1-G3 must go counter-clockwise seen from G4 (right-handed about the direction towards G4), and any midside nodes G5-G10 on their edges in the QRG's order"
         }
-        SolidKind::Pyram5 => {
-            "nodes G1-G4 must go round the base counter-clockwise seen from the apex G5"
+        SolidFamily::Pyram => {
+            "nodes G1-G4 must go round the base counter-clockwise seen from the apex G5, and any midside nodes G6-G13 on their edges in the QRG's order (G6-G9 on G1-G2, G2-G3, G3-G4, G4-G1, G10-G13 on G1-G5 ... G4-G5)"
         }
     }
 }

@@ -767,15 +767,27 @@ fn write_element(
             nodes,
             property,
         } => {
-            use crate::model::SolidKind as S;
-            let name = match kind {
-                S::Hexa8 | S::Hexa20 => "CHEXA",
-                S::Penta6 | S::Penta15 => "CPENTA",
-                S::Tetra4 | S::Tetra10 => "CTETRA",
-                S::Pyram5 => "CPYRAM",
+            use crate::model::SolidFamily as S;
+            let name = match kind.family() {
+                S::Hexa => "CHEXA",
+                S::Penta => "CPENTA",
+                S::Tetra => "CTETRA",
+                S::Pyram => "CPYRAM",
             };
             let mut f = vec![F::Int(id), F::Int(*property)];
-            f.extend(nodes.iter().map(|n| F::Int(*n)));
+            let corners = kind.family().corners();
+            f.extend(nodes.iter().take(corners).map(|n| F::Int(*n)));
+            // Midside grids in their fields, an absent one blank (a variable-node element).
+            let mut midside = nodes.iter().skip(corners);
+            if kind.midside() != 0 {
+                for k in 0..kind.family().edges() {
+                    f.push(if kind.midside() >> k & 1 == 1 {
+                        midside.next().map_or(F::Blank, |n| F::Int(*n))
+                    } else {
+                        F::Blank
+                    });
+                }
+            }
             card(out, name, f);
         }
         Element::Bush { node, other, .. } => {

@@ -175,16 +175,18 @@
 //!   (CID blank or 0: basic) and rotated to basic, `M_b = Tᵀ M T`; multiplied by WTMASS.
 //! - CHEXA/CPENTA/CTETRA/CPYRAM, PSOLID, MAT9 (`solids.rs`, kernels in `src/fe/solid/`):
 //!   HEXA8 (2×2×2 Gauss with Wilson–Taylor incompatible modes, close to MSC's default
-//!   bubble-enhanced CHEXA but not digit for digit), HEXA20, PENTA6, PENTA15, TETRA4, TETRA10
-//!   and PYRAM5 fully integrated; PSOLID IN/ISOP other than blank are read as that formulation
-//!   with a warning. Midside grids all given or all blank (Nastran also accepts a partial set:
-//!   an error in femu); PYRAM13, repeated grids, FCTN other than SMECH, a MAT9 in the element
-//!   system (CORDM −1) or in a cylindrical/spherical CORDM are errors; CORDM is ignored for a
-//!   MAT1 (isotropic). A zero or negative Jacobian at an integration point is an error naming
-//!   the element card and the node order the QRG asks for. Solids carry no rotational
-//!   stiffness or mass: their grids' rotations are dropped unless other elements reach them
-//!   (AUTOSPC). Consistent mass, or with `mass: lumped` the HRZ diagonal (Nastran's lumped
-//!   solid mass is the same `ρV` spread by other weights for quadratic shapes).
+//!   bubble-enhanced CHEXA but not digit for digit), HEXA20, PENTA6, PENTA15, TETRA4, TETRA10,
+//!   PYRAM5 and PYRAM13 (Bedrosian's rational 13-node pyramid) fully integrated; PSOLID IN/ISOP
+//!   other than blank are read as that formulation with a warning. Midside grids: any subset,
+//!   blank or 0 meaning none (QRG); a partial set is Bathe's variable-node element (an edge
+//!   without its grid straight, the displacement linear along it; no incompatible modes in a
+//!   partial CHEXA). Repeated grids, FCTN other than SMECH, a MAT9 in the element system (CORDM
+//!   −1) or in a cylindrical/spherical CORDM are errors; CORDM is ignored for a MAT1
+//!   (isotropic). A zero or negative Jacobian at an integration point is an error naming the
+//!   element card and the node order the QRG asks for. Solids carry no rotational stiffness or
+//!   mass: their grids' rotations are dropped unless other elements reach them (AUTOSPC).
+//!   Consistent mass, or with `mass: lumped` the HRZ diagonal (Nastran's lumped solid mass is
+//!   the same `ρV` spread by other weights for quadratic shapes).
 //! - CBUSH/PBUSH: the K and B (viscous damping) lines are used (GE, RCV, M… ignored with a
 //!   warning). Element system as the QRG: CID ≥ 0 its axes (a cylindrical or spherical CID
 //!   evaluated at GA); CID blank: x from GA to GB, y in the plane of x and the orientation

@@ -3,11 +3,11 @@
 //! QRG meaning: CHEXA `EID PID G1 … G20` (G1–G4 one face, G5–G8 the opposite one, G9–G20 the
 //! optional midside nodes), CPENTA `EID PID G1 … G15` (G7–G15 optional), CTETRA
 //! `EID PID G1 … G10` (G5–G10 optional), CPYRAM `EID PID G1 … G13` (G6–G13 optional); PID blank
-//! is the EID. The midside nodes must be all given (the quadratic element) or all blank (the
-//! linear one): Nastran also accepts a partial set (edges without a midside node stay
-//! straight), femu does not and says so at the card; a CPYRAM with midside nodes (PYRAM13) is
-//! an error; a grid repeated in one element is an error (Nastran writes wedges as CPENTA, not
-//! as a CHEXA with repeated grids). PSOLID `PID MID CORDM IN STRESS ISOP FCTN`: MID a MAT1 or
+//! is the EID. Midside grids: any subset (QRG), blank or 0 meaning none: all blank is the
+//! linear element, all given the quadratic one (CPYRAM: Bedrosian's 13-node pyramid), a
+//! partial set Bathe's variable-node element (an edge without its grid straight, the
+//! displacement linear along it; `src/fe/solid/shape.rs`); a grid repeated in one element is
+//! an error (Nastran writes wedges as CPENTA, not as a CHEXA with repeated grids). PSOLID `PID MID CORDM IN STRESS ISOP FCTN`: MID a MAT1 or
 //! MAT9; CORDM the material system (0/blank basic, −1 the element system, or a CORDi id) —
 //! used for a MAT9 only, which must be in basic or a rectangular CORD1R/CORD2R (the element
 //! system and curvilinear systems are errors); IN and ISOP choose Nastran's integration
@@ -19,7 +19,7 @@
 //! fields and GE do not change the modes (GE ≠ 0 warns).
 
 use super::*;
-use crate::model::structure::{AnisotropicMaterial, SolidKind, SolidProperty};
+use crate::model::structure::{AnisotropicMaterial, SolidFamily, SolidProperty};
 
 /// A PSOLID as read, its CORDM not yet resolved.
 pub(super) struct SolidIn {
@@ -36,51 +36,39 @@ fn g_label(i: usize) -> String {
 impl Builder {
     /// CHEXA, CPENTA, CTETRA, CPYRAM.
     pub(super) fn solid_element(&mut self, c: &Card) -> Result<(), NastranError> {
-        let (corners, all, linear, quadratic) = match c.name.as_str() {
-            "CHEXA" => (8, 20, SolidKind::Hexa8, Some(SolidKind::Hexa20)),
-            "CPENTA" => (6, 15, SolidKind::Penta6, Some(SolidKind::Penta15)),
-            "CTETRA" => (4, 10, SolidKind::Tetra4, Some(SolidKind::Tetra10)),
-            _ => (5, 13, SolidKind::Pyram5, None),
+        let family = match c.name.as_str() {
+            "CHEXA" => SolidFamily::Hexa,
+            "CPENTA" => SolidFamily::Penta,
+            "CTETRA" => SolidFamily::Tetra,
+            _ => SolidFamily::Pyram,
         };
+        let (corners, all) = (family.corners(), family.corners() + family.edges());
         let id = c.id(1, "EID")?;
         let property = c.id_or(2, "PID", id)?;
         let mut nodes = Vec::with_capacity(all);
         for i in 1..=corners {
             nodes.push(c.id(2 + i, &g_label(i))?);
         }
-        let given: Vec<usize> = (corners + 1..=all).filter(|i| !c.blank(2 + i)).collect();
-        let kind = if given.is_empty() {
-            linear
-        } else if given.len() == all - corners {
-            let Some(kind) = quadratic else {
-                return Err(c.err(
-                    2 + given[0],
-                    &g_label(given[0]),
-                    "a CPYRAM with midside grids (13-node pyramid) is not supported",
-                    "leave G6-G13 blank (5-node pyramid), or mesh the region with CHEXA/CPENTA/CTETRA",
-                ));
-            };
-            for i in corners + 1..=all {
-                nodes.push(c.id(2 + i, &g_label(i))?);
+        // Midside grids: blank or 0 is no grid (a straight edge), any subset (QRG).
+        let mut midside = 0u16;
+        for (k, i) in (corners + 1..=all).enumerate() {
+            match c.int(2 + i, &g_label(i))? {
+                None | Some(0) => {}
+                Some(v) if v > 0 => {
+                    midside |= 1 << k;
+                    nodes.push(v as u64);
+                }
+                Some(v) => {
+                    return Err(c.err(
+                        2 + i,
+                        &g_label(i),
+                        format!("{v} is not a grid id"),
+                        "a grid id (integer > 0), or blank or 0 for no midside grid (a straight edge)",
+                    ));
+                }
             }
-            kind
-        } else {
-            let blank = (corners + 1..=all).find(|i| c.blank(2 + i)).unwrap_or(all);
-            return Err(c.err(
-                2 + blank,
-                &g_label(blank),
-                format!(
-                    "{} of the {} midside grids G{}-G{all} are given and G{blank} is blank",
-                    given.len(),
-                    all - corners,
-                    corners + 1
-                ),
-                format!(
-                    "give all midside grids G{}-G{all} (quadratic element) or none (linear element); femu does not read a partial set (Nastran's edges without a midside grid)",
-                    corners + 1
-                ),
-            ));
-        };
+        }
+        let kind = family.with_midside(midside);
         for k in 3 + all..=3 + all + 8 {
             if !c.blank(k) {
                 return Err(c.err(
@@ -94,12 +82,20 @@ impl Builder {
                 ));
             }
         }
+        // The field (1-based G number) of each node.
+        let field: Vec<usize> = (1..=corners)
+            .chain(
+                (0..family.edges())
+                    .filter(|k| midside >> k & 1 == 1)
+                    .map(|k| corners + 1 + k),
+            )
+            .collect();
         for j in 0..nodes.len() {
             if let Some(i) = (0..j).find(|&i| nodes[i] == nodes[j]) {
                 return Err(c.err(
-                    3 + j,
-                    &g_label(j + 1),
-                    format!("grid {} appears twice (also G{})", nodes[j], i + 1),
+                    2 + field[j],
+                    &g_label(field[j]),
+                    format!("grid {} appears twice (also G{})", nodes[j], field[i]),
                     "the grids of a solid must be distinct: a wedge is a CPENTA and a pyramid a CPYRAM, not a CHEXA with repeated grids",
                 ));
             }

@@ -7,7 +7,7 @@ use crate::eigen::{ModeSelection, SparseEigenParams, lowest_modes};
 use crate::fe::element::MassKind;
 use crate::fe::mass_properties::mass_properties;
 use crate::fe::model_assembly::{assemble_model, element_matrices};
-use crate::model::structure::SolidKind;
+use crate::model::structure::{SolidFamily, SolidKind};
 
 /// GRIDs of a 2 × 1 × 1 block of unit-cube cells over x ∈ [0, 2] (ids `1 + i + 3j + 6k`).
 fn grids() -> String {
@@ -262,9 +262,10 @@ fn mat9_equals_mat1_and_takes_its_cordm() {
     assert_eq!(turned.model.anisotropic_materials[&1].rho, 0.5 * 7850.0);
 }
 
-/// Errors name the file, line, card and field: a hexahedron turned inside out, a partial set of
-/// midside grids, a fluid PSOLID, a repeated grid, a 13-node pyramid, a MAT9 in the element
-/// system, a MAT9 that is not positive definite, a PSOLID naming no material.
+/// Errors name the file, line, card and field: a hexahedron turned inside out, a negative
+/// midside grid, a repeated grid of a partial set, a fluid PSOLID, a repeated grid, a grid
+/// beyond G13 of a CPYRAM, a MAT9 in the element system or in a cylindrical system, a MAT9 that
+/// is not positive definite, a PSOLID naming no material.
 #[test]
 fn solid_errors_name_the_card() {
     let base = format!("MAT1,1,2.1+11,,.3,7850.\nPSOLID,5,1\n{}", grids());
@@ -282,15 +283,21 @@ fn solid_errors_name_the_card() {
         "{e}"
     );
     let e = error(&format!(
-        "{base}CHEXA,1,5,{}\n,{},{},1\n",
+        "{base}CHEXA,1,5,{}\n,{},{},,-3\n",
         c[..6].join(","),
         c[6],
         c[7]
     ));
     assert!(
         e.starts_with("t.bdf line 15: CHEXA field 5 (G10) of continuation 1 (line 16)")
-            && e.contains("1 of the 12 midside grids G9-G20")
-            && e.contains("all midside grids"),
+            && e.contains("-3 is not a grid id")
+            && e.contains("blank or 0 for no midside grid"),
+        "{e}"
+    );
+    // A repeated grid in a partial set is named by its own field (G6, not the 5th node).
+    let e = error(&format!("{base}CTETRA,1,5,1,2,4,7,,1\n"));
+    assert!(
+        e.starts_with("t.bdf line 15: CTETRA field 9 (G6)") && e.contains("also G1"),
         "{e}"
     );
     let e = error(&format!("{base}PSOLID,6,1,,,,,PFLUID\n"));
@@ -306,7 +313,12 @@ fn solid_errors_name_the_card() {
     let e = error(&format!(
         "{base}CPYRAM,1,5,1,2,5,4,7,8\n,9,10,11,12,13,14,15,16\n"
     ));
-    assert!(e.contains("CPYRAM field") && e.contains("13-node"), "{e}");
+    assert!(
+        e.starts_with(
+            "t.bdf line 15: CPYRAM field 9 ((beyond the grids)) of continuation 1 (line 16)"
+        ) && e.contains("at most 13 grids"),
+        "{e}"
+    );
     let g: Vec<String> = (0..21)
         .map(|k| {
             if [0, 6, 11, 15, 18, 20].contains(&k) {
@@ -327,6 +339,16 @@ fn solid_errors_name_the_card() {
     assert!(
         e.starts_with("t.bdf line 18: PSOLID field 4 (CORDM)")
             && e.contains("element coordinate system"),
+        "{e}"
+    );
+    // Still refused: a MAT9 in a cylindrical CORDM (axes varying over the mesh).
+    let e = error(&format!(
+        "{base}{mat9}CORD2C,4,,0.,0.,0.,0.,0.,1.\n,1.,0.,0.\nPSOLID,6,2,4\nCTETRA,1,6,1,2,4,7\n"
+    ));
+    assert!(
+        e.starts_with("t.bdf line 20: PSOLID field 4 (CORDM)")
+            && e.contains("cylindrical or spherical")
+            && e.contains("CORD2R"),
         "{e}"
     );
     let bad = mat9.replacen("1.+9", "-1.+9", 1);
@@ -393,5 +415,142 @@ fn solid_parameters_and_export_round_trip() {
         assert!((&ka - &kb).norm_max() <= 1e-12 * ka.norm_max());
         let (ma, mb) = (a.m_dense(), b.m_dense());
         assert!((&ma - &mb).norm_max() <= 1e-12 * ma.norm_max());
+    }
+}
+
+/// Partial midside sets and the 13-node pyramid (QRG: any midside grid may be blank or 0): a
+/// CHEXA with 7 of its 12 midside grids (G10, G12 absent, G14 written as 0, G15, G16 blank) is
+/// the variable-node hexahedron with its grids in field order; a CPYRAM with all of G6–G13 on
+/// its top face is PYRAM13; a CTETRA and a CPENTA with partial sets are variable-node elements.
+/// The hexahedron's matrices are the kernel's of the same grids (bit for bit); the CHEXA and
+/// CPYRAM together weigh ρ(1 + 1/3) (1e-12, both masses) and have six rigid-body modes; the
+/// exported deck writes absent midside grids blank and reads back to the same elements.
+#[test]
+fn partial_midside_grids_and_the_13_node_pyramid() {
+    let mut d = String::from("MAT1,1,2.1+11,,.3,7850.\nPSOLID,3,1\n");
+    let corners = [
+        [0., 0., 0.],
+        [1., 0., 0.],
+        [1., 1., 0.],
+        [0., 1., 0.],
+        [0., 0., 1.],
+        [1., 0., 1.],
+        [1., 1., 1.],
+        [0., 1., 1.],
+    ];
+    let mut pts: Vec<[f64; 3]> = corners.to_vec();
+    for [a, b] in crate::fe::solid::shape::HEX_EDGES {
+        pts.push([0, 1, 2].map(|k| 0.5 * (corners[a][k] + corners[b][k])));
+    }
+    for (i, p) in pts.iter().enumerate() {
+        d += &format!("GRID,{},,{},{},{}\n", 101 + i, p[0], p[1], p[2]);
+    }
+    // Apex 200 above the top face and the midpoints 201–204 of its edges to the top corners.
+    d += "GRID,200,,0.5,0.5,2.\n";
+    for (i, c) in corners[4..].iter().enumerate() {
+        d += &format!(
+            "GRID,{},,{},{},{}\n",
+            201 + i,
+            0.5 * (c[0] + 0.5),
+            0.5 * (c[1] + 0.5),
+            0.5 * (c[2] + 2.0)
+        );
+    }
+    // G9 … G20: 109, -, 111, -, 113, 0, -, -, 117, 118, 119, 120.
+    d += "CHEXA,7,3,101,102,103,104,105,106\n,107,108,109,,111,,113,0\n,,,117,118,119,120\n";
+    d += "CPYRAM,8,3,105,106,107,108,200,117\n,118,119,120,201,202,203,204\n";
+    d += "CTETRA,9,3,101,102,104,105,109,\n,112\n";
+    d += "CPENTA,10,3,101,102,103,105,106,107\n,109\n";
+    let b = parse(&d);
+    let m = &b.model;
+    assert!(b.warnings.is_empty(), "{:?}", b.warnings);
+    let solid = |id: u64| match &m.elements[&id] {
+        Element::Solid { kind, nodes, .. } => (*kind, nodes.clone()),
+        e => panic!("{e:?}"),
+    };
+    let hexa = SolidKind::Variable {
+        family: SolidFamily::Hexa,
+        midside: 0b1111_0001_0101,
+    };
+    assert_eq!(
+        solid(7),
+        (
+            hexa,
+            vec![
+                101, 102, 103, 104, 105, 106, 107, 108, 109, 111, 113, 117, 118, 119, 120
+            ]
+        )
+    );
+    assert_eq!(
+        solid(8),
+        (
+            SolidKind::Pyram13,
+            vec![
+                105, 106, 107, 108, 200, 117, 118, 119, 120, 201, 202, 203, 204
+            ]
+        )
+    );
+    assert_eq!(
+        solid(9),
+        (
+            SolidKind::Variable {
+                family: SolidFamily::Tetra,
+                midside: 0b101
+            },
+            vec![101, 102, 104, 105, 109, 112]
+        )
+    );
+    assert_eq!(
+        solid(10),
+        (
+            SolidKind::Variable {
+                family: SolidFamily::Penta,
+                midside: 0b1
+            },
+            vec![101, 102, 103, 105, 106, 107, 109]
+        )
+    );
+    let xyz: Vec<[f64; 3]> = solid(7).1.iter().map(|n| m.nodes[n]).collect();
+    let e = element_matrices(m, &m.elements[&7], MassKind::Consistent).unwrap();
+    let direct = crate::fe::solid::solid(
+        hexa,
+        &xyz,
+        &crate::fe::solid::SolidMaterial {
+            d: crate::fe::solid::isotropic(2.1e11, 0.3).unwrap(),
+            rho: 7850.0,
+        },
+        MassKind::Consistent,
+    )
+    .unwrap();
+    assert_eq!(e, direct);
+    // The CHEXA and the CPYRAM alone: a free body of volume 1 + 1/3.
+    let mut two = m.clone();
+    two.elements.retain(|id, _| *id == 7 || *id == 8);
+    two.sets.clear();
+    two.add_property_sets();
+    for mass in [MassKind::Consistent, MassKind::Lumped] {
+        let p = mass_properties(&two, mass, [0.0; 3]).unwrap();
+        let want = 7850.0 * 4.0 / 3.0;
+        for v in p.mass {
+            assert!(((v - want) / want).abs() < 1e-12, "{mass:?}: {v} vs {want}");
+        }
+    }
+    let (sys, _) = assemble_model(&two, MassKind::Consistent).unwrap();
+    let (modes, _) = lowest_modes(
+        &sys.k,
+        &sys.m,
+        &sys.dofs,
+        ModeSelection::Count(8),
+        &SparseEigenParams::default(),
+    )
+    .unwrap();
+    let f = modes.frequencies_hz();
+    assert_eq!(modes.rigid_body_modes, 6, "{f:?}");
+    assert!(f[6] > 100.0, "{f:?}");
+    // Export: absent midside grids are blank fields, and the deck reads back the same.
+    let text = crate::model::export::nastran::write_bulk(m);
+    let back = parse(&text).model;
+    for id in 7..=10 {
+        assert_eq!(back.elements[&id], m.elements[&id], "element {id}:\n{text}");
     }
 }
