@@ -1186,6 +1186,17 @@ pub fn beam2_with_ends(
     })
 }
 
+/// The derivative parts of a matrix in dual numbers.
+pub(super) fn tangent(a: &[[Dual; 12]; 12]) -> [[f64; 12]; 12] {
+    let mut out = [[0.0f64; 12]; 12];
+    for (o, row) in out.iter_mut().zip(a) {
+        for (x, y) in o.iter_mut().zip(row) {
+            *x = y.d;
+        }
+    }
+    out
+}
+
 /// Exact `∂K/∂φ`, `∂M/∂φ` (basic system) of [`beam2`] by one parameter.
 pub fn beam2_derivative(
     x1: [f64; 3],
@@ -1245,15 +1256,6 @@ pub fn beam2_derivative_with_ends(
     };
     let (k, m) = local_matrices(frame.length, &sd, mass);
     let (k, m) = condense(&k, &m, &ends.released(), |x: Dual| x.v)?;
-    let tangent = |a: &[[Dual; 12]; 12]| {
-        let mut out = [[0.0f64; 12]; 12];
-        for (o, row) in out.iter_mut().zip(a) {
-            for (x, y) in o.iter_mut().zip(row) {
-                *x = y.d;
-            }
-        }
-        out
-    };
     Ok(ElementDerivative {
         dk: offset_grid(to_basic(&tangent(&k), &frame.axes)?, ends),
         dm: offset_grid(to_basic(&tangent(&m), &frame.axes)?, ends),

@@ -46,7 +46,8 @@
 use super::beam::Section;
 use super::beam::{
     BeamParameter, Dual, EndConditions, LocalPair, Scalar, SectionProperties, XY_DOFS, XY_SIGNS,
-    XZ_DOFS, XZ_SIGNS, condense, ends_frame, offset_grid, pair, poisson, scatter, to_basic,
+    XZ_DOFS, XZ_SIGNS, condense, ends_frame, offset_grid, pair, poisson, scatter, tangent,
+    to_basic,
 };
 use super::element::{ElementDerivative, ElementError, ElementMatrices, MassKind, positive};
 use crate::model::{BeamProperty, BeamSection, BeamTaper};
@@ -498,17 +499,6 @@ fn material_duals(b: &TaperedBeam, p: Option<BeamParameter>) -> (Dual, Dual, Dua
     )
 }
 
-/// The value (`d = false`) or tangent part of a dual matrix.
-fn part(a: &[[Dual; 12]; 12], d: bool) -> [[f64; 12]; 12] {
-    let mut out = [[0.0; 12]; 12];
-    for (o, row) in out.iter_mut().zip(a) {
-        for (x, y) in o.iter_mut().zip(row) {
-            *x = if d { y.d } else { y.v };
-        }
-    }
-    out
-}
-
 /// Stiffness and mass (12 × 12, basic system) of a tapered beam from node 1 at `x1` (end A) to
 /// node 2 at `x2` (end B), orientation vector `v`, offsets and pin flags `ends`.
 pub fn tapered_beam2(
@@ -572,8 +562,8 @@ pub fn tapered_beam2_derivative(
     );
     let (k, m) = condense(&k, &m, &ends.released(), |x: Dual| x.v)?;
     Ok(ElementDerivative {
-        dk: offset_grid(to_basic(&part(&k, true), &frame.axes)?, ends),
-        dm: offset_grid(to_basic(&part(&m, true), &frame.axes)?, ends),
+        dk: offset_grid(to_basic(&tangent(&k), &frame.axes)?, ends),
+        dm: offset_grid(to_basic(&tangent(&m), &frame.axes)?, ends),
     })
 }
 

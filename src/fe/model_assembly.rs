@@ -163,16 +163,28 @@ fn rod_data(model: &Model, section: &crate::model::RodSection) -> super::rod::Ro
     }
 }
 
-/// The taper and NSM of a tapered tube (PTUBE with OD2 ≠ OD); `None` for a uniform rod.
-fn rod_taper(
+/// `f` of a tapered tube (PTUBE with OD2 ≠ OD) as the kernel reads it; `None` for a uniform rod.
+fn with_tapered_rod<R>(
     model: &Model,
     section: &crate::model::RodSection,
-) -> Option<(crate::model::TubeTaper, f64)> {
+    f: impl FnOnce(&TaperedRod) -> R,
+) -> Option<R> {
     let p = match section {
         crate::model::RodSection::Property(id) => &model.rod_properties[id],
         crate::model::RodSection::Own(p) => p,
     };
-    p.taper.map(|t| (t, p.nsm))
+    let taper = p.taper?;
+    let d = rod_data(model, section);
+    let at = |xi: f64| {
+        let (area, j) = taper.at(xi);
+        (area, j, p.nsm)
+    };
+    Some(f(&TaperedRod {
+        e: d.e,
+        nu: d.nu,
+        rho: d.rho,
+        at: &at,
+    }))
 }
 
 /// The kernel material of solid property `property` (references already validated): a MAT1's
@@ -385,28 +397,17 @@ fn basic_element_matrices(
                 &kernel_ends(ends)?,
             )
         }
-        Element::Rod { nodes, section } => match rod_taper(model, section) {
-            Some((taper, nsm)) => {
-                let d = rod_data(model, section);
-                let at = |xi: f64| {
-                    let (area, j) = taper.at(xi);
-                    (area, j, nsm)
-                };
-                let r = TaperedRod {
-                    e: d.e,
-                    nu: d.nu,
-                    rho: d.rho,
-                    at: &at,
-                };
-                tapered_rod2(xyz(&nodes[0]), xyz(&nodes[1]), &r, mass)
-            }
-            None => super::rod::rod2(
+        Element::Rod { nodes, section } => with_tapered_rod(model, section, |r| {
+            tapered_rod2(xyz(&nodes[0]), xyz(&nodes[1]), r, mass)
+        })
+        .unwrap_or_else(|| {
+            super::rod::rod2(
                 xyz(&nodes[0]),
                 xyz(&nodes[1]),
                 &rod_data(model, section),
                 mass,
-            ),
-        },
+            )
+        }),
         Element::Solid {
             kind,
             nodes,
@@ -1037,27 +1038,16 @@ fn element_derivative(
                 P::Density => RodParameter::Density,
                 _ => return Err(not_applicable()),
             };
-            if let Some((taper, nsm)) = rod_taper(model, section) {
-                let d = rod_data(model, section);
-                let at = |xi: f64| {
-                    let (area, j) = taper.at(xi);
-                    (area, j, nsm)
-                };
-                let r = TaperedRod {
-                    e: d.e,
-                    nu: d.nu,
-                    rho: d.rho,
-                    at: &at,
-                };
+            with_tapered_rod(model, section, |r| {
                 super::beam_tapered::tapered_rod2_derivative(
                     xyz(&nodes[0]),
                     xyz(&nodes[1]),
-                    &r,
+                    r,
                     mass,
                     p,
                 )
-                .map_err(err)?
-            } else {
+            })
+            .unwrap_or_else(|| {
                 super::rod::rod2_derivative(
                     xyz(&nodes[0]),
                     xyz(&nodes[1]),
@@ -1065,8 +1055,8 @@ fn element_derivative(
                     mass,
                     p,
                 )
-                .map_err(err)?
-            }
+            })
+            .map_err(err)?
         }
         Element::Solid {
             kind,

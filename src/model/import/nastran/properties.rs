@@ -404,17 +404,8 @@ pub(super) fn pbeam_taper(
     }];
     let mut js = vec![end_a[4]];
     for &(k0, x, given) in stations {
-        if !(x > previous && x <= 1.0) {
-            return Err(c.err(
-                k0 + 1,
-                "X/XB",
-                format!("station X/XB = {x} does not follow the previous one ({previous})"),
-                "stations by increasing X/XB in (0, 1], the last at 1.0 (end B)",
-            ));
-        }
-        previous = x;
-        let v: [f64; 6] =
-            std::array::from_fn(|i| given[i].unwrap_or(end_a[i] + x * (end_b[i] - end_a[i])));
+        next_station(c, k0, x, &mut previous)?;
+        let v: [f64; 6] = std::array::from_fn(|i| station_value(given[i], x, end_a[i], end_b[i]));
         for (i, must, what) in [
             (0, true, "a real number > 0"),
             (1, true, "a real number > 0"),
@@ -459,6 +450,31 @@ pub(super) fn pbeam_taper(
 
 /// `None` when every station repeats end A (to 1e-9 relative, as a deck's printed digits
 /// allow), else the taper.
+/// Checks that a station's `X/XB` (field `k0 + 1`) follows the `previous` one within (0, 1],
+/// and makes it the previous one.
+pub(super) fn next_station(
+    c: &Card,
+    k0: usize,
+    x: f64,
+    previous: &mut f64,
+) -> Result<(), NastranError> {
+    if !(x > *previous && x <= 1.0) {
+        return Err(c.err(
+            k0 + 1,
+            "X/XB",
+            format!("station X/XB = {x} does not follow the previous one ({previous})"),
+            "stations by increasing X/XB in (0, 1], the last at 1.0 (end B)",
+        ));
+    }
+    *previous = x;
+    Ok(())
+}
+
+/// A station's value: as given, or blank, linear between end A and end B at `x`.
+pub(super) fn station_value(given: Option<f64>, x: f64, end_a: f64, end_b: f64) -> f64 {
+    given.unwrap_or(end_a + x * (end_b - end_a))
+}
+
 pub(super) fn uniform_or(stations: Vec<BeamStation>, library: Option<String>) -> Option<BeamTaper> {
     let same = |a: f64, b: f64| (a - b).abs() <= 1e-9 * a.abs().max(b.abs());
     let a = &stations[0];

@@ -262,17 +262,9 @@ impl Builder {
             let mut previous = 0.0;
             for (k0, x, v) in &given {
                 let x = *x;
-                if !(x > previous && x <= 1.0) {
-                    return Err(c.err(
-                        k0 + 1,
-                        "X/XB",
-                        format!("station X/XB = {x} does not follow the previous one ({previous})"),
-                        "stations by increasing X/XB in (0, 1], the last at 1.0 (end B)",
-                    ));
-                }
-                previous = x;
+                super::properties::next_station(c, *k0, x, &mut previous)?;
                 let values: Vec<f64> = (0..=n)
-                    .map(|i| v[i].unwrap_or(end_a[i] + x * (end_b[i] - end_a[i])))
+                    .map(|i| super::properties::station_value(v[i], x, end_a[i], end_b[i]))
                     .collect();
                 for (i, value) in values.iter().enumerate() {
                     let ok = if i < n { *value > 0.0 } else { *value >= 0.0 };
