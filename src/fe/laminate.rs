@@ -538,6 +538,9 @@ fn law_of(model: &Model, p: &ShellProperty, part: Part) -> Result<ShellLaw, Elem
             });
             weights.push(stiff(ply.material)?);
         }
+        if lam.terms == LaminateTerms::SmearedCore {
+            return sandwich(&plies, &weights, nsm);
+        }
         let law = laminate_weighted(&plies, &weights, lam.bottom(), nsm)?;
         return Ok(with_terms(law, lam.terms, lam.bottom()));
     }
@@ -576,7 +579,7 @@ fn law_of(model: &Model, p: &ShellProperty, part: Part) -> Result<ShellLaw, Elem
 fn with_terms(mut law: ShellLaw, terms: LaminateTerms, z0: f64) -> ShellLaw {
     const ZERO3: M3 = [[0.0; 3]; 3];
     match terms {
-        LaminateTerms::All => {}
+        LaminateTerms::All | LaminateTerms::SmearedCore => {}
         LaminateTerms::Membrane => {
             (law.b, law.d, law.g, law.bending) = (ZERO3, ZERO3, [[0.0; 2]; 2], false);
         }
@@ -598,6 +601,41 @@ fn with_terms(mut law: ShellLaw, terms: LaminateTerms, z0: f64) -> ShellLaw {
         }
     }
     law
+}
+
+/// LAM = SMCORE (QRG PCOMP): the last ply is the core, the plies before it the face sheets,
+/// smeared (their stacking ignored) and split in half, one half below the core and one above,
+/// about the core's middle surface, which is the reference plane. With the faces' smeared
+/// membrane stiffness `A_f` and mass `μ_f` over their total thickness `t_f`, and `h = t_c/2`:
+/// `A = A_f + A_c`, `B = 0`, `D = D_c + (A_f/t_f) I_f`, `I = I_c + (μ_f/t_f) I_f`, where
+/// `I_f = ⅔((h + t_f/2)³ − h³)` is `∫z²` over both faces. The transverse shear is the plies'
+/// sum, as for any laminate. Weights as in [`laminate_weighted`].
+fn sandwich(plies: &[Ply], weights: &[f64], nsm: f64) -> Result<ShellLaw, ElementError> {
+    let n = plies.len();
+    if n < 2 {
+        return Err(ElementError::Degenerate(
+            "LAM = SMCORE needs at least one face sheet ply before the core ply".into(),
+        ));
+    }
+    let (faces, core) = plies.split_at(n - 1);
+    let (face_weights, core_weight) = weights.split_at(n - 1);
+    let tf: f64 = faces.iter().map(|p| p.thickness).sum();
+    let tc = core[0].thickness;
+    let face = laminate_weighted(faces, face_weights, -0.5 * tf, 0.0)?;
+    let mut law = laminate_weighted(core, core_weight, -0.5 * tc, nsm)?;
+    let h = 0.5 * tc;
+    let i_faces = 2.0 / 3.0 * ((h + 0.5 * tf).powi(3) - h.powi(3));
+    law.a = axpy3(&law.a, 1.0, &face.a);
+    law.d = axpy3(&law.d, i_faces / tf, &face.a);
+    for (gi, fi) in law.g.iter_mut().zip(&face.g) {
+        for (g, f) in gi.iter_mut().zip(fi) {
+            *g += f;
+        }
+    }
+    law.thickness = tf + tc;
+    law.inertia += face.mu / tf * i_faces;
+    law.mu += face.mu;
+    Ok(law)
 }
 
 /// [`laminate`] with ply `k`'s stiffness times `weights[k]` (the mass as the plies' densities

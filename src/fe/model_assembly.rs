@@ -1004,11 +1004,18 @@ fn element_derivative(
                 )
                 .map_err(err);
             }
-            let section = kernel_section(&bp.section);
+            // A width or height parameter moves that dimension alone (`set_parameter_value`),
+            // so a square section is differentiated as the rectangle it becomes, not by its side.
+            let section = match (&parameter.kind, kernel_section(&bp.section)) {
+                (P::BeamWidth | P::BeamHeight, Section::Square { side }) => Section::Rectangle {
+                    width: side,
+                    height: side,
+                },
+                (_, section) => section,
+            };
             let p = match (&parameter.kind, &section) {
                 (P::YoungsModulus, _) => BeamParameter::YoungsModulus,
                 (P::Density, _) => BeamParameter::Density,
-                (P::BeamWidth | P::BeamHeight, Section::Square { .. }) => BeamParameter::Side,
                 (P::BeamWidth, _) => BeamParameter::Width,
                 (P::BeamHeight, _) => BeamParameter::Height,
                 _ => return Err(not_applicable()),
@@ -1297,12 +1304,17 @@ mod tests {
                     lower: 0.0,
                     upper: 1.0,
                 },
+                // The bar is square: the width parameter moves the width alone, through the
+                // same setter the updating uses.
                 Box::new(|m: &mut Model, v: f64| {
-                    m.beam_properties.get_mut(&2).unwrap().section =
-                        crate::model::BeamSection::Rectangle {
-                            width: v,
-                            height: v,
-                        }
+                    let bar = Parameter {
+                        name: "bar".into(),
+                        kind: ParameterKind::BeamWidth,
+                        set: "bar".into(),
+                        lower: 0.0,
+                        upper: 1.0,
+                    };
+                    m.set_parameter_value(&bar, v).unwrap();
                 }),
                 5.5e-3,
             ),

@@ -1332,7 +1332,7 @@ fn material_angle<const N: usize>(
             let n = norm(&v);
             if !(n.is_finite() && vx.hypot(vy) > 1e-8 * n) {
                 return Err(ElementError::Degenerate(format!(
-                    "the material axis {v:?} (MCID's x axis) is normal to the element (or zero), so it has no projection on the element plane; give THETA or another MCID"
+                    "the material axis {v:?} (MCID's x axis, or r axis at the centre) is normal to the element (or zero), so it has no projection on the element plane; give THETA or another MCID"
                 )));
             }
             Ok(vy.atan2(vx))

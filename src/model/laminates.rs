@@ -108,7 +108,8 @@ pub struct Laminate {
 }
 
 /// The stiffness terms a laminate develops (PCOMP's LAM, QRG): all of them, or the derived
-/// shell's membrane (MEM) or bending (BEND) terms only, or the smeared ones (SMEAR).
+/// shell's membrane (MEM) or bending (BEND) terms only, or the smeared ones (SMEAR), or a
+/// sandwich of smeared face sheets about a core (SMCORE).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum LaminateTerms {
@@ -125,6 +126,10 @@ pub enum LaminateTerms {
     /// `D = A T²/12` about the laminate's middle surface (the derived shell's MID2 = MID1, no
     /// MID4), shifted to the reference plane like an offset when `Z0 ≠ −T/2`.
     Smeared,
+    /// LAM = SMCORE: a sandwich — the last ply is the core, the plies before it the face
+    /// sheets, smeared and split half below and half above the core, symmetric about the core's
+    /// middle surface (the reference plane; `B = 0`).
+    SmearedCore,
 }
 
 impl LaminateTerms {
@@ -139,6 +144,7 @@ impl LaminateTerms {
             LaminateTerms::Membrane => "MEM",
             LaminateTerms::Bending => "BEND",
             LaminateTerms::Smeared => "SMEAR",
+            LaminateTerms::SmearedCore => "SMCORE",
         }
     }
 }

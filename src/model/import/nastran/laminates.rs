@@ -129,7 +129,8 @@ impl Builder {
     /// four fields each (`MIDi Ti THETAi SOUTi`, blank MIDi/Ti repeat the previous ply's), PCOMPG
     /// one line each (`GPLYIDi MIDi Ti THETAi SOUTi`). LAM blank or SYM (plies mirrored), MEM
     /// (membrane terms only), BEND (bending terms only), SMEAR (stacking sequence ignored; see
-    /// [`LaminateTerms`]); SMCORE and the sandwich options are errors. Z0 blank: −T/2. SB, FT, TREF and
+    /// [`LaminateTerms`]), SMCORE (smeared faces about the last ply, the core; Z0 must be
+    /// blank or −T/2); other words are errors. Z0 blank: −T/2. SB, FT, TREF and
     /// SOUT are stress-recovery data and not used; GE ≠ 0 (structural damping) is not applied,
     /// with a warning.
     pub(super) fn pcomp(&mut self, c: &Card) -> Result<(), NastranError> {
@@ -153,12 +154,13 @@ impl Builder {
             "MEM" => (false, LaminateTerms::Membrane),
             "BEND" => (false, LaminateTerms::Bending),
             "SMEAR" => (false, LaminateTerms::Smeared),
+            "SMCORE" => (false, LaminateTerms::SmearedCore),
             other => {
                 return Err(c.err(
                     8,
                     "LAM",
                     format!("LAM = {other} is not supported"),
-                    "blank (all plies given), SYM (plies mirrored about the middle), MEM (membrane terms only), BEND (bending terms only) or SMEAR (stacking sequence ignored)",
+                    "blank (all plies given), SYM (plies mirrored about the middle), MEM (membrane terms only), BEND (bending terms only), SMEAR (stacking sequence ignored) or SMCORE (smeared face sheets about the last ply, the core)",
                 ));
             }
         };
@@ -269,6 +271,27 @@ impl Builder {
                 "at least one ply: MID1 T1 THETA1 SOUT1 on the continuation",
             ));
         }
+        if terms == LaminateTerms::SmearedCore {
+            // QRG PCOMP remarks 13 and 17: faces, then the core; the core's middle surface is
+            // the reference plane, and a Z0 that moves it is a fatal error.
+            if plies.len() < 2 {
+                return Err(c.err(
+                    9,
+                    "MID1",
+                    "LAM = SMCORE with a single ply",
+                    "the face sheet plies, then the core as the last ply",
+                ));
+            }
+            let t: f64 = plies.iter().map(|p| p.thickness).sum();
+            if let Some(z) = z0.filter(|z| (z + 0.5 * t).abs() > 1e-9 * t) {
+                return Err(c.err(
+                    2,
+                    "Z0",
+                    format!("Z0 = {z} with LAM = SMCORE, whose reference plane is the core's middle surface (Z0 = {})", -0.5 * t),
+                    "Z0 blank (or -T/2); offset the element with ZOFFS instead",
+                ));
+            }
+        }
         let lam = Laminate {
             plies,
             z0,
@@ -334,9 +357,30 @@ impl Builder {
         Ok(())
     }
 
+    /// The basic position of a shell element's centre (the mean of its corner grids), if it is
+    /// a shell whose grids are all placed.
+    fn shell_centre(&self, model: &Model, eid: u64) -> Option<[f64; 3]> {
+        let corners: &[u64] = match self.elements.get(&eid)? {
+            (_, ElemIn::Done(Element::Quad4 { nodes, .. })) => nodes,
+            (_, ElemIn::Done(Element::Tria3 { nodes, .. })) => nodes,
+            (_, ElemIn::Done(Element::Quad8 { corners, .. })) => corners,
+            (_, ElemIn::Done(Element::Tria6 { corners, .. })) => corners,
+            _ => return None,
+        };
+        let mut c = [0.0; 3];
+        for g in corners {
+            let x = model.nodes.get(g)?;
+            for (ci, xi) in c.iter_mut().zip(x) {
+                *ci += xi / corners.len() as f64;
+            }
+        }
+        Some(c)
+    }
+
     /// Moves the MAT2/MAT8 materials and the element placements into `model` (MCID resolved to
-    /// its x axis in basic), applies WTMASS to their densities, and states the MAT2 transverse
-    /// shear deviation.
+    /// a basic direction: a rectangular system's x axis, a cylindrical or spherical system's r
+    /// axis at the element centre), applies WTMASS to their densities, and states the MAT2
+    /// transverse shear deviation.
     pub(super) fn finish_laminates(
         &mut self,
         model: &mut Model,
@@ -402,15 +446,21 @@ impl Builder {
                             "a CORD1R/CORD2R id (or 0 for basic), or a real THETA",
                         ));
                     };
-                    if f.kind != CordKind::Rectangular {
-                        return Err(loc.field_err(
-                            k,
-                            "MCID",
-                            format!("coordinate system {m} is cylindrical or spherical"),
-                            "a rectangular system (CORD1R/CORD2R), whose x axis is projected on the element, or a real THETA",
-                        ));
-                    }
-                    pl.axis = Some(f.axes[0]);
+                    pl.axis = Some(if f.kind == CordKind::Rectangular {
+                        f.axes[0]
+                    } else {
+                        // QRG (CQUAD4, MCID): a cylindrical or spherical system's r axis is
+                        // projected through the element centre, the mean of its corners.
+                        let centre = self.shell_centre(model, eid).ok_or_else(|| {
+                            loc.field_err(
+                                k,
+                                "MCID",
+                                format!("element {eid} has an undefined grid, so the r axis of coordinate system {m} cannot be evaluated at its centre"),
+                                "every grid of the element defined by a GRID card",
+                            )
+                        })?;
+                        f.directions_at(centre)[0]
+                    });
                 }
             }
             if !pl.is_default() {

@@ -53,9 +53,10 @@
 //!   order; an undefined reference or a cycle is an error at the card. On the polar axis of a
 //!   cylindrical or spherical system the undefined angle is taken as 0.
 //! - CQUAD4/CTRIA3 (and CQUADR/CTRIAR, `laminates.rs`): THETA is the material axis' angle from
-//!   the G1→G2 edge projected on the element, MCID (an integer) a rectangular system whose x
-//!   axis is projected on the element (MCID 0: basic x; a cylindrical or spherical MCID, or one
-//!   normal to the element, is an error); they orient MAT2/MAT8 materials and do not change an
+//!   the G1→G2 edge projected on the element, MCID (an integer) a system whose x axis
+//!   (rectangular) or r axis at the element centre, the mean of its corners (cylindrical,
+//!   spherical; QRG CQUAD4) is projected on the element (MCID 0: basic x; an axis normal to the
+//!   element is an error); they orient MAT2/MAT8 materials and do not change an
 //!   isotropic shell. ZOFFS offsets the reference plane along the element normal, as Nastran's
 //!   constitutive offset (`B + z0 A`, `D + 2 z0 B + z0² A`, mass moments alike; the rotary
 //!   inertia is about the grid plane, θz included); non-structural mass stays on the grid
@@ -67,7 +68,9 @@
 //!   blank, SYM, MEM (only the membrane terms `A`), BEND (only `D` and the transverse shear) or
 //!   SMEAR (stacking ignored: the derived shell's MID2 = MID1, `D = A T²/12` about the middle
 //!   surface, no MID4; femu keeps the stack's transverse shear, as for a PSHELL without MID3);
-//!   SMCORE and the sandwich options are errors; NSM per area.
+//!   SMCORE (a sandwich: the last ply is the core, the earlier plies the face sheets, smeared
+//!   and split half below, half above the core; `B = 0`; Z0 other than −T/2 is an error, as in
+//!   Nastran); other LAM words are errors; NSM per area.
 //!   Deviation: the transverse shear stiffness is `5/6 Σ Ḡ_k t_k` (first-order shear theory),
 //!   not Nastran's equilibrium-based laminate shear (equal for one material; O((T/λ)²) on
 //!   frequencies otherwise). SB, FT, TREF, SOUT are not used; GE ≠ 0 is not applied (warning).

@@ -294,7 +294,15 @@ fn laminate_cards_refuse_what_femu_cannot_take() {
     let cases = [
         (
             format!("{mat8}PCOMP,1,,,,,,,SMCORE\n,8,.001\n"),
-            "PCOMP field 9 (LAM): LAM = SMCORE is not supported",
+            "PCOMP field 2 (MID1) of continuation 1 (line 9): LAM = SMCORE with a single ply",
+        ),
+        (
+            format!("{mat8}PCOMP,1,-.001,,,,,,SMCORE\n,8,.001,,,8,.002\n"),
+            "PCOMP field 3 (Z0): Z0 = -0.001 with LAM = SMCORE",
+        ),
+        (
+            format!("{mat8}PCOMP,1,,,,,,,SMCORX\n,8,.001\n"),
+            "PCOMP field 9 (LAM): LAM = SMCORX is not supported",
         ),
         (
             format!("{mat8}PCOMP,1\n,8,,45.\n"),
@@ -344,8 +352,9 @@ fn laminate_cards_refuse_what_femu_cannot_take() {
         e.contains("CQUAD4 field 8 (MCID): coordinate system 4 is not defined"),
         "{e}"
     );
-    let e = mcid("CORD2C,4,,0.,0.,0.,0.,0.,1.\n,1.,0.,0.\n", "4");
-    assert!(e.contains("cylindrical or spherical"), "{e}");
+    // A cylinder whose axis (basic x, 1 above the plate) makes r normal to the plate.
+    let e = mcid("CORD2C,4,,0.,.525,1.,1.,.525,1.\n,0.,.525,2.\n", "4");
+    assert!(e.contains("normal to the element"), "{e}");
     let e = mcid("CORD2R,4,,0.,0.,0.,1.,0.,0.\n,0.,0.,1.\n", "4");
     assert!(e.contains("normal to the element"), "{e}");
     // MAT8 with G1Z/G2Z blank: G12 with one warning; GE on a PCOMP warns.
@@ -501,8 +510,10 @@ fn laminate_and_offset_derivatives_match_central_differences() {
     let deck = format!(
         "{GRIDS}GRID,6,,1.5,.6,.1\n\
 CQUAD4,1,1,1,2,3,4,20.,.0003\nCTRIA3,2,1,1,4,5,,-.0002\nCQUAD4,3,2,2,6,3,4,,.001\nCTRIA3,4,2,1,2,6\n\
-MAT8,8,1.4+11,1.+10,.3,5.+9,5.+9,3.5+9,1600.\nMAT1,1,7.+10,,.33,2700.\n\
+CQUAD4,5,3,1,2,3,4,-15.\n\
+MAT8,8,1.4+11,1.+10,.3,5.+9,5.+9,3.5+9,1600.\nMAT1,1,7.+10,,.33,2700.\nMAT1,3,1.+8,,.3,80.\n\
 PCOMP,1,-.0001,.2\n,8,{t},0.,,1,{t},45.\n,8,{t},-30.\n\
+PCOMP,3,,.1,,,,,SMCORE\n,8,{t},0.,,8,{t},90.\n,3,.005\n\
 PSHELL,2,1,.002,1,,1,,.1\n"
     );
     let base = parse(&deck).model;
@@ -513,6 +524,9 @@ PSHELL,2,1,.002,1,,1,,.1\n"
         ("pid2", ParameterKind::ShellThickness),
         ("pid2", ParameterKind::YoungsModulus),
         ("pid2", ParameterKind::Density),
+        ("pid3", ParameterKind::ShellThickness),
+        ("pid3", ParameterKind::YoungsModulus),
+        ("pid3", ParameterKind::Density),
     ];
     for mass in [MassKind::Consistent, MassKind::Lumped] {
         for (set, kind) in &cases {
@@ -685,4 +699,154 @@ MAT1,1,7.+10,,.33,2700.\nPCOMP,2\n,8,.001,,,1,.001\nENDDATA\n"
     assert!(max_diff(&a, &b) <= 1e-12 * max_abs(&a));
     let written = String::from_utf8(out.files[0].1.clone()).unwrap();
     assert!(written.contains("MAT8"), "{written}");
+}
+
+/// A cylindrical or spherical MCID orients the material by its r axis at the element centre
+/// (the mean of the corners), projected on the element (QRG, CQUAD4 MCID): the same matrices,
+/// to round-off, as a rectangular MCID whose x axis is that r direction.
+#[test]
+fn curvilinear_mcid_takes_the_r_axis_at_the_centre() {
+    let mat8 = "MAT8,8,1.4+11,1.+10,.3,5.+9,5.+9,3.5+9,1600.\nPCOMP,1\n,8,.001,0.,,8,.0005,30.\n";
+    let deck = |mcid: u64, cord: &str| {
+        parse(&format!(
+            "{GRIDS}CQUAD4,1,1,1,2,3,4,{mcid}\nCTRIA3,2,1,1,4,5,{mcid}\n{mat8}{cord}"
+        ))
+    };
+    // Centres: the quad's (0.525, 0.525, 0), the triangle's (−0.2, 0.433…, 0).
+    let rect = |x: [f64; 3]| {
+        format!(
+            "CORD2R,9,,0.,0.,0.,0.,0.,1.\n,{:e},{:e},{:e}\n",
+            x[0], x[1], x[2]
+        )
+    };
+    // Cylinder about basic z through the origin: r at the quad's centre is (1, 1, 0)/√2, at the
+    // triangle's (−0.2, 1.3/3, 0) normalised; each element is checked against its own direction.
+    let cyl = deck(4, "CORD2C,4,,0.,0.,0.,0.,0.,1.\n,1.,0.,0.\n");
+    let quad_r = deck(9, &rect([1.0, 1.0, 0.0]));
+    let tria_r = deck(9, &rect([-0.2, 1.3 / 3.0, 0.0]));
+    // Largest difference of element `i`'s K and M between two imports, relative to each.
+    let diff = |a: &BulkImport, b: &BulkImport, i: usize| {
+        let (ea, eb) = (
+            &element_blocks(&a.model, MassKind::Consistent)[i],
+            &element_blocks(&b.model, MassKind::Consistent)[i],
+        );
+        (max_abs(&(&ea.0 - &eb.0)) / max_abs(&ea.0)).max(max_abs(&(&ea.1 - &eb.1)) / max_abs(&ea.1))
+    };
+    let close = |a: &BulkImport, b: &BulkImport, i: usize, what: &str| {
+        let d = diff(a, b, i);
+        assert!(d <= 1e-12, "{what}: {d:e}");
+    };
+    close(&cyl, &quad_r, 0, "cylindrical MCID, quad");
+    close(&cyl, &tria_r, 1, "cylindrical MCID, triangle");
+    // The direction really changes the matrices (a rectangular MCID along basic x differs).
+    let x_axis = deck(9, &rect([1.0, 0.0, 0.0]));
+    assert!(diff(&cyl, &x_axis, 0) > 1e-3);
+    // Sphere centred 2 below a point near the quad's centre: r ∝ (0.3, −0.4, 2), whose
+    // projection on the plate is (0.3, −0.4).
+    let sph = deck(
+        4,
+        "CORD2S,4,,.225,.925,-2.,.225,.925,-1.\n,1.225,.925,-2.\n",
+    );
+    let sph_r = deck(9, &rect([0.3, -0.4, 0.0]));
+    close(&sph, &sph_r, 0, "spherical MCID, quad");
+}
+
+/// LAM = SMCORE (QRG PCOMP remark 13): with a single face material the smeared faces are the
+/// plain laminate [faces/2, core, faces/2] (1e-12: the same integrals, summed differently);
+/// with a 0°/90° face pair the law ignores the faces' order (LAM blank does not), `B = 0`, and
+/// `A`, `D` are the hand formulas `A = A_f + A_c`, `D = D_c + (A_f/t_f)·⅔((h + t_f/2)³ − h³)`.
+#[test]
+fn smcore_is_a_sandwich_of_smeared_faces() {
+    use crate::fe::laminate::{ShellLaw, property_law};
+    let mats = "MAT8,8,1.4+11,1.+10,.3,5.+9,5.+9,3.5+9,1600.\nMAT1,1,7.+10,,.33,2700.\nMAT1,2,1.+8,,.3,80.\n";
+    let law = |pcomp: &str| -> ShellLaw {
+        let d = parse(&format!("{GRIDS}CQUAD4,1,1,1,2,3,4\n{mats}{pcomp}"));
+        property_law(&d.model, &d.model.shell_properties[&1]).unwrap()
+    };
+    let rel = |a: f64, b: f64| (a - b).abs() / a.abs().max(b.abs()).max(1e-300);
+    let same = |x: &ShellLaw, y: &ShellLaw, tol: f64, what: &str| {
+        for i in 0..3 {
+            for j in 0..3 {
+                assert!(
+                    rel(x.a[i][j], y.a[i][j]) <= tol || (x.a[i][j] - y.a[i][j]).abs() < 1e-3,
+                    "{what} A"
+                );
+                assert!(
+                    rel(x.d[i][j], y.d[i][j]) <= tol || (x.d[i][j] - y.d[i][j]).abs() < 1e-12,
+                    "{what} D"
+                );
+                assert!((x.b[i][j] - y.b[i][j]).abs() <= 1e-9, "{what} B");
+            }
+        }
+        for i in 0..2 {
+            for j in 0..2 {
+                assert!(
+                    rel(x.g[i][j], y.g[i][j]) <= tol || (x.g[i][j] - y.g[i][j]).abs() < 1e-3,
+                    "{what} G"
+                );
+            }
+        }
+        for (u, v, name) in [
+            (x.mu, y.mu, "mu"),
+            (x.inertia, y.inertia, "I"),
+            (x.thickness, y.thickness, "T"),
+        ] {
+            assert!(rel(u, v) <= tol, "{what} {name}: {u:e} vs {v:e}");
+        }
+        assert!(
+            x.first_moment.abs() <= 1e-15 && y.first_moment.abs() <= 1e-15,
+            "{what} S"
+        );
+    };
+    // Aluminium faces of 0.3 and 0.5 mm (smeared to 0.4 mm each side) about a 10 mm core.
+    let sandwich = law("PCOMP,1,,,,,,,SMCORE\n,1,.0003,,,1,.0005\n,2,.01\n");
+    let plain = law("PCOMP,1\n,1,.0004,,,2,.01\n,1,.0004\n");
+    same(&sandwich, &plain, 1e-12, "isotropic faces");
+    // A 0°/90° MAT8 face pair in either order.
+    let (t, tc): (f64, f64) = (0.25e-3, 8e-3);
+    let a = law(&format!(
+        "PCOMP,1,,,,,,,SMCORE\n,8,{t},0.,,8,{t},90.\n,2,{tc}\n"
+    ));
+    let b = law(&format!(
+        "PCOMP,1,,,,,,,SMCORE\n,8,{t},90.,,8,{t},0.\n,2,{tc}\n"
+    ));
+    same(&a, &b, 1e-14, "face order");
+    let c = law(&format!(
+        "PCOMP,1\n,8,{t},0.,,8,{t},90.\n,2,{tc},,,8,{t},90.\n,8,{t},0.\n"
+    ));
+    let d = law(&format!(
+        "PCOMP,1\n,8,{t},90.,,8,{t},0.\n,2,{tc},,,8,{t},0.\n,8,{t},90.\n"
+    ));
+    assert!(
+        rel(c.d[0][0], d.d[0][0]) > 1e-3,
+        "LAM blank keeps the order"
+    );
+    // Hand formulas: Q11 = E1/(1 − ν12 ν21), Q22 = E2/(1 − ν12 ν21), ν21 = ν12 E2/E1.
+    let (e1, e2, nu12) = (1.4e11, 1.0e10, 0.3);
+    let den = 1.0 - nu12 * nu12 * e2 / e1;
+    let (q11, q22) = (e1 / den, e2 / den);
+    let qc = 1.0e8 / (1.0 - 0.09);
+    let tf = 2.0 * t;
+    let h = 0.5 * tc;
+    let i_f = 2.0 / 3.0 * ((h + 0.5 * tf).powi(3) - h.powi(3));
+    let a11 = (q11 + q22) * t + qc * tc;
+    let d11 = qc * tc.powi(3) / 12.0 + (q11 + q22) * t / tf * i_f;
+    assert!(
+        rel(a.a[0][0], a11) < 1e-13,
+        "A11 {:e} vs {a11:e}",
+        a.a[0][0]
+    );
+    assert!(rel(a.a[1][1], a11) < 1e-13, "A22");
+    assert!(
+        rel(a.d[0][0], d11) < 1e-13,
+        "D11 {:e} vs {d11:e}",
+        a.d[0][0]
+    );
+    assert!(rel(a.d[1][1], d11) < 1e-13, "D22");
+    let mu = 1600.0 * tf + 80.0 * tc;
+    assert!(rel(a.mu, mu) < 1e-14, "mu");
+    assert!(
+        rel(a.inertia, 80.0 * tc.powi(3) / 12.0 + 1600.0 * i_f) < 1e-13,
+        "I"
+    );
 }
