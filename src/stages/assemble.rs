@@ -4,7 +4,7 @@
 
 use crate::artefact::ArtefactKind;
 use crate::artefact::Storage;
-use crate::artefact::kinds::{matrices_to_artefact, triplet_table};
+use crate::artefact::kinds::{lower_triplet_table, matrices_to_artefact};
 use crate::artefact::mesh::mesh_from_artefact;
 use crate::fe::element::MassKind;
 use crate::fe::model_assembly::{assemble_model, parameter_derivatives};
@@ -27,7 +27,7 @@ impl TypedStage for Assemble {
     const KIND: &'static str = "assemble";
     const SUMMARY: &'static str =
         "Sparse K and M of a model over its free DOFs (shells, beams, springs, masses)";
-    const IMPL_VERSION: u32 = 2;
+    const IMPL_VERSION: u32 = 3;
 
     fn inputs() -> Vec<PortSpec> {
         vec![PortSpec::required("mesh", ArtefactKind::Mesh, "the model")]
@@ -73,7 +73,7 @@ impl TypedStage for Assemble {
             for (prefix, mat) in [("dK", dk), ("dM", dm)] {
                 a = a.with_table(
                     &format!("{prefix}__{}", param.name),
-                    triplet_table(mat),
+                    lower_triplet_table(mat),
                     Storage::Ipc,
                 );
             }

@@ -3,7 +3,7 @@
 
 use crate::artefact::ArtefactKind;
 use crate::artefact::Storage;
-use crate::artefact::kinds::{matrices_to_artefact, triplet_table};
+use crate::artefact::kinds::{lower_triplet_table, matrices_to_artefact};
 use crate::core::DofId;
 use crate::fe::lumped::{LumpedTarget, assemble_lumped, lumped_derivative};
 use crate::model::{LumpedMass, LumpedModel, LumpedSpring};
@@ -139,7 +139,7 @@ impl TypedStage for ModelLumped {
     const KIND: &'static str = "model.lumped";
     const SUMMARY: &'static str =
         "Lumped masses and springs (with optional dampers) assembled into K, M, C, D";
-    const IMPL_VERSION: u32 = 2;
+    const IMPL_VERSION: u32 = 3;
     const PREFLIGHT: bool = true;
 
     fn inputs() -> Vec<PortSpec> {
@@ -271,8 +271,16 @@ impl TypedStage for ModelLumped {
             let (dk, dm) =
                 lumped_derivative(&model, target).map_err(StageError::input_at("parameters"))?;
             a = a
-                .with_table(&format!("dK__{}", q.name), triplet_table(&dk), Storage::Ipc)
-                .with_table(&format!("dM__{}", q.name), triplet_table(&dm), Storage::Ipc);
+                .with_table(
+                    &format!("dK__{}", q.name),
+                    lower_triplet_table(&dk),
+                    Storage::Ipc,
+                )
+                .with_table(
+                    &format!("dM__{}", q.name),
+                    lower_triplet_table(&dm),
+                    Storage::Ipc,
+                );
             meta.push(serde_json::json!({
                 "name": q.name,
                 "value": value,

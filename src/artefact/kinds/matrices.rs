@@ -5,12 +5,12 @@
 //! | table (storage) | columns |
 //! |---|---|
 //! | `dofs` (Parquet) | `index, dof, node, comp` |
-//! | `K`, `M`, `C`, `D`, `dK__<p>`, `dM__<p>` (IPC) | `row, col, value` |
+//! | `K`, `M`, `C`, `D`, `dK__<p>`, `dM__<p>` (IPC) | `row, col, value`: with meta `triangle: lower` (as femu writes them) the lower triangle `row ≥ col` of the symmetric matrix; without it, every entry |
 //! | `dependent` (Parquet; written by `assemble` for a model with rigid elements or MPCs) | `dof, independent, coefficient, origin`: each DOF eliminated by a multipoint constraint as `Σ coefficient · u_independent` over DOFs of `dofs`, one row per term (none: one row with an empty `independent`) |
 
 use super::{
-    Kind, Layout, col, expect_kind, meta, meta_opt, parse_dofs, read_sparse, table, triplet_layout,
-    triplet_table,
+    Kind, Layout, col, expect_kind, lower_triplet_table, meta, meta_opt, mirror_lower, parse_dofs,
+    read_sparse, table, triplet_layout,
 };
 use crate::artefact::{Artefact, ArtefactError, ArtefactKind, Column, Storage, Table};
 use crate::core::DofId;
@@ -24,6 +24,8 @@ pub struct MatricesKind;
 impl Kind for MatricesKind {
     const KIND: ArtefactKind = ArtefactKind::Matrices;
     const NAME: &'static str = "matrices";
+    /// 2: the matrix tables hold lower triangles (meta `triangle`).
+    const VERSION: u32 = 2;
     type Value = SystemMatrices;
 
     fn layout() -> Layout {
@@ -88,6 +90,10 @@ impl Kind for MatricesKind {
                     "parameters",
                     "updating parameters with value, bounds and whether they enter linearly",
                 ),
+                meta_opt(
+                    TRIANGLE,
+                    "`lower`: each matrix table holds the lower triangle (row >= col) of its symmetric matrix; absent: every entry",
+                ),
                 meta_opt("total_dofs", "DOFs before constraints (assemble)"),
                 meta_opt(
                     "eigenvalue_request",
@@ -110,9 +116,10 @@ impl Kind for MatricesKind {
                 "units",
                 serde_json::json!({"K": "N/m", "M": "kg", "C": "N*s/m", "D": "N/m"}),
             )
+            .with_meta(TRIANGLE, LOWER.into())
             .with_table("dofs", dof_table(&sys.dofs), Storage::Parquet);
         for (name, mat) in sys.named() {
-            a = a.with_table(name, triplet_table(mat), Storage::Ipc);
+            a = a.with_table(name, lower_triplet_table(mat), Storage::Ipc);
         }
         a
     }
@@ -122,7 +129,8 @@ impl Kind for MatricesKind {
         expect_kind(a, kind)?;
         let dofs = parse_dofs(kind, "dofs", a.table("dofs")?.strs("dofs", "dof")?)?;
         let n = dofs.len();
-        let read = |name: &str| read_sparse(a, name, n);
+        let lower = stores_lower(a)?;
+        let read = |name: &str| read_symmetric(a, name, n);
         let sys = SystemMatrices {
             k: read("K")?.ok_or_else(|| ArtefactError::schema(kind, "no stiffness table `K`"))?,
             m: read("M")?.ok_or_else(|| ArtefactError::schema(kind, "no mass table `M`"))?,
@@ -130,10 +138,61 @@ impl Kind for MatricesKind {
             d: read("D")?,
             dofs,
         };
-        sys.validate()
-            .map_err(|e| ArtefactError::schema(kind, e.to_string()))?;
+        // Mirrored from lower triangles, the matrices are symmetric by construction.
+        let checked = if lower {
+            sys.validate_shapes_and_values()
+        } else {
+            sys.validate()
+        };
+        checked.map_err(|e| ArtefactError::schema(kind, e.to_string()))?;
         Ok(sys)
     }
+}
+
+/// Meta key: how the matrix tables are stored.
+pub const TRIANGLE: &str = "triangle";
+/// [`TRIANGLE`]'s value for lower triangles of symmetric matrices.
+pub const LOWER: &str = "lower";
+
+/// Whether a matrices artefact stores lower triangles (meta `triangle: lower`); absent: full
+/// matrices (artefacts written by hand or by other tools).
+fn stores_lower(a: &Artefact) -> Result<bool, ArtefactError> {
+    match a.meta.get(TRIANGLE) {
+        None => Ok(false),
+        Some(v) if v.as_str() == Some(LOWER) => Ok(true),
+        Some(v) => Err(ArtefactError::schema(
+            a.kind,
+            format!(
+                "meta `{TRIANGLE}` is {v}; valid: \"{LOWER}\", or no `{TRIANGLE}` for full matrices"
+            ),
+        )),
+    }
+}
+
+/// Symmetric matrix table `name` over `n` DOFs, if present: mirrored from its lower triangle
+/// when the artefact stores lower triangles (an entry above the diagonal is then an error),
+/// else read whole.
+fn read_symmetric(
+    a: &Artefact,
+    name: &str,
+    n: usize,
+) -> Result<Option<SparseMatrix>, ArtefactError> {
+    if !stores_lower(a)? {
+        return read_sparse(a, name, n);
+    }
+    if let Some((t, _)) = a.tables.get(name) {
+        let (rows, cols) = (t.i64s(name, "row")?, t.i64s(name, "col")?);
+        if let Some(k) = rows.iter().zip(cols).position(|(r, c)| r < c) {
+            return Err(ArtefactError::schema(
+                a.kind,
+                format!(
+                    "table `{name}` row {k}: entry ({}, {}) lies above the diagonal, but meta `{TRIANGLE}: {LOWER}` says the table holds a lower triangle",
+                    rows[k], cols[k]
+                ),
+            ));
+        }
+    }
+    Ok(read_sparse(a, name, n)?.map(|l| mirror_lower(&l)))
 }
 
 fn dof_table(dofs: &[DofId]) -> Table {
@@ -265,11 +324,11 @@ pub fn linear_parameters_from_matrices(
             sparse_from_triplets("zero", n, &[])
                 .map_err(|x| ArtefactError::schema(kind, x.to_string()))
         };
-        let dk = match read_sparse(a, &format!("dK__{}", e.name), n)? {
+        let dk = match read_symmetric(a, &format!("dK__{}", e.name), n)? {
             Some(m) => m,
             None => zero()?,
         };
-        let dm = match read_sparse(a, &format!("dM__{}", e.name), n)? {
+        let dm = match read_symmetric(a, &format!("dM__{}", e.name), n)? {
             Some(m) => m,
             None => zero()?,
         };

@@ -497,6 +497,77 @@ pub fn triplet_table(mat: &SparseMatrix) -> Table {
         .with("value", Column::F64(value))
 }
 
+/// The lower triangle (`row ≥ col`) of a symmetric matrix as a `row, col, value` table, in
+/// column-major order: half the bytes of [`triplet_table`] to write, hash and read back.
+pub fn lower_triplet_table(mat: &SparseMatrix) -> Table {
+    let nnz: usize = (0..mat.ncols())
+        .map(|j| {
+            mat.row_idx_of_col_raw(j)
+                .iter()
+                .filter(|&&i| i >= j)
+                .count()
+        })
+        .sum();
+    let (mut row, mut col, mut value) = (
+        Vec::with_capacity(nnz),
+        Vec::with_capacity(nnz),
+        Vec::with_capacity(nnz),
+    );
+    for j in 0..mat.ncols() {
+        for (&i, &v) in mat.row_idx_of_col_raw(j).iter().zip(mat.val_of_col(j)) {
+            if i >= j {
+                row.push(i as i64);
+                col.push(j as i64);
+                value.push(v);
+            }
+        }
+    }
+    Table::new()
+        .with("row", Column::I64(row))
+        .with("col", Column::I64(col))
+        .with("value", Column::F64(value))
+}
+
+/// The symmetric matrix whose lower triangle (diagonal included) is `lower`: column `i` holds
+/// the mirrored entries `(j, i)`, `j < i`, then its own rows `≥ i`, so rows stay ascending when
+/// they are in `lower`. One pass over the entries, no sorting.
+pub(crate) fn mirror_lower(lower: &SparseMatrix) -> SparseMatrix {
+    let n = lower.ncols();
+    let mut col_ptr = vec![0usize; n + 1];
+    for j in 0..n {
+        for &i in lower.row_idx_of_col_raw(j) {
+            col_ptr[j + 1] += 1;
+            if i != j {
+                col_ptr[i + 1] += 1;
+            }
+        }
+    }
+    for j in 0..n {
+        col_ptr[j + 1] += col_ptr[j];
+    }
+    let nnz = col_ptr[n];
+    let (mut rows, mut vals) = (vec![0usize; nnz], vec![0.0f64; nnz]);
+    let mut next = col_ptr[..n].to_vec();
+    for j in 0..n {
+        for (&i, &v) in lower.row_idx_of_col_raw(j).iter().zip(lower.val_of_col(j)) {
+            if i != j {
+                rows[next[i]] = j;
+                vals[next[i]] = v;
+                next[i] += 1;
+            }
+        }
+    }
+    for j in 0..n {
+        for (&i, &v) in lower.row_idx_of_col_raw(j).iter().zip(lower.val_of_col(j)) {
+            rows[next[j]] = i;
+            vals[next[j]] = v;
+            next[j] += 1;
+        }
+    }
+    let symbolic = SymbolicSparseColMat::new_checked(n, n, col_ptr, None, rows);
+    SparseColMat::new(symbolic, vals)
+}
+
 /// The matrix of a table in column-major order with rows strictly ascending in each column (as
 /// [`triplet_table`] writes every matrix femu builds), built without sorting; `None` for any
 /// other table, which is then read through the general triplet path.

@@ -671,6 +671,48 @@ fn beam_ends_round_trip_through_the_mesh_artefact() {
     );
 }
 
+/// Matrices are written as lower triangles (half the entries of the full tables, plus the
+/// diagonal) and read back as the same symmetric matrices, bit for bit; a full table without
+/// the meta still reads (and is checked for symmetry); a lower-marked table with an entry above
+/// the diagonal, or an unknown `triangle`, is an error naming it.
+#[test]
+fn matrices_are_stored_as_lower_triangles_and_read_back_whole() {
+    let sys = assemble_lumped(&LumpedModel::chain(&[1.0, 1.3, 1.0, 0.7], 10.0)).unwrap();
+    let a = matrices_to_artefact(&sys);
+    assert_eq!(a.meta["triangle"], "lower");
+    let k = &a.tables["K"].0;
+    let (rows, cols) = (k.i64s("K", "row").unwrap(), k.i64s("K", "col").unwrap());
+    assert!(rows.iter().zip(cols).all(|(r, c)| r >= c));
+    let full = sys.k.compute_nnz();
+    assert_eq!(
+        rows.len(),
+        (full + sys.n()) / 2,
+        "off-diagonal pairs once, diagonal once"
+    );
+    let back = matrices_from_artefact(&a).unwrap();
+    assert_eq!(sparse_to_dense(&back.k), sparse_to_dense(&sys.k));
+    assert_eq!(sparse_to_dense(&back.m), sparse_to_dense(&sys.m));
+    assert_eq!(back.k.compute_nnz(), full);
+    // A full table without `triangle` (written by another tool) reads whole.
+    let mut whole = a.clone();
+    whole.meta.remove("triangle");
+    for name in ["K", "M"] {
+        let m = if name == "K" { &sys.k } else { &sys.m };
+        whole = whole.with_table(name, triplet_table(m), Storage::Ipc);
+    }
+    let read = matrices_from_artefact(&whole).unwrap();
+    assert_eq!(sparse_to_dense(&read.k), sparse_to_dense(&sys.k));
+    // The same full table under `triangle: lower` is refused: it has entries above the diagonal.
+    let mut lying = whole.clone();
+    lying.meta.insert("triangle".into(), "lower".into());
+    let e = matrices_from_artefact(&lying).unwrap_err().to_string();
+    assert!(e.contains("lies above the diagonal"), "{e}");
+    let mut odd = a.clone();
+    odd.meta.insert("triangle".into(), "upper".into());
+    let e = matrices_from_artefact(&odd).unwrap_err().to_string();
+    assert!(e.contains("valid: \"lower\""), "{e}");
+}
+
 #[test]
 fn a_matrix_table_in_any_row_order_reads_as_the_same_matrix() {
     // The sorted table takes the direct path, shuffled and duplicated rows the triplet path.
