@@ -154,6 +154,8 @@ fn cantilever_statics_match_the_closed_forms() {
         p * ny * l / (E * iz),
     ];
     let scale = want.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    let worst = (0..6).fold(0.0f64, |m, c| m.max((u[c] - want[c]).abs())) / scale;
+    eprintln!("axial load: largest error {worst:e} of the largest component");
     for c in 0..6 {
         assert!(
             (u[c] - want[c]).abs() <= 1e-9 * scale,
@@ -175,6 +177,11 @@ fn cantilever_statics_match_the_closed_forms() {
                 u0[c]
             );
         }
+        let diff = (1..6).fold(0.0f64, |m, c| m.max((u[c] - u0[c]).abs())) / scale;
+        eprintln!(
+            "transverse load {f:?}: twist {:e}, largest change against no offset {diff:e}",
+            u[3].abs() / scale
+        );
         let lever = ny * u[5] - nz * u[4];
         assert!(
             (u[0] - lever).abs() <= 1e-12 * scale,
@@ -232,6 +239,11 @@ fn rigid_motions_carry_the_offset_inertia() {
         }
         let want = l * (RHO * (props.ip + props.area * n2) + nsm * m2 + CENTRES.nsi);
         let got = energy(&spin);
+        eprintln!(
+            "{kind:?}: translation {:e}, spin {:e}",
+            (energy(&t) / ((RHO * props.area + nsm) * l) - 1.0).abs(),
+            (got / want - 1.0).abs()
+        );
         assert!(
             ((got - want) / want).abs() < 1e-12,
             "{kind:?} spin: {got} against {want}"
@@ -410,6 +422,12 @@ fn derivatives_match_central_differences() {
             ] {
                 let (dk, dm) = central(f, 1e-5 * value);
                 let at = f(0.0);
+                let (what, e) = if p == BeamParameter::YoungsModulus {
+                    ("dK/dE", rel(&exact.dk, &dk))
+                } else {
+                    ("dM/drho", rel(&exact.dm, &dm))
+                };
+                eprintln!("{name} {kind:?} {what}: {e:e} of the largest entry");
                 if p == BeamParameter::YoungsModulus {
                     let e = rel(&exact.dk, &dk);
                     assert!(e < 1e-8, "{name} {kind:?} dK/dE {e:e}");

@@ -1185,6 +1185,10 @@ mod tests {
     #[test]
     fn shear_centres_match_the_closed_forms() {
         let near = |a: [f64; 2], b: [f64; 2], what: &str| {
+            eprintln!(
+                "{what}: offset {a:?}, closed form differs by {:e} m",
+                (a[0] - b[0]).abs().max((a[1] - b[1]).abs())
+            );
             assert!(
                 (a[0] - b[0]).abs() < 1e-12 && (a[1] - b[1]).abs() < 1e-12,
                 "{what}: {a:?} against {b:?}"
@@ -1340,6 +1344,10 @@ mod tests {
             let y_s = m2 / fz2;
             let s = thin_walled_shear_centre(&walls, closed);
             let size = d.iter().fold(0.0f64, |m, x| m.max(*x));
+            eprintln!(
+                "{kind} {d:?}: shear centre {s:?}, shear flow differs by {:e} m",
+                (s[0] - y_s).abs().max((s[1] - z_s).abs())
+            );
             assert!(
                 (s[0] - y_s).abs() < 1e-12 * size.max(1.0)
                     && (s[1] - z_s).abs() < 1e-12 * size.max(1.0),

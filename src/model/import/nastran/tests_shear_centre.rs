@@ -284,6 +284,7 @@ fn model_derivatives_with_offsets() {
                 let scale = fd.norm_max().max(exact.norm_max());
                 if scale > 0.0 {
                     let e = (&exact - &fd).norm_max() / scale;
+                    eprintln!("model {kind:?} {:?}: {e:e}", p.kind);
                     assert!(e < 1e-8, "{kind:?} {:?}: {e:e}", p.kind);
                 }
             }
