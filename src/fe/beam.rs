@@ -60,6 +60,10 @@
 //! `[u_e; θ_e] = [[I, −[w]×], [0, I]] [u_g; θ_g]` per end, and with that `12 × 12` transform `T_w`
 //! the grid matrices are `T_wᵀ K T_w`, `T_wᵀ M T_w` (Przemieniecki 1968, §5.8 rigid offsets).
 //!
+//! **Centroid and NSM away from the shear centre** (CBEAM with PBEAM N/M/NSI, or an unsymmetric
+//! PBEAML section): [`beam2_centred`]; the axis is then the shear centre and the matrices above
+//! are transformed to it before the pin flags and offsets (see [`super::beam_offset`]).
+//!
 //! **Derivatives** (docs/theory.md §2): every entry of `K_ℓ`, `M_ℓ` is a rational function of
 //! `E, G, ρ, nsm, A, I_y, I_z, J, I_p, 1/κ_y, 1/κ_z`. The local kernel is written once over a scalar
 //! type and evaluated either with `f64` or with dual numbers `a + b ε` (`ε² = 0`) seeded with the
@@ -67,6 +71,7 @@
 //! `∂κ/∂d`). That is the chain rule carried out exactly — including the non-linear dependence of
 //! the Timoshenko terms on `I` and `A` through `Φ` — not a difference quotient.
 
+use super::beam_offset::{SectionCentres, about_shear_centre};
 use super::element::{ElementDerivative, ElementError, ElementMatrices, MassKind, positive};
 use faer::Mat;
 use std::f64::consts::PI;
@@ -1176,9 +1181,52 @@ pub fn beam2_with_ends(
     mass: MassKind,
     ends: &EndConditions,
 ) -> Result<ElementMatrices, ElementError> {
+    beam2_centred(x1, x2, v, d, mass, ends, &SectionCentres::default())
+}
+
+/// The local pair about the shear centre when the centroid or NSM lies away from it
+/// ([`super::beam_offset`]); the centroidal pair itself (bit for bit) when `centres` is zero.
+fn local_pair<T: Scalar>(
+    l: f64,
+    s: &Scalars<T>,
+    kind: MassKind,
+    centres: &SectionCentres,
+) -> LocalPair<T> {
+    if centres.is_zero() {
+        return local_matrices(l, s, kind);
+    }
+    let zero = T::cst(0.0);
+    let rho_a = s.rho * s.area;
+    // m̄ = ρA + nsm = 0 exactly: the rotary and torsional inertia alone.
+    let (k, m_rotary) = local_matrices(l, &Scalars { nsm: -rho_a, ..*s }, kind);
+    let (_, m_structural) = local_matrices(
+        l,
+        &Scalars {
+            rho: zero,
+            nsm: rho_a,
+            ..*s
+        },
+        kind,
+    );
+    let (_, m_nsm) = local_matrices(l, &Scalars { rho: zero, ..*s }, kind);
+    about_shear_centre(&k, [&m_rotary, &m_structural, &m_nsm], centres, l, kind)
+}
+
+/// [`beam2_with_ends`] whose axis is the shear centre, with the centroid and the NSM at
+/// `centres` from it (see [`super::beam_offset`]).
+pub fn beam2_centred(
+    x1: [f64; 3],
+    x2: [f64; 3],
+    v: [f64; 3],
+    d: &BeamData,
+    mass: MassKind,
+    ends: &EndConditions,
+    centres: &SectionCentres,
+) -> Result<ElementMatrices, ElementError> {
     let frame = ends_frame(x1, x2, v, ends)?;
     let props = d.validate()?;
-    let (k, m) = local_matrices(frame.length, &scalars_f64(d, &props), mass);
+    centres.validate()?;
+    let (k, m) = local_pair(frame.length, &scalars_f64(d, &props), mass, centres);
     let (k, m) = condense(&k, &m, &ends.released(), |x| x)?;
     Ok(ElementMatrices {
         k: offset_grid(to_basic(&k, &frame.axes)?, ends),
@@ -1220,8 +1268,25 @@ pub fn beam2_derivative_with_ends(
     p: BeamParameter,
     ends: &EndConditions,
 ) -> Result<ElementDerivative, ElementError> {
+    beam2_derivative_centred(x1, x2, v, d, mass, p, ends, &SectionCentres::default())
+}
+
+/// Exact `∂K/∂φ`, `∂M/∂φ` of [`beam2_centred`]: the shear-centre transforms are constant, so
+/// they carry the dual numbers through unchanged.
+#[allow(clippy::too_many_arguments)]
+pub fn beam2_derivative_centred(
+    x1: [f64; 3],
+    x2: [f64; 3],
+    v: [f64; 3],
+    d: &BeamData,
+    mass: MassKind,
+    p: BeamParameter,
+    ends: &EndConditions,
+    centres: &SectionCentres,
+) -> Result<ElementDerivative, ElementError> {
     let frame = ends_frame(x1, x2, v, ends)?;
     d.validate()?;
+    centres.validate()?;
     let (props, dprops) = d.section.evaluate(d.nu, Some(p))?;
     let s = scalars_f64(d, &props);
     let dual = |v: f64, d: f64| Dual { v, d };
@@ -1254,7 +1319,7 @@ pub fn beam2_derivative_with_ends(
         inv_kappa_y: dual(s.inv_kappa_y, inv_kappa(props.kappa_y, dprops.kappa_y)),
         inv_kappa_z: dual(s.inv_kappa_z, inv_kappa(props.kappa_z, dprops.kappa_z)),
     };
-    let (k, m) = local_matrices(frame.length, &sd, mass);
+    let (k, m) = local_pair(frame.length, &sd, mass, centres);
     let (k, m) = condense(&k, &m, &ends.released(), |x: Dual| x.v)?;
     Ok(ElementDerivative {
         dk: offset_grid(to_basic(&tangent(&k), &frame.axes)?, ends),

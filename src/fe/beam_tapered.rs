@@ -42,6 +42,9 @@
 //! **Rods** ([`tapered_rod2`]): axial `1/∫ds/EA`, torsional `1/∫ds/GJ`, mass `∫ m̄ NᵢNⱼ ds`
 //! with the linear `Nᵢ` on each translation (consistent) or the first-moment split (lumped),
 //! no torsional inertia, as [`super::rod`].
+//!
+//! **Shear centre** ([`tapered_beam2_centred`]): the centroid and NSM at constant offsets from
+//! the axis, transformed as for the uniform beam ([`super::beam_offset`]).
 
 use super::beam::Section;
 use super::beam::{
@@ -49,6 +52,7 @@ use super::beam::{
     XZ_DOFS, XZ_SIGNS, condense, ends_frame, offset_grid, pair, poisson, scatter, tangent,
     to_basic,
 };
+use super::beam_offset::{SectionCentres, about_shear_centre};
 use super::element::{ElementDerivative, ElementError, ElementMatrices, MassKind, positive};
 use crate::model::{BeamProperty, BeamSection, BeamTaper};
 use faer::Mat;
@@ -134,6 +138,23 @@ struct Point<T> {
     inv_kappa_y: T,
     inv_kappa_z: T,
     nsm: T,
+}
+
+/// The value of a quadrature point's NSM (of an `f64` or dual point).
+trait NsmValue {
+    fn nsm_value(&self) -> f64;
+}
+
+impl NsmValue for Point<f64> {
+    fn nsm_value(&self) -> f64 {
+        self.nsm
+    }
+}
+
+impl NsmValue for Point<Dual> {
+    fn nsm_value(&self) -> f64 {
+        self.nsm.v
+    }
 }
 
 /// `1/κ`, zero for a shear-rigid (infinite) `κ`.
@@ -509,12 +530,68 @@ pub fn tapered_beam2(
     mass: MassKind,
     ends: &EndConditions,
 ) -> Result<ElementMatrices, ElementError> {
+    tapered_beam2_centred(x1, x2, v, b, mass, ends, &SectionCentres::default())
+}
+
+/// The local pair about the shear centre ([`super::beam_offset`]); the centroidal pair itself
+/// when `centres` is zero. The structural mass is `ρ` times that of unit density (the mass is
+/// linear in `ρ`; the lumped HRZ share divides by the translational mass, which is then never
+/// zero): its translational part is that of the area taken as an NSM, its rotary and
+/// torsional part the rest; the non-structural one is left out when the NSM is zero
+/// everywhere.
+fn local_pair<T: Scalar>(
+    l: f64,
+    pts: &[Point<T>],
+    torsion: bool,
+    (e, g, rho): (T, T, T),
+    kind: MassKind,
+    centres: &SectionCentres,
+) -> LocalPair<T>
+where
+    Point<T>: NsmValue,
+{
+    if centres.is_zero() {
+        return local_matrices(l, pts, torsion, (e, g, rho), kind);
+    }
+    let zero = T::cst(0.0);
+    // Unit density: all of it, and its translational part alone (the area as an NSM).
+    let bare: Vec<Point<T>> = pts.iter().map(|p| Point { nsm: zero, ..*p }).collect();
+    let (k, unit) = local_matrices(l, &bare, torsion, (e, g, T::cst(1.0)), kind);
+    let areas: Vec<Point<T>> = pts.iter().map(|p| Point { nsm: p.area, ..*p }).collect();
+    let (_, unit_translation) = local_matrices(l, &areas, torsion, (e, g, zero), kind);
+    let m_structural = unit_translation.map(|row| row.map(|x| rho * x));
+    let mut m_rotary = unit;
+    for (row, t) in m_rotary.iter_mut().zip(&unit_translation) {
+        for (x, y) in row.iter_mut().zip(t) {
+            *x = rho * (*x - *y);
+        }
+    }
+    let m_nsm = if pts.iter().any(|p| p.nsm_value() != 0.0) {
+        local_matrices(l, pts, torsion, (e, g, zero), kind).1
+    } else {
+        [[zero; 12]; 12]
+    };
+    about_shear_centre(&k, [&m_rotary, &m_structural, &m_nsm], centres, l, kind)
+}
+
+/// [`tapered_beam2`] whose axis is the shear centre, with the centroid and NSM at the constant
+/// offsets `centres` from it (see [`super::beam_offset`]).
+pub fn tapered_beam2_centred(
+    x1: [f64; 3],
+    x2: [f64; 3],
+    v: [f64; 3],
+    b: &TaperedBeam,
+    mass: MassKind,
+    ends: &EndConditions,
+    centres: &SectionCentres,
+) -> Result<ElementMatrices, ElementError> {
     let frame = ends_frame(x1, x2, v, ends)?;
     material(b.e, b.nu, b.rho)?;
+    centres.validate()?;
     let (pts, torsion) = points(b.taper, b.nu, frame.length, None)?;
     let pts: Vec<Point<f64>> = pts.iter().map(value_point).collect();
     let g = b.e / (2.0 * (1.0 + b.nu));
-    let (k, m) = local_matrices(frame.length, &pts, torsion, (b.e, g, b.rho), mass);
+    let (k, m) = local_pair(frame.length, &pts, torsion, (b.e, g, b.rho), mass, centres);
     let (k, m) = condense(&k, &m, &ends.released(), |x| x)?;
     Ok(ElementMatrices {
         k: offset_grid(to_basic(&k, &frame.axes)?, ends),
@@ -548,17 +625,36 @@ pub fn tapered_beam2_derivative(
     p: BeamParameter,
     ends: &EndConditions,
 ) -> Result<ElementDerivative, ElementError> {
+    tapered_beam2_centred_derivative(x1, x2, v, b, mass, p, ends, &SectionCentres::default())
+}
+
+/// Exact `∂K/∂φ`, `∂M/∂φ` of [`tapered_beam2_centred`]: the shear-centre transforms are
+/// constant. The offsets must not depend on the parameter (the caller refuses a section
+/// dimension of a library section whose shear centre is off its centroid).
+#[allow(clippy::too_many_arguments)]
+pub fn tapered_beam2_centred_derivative(
+    x1: [f64; 3],
+    x2: [f64; 3],
+    v: [f64; 3],
+    b: &TaperedBeam,
+    mass: MassKind,
+    p: BeamParameter,
+    ends: &EndConditions,
+    centres: &SectionCentres,
+) -> Result<ElementDerivative, ElementError> {
     let frame = ends_frame(x1, x2, v, ends)?;
     material(b.e, b.nu, b.rho)?;
+    centres.validate()?;
     let section_p =
         (!matches!(p, BeamParameter::YoungsModulus | BeamParameter::Density)).then_some(p);
     let (pts, torsion) = points(b.taper, b.nu, frame.length, section_p)?;
-    let (k, m) = local_matrices(
+    let (k, m) = local_pair(
         frame.length,
         &pts,
         torsion,
         material_duals(b, Some(p)),
         mass,
+        centres,
     );
     let (k, m) = condense(&k, &m, &ends.released(), |x: Dual| x.v)?;
     Ok(ElementDerivative {

@@ -48,6 +48,7 @@ fn property(library: Option<&str>, stations: &[(f64, &[f64], f64)], shear: f64) 
                 })
                 .collect(),
         }),
+        centres: None,
     }
 }
 

@@ -2,6 +2,7 @@
 
 pub mod assembly;
 pub mod beam;
+pub mod beam_offset;
 pub mod beam_tapered;
 pub mod damping;
 pub mod element;

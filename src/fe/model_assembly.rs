@@ -2,8 +2,11 @@
 //! evaluated in parallel and scattered by [`assemble`](super::assembly::assemble).
 
 use super::assembly::{AssemblyInfo, Contribution, assemble_points, node_index};
-use super::beam::{BeamData, EndConditions, Section, beam2_with_ends};
-use super::beam_tapered::{PropertyTaper, TaperedBeam, TaperedRod, tapered_beam2, tapered_rod2};
+use super::beam::{BeamData, EndConditions, Section, beam2_centred};
+use super::beam_offset::SectionCentres;
+use super::beam_tapered::{
+    PropertyTaper, TaperedBeam, TaperedRod, tapered_beam2_centred, tapered_rod2,
+};
 use super::element::{ElementError, ElementMatrices, MassKind};
 use super::lumped_elements::{LumpedMass, SpringEnds, conm2, scalar_spring, spring6};
 use super::multipoint::{DependentDof, MultipointError, eliminate, independent_dofs, resolve};
@@ -11,7 +14,7 @@ use super::shell::{ShellSection, quad4, tria3};
 use super::shell_quadratic::{quad8, quadratic_geometry, tria6};
 use super::system::SystemMatrices;
 use crate::core::sparse::SparseMatrix;
-use crate::model::{BeamEnds, BeamSection, Element, Model, ModelError};
+use crate::model::{BeamEnds, BeamProperty, BeamSection, Element, Model, ModelError};
 use faer::Mat;
 use std::collections::{BTreeMap, BTreeSet};
 
@@ -98,6 +101,18 @@ pub fn kernel_section(s: &BeamSection) -> Section {
             shear_z: (shear_z > 0.0).then_some(shear_z),
         },
     }
+}
+
+/// The kernel's centroid and NSM offsets from the shear centre of a model beam property (zero
+/// when it has none).
+pub fn kernel_centres(p: &BeamProperty) -> SectionCentres {
+    p.centres
+        .as_ref()
+        .map_or_else(SectionCentres::default, |c| SectionCentres {
+            neutral_axis: c.neutral_axis,
+            nsm_cg: c.nsm_cg,
+            nsi: c.nsi,
+        })
 }
 
 /// The kernel's end conditions of a model beam's ends (pin codes such as 456 → released DOFs).
@@ -372,13 +387,14 @@ fn basic_element_matrices(
                     rho: mat.rho,
                     taper: &taper,
                 };
-                return tapered_beam2(
+                return tapered_beam2_centred(
                     xyz(&nodes[0]),
                     xyz(&nodes[1]),
                     *orientation,
                     &b,
                     mass,
                     &kernel_ends(ends)?,
+                    &kernel_centres(p),
                 );
             }
             let d = BeamData {
@@ -388,13 +404,14 @@ fn basic_element_matrices(
                 nsm: p.nsm,
                 section: kernel_section(&p.section),
             };
-            beam2_with_ends(
+            beam2_centred(
                 xyz(&nodes[0]),
                 xyz(&nodes[1]),
                 *orientation,
                 &d,
                 mass,
                 &kernel_ends(ends)?,
+                &kernel_centres(p),
             )
         }
         Element::Rod { nodes, section } => with_tapered_rod(model, section, |r| {
@@ -886,7 +903,7 @@ fn element_derivative(
     e: &Element,
     mass: MassKind,
 ) -> Result<super::element::ElementDerivative, ModelAssemblyError> {
-    use super::beam::{BeamParameter, beam2_derivative_with_ends};
+    use super::beam::{BeamParameter, beam2_derivative_centred};
     use super::lumped_elements::{MassParameter, conm2_derivative, spring6_derivative};
     use super::shell::{ShellParameter, quad4_derivative, tria3_derivative};
     use crate::core::Component;
@@ -987,13 +1004,25 @@ fn element_derivative(
                     P::BeamHeight => BeamParameter::Height,
                     _ => return Err(not_applicable()),
                 };
+                let centres = kernel_centres(bp);
+                // A library section's shear centre moves with its dimensions; the offsets are
+                // held constant here, so a dimension derivative would miss that part.
+                if matches!(p, BeamParameter::Width | BeamParameter::Height)
+                    && centres.neutral_axis != [0.0; 2]
+                {
+                    return Err(err(ElementError::Degenerate(format!(
+                        "the {} of a tapered beam section whose centroid is off its shear centre (offset {:?}) cannot be differentiated: the offset depends on the dimensions",
+                        p.name(),
+                        centres.neutral_axis
+                    ))));
+                }
                 let b = TaperedBeam {
                     e: mat.e,
                     nu: mat.nu,
                     rho: mat.rho,
                     taper: &taper,
                 };
-                return super::beam_tapered::tapered_beam2_derivative(
+                return super::beam_tapered::tapered_beam2_centred_derivative(
                     xyz(&nodes[0]),
                     xyz(&nodes[1]),
                     *orientation,
@@ -1001,6 +1030,7 @@ fn element_derivative(
                     mass,
                     p,
                     &kernel_ends(ends).map_err(err)?,
+                    &centres,
                 )
                 .map_err(err);
             }
@@ -1027,7 +1057,7 @@ fn element_derivative(
                 nsm: bp.nsm,
                 section,
             };
-            beam2_derivative_with_ends(
+            beam2_derivative_centred(
                 xyz(&nodes[0]),
                 xyz(&nodes[1]),
                 *orientation,
@@ -1035,6 +1065,7 @@ fn element_derivative(
                 mass,
                 p,
                 &kernel_ends(ends).map_err(err)?,
+                &kernel_centres(bp),
             )
             .map_err(err)?
         }

@@ -13,7 +13,7 @@ pub use lumped::{LumpedMass, LumpedModel, LumpedModelError, LumpedSpring};
 pub use parameters::ParameterValueError;
 pub use structure::{AnisotropicMaterial, SolidFamily, SolidKind, SolidProperty};
 pub use structure::{
-    BeamEnds, BeamProperty, BeamSection, BeamStation, BeamTaper, Element, Material, Model,
-    ModelError, MultipointConstraint, Parameter, ParameterKind, RodProperty, RodSection,
+    BeamCentres, BeamEnds, BeamProperty, BeamSection, BeamStation, BeamTaper, Element, Material,
+    Model, ModelError, MultipointConstraint, Parameter, ParameterKind, RodProperty, RodSection,
     ShellProperty, TubeTaper,
 };

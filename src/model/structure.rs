@@ -471,6 +471,35 @@ pub struct BeamProperty {
     /// and `nsm` then hold end A's values.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub taper: Option<BeamTaper>,
+    /// Where the centroid and the non-structural mass lie relative to the beam's axis, which is
+    /// then the section's shear centre (Nastran CBEAM: PBEAM N, M, NSI; a PBEAML section whose
+    /// shear centre is off its centroid); `None`: both on the axis. Constant along a taper.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub centres: Option<BeamCentres>,
+}
+
+/// The centroid and non-structural mass of a beam section relative to its shear centre, in
+/// element `y`, `z` (Nastran PBEAM; see `crate::fe::beam_offset` for the mechanics).
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct BeamCentres {
+    /// Centroid (neutral axis) from the shear centre, `(y, z)`, m (PBEAM N1, N2).
+    #[serde(default)]
+    pub neutral_axis: [f64; 2],
+    /// Centre of gravity of the non-structural mass from the shear centre, `(y, z)`, m (PBEAM
+    /// M1, M2).
+    #[serde(default)]
+    pub nsm_cg: [f64; 2],
+    /// Non-structural mass moment of inertia per length about its centre of gravity, kg·m
+    /// (PBEAM NSI).
+    #[serde(default)]
+    pub nsi: f64,
+}
+
+impl BeamCentres {
+    /// `Some` unless every value is zero.
+    pub fn nonzero(self) -> Option<BeamCentres> {
+        (self != BeamCentres::default()).then_some(self)
+    }
 }
 
 /// The stations of a tapered beam, from end A (`x = 0`) to end B (`x = 1`), with what varies

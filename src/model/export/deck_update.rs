@@ -781,6 +781,12 @@ fn properties(
                     "the section of a tapered beam (PBEAM/PBEAML with stations) changed; its stations cannot be written back (only its material can), so the card is left as it is",
                 ));
             }
+            if p.centres != p0.centres {
+                return Err(w.unsupported(
+                    i,
+                    "the neutral axis or NSM offsets (PBEAM N, M, NSI) of a beam changed; they cannot be written back, so the card is left as it is",
+                ));
+            }
             if p.section != p0.section {
                 beam_section(w, i, &p0.section, &p.section)?;
             }
@@ -1714,5 +1720,33 @@ mod tests {
         let out = update_deck(&deck, &model, &new, &["test".to_string()]).unwrap();
         let back = read_bulk(written(dir.path(), &out)).unwrap().model;
         assert_eq!(back, new);
+    }
+
+    /// A PBEAM with neutral-axis and NSM offsets and NSI: a modulus update is written (to the
+    /// MAT1) and the card keeps its M/N line, so the read-back equals the updated model (the
+    /// offsets are not lost); a model whose offsets changed is refused, naming the card.
+    #[test]
+    fn beam_offsets_are_kept_or_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let top = dir.path().join("main.bdf");
+        let text = "MAT1,1,2.1+11,,.3,7850.\nGRID,1,,0.,0.,0.,,123456\nGRID,2,,1.,0.,0.\nPBEAM,7,1,1.8-3,6.5-6,2.2-6,,3.-8,2.5\n,,,,,,,,\n,.8,.9,,,.012\n,-.03,.045,,,.021,-.013\nCBEAM,1,7,1,2,0.,1.,0.\nENDDATA\n";
+        std::fs::write(&top, text).unwrap();
+        let model = read_bulk(&top).unwrap().model;
+        assert!(model.beam_properties[&7].centres.is_some());
+        let deck = read_deck(&top).unwrap();
+        let mut new = model.clone();
+        new.set_parameter_value(&param("e", ParameterKind::YoungsModulus, "pid7"), 2.0e11)
+            .unwrap();
+        let out = update_deck(&deck, &model, &new, &["test".to_string()]).unwrap();
+        let back = read_bulk(written(dir.path(), &out)).unwrap().model;
+        assert_eq!(back, new);
+        let mut moved = model.clone();
+        if let Some(c) = &mut moved.beam_properties.get_mut(&7).unwrap().centres {
+            c.neutral_axis[0] = 0.03;
+        }
+        let e = update_deck(&deck, &model, &moved, &["test".to_string()])
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("PBEAM 7") && e.contains("neutral axis"), "{e}");
     }
 }

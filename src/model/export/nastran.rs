@@ -289,7 +289,8 @@ fn write_materials_and_properties(out: &mut String, model: &Model) {
         );
     }
     for (&id, p) in &model.beam_properties {
-        write_beam_property(out, id, p);
+        let nu = model.materials.get(&p.material).map(|m| m.nu);
+        write_beam_property(out, id, p, nu);
     }
     for (&id, p) in &model.rod_properties {
         if let Some(t) = p.taper {
@@ -475,7 +476,9 @@ fn write_placed_shell(
 }
 
 /// A tapered beam property: PBEAML (dimensions) or PBEAM (properties, K1/K2 from the
-/// section) with every station after end A, SO = NO.
+/// section, and the N/M/NSI offsets) with every station after end A, SO = NO. A PBEAML has no
+/// offset fields: its neutral axis offset is recomputed from the dimensions on reading (NSM
+/// offsets of a tapered library section, which no import produces, are not written).
 fn write_tapered_beam_property(out: &mut String, id: u64, p: &BeamProperty, t: &BeamTaper) {
     let Some(a) = t.stations.first() else {
         return;
@@ -520,14 +523,77 @@ fn write_tapered_beam_property(out: &mut String, id: u64, p: &BeamProperty, t: &
         f.extend([F::Text("NO".into()), F::Real(s.x)]);
         f.extend(props(s));
     }
-    f.extend([F::Real(k1), F::Real(k2)]);
+    f.extend(pbeam_tail(p, k1, k2));
     card(out, "PBEAM", f);
 }
 
-/// A beam property: PBARL for the BAR, ROD and TUBE sections, PBAR for a general one.
-fn write_beam_property(out: &mut String, id: u64, p: &BeamProperty) {
+/// The last two PBEAM continuations: `K1 K2 S1 S2 NSI(A) NSI(B) CW(A) CW(B)` and, when the
+/// property has its centroid or NSM off the axis, `M1(A) M2(A) M1(B) M2(B) N1(A) N2(A) N1(B)
+/// N2(B)` (end B blank: end A's). Trailing blanks are dropped by the card writer.
+fn pbeam_tail(p: &BeamProperty, k1: f64, k2: f64) -> Vec<F> {
+    let mut f = vec![F::Real(k1), F::Real(k2)];
+    if let Some(c) = &p.centres {
+        f.extend([F::Blank, F::Blank, F::Real(c.nsi)]);
+        f.extend((0..3).map(|_| F::Blank));
+        f.extend([
+            F::Real(c.nsm_cg[0]),
+            F::Real(c.nsm_cg[1]),
+            F::Blank,
+            F::Blank,
+        ]);
+        f.extend([F::Real(c.neutral_axis[0]), F::Real(c.neutral_axis[1])]);
+    }
+    f
+}
+
+/// A beam whose centroid or NSM is off its axis: a PBEAM (the only card with N/M/NSI) with the
+/// section's properties. A BAR, ROD or TUBE section (which no import produces with offsets)
+/// is written with the properties femu's kernel gives it for the material's `ν` (J by the
+/// Saint-Venant series, Cowper's shear factors), so it reads back as a general section of the
+/// same stiffness and mass.
+fn write_centred_beam_property(out: &mut String, id: u64, p: &BeamProperty, nu: Option<f64>) {
+    let (area, iy, iz, j, k1, k2) = match p.section {
+        BeamSection::General {
+            area,
+            iy,
+            iz,
+            j,
+            shear_y,
+            shear_z,
+        } => (area, iy, iz, j, shear_y, shear_z),
+        ref s => {
+            let nu = nu.unwrap_or(0.3);
+            match crate::fe::model_assembly::kernel_section(s).properties(nu) {
+                Ok(q) => (q.area, q.iy, q.iz, q.j, q.kappa_y, q.kappa_z),
+                Err(_) => (0.0, 0.0, 0.0, 0.0, 0.0, 0.0),
+            }
+        }
+    };
+    let mut f = vec![
+        F::Int(id),
+        F::Int(p.material),
+        F::Real(area),
+        F::Real(iz),
+        F::Real(iy),
+        F::Real(0.0),
+        F::Real(j),
+        F::Real(p.nsm),
+    ];
+    f.extend((0..8).map(|_| F::Blank));
+    f.extend(pbeam_tail(p, k1, k2));
+    card(out, "PBEAM", f);
+}
+
+/// A beam property: PBARL for the BAR, ROD and TUBE sections, PBAR for a general one; PBEAM
+/// (with its N, M, NSI) when the centroid or NSM is off the axis; a tapered one as
+/// [`write_tapered_beam_property`] says (`nu`: the material's Poisson's ratio).
+fn write_beam_property(out: &mut String, id: u64, p: &BeamProperty, nu: Option<f64>) {
     if let Some(t) = &p.taper {
         write_tapered_beam_property(out, id, p, t);
+        return;
+    }
+    if p.centres.is_some() {
+        write_centred_beam_property(out, id, p, nu);
         return;
     }
     let head = |kind: &str| {
@@ -726,11 +792,12 @@ fn write_element(
                         .map(|v| F::Real(*v)),
                 );
             }
-            // A tapered property is a PBEAM/PBEAML, which CBEAM names (same fields as CBAR).
+            // A tapered property, or one with its centroid or NSM off the axis, is a
+            // PBEAM/PBEAML, which CBEAM names (same fields as CBAR).
             let tapered = model
                 .beam_properties
                 .get(property)
-                .is_some_and(|p| p.taper.is_some());
+                .is_some_and(|p| p.taper.is_some() || p.centres.is_some());
             card(out, if tapered { "CBEAM" } else { "CBAR" }, f);
         }
         Element::Rod { nodes, section } => match section {
@@ -1058,6 +1125,7 @@ mod tests {
                     section: s,
                     nsm: 0.1 * i as f64,
                     taper: None,
+                    centres: None,
                 },
             );
         }

@@ -114,6 +114,7 @@ pub fn bent_plate(p: &BentPlate) -> Model {
                 },
                 nsm: 0.0,
                 taper: None,
+                centres: None,
             },
         );
         let (a, b) = (id(0, 0), id(nx, ny));

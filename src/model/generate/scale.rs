@@ -194,6 +194,7 @@ pub fn three_plate_two_beam(h: f64) -> Model {
             },
             nsm: 0.0,
             taper: None,
+            centres: None,
         },
     );
     let (lx, ly, gap) = (1.2, 0.6, 0.3);

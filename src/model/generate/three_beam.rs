@@ -60,6 +60,7 @@ pub fn three_beam(p: &ThreeBeam) -> Model {
             },
             nsm: 0.0,
             taper: None,
+            centres: None,
         },
     );
     let gap = 0.008;

@@ -551,6 +551,9 @@ fn apply_wtmass(model: &mut Model, w: f64) {
     }
     for p in model.beam_properties.values_mut() {
         p.nsm *= w;
+        if let Some(c) = &mut p.centres {
+            c.nsi *= w;
+        }
     }
     for p in model.rod_properties.values_mut() {
         p.nsm *= w;

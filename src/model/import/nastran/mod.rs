@@ -98,7 +98,8 @@
 //!   condensed statically with the mass made consistent with the condensed motion
 //!   (`src/fe/beam.rs`); releases leaving a mechanism are errors. The model holds offsets in
 //!   basic. CBEAM: a real BIT in OFFT is ignored (p-elements only); warping points SA/SB are
-//!   ignored with a warning; its shear centre is on the axis (see PBEAML).
+//!   ignored with a warning; its axis is the section's shear centre, with the neutral axis and
+//!   the NSM centre of gravity offset from it as its PBEAM/PBEAML says (see PBEAM, PBEAML).
 //! - PSHELL (QRG meaning): MID1 the membrane material (blank: no membrane), MID2 the bending
 //!   material (blank: membrane only — no bending, transverse shear, drilling stiffness or rotary
 //!   inertia, so the rotations of a membrane-only mesh are dropped as AUTOSPC does), MID3 the
@@ -154,12 +155,23 @@
 //!   scale that dimension at every station in proportion (the parameter's value is end A's);
 //!   other section parameters do not apply. The write-back of an update refuses (naming the
 //!   card) to change a tapered property's section.
-//! - PBEAML: only sections whose shear centre is the centroid (doubly symmetric, and Z) are
-//!   read, at every station: Nastran's CBEAM offsets the neutral axis from the shear centre on
-//!   the grid line, which femu's beam does not; others are errors. A tapered section with a
-//!   product of inertia (Z, whose principal axes would turn along the beam) is an error.
-//! - PBEAM: K1/K2 default 1.0 (0 = no shear flexibility). I12 ≠ 0 is an error; NSI, CW and
-//!   the M/N offsets are ignored with a warning.
+//! - PBEAML: the element axis is the section's shear centre (QRG PBEAML remarks 7 and 12,
+//!   default MDLPRM TWBRBML = 0): a section that is not doubly or point symmetric (T, T1, T2,
+//!   L, CHAN, CHAN1, CHAN2, HAT, I with unequal flanges, BOX1 with unequal opposite walls) has
+//!   its centroid offset from it by the thin-walled centreline shear centre
+//!   ([`crate::model::sections::neutral_axis_offset`], in the turned axes of an L or BOX1), as
+//!   the equivalent PBEAM's N1/N2; the mechanics are those of PBEAM's offsets below. A tapered
+//!   section must keep that offset at every station (to 1e-9 of its largest dimension; the
+//!   element holds it constant), else an error names the station; a tapered section with a
+//!   product of inertia (whose principal axes would turn along the beam) is an error.
+//! - PBEAM: K1/K2 default 1.0 (0 = no shear flexibility). I12 ≠ 0 is an error; CW (warping)
+//!   is ignored with a warning (Nastran ignores it too without warping scalar points). N1/N2
+//!   (neutral axis), M1/M2 (NSM centre of gravity) and NSI (NSM mass moment of inertia per
+//!   length, ≥ 0) are applied with Nastran's meaning (`src/fe/beam_offset.rs`): the grid line
+//!   is the shear centre, the axial strain is the centroid's, the structural mass sits at the
+//!   centroid and the NSM at M, rigidly linked. Blank end-B values are end A's (QRG); end-B
+//!   values that differ from end A's are an error naming the field (the element holds the
+//!   offsets constant).
 //! - MAT1: a blank E, G or NU is derived from the other two (E = 2(1+NU)G). With only E given,
 //!   NU = 0 (Nastran sets G = 0; femu's isotropic material has G = E/2) with a warning. When all
 //!   three are given and inconsistent, E and NU are kept and a warning names the G used.
@@ -232,8 +244,8 @@
 use crate::core::input::{EXCERPT_CHARS, InputError, InputPolicy, excerpt, read_input_with};
 use crate::core::{Component, DofId};
 use crate::model::structure::{
-    BeamEnds, BeamProperty, BeamSection, BeamStation, BeamTaper, Element, Material, Model,
-    ModelError, Parameter, ShellProperty,
+    BeamCentres, BeamEnds, BeamProperty, BeamSection, BeamStation, BeamTaper, Element, Material,
+    Model, ModelError, Parameter, ShellProperty,
 };
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
@@ -277,6 +289,8 @@ mod tests_rigid;
 mod tests_rods;
 #[cfg(test)]
 mod tests_scalars;
+#[cfg(test)]
+mod tests_shear_centre;
 #[cfg(test)]
 mod tests_solids;
 #[cfg(test)]

@@ -143,6 +143,7 @@ impl Builder {
                 },
                 nsm,
                 taper: None,
+                centres: None,
             },
         );
         Ok(())
@@ -186,6 +187,7 @@ impl Builder {
         let mut r = 1;
         let mut tail = 0;
         let (mut k1, mut k2) = (1.0, 1.0);
+        let (mut nsi, mut nsm_cg, mut neutral) = (0.0, [0.0; 2], [0.0; 2]);
         while r < rows {
             let k0 = 1 + 8 * r;
             let so = c.word(k0);
@@ -224,30 +226,34 @@ impl Builder {
                 k2 = c.nonneg_real(k0 + 1, "K2", 1.0)?;
                 c.real(k0 + 2, "S1")?;
                 c.real(k0 + 3, "S2")?;
-                let ignored = ["NSI(A)", "NSI(B)", "CW(A)", "CW(B)"];
-                let mut any = false;
-                for (i, label) in ignored.iter().enumerate() {
-                    any |= c.real_or(k0 + 4 + i, label, 0.0)? != 0.0;
+                nsi = end_pair(c, k0 + 4, "NSI")?;
+                if nsi < 0.0 {
+                    return Err(c.err(
+                        k0 + 4,
+                        "NSI(A)",
+                        format!("{nsi} is negative"),
+                        "a mass moment of inertia per length >= 0",
+                    ));
                 }
-                if any {
+                let mut warping = false;
+                for (i, label) in ["CW(A)", "CW(B)"].iter().enumerate() {
+                    warping |= c.real_or(k0 + 6 + i, label, 0.0)? != 0.0;
+                }
+                if warping {
                     self.warn(
                         &c.loc,
                         id,
-                        "NSI (mass moment of inertia) and CW (warping) are ignored",
+                        "CW (warping) is ignored: femu's beam has Saint-Venant torsion only, as Nastran's CBEAM without warping scalar points",
                     );
                 }
                 tail = 1;
             } else if tail == 1 {
-                let mut any = false;
-                for i in 0..8 {
-                    any |= c.real_or(k0 + i, "M/N offset", 0.0)? != 0.0;
+                // M1(A) M2(A) M1(B) M2(B) N1(A) N2(A) N1(B) N2(B).
+                for (i, label) in ["M1", "M2"].iter().enumerate() {
+                    nsm_cg[i] = end_pair_at(c, k0 + i, k0 + 2 + i, label)?;
                 }
-                if any {
-                    self.warn(
-                        &c.loc,
-                        id,
-                        "the NSM centre of gravity and neutral axis offsets (M, N) are ignored",
-                    );
+                for (i, label) in ["N1", "N2"].iter().enumerate() {
+                    neutral[i] = end_pair_at(c, k0 + 4 + i, k0 + 6 + i, label)?;
                 }
                 tail = 2;
             } else if (0..8).any(|i| !c.blank(k0 + i)) {
@@ -276,6 +282,12 @@ impl Builder {
                 },
                 nsm: end_a[5],
                 taper,
+                centres: BeamCentres {
+                    neutral_axis: neutral,
+                    nsm_cg,
+                    nsi,
+                }
+                .nonzero(),
             },
         );
         Ok(())
@@ -372,6 +384,28 @@ impl Builder {
             .insert(id, (c.loc.clone(), Material { e, nu, rho }));
         Ok(())
     }
+}
+
+/// A PBEAM value given for end A (field `ka`) and end B (field `kb`), both blank-is-0 for end
+/// A and blank-is-end-A for end B (QRG PBEAM); femu's beam holds it constant, so an end-B value
+/// other than end A's is an error naming it.
+fn end_pair_at(c: &Card, ka: usize, kb: usize, label: &str) -> Result<f64, NastranError> {
+    let a = c.real_or(ka, &format!("{label}(A)"), 0.0)?;
+    let b = c.real_or(kb, &format!("{label}(B)"), a)?;
+    if b != a {
+        return Err(c.err(
+            kb,
+            &format!("{label}(B)"),
+            format!("{label}(B) = {b} differs from {label}(A) = {a}"),
+            format!("{label}(B) blank or equal to {label}(A): femu's beam holds the centroid and NSM offsets and NSI constant along the element"),
+        ));
+    }
+    Ok(a)
+}
+
+/// [`end_pair_at`] for a pair in adjacent fields (`NSI(A) NSI(B)` at `k`, `k + 1`).
+fn end_pair(c: &Card, k: usize, label: &str) -> Result<f64, NastranError> {
+    end_pair_at(c, k, k + 1, label)
 }
 
 /// The stations of a PBEAM (field of SO, X/XB and the six values `A I1 I2 I12 J NSM`, each

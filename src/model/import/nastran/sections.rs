@@ -6,6 +6,14 @@
 //! Z, BOX1 with unequal walls) is turned to its principal axes: the property holds the principal
 //! values and every element using it has its orientation vector turned by the same angle about
 //! its axis (the stiffness is that of Nastran's bar with `I12`, which ignores K1/K2 then).
+//!
+//! A PBEAML's element axis is the section's shear centre (QRG PBEAML remarks 7 and 12): a
+//! section that is not doubly or point symmetric (T, T1, T2, L, CHAN, CHAN1, CHAN2, HAT, I with
+//! unequal flanges, BOX1 with unequal opposite walls) gets its centroid's offset from the shear
+//! centre ([`crate::model::sections::neutral_axis_offset`], turned with the section), as the
+//! equivalent PBEAM's N1, N2. A PBARL keeps both on the axis, as Nastran's CBAR does (QRG PBARL
+//! remark 8: "the PBARL does not account for offsets between the neutral axis and the shear
+//! center").
 
 use super::*;
 use crate::model::sections::{self as lib, SectionError, SectionValues};
@@ -146,16 +154,17 @@ pub(super) fn library_section(
     ))
 }
 
-/// Whether Nastran's CBEAM would put the section's shear centre and centroid at the same point
-/// (both axes of symmetry, or the point symmetry of Z): only then is femu's beam, whose axis
-/// carries both, the beam PBEAML describes.
-pub(super) fn centroid_is_shear_centre(kind: &str, d: &[f64]) -> bool {
-    match kind {
-        "BAR" | "ROD" | "TUBE" | "TUBE2" | "I1" | "BOX" | "H" | "CROSS" | "Z" => true,
-        "I" => d[1] == d[2] && d[4] == d[5],
-        "BOX1" => d[2] == d[3] && d[4] == d[5],
-        _ => false,
+/// The offset `(y, z)` of a library section's centroid from its shear centre in the element
+/// axes after the principal turn `theta` (`y' = cos θ y + sin θ z`, `z' = −sin θ y + cos θ z`,
+/// the turn of [`lib::principal`]): where Nastran's CBEAM puts the neutral axis of a PBEAML
+/// (its element axis is the shear centre, QRG PBEAML remarks 7 and 12).
+pub(super) fn neutral_axis(kind: &str, d: &[f64], theta: f64) -> [f64; 2] {
+    let [y, z] = lib::neutral_axis_offset(kind, d);
+    if theta == 0.0 {
+        return [y, z];
     }
+    let (s, c) = theta.sin_cos();
+    [c * y + s * z, -s * y + c * z]
 }
 
 /// The dimensions and NSM of a PBARL (DIM1 at data field 9, NSM after the last).
@@ -195,6 +204,7 @@ impl Builder {
                 section,
                 nsm,
                 taper: None,
+                centres: None,
             },
         );
         Ok(())
@@ -239,6 +249,8 @@ impl Builder {
             given.push((k, x, v));
             k += n + 3;
         }
+        let (section, theta) = library_section(c, &kind, 9, &d)?;
+        let offset_a = neutral_axis(&kind, &d, theta);
         let end_a: Vec<f64> = d.iter().copied().chain([nsm]).collect();
         let mut stations = vec![BeamStation {
             x: 0.0,
@@ -287,15 +299,17 @@ impl Builder {
                     }
                 }
                 let dims = &values[..n];
-                if !centroid_is_shear_centre(&kind, dims) {
+                let (_, theta) = library_section(c, &kind, k0 + 2, dims)?;
+                let offset = neutral_axis(&kind, dims, theta);
+                let size = dims.iter().fold(0.0f64, |m, v| m.max(*v));
+                if (0..2).any(|i| (offset[i] - offset_a[i]).abs() > 1e-9 * size) {
                     return Err(c.err(
                         k0 + 2,
                         "DIM1",
-                        format!("the {kind} section at X/XB = {x} (dimensions {dims:?}) has its shear centre away from its centroid"),
-                        "station dimensions that keep the section doubly symmetric (see TYPE)",
+                        format!("the {kind} section at X/XB = {x} (dimensions {dims:?}) has its centroid at {offset:?} from its shear centre, end A's at {offset_a:?}"),
+                        "a tapered PBEAML whose centroid keeps its offset from the shear centre (femu's beam holds the offset constant along the element): a doubly symmetric section, or stations that keep the offset",
                     ));
                 }
-                let (_, theta) = library_section(c, &kind, k0 + 2, dims)?;
                 if theta != 0.0 {
                     return Err(c.err(
                         k0 + 2,
@@ -311,18 +325,7 @@ impl Builder {
                 });
             }
         }
-        if !centroid_is_shear_centre(&kind, &d) {
-            return Err(c.err(
-                4,
-                "TYPE",
-                format!(
-                    "a {kind} section of dimensions {d:?} has its shear centre away from its centroid; Nastran's CBEAM puts the shear centre on the grid line and offsets the neutral axis, femu's beam has both on its axis"
-                ),
-                "a doubly symmetric section (BAR, ROD, TUBE, TUBE2, I with equal flanges, I1, BOX, BOX1 with equal opposite walls, H, CROSS) or Z; or a PBARL (where Nastran also puts both on the axis)",
-            ));
-        }
         let taper = super::properties::uniform_or(stations, Some(kind.clone()));
-        let (section, theta) = library_section(c, &kind, 9, &d)?;
         self.new_property(c, 1, "PID", id)?;
         if theta != 0.0 && taper.is_some() {
             return Err(c.err(
@@ -342,6 +345,11 @@ impl Builder {
                 section,
                 nsm,
                 taper,
+                centres: BeamCentres {
+                    neutral_axis: offset_a,
+                    ..BeamCentres::default()
+                }
+                .nonzero(),
             },
         );
         Ok(())

@@ -1013,6 +1013,7 @@ fn fixture_plate_with_bar() {
             },
             nsm: 0.0,
             taper: None,
+            centres: None,
         }
     );
     let clamped: Vec<DofId> = [1, 6, 11, 16, 21]
