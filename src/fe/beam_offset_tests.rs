@@ -9,6 +9,7 @@ use crate::fe::beam::{
     BeamData, BeamParameter, EndConditions, Section, beam2_centred, beam2_derivative_centred,
     beam2_with_ends,
 };
+use crate::fe::beam_tapered::tests::central;
 use crate::fe::beam_tapered::{
     PropertyTaper, TaperedBeam, tapered_beam2, tapered_beam2_centred,
     tapered_beam2_centred_derivative,
@@ -336,16 +337,6 @@ fn tapered_property(library: Option<&str>) -> BeamProperty {
         }),
         centres: None,
     }
-}
-
-/// Central differences `(A(φ + h) − A(φ − h)) / 2h` of both matrices.
-fn central(f: &dyn Fn(f64) -> ElementMatrices, h: f64) -> (Mat<f64>, Mat<f64>) {
-    let (p, m) = (f(h), f(-h));
-    let s = 1.0 / (2.0 * h);
-    (
-        Mat::from_fn(12, 12, |i, j| s * (p.k[(i, j)] - m.k[(i, j)])),
-        Mat::from_fn(12, 12, |i, j| s * (p.m[(i, j)] - m.m[(i, j)])),
-    )
 }
 
 /// The exact `E` and `ρ` derivatives with all offsets, NSM and NSI (uniform and tapered, both

@@ -1010,4 +1010,4 @@ impl Taper for PropertyTaper<'_> {
 
 #[cfg(test)]
 #[path = "beam_tapered_tests.rs"]
-mod tests;
+pub(crate) mod tests;

@@ -334,7 +334,7 @@ fn one_tapered_element_is_the_limit_of_fine_uniform_ones() {
 }
 
 /// Central differences of the matrices by `h`: `(A(φ + h) − A(φ − h)) / 2h`.
-fn central(f: &dyn Fn(f64) -> ElementMatrices, h: f64) -> (Mat<f64>, Mat<f64>) {
+pub(crate) fn central(f: &dyn Fn(f64) -> ElementMatrices, h: f64) -> (Mat<f64>, Mat<f64>) {
     let (p, m) = (f(h), f(-h));
     let s = 1.0 / (2.0 * h);
     (

@@ -79,19 +79,29 @@ fn rect(z0: f64, z1: f64, y0: f64, y1: f64) -> Rect {
 /// `A`, `I1`, `I2`, `I12` about the centroid of a union of disjoint rectangles: for each,
 /// `∫ y² = b (y1³ − y0³)/3` etc. about the origin, then the parallel-axis shift to the centroid.
 fn composite(parts: &[Rect]) -> (f64, f64, f64, f64) {
-    let (mut a, mut sy, mut sz, mut syy, mut szz, mut syz) = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
+    let (a, [yc, zc]) = area_and_centroid(parts);
+    let (mut syy, mut szz, mut syz) = (0.0, 0.0, 0.0);
+    for r in parts {
+        let b = r.z1 - r.z0;
+        let h = r.y1 - r.y0;
+        syy += b * (r.y1.powi(3) - r.y0.powi(3)) / 3.0;
+        szz += h * (r.z1.powi(3) - r.z0.powi(3)) / 3.0;
+        syz += (r.y1 * r.y1 - r.y0 * r.y0) * (r.z1 * r.z1 - r.z0 * r.z0) / 4.0;
+    }
+    (a, syy - a * yc * yc, szz - a * zc * zc, syz - a * yc * zc)
+}
+
+/// Area and centroid `(y, z)` of a union of disjoint rectangles (first moments over area).
+fn area_and_centroid(parts: &[Rect]) -> (f64, [f64; 2]) {
+    let (mut a, mut sy, mut sz) = (0.0, 0.0, 0.0);
     for r in parts {
         let b = r.z1 - r.z0;
         let h = r.y1 - r.y0;
         a += b * h;
         sy += b * (r.y1 * r.y1 - r.y0 * r.y0) / 2.0;
         sz += h * (r.z1 * r.z1 - r.z0 * r.z0) / 2.0;
-        syy += b * (r.y1.powi(3) - r.y0.powi(3)) / 3.0;
-        szz += h * (r.z1.powi(3) - r.z0.powi(3)) / 3.0;
-        syz += (r.y1 * r.y1 - r.y0 * r.y0) * (r.z1 * r.z1 - r.z0 * r.z0) / 4.0;
     }
-    let (yc, zc) = (sy / a, sz / a);
-    (a, syy - a * yc * yc, szz - a * zc * zc, syz - a * yc * zc)
+    (a, [sy / a, sz / a])
 }
 
 fn check(ok: bool, what: impl FnOnce() -> String) -> Result<(), SectionError> {
@@ -480,19 +490,6 @@ pub fn library_values(kind: &str, d: &[f64]) -> Option<Result<SectionValues, Sec
     })
 }
 
-/// Centroid `(y, z)` of a union of disjoint rectangles.
-fn centroid(parts: &[Rect]) -> [f64; 2] {
-    let (mut a, mut sy, mut sz) = (0.0, 0.0, 0.0);
-    for r in parts {
-        let b = r.z1 - r.z0;
-        let h = r.y1 - r.y0;
-        a += b * h;
-        sy += b * (r.y1 * r.y1 - r.y0 * r.y0) / 2.0;
-        sz += h * (r.z1 * r.z1 - r.z0 * r.z0) / 2.0;
-    }
-    [sy / a, sz / a]
-}
-
 /// One straight wall of a thin-walled section's centreline, from `a` to `b` (`(y, z)`, m),
 /// of thickness `t`.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -739,7 +736,7 @@ pub fn neutral_axis_offset(kind: &str, d: &[f64]) -> [f64; 2] {
     let Some((parts, walls, closed)) = shape(kind, d) else {
         return [0.0; 2];
     };
-    let c = centroid(&parts);
+    let (_, c) = area_and_centroid(&parts);
     let s = thin_walled_shear_centre(&walls, closed);
     let size = d.iter().fold(0.0f64, |m, x| m.max(x.abs()));
     [c[0] - s[0], c[1] - s[1]].map(|x| if x.abs() <= 1e-12 * size { 0.0 } else { x })
