@@ -52,6 +52,32 @@ pub fn zeroed_f64(len: usize) -> Option<Vec<f64>> {
     }
 }
 
+/// A vector of `len` zeros written by the pool's threads, for arrays that are then updated in
+/// place (`+=`), such as an assembled matrix's values.
+///
+/// [`zeroed_f64`] suits arrays whose entries are first written. An array first *read* maps each
+/// untouched page to the kernel's shared zero page, and the first write to it then copies the
+/// page and flushes the TLBs of every thread of the process (an inter-processor interrupt per
+/// page). Written zeros fault each page in once, on the thread that writes it. At 302,400 DOFs
+/// the copy-on-write faults were about half of the assembly's time.
+pub fn written_zeros_f64(len: usize) -> Vec<f64> {
+    use rayon::prelude::*;
+    /// Entries per task: 512 KiB, a hundred pages.
+    const CHUNK: usize = 1 << 16;
+    let mut values = Vec::with_capacity(len);
+    values.spare_capacity_mut()[..len]
+        .par_chunks_mut(CHUNK)
+        .for_each(|chunk| {
+            for x in chunk {
+                x.write(0.0);
+            }
+        });
+    // SAFETY: the capacity is at least `len`, and every one of the first `len` entries was
+    // initialised just above.
+    unsafe { values.set_len(len) };
+    values
+}
+
 #[cfg(test)]
 mod tests {
     #[test]
@@ -72,5 +98,15 @@ mod tests {
         assert!(super::zeroed_f64(usize::MAX).is_none());
         assert!(super::zeroed_f64(isize::MAX as usize / 8).is_none());
         assert_eq!(super::zeroed_f64(1).unwrap(), vec![0.0]);
+    }
+
+    /// Every entry written, across chunk boundaries and for the empty vector.
+    #[test]
+    fn written_zeros_are_zeros() {
+        for len in [0, 1, (1 << 16) - 1, 1 << 16, 3 * (1 << 16) + 5] {
+            let v = super::written_zeros_f64(len);
+            assert_eq!(v.len(), len);
+            assert!(v.iter().all(|x| x.to_bits() == 0));
+        }
     }
 }

@@ -183,8 +183,9 @@ where
                 }
             }
         });
-    let mut kv = vec![0.0f64; nnz];
-    let mut mv = vec![0.0f64; nnz];
+    // Written before the scatter adds to them (see `written_zeros_f64`).
+    let mut kv = crate::core::memory::written_zeros_f64(nnz);
+    let mut mv = crate::core::memory::written_zeros_f64(nnz);
     let colours = colour(elements, n_nodes);
     {
         let (kp, mp) = (SharedValues(kv.as_mut_ptr()), SharedValues(mv.as_mut_ptr()));
