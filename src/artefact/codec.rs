@@ -24,35 +24,72 @@ pub fn write_dir(
     format: Format,
     producer: Option<serde_json::Value>,
 ) -> Result<String, ArtefactError> {
-    let digest = a.digest();
-    let mut tables = serde_json::Map::new();
-    match format {
-        Format::Arrow => {
-            for (name, (table, storage)) in &a.tables {
-                table.check_lengths(name)?;
-                let file = match storage {
-                    Storage::Parquet => format!("{name}.parquet"),
-                    Storage::Ipc => format!("{name}.arrow"),
-                };
-                let path = dir.join(&file);
-                match storage {
-                    Storage::Parquet => write_parquet(table, &path)?,
-                    Storage::Ipc => write_ipc(table, &path)?,
-                }
-                tables.insert(name.clone(), table_meta(table, &file, *storage));
-            }
-        }
-        Format::Hdf5 => {
-            for (name, (table, storage)) in &a.tables {
-                table.check_lengths(name)?;
-                tables.insert(name.clone(), table_meta(table, HDF5_FILE, *storage));
-            }
-            write_hdf5(a, &dir.join(HDF5_FILE))?;
-        }
+    write_dir_hashed(a, dir, format, producer).map(|(digest, _)| digest)
+}
+
+/// [`write_dir`], also returning the blake3 hash of every file written, by file name, taken
+/// from the bytes as they were written (so a cache entry's manifest needs no second read of
+/// files of gigabytes). The tables are written side by side, and beside the content digest.
+pub fn write_dir_hashed(
+    a: &Artefact,
+    dir: &Path,
+    format: Format,
+    producer: Option<serde_json::Value>,
+) -> Result<(String, BTreeMap<String, String>), ArtefactError> {
+    use rayon::prelude::*;
+    for (name, (table, _)) in &a.tables {
+        table.check_lengths(name)?;
     }
+    // Each table's file hash by file name, and its entry in `meta.json` by table name.
+    type Written = (
+        BTreeMap<String, String>,
+        serde_json::Map<String, serde_json::Value>,
+    );
+    let write_tables = || -> Result<Written, ArtefactError> {
+        let (mut hashes, mut tables) = (BTreeMap::new(), serde_json::Map::new());
+        match format {
+            Format::Arrow => {
+                let written: Vec<_> = a
+                    .tables
+                    .par_iter()
+                    .map(|(name, (table, storage))| {
+                        let file = match storage {
+                            Storage::Parquet => format!("{name}.parquet"),
+                            Storage::Ipc => format!("{name}.arrow"),
+                        };
+                        let path = dir.join(&file);
+                        let hash = match storage {
+                            Storage::Parquet => write_parquet(table, &path)?,
+                            Storage::Ipc => write_ipc(table, &path)?,
+                        };
+                        let meta = table_meta(table, &file, *storage);
+                        Ok((name, file, hash, meta))
+                    })
+                    .collect::<Result<_, ArtefactError>>()?;
+                for (name, file, hash, meta) in written {
+                    hashes.insert(file, hash);
+                    tables.insert(name.clone(), meta);
+                }
+            }
+            Format::Hdf5 => {
+                let path = dir.join(HDF5_FILE);
+                write_hdf5(a, &path)?;
+                let hash =
+                    super::digest::hash_file(&path).map_err(|e| ArtefactError::io(&path, e))?;
+                hashes.insert(HDF5_FILE.to_string(), hash);
+                for (name, (table, storage)) in &a.tables {
+                    tables.insert(name.clone(), table_meta(table, HDF5_FILE, *storage));
+                }
+            }
+        }
+        Ok((hashes, tables))
+    };
+    let (digest, written) = rayon::join(|| a.digest(), write_tables);
+    let (mut hashes, tables) = written?;
     for (name, bytes) in &a.blobs {
         let path = dir.join(name);
         std::fs::write(&path, bytes).map_err(|e| ArtefactError::io(&path, e))?;
+        hashes.insert(name.clone(), super::digest::hash_bytes(bytes));
     }
     let mut meta = serde_json::Map::new();
     meta.insert("femu_artefact".into(), a.kind.name().into());
@@ -72,10 +109,47 @@ pub fn write_dir(
         meta.insert("producer".into(), p);
     }
     let path = dir.join(META_FILE);
-    let text =
-        serde_json::to_string_pretty(&serde_json::Value::Object(meta)).expect("meta serialises");
-    std::fs::write(&path, text + "\n").map_err(|e| ArtefactError::io(&path, e))?;
-    Ok(digest)
+    let text = serde_json::to_string_pretty(&serde_json::Value::Object(meta))
+        .expect("meta serialises")
+        + "\n";
+    std::fs::write(&path, &text).map_err(|e| ArtefactError::io(&path, e))?;
+    hashes.insert(
+        META_FILE.to_string(),
+        super::digest::hash_bytes(text.as_bytes()),
+    );
+    Ok((digest, hashes))
+}
+
+/// A writer that hashes (blake3) the bytes it passes on, as they are written.
+struct HashingWriter<W> {
+    inner: W,
+    hasher: blake3::Hasher,
+}
+
+impl<W> HashingWriter<W> {
+    fn new(inner: W) -> Self {
+        Self {
+            inner,
+            hasher: blake3::Hasher::new(),
+        }
+    }
+
+    /// The hex hash of everything written.
+    fn hash(&self) -> String {
+        self.hasher.finalize().to_hex().to_string()
+    }
+}
+
+impl<W: std::io::Write> std::io::Write for HashingWriter<W> {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        let n = self.inner.write(buf)?;
+        self.hasher.update(&buf[..n]);
+        Ok(n)
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.inner.flush()
+    }
 }
 
 fn table_meta(table: &Table, file: &str, storage: Storage) -> serde_json::Value {
@@ -371,8 +445,8 @@ fn append_batch(table: &mut Table, batch: &RecordBatch, path: &Path) -> Result<(
     Ok(())
 }
 
-/// Writes one table as Parquet (zstd).
-pub fn write_parquet(table: &Table, path: &Path) -> Result<(), ArtefactError> {
+/// Writes a table as Parquet (zstd); returns the file's blake3 hash.
+pub fn write_parquet(table: &Table, path: &Path) -> Result<String, ArtefactError> {
     use parquet::arrow::ArrowWriter;
     use parquet::basic::{Compression, ZstdLevel};
     use parquet::file::properties::WriterProperties;
@@ -385,11 +459,19 @@ pub fn write_parquet(table: &Table, path: &Path) -> Result<(), ArtefactError> {
         path: path.to_path_buf(),
         message: e.to_string(),
     };
-    let mut w =
-        ArrowWriter::try_new(BufWriter::new(file), batch.schema(), Some(props)).map_err(enc)?;
+    let mut w = ArrowWriter::try_new(
+        BufWriter::new(HashingWriter::new(file)),
+        batch.schema(),
+        Some(props),
+    )
+    .map_err(enc)?;
     w.write(&batch).map_err(enc)?;
-    w.close().map_err(enc)?;
-    Ok(())
+    let hashed = w
+        .into_inner()
+        .map_err(enc)?
+        .into_inner()
+        .map_err(|e| ArtefactError::io(path, e.into_error()))?;
+    Ok(hashed.hash())
 }
 
 /// Reads a Parquet file into a table. Hostile bytes give an error naming the file, never a
@@ -448,48 +530,42 @@ fn read_parquet_unguarded(path: &Path) -> Result<Table, ArtefactError> {
     Ok(table)
 }
 
-/// Writes one table as an Arrow IPC file.
-pub fn write_ipc(table: &Table, path: &Path) -> Result<(), ArtefactError> {
+/// Writes a table as an Arrow IPC file; returns the file's blake3 hash.
+pub fn write_ipc(table: &Table, path: &Path) -> Result<String, ArtefactError> {
     let file = File::create(path).map_err(|e| ArtefactError::io(path, e))?;
     let enc = |e: arrow_schema::ArrowError| ArtefactError::Decode {
         path: path.to_path_buf(),
         message: e.to_string(),
     };
     // Record batches of at most IPC_BATCH_ROWS rows: a matrix table of 10⁸ entries is then
-    // copied into Arrow's buffers a few megabytes at a time, not whole beside itself.
+    // copied into Arrow's buffers a few megabytes at a time, not whole beside itself. Columns
+    // of unequal length are refused by `to_batch` as a whole.
     let rows = table.rows();
     let even = table.columns.iter().all(|(_, c)| c.len() == rows);
-    let mut start = 0;
-    let mut writer = None;
-    loop {
-        // Columns of unequal length are refused by `to_batch` as a whole.
-        let end = if even {
-            (start + IPC_BATCH_ROWS).min(rows)
+    let batch_rows = |start: usize| {
+        if even {
+            let end = (start + IPC_BATCH_ROWS).min(rows);
+            to_batch_rows(table, start, end).map(|b| (b, end))
         } else {
-            rows
-        };
-        let batch = if even {
-            to_batch_rows(table, start, end)?
-        } else {
-            to_batch(table)?
-        };
-        let w = match &mut writer {
-            Some(w) => w,
-            None => writer.insert(
-                arrow_ipc::writer::FileWriter::try_new(BufWriter::new(&file), &batch.schema())
-                    .map_err(enc)?,
-            ),
-        };
-        w.write(&batch).map_err(enc)?;
-        start = end;
-        if start >= rows {
-            break;
+            to_batch(table).map(|b| (b, rows))
         }
+    };
+    let (first, mut start) = batch_rows(0)?;
+    let sink = BufWriter::new(HashingWriter::new(file));
+    let mut writer = arrow_ipc::writer::FileWriter::try_new(sink, &first.schema()).map_err(enc)?;
+    writer.write(&first).map_err(enc)?;
+    while start < rows {
+        let (batch, end) = batch_rows(start)?;
+        writer.write(&batch).map_err(enc)?;
+        start = end;
     }
-    if let Some(mut w) = writer {
-        w.finish().map_err(enc)?;
-    }
-    Ok(())
+    writer.finish().map_err(enc)?;
+    let hashed = writer
+        .into_inner()
+        .map_err(enc)?
+        .into_inner()
+        .map_err(|e| ArtefactError::io(path, e.into_error()))?;
+    Ok(hashed.hash())
 }
 
 /// Most rows in one record batch of an Arrow IPC file femu writes.
@@ -568,6 +644,32 @@ mod tests {
                 Table::new().with("phi_1", Column::F64(vec![1.5, -0.25])),
                 Storage::Ipc,
             )
+    }
+
+    /// The hashes taken while writing are those of the files on disk, one for every file,
+    /// whatever the storage (Parquet, Arrow IPC with several record batches, blob, meta).
+    #[test]
+    fn hashes_taken_while_writing_match_the_files() {
+        let dir = tempfile::tempdir().unwrap();
+        let rows = IPC_BATCH_ROWS + 3;
+        let mut a = sample().with_table(
+            "long",
+            Table::new().with("x", Column::F64((0..rows).map(|i| i as f64).collect())),
+            Storage::Ipc,
+        );
+        a.blobs.insert("plot.svg".into(), b"<svg/>".to_vec());
+        let (digest, hashes) = write_dir_hashed(&a, dir.path(), Format::Arrow, None).unwrap();
+        assert_eq!(digest, a.digest());
+        let mut on_disk = BTreeMap::new();
+        for e in std::fs::read_dir(dir.path()).unwrap() {
+            let path = e.unwrap().path();
+            let name = path.file_name().unwrap().to_string_lossy().to_string();
+            on_disk.insert(name, crate::artefact::digest::hash_file(&path).unwrap());
+        }
+        assert_eq!(on_disk.len(), 5, "{on_disk:?}");
+        assert_eq!(hashes, on_disk);
+        let back = read_dir(dir.path()).unwrap();
+        assert_eq!(back.digest(), digest);
     }
 
     #[test]

@@ -22,7 +22,7 @@
 pub mod names;
 pub mod owner;
 
-use crate::artefact::codec::{read_dir, read_meta, write_dir};
+use crate::artefact::codec::{read_dir, read_meta, write_dir_hashed};
 use crate::artefact::digest::{canonical_json, hash_bytes, hash_file};
 use crate::artefact::{Artefact, ArtefactError, ArtefactKind, Format};
 use rayon::prelude::*;
@@ -539,11 +539,18 @@ impl Cache {
         parts: &[String],
     ) -> Result<Manifest, CacheError> {
         let mut records = BTreeMap::new();
+        // Files hashed as they were written, by path relative to the entry.
+        let mut written = BTreeMap::new();
         for (port, a) in outputs {
             let dir = Self::join_checked(tmp, "output port", port)?;
             std::fs::create_dir_all(&dir).map_err(io(&dir))?;
             let producer = serde_json::json!({"stage_kind": stage_kind, "impl_version": impl_version, "key": key, "port": port});
-            let digest = write_dir(a, &dir, format, Some(producer))?;
+            let (digest, hashes) = write_dir_hashed(a, &dir, format, Some(producer))?;
+            written.extend(
+                hashes
+                    .into_iter()
+                    .map(|(file, hash)| (format!("{port}/{file}"), hash)),
+            );
             records.insert(
                 port.clone(),
                 OutputRecord {
@@ -553,7 +560,7 @@ impl Cache {
             );
         }
         let mut files = BTreeMap::new();
-        hash_tree(tmp, tmp, &mut files)?;
+        hash_tree_reusing(tmp, tmp, &written, &mut files)?;
         let manifest = Manifest {
             key: key.to_string(),
             stage_kind: stage_kind.to_string(),
@@ -692,11 +699,15 @@ fn write_synced(path: &Path, bytes: &[u8]) -> Result<(), CacheError> {
     f.sync_all().map_err(io(path))
 }
 
-/// The hash of every file under `dir`, keyed by its path relative to `base`; files are read and
-/// hashed in parallel (an entry's matrices are hundreds of megabytes at 10⁵–10⁶ DOFs).
-fn hash_tree(
+/// The hash of every file under `dir`, keyed by its path relative to `base`, read and hashed
+/// in parallel (an entry's matrices are hundreds of megabytes at 10⁵–10⁶ DOFs), except that a
+/// file listed in `known` (by relative path: hashed as it was written) is not read back. The
+/// listing still decides which files there are, so a file written by other means is hashed,
+/// not left out of the manifest.
+fn hash_tree_reusing(
     base: &Path,
     dir: &Path,
+    known: &BTreeMap<String, String>,
     out: &mut BTreeMap<String, String>,
 ) -> Result<(), CacheError> {
     let mut files = Vec::new();
@@ -704,12 +715,15 @@ fn hash_tree(
     let hashed: Vec<(String, String)> = files
         .par_iter()
         .map(|p| {
-            let hash = hash_file(p).map_err(io(p))?;
             let rel = p
                 .strip_prefix(base)
                 .unwrap_or(p)
                 .to_string_lossy()
                 .replace('\\', "/");
+            let hash = match known.get(&rel) {
+                Some(hash) => hash.clone(),
+                None => hash_file(p).map_err(io(p))?,
+            };
             Ok((rel, hash))
         })
         .collect::<Result<_, CacheError>>()?;
@@ -849,7 +863,7 @@ mod tests {
         m.outputs = donor.outputs.clone();
         m.files.clear();
         let dir = cache.entry_dir(to).unwrap();
-        hash_tree(&dir, &dir, &mut m.files).unwrap();
+        hash_tree_reusing(&dir, &dir, &BTreeMap::new(), &mut m.files).unwrap();
         m.files.remove("manifest.json");
         std::fs::write(
             dir.join("manifest.json"),

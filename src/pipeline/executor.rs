@@ -403,7 +403,12 @@ pub fn execute(plan: &Plan, cache: &Cache, opts: &RunOptions) -> Result<RunRepor
     };
     let display = Arc::new(Display::new(opts.progress));
     let mut reports: Vec<Option<StageReport>> = vec![None; plan.nodes.len()];
-    let produced: Mutex<HashMap<(usize, String), Arc<Artefact>>> = Mutex::new(HashMap::new());
+    let produced = Produced::new(selected.iter().flat_map(|&i| {
+        plan.nodes[i]
+            .inputs
+            .values()
+            .map(|r| (r.node, r.port.clone()))
+    }));
     loop {
         let wave: Vec<usize> = selected
             .iter()
@@ -454,8 +459,56 @@ pub fn execute(plan: &Plan, cache: &Cache, opts: &RunOptions) -> Result<RunRepor
     })
 }
 
-/// Artefacts produced in this run, by (node, output port).
-type Produced = Mutex<HashMap<(usize, String), Arc<Artefact>>>;
+/// Artefacts produced in this run, by (node, output port), each held in memory until the last
+/// node of the run that reads it has taken it: a model's matrices (gigabytes at 10⁶ DOFs) are
+/// not kept beside the eigensolver's factor, nor for the rest of the run.
+struct Produced(Mutex<HashMap<(usize, String), Held>>);
+
+/// An output of this run and the number of its readers still to run.
+struct Held {
+    artefact: Option<Arc<Artefact>>,
+    readers: usize,
+}
+
+impl Produced {
+    /// Counts the readers of every output: one per `(node, port)` an input of a selected node
+    /// reads.
+    fn new(reads: impl IntoIterator<Item = (usize, String)>) -> Self {
+        let mut held: HashMap<(usize, String), Held> = HashMap::new();
+        for read in reads {
+            held.entry(read)
+                .or_insert(Held {
+                    artefact: None,
+                    readers: 0,
+                })
+                .readers += 1;
+        }
+        Self(Mutex::new(held))
+    }
+
+    /// Keeps an output of node `node` for its readers (an output nobody reads is not kept).
+    fn put(&self, node: usize, port: String, a: Artefact) {
+        if let Ok(mut m) = self.0.lock() {
+            if let Some(h) = m.get_mut(&(node, port)).filter(|h| h.readers > 0) {
+                h.artefact = Some(Arc::new(a));
+            }
+        }
+    }
+
+    /// One reader's share of output `port` of node `node`: the artefact, when this run produced
+    /// it, released from memory here once the last reader has taken it. Every reader calls
+    /// this once per input, whether it runs or is served from the cache.
+    fn take(&self, node: usize, port: &str) -> Option<Arc<Artefact>> {
+        let mut m = self.0.lock().ok()?;
+        let h = m.get_mut(&(node, port.to_string()))?;
+        h.readers = h.readers.saturating_sub(1);
+        if h.readers == 0 {
+            h.artefact.take()
+        } else {
+            h.artefact.clone()
+        }
+    }
+}
 
 /// Node `i`: served by the cache when its key is there (unless `force`), else its stage run
 /// on its inputs and the outputs committed.
@@ -480,6 +533,9 @@ fn run_node(
     if !force {
         match cache.lookup(&key) {
             Lookup::Hit(m) => {
+                for r in node.inputs.values() {
+                    produced.take(r.node, &r.port);
+                }
                 let r = StageReport {
                     name: node.name.clone(),
                     kind: kind.into(),
@@ -508,13 +564,13 @@ fn run_node(
     let parts = Arc::new(PartCache::new(cache.clone(), node.format, force));
     let inputs = node_inputs(plan, i, reports, produced, cache, parts.clone())?;
     let outputs = if display.quiet() {
-        run_stage(plan, i, &inputs)?
+        run_stage(plan, i, inputs)?
     } else {
         let sink = Arc::new(StageSink {
             stage: node.name.clone(),
             display: display.clone(),
         });
-        crate::core::progress::scope_with_pool(&node.name, sink, || run_stage(plan, i, &inputs))?
+        crate::core::progress::scope_with_pool(&node.name, sink, || run_stage(plan, i, inputs))?
     };
     let parts = parts.counts();
     let version = node.stage.impl_version();
@@ -524,10 +580,8 @@ fn run_node(
         cache.commit_with_parts(&key, kind, version, &outputs, node.format, &parts.keys)
     }
     .map_err(cache_err)?;
-    if let Ok(mut m) = produced.lock() {
-        for (port, a) in outputs {
-            m.insert((i, port), Arc::new(a));
-        }
+    for (port, a) in outputs {
+        produced.put(i, port, a);
     }
     let status = if note.is_some() {
         Status::Recovered
@@ -602,11 +656,7 @@ fn node_inputs(
             port.clone(),
             upstream(plan, i, reports, port).1.digest.clone(),
         );
-        let cached = produced
-            .lock()
-            .ok()
-            .and_then(|m| m.get(&(r.node, r.port.clone())).cloned());
-        let a = match cached {
+        let a = match produced.take(r.node, &r.port) {
             Some(a) => a,
             None => {
                 let (rep, out) = upstream(plan, i, reports, port);
@@ -629,12 +679,12 @@ fn node_inputs(
 fn run_stage(
     plan: &Plan,
     i: usize,
-    inputs: &StageInputs,
+    inputs: StageInputs,
 ) -> Result<super::stage::StageOutputs, RunError> {
     let node = &plan.nodes[i];
     let kind = node.stage.kind();
     let outputs = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-        node.stage.run(&node.params, inputs)
+        node.stage.run_owned(&node.params, inputs)
     }))
     .unwrap_or_else(|_| {
         Err(StageError::Failed(
@@ -975,6 +1025,34 @@ fn replace_contents(out: &Path, staging: &Path) -> Result<(), RunError> {
 mod tests {
     use super::*;
     use crate::core::progress::Event;
+
+    /// An output is held for exactly its readers: each reader but the last gets a shared
+    /// copy, the last takes it out of the run's memory, and an output nobody reads is never
+    /// kept. A reader of an output produced elsewhere (the cache) gets nothing.
+    #[test]
+    fn produced_outputs_are_released_by_their_last_reader() {
+        let port = |p: &str| p.to_string();
+        let produced = Produced::new([(0, port("model")), (0, port("model")), (1, port("modes"))]);
+        produced.put(0, port("model"), Artefact::new(ArtefactKind::Matrices));
+        produced.put(2, port("unread"), Artefact::new(ArtefactKind::Modes));
+        let first = produced
+            .take(0, "model")
+            .expect("held for its second reader");
+        assert_eq!(Arc::strong_count(&first), 2);
+        let last = produced.take(0, "model").expect("the last reader gets it");
+        drop(first);
+        assert_eq!(
+            Arc::strong_count(&last),
+            1,
+            "released from the run's memory"
+        );
+        assert!(produced.take(0, "model").is_none());
+        assert!(
+            produced.take(1, "modes").is_none(),
+            "not produced in this run"
+        );
+        assert!(produced.take(2, "unread").is_none(), "never kept");
+    }
 
     /// A writer the test reads back.
     #[derive(Clone, Default)]

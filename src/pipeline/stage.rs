@@ -234,6 +234,14 @@ impl StageInputs {
         self.get(port)
             .ok_or_else(|| StageError::Failed(format!("input port `{port}` is not connected")))
     }
+
+    /// A required input, taken out of the inputs: dropping it frees the artefact once no other
+    /// holder is left.
+    pub fn take(&mut self, port: &str) -> Result<std::sync::Arc<Artefact>, StageError> {
+        self.artefacts
+            .remove(port)
+            .ok_or_else(|| StageError::Failed(format!("input port `{port}` is not connected")))
+    }
 }
 
 /// Output artefacts by port.
@@ -271,6 +279,15 @@ pub trait Stage: Send + Sync {
         params: &serde_json::Value,
         inputs: &StageInputs,
     ) -> Result<StageOutputs, StageError>;
+    /// [`Stage::run`], handed the inputs, so that a stage may drop an input it has converted
+    /// before its heavy work (the executor runs stages so).
+    fn run_owned(
+        &self,
+        params: &serde_json::Value,
+        inputs: StageInputs,
+    ) -> Result<StageOutputs, StageError> {
+        self.run(params, &inputs)
+    }
     /// Whether `femu validate` runs the stage to check the stages downstream against its
     /// outputs (see [`TypedStage::PREFLIGHT`]).
     fn runs_in_preflight(&self) -> bool {
@@ -303,6 +320,12 @@ pub trait TypedStage: Send + Sync + 'static {
     }
     /// The computation.
     fn run(params: &Self::Params, inputs: &StageInputs) -> Result<StageOutputs, StageError>;
+    /// [`TypedStage::run`], handed the inputs (default: `run` on them). A stage whose input is
+    /// large beside its working memory (the `modes` stage's matrices) converts it and drops it
+    /// here before the heavy work.
+    fn run_owned(params: &Self::Params, inputs: StageInputs) -> Result<StageOutputs, StageError> {
+        Self::run(params, &inputs)
+    }
     /// Parameters that enter the cache key (default: all).
     fn key_params(params: &serde_json::Value) -> serde_json::Value {
         params.clone()
@@ -417,6 +440,14 @@ impl<T: TypedStage> Stage for Typed<T> {
     ) -> Result<StageOutputs, StageError> {
         let params: T::Params = parse_params(params).map_err(|e| StageError::Failed(e.message))?;
         T::run(&params, inputs)
+    }
+    fn run_owned(
+        &self,
+        params: &serde_json::Value,
+        inputs: StageInputs,
+    ) -> Result<StageOutputs, StageError> {
+        let params: T::Params = parse_params(params).map_err(|e| StageError::Failed(e.message))?;
+        T::run_owned(&params, inputs)
     }
     fn runs_in_preflight(&self) -> bool {
         T::PREFLIGHT

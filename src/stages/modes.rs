@@ -102,12 +102,16 @@ impl TypedStage for ModesStage {
     }
 
     fn run(p: &Params, inputs: &StageInputs) -> Result<StageOutputs, StageError> {
+        Self::run_owned(p, inputs.clone())
+    }
+
+    fn run_owned(p: &Params, mut inputs: StageInputs) -> Result<StageOutputs, StageError> {
         if let Some(r) = inputs.get("reduced") {
             return run_reduced(p, r);
         }
-        let matrices = inputs.require("model")?;
-        let sys = matrices_from_artefact(matrices)?;
-        let dependent = crate::artefact::kinds::matrices::dependent_from_matrices(matrices)?;
+        let matrices = inputs.take("model")?;
+        let sys = matrices_from_artefact(&matrices)?;
+        let dependent = crate::artefact::kinds::matrices::dependent_from_matrices(&matrices)?;
         let deck_request: Option<EigenRequest> = match matrices.meta.get("eigenvalue_request") {
             Some(v) if p.count.is_none() && p.max_freq_hz.is_none() => {
                 Some(serde_json::from_value(v.clone()).map_err(|e| {
@@ -116,6 +120,9 @@ impl TypedStage for ModesStage {
             }
             _ => None,
         };
+        // The tables are read into `sys`: free them (when this stage holds the run's last
+        // reference) before the factor and the Krylov basis are allocated.
+        drop(matrices);
         if sys.n() > DENSE_LIMIT
             && p.count.is_none()
             && p.max_freq_hz.is_none()

@@ -17,6 +17,7 @@ use crate::core::DofId;
 use crate::core::sparse::{SparseMatrix, sparse_from_triplets};
 use crate::fe::SystemMatrices;
 use crate::fe::multipoint::DependentDof;
+use rayon::prelude::*;
 
 /// The `matrices` kind.
 pub struct MatricesKind;
@@ -118,8 +119,14 @@ impl Kind for MatricesKind {
             )
             .with_meta(TRIANGLE, LOWER.into())
             .with_table("dofs", dof_table(&sys.dofs), Storage::Parquet);
-        for (name, mat) in sys.named() {
-            a = a.with_table(name, lower_triplet_table(mat), Storage::Ipc);
+        // The matrices' tables built side by side (each is hundreds of megabytes at 10⁶ DOFs).
+        let tables: Vec<(&str, Table)> = sys
+            .named()
+            .into_par_iter()
+            .map(|(name, mat)| (name, lower_triplet_table(mat)))
+            .collect();
+        for (name, table) in tables {
+            a = a.with_table(name, table, Storage::Ipc);
         }
         a
     }
@@ -130,12 +137,17 @@ impl Kind for MatricesKind {
         let dofs = parse_dofs(kind, "dofs", a.table("dofs")?.strs("dofs", "dof")?)?;
         let n = dofs.len();
         let lower = stores_lower(a)?;
+        // The four matrices read side by side.
         let read = |name: &str| read_symmetric(a, name, n);
+        let ((k, m), (c, d)) = rayon::join(
+            || rayon::join(|| read("K"), || read("M")),
+            || rayon::join(|| read("C"), || read("D")),
+        );
         let sys = SystemMatrices {
-            k: read("K")?.ok_or_else(|| ArtefactError::schema(kind, "no stiffness table `K`"))?,
-            m: read("M")?.ok_or_else(|| ArtefactError::schema(kind, "no mass table `M`"))?,
-            c: read("C")?,
-            d: read("D")?,
+            k: k?.ok_or_else(|| ArtefactError::schema(kind, "no stiffness table `K`"))?,
+            m: m?.ok_or_else(|| ArtefactError::schema(kind, "no mass table `M`"))?,
+            c: c?,
+            d: d?,
             dofs,
         };
         // Mirrored from lower triangles, the matrices are symmetric by construction.
