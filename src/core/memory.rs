@@ -78,6 +78,18 @@ pub fn written_zeros_f64(len: usize) -> Vec<f64> {
     values
 }
 
+/// `data` cut into consecutive slices, slice `j` of length `offsets[j + 1] − offsets[j]`
+/// (`offsets` ascending from 0 to at most `data.len()`), for filling the parts side by side.
+pub fn split_at_offsets<'a, T>(mut data: &'a mut [T], offsets: &[usize]) -> Vec<&'a mut [T]> {
+    let mut slices = Vec::with_capacity(offsets.len().saturating_sub(1));
+    for w in offsets.windows(2) {
+        let (head, tail) = std::mem::take(&mut data).split_at_mut(w[1] - w[0]);
+        slices.push(head);
+        data = tail;
+    }
+    slices
+}
+
 #[cfg(test)]
 mod tests {
     #[test]

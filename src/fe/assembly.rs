@@ -12,6 +12,7 @@
 
 use super::element::ElementMatrices;
 use super::system::SystemMatrices;
+use crate::core::memory::split_at_offsets;
 use crate::core::sparse::SparseMatrix;
 use crate::core::{Component, DofId};
 use faer::sparse::SymbolicSparseColMat;
@@ -172,7 +173,7 @@ where
     }
     let nnz = col_ptr[n];
     let mut row_idx = vec![0usize; nnz];
-    split_by(&mut row_idx, &col_ptr)
+    split_at_offsets(&mut row_idx, &col_ptr)
         .into_par_iter()
         .with_min_len(1024)
         .enumerate()
@@ -317,17 +318,6 @@ fn scatter(
     }
 }
 
-/// `data` cut into consecutive slices, slice `j` of length `ptr[j + 1] − ptr[j]`.
-fn split_by<'a, T>(mut data: &'a mut [T], ptr: &[usize]) -> Vec<&'a mut [T]> {
-    let mut slices = Vec::with_capacity(ptr.len().saturating_sub(1));
-    for w in ptr.windows(2) {
-        let (head, tail) = std::mem::take(&mut data).split_at_mut(w[1] - w[0]);
-        slices.push(head);
-        data = tail;
-    }
-    slices
-}
-
 /// `value(p)` for the stored positions `p` that `positions(j)` gives of each column `j` of
 /// `columns`, into the slices of `ptr`: column by column in parallel.
 fn gather_kept<T, P>(
@@ -341,7 +331,7 @@ where
     P: Iterator<Item = usize>,
 {
     let mut out = vec![T::default(); ptr[ptr.len() - 1]];
-    split_by(&mut out, ptr)
+    split_at_offsets(&mut out, ptr)
         .into_par_iter()
         .zip(columns)
         .with_min_len(1024)

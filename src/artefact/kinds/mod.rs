@@ -33,6 +33,7 @@
 
 use super::{Artefact, ArtefactError, ArtefactKind, Column, Storage, Table};
 use crate::core::DofId;
+use crate::core::memory::split_at_offsets;
 use crate::core::sparse::{SparseMatrix, sparse_from_triplets};
 use faer::Mat;
 use faer::sparse::{SparseColMat, SymbolicSparseColMat};
@@ -500,28 +501,43 @@ pub fn triplet_table(mat: &SparseMatrix) -> Table {
 /// The lower triangle (`row ≥ col`) of a symmetric matrix as a `row, col, value` table, in
 /// column-major order: half the bytes of [`triplet_table`] to write, hash and read back.
 pub fn lower_triplet_table(mat: &SparseMatrix) -> Table {
-    let nnz: usize = (0..mat.ncols())
-        .map(|j| {
-            mat.row_idx_of_col_raw(j)
-                .iter()
-                .filter(|&&i| i >= j)
-                .count()
-        })
-        .sum();
-    let (mut row, mut col, mut value) = (
-        Vec::with_capacity(nnz),
-        Vec::with_capacity(nnz),
-        Vec::with_capacity(nnz),
-    );
-    for j in 0..mat.ncols() {
-        for (&i, &v) in mat.row_idx_of_col_raw(j).iter().zip(mat.val_of_col(j)) {
-            if i >= j {
-                row.push(i as i64);
-                col.push(j as i64);
-                value.push(v);
-            }
-        }
+    use rayon::prelude::*;
+    /// Columns per parallel task.
+    const COLUMNS: usize = 4096;
+    let n = mat.ncols();
+    let columns = |b: usize| b * COLUMNS..((b + 1) * COLUMNS).min(n);
+    let lower = |j: usize| {
+        let rows = mat.row_idx_of_col_raw(j).iter();
+        rows.zip(mat.val_of_col(j)).filter(move |(i, _)| **i >= j)
+    };
+    // Entries before each block of columns, so the blocks fill their parts side by side.
+    let counts: Vec<usize> = (0..n.div_ceil(COLUMNS))
+        .into_par_iter()
+        .map(|b| columns(b).map(|j| lower(j).count()).sum())
+        .collect();
+    let mut offsets = vec![0];
+    for c in &counts {
+        offsets.push(offsets[offsets.len() - 1] + c);
     }
+    let nnz = offsets[counts.len()];
+    let (mut row, mut col, mut value) = (vec![0i64; nnz], vec![0i64; nnz], vec![0.0f64; nnz]);
+    let parts = split_at_offsets(&mut row, &offsets)
+        .into_iter()
+        .zip(split_at_offsets(&mut col, &offsets))
+        .zip(split_at_offsets(&mut value, &offsets));
+    parts
+        .collect::<Vec<_>>()
+        .into_par_iter()
+        .enumerate()
+        .for_each(|(b, ((row, col), value))| {
+            let mut k = 0;
+            for j in columns(b) {
+                for (&i, &v) in lower(j) {
+                    (row[k], col[k], value[k]) = (i as i64, j as i64, v);
+                    k += 1;
+                }
+            }
+        });
     Table::new()
         .with("row", Column::I64(row))
         .with("col", Column::I64(col))

@@ -713,6 +713,50 @@ fn matrices_are_stored_as_lower_triangles_and_read_back_whole() {
     assert!(e.contains("valid: \"lower\""), "{e}");
 }
 
+/// A matrix of many column blocks (the table is filled block by block in parallel) gives the
+/// lower triangle in column-major order, entry for entry, and reads back whole.
+#[test]
+fn a_large_matrix_table_holds_its_lower_triangle_in_column_order() {
+    // A banded symmetric matrix, band 3, over 10,001 columns (three blocks of 4,096 and a rest).
+    let n: usize = 10_001;
+    let mut trip = Vec::new();
+    for j in 0..n {
+        for i in j.saturating_sub(3)..(j + 4).min(n) {
+            let (a, b) = (i.max(j), i.min(j));
+            trip.push((i, j, (1 + a * 7 + b) as f64 / 8.0));
+        }
+    }
+    let m = sparse_from_triplets("K", n, &trip).unwrap();
+    let t = lower_triplet_table(&m);
+    let want: Vec<(i64, i64, f64)> = trip
+        .iter()
+        .filter(|(i, j, _)| i >= j)
+        .map(|&(i, j, v)| (i as i64, j as i64, v))
+        .collect();
+    let (rows, cols) = (t.i64s("K", "row").unwrap(), t.i64s("K", "col").unwrap());
+    let values = t.f64s("K", "value").unwrap();
+    let got: Vec<(i64, i64, f64)> = rows
+        .iter()
+        .zip(cols)
+        .zip(values)
+        .map(|((&i, &j), &v)| (i, j, v))
+        .collect();
+    assert_eq!(got, want);
+    let sys = crate::fe::SystemMatrices {
+        k: m.clone(),
+        m: m.clone(),
+        c: None,
+        d: None,
+        dofs: (0..n)
+            .map(|i| crate::core::DofId::new(i as u64 / 6 + 1, crate::core::Component::ALL[i % 6]))
+            .collect(),
+    };
+    let back = matrices_from_artefact(&matrices_to_artefact(&sys)).unwrap();
+    assert_eq!(back.k.col_ptr(), m.col_ptr());
+    assert_eq!(back.k.row_idx(), m.row_idx());
+    assert_eq!(back.k.val(), m.val());
+}
+
 #[test]
 fn a_matrix_table_in_any_row_order_reads_as_the_same_matrix() {
     // The sorted table takes the direct path, shuffled and duplicated rows the triplet path.
