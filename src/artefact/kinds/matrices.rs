@@ -9,8 +9,8 @@
 //! | `dependent` (Parquet; written by `assemble` for a model with rigid elements or MPCs) | `dof, independent, coefficient, origin`: each DOF eliminated by a multipoint constraint as `Σ coefficient · u_independent` over DOFs of `dofs`, one row per term (none: one row with an empty `independent`) |
 
 use super::{
-    Kind, Layout, col, expect_kind, lower_triplet_table, meta, meta_opt, mirror_lower, parse_dofs,
-    read_sparse, table, triplet_layout,
+    Kind, Layout, col, expect_kind, lower_triplet_table, meta, meta_opt, mirror_lower,
+    mirror_sorted_lower, parse_dofs, read_sparse, table, triplet_layout,
 };
 use crate::artefact::{Artefact, ArtefactError, ArtefactKind, Column, Storage, Table};
 use crate::core::DofId;
@@ -194,6 +194,9 @@ fn read_symmetric(
     }
     if let Some((t, _)) = a.tables.get(name) {
         let (rows, cols) = (t.i64s(name, "row")?, t.i64s(name, "col")?);
+        if let Some(full) = mirror_sorted_lower(n, rows, cols, t.f64s(name, "value")?) {
+            return Ok(Some(full));
+        }
         if let Some(k) = rows.iter().zip(cols).position(|(r, c)| r < c) {
             return Err(ArtefactError::schema(
                 a.kind,

@@ -584,6 +584,59 @@ pub(crate) fn mirror_lower(lower: &SparseMatrix) -> SparseMatrix {
     SparseColMat::new(symbolic, vals)
 }
 
+/// The symmetric matrix whose lower triangle (diagonal included) is a table in column-major
+/// order with rows strictly ascending in each column (as [`lower_triplet_table`] writes),
+/// mirrored straight from the table's columns: column `i` holds the mirrored entries `(j, i)`,
+/// `j < i`, then its own rows `≥ i`, so its rows ascend. One counting pass that also checks the
+/// order, two filling passes, no intermediate matrix. `None` for a table out of that order or
+/// with an entry above the diagonal (read through the general path, which names the entry).
+pub(crate) fn mirror_sorted_lower(
+    n: usize,
+    rows: &[i64],
+    cols: &[i64],
+    vals: &[f64],
+) -> Option<SparseMatrix> {
+    if rows.len() != cols.len() || rows.len() != vals.len() {
+        return None;
+    }
+    let mut col_ptr = vec![0usize; n + 1];
+    let mut previous: Option<(usize, usize)> = None;
+    for (&r, &c) in rows.iter().zip(cols) {
+        let (r, c) = (usize::try_from(r).ok()?, usize::try_from(c).ok()?);
+        if r >= n || c > r || previous.is_some_and(|p| (c, r) <= p) {
+            return None;
+        }
+        previous = Some((c, r));
+        col_ptr[c + 1] += 1;
+        if r != c {
+            col_ptr[r + 1] += 1;
+        }
+    }
+    for j in 0..n {
+        col_ptr[j + 1] += col_ptr[j];
+    }
+    let nnz = col_ptr[n];
+    let (mut row_idx, mut values) = (vec![0usize; nnz], vec![0.0f64; nnz]);
+    let mut next = col_ptr[..n].to_vec();
+    // Every index was checked above: 0 ≤ c ≤ r < n.
+    let entries = || {
+        rows.iter()
+            .zip(cols)
+            .zip(vals)
+            .map(|((&r, &c), &v)| (r as usize, c as usize, v))
+    };
+    for (r, c, v) in entries().filter(|(r, c, _)| r != c) {
+        (row_idx[next[r]], values[next[r]]) = (c, v);
+        next[r] += 1;
+    }
+    for (r, c, v) in entries() {
+        (row_idx[next[c]], values[next[c]]) = (r, v);
+        next[c] += 1;
+    }
+    let symbolic = SymbolicSparseColMat::new_checked(n, n, col_ptr, None, row_idx);
+    Some(SparseColMat::new(symbolic, values))
+}
+
 /// The matrix of a table in column-major order with rows strictly ascending in each column (as
 /// [`triplet_table`] writes every matrix femu builds), built without sorting; `None` for any
 /// other table, which is then read through the general triplet path.
