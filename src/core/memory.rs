@@ -78,6 +78,39 @@ pub fn written_zeros_f64(len: usize) -> Vec<f64> {
     values
 }
 
+/// An `nrows × ncols` matrix of zeros whose columns are written by the pool's threads.
+///
+/// `Mat::zeros` fills the matrix on the calling thread, so a fresh matrix of a gigabyte (the
+/// Krylov basis at 10⁶ DOFs) is first touched, page fault by page fault, on one core, for
+/// seconds. Here the threads share that first touch.
+pub fn parallel_zeros(nrows: usize, ncols: usize) -> faer::Mat<f64> {
+    use rayon::prelude::*;
+    /// The matrix's storage, shared by the threads that fill disjoint columns of it.
+    struct Storage(*mut f64);
+    // SAFETY: the threads write disjoint columns (see below) and nothing reads the storage
+    // until they have all finished.
+    unsafe impl Sync for Storage {}
+    let mut m = faer::Mat::<f64>::with_capacity(nrows, ncols);
+    // Column j starts `col_stride · j` entries into an allocation of at least
+    // `col_stride · ncols` entries, with `col_stride` (the row capacity) ≥ `nrows`.
+    let stride = m.col_stride().unsigned_abs();
+    debug_assert!(stride >= nrows);
+    let storage = Storage(m.as_ptr_mut());
+    (0..ncols).into_par_iter().for_each(|j| {
+        let storage = &storage;
+        for i in 0..nrows {
+            // SAFETY: `i < nrows ≤ stride` and `j < ncols`, so the entry lies inside the
+            // allocation that `with_capacity` made, and only this task writes column `j`.
+            // Writing through the raw pointer initialises it.
+            unsafe { storage.0.add(j * stride + i).write(0.0) };
+        }
+    });
+    // SAFETY: the dimensions are within the capacity reserved above, and every entry now in
+    // bounds was initialised by the loop.
+    unsafe { m.set_dims(nrows, ncols) };
+    m
+}
+
 /// `data` cut into consecutive slices, slice `j` of length `offsets[j + 1] − offsets[j]`
 /// (`offsets` ascending from 0 to at most `data.len()`), for filling the parts side by side.
 pub fn split_at_offsets<'a, T>(mut data: &'a mut [T], offsets: &[usize]) -> Vec<&'a mut [T]> {
@@ -110,6 +143,22 @@ mod tests {
         assert!(super::zeroed_f64(usize::MAX).is_none());
         assert!(super::zeroed_f64(isize::MAX as usize / 8).is_none());
         assert_eq!(super::zeroed_f64(1).unwrap(), vec![0.0]);
+    }
+
+    /// A matrix zeroed by the threads is an ordinary matrix of zeros of its shape, and empty
+    /// shapes work.
+    #[test]
+    fn parallel_zeros_are_a_zero_matrix() {
+        for (r, c) in [(0, 0), (0, 3), (3, 0), (1, 1), (7, 5), (1001, 17)] {
+            let mut m = super::parallel_zeros(r, c);
+            assert_eq!((m.nrows(), m.ncols()), (r, c));
+            assert!(m.col_iter().all(|col| col.iter().all(|x| x.to_bits() == 0)));
+            if r > 0 && c > 0 {
+                m[(r - 1, c - 1)] = 2.0;
+                let product = m.transpose() * &m;
+                assert_eq!(product[(c - 1, c - 1)], 4.0);
+            }
+        }
     }
 
     /// Every entry written, across chunk boundaries and for the empty vector.
