@@ -138,7 +138,7 @@ impl Kind for MatricesKind {
         let n = dofs.len();
         let lower = stores_lower(a)?;
         // The four matrices read side by side.
-        let read = |name: &str| read_symmetric(a, name, n);
+        let read = |name: &str| read_symmetric(a, name, n, lower);
         let ((k, m), (c, d)) = rayon::join(
             || rayon::join(|| read("K"), || read("M")),
             || rayon::join(|| read("C"), || read("D")),
@@ -182,14 +182,15 @@ fn stores_lower(a: &Artefact) -> Result<bool, ArtefactError> {
 }
 
 /// Symmetric matrix table `name` over `n` DOFs, if present: mirrored from its lower triangle
-/// when the artefact stores lower triangles (an entry above the diagonal is then an error),
-/// else read whole.
+/// when the artefact stores lower triangles (`lower`, from [`stores_lower`]; an entry above the
+/// diagonal is then an error), else read whole.
 fn read_symmetric(
     a: &Artefact,
     name: &str,
     n: usize,
+    lower: bool,
 ) -> Result<Option<SparseMatrix>, ArtefactError> {
-    if !stores_lower(a)? {
+    if !lower {
         return read_sparse(a, name, n);
     }
     if let Some((t, _)) = a.tables.get(name) {
@@ -314,6 +315,7 @@ pub fn linear_parameters_from_matrices(
     };
     let list: Vec<serde_json::Value> = serde_json::from_value(list.clone())
         .map_err(|e| ArtefactError::schema(kind, format!("meta `parameters`: {e}")))?;
+    let lower = stores_lower(a)?;
     let mut out = Vec::new();
     for v in list {
         #[derive(serde::Deserialize)]
@@ -339,11 +341,11 @@ pub fn linear_parameters_from_matrices(
             sparse_from_triplets("zero", n, &[])
                 .map_err(|x| ArtefactError::schema(kind, x.to_string()))
         };
-        let dk = match read_symmetric(a, &format!("dK__{}", e.name), n)? {
+        let dk = match read_symmetric(a, &format!("dK__{}", e.name), n, lower)? {
             Some(m) => m,
             None => zero()?,
         };
-        let dm = match read_symmetric(a, &format!("dM__{}", e.name), n)? {
+        let dm = match read_symmetric(a, &format!("dM__{}", e.name), n, lower)? {
             Some(m) => m,
             None => zero()?,
         };

@@ -521,13 +521,10 @@ pub fn lower_triplet_table(mat: &SparseMatrix) -> Table {
     }
     let nnz = offsets[counts.len()];
     let (mut row, mut col, mut value) = (vec![0i64; nnz], vec![0i64; nnz], vec![0.0f64; nnz]);
-    let parts = split_at_offsets(&mut row, &offsets)
-        .into_iter()
-        .zip(split_at_offsets(&mut col, &offsets))
-        .zip(split_at_offsets(&mut value, &offsets));
-    parts
-        .collect::<Vec<_>>()
+    split_at_offsets(&mut row, &offsets)
         .into_par_iter()
+        .zip(split_at_offsets(&mut col, &offsets))
+        .zip(split_at_offsets(&mut value, &offsets))
         .enumerate()
         .for_each(|(b, ((row, col), value))| {
             let mut k = 0;
@@ -544,52 +541,22 @@ pub fn lower_triplet_table(mat: &SparseMatrix) -> Table {
         .with("value", Column::F64(value))
 }
 
-/// The symmetric matrix whose lower triangle (diagonal included) is `lower`: column `i` holds
-/// the mirrored entries `(j, i)`, `j < i`, then its own rows `≥ i`, so rows stay ascending when
-/// they are in `lower`. One pass over the entries, no sorting.
+/// The symmetric matrix whose lower triangle (diagonal included) is `lower`, with rows ascending
+/// in each column (see [`mirror_entries`]).
 pub(crate) fn mirror_lower(lower: &SparseMatrix) -> SparseMatrix {
-    let n = lower.ncols();
-    let mut col_ptr = vec![0usize; n + 1];
-    for j in 0..n {
-        for &i in lower.row_idx_of_col_raw(j) {
-            col_ptr[j + 1] += 1;
-            if i != j {
-                col_ptr[i + 1] += 1;
-            }
-        }
-    }
-    for j in 0..n {
-        col_ptr[j + 1] += col_ptr[j];
-    }
-    let nnz = col_ptr[n];
-    let (mut rows, mut vals) = (vec![0usize; nnz], vec![0.0f64; nnz]);
-    let mut next = col_ptr[..n].to_vec();
-    for j in 0..n {
-        for (&i, &v) in lower.row_idx_of_col_raw(j).iter().zip(lower.val_of_col(j)) {
-            if i != j {
-                rows[next[i]] = j;
-                vals[next[i]] = v;
-                next[i] += 1;
-            }
-        }
-    }
-    for j in 0..n {
-        for (&i, &v) in lower.row_idx_of_col_raw(j).iter().zip(lower.val_of_col(j)) {
-            rows[next[j]] = i;
-            vals[next[j]] = v;
-            next[j] += 1;
-        }
-    }
-    let symbolic = SymbolicSparseColMat::new_checked(n, n, col_ptr, None, rows);
-    SparseColMat::new(symbolic, vals)
+    mirror_entries(lower.ncols(), || {
+        (0..lower.ncols()).flat_map(move |j| {
+            let rows = lower.row_idx_of_col_raw(j).iter();
+            rows.zip(lower.val_of_col(j)).map(move |(&i, &v)| (i, j, v))
+        })
+    })
 }
 
 /// The symmetric matrix whose lower triangle (diagonal included) is a table in column-major
 /// order with rows strictly ascending in each column (as [`lower_triplet_table`] writes),
-/// mirrored straight from the table's columns: column `i` holds the mirrored entries `(j, i)`,
-/// `j < i`, then its own rows `≥ i`, so its rows ascend. One counting pass that also checks the
-/// order, two filling passes, no intermediate matrix. `None` for a table out of that order or
-/// with an entry above the diagonal (read through the general path, which names the entry).
+/// mirrored straight from the table's columns: one counting pass that also checks the order, no
+/// intermediate matrix. `None` for a table out of that order or with an entry above the
+/// diagonal (read through the general path, which names the entry).
 pub(crate) fn mirror_sorted_lower(
     n: usize,
     rows: &[i64],
@@ -599,14 +566,32 @@ pub(crate) fn mirror_sorted_lower(
     if rows.len() != cols.len() || rows.len() != vals.len() {
         return None;
     }
-    let mut col_ptr = vec![0usize; n + 1];
-    let mut previous: Option<(usize, usize)> = None;
+    let mut previous = None;
     for (&r, &c) in rows.iter().zip(cols) {
-        let (r, c) = (usize::try_from(r).ok()?, usize::try_from(c).ok()?);
-        if r >= n || c > r || previous.is_some_and(|p| (c, r) <= p) {
+        let (r, c) = next_in_column_order(n, r, c, &mut previous)?;
+        if c > r {
             return None;
         }
-        previous = Some((c, r));
+    }
+    // Every index was checked above: 0 ≤ c ≤ r < n.
+    Some(mirror_entries(n, || {
+        rows.iter()
+            .zip(cols)
+            .zip(vals)
+            .map(|((&r, &c), &v)| (r as usize, c as usize, v))
+    }))
+}
+
+/// The symmetric matrix of the lower-triangle entries `(row, col, value)` (`row ≥ col`, in
+/// column-major order, rows ascending in each column, indices below `n`) that `entries` gives
+/// afresh at each call: column `i` holds the mirrored entries `(j, i)`, `j < i`, then its own
+/// rows `≥ i`, so its rows ascend. A counting pass and two filling passes, no sorting.
+fn mirror_entries<I>(n: usize, entries: impl Fn() -> I) -> SparseMatrix
+where
+    I: Iterator<Item = (usize, usize, f64)>,
+{
+    let mut col_ptr = vec![0usize; n + 1];
+    for (r, c, _) in entries() {
         col_ptr[c + 1] += 1;
         if r != c {
             col_ptr[r + 1] += 1;
@@ -618,13 +603,6 @@ pub(crate) fn mirror_sorted_lower(
     let nnz = col_ptr[n];
     let (mut row_idx, mut values) = (vec![0usize; nnz], vec![0.0f64; nnz]);
     let mut next = col_ptr[..n].to_vec();
-    // Every index was checked above: 0 ≤ c ≤ r < n.
-    let entries = || {
-        rows.iter()
-            .zip(cols)
-            .zip(vals)
-            .map(|((&r, &c), &v)| (r as usize, c as usize, v))
-    };
     for (r, c, v) in entries().filter(|(r, c, _)| r != c) {
         (row_idx[next[r]], values[next[r]]) = (c, v);
         next[r] += 1;
@@ -634,7 +612,23 @@ pub(crate) fn mirror_sorted_lower(
         next[c] += 1;
     }
     let symbolic = SymbolicSparseColMat::new_checked(n, n, col_ptr, None, row_idx);
-    Some(SparseColMat::new(symbolic, values))
+    SparseColMat::new(symbolic, values)
+}
+
+/// Entry `(r, c)` of a table read in order as indices, when both lie in `0..n` and the entry
+/// follows `previous` in column-major order with rows strictly ascending; `None` otherwise.
+fn next_in_column_order(
+    n: usize,
+    r: i64,
+    c: i64,
+    previous: &mut Option<(usize, usize)>,
+) -> Option<(usize, usize)> {
+    let (r, c) = (usize::try_from(r).ok()?, usize::try_from(c).ok()?);
+    if r >= n || c >= n || previous.is_some_and(|p| (c, r) <= p) {
+        return None;
+    }
+    *previous = Some((c, r));
+    Some((r, c))
 }
 
 /// The matrix of a table in column-major order with rows strictly ascending in each column (as
@@ -645,14 +639,10 @@ fn sorted_column_major(n: usize, rows: &[i64], cols: &[i64], vals: &[f64]) -> Op
         return None;
     }
     let mut col_ptr = vec![0usize; n + 1];
-    let mut previous: Option<(usize, usize)> = None;
+    let mut previous = None;
     let mut row_idx = Vec::with_capacity(rows.len());
     for (&r, &c) in rows.iter().zip(cols) {
-        let (r, c) = (usize::try_from(r).ok()?, usize::try_from(c).ok()?);
-        if r >= n || c >= n || previous.is_some_and(|p| (c, r) <= p) {
-            return None;
-        }
-        previous = Some((c, r));
+        let (r, c) = next_in_column_order(n, r, c, &mut previous)?;
         col_ptr[c + 1] += 1;
         row_idx.push(r);
     }
