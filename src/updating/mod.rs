@@ -20,6 +20,7 @@ pub mod solve;
 pub mod tmcmc;
 #[cfg(test)]
 mod toy;
+pub mod trial_projection;
 
 pub use model::{
     Evaluated, FeModel, LinearModel, ModalState, ParametricModel, ReducedFeModel, UpdatingError,

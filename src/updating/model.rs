@@ -6,6 +6,7 @@
 //! thickness and section sizes included) and [`LinearModel`] holds `K(φ) = K₀ + Σ (φ_i − φ_i⁰)
 //! ∂K/∂φ_i` (exact for parameters that enter linearly: lumped masses and springs, `E`, `ρ`).
 
+use super::trial_projection::ParametricProjection;
 use crate::core::DofId;
 use crate::core::sparse::SparseMatrix;
 use crate::eigen::{
@@ -249,10 +250,44 @@ pub struct FeModel {
 /// The values and mode shapes of a full model's last modal analysis: the Ritz basis of its
 /// trial states ([`FeModel`]'s [`ParametricModel::trial_modal_state`]). A clone starts empty.
 #[derive(Debug, Default)]
-struct HeldModes(std::sync::Mutex<Option<Held>>);
+struct HeldModes(std::sync::Mutex<Option<std::sync::Arc<Held>>>);
 
-/// The values of an analysis, its mode shapes and how many of them are rigid-body modes.
-type Held = (Vec<f64>, std::sync::Arc<Mat<f64>>, usize);
+/// An analysis's values, mode shapes (rows: `dofs`), how many of them are rigid-body modes,
+/// and the model's projection on them once a trial has asked for it.
+#[derive(Debug)]
+struct Held {
+    values: Vec<f64>,
+    shapes: Mat<f64>,
+    dofs: Vec<DofId>,
+    rigid: usize,
+    projection: std::sync::Mutex<Projection>,
+}
+
+/// Where the held basis's [`ParametricProjection`] stands.
+#[derive(Clone, Default)]
+enum Projection {
+    /// Not asked for yet.
+    #[default]
+    Absent,
+    /// Being formed by one trial; others meanwhile project the assembled model (no thread
+    /// waits for another, which rayon's work stealing could turn into a deadlock).
+    Forming,
+    /// Ready.
+    Ready(std::sync::Arc<ParametricProjection>),
+    /// Forming it failed: trials project the assembled model.
+    Failed,
+}
+
+impl std::fmt::Debug for Projection {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Projection::Absent => "Absent",
+            Projection::Forming => "Forming",
+            Projection::Ready(_) => "Ready",
+            Projection::Failed => "Failed",
+        })
+    }
+}
 
 impl Clone for HeldModes {
     fn clone(&self) -> Self {
@@ -261,17 +296,21 @@ impl Clone for HeldModes {
 }
 
 impl HeldModes {
-    fn get(&self) -> Option<Held> {
+    fn get(&self) -> Option<std::sync::Arc<Held>> {
         self.0.lock().ok()?.clone()
     }
 
-    fn set(&self, values: &[f64], modes: &Modes) {
+    fn set(&self, values: &[f64], modes: &Modes, dofs: &[DofId]) {
         if let Ok(mut held) = self.0.lock() {
-            *held = Some((
-                values.to_vec(),
-                std::sync::Arc::new(modes.shapes.clone()),
-                modes.rigid_body_modes,
-            ));
+            // The old basis goes first, so that two are never held at once.
+            *held = None;
+            *held = Some(std::sync::Arc::new(Held {
+                values: values.to_vec(),
+                shapes: modes.shapes.clone(),
+                dofs: dofs.to_vec(),
+                rigid: modes.rigid_body_modes,
+                projection: std::sync::Mutex::new(Projection::Absent),
+            }));
         }
     }
 }
@@ -345,13 +384,7 @@ impl FeModel {
 
     /// The model with `values` written into it.
     pub fn model_at(&self, values: &[f64]) -> Result<Model, UpdatingError> {
-        let mut model = self.model.clone();
-        for (p, &v) in self.parameters.iter().zip(values) {
-            model
-                .set_parameter_value(p, v)
-                .map_err(UpdatingError::from)?;
-        }
-        Ok(model)
+        super::trial_projection::model_with(&self.model, &self.parameters, values)
     }
 }
 
@@ -379,40 +412,48 @@ impl ParametricModel for FeModel {
     ) -> Result<(ModalState, Option<Evaluated>), UpdatingError> {
         let evaluated = self.evaluate(values)?;
         let state = ModalState::new(&evaluated, values, selection)?;
-        self.held.set(values, &state.modes);
+        self.held.set(values, &state.modes, &state.dofs);
         Ok((state, Some(evaluated)))
     }
 
-    /// Rayleigh-Ritz on the mode shapes `Φ` of the last full analysis: `K(φ)`, `M(φ)` assembled
-    /// at `values` and projected, `ΦᵀKΦ q = λ ΦᵀMΦ q`, shapes `Φq` — no factorisation, no
-    /// eigensolver iterations. The eigenvalues bound the full model's from above and err to
-    /// second order in the change of the mode shapes: enough to rank trial steps, after which
-    /// the chosen step is analysed in full.
+    /// Rayleigh-Ritz on the mode shapes `Φ` of the last full analysis, `ΦᵀKΦ q = λ ΦᵀMΦ q`,
+    /// shapes `Φq` — no factorisation, no eigensolver iterations. The eigenvalues bound the
+    /// full model's from above and err to second order in the change of the mode shapes: enough
+    /// to rank trial steps, after which the chosen step is analysed in full. `ΦᵀK(φ)Φ` and
+    /// `ΦᵀM(φ)Φ` come from the model's [`ParametricProjection`] on `Φ`, formed by the first
+    /// trial on a basis (`O(m²)` per cluster of parameters after that); while another trial is
+    /// forming it, or where it could not be formed, the model is assembled at `values` and
+    /// projected.
     fn trial_modal_state(
         &self,
         values: &[f64],
         _selection: ModeSelection,
     ) -> Result<Option<ModalState>, UpdatingError> {
-        let Some((old, held, rigid)) = self.held.get() else {
+        let Some(held) = self.held.get() else {
             return Ok(None);
         };
-        if old.len() != values.len() {
+        if held.values.len() != values.len() {
             return Ok(None);
         }
-        let basis: &Mat<f64> = &held;
-        let model = self.model_at(values)?;
-        let (system, _) = assemble_model(&model, self.mass).map_err(UpdatingError::from)?;
-        if system.n() != basis.nrows() {
-            return Ok(None);
-        }
-        let (mut k, m) = rayon::join(
-            || crate::reduction::linalg::project(&system.k, basis.as_ref()),
-            || crate::reduction::linalg::project(&system.m, basis.as_ref()),
-        );
+        let basis = held.shapes.as_ref();
+        let (mut k, m) = match self.projection(&held) {
+            Some(projection) => projection.at(&self.model, &self.parameters, values, basis)?,
+            None => {
+                let model = self.model_at(values)?;
+                let (system, _) = assemble_model(&model, self.mass).map_err(UpdatingError::from)?;
+                if system.dofs != held.dofs {
+                    return Ok(None);
+                }
+                rayon::join(
+                    || crate::reduction::linalg::project(&system.k, basis),
+                    || crate::reduction::linalg::project(&system.m, basis),
+                )
+            }
+        };
         // Rigid-body motion stays in the null space of K whatever the parameters: the projected
         // stiffness of the rigid-body modes is round-off of ‖K‖ε (at 1M DOFs, 1e-4 of the kept
         // band's eigenvalues: more than the Ritz solve takes for zero), so it is zero.
-        for r in 0..rigid.min(k.nrows()) {
+        for r in 0..held.rigid.min(k.nrows()) {
             for j in 0..k.ncols() {
                 k[(r, j)] = 0.0;
                 k[(j, r)] = 0.0;
@@ -421,15 +462,51 @@ impl ParametricModel for FeModel {
         // Ritz coordinates carry no DOF: the labels only name rows in error messages.
         let labels = vec![DofId::new(0, crate::core::Component::Ux); basis.ncols()];
         let ritz = crate::reduction::projected_modes(&k, &m, &labels, ModeSelection::All)?;
-        let shapes = basis.as_ref() * &ritz.shapes;
+        let shapes = basis * &ritz.shapes;
         Ok(Some(ModalState {
             modes: Modes { shapes, ..ritz },
-            dofs: system.dofs,
+            dofs: held.dofs.clone(),
             projected: Vec::new(),
             reduced: None,
             factor: None,
             sensors: None,
         }))
+    }
+}
+
+impl FeModel {
+    /// The projection of the model on the held basis: formed here when no trial has asked for
+    /// it yet; `None` while another trial forms it or when forming it failed.
+    fn projection(&self, held: &Held) -> Option<std::sync::Arc<ParametricProjection>> {
+        {
+            let mut state = held.projection.lock().ok()?;
+            match &*state {
+                Projection::Ready(p) => return Some(p.clone()),
+                Projection::Forming | Projection::Failed => return None,
+                Projection::Absent => *state = Projection::Forming,
+            }
+        }
+        let formed = ParametricProjection::new(
+            &self.model,
+            &self.parameters,
+            &held.values,
+            held.shapes.as_ref(),
+            &held.dofs,
+            self.mass,
+        );
+        let mut state = held.projection.lock().ok()?;
+        match formed {
+            Ok(p) => {
+                let p = std::sync::Arc::new(p);
+                *state = Projection::Ready(p.clone());
+                Some(p)
+            }
+            Err(e) => {
+                tracing::debug!("trial projection not formed ({e}): trials assemble the model");
+                *state = Projection::Failed;
+                None
+            }
+        }
     }
 }
 
