@@ -424,20 +424,22 @@ fn linearise(
     }
 }
 
-/// Gauss-Newton steps on `Q` from `start` toward the mode, at most `max_steps`, each halved up
+/// Gauss-Newton steps on `Q` from `start` (its prediction `start_pred`, with the Jacobian)
+/// toward the mode, at most `max_steps`, each halved up
 /// to six times until `Q` falls and stopped when the largest relative step is below 1e-9;
 /// values are clamped to the bounds. Returns the mode, the linearisation there and the record.
 fn refine(
     lik: &dyn Likelihood,
     params: &[UpdatingParameter],
     start: &[f64],
+    start_pred: Prediction,
     sigma: &[f64],
     prior: Option<&Prior>,
     max_steps: usize,
 ) -> Result<(Vec<f64>, Prediction, Refinement), UpdatingError> {
     let y = lik.measured();
     let mut values = start.to_vec();
-    let mut pred = lik.predict(&values, true)?;
+    let mut pred = start_pred;
     let mut lin = linearise(y, &pred, sigma, prior, &values);
     let objective_start = lin.objective;
     let (mut steps, mut converged) = (0, false);
@@ -581,7 +583,8 @@ pub fn laplace(
         return Ok(unknown(lik, params, updated, settings));
     }
     // Noise at the update's result, the mode under it, and (estimated) the noise again there.
-    let start_pred = lik.predict(updated, false)?;
+    // One analysis serves both: its Jacobian starts the refinement.
+    let start_pred = lik.predict(updated, true)?;
     let r0: Vec<f64> = y
         .iter()
         .zip(&start_pred.values)
@@ -592,6 +595,7 @@ pub fn laplace(
         lik,
         params,
         updated,
+        start_pred,
         &sigma,
         prior,
         settings.refine_iterations,
