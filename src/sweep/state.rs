@@ -158,7 +158,8 @@ pub fn host_name() -> String {
         .ok()
         .map(|s| s.trim().to_string())
         .filter(|s| !s.is_empty())
-        .or_else(|| std::env::var("HOSTNAME").ok())
+        .or_else(|| std::env::var("HOSTNAME").ok().map(|s| s.trim().to_string()))
+        .filter(|s| !s.is_empty() && !s.contains(char::is_whitespace))
         .unwrap_or_else(|| "localhost".into())
 }
 
@@ -312,18 +313,21 @@ fn try_lock_file(file: &std::fs::File) -> std::io::Result<bool> {
     }
 }
 
-/// The pid and host written in a held lock file (waiting briefly for a holder that has only
-/// just taken it); `(0, "")` when it never says.
+/// The pid and host written in a held lock file (waiting up to two seconds for a holder that
+/// has only just taken it, however loaded the machine); `(0, "")` when it never says.
 fn read_holder(path: &Path) -> (u32, String) {
-    for _ in 0..50 {
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(2);
+    loop {
         let text = std::fs::read_to_string(path).unwrap_or_default();
         let mut it = text.split_whitespace();
-        if let (Some(pid), Some(host)) = (it.next().and_then(|p| p.parse().ok()), it.next()) {
-            return (pid, host.to_string());
+        if let Some(pid) = it.next().and_then(|p| p.parse().ok()) {
+            return (pid, it.next().unwrap_or_default().to_string());
+        }
+        if std::time::Instant::now() >= deadline {
+            return (0, String::new());
         }
         std::thread::sleep(std::time::Duration::from_millis(2));
     }
-    (0, String::new())
 }
 
 /// The held sweep lock; released when dropped (or when the process ends, however it ends).
