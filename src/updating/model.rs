@@ -411,7 +411,18 @@ impl ParametricModel for FeModel {
         selection: ModeSelection,
     ) -> Result<(ModalState, Option<Evaluated>), UpdatingError> {
         let evaluated = self.evaluate(values)?;
-        let state = ModalState::new(&evaluated, values, selection)?;
+        // Below a frequency limit, the count the last analysis found, with a margin for modes
+        // that the parameters' change brings under it, is the first Lanczos run's: doubling
+        // from 20 would repeat the run two or three times on a large model.
+        let first_count = self.held.get().map(|held| {
+            let found = held.shapes.ncols();
+            found + (found / 10).max(4)
+        });
+        let params = SparseEigenParams {
+            first_count,
+            ..SparseEigenParams::default()
+        };
+        let state = ModalState::with_params(&evaluated, values, selection, &params)?;
         self.held.set(values, &state.modes, &state.dofs);
         Ok((state, Some(evaluated)))
     }
@@ -641,14 +652,19 @@ impl ModalState {
         values: &[f64],
         selection: ModeSelection,
     ) -> Result<Self, UpdatingError> {
+        Self::with_params(evaluated, values, selection, &SparseEigenParams::default())
+    }
+
+    /// [`ModalState::new`] with the eigensolver's settings given.
+    pub fn with_params(
+        evaluated: &Evaluated,
+        values: &[f64],
+        selection: ModeSelection,
+        params: &SparseEigenParams,
+    ) -> Result<Self, UpdatingError> {
         let sys = &evaluated.system;
-        let (modes, _, factor) = lowest_modes_keeping_factor(
-            &sys.k,
-            &sys.m,
-            &sys.dofs,
-            selection,
-            &SparseEigenParams::default(),
-        )?;
+        let (modes, _, factor) =
+            lowest_modes_keeping_factor(&sys.k, &sys.m, &sys.dofs, selection, params)?;
         if modes.is_empty() {
             return Err(UpdatingError::Settings(
                 "the modal basis is empty: raise the number of modes or their frequency limit"

@@ -249,8 +249,10 @@ impl TypedStage for Update {
     const SUMMARY: &'static str =
         "Update model parameters from measured FRFs (P-C, RFM) or modes (inverse eigensensitivity)";
     /// 6: the result records the component mode synthesis reuse (`cms`); 8: the RFM reads
-    /// measured DOFs through multi-term test maps (14.11).
-    const IMPL_VERSION: u32 = 8;
+    /// measured DOFs through multi-term test maps (14.11); 9: trial states from the parametric
+    /// projection, the posterior started from the update's last analysis, and each analysis's
+    /// first Lanczos run sized by the last (results move in round-off).
+    const IMPL_VERSION: u32 = 9;
 
     fn inputs() -> Vec<PortSpec> {
         vec![
