@@ -503,6 +503,7 @@ impl FeModel {
             &held.values,
             held.shapes.as_ref(),
             &held.dofs,
+            held.rigid,
             self.mass,
         );
         let mut state = held.projection.lock().ok()?;
