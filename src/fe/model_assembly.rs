@@ -238,6 +238,20 @@ pub fn element_matrices_with_id(
     element_matrices_at(model, Some(id), e, mass)
 }
 
+/// [`element_matrices_with_id`], its error naming the element and its kind.
+pub fn named_element_matrices(
+    model: &Model,
+    id: u64,
+    e: &Element,
+    mass: MassKind,
+) -> Result<ElementMatrices, ModelAssemblyError> {
+    element_matrices_with_id(model, id, e, mass).map_err(|source| ModelAssemblyError::Element {
+        element: id,
+        kind: e.type_name(),
+        source,
+    })
+}
+
 /// Element matrices of one element of `model` (references already validated), over the DOFs of
 /// its nodes' displacement systems. A shell of a model with shell placements needs its id:
 /// [`element_matrices_with_id`].
@@ -597,13 +611,7 @@ pub fn assemble_model(
     let scalar = &model.scalar_points;
     let (sys, info) = assemble_points(&node_ids, scalar, &lists, &constraints, &keep, |i| {
         let (id, e) = elements[i];
-        let matrices = element_matrices_with_id(model, id, e, mass).map_err(|source| {
-            ModelAssemblyError::Element {
-                element: id,
-                kind: e.type_name(),
-                source,
-            }
-        })?;
+        let matrices = named_element_matrices(model, id, e, mass)?;
         Ok::<_, ModelAssemblyError>(Contribution {
             nodes: lists[i].clone(),
             matrices,
@@ -648,13 +656,7 @@ pub fn element_dofs(
     e: &Element,
     mass: MassKind,
 ) -> Result<Vec<crate::core::DofId>, ModelAssemblyError> {
-    let m = element_matrices_with_id(model, id, e, mass).map_err(|source| {
-        ModelAssemblyError::Element {
-            element: id,
-            kind: e.type_name(),
-            source,
-        }
-    })?;
+    let m = named_element_matrices(model, id, e, mass)?;
     let mut out = Vec::new();
     for (i, d) in block_dofs(model, e).into_iter().enumerate() {
         if let Some(d) = d {
@@ -711,13 +713,7 @@ pub fn assemble_elements(
     let scalar = &model.scalar_points;
     let (sys, info) = assemble_points(&node_ids, scalar, &lists, &constraints, &keep, |i| {
         let (id, e) = elements[i];
-        let matrices = element_matrices_with_id(model, id, e, mass).map_err(|source| {
-            ModelAssemblyError::Element {
-                element: id,
-                kind: e.type_name(),
-                source,
-            }
-        })?;
+        let matrices = named_element_matrices(model, id, e, mass)?;
         Ok::<_, ModelAssemblyError>(Contribution {
             nodes: lists[i].clone(),
             matrices,

@@ -25,7 +25,7 @@
 use crate::core::DofId;
 use crate::fe::element::MassKind;
 use crate::fe::model_assembly::{
-    DofIndex, ModelAssemblyError, dependents_of, element_matrices_with_id, row_map,
+    DofIndex, ModelAssemblyError, dependents_of, named_element_matrices, row_map,
 };
 use crate::fe::multipoint::DependentDof;
 use crate::model::{Element, Model, ModelError, Parameter, ParameterKind};
@@ -485,13 +485,7 @@ fn project_chunk(
         if map.iter().all(Vec::is_empty) {
             continue;
         }
-        let matrices = element_matrices_with_id(model, id, e, mass).map_err(|source| {
-            ModelAssemblyError::Element {
-                element: id,
-                kind: e.type_name(),
-                source,
-            }
-        })?;
+        let matrices = named_element_matrices(model, id, e, mass)?;
         elements.push((matrices, map));
     }
     let mut touched: Vec<usize> = elements
