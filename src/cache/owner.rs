@@ -7,17 +7,25 @@
 
 use std::sync::OnceLock;
 
+/// This machine's host name: the kernel's, else `$HOSTNAME`, else `localhost` (a name that
+/// is empty or holds white space does not count, so that it stays one word in a lock file).
+pub fn host_name() -> String {
+    let usable = |s: String| {
+        let s = s.trim();
+        (!s.is_empty() && !s.contains(char::is_whitespace)).then(|| s.to_string())
+    };
+    std::fs::read_to_string("/proc/sys/kernel/hostname")
+        .ok()
+        .and_then(usable)
+        .or_else(|| std::env::var("HOSTNAME").ok().and_then(usable))
+        .unwrap_or_else(|| "localhost".into())
+}
+
 /// This machine's tag: the host name (letters, digits and `-` only) and its PID namespace.
 pub fn host_tag() -> &'static str {
     static TAG: OnceLock<String> = OnceLock::new();
     TAG.get_or_init(|| {
-        let host = std::fs::read_to_string("/proc/sys/kernel/hostname")
-            .ok()
-            .or_else(|| std::env::var("HOSTNAME").ok())
-            .map(|s| s.trim().to_string())
-            .filter(|s| !s.is_empty())
-            .unwrap_or_else(|| "localhost".into());
-        let mut tag: String = host
+        let mut tag: String = host_name()
             .chars()
             .map(|c| {
                 if c.is_ascii_alphanumeric() || c == '-' {

@@ -152,16 +152,8 @@ pub fn now_unix() -> u64 {
         .unwrap_or(0)
 }
 
-/// This machine's host name.
-pub fn host_name() -> String {
-    std::fs::read_to_string("/proc/sys/kernel/hostname")
-        .ok()
-        .map(|s| s.trim().to_string())
-        .filter(|s| !s.is_empty())
-        .or_else(|| std::env::var("HOSTNAME").ok().map(|s| s.trim().to_string()))
-        .filter(|s| !s.is_empty() && !s.contains(char::is_whitespace))
-        .unwrap_or_else(|| "localhost".into())
-}
+/// This machine's host name (the cache's owner tags read the same).
+pub use crate::cache::owner::host_name;
 
 /// Whether process `pid` is alive on this host (the cache's test for a dead owner, so both
 /// judge processes alike).
