@@ -201,11 +201,70 @@ pub struct DynamicStiffness {
     n: usize,
     /// The merged lower triangle (diagonal included) in compressed columns; values unused.
     lower: SparseMatrix,
-    /// `[K, M, C, D]` coefficients of each stored entry of `lower`, in its order.
-    coef: Vec<[f64; 4]>,
+    /// The coefficients of each stored entry of `lower`, in its order.
+    coef: EntryCoefficients,
+    /// The same in the factor's order ([`SymbolicLdlt::in_factor_order`]).
+    factor_coef: EntryCoefficients,
+    /// `η`, and Rayleigh's `(a, b)` of `C = a M + b K`.
+    eta: f64,
+    rayleigh: (f64, f64),
     ldlt: SymbolicLdlt,
     /// The pivoted LU's analysis of the full pattern, made on first use.
     lu: OnceLock<Result<LuPattern, DirectError>>,
+}
+
+/// Per stored entry of `Z`'s pattern, the coefficients its value at a line is made of:
+/// `z = k (1 + i(η + ω b)) + m (−ω² + i ω a) + i (d + ω c)` for uniform structural damping
+/// `η`, Rayleigh damping `C = a M + b K` and the system's own `C`, `D` (entries `c`, `d`),
+/// kept only where the system has them: a line then streams 16 bytes an entry, not 32.
+struct EntryCoefficients {
+    stiffness_mass: Vec<[f64; 2]>,
+    /// `[c, d]`, when the system has a viscous or a structural damping matrix of its own.
+    explicit_damping: Option<Vec<[f64; 2]>>,
+}
+
+/// The scalars that turn an entry's coefficients into its value at one line.
+struct LineScalars {
+    w: f64,
+    /// `1 + i(η + ω b)` and `−ω² + i ω a`.
+    stiffness: c64,
+    mass: c64,
+}
+
+impl LineScalars {
+    /// `Z`'s entry of stiffness and mass `[k, m]` and explicit damping `[c, d]`.
+    #[inline(always)]
+    fn value(&self, [k, m]: [f64; 2], [c, d]: [f64; 2]) -> c64 {
+        self.stiffness * k + self.mass * m + c64::new(0.0, d + self.w * c)
+    }
+}
+
+impl EntryCoefficients {
+    /// From `[K, M, C, D]` of each entry.
+    fn new(coef: &[[f64; 4]]) -> Self {
+        let explicit = coef.iter().any(|c| c[2] != 0.0 || c[3] != 0.0);
+        EntryCoefficients {
+            stiffness_mass: coef.iter().map(|c| [c[0], c[1]]).collect(),
+            explicit_damping: explicit.then(|| coef.iter().map(|c| [c[2], c[3]]).collect()),
+        }
+    }
+
+    /// The same entries in `ldlt`'s factor order.
+    fn in_factor_order(&self, ldlt: &SymbolicLdlt) -> Self {
+        EntryCoefficients {
+            stiffness_mass: ldlt.in_factor_order(&self.stiffness_mass),
+            explicit_damping: self
+                .explicit_damping
+                .as_ref()
+                .map(|cd| ldlt.in_factor_order(cd)),
+        }
+    }
+
+    /// Entry `e`'s value at `line`.
+    fn value(&self, line: &LineScalars, e: usize) -> c64 {
+        let cd = self.explicit_damping.as_ref().map_or([0.0; 2], |cd| cd[e]);
+        line.value(self.stiffness_mass[e], cd)
+    }
 }
 
 /// The full pattern of `Z`, each entry's place in `lower`, and its symbolic LU.
@@ -262,10 +321,7 @@ impl DynamicStiffness {
             }
             col_ptr[j + 1] = row_idx.len();
         }
-        for c in coef.iter_mut() {
-            c[2] += ra * c[1] + rb * c[0];
-            c[3] += eta * c[0];
-        }
+        let coef = EntryCoefficients::new(&coef);
         let ones = vec![1.0; row_idx.len()];
         let lower = SparseColMat::new(
             SymbolicSparseColMat::new_checked(n, n, col_ptr, None, row_idx),
@@ -273,10 +329,14 @@ impl DynamicStiffness {
         );
         let ldlt =
             SymbolicLdlt::new(&lower).map_err(|e| DirectError::Factorisation(e.to_string()))?;
+        let factor_coef = coef.in_factor_order(&ldlt);
         Ok(DynamicStiffness {
             n,
             lower,
             coef,
+            factor_coef,
+            eta,
+            rayleigh: (ra, rb),
             ldlt,
             lu: OnceLock::new(),
         })
@@ -285,6 +345,16 @@ impl DynamicStiffness {
     /// Size of `Z`.
     pub fn n(&self) -> usize {
         self.n
+    }
+
+    /// The scalars of `Z` at circular frequency `w`.
+    fn line(&self, w: f64) -> LineScalars {
+        let (a, b) = self.rayleigh;
+        LineScalars {
+            w,
+            stiffness: c64::new(1.0, self.eta + w * b),
+            mass: c64::new(-w * w, w * a),
+        }
     }
 
     /// Storage for one factor of `Z`'s pattern.
@@ -303,8 +373,8 @@ impl DynamicStiffness {
         let w = 2.0 * PI * f_hz;
         self.ldlt.factorize(
             ws,
-            |e| {
-                let [k, m, _, _] = self.coef[e];
+            |entry| {
+                let [k, m] = self.factor_coef.stiffness_mass[entry];
                 c64::new(k - w * w * m, 0.0)
             },
             par,
@@ -337,11 +407,20 @@ impl DynamicStiffness {
         par: Par,
     ) -> Result<(Mat<c64>, bool), DirectError> {
         let w = 2.0 * PI * f_hz;
-        let value = |e: usize| {
-            let [k, m, c, d] = self.coef[e];
-            c64::new(k - w * w * m, d + w * c)
+        let line = self.line(w);
+        let factored = match &self.factor_coef.explicit_damping {
+            None => self.ldlt.factorize(
+                ws,
+                |entry| line.value(self.factor_coef.stiffness_mass[entry], [0.0; 2]),
+                par,
+            ),
+            Some(cd) => self.ldlt.factorize(
+                ws,
+                |entry| line.value(self.factor_coef.stiffness_mass[entry], cd[entry]),
+                par,
+            ),
         };
-        if self.ldlt.factorize(ws, value, par).is_ok() {
+        if factored.is_ok() {
             let mut x = rhs.to_owned();
             self.ldlt.solve_in_place(ws, x.as_mut());
             let (mut error, mut residual) = self.backward_error(w, x.as_ref(), rhs);
@@ -373,11 +452,11 @@ impl DynamicStiffness {
             .flat_map(|c| b.col(c).iter().map(|v| -*v).collect::<Vec<_>>())
             .collect();
         let mut row_sums = vec![0.0f64; n];
+        let line = self.line(w);
         let mut e = 0;
         for j in 0..n {
             for &i in self.lower.row_idx_of_col_raw(j) {
-                let [k, m, c, d] = self.coef[e];
-                let z = c64::new(k - w * w * m, d + w * c);
+                let z = self.coef.value(&line, e);
                 e += 1;
                 let size = z.re.abs() + z.im.abs();
                 row_sums[i] += size;
@@ -428,14 +507,11 @@ impl DynamicStiffness {
             .get_or_init(|| self.lu_pattern())
             .as_ref()
             .map_err(Clone::clone)?;
-        let w = 2.0 * PI * f_hz;
+        let line = self.line(2.0 * PI * f_hz);
         let vals: Vec<c64> = pattern
             .source
             .iter()
-            .map(|&e| {
-                let [k, m, c, d] = self.coef[e];
-                c64::new(k - w * w * m, d + w * c)
-            })
+            .map(|&e| self.coef.value(&line, e))
             .collect();
         let z = SparseColMat::new_from_argsort(pattern.symbolic.clone(), &pattern.argsort, &vals)
             .map_err(|e| DirectError::Factorisation(format!("{e:?}")))?;
@@ -453,8 +529,9 @@ impl DynamicStiffness {
 
     /// The full pattern of `Z` (both triangles of `lower`) and its symbolic LU.
     fn lu_pattern(&self) -> Result<LuPattern, DirectError> {
-        let mut idx = Vec::with_capacity(2 * self.coef.len());
-        let mut source = Vec::with_capacity(2 * self.coef.len());
+        let entries = self.coef.stiffness_mass.len();
+        let mut idx = Vec::with_capacity(2 * entries);
+        let mut source = Vec::with_capacity(2 * entries);
         let mut e = 0;
         for j in 0..self.n {
             for &i in self.lower.row_idx_of_col_raw(j) {
