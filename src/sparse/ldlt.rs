@@ -56,10 +56,10 @@ pub struct SymbolicLdlt {
     /// Supernodes in a postorder of the tree, and each one's number of children.
     postorder: Vec<usize>,
     children: Vec<usize>,
-    /// The place in the values of the `k`-th entry in the factor's order (ascending), and
+    /// The place in its supernode's panel of the `k`-th entry in the factor's order, and
     /// that entry's place among the stored lower-triangle entries of the analysed pattern.
     /// Supernode `s` takes entries `scatter_ptr[s]..scatter_ptr[s + 1]`.
-    slots: Vec<usize>,
+    slots: Vec<u32>,
     entry_order: Vec<usize>,
     scatter_ptr: Vec<usize>,
     /// Where each run of consecutive places in `relative` starts (relative to the supernode's
@@ -195,6 +195,14 @@ impl SymbolicLdlt {
         for s in 0..ns {
             scatter_ptr[s + 1] = slots.partition_point(|&slot| slot < value_ptr[s + 1]);
         }
+        // Within its panel: four bytes an entry to stream at every factorisation.
+        let mut local = Vec::with_capacity(slots.len());
+        for s in 0..ns {
+            for &slot in &slots[scatter_ptr[s]..scatter_ptr[s + 1]] {
+                local.push(u32::try_from(slot - value_ptr[s]).map_err(|_| LdltError::OutOfMemory)?);
+            }
+        }
+        let slots = local;
         // A parent's index is above its children's.
         let mut odd_depth = vec![false; ns];
         for s in (0..ns).rev() {
@@ -304,7 +312,7 @@ impl SymbolicLdlt {
             let panel = &mut values[self.value_ptr[s]..self.value_ptr[s + 1]];
             panel.fill(c64::ZERO);
             for k in self.scatter_ptr[s]..self.scatter_ptr[s + 1] {
-                panel[self.slots[k] - self.value_ptr[s]] += value(k);
+                panel[self.slots[k] as usize] += value(k);
             }
             let odd = usize::from(self.odd_depth[s]);
             let ([own_stack, child_stack], [own_frames, child_frames]) = if odd == 0 {
