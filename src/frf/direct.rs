@@ -152,7 +152,7 @@ pub fn direct_receptance_by(
             };
             let chunk = freqs_hz.len().div_ceil(2 * threads).max(1);
             lines.par_extend(freqs_hz.par_chunks(chunk).flat_map_iter(|chunk| {
-                let mut ws = z.ldlt.workspace();
+                let mut ws = z.ldlt.workspace::<c64>();
                 chunk
                     .iter()
                     .map(|&f| {
@@ -357,16 +357,16 @@ impl DynamicStiffness {
         }
     }
 
-    /// Storage for one factor of `Z`'s pattern.
-    pub(crate) fn workspace(&self) -> LdltWorkspace {
+    /// Storage for one real factor of `Z`'s pattern.
+    pub(crate) fn real_workspace(&self) -> LdltWorkspace<f64> {
         self.ldlt.workspace()
     }
 
-    /// Factors the undamped `K − ω²M` at `f_hz` into `ws`, on `Z`'s pattern and ordering (the
-    /// Krylov sweep's expansion points, [`super::krylov`]).
+    /// Factors the undamped `K − ω²M` at `f_hz` into `ws`, in real arithmetic, on `Z`'s pattern
+    /// and ordering (the Krylov sweep's expansion points, [`super::krylov`]).
     pub(crate) fn factor_undamped(
         &self,
-        ws: &mut LdltWorkspace,
+        ws: &mut LdltWorkspace<f64>,
         f_hz: f64,
         par: Par,
     ) -> Result<(), crate::sparse::LdltError> {
@@ -375,14 +375,14 @@ impl DynamicStiffness {
             ws,
             |entry| {
                 let [k, m] = self.factor_coef.stiffness_mass[entry];
-                c64::new(k - w * w * m, 0.0)
+                k - w * w * m
             },
             par,
         )
     }
 
-    /// `X ← A⁻¹ X` by the factor in `ws`.
-    pub(crate) fn solve_factored(&self, ws: &LdltWorkspace, x: faer::MatMut<'_, c64>) {
+    /// `X ← A⁻¹ X` by the real factor in `ws`.
+    pub(crate) fn solve_factored(&self, ws: &LdltWorkspace<f64>, x: faer::MatMut<'_, f64>) {
         self.ldlt.solve_in_place(ws, x);
     }
 
@@ -394,14 +394,14 @@ impl DynamicStiffness {
         rhs: MatRef<'_, c64>,
         par: Par,
     ) -> Result<Mat<c64>, DirectError> {
-        let mut ws = self.ldlt.workspace();
+        let mut ws = self.ldlt.workspace::<c64>();
         self.solve_line(&mut ws, f_hz, rhs, par).map(|r| r.0)
     }
 
     /// `Z(ω) X = rhs` by `LDLᵀ` in `ws`, checked by its backward error; whether the LU solved it.
     fn solve_line(
         &self,
-        ws: &mut LdltWorkspace,
+        ws: &mut LdltWorkspace<c64>,
         f_hz: f64,
         rhs: MatRef<'_, c64>,
         par: Par,

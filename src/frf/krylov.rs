@@ -282,7 +282,7 @@ impl<'a> Basis<'a> {
         blocks: usize,
         n: usize,
     ) -> Result<Option<f64>, KrylovError> {
-        let mut ws = z.workspace();
+        let mut ws = z.real_workspace();
         let Some(hz) = [f_hz, f_hz * (1.0 + 1e-4) + 1e-4]
             .into_iter()
             .find(|&hz| z.factor_undamped(&mut ws, hz, Par::rayon(0)).is_ok())
@@ -293,19 +293,17 @@ impl<'a> Basis<'a> {
         let mut rhs: Vec<Mat<f64>> = vec![self.load.clone()];
         for _ in 0..blocks {
             let width: usize = rhs.iter().map(|m| m.ncols()).sum();
-            let mut block = Mat::<c64>::zeros(n, width);
+            let mut block = Mat::<f64>::zeros(n, width);
             let mut at = 0;
             for m in &rhs {
-                for k in 0..m.ncols() {
-                    for i in 0..n {
-                        block[(i, at + k)] = c64::new(m[(i, k)], 0.0);
-                    }
-                }
+                block
+                    .as_mut()
+                    .subcols_mut(at, m.ncols())
+                    .copy_from(m.as_ref());
                 at += m.ncols();
             }
             z.solve_factored(&ws, block.as_mut());
-            let real = Mat::<f64>::from_fn(n, width, |i, k| block[(i, k)].re);
-            let fresh = orthonormal_against(&local, real.as_ref());
+            let fresh = orthonormal_against(&local, block.as_ref());
             if fresh.ncols() == 0 {
                 break;
             }

@@ -75,15 +75,133 @@ pub struct SymbolicLdlt {
 }
 
 /// A factor's values and the scratch of its factorisation: one per thread.
-pub struct LdltWorkspace {
-    values: Vec<c64>,
+pub struct LdltWorkspace<T: LdltScalar> {
+    values: Vec<T>,
     /// Update matrices handed from children to parents, `r × r` each, and their owners and
     /// places: those of supernodes at even depth of the tree on the first stack, odd on the
     /// second, so that a front is built in place on its stack while its children's updates,
     /// one depth below, sit on top of the other.
-    stacks: [Vec<c64>; 2],
+    stacks: [Vec<T>; 2],
     frames: [Vec<(usize, usize)>; 2],
-    scaled: Vec<c64>,
+    scaled: Vec<T>,
+}
+
+/// A scalar the factorisation runs in, with its vector kernels: `c64` for the complex
+/// symmetric dynamic stiffness of a direct FRF line, `f64` for the real `K − ω²M` of a Krylov
+/// sweep's expansion point (a quarter of the complex arithmetic and half the storage).
+pub trait LdltScalar:
+    faer::traits::ComplexField
+    + Copy
+    + PartialEq
+    + std::ops::Add<Output = Self>
+    + std::ops::Sub<Output = Self>
+    + std::ops::Mul<Output = Self>
+    + std::ops::Div<Output = Self>
+    + std::ops::AddAssign
+    + std::ops::SubAssign
+    + std::ops::MulAssign
+    + std::ops::DivAssign
+    + std::iter::Sum
+    + Send
+    + Sync
+{
+    /// `0`.
+    const NIL: Self;
+    /// `1`.
+    const UNIT: Self;
+    /// Whether both parts are finite.
+    fn finite(self) -> bool;
+    /// [`unblocked_ldlt`] with this scalar's fastest kernels on this machine.
+    fn unblocked(a: &mut [Self], ld: usize, c0: usize, w: usize) -> Result<(), usize>;
+    /// [`SymbolicLdlt::extend_add`] likewise.
+    fn extend_add(
+        sym: &SymbolicLdlt,
+        c: usize,
+        update: &[Self],
+        w: usize,
+        panel: &mut [Self],
+        front: &mut [Self],
+    );
+    /// [`SymbolicLdlt::solve_with`] likewise.
+    fn solve(sym: &SymbolicLdlt, values: &[Self], y: &mut [Self], gathered: &mut [Self]);
+}
+
+impl LdltScalar for c64 {
+    const NIL: Self = c64::ZERO;
+    const UNIT: Self = c64::ONE;
+    fn finite(self) -> bool {
+        self.re.is_finite() && self.im.is_finite()
+    }
+    fn unblocked(a: &mut [Self], ld: usize, c0: usize, w: usize) -> Result<(), usize> {
+        #[cfg(target_arch = "x86_64")]
+        if super::thin::available() {
+            // SAFETY: the machine has AVX2 and FMA (checked just above).
+            return unsafe { avx::unblocked_ldlt(a, ld, c0, w) };
+        }
+        unblocked_ldlt(a, ld, c0, w, sub_scaled)
+    }
+    fn extend_add(
+        sym: &SymbolicLdlt,
+        c: usize,
+        update: &[Self],
+        w: usize,
+        panel: &mut [Self],
+        front: &mut [Self],
+    ) {
+        #[cfg(target_arch = "x86_64")]
+        if super::thin::available() {
+            // SAFETY: the machine has AVX2 and FMA (checked just above).
+            return unsafe { avx::extend_add(sym, c, update, w, panel, front) };
+        }
+        sym.extend_add(c, update, w, panel, front, add_assign)
+    }
+    fn solve(sym: &SymbolicLdlt, values: &[Self], y: &mut [Self], gathered: &mut [Self]) {
+        #[cfg(target_arch = "x86_64")]
+        if super::thin::available() {
+            // SAFETY: the machine has AVX2 and FMA (checked just above).
+            return unsafe { avx::solve(sym, values, y, gathered) };
+        }
+        sym.solve_with(values, y, gathered, sub_scaled, dot)
+    }
+}
+
+impl LdltScalar for f64 {
+    const NIL: Self = 0.0;
+    const UNIT: Self = 1.0;
+    fn finite(self) -> bool {
+        self.is_finite()
+    }
+    fn unblocked(a: &mut [Self], ld: usize, c0: usize, w: usize) -> Result<(), usize> {
+        #[cfg(target_arch = "x86_64")]
+        if super::thin::available() {
+            // SAFETY: the machine has AVX2 and FMA (checked just above).
+            return unsafe { real_avx::unblocked_ldlt(a, ld, c0, w) };
+        }
+        unblocked_ldlt(a, ld, c0, w, sub_scaled)
+    }
+    fn extend_add(
+        sym: &SymbolicLdlt,
+        c: usize,
+        update: &[Self],
+        w: usize,
+        panel: &mut [Self],
+        front: &mut [Self],
+    ) {
+        #[cfg(target_arch = "x86_64")]
+        if super::thin::available() {
+            // SAFETY: the machine has AVX2 and FMA (checked just above).
+            return unsafe { real_avx::extend_add(sym, c, update, w, panel, front) };
+        }
+        sym.extend_add(c, update, w, panel, front, add_assign)
+    }
+    fn solve(sym: &SymbolicLdlt, values: &[Self], y: &mut [Self], gathered: &mut [Self]) {
+        #[cfg(target_arch = "x86_64")]
+        if super::thin::available() {
+            // SAFETY: the machine has AVX2 and FMA (checked just above).
+            return unsafe { real_avx::solve(sym, values, y, gathered) };
+        }
+        sym.solve_with(values, y, gathered, sub_scaled, dot)
+    }
 }
 
 impl SymbolicLdlt {
@@ -265,12 +383,12 @@ impl SymbolicLdlt {
     }
 
     /// The storage of one factor and its scratch.
-    pub fn workspace(&self) -> LdltWorkspace {
+    pub fn workspace<T: LdltScalar>(&self) -> LdltWorkspace<T> {
         LdltWorkspace {
-            values: vec![c64::ZERO; self.factor_entries()],
+            values: vec![T::NIL; self.factor_entries()],
             stacks: [Vec::new(), Vec::new()],
             frames: [Vec::new(), Vec::new()],
-            scaled: vec![c64::ZERO; self.max_panel_below],
+            scaled: vec![T::NIL; self.max_panel_below],
         }
     }
 
@@ -290,10 +408,10 @@ impl SymbolicLdlt {
     /// ([`in_factor_order`](Self::in_factor_order) maps stored entries to it: filling a panel
     /// then reads its values in sequence), into `ws`; `par` splits the dense kernels of large
     /// fronts.
-    pub fn factorize(
+    pub fn factorize<T: LdltScalar>(
         &self,
-        ws: &mut LdltWorkspace,
-        value: impl Fn(usize) -> c64,
+        ws: &mut LdltWorkspace<T>,
+        value: impl Fn(usize) -> T,
         par: Par,
     ) -> Result<(), LdltError> {
         let LdltWorkspace {
@@ -304,13 +422,12 @@ impl SymbolicLdlt {
         } = ws;
         stacks.iter_mut().for_each(Vec::clear);
         frames.iter_mut().for_each(Vec::clear);
-        let avx2 = super::thin::available();
         for &s in &self.postorder {
             let (b, w) = (self.begin[s], self.begin[s + 1] - self.begin[s]);
             let r = self.pattern_ptr[s + 1] - self.pattern_ptr[s];
             let m = w + r;
             let panel = &mut values[self.value_ptr[s]..self.value_ptr[s + 1]];
-            panel.fill(c64::ZERO);
+            panel.fill(T::NIL);
             for k in self.scatter_ptr[s]..self.scatter_ptr[s + 1] {
                 panel[self.slots[k] as usize] += value(k);
             }
@@ -323,7 +440,7 @@ impl SymbolicLdlt {
                 ([a, b], [c, d])
             };
             let at = own_stack.len();
-            own_stack.resize(at + r * r, c64::ZERO);
+            own_stack.resize(at + r * r, T::NIL);
             let front = &mut own_stack[at..];
             // Extend-add: the children's update matrices are the last frames of the other stack.
             let first_frame = child_frames.len() - self.children[s];
@@ -332,14 +449,7 @@ impl SymbolicLdlt {
                 .map_or(child_stack.len(), |f| f.1);
             for &(c, at) in &child_frames[first_frame..] {
                 let rc = self.pattern_ptr[c + 1] - self.pattern_ptr[c];
-                let update = &child_stack[at..at + rc * rc];
-                #[cfg(target_arch = "x86_64")]
-                if avx2 {
-                    // SAFETY: the machine has AVX2 and FMA (`avx2`).
-                    unsafe { avx::extend_add(self, c, update, w, panel, front) };
-                    continue;
-                }
-                self.extend_add(c, update, w, panel, front, add_assign);
+                T::extend_add(self, c, &child_stack[at..at + rc * rc], w, panel, front);
             }
             child_frames.truncate(first_frame);
             child_stack.truncate(stack_top);
@@ -364,7 +474,7 @@ impl SymbolicLdlt {
                     BlockStructure::Rectangular,
                     MatRef::from_column_major_slice(scaled, r, w).transpose(),
                     BlockStructure::Rectangular,
-                    c64::new(-1.0, 0.0),
+                    T::NIL - T::UNIT,
                     par,
                 );
                 own_frames.push((s, at));
@@ -377,14 +487,14 @@ impl SymbolicLdlt {
     /// panel (`m × w`) and front (`r × r`, rows and columns after the panel's), a run of
     /// consecutive places at a time by `add(target, source)`.
     #[inline(always)]
-    fn extend_add(
+    fn extend_add<T: LdltScalar>(
         &self,
         c: usize,
-        update: &[c64],
+        update: &[T],
         w: usize,
-        panel: &mut [c64],
-        front: &mut [c64],
-        add: impl Fn(&mut [c64], &[c64]),
+        panel: &mut [T],
+        front: &mut [T],
+        add: impl Fn(&mut [T], &[T]),
     ) {
         let rel = &self.relative[self.pattern_ptr[c]..self.pattern_ptr[c + 1]];
         let runs = &self.runs[self.run_ptr[c]..self.run_ptr[c + 1]];
@@ -412,23 +522,14 @@ impl SymbolicLdlt {
     }
 
     /// `X ← A⁻¹ X` by the factor in `ws`, for `x` with [`n`](Self::n) rows.
-    pub fn solve_in_place(&self, ws: &LdltWorkspace, mut x: MatMut<'_, c64>) {
-        let mut y = vec![c64::ZERO; self.n];
-        let mut gathered = vec![c64::ZERO; self.max_rows];
-        let avx2 = super::thin::available();
+    pub fn solve_in_place<T: LdltScalar>(&self, ws: &LdltWorkspace<T>, mut x: MatMut<'_, T>) {
+        let mut y = vec![T::NIL; self.n];
+        let mut gathered = vec![T::NIL; self.max_rows];
         for k in 0..x.ncols() {
             for (new, &old) in self.forward.iter().enumerate() {
                 y[new] = x[(old, k)];
             }
-            #[cfg(target_arch = "x86_64")]
-            if avx2 {
-                // SAFETY: the machine has AVX2 and FMA (`avx2`).
-                unsafe { avx::solve(self, &ws.values, &mut y, &mut gathered) };
-            } else {
-                self.solve_with(&ws.values, &mut y, &mut gathered, sub_scaled, dot);
-            }
-            #[cfg(not(target_arch = "x86_64"))]
-            self.solve_with(&ws.values, &mut y, &mut gathered, sub_scaled, dot);
+            T::solve(self, &ws.values, &mut y, &mut gathered);
             for (new, &old) in self.forward.iter().enumerate() {
                 x[(old, k)] = y[new];
             }
@@ -440,13 +541,13 @@ impl SymbolicLdlt {
     /// `sub_scaled(t, v, l)` (`t ← t − v l`) on the way down and read by `dot(a, b)`
     /// (`Σ aᵢ bᵢ`) on the way up.
     #[inline(always)]
-    fn solve_with(
+    fn solve_with<T: LdltScalar>(
         &self,
-        values: &[c64],
-        y: &mut [c64],
-        gathered: &mut [c64],
-        sub_scaled: impl Fn(&mut [c64], &[c64], c64),
-        dot: impl Fn(&[c64], &[c64]) -> c64,
+        values: &[T],
+        y: &mut [T],
+        gathered: &mut [T],
+        sub_scaled: impl Fn(&mut [T], &[T], T),
+        dot: impl Fn(&[T], &[T]) -> T,
     ) {
         let ns = self.begin.len() - 1;
         // L z = P b, then D: supernodes in index order are children first. A supernode whose
@@ -454,7 +555,7 @@ impl SymbolicLdlt {
         // (an FRF's excitation) reads only the supernodes on its path to the root.
         for s in 0..ns {
             let (b, w, rows) = self.supernode(s);
-            if y[b..b + w].iter().all(|v| *v == c64::ZERO) {
+            if y[b..b + w].iter().all(|v| *v == T::NIL) {
                 continue;
             }
             let m = w + rows.len();
@@ -514,14 +615,15 @@ impl SymbolicLdlt {
 /// split in two: the right half is updated by one matrix product with the left half's factor
 /// (`A_22 −= L_21 D_1 L_21ᵀ`, full columns below), then factored. Returns the offending column
 /// (relative to `c0`) on a zero or non-finite pivot.
-fn ldlt_panel(a: &mut [c64], ld: usize, c0: usize, w: usize, par: Par) -> Result<(), usize> {
+fn ldlt_panel<T: LdltScalar>(
+    a: &mut [T],
+    ld: usize,
+    c0: usize,
+    w: usize,
+    par: Par,
+) -> Result<(), usize> {
     if w <= BLOCK {
-        #[cfg(target_arch = "x86_64")]
-        if super::thin::available() {
-            // SAFETY: the machine has AVX2 and FMA (checked just above).
-            return unsafe { avx::unblocked_ldlt(a, ld, c0, w) };
-        }
-        return unblocked_ldlt(a, ld, c0, w, sub_scaled);
+        return T::unblocked(a, ld, c0, w);
     }
     let m = ld - c0;
     let w1 = (w / 2).div_ceil(BLOCK) * BLOCK;
@@ -530,7 +632,7 @@ fn ldlt_panel(a: &mut [c64], ld: usize, c0: usize, w: usize, par: Par) -> Result
     let (left, right) = a.split_at_mut((c0 + w1) * ld);
     let left = &left[c0 * ld..];
     // L_21 D_1 for the rows of the right half's diagonal block.
-    let scaled = faer::Mat::<c64>::from_fn(w2, w1, |i, j| {
+    let scaled = faer::Mat::<T>::from_fn(w2, w1, |i, j| {
         left[j * ld + c0 + w1 + i] * left[j * ld + c0 + j]
     });
     matmul(
@@ -538,7 +640,7 @@ fn ldlt_panel(a: &mut [c64], ld: usize, c0: usize, w: usize, par: Par) -> Result
         Accum::Add,
         MatRef::from_column_major_slice_with_stride(&left[c0 + w1..], m - w1, w1, ld),
         scaled.transpose(),
-        c64::new(-1.0, 0.0),
+        T::NIL - T::UNIT,
         par,
     );
     ldlt_panel(a, ld, c0 + w1, w2, par).map_err(|k| k + w1)
@@ -548,22 +650,22 @@ fn ldlt_panel(a: &mut [c64], ld: usize, c0: usize, w: usize, par: Par) -> Result
 /// [`BLOCK`]): each pivot's column updates the later columns of the panel, every row below
 /// included, by `sub_scaled(t, v, l)`: `t ← t − v l` over their common length.
 #[inline(always)]
-fn unblocked_ldlt(
-    a: &mut [c64],
+fn unblocked_ldlt<T: LdltScalar>(
+    a: &mut [T],
     ld: usize,
     c0: usize,
     w: usize,
-    sub_scaled: impl Fn(&mut [c64], &[c64], c64),
+    sub_scaled: impl Fn(&mut [T], &[T], T),
 ) -> Result<(), usize> {
     let m = ld - c0;
     for k in 0..w {
         let (head, tail) = a.split_at_mut((c0 + k + 1) * ld);
         let column = &mut head[(c0 + k) * ld + c0..];
         let d = column[k];
-        if d == c64::ZERO || !(d.re.is_finite() && d.im.is_finite()) {
+        if d == T::NIL || !d.finite() {
             return Err(k);
         }
-        let inv = c64::new(1.0, 0.0) / d;
+        let inv = T::UNIT / d;
         for j in k + 1..w {
             let l = column[j] * inv;
             let target = &mut tail[(j - k - 1) * ld + c0..(j - k) * ld];
@@ -577,22 +679,85 @@ fn unblocked_ldlt(
 }
 
 /// `t ← t + v` over the common length.
-fn add_assign(t: &mut [c64], v: &[c64]) {
+#[inline(always)]
+fn add_assign<T: LdltScalar>(t: &mut [T], v: &[T]) {
     for (t, &v) in t.iter_mut().zip(v) {
         *t += v;
     }
 }
 
 /// `t ← t − v l` over the common length.
-fn sub_scaled(t: &mut [c64], v: &[c64], l: c64) {
+#[inline(always)]
+fn sub_scaled<T: LdltScalar>(t: &mut [T], v: &[T], l: T) {
     for (t, &v) in t.iter_mut().zip(v) {
         *t -= v * l;
     }
 }
 
-/// `Σ aᵢ bᵢ` (no conjugation) over the common length.
-fn dot(a: &[c64], b: &[c64]) -> c64 {
-    a.iter().zip(b).map(|(&a, &b)| a * b).sum()
+/// `Σ aᵢ bᵢ` (no conjugation) over the common length, in four partial sums (which a vector
+/// unit holds side by side).
+#[inline(always)]
+fn dot<T: LdltScalar>(a: &[T], b: &[T]) -> T {
+    let n = a.len().min(b.len());
+    let (a, b) = (a[..n].chunks_exact(4), b[..n].chunks_exact(4));
+    let tail: T = a
+        .remainder()
+        .iter()
+        .zip(b.remainder())
+        .map(|(&x, &y)| x * y)
+        .sum();
+    let mut partial = [T::NIL; 4];
+    for (x, y) in a.zip(b) {
+        for l in 0..4 {
+            partial[l] += x[l] * y[l];
+        }
+    }
+    (partial[0] + partial[1]) + (partial[2] + partial[3]) + tail
+}
+
+/// The real kernels compiled for AVX2 and FMA, where the compiler vectorises them.
+#[cfg(target_arch = "x86_64")]
+mod real_avx {
+    use super::{SymbolicLdlt, add_assign, dot, sub_scaled};
+
+    /// [`super::unblocked_ldlt`] in `f64`.
+    ///
+    /// # Safety
+    /// The machine must have AVX2 and FMA.
+    #[target_feature(enable = "avx2,fma")]
+    pub unsafe fn unblocked_ldlt(
+        a: &mut [f64],
+        ld: usize,
+        c0: usize,
+        w: usize,
+    ) -> Result<(), usize> {
+        super::unblocked_ldlt(a, ld, c0, w, sub_scaled)
+    }
+
+    /// [`SymbolicLdlt::extend_add`] in `f64`.
+    ///
+    /// # Safety
+    /// The machine must have AVX2 and FMA.
+    #[target_feature(enable = "avx2,fma")]
+    pub unsafe fn extend_add(
+        sym: &SymbolicLdlt,
+        c: usize,
+        update: &[f64],
+        w: usize,
+        panel: &mut [f64],
+        front: &mut [f64],
+    ) {
+        sym.extend_add(c, update, w, panel, front, add_assign)
+    }
+
+    /// [`SymbolicLdlt::solve_with`] in `f64`.
+    ///
+    /// # Safety
+    /// The machine must have AVX2 and FMA.
+    #[target_feature(enable = "avx2,fma")]
+    pub unsafe fn solve(sym: &SymbolicLdlt, values: &[f64], y: &mut [f64], gathered: &mut [f64]) {
+        sym.solve_with(values, y, gathered, sub_scaled, dot)
+    }
 }
 
 /// The unblocked kernel with its column updates in AVX2: two complex numbers to a register.
@@ -762,6 +927,40 @@ mod tests {
     /// product to round-off, with one thread and two giving the same numbers bit for bit.
     #[test]
     fn complex_symmetric_solves_leave_round_off() {
+        solves_leave_round_off(
+            |i, j| {
+                if i == j {
+                    c64::new(3.0 - (i % 5) as f64, 0.3 + 0.01 * (i % 3) as f64)
+                } else {
+                    c64::new(-0.4 - 0.01 * ((i + j) % 4) as f64, 0.05)
+                }
+            },
+            |i, k| c64::new((i * 7 + k) as f64 % 5.0, 1.0),
+        );
+    }
+
+    /// The same in real arithmetic (the Krylov sweep's expansion points): a symmetric
+    /// indefinite matrix, no pivoting.
+    #[test]
+    fn real_symmetric_solves_leave_round_off() {
+        solves_leave_round_off(
+            |i, j| {
+                if i == j {
+                    3.3 - (i % 5) as f64
+                } else {
+                    -0.4 - 0.01 * ((i + j) % 4) as f64
+                }
+            },
+            |i, k| (i * 7 + k) as f64 % 5.0 - 2.0,
+        );
+    }
+
+    /// The solves of [`complex_symmetric_solves_leave_round_off`] with entries `entry(i, j)`
+    /// and right-hand sides `rhs(i, k)`.
+    fn solves_leave_round_off<T>(entry: impl Fn(usize, usize) -> T, rhs: impl Fn(usize, usize) -> T)
+    where
+        T: LdltScalar + faer::traits::ComplexField<Real = f64> + std::fmt::Debug,
+    {
         let g = 9;
         let node = |i: usize, j: usize, k: usize| (i * g + j) * g + k;
         let mut grid = Vec::new();
@@ -790,20 +989,13 @@ mod tests {
                     stored.push((i, j));
                 }
             }
-            let value = |e: usize| {
-                let (i, j) = stored[e];
-                if i == j {
-                    c64::new(3.0 - (i % 5) as f64, 0.3 + 0.01 * (i % 3) as f64)
-                } else {
-                    c64::new(-0.4 - 0.01 * ((i + j) % 4) as f64, 0.05)
-                }
-            };
-            let mut a = Mat::<c64>::zeros(n, n);
+            let value = |e: usize| entry(stored[e].0, stored[e].1);
+            let mut a = Mat::<T>::zeros(n, n);
             for (e, &(i, j)) in stored.iter().enumerate() {
                 a[(i, j)] = value(e);
                 a[(j, i)] = value(e);
             }
-            let b = Mat::from_fn(n, 3, |i, k| c64::new((i * 7 + k) as f64 % 5.0, 1.0));
+            let b = Mat::from_fn(n, 3, &rhs);
             let mut results = Vec::new();
             let ordered = sym.in_factor_order(&(0..stored.len()).collect::<Vec<_>>());
             for par in [Par::Seq, Par::rayon(2)] {

@@ -30,7 +30,7 @@ mod thin;
 
 pub use combination::lower_combination;
 pub use factor::{FactorError, FactorInfo, SOLVE_COLUMNS, SpdFactor};
-pub use ldlt::{LdltError, LdltWorkspace, SymbolicLdlt};
+pub use ldlt::{LdltError, LdltScalar, LdltWorkspace, SymbolicLdlt};
 pub use lu::{Lu, SymbolicLu};
 pub use operator::{SparseSolve, SymmetricFactor};
 pub use product::{sym_matvec, sym_matvec_pair};
