@@ -111,10 +111,18 @@ pub trait LdltScalar:
     const UNIT: Self;
     /// Whether both parts are finite.
     fn finite(self) -> bool;
-    /// [`unblocked_ldlt`] with this scalar's fastest kernels on this machine.
-    fn unblocked(a: &mut [Self], ld: usize, c0: usize, w: usize) -> Result<(), usize>;
+    /// [`unblocked_ldlt`] compiled for AVX2 and FMA.
+    ///
+    /// # Safety
+    /// The machine must have AVX2 and FMA.
+    #[cfg(target_arch = "x86_64")]
+    unsafe fn unblocked_avx2(a: &mut [Self], ld: usize, c0: usize, w: usize) -> Result<(), usize>;
     /// [`SymbolicLdlt::extend_add`] likewise.
-    fn extend_add(
+    ///
+    /// # Safety
+    /// The machine must have AVX2 and FMA.
+    #[cfg(target_arch = "x86_64")]
+    unsafe fn extend_add_avx2(
         sym: &SymbolicLdlt,
         c: usize,
         update: &[Self],
@@ -123,7 +131,54 @@ pub trait LdltScalar:
         front: &mut [Self],
     );
     /// [`SymbolicLdlt::solve_with`] likewise.
-    fn solve(sym: &SymbolicLdlt, values: &[Self], y: &mut [Self], gathered: &mut [Self]);
+    ///
+    /// # Safety
+    /// The machine must have AVX2 and FMA.
+    #[cfg(target_arch = "x86_64")]
+    unsafe fn solve_avx2(
+        sym: &SymbolicLdlt,
+        values: &[Self],
+        y: &mut [Self],
+        gathered: &mut [Self],
+    );
+}
+
+/// A scalar's AVX2 entry points of [`LdltScalar`], kept in module `$kernels`.
+macro_rules! avx2_entry_points {
+    ($kernels:ident) => {
+        #[cfg(target_arch = "x86_64")]
+        unsafe fn unblocked_avx2(
+            a: &mut [Self],
+            ld: usize,
+            c0: usize,
+            w: usize,
+        ) -> Result<(), usize> {
+            // SAFETY: the caller guarantees AVX2 and FMA.
+            unsafe { $kernels::unblocked_ldlt(a, ld, c0, w) }
+        }
+        #[cfg(target_arch = "x86_64")]
+        unsafe fn extend_add_avx2(
+            sym: &SymbolicLdlt,
+            c: usize,
+            update: &[Self],
+            w: usize,
+            panel: &mut [Self],
+            front: &mut [Self],
+        ) {
+            // SAFETY: the caller guarantees AVX2 and FMA.
+            unsafe { $kernels::extend_add(sym, c, update, w, panel, front) }
+        }
+        #[cfg(target_arch = "x86_64")]
+        unsafe fn solve_avx2(
+            sym: &SymbolicLdlt,
+            values: &[Self],
+            y: &mut [Self],
+            gathered: &mut [Self],
+        ) {
+            // SAFETY: the caller guarantees AVX2 and FMA.
+            unsafe { $kernels::solve(sym, values, y, gathered) }
+        }
+    };
 }
 
 impl LdltScalar for c64 {
@@ -132,37 +187,7 @@ impl LdltScalar for c64 {
     fn finite(self) -> bool {
         self.re.is_finite() && self.im.is_finite()
     }
-    fn unblocked(a: &mut [Self], ld: usize, c0: usize, w: usize) -> Result<(), usize> {
-        #[cfg(target_arch = "x86_64")]
-        if super::thin::available() {
-            // SAFETY: the machine has AVX2 and FMA (checked just above).
-            return unsafe { avx::unblocked_ldlt(a, ld, c0, w) };
-        }
-        unblocked_ldlt(a, ld, c0, w, sub_scaled)
-    }
-    fn extend_add(
-        sym: &SymbolicLdlt,
-        c: usize,
-        update: &[Self],
-        w: usize,
-        panel: &mut [Self],
-        front: &mut [Self],
-    ) {
-        #[cfg(target_arch = "x86_64")]
-        if super::thin::available() {
-            // SAFETY: the machine has AVX2 and FMA (checked just above).
-            return unsafe { avx::extend_add(sym, c, update, w, panel, front) };
-        }
-        sym.extend_add(c, update, w, panel, front, add_assign)
-    }
-    fn solve(sym: &SymbolicLdlt, values: &[Self], y: &mut [Self], gathered: &mut [Self]) {
-        #[cfg(target_arch = "x86_64")]
-        if super::thin::available() {
-            // SAFETY: the machine has AVX2 and FMA (checked just above).
-            return unsafe { avx::solve(sym, values, y, gathered) };
-        }
-        sym.solve_with(values, y, gathered, sub_scaled, dot)
-    }
+    avx2_entry_points!(avx);
 }
 
 impl LdltScalar for f64 {
@@ -171,37 +196,17 @@ impl LdltScalar for f64 {
     fn finite(self) -> bool {
         self.is_finite()
     }
-    fn unblocked(a: &mut [Self], ld: usize, c0: usize, w: usize) -> Result<(), usize> {
-        #[cfg(target_arch = "x86_64")]
-        if super::thin::available() {
-            // SAFETY: the machine has AVX2 and FMA (checked just above).
-            return unsafe { real_avx::unblocked_ldlt(a, ld, c0, w) };
-        }
-        unblocked_ldlt(a, ld, c0, w, sub_scaled)
+    avx2_entry_points!(real_avx);
+}
+
+/// [`unblocked_ldlt`] by the fastest kernels this machine runs.
+fn unblocked<T: LdltScalar>(a: &mut [T], ld: usize, c0: usize, w: usize) -> Result<(), usize> {
+    #[cfg(target_arch = "x86_64")]
+    if super::thin::available() {
+        // SAFETY: the machine has AVX2 and FMA (checked just above).
+        return unsafe { T::unblocked_avx2(a, ld, c0, w) };
     }
-    fn extend_add(
-        sym: &SymbolicLdlt,
-        c: usize,
-        update: &[Self],
-        w: usize,
-        panel: &mut [Self],
-        front: &mut [Self],
-    ) {
-        #[cfg(target_arch = "x86_64")]
-        if super::thin::available() {
-            // SAFETY: the machine has AVX2 and FMA (checked just above).
-            return unsafe { real_avx::extend_add(sym, c, update, w, panel, front) };
-        }
-        sym.extend_add(c, update, w, panel, front, add_assign)
-    }
-    fn solve(sym: &SymbolicLdlt, values: &[Self], y: &mut [Self], gathered: &mut [Self]) {
-        #[cfg(target_arch = "x86_64")]
-        if super::thin::available() {
-            // SAFETY: the machine has AVX2 and FMA (checked just above).
-            return unsafe { real_avx::solve(sym, values, y, gathered) };
-        }
-        sym.solve_with(values, y, gathered, sub_scaled, dot)
-    }
+    unblocked_ldlt(a, ld, c0, w, sub_scaled)
 }
 
 impl SymbolicLdlt {
@@ -422,6 +427,8 @@ impl SymbolicLdlt {
         } = ws;
         stacks.iter_mut().for_each(Vec::clear);
         frames.iter_mut().for_each(Vec::clear);
+        #[cfg(target_arch = "x86_64")]
+        let avx2 = super::thin::available();
         for &s in &self.postorder {
             let (b, w) = (self.begin[s], self.begin[s + 1] - self.begin[s]);
             let r = self.pattern_ptr[s + 1] - self.pattern_ptr[s];
@@ -449,7 +456,14 @@ impl SymbolicLdlt {
                 .map_or(child_stack.len(), |f| f.1);
             for &(c, at) in &child_frames[first_frame..] {
                 let rc = self.pattern_ptr[c + 1] - self.pattern_ptr[c];
-                T::extend_add(self, c, &child_stack[at..at + rc * rc], w, panel, front);
+                let update = &child_stack[at..at + rc * rc];
+                #[cfg(target_arch = "x86_64")]
+                if avx2 {
+                    // SAFETY: the machine has AVX2 and FMA (`avx2`).
+                    unsafe { T::extend_add_avx2(self, c, update, w, panel, front) };
+                    continue;
+                }
+                self.extend_add(c, update, w, panel, front, add_assign);
             }
             child_frames.truncate(first_frame);
             child_stack.truncate(stack_top);
@@ -525,11 +539,21 @@ impl SymbolicLdlt {
     pub fn solve_in_place<T: LdltScalar>(&self, ws: &LdltWorkspace<T>, mut x: MatMut<'_, T>) {
         let mut y = vec![T::NIL; self.n];
         let mut gathered = vec![T::NIL; self.max_rows];
+        #[cfg(target_arch = "x86_64")]
+        let avx2 = super::thin::available();
         for k in 0..x.ncols() {
             for (new, &old) in self.forward.iter().enumerate() {
                 y[new] = x[(old, k)];
             }
-            T::solve(self, &ws.values, &mut y, &mut gathered);
+            #[cfg(target_arch = "x86_64")]
+            if avx2 {
+                // SAFETY: the machine has AVX2 and FMA (`avx2`).
+                unsafe { T::solve_avx2(self, &ws.values, &mut y, &mut gathered) };
+            } else {
+                self.solve_with(&ws.values, &mut y, &mut gathered, sub_scaled, dot);
+            }
+            #[cfg(not(target_arch = "x86_64"))]
+            self.solve_with(&ws.values, &mut y, &mut gathered, sub_scaled, dot);
             for (new, &old) in self.forward.iter().enumerate() {
                 x[(old, k)] = y[new];
             }
@@ -623,7 +647,7 @@ fn ldlt_panel<T: LdltScalar>(
     par: Par,
 ) -> Result<(), usize> {
     if w <= BLOCK {
-        return T::unblocked(a, ld, c0, w);
+        return unblocked(a, ld, c0, w);
     }
     let m = ld - c0;
     let w1 = (w / 2).div_ceil(BLOCK) * BLOCK;
