@@ -537,33 +537,35 @@ impl SymbolicLdlt {
 
     /// `X ← A⁻¹ X` by the factor in `ws`, for `x` with [`n`](Self::n) rows.
     pub fn solve_in_place<T: LdltScalar>(&self, ws: &LdltWorkspace<T>, mut x: MatMut<'_, T>) {
-        let mut y = vec![T::NIL; self.n];
+        let n = self.n;
+        let mut y = vec![T::NIL; n * x.ncols()];
         let mut gathered = vec![T::NIL; self.max_rows];
-        #[cfg(target_arch = "x86_64")]
-        let avx2 = super::thin::available();
-        for k in 0..x.ncols() {
+        for (k, y) in y.chunks_exact_mut(n.max(1)).enumerate() {
             for (new, &old) in self.forward.iter().enumerate() {
                 y[new] = x[(old, k)];
             }
-            #[cfg(target_arch = "x86_64")]
-            if avx2 {
-                // SAFETY: the machine has AVX2 and FMA (`avx2`).
-                unsafe { T::solve_avx2(self, &ws.values, &mut y, &mut gathered) };
-            } else {
-                self.solve_with(&ws.values, &mut y, &mut gathered, sub_scaled, dot);
-            }
-            #[cfg(not(target_arch = "x86_64"))]
+        }
+        #[cfg(target_arch = "x86_64")]
+        if super::thin::available() {
+            // SAFETY: the machine has AVX2 and FMA (checked just above).
+            unsafe { T::solve_avx2(self, &ws.values, &mut y, &mut gathered) };
+        } else {
             self.solve_with(&ws.values, &mut y, &mut gathered, sub_scaled, dot);
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        self.solve_with(&ws.values, &mut y, &mut gathered, sub_scaled, dot);
+        for (k, y) in y.chunks_exact(n.max(1)).enumerate() {
             for (new, &old) in self.forward.iter().enumerate() {
                 x[(old, k)] = y[new];
             }
         }
     }
 
-    /// `y ← (L D Lᵀ)⁻¹ y` in the factor's order: per supernode, the entries of `y` at its rows
-    /// below the diagonal block are gathered, updated by the panel's columns with
-    /// `sub_scaled(t, v, l)` (`t ← t − v l`) on the way down and read by `dot(a, b)`
-    /// (`Σ aᵢ bᵢ`) on the way up.
+    /// `Y ← (L D Lᵀ)⁻¹ Y` in the factor's order, for the columns of `y` (`n` entries each, one
+    /// after another): per supernode, each column's entries at its rows below the diagonal
+    /// block are gathered, updated by the panel's columns with `sub_scaled(t, v, l)`
+    /// (`t ← t − v l`) on the way down and read by `dot(a, b)` (`Σ aᵢ bᵢ`) on the way up. The
+    /// columns take their turns within a supernode, so its panel is read from memory once.
     #[inline(always)]
     fn solve_with<T: LdltScalar>(
         &self,
@@ -574,33 +576,36 @@ impl SymbolicLdlt {
         dot: impl Fn(&[T], &[T]) -> T,
     ) {
         let ns = self.begin.len() - 1;
-        // L z = P b, then D: supernodes in index order are children first. A supernode whose
-        // entries of `y` are all zero changes nothing: a right-hand side with one nonzero
-        // (an FRF's excitation) reads only the supernodes on its path to the root.
+        let n = self.n.max(1);
+        // L z = P b, then D: supernodes in index order are children first. A column whose
+        // entries at a supernode are all zero is not changed by it: a right-hand side with one
+        // nonzero (an FRF's excitation) reads only the supernodes on its path to the root.
         for s in 0..ns {
             let (b, w, rows) = self.supernode(s);
-            if y[b..b + w].iter().all(|v| *v == T::NIL) {
-                continue;
-            }
             let m = w + rows.len();
             let panel = &values[self.value_ptr[s]..self.value_ptr[s + 1]];
-            let below = &mut gathered[..rows.len()];
-            for (t, &i) in below.iter_mut().zip(rows) {
-                *t = y[i];
-            }
-            for j in 0..w {
-                let column = &panel[j * m..(j + 1) * m];
-                let yj = y[b + j];
-                for i in j + 1..w {
-                    y[b + i] -= column[i] * yj;
+            for y in y.chunks_exact_mut(n) {
+                if y[b..b + w].iter().all(|v| *v == T::NIL) {
+                    continue;
                 }
-                sub_scaled(below, &column[w..], yj);
-            }
-            for (&t, &i) in below.iter().zip(rows) {
-                y[i] = t;
-            }
-            for j in 0..w {
-                y[b + j] /= panel[j * m + j];
+                let below = &mut gathered[..rows.len()];
+                for (t, &i) in below.iter_mut().zip(rows) {
+                    *t = y[i];
+                }
+                for j in 0..w {
+                    let column = &panel[j * m..(j + 1) * m];
+                    let yj = y[b + j];
+                    for i in j + 1..w {
+                        y[b + i] -= column[i] * yj;
+                    }
+                    sub_scaled(below, &column[w..], yj);
+                }
+                for (&t, &i) in below.iter().zip(rows) {
+                    y[i] = t;
+                }
+                for j in 0..w {
+                    y[b + j] /= panel[j * m + j];
+                }
             }
         }
         // Then Lᵀ, parents first.
@@ -608,17 +613,19 @@ impl SymbolicLdlt {
             let (b, w, rows) = self.supernode(s);
             let m = w + rows.len();
             let panel = &values[self.value_ptr[s]..self.value_ptr[s + 1]];
-            let below = &mut gathered[..rows.len()];
-            for (t, &i) in below.iter_mut().zip(rows) {
-                *t = y[i];
-            }
-            for j in (0..w).rev() {
-                let column = &panel[j * m..(j + 1) * m];
-                let mut sum = dot(&column[w..], below);
-                for i in j + 1..w {
-                    sum += column[i] * y[b + i];
+            for y in y.chunks_exact_mut(n) {
+                let below = &mut gathered[..rows.len()];
+                for (t, &i) in below.iter_mut().zip(rows) {
+                    *t = y[i];
                 }
-                y[b + j] -= sum;
+                for j in (0..w).rev() {
+                    let column = &panel[j * m..(j + 1) * m];
+                    let mut sum = dot(&column[w..], below);
+                    for i in j + 1..w {
+                        sum += column[i] * y[b + i];
+                    }
+                    y[b + j] -= sum;
+                }
             }
         }
     }
