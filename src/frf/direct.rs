@@ -205,9 +205,8 @@ pub struct DynamicStiffness {
     coef: EntryCoefficients,
     /// The same in the factor's order ([`SymbolicLdlt::in_factor_order`]).
     factor_coef: EntryCoefficients,
-    /// `η`, and Rayleigh's `(a, b)` of `C = a M + b K`.
-    eta: f64,
-    rayleigh: (f64, f64),
+    /// The request's damping: `η`, Rayleigh's `α`, `β`.
+    damping: DampingScalars,
     ldlt: SymbolicLdlt,
     /// The pivoted LU's analysis of the full pattern, made on first use.
     lu: OnceLock<Result<LuPattern, DirectError>>,
@@ -267,6 +266,33 @@ impl EntryCoefficients {
     }
 }
 
+/// The scalars of `Z(ω) = a K + b M + i D + iω C` for the model's own `C`, `D` and the
+/// request's damping: `a = 1 + iη + iωβ`, `b = −ω² + iωα`.
+pub(super) struct DampingScalars {
+    eta: f64,
+    alpha: f64,
+    beta: f64,
+}
+
+impl DampingScalars {
+    pub(super) fn new(d: &DirectDamping) -> Self {
+        let (alpha, beta) = d.rayleigh.unwrap_or((0.0, 0.0));
+        DampingScalars {
+            eta: d.structural_eta,
+            alpha,
+            beta,
+        }
+    }
+
+    /// `(a, b)` at `ω` (rad/s).
+    pub(super) fn at(&self, w: f64) -> (c64, c64) {
+        (
+            c64::new(1.0, self.eta + w * self.beta),
+            c64::new(-w * w, w * self.alpha),
+        )
+    }
+}
+
 /// The full pattern of `Z`, each entry's place in `lower`, and its symbolic LU.
 struct LuPattern {
     symbolic: SymbolicSparseColMat<usize>,
@@ -280,10 +306,6 @@ impl DynamicStiffness {
     /// The pattern of `K`, `M`, `C`, `D` of `sys` with `damping` added.
     pub fn new(sys: &SystemMatrices, damping: &DirectDamping) -> Result<Self, DirectError> {
         let n = sys.n();
-        let (eta, (ra, rb)) = (
-            damping.structural_eta,
-            damping.rayleigh.unwrap_or((0.0, 0.0)),
-        );
         // Column by column: every lower entry of each matrix, sorted by row and merged.
         let sources: Vec<(&SparseMatrix, usize)> =
             [Some(&sys.k), Some(&sys.m), sys.c.as_ref(), sys.d.as_ref()]
@@ -335,8 +357,7 @@ impl DynamicStiffness {
             lower,
             coef,
             factor_coef,
-            eta,
-            rayleigh: (ra, rb),
+            damping: DampingScalars::new(damping),
             ldlt,
             lu: OnceLock::new(),
         })
@@ -349,12 +370,8 @@ impl DynamicStiffness {
 
     /// The scalars of `Z` at circular frequency `w`.
     fn line(&self, w: f64) -> LineScalars {
-        let (a, b) = self.rayleigh;
-        LineScalars {
-            w,
-            stiffness: c64::new(1.0, self.eta + w * b),
-            mass: c64::new(-w * w, w * a),
-        }
+        let (stiffness, mass) = self.damping.at(w);
+        LineScalars { w, stiffness, mass }
     }
 
     /// Storage for one real factor of `Z`'s pattern.
@@ -408,19 +425,8 @@ impl DynamicStiffness {
     ) -> Result<(Mat<c64>, bool), DirectError> {
         let w = 2.0 * PI * f_hz;
         let line = self.line(w);
-        let factored = match &self.factor_coef.explicit_damping {
-            None => self.ldlt.factorize(
-                ws,
-                |entry| line.value(self.factor_coef.stiffness_mass[entry], [0.0; 2]),
-                par,
-            ),
-            Some(cd) => self.ldlt.factorize(
-                ws,
-                |entry| line.value(self.factor_coef.stiffness_mass[entry], cd[entry]),
-                par,
-            ),
-        };
-        if factored.is_ok() {
+        let value = |entry| self.factor_coef.value(&line, entry);
+        if self.ldlt.factorize(ws, value, par).is_ok() {
             let mut x = rhs.to_owned();
             self.ldlt.solve_in_place(ws, x.as_mut());
             let (mut error, mut residual) = self.backward_error(w, x.as_ref(), rhs);

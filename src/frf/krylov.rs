@@ -14,7 +14,7 @@
 //! so the estimate is a backward error, computed with the full matrices. Points are added
 //! greedily, each at the line of the largest estimate, until every line meets the tolerance.
 
-use super::direct::{DirectDamping, DirectError, DynamicStiffness};
+use super::direct::{DampingScalars, DirectDamping, DirectError, DynamicStiffness};
 use super::{FrfPair, FrfSet, Quantity, convert_from_receptance};
 use crate::fe::SystemMatrices;
 use crate::sparse::sym_matvec;
@@ -133,7 +133,7 @@ pub fn krylov_receptance(
     let load = Mat::<f64>::from_fn(n, excitations.len(), |i, k| {
         f64::from(u8::from(i == excitations[k]))
     });
-    let coefficients = Coefficients::new(damping);
+    let coefficients = DampingScalars::new(damping);
     let mut basis = Basis::new(sys, &load);
     let mut tried: Vec<f64> = Vec::new();
     let done = crate::core::progress::task(
@@ -198,33 +198,6 @@ pub fn krylov_receptance(
 
 /// Lines of the greedy search's training subset (every line is checked at the end).
 const TRAINING_LINES: usize = 200;
-
-/// The scalars of `Z(ω) = a K + b M + i D + iω C` for the model's own `C`, `D` and the
-/// request's damping: `a = 1 + iη + iωβ`, `b = −ω² + iωα`.
-struct Coefficients {
-    eta: f64,
-    alpha: f64,
-    beta: f64,
-}
-
-impl Coefficients {
-    fn new(d: &DirectDamping) -> Self {
-        let (alpha, beta) = d.rayleigh.unwrap_or((0.0, 0.0));
-        Coefficients {
-            eta: d.structural_eta,
-            alpha,
-            beta,
-        }
-    }
-
-    /// `(a, b)` at `ω` (rad/s).
-    fn at(&self, w: f64) -> (c64, c64) {
-        (
-            c64::new(1.0, self.eta + w * self.beta),
-            c64::new(-w * w, w * self.alpha),
-        )
-    }
-}
 
 /// The orthonormal basis, the full matrices' products with it and the reduced matrices.
 struct Basis<'a> {
@@ -371,7 +344,7 @@ impl<'a> Basis<'a> {
     /// each line's arithmetic fixed.
     fn evaluate(
         &self,
-        c: &Coefficients,
+        c: &DampingScalars,
         freqs_hz: &[f64],
         lines: &[usize],
         responses: &[usize],

@@ -199,6 +199,16 @@ impl LdltScalar for f64 {
     avx2_entry_points!(real_avx);
 }
 
+/// The second of `pair` and the first, if `second`; else the first and the second.
+fn own_and_other<T>(pair: &mut [T; 2], second: bool) -> (&mut T, &mut T) {
+    let [first, other] = pair;
+    if second {
+        (other, first)
+    } else {
+        (first, other)
+    }
+}
+
 /// [`unblocked_ldlt`] by the fastest kernels this machine runs.
 fn unblocked<T: LdltScalar>(a: &mut [T], ld: usize, c0: usize, w: usize) -> Result<(), usize> {
     #[cfg(target_arch = "x86_64")]
@@ -438,14 +448,8 @@ impl SymbolicLdlt {
             for k in self.scatter_ptr[s]..self.scatter_ptr[s + 1] {
                 panel[self.slots[k] as usize] += value(k);
             }
-            let odd = usize::from(self.odd_depth[s]);
-            let ([own_stack, child_stack], [own_frames, child_frames]) = if odd == 0 {
-                let ([a, b], [c, d]) = (&mut *stacks, &mut *frames);
-                ([a, b], [c, d])
-            } else {
-                let ([b, a], [d, c]) = (&mut *stacks, &mut *frames);
-                ([a, b], [c, d])
-            };
+            let (own_stack, child_stack) = own_and_other(stacks, self.odd_depth[s]);
+            let (own_frames, child_frames) = own_and_other(frames, self.odd_depth[s]);
             let at = own_stack.len();
             own_stack.resize(at + r * r, T::NIL);
             let front = &mut own_stack[at..];
