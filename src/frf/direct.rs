@@ -233,8 +233,14 @@ struct LineScalars {
 impl LineScalars {
     /// `Z`'s entry of stiffness and mass `[k, m]` and explicit damping `[c, d]`.
     #[inline(always)]
-    fn value(&self, [k, m]: [f64; 2], [c, d]: [f64; 2]) -> c64 {
-        self.stiffness * k + self.mass * m + c64::new(0.0, d + self.w * c)
+    fn value(&self, km: [f64; 2], [c, d]: [f64; 2]) -> c64 {
+        self.stiffness_mass(km) + c64::new(0.0, d + self.w * c)
+    }
+
+    /// `Z`'s entry of stiffness and mass `[k, m]` where the system has no `C` or `D` of its own.
+    #[inline(always)]
+    fn stiffness_mass(&self, [k, m]: [f64; 2]) -> c64 {
+        self.stiffness * k + self.mass * m
     }
 }
 
@@ -425,8 +431,17 @@ impl DynamicStiffness {
     ) -> Result<(Mat<c64>, bool), DirectError> {
         let w = 2.0 * PI * f_hz;
         let line = self.line(w);
-        let value = |entry| self.factor_coef.value(&line, entry);
-        if self.ldlt.factorize(ws, value, par).is_ok() {
+        let coef = &self.factor_coef;
+        // One closure per kind of system, so the fill's loop carries no test per entry.
+        let factored = match &coef.explicit_damping {
+            None => self
+                .ldlt
+                .factorize(ws, |e| line.stiffness_mass(coef.stiffness_mass[e]), par),
+            Some(cd) => self
+                .ldlt
+                .factorize(ws, |e| line.value(coef.stiffness_mass[e], cd[e]), par),
+        };
+        if factored.is_ok() {
             let mut x = rhs.to_owned();
             self.ldlt.solve_in_place(ws, x.as_mut());
             let (mut error, mut residual) = self.backward_error(w, x.as_ref(), rhs);
@@ -446,49 +461,86 @@ impl DynamicStiffness {
     }
 
     /// The largest normwise backward error `‖Z x − b‖∞ / (‖Z‖∞ ‖x‖∞ + ‖b‖∞)` of the columns
-    /// of `x` (infinite if any entry is not finite), and the residual `Z x − b`; `‖Z‖∞` is taken with `|re| + |im|` for the
-    /// modulus, within a factor `√2`.
+    /// of `x` (infinite if any entry is not finite), and the residual `Z x − b`; `‖Z‖∞` is
+    /// taken with `|re| + |im|` for the modulus, within a factor `√2`.
     fn backward_error(&self, w: f64, x: MatRef<'_, c64>, b: MatRef<'_, c64>) -> (f64, Mat<c64>) {
-        let n = self.n;
-        let columns = x.ncols();
-        let x: Vec<c64> = (0..columns)
-            .flat_map(|c| x.col(c).iter().copied().collect::<Vec<_>>())
-            .collect();
-        let mut residual: Vec<c64> = (0..columns)
-            .flat_map(|c| b.col(c).iter().map(|v| -*v).collect::<Vec<_>>())
-            .collect();
-        let mut row_sums = vec![0.0f64; n];
         let line = self.line(w);
-        let mut e = 0;
-        for j in 0..n {
-            for &i in self.lower.row_idx_of_col_raw(j) {
-                let z = self.coef.value(&line, e);
-                e += 1;
-                let size = z.re.abs() + z.im.abs();
-                row_sums[i] += size;
-                for col in 0..columns {
-                    residual[col * n + i] += z * x[col * n + j];
-                }
-                if i != j {
-                    row_sums[j] += size;
-                    for col in 0..columns {
-                        residual[col * n + j] += z * x[col * n + i];
-                    }
-                }
+        let coef = &self.coef;
+        match &coef.explicit_damping {
+            None => self.backward_error_with(x, b, |e| line.stiffness_mass(coef.stiffness_mass[e])),
+            Some(cd) => {
+                self.backward_error_with(x, b, |e| line.value(coef.stiffness_mass[e], cd[e]))
             }
         }
-        let z_norm = row_sums.iter().fold(0.0f64, |a, &v| a.max(v));
-        let max_abs = |v: &[c64]| {
-            v.iter().fold(0.0f64, |a, v| {
+    }
+
+    /// [`backward_error`](Self::backward_error) with `value(e)` the `e`-th stored entry of `Z`.
+    #[inline(always)]
+    fn backward_error_with(
+        &self,
+        x: MatRef<'_, c64>,
+        b: MatRef<'_, c64>,
+        value: impl Fn(usize) -> c64,
+    ) -> (f64, Mat<c64>) {
+        let n = self.n;
+        let mut residual = Mat::<c64>::from_fn(n, b.ncols(), |i, c| -b[(i, c)]);
+        let mut row_sums = vec![0.0f64; n];
+        let mut x_column = vec![c64::ZERO; n];
+        let mut r_column = vec![c64::ZERO; n];
+        let mut worst = 0.0f64;
+        let max_abs = |v: &mut dyn Iterator<Item = c64>| {
+            v.fold(0.0f64, |a, v| {
                 let m = v.norm();
                 if m.is_nan() { f64::INFINITY } else { a.max(m) }
             })
         };
-        let mut worst = 0.0f64;
-        for col in 0..columns {
-            let range = col * n..(col + 1) * n;
+        for col in 0..x.ncols() {
+            // The lower triangle's entry `(i, j)` adds `z x_j` to row `i` and, off the
+            // diagonal, `z x_i` to row `j` (summed in `r_j`); the row sums of `|z|` likewise,
+            // on the first column only.
+            let first = col == 0;
+            x_column
+                .iter_mut()
+                .zip(x.col(col).iter())
+                .for_each(|(t, v)| *t = *v);
+            r_column
+                .iter_mut()
+                .zip(residual.col(col).iter())
+                .for_each(|(t, v)| *t = *v);
+            let mut e = 0;
+            for j in 0..n {
+                let xj = x_column[j];
+                let (mut rj, mut sj) = (c64::ZERO, 0.0);
+                for &i in self.lower.row_idx_of_col_raw(j) {
+                    let z = value(e);
+                    e += 1;
+                    let size = z.re.abs() + z.im.abs();
+                    if i == j {
+                        rj += z * xj;
+                        sj += size;
+                    } else {
+                        r_column[i] += z * xj;
+                        rj += z * x_column[i];
+                        if first {
+                            row_sums[i] += size;
+                        }
+                        sj += size;
+                    }
+                }
+                r_column[j] += rj;
+                if first {
+                    row_sums[j] += sj;
+                }
+            }
+            residual
+                .col_mut(col)
+                .iter_mut()
+                .zip(&r_column)
+                .for_each(|(t, v)| *t = *v);
+            let z_norm = row_sums.iter().fold(0.0f64, |a, &v| a.max(v));
             let b_norm = b.col(col).iter().fold(0.0f64, |a, v| a.max(v.norm()));
-            let error = max_abs(&residual[range.clone()]) / (z_norm * max_abs(&x[range]) + b_norm);
+            let error = max_abs(&mut r_column.iter().copied())
+                / (z_norm * max_abs(&mut x_column.iter().copied()) + b_norm);
             // NaN (a non-finite solution) compares false: it is never accepted.
             worst = if error <= worst {
                 worst
@@ -498,7 +550,7 @@ impl DynamicStiffness {
                 error
             };
         }
-        (worst, Mat::from_fn(n, columns, |i, c| residual[c * n + i]))
+        (worst, residual)
     }
 
     /// `Z(ω) X = rhs` by the pivoted sparse LU (analysed on first use).

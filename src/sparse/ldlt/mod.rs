@@ -22,6 +22,9 @@ use faer::linalg::matmul::matmul;
 use faer::linalg::matmul::triangular::{self, BlockStructure};
 use faer::sparse::linalg::cholesky::{SymbolicCholeskyRaw, SymmetricOrdering};
 use faer::{Accum, MatMut, MatRef, Par, c64};
+use kernels::{Isa, Kernels, Level};
+
+mod kernels;
 
 /// Columns factored by the unblocked kernel; wider panels split in two.
 const BLOCK: usize = 16;
@@ -68,6 +71,8 @@ pub struct SymbolicLdlt {
     run_ptr: Vec<usize>,
     /// Largest `r` of a supernode.
     max_rows: usize,
+    /// Largest `w` of a supernode.
+    max_width: usize,
     /// Largest `r · w` of a supernode.
     max_panel_below: usize,
     /// Whether each supernode's depth in the tree (roots at 0) is odd.
@@ -80,8 +85,11 @@ pub struct LdltWorkspace<T: LdltScalar> {
     /// Update matrices handed from children to parents, `r × r` each, and their owners and
     /// places: those of supernodes at even depth of the tree on the first stack, odd on the
     /// second, so that a front is built in place on its stack while its children's updates,
-    /// one depth below, sit on top of the other.
+    /// one depth below, sit on top of the other. A stack's buffer keeps the length it has
+    /// grown to and `tops` says where its frames end, so that a new front is zeroed in its
+    /// lower triangle only (the upper one is never read).
     stacks: [Vec<T>; 2],
+    tops: [usize; 2],
     frames: [Vec<(usize, usize)>; 2],
     scaled: Vec<T>,
 }
@@ -104,6 +112,7 @@ pub trait LdltScalar:
     + std::iter::Sum
     + Send
     + Sync
+    + 'static
 {
     /// `0`.
     const NIL: Self;
@@ -111,74 +120,22 @@ pub trait LdltScalar:
     const UNIT: Self;
     /// Whether both parts are finite.
     fn finite(self) -> bool;
-    /// [`unblocked_ldlt`] compiled for AVX2 and FMA.
-    ///
-    /// # Safety
-    /// The machine must have AVX2 and FMA.
-    #[cfg(target_arch = "x86_64")]
-    unsafe fn unblocked_avx2(a: &mut [Self], ld: usize, c0: usize, w: usize) -> Result<(), usize>;
+    /// [`unblocked_ldlt`] by the kernels of `isa`.
+    fn unblocked(isa: Isa, a: &mut [Self], ld: usize, c0: usize, w: usize) -> Result<(), usize>;
     /// [`SymbolicLdlt::extend_add`] likewise.
-    ///
-    /// # Safety
-    /// The machine must have AVX2 and FMA.
-    #[cfg(target_arch = "x86_64")]
-    unsafe fn extend_add_avx2(
+    #[allow(clippy::too_many_arguments)]
+    fn extend_add(
+        isa: Isa,
         sym: &SymbolicLdlt,
         c: usize,
         update: &[Self],
         w: usize,
         panel: &mut [Self],
         front: &mut [Self],
+        into_front: bool,
     );
     /// [`SymbolicLdlt::solve_with`] likewise.
-    ///
-    /// # Safety
-    /// The machine must have AVX2 and FMA.
-    #[cfg(target_arch = "x86_64")]
-    unsafe fn solve_avx2(
-        sym: &SymbolicLdlt,
-        values: &[Self],
-        y: &mut [Self],
-        gathered: &mut [Self],
-    );
-}
-
-/// A scalar's AVX2 entry points of [`LdltScalar`], kept in module `$kernels`.
-macro_rules! avx2_entry_points {
-    ($kernels:ident) => {
-        #[cfg(target_arch = "x86_64")]
-        unsafe fn unblocked_avx2(
-            a: &mut [Self],
-            ld: usize,
-            c0: usize,
-            w: usize,
-        ) -> Result<(), usize> {
-            // SAFETY: the caller guarantees AVX2 and FMA.
-            unsafe { $kernels::unblocked_ldlt(a, ld, c0, w) }
-        }
-        #[cfg(target_arch = "x86_64")]
-        unsafe fn extend_add_avx2(
-            sym: &SymbolicLdlt,
-            c: usize,
-            update: &[Self],
-            w: usize,
-            panel: &mut [Self],
-            front: &mut [Self],
-        ) {
-            // SAFETY: the caller guarantees AVX2 and FMA.
-            unsafe { $kernels::extend_add(sym, c, update, w, panel, front) }
-        }
-        #[cfg(target_arch = "x86_64")]
-        unsafe fn solve_avx2(
-            sym: &SymbolicLdlt,
-            values: &[Self],
-            y: &mut [Self],
-            gathered: &mut [Self],
-        ) {
-            // SAFETY: the caller guarantees AVX2 and FMA.
-            unsafe { $kernels::solve(sym, values, y, gathered) }
-        }
-    };
+    fn solve(isa: Isa, sym: &SymbolicLdlt, values: &[Self], y: &mut [Self], scratch: &mut [Self]);
 }
 
 impl LdltScalar for c64 {
@@ -187,7 +144,7 @@ impl LdltScalar for c64 {
     fn finite(self) -> bool {
         self.re.is_finite() && self.im.is_finite()
     }
-    avx2_entry_points!(avx);
+    kernels::dispatch!(complex_avx2, complex_avx512);
 }
 
 impl LdltScalar for f64 {
@@ -196,7 +153,7 @@ impl LdltScalar for f64 {
     fn finite(self) -> bool {
         self.is_finite()
     }
-    avx2_entry_points!(real_avx);
+    kernels::dispatch!(real_avx2, real_avx512);
 }
 
 /// The second of `pair` and the first, if `second`; else the first and the second.
@@ -207,16 +164,6 @@ fn own_and_other<T>(pair: &mut [T; 2], second: bool) -> (&mut T, &mut T) {
     } else {
         (first, other)
     }
-}
-
-/// [`unblocked_ldlt`] by the fastest kernels this machine runs.
-fn unblocked<T: LdltScalar>(a: &mut [T], ld: usize, c0: usize, w: usize) -> Result<(), usize> {
-    #[cfg(target_arch = "x86_64")]
-    if super::thin::available() {
-        // SAFETY: the machine has AVX2 and FMA (checked just above).
-        return unsafe { T::unblocked_avx2(a, ld, c0, w) };
-    }
-    unblocked_ldlt(a, ld, c0, w, sub_scaled)
 }
 
 impl SymbolicLdlt {
@@ -246,7 +193,7 @@ impl SymbolicLdlt {
         let mut pattern_ptr = vec![0usize; ns + 1];
         let mut pattern = Vec::new();
         let mut value_ptr = vec![0usize; ns + 1];
-        let (mut max_rows, mut max_panel_below) = (0, 0);
+        let (mut max_rows, mut max_width, mut max_panel_below) = (0, 0, 0);
         for s in 0..ns {
             let rows = sn.supernode(s).pattern();
             pattern.extend_from_slice(rows);
@@ -254,6 +201,7 @@ impl SymbolicLdlt {
             let (w, r) = (begin[s + 1] - begin[s], rows.len());
             value_ptr[s + 1] = value_ptr[s] + (w + r) * w;
             max_rows = max_rows.max(r);
+            max_width = max_width.max(w);
             max_panel_below = max_panel_below.max(r * w);
         }
         let rows_of = |s: usize| &pattern[pattern_ptr[s]..pattern_ptr[s + 1]];
@@ -365,6 +313,7 @@ impl SymbolicLdlt {
             runs,
             run_ptr,
             max_rows,
+            max_width,
             max_panel_below,
             odd_depth,
         })
@@ -402,6 +351,7 @@ impl SymbolicLdlt {
         LdltWorkspace {
             values: vec![T::NIL; self.factor_entries()],
             stacks: [Vec::new(), Vec::new()],
+            tops: [0; 2],
             frames: [Vec::new(), Vec::new()],
             scaled: vec![T::NIL; self.max_panel_below],
         }
@@ -432,13 +382,13 @@ impl SymbolicLdlt {
         let LdltWorkspace {
             values,
             stacks,
+            tops,
             frames,
             scaled,
         } = ws;
-        stacks.iter_mut().for_each(Vec::clear);
+        *tops = [0; 2];
         frames.iter_mut().for_each(Vec::clear);
-        #[cfg(target_arch = "x86_64")]
-        let avx2 = super::thin::available();
+        let isa = Isa::detected();
         for &s in &self.postorder {
             let (b, w) = (self.begin[s], self.begin[s + 1] - self.begin[s]);
             let r = self.pattern_ptr[s + 1] - self.pattern_ptr[s];
@@ -450,28 +400,29 @@ impl SymbolicLdlt {
             }
             let (own_stack, child_stack) = own_and_other(stacks, self.odd_depth[s]);
             let (own_frames, child_frames) = own_and_other(frames, self.odd_depth[s]);
-            let at = own_stack.len();
-            own_stack.resize(at + r * r, T::NIL);
-            let front = &mut own_stack[at..];
-            // Extend-add: the children's update matrices are the last frames of the other stack.
-            let first_frame = child_frames.len() - self.children[s];
-            let stack_top = child_frames
-                .get(first_frame)
-                .map_or(child_stack.len(), |f| f.1);
-            for &(c, at) in &child_frames[first_frame..] {
-                let rc = self.pattern_ptr[c + 1] - self.pattern_ptr[c];
-                let update = &child_stack[at..at + rc * rc];
-                #[cfg(target_arch = "x86_64")]
-                if avx2 {
-                    // SAFETY: the machine has AVX2 and FMA (`avx2`).
-                    unsafe { T::extend_add_avx2(self, c, update, w, panel, front) };
-                    continue;
-                }
-                self.extend_add(c, update, w, panel, front, add_assign);
+            let (own_top, child_top) = own_and_other(tops, self.odd_depth[s]);
+            let at = *own_top;
+            if own_stack.len() < at + r * r {
+                own_stack.resize(at + r * r, T::NIL);
             }
-            child_frames.truncate(first_frame);
-            child_stack.truncate(stack_top);
-            ldlt_panel(panel, m, 0, w, par).map_err(|k| LdltError::ZeroPivot(b + k))?;
+            *own_top = at + r * r;
+            let front = &mut own_stack[at..at + r * r];
+            // Extend-add: the children's update matrices are the last frames of the other
+            // stack. Their columns in the panel go in before it is factored; those in the
+            // front after the front is written (not added to) by the panel's update, so the
+            // front is never zeroed, and is in cache for them.
+            let first_frame = child_frames.len() - self.children[s];
+            let stack_top = child_frames.get(first_frame).map_or(*child_top, |f| f.1);
+            let children = &child_frames[first_frame..];
+            let extend_add = |into_front: bool, panel: &mut [T], front: &mut [T]| {
+                for &(c, at) in children {
+                    let rc = self.pattern_ptr[c + 1] - self.pattern_ptr[c];
+                    let update = &child_stack[at..at + rc * rc];
+                    T::extend_add(isa, self, c, update, w, panel, front, into_front);
+                }
+            };
+            extend_add(false, panel, front);
+            ldlt_panel(isa, panel, m, 0, w, par).map_err(|k| LdltError::ZeroPivot(b + k))?;
             if r > 0 {
                 // U = F_22 − L_21 D L_21ᵀ, lower triangle.
                 let scaled = &mut scaled[..r * w];
@@ -487,7 +438,7 @@ impl SymbolicLdlt {
                 triangular::matmul(
                     MatMut::from_column_major_slice_mut(front, r, r),
                     BlockStructure::TriangularLower,
-                    Accum::Add,
+                    Accum::Replace,
                     MatRef::from_column_major_slice_with_stride(&panel[w..], r, w, m),
                     BlockStructure::Rectangular,
                     MatRef::from_column_major_slice(scaled, r, w).transpose(),
@@ -495,15 +446,20 @@ impl SymbolicLdlt {
                     T::NIL - T::UNIT,
                     par,
                 );
+                extend_add(true, panel, front);
                 own_frames.push((s, at));
             }
+            child_frames.truncate(first_frame);
+            *child_top = stack_top;
         }
         Ok(())
     }
 
     /// Adds child `c`'s update matrix (`rc × rc`, its lower triangle read) into its parent's
-    /// panel (`m × w`) and front (`r × r`, rows and columns after the panel's), a run of
-    /// consecutive places at a time by `add(target, source)`.
+    /// panel (`m × w`), or, `into_front`, into its front (`r × r`, rows and columns after the
+    /// panel's): the update's columns that land there, a run of consecutive places at a time
+    /// by the kernels' `add`.
+    #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     fn extend_add<T: LdltScalar>(
         &self,
@@ -512,15 +468,23 @@ impl SymbolicLdlt {
         w: usize,
         panel: &mut [T],
         front: &mut [T],
-        add: impl Fn(&mut [T], &[T]),
+        into_front: bool,
+        kernels: &impl Kernels<T>,
     ) {
         let rel = &self.relative[self.pattern_ptr[c]..self.pattern_ptr[c + 1]];
         let runs = &self.runs[self.run_ptr[c]..self.run_ptr[c + 1]];
         let rc = rel.len();
         let m = panel.len() / w.max(1);
         let r = m - w;
+        // The update's columns in the panel come first (`rel` ascends).
+        let in_panel = rel.partition_point(|&cj| cj < w);
+        let columns = if into_front {
+            in_panel..rc
+        } else {
+            0..in_panel
+        };
         let mut run = 0;
-        for (jj, &cj) in rel.iter().enumerate() {
+        for (jj, &cj) in rel.iter().enumerate().take(columns.end).skip(columns.start) {
             while run + 1 < runs.len() && runs[run + 1] <= jj {
                 run += 1;
             }
@@ -534,7 +498,7 @@ impl SymbolicLdlt {
                 let start = runs[k].max(jj);
                 let end = runs.get(k + 1).copied().unwrap_or(rc);
                 let place = rel[start] - shift;
-                add(&mut target[place..place + end - start], &column[start..end]);
+                kernels.add(&mut target[place..place + end - start], &column[start..end]);
             }
         }
     }
@@ -543,21 +507,13 @@ impl SymbolicLdlt {
     pub fn solve_in_place<T: LdltScalar>(&self, ws: &LdltWorkspace<T>, mut x: MatMut<'_, T>) {
         let n = self.n;
         let mut y = vec![T::NIL; n * x.ncols()];
-        let mut gathered = vec![T::NIL; self.max_rows];
+        let mut scratch = vec![T::NIL; self.max_rows + self.max_width];
         for (k, y) in y.chunks_exact_mut(n.max(1)).enumerate() {
             for (new, &old) in self.forward.iter().enumerate() {
                 y[new] = x[(old, k)];
             }
         }
-        #[cfg(target_arch = "x86_64")]
-        if super::thin::available() {
-            // SAFETY: the machine has AVX2 and FMA (checked just above).
-            unsafe { T::solve_avx2(self, &ws.values, &mut y, &mut gathered) };
-        } else {
-            self.solve_with(&ws.values, &mut y, &mut gathered, sub_scaled, dot);
-        }
-        #[cfg(not(target_arch = "x86_64"))]
-        self.solve_with(&ws.values, &mut y, &mut gathered, sub_scaled, dot);
+        T::solve(Isa::detected(), self, &ws.values, &mut y, &mut scratch);
         for (k, y) in y.chunks_exact(n.max(1)).enumerate() {
             for (new, &old) in self.forward.iter().enumerate() {
                 x[(old, k)] = y[new];
@@ -566,21 +522,24 @@ impl SymbolicLdlt {
     }
 
     /// `Y ← (L D Lᵀ)⁻¹ Y` in the factor's order, for the columns of `y` (`n` entries each, one
-    /// after another): per supernode, each column's entries at its rows below the diagonal
-    /// block are gathered, updated by the panel's columns with `sub_scaled(t, v, l)`
-    /// (`t ← t − v l`) on the way down and read by `dot(a, b)` (`Σ aᵢ bᵢ`) on the way up. The
-    /// columns take their turns within a supernode, so its panel is read from memory once.
+    /// after another), with `scratch` of `max_rows + max_width` entries. Per
+    /// supernode, each column's entries at its rows below the diagonal block are gathered; on
+    /// the way down the diagonal block is solved and the gathered rows take the panel's
+    /// columns' updates four at a time (`sub_scaled4`), on the way up the panel's columns'
+    /// dot products with them are taken four at a time (`dot4`) before the diagonal block is
+    /// solved. The columns take their turns within a supernode, so its panel is read from
+    /// memory once.
     #[inline(always)]
     fn solve_with<T: LdltScalar>(
         &self,
         values: &[T],
         y: &mut [T],
-        gathered: &mut [T],
-        sub_scaled: impl Fn(&mut [T], &[T], T),
-        dot: impl Fn(&[T], &[T]) -> T,
+        scratch: &mut [T],
+        kernels: &impl Kernels<T>,
     ) {
         let ns = self.begin.len() - 1;
         let n = self.n.max(1);
+        let (gathered, sums) = scratch.split_at_mut(self.max_rows);
         // L z = P b, then D: supernodes in index order are children first. A column whose
         // entries at a supernode are all zero is not changed by it: a right-hand side with one
         // nonzero (an FRF's excitation) reads only the supernodes on its path to the root.
@@ -588,6 +547,7 @@ impl SymbolicLdlt {
             let (b, w, rows) = self.supernode(s);
             let m = w + rows.len();
             let panel = &values[self.value_ptr[s]..self.value_ptr[s + 1]];
+            let column = |j: usize| &panel[j * m..(j + 1) * m];
             for y in y.chunks_exact_mut(n) {
                 if y[b..b + w].iter().all(|v| *v == T::NIL) {
                     continue;
@@ -597,12 +557,18 @@ impl SymbolicLdlt {
                     *t = y[i];
                 }
                 for j in 0..w {
-                    let column = &panel[j * m..(j + 1) * m];
-                    let yj = y[b + j];
+                    let (yj, l) = (y[b + j], column(j));
                     for i in j + 1..w {
-                        y[b + i] -= column[i] * yj;
+                        y[b + i] -= l[i] * yj;
                     }
-                    sub_scaled(below, &column[w..], yj);
+                }
+                let quads = w / 4 * 4;
+                for j in (0..quads).step_by(4) {
+                    let v = [j, j + 1, j + 2, j + 3].map(|j| &column(j)[w..]);
+                    kernels.sub_scaled4(below, v, [0, 1, 2, 3].map(|k| y[b + j + k]));
+                }
+                for j in quads..w {
+                    kernels.sub_scaled(below, &column(j)[w..], y[b + j]);
                 }
                 for (&t, &i) in below.iter().zip(rows) {
                     y[i] = t;
@@ -617,16 +583,26 @@ impl SymbolicLdlt {
             let (b, w, rows) = self.supernode(s);
             let m = w + rows.len();
             let panel = &values[self.value_ptr[s]..self.value_ptr[s + 1]];
+            let column = |j: usize| &panel[j * m..(j + 1) * m];
             for y in y.chunks_exact_mut(n) {
                 let below = &mut gathered[..rows.len()];
                 for (t, &i) in below.iter_mut().zip(rows) {
                     *t = y[i];
                 }
+                let sums = &mut sums[..w];
+                let quads = w / 4 * 4;
+                for j in (0..quads).step_by(4) {
+                    let v = [j, j + 1, j + 2, j + 3].map(|j| &column(j)[w..]);
+                    sums[j..j + 4].copy_from_slice(&kernels.dot4(v, below));
+                }
+                for (j, sum) in sums.iter_mut().enumerate().skip(quads) {
+                    *sum = kernels.dot(&column(j)[w..], below);
+                }
                 for j in (0..w).rev() {
-                    let column = &panel[j * m..(j + 1) * m];
-                    let mut sum = dot(&column[w..], below);
+                    let l = column(j);
+                    let mut sum = sums[j];
                     for i in j + 1..w {
-                        sum += column[i] * y[b + i];
+                        sum += l[i] * y[b + i];
                     }
                     y[b + j] -= sum;
                 }
@@ -651,6 +627,7 @@ impl SymbolicLdlt {
 /// (`A_22 −= L_21 D_1 L_21ᵀ`, full columns below), then factored. Returns the offending column
 /// (relative to `c0`) on a zero or non-finite pivot.
 fn ldlt_panel<T: LdltScalar>(
+    isa: Isa,
     a: &mut [T],
     ld: usize,
     c0: usize,
@@ -658,12 +635,12 @@ fn ldlt_panel<T: LdltScalar>(
     par: Par,
 ) -> Result<(), usize> {
     if w <= BLOCK {
-        return unblocked(a, ld, c0, w);
+        return T::unblocked(isa, a, ld, c0, w);
     }
     let m = ld - c0;
     let w1 = (w / 2).div_ceil(BLOCK) * BLOCK;
     let w2 = w - w1;
-    ldlt_panel(a, ld, c0, w1, par)?;
+    ldlt_panel(isa, a, ld, c0, w1, par)?;
     let (left, right) = a.split_at_mut((c0 + w1) * ld);
     let left = &left[c0 * ld..];
     // L_21 D_1 for the rows of the right half's diagonal block.
@@ -678,271 +655,43 @@ fn ldlt_panel<T: LdltScalar>(
         T::NIL - T::UNIT,
         par,
     );
-    ldlt_panel(a, ld, c0 + w1, w2, par).map_err(|k| k + w1)
+    ldlt_panel(isa, a, ld, c0 + w1, w2, par).map_err(|k| k + w1)
 }
 
-/// The unblocked right-looking `LDLᵀ` of [`ldlt_panel`]'s columns `c0..c0 + w` (at most
-/// [`BLOCK`]): each pivot's column updates the later columns of the panel, every row below
-/// included, by `sub_scaled(t, v, l)`: `t ← t − v l` over their common length.
+/// The unblocked left-looking `LDLᵀ` of [`ldlt_panel`]'s columns `c0..c0 + w` (at most
+/// [`BLOCK`]): each column, every row below included, first takes the updates of the panel's
+/// factored columns before it, `a_j −= Σ_k L_k (d_k L_jk)` (the kernels' `sub_product`: `a_j`
+/// is read and written once), then is divided by its pivot.
 #[inline(always)]
 fn unblocked_ldlt<T: LdltScalar>(
     a: &mut [T],
     ld: usize,
     c0: usize,
     w: usize,
-    sub_scaled: impl Fn(&mut [T], &[T], T),
+    kernels: &impl Kernels<T>,
 ) -> Result<(), usize> {
-    let m = ld - c0;
-    for k in 0..w {
-        let (head, tail) = a.split_at_mut((c0 + k + 1) * ld);
-        let column = &mut head[(c0 + k) * ld + c0..];
-        let d = column[k];
+    let mut scalars = [T::NIL; BLOCK];
+    for j in 0..w {
+        let (done, rest) = a.split_at_mut((c0 + j) * ld);
+        let target = &mut rest[c0 + j..ld];
+        // `d_k L_jk` of the columns before, and their rows `c0 + j..` (leading dimension `ld`).
+        for (k, l) in scalars[..j].iter_mut().enumerate() {
+            let column = (c0 + k) * ld + c0;
+            *l = done[column + j] * done[column + k];
+        }
+        if j > 0 {
+            kernels.sub_product(target, &done[c0 * ld + c0 + j..], ld, &scalars[..j]);
+        }
+        let d = target[0];
         if d == T::NIL || !d.finite() {
-            return Err(k);
+            return Err(j);
         }
         let inv = T::UNIT / d;
-        for j in k + 1..w {
-            let l = column[j] * inv;
-            let target = &mut tail[(j - k - 1) * ld + c0..(j - k) * ld];
-            sub_scaled(&mut target[j..], &column[j..m], l);
-        }
-        for v in &mut column[k + 1..m] {
+        for v in &mut target[1..] {
             *v *= inv;
         }
     }
     Ok(())
-}
-
-/// `t ← t + v` over the common length.
-#[inline(always)]
-fn add_assign<T: LdltScalar>(t: &mut [T], v: &[T]) {
-    for (t, &v) in t.iter_mut().zip(v) {
-        *t += v;
-    }
-}
-
-/// `t ← t − v l` over the common length.
-#[inline(always)]
-fn sub_scaled<T: LdltScalar>(t: &mut [T], v: &[T], l: T) {
-    for (t, &v) in t.iter_mut().zip(v) {
-        *t -= v * l;
-    }
-}
-
-/// `Σ aᵢ bᵢ` (no conjugation) over the common length, in four partial sums (which a vector
-/// unit holds side by side).
-#[inline(always)]
-fn dot<T: LdltScalar>(a: &[T], b: &[T]) -> T {
-    let n = a.len().min(b.len());
-    let (a, b) = (a[..n].chunks_exact(4), b[..n].chunks_exact(4));
-    let tail: T = a
-        .remainder()
-        .iter()
-        .zip(b.remainder())
-        .map(|(&x, &y)| x * y)
-        .sum();
-    let mut partial = [T::NIL; 4];
-    for (x, y) in a.zip(b) {
-        for l in 0..4 {
-            partial[l] += x[l] * y[l];
-        }
-    }
-    (partial[0] + partial[1]) + (partial[2] + partial[3]) + tail
-}
-
-/// The real kernels compiled for AVX2 and FMA, where the compiler vectorises them.
-#[cfg(target_arch = "x86_64")]
-mod real_avx {
-    use super::{SymbolicLdlt, add_assign, dot, sub_scaled};
-
-    /// [`super::unblocked_ldlt`] in `f64`.
-    ///
-    /// # Safety
-    /// The machine must have AVX2 and FMA.
-    #[target_feature(enable = "avx2,fma")]
-    pub unsafe fn unblocked_ldlt(
-        a: &mut [f64],
-        ld: usize,
-        c0: usize,
-        w: usize,
-    ) -> Result<(), usize> {
-        super::unblocked_ldlt(a, ld, c0, w, sub_scaled)
-    }
-
-    /// [`SymbolicLdlt::extend_add`] in `f64`.
-    ///
-    /// # Safety
-    /// The machine must have AVX2 and FMA.
-    #[target_feature(enable = "avx2,fma")]
-    pub unsafe fn extend_add(
-        sym: &SymbolicLdlt,
-        c: usize,
-        update: &[f64],
-        w: usize,
-        panel: &mut [f64],
-        front: &mut [f64],
-    ) {
-        sym.extend_add(c, update, w, panel, front, add_assign)
-    }
-
-    /// [`SymbolicLdlt::solve_with`] in `f64`.
-    ///
-    /// # Safety
-    /// The machine must have AVX2 and FMA.
-    #[target_feature(enable = "avx2,fma")]
-    pub unsafe fn solve(sym: &SymbolicLdlt, values: &[f64], y: &mut [f64], gathered: &mut [f64]) {
-        sym.solve_with(values, y, gathered, sub_scaled, dot)
-    }
-}
-
-/// The unblocked kernel with its column updates in AVX2: two complex numbers to a register.
-/// Each is one fused `fmaddsub` and a subtraction per pair, so the bits differ from the plain
-/// kernel's in the last place, the same on every machine with AVX2 and FMA.
-#[cfg(target_arch = "x86_64")]
-mod avx {
-    use faer::c64;
-    use std::arch::x86_64::*;
-
-    /// [`super::unblocked_ldlt`] with [`sub_scaled`].
-    ///
-    /// # Safety
-    /// The machine must have AVX2 and FMA.
-    #[target_feature(enable = "avx2,fma")]
-    pub unsafe fn unblocked_ldlt(
-        a: &mut [c64],
-        ld: usize,
-        c0: usize,
-        w: usize,
-    ) -> Result<(), usize> {
-        // SAFETY: `sub_scaled` needs AVX2 and FMA, this function's target features, and is
-        // inlined into it.
-        super::unblocked_ldlt(a, ld, c0, w, |t, v, l| unsafe { sub_scaled(t, v, l) })
-    }
-
-    /// [`SymbolicLdlt::extend_add`] with [`add_assign`].
-    ///
-    /// # Safety
-    /// The machine must have AVX2 and FMA.
-    #[target_feature(enable = "avx2,fma")]
-    pub unsafe fn extend_add(
-        sym: &super::SymbolicLdlt,
-        c: usize,
-        update: &[c64],
-        w: usize,
-        panel: &mut [c64],
-        front: &mut [c64],
-    ) {
-        // SAFETY: `add_assign` needs AVX2, this function's target feature, and is inlined
-        // into it.
-        sym.extend_add(c, update, w, panel, front, |t, v| unsafe {
-            add_assign(t, v)
-        })
-    }
-
-    /// [`SymbolicLdlt::solve_with`](super::SymbolicLdlt) with [`sub_scaled`] and [`dot`].
-    ///
-    /// # Safety
-    /// The machine must have AVX2 and FMA.
-    #[target_feature(enable = "avx2,fma")]
-    pub unsafe fn solve(
-        sym: &super::SymbolicLdlt,
-        values: &[c64],
-        y: &mut [c64],
-        gathered: &mut [c64],
-    ) {
-        // SAFETY: the kernels need AVX2 and FMA, this function's target features, and are
-        // inlined into it.
-        sym.solve_with(
-            values,
-            y,
-            gathered,
-            |t, v, l| unsafe { sub_scaled(t, v, l) },
-            |a, b| unsafe { dot(a, b) },
-        )
-    }
-
-    /// `t ← t + v` over the common length of `t` and `v`.
-    ///
-    /// # Safety
-    /// AVX2 (inlined into a function that enables it).
-    #[inline(always)]
-    pub unsafe fn add_assign(t: &mut [c64], v: &[c64]) {
-        let n = t.len().min(v.len());
-        let (tp, vp) = (t.as_mut_ptr().cast::<f64>(), v.as_ptr().cast::<f64>());
-        for p in 0..n / 2 {
-            // SAFETY: complex entries `2p` and `2p + 1` of both slices are the four doubles
-            // at `4p`, inside their first `n` entries.
-            unsafe {
-                let x = _mm256_loadu_pd(vp.add(4 * p));
-                let y = _mm256_loadu_pd(tp.add(4 * p));
-                _mm256_storeu_pd(tp.add(4 * p), _mm256_add_pd(y, x));
-            }
-        }
-        if n % 2 == 1 {
-            t[n - 1] += v[n - 1];
-        }
-    }
-
-    /// `Σ aᵢ bᵢ` (no conjugation) over the common length of `a` and `b`: the products'
-    /// `(aʳbʳ, aⁱbⁱ)` and `(aʳbⁱ, aⁱbʳ)` summed in two registers, then combined.
-    ///
-    /// # Safety
-    /// AVX2 and FMA (inlined into a function that enables them).
-    #[inline(always)]
-    pub unsafe fn dot(a: &[c64], b: &[c64]) -> c64 {
-        let n = a.len().min(b.len());
-        let (ap, bp) = (a.as_ptr().cast::<f64>(), b.as_ptr().cast::<f64>());
-        // SAFETY: AVX, which the caller guarantees.
-        let (mut same, mut crossed) = unsafe { (_mm256_setzero_pd(), _mm256_setzero_pd()) };
-        for p in 0..n / 2 {
-            // SAFETY: complex entries `2p` and `2p + 1` of both slices are the four doubles
-            // at `4p`, inside their first `n` entries.
-            unsafe {
-                let x = _mm256_loadu_pd(ap.add(4 * p));
-                let y = _mm256_loadu_pd(bp.add(4 * p));
-                same = _mm256_fmadd_pd(x, y, same);
-                crossed = _mm256_fmadd_pd(x, _mm256_permute_pd::<0b0101>(y), crossed);
-            }
-        }
-        let (mut s, mut c) = ([0.0; 4], [0.0; 4]);
-        // SAFETY: AVX; the arrays hold four doubles each.
-        unsafe {
-            _mm256_storeu_pd(s.as_mut_ptr(), same);
-            _mm256_storeu_pd(c.as_mut_ptr(), crossed);
-        }
-        let mut sum = c64::new((s[0] - s[1]) + (s[2] - s[3]), (c[0] + c[1]) + (c[2] + c[3]));
-        if n % 2 == 1 {
-            sum += a[n - 1] * b[n - 1];
-        }
-        sum
-    }
-
-    /// `t ← t − v l` over the common length of `t` and `v`.
-    ///
-    /// # Safety
-    /// AVX2 and FMA (inlined into a function that enables them).
-    #[inline(always)]
-    pub unsafe fn sub_scaled(t: &mut [c64], v: &[c64], l: c64) {
-        let n = t.len().min(v.len());
-        // SAFETY: AVX, which the caller guarantees.
-        let (re, im) = unsafe { (_mm256_set1_pd(l.re), _mm256_set1_pd(l.im)) };
-        let (tp, vp) = (t.as_mut_ptr().cast::<f64>(), v.as_ptr().cast::<f64>());
-        for p in 0..n / 2 {
-            // SAFETY: `c64` is `#[repr(C)]` `{re, im}`, so complex entries `2p` and `2p + 1`
-            // of both slices are the four doubles at `4p`, inside their first `n` entries.
-            unsafe {
-                let x = _mm256_loadu_pd(vp.add(4 * p));
-                // (x.re l.re − x.im l.im, x.im l.re + x.re l.im) for both entries.
-                let swapped = _mm256_permute_pd::<0b0101>(x);
-                let product = _mm256_fmaddsub_pd(x, re, _mm256_mul_pd(swapped, im));
-                let y = _mm256_loadu_pd(tp.add(4 * p));
-                _mm256_storeu_pd(tp.add(4 * p), _mm256_sub_pd(y, product));
-            }
-        }
-        if n % 2 == 1 {
-            t[n - 1] -= v[n - 1] * l;
-        }
-    }
 }
 
 #[cfg(test)]
@@ -1058,45 +807,5 @@ mod tests {
         let mut ws = sym.workspace();
         let e = sym.factorize(&mut ws, |_| c64::ZERO, Par::Seq).unwrap_err();
         assert!(matches!(e, LdltError::ZeroPivot(_)));
-    }
-
-    /// The AVX2 kernels agree with the plain ones to the rounding of their different
-    /// operation orders (two products of unit size summed: a few ulps), at every length
-    /// up to past two registers, odd lengths' last entry included.
-    #[cfg(target_arch = "x86_64")]
-    #[test]
-    fn avx2_kernels_match_the_plain_ones() {
-        if !crate::sparse::thin::available() {
-            return;
-        }
-        let entry =
-            |i: usize, s: f64| c64::new((i as f64 * 0.37 + s).sin(), (i as f64 * 0.91 - s).cos());
-        let l = c64::new(0.6, -1.3);
-        for n in 0..10 {
-            let v: Vec<c64> = (0..n).map(|i| entry(i, 0.2)).collect();
-            let t0: Vec<c64> = (0..n).map(|i| entry(i, 1.7)).collect();
-            let (mut plain, mut fast) = (t0.clone(), t0.clone());
-            sub_scaled(&mut plain, &v, l);
-            // SAFETY: the machine has AVX2 and FMA (checked above).
-            unsafe { avx::sub_scaled(&mut fast, &v, l) };
-            let (mut plain_sum, mut fast_sum) = (t0.clone(), t0.clone());
-            add_assign(&mut plain_sum, &v);
-            // SAFETY: as above.
-            unsafe { avx::add_assign(&mut fast_sum, &v) };
-            // SAFETY: as above.
-            let (d_plain, d_fast) = (dot(&v, &t0), unsafe { avx::dot(&v, &t0) });
-            for i in 0..n {
-                assert!((plain[i] - fast[i]).norm() < 1e-15, "sub_scaled {n} {i}");
-                assert_eq!(plain_sum[i], fast_sum[i], "add {n} {i}");
-            }
-            assert!(
-                (d_plain - d_fast).norm() < 1e-14 * (1.0 + n as f64),
-                "dot {n}"
-            );
-            // A wrong pairing of real and imaginary parts would miss by order one.
-            if n > 0 {
-                assert!((plain[0] - t0[0]).norm() > 0.1);
-            }
-        }
     }
 }
