@@ -38,7 +38,7 @@ fn nastran_model_matches_its_golden_artefacts() {
 /// absolute floor, alternating in sign along the column (so a mode shape leaves its span and a
 /// sign flip cannot hide it), a number in place of a NaN, or ten times an upper bound.
 fn beyond(t: &femu::artefact::compare::Tol, v: f64, i: usize) -> f64 {
-    let sign = if i % 2 == 0 { 1.0 } else { -1.0 };
+    let sign = if i.is_multiple_of(2) { 1.0 } else { -1.0 };
     match t.max {
         Some(m) => sign * (10.0 * m + 1e-300),
         // A column of "not applicable" NaNs must not start holding numbers unnoticed.

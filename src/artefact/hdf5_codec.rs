@@ -243,17 +243,17 @@ fn read_table(group: &Group, name: &str, path: &Path) -> Result<Table, ArtefactE
             .dataset(&c)
             .map_err(ctx(path, format!("{here}: not a readable dataset")))?;
         let column = read_column(&ds, path, &here)?;
-        if let Some((first, prev)) = table.columns.first() {
-            if prev.len() != column.len() {
-                return Err(decode(
-                    path,
-                    format!(
-                        "{here} has {} rows, column `{first}` has {}",
-                        column.len(),
-                        prev.len()
-                    ),
-                ));
-            }
+        if let Some((first, prev)) = table.columns.first()
+            && prev.len() != column.len()
+        {
+            return Err(decode(
+                path,
+                format!(
+                    "{here} has {} rows, column `{first}` has {}",
+                    column.len(),
+                    prev.len()
+                ),
+            ));
         }
         table.columns.push((c, column));
     }

@@ -95,14 +95,14 @@ pub(super) fn key_results(dir: &Path, meta: &DirMeta) -> Vec<String> {
     let mut out = Vec::new();
     match meta.kind {
         K::Modes => {
-            if let Some(t) = read_table(dir, meta, "frequencies") {
-                if let Some(f) = f64s(&t, "freq_hz") {
-                    out.push(format!(
-                        "{} modes, natural frequencies (Hz): {}",
-                        f.len(),
-                        some_numbers(f, 12, |x| format!("{x:.4}"))
-                    ));
-                }
+            if let Some(t) = read_table(dir, meta, "frequencies")
+                && let Some(f) = f64s(&t, "freq_hz")
+            {
+                out.push(format!(
+                    "{} modes, natural frequencies (Hz): {}",
+                    f.len(),
+                    some_numbers(f, 12, |x| format!("{x:.4}"))
+                ));
             }
         }
         K::Correlation => {
@@ -131,35 +131,33 @@ pub(super) fn key_results(dir: &Path, meta: &DirMeta) -> Vec<String> {
                     .map(|v| format!(" (returned iteration {v})"))
                     .unwrap_or_default()
             ));
-            if let Some(t) = read_table(dir, meta, "parameters") {
-                if let (Some(names), Some(initial), Some(fin)) = (
+            if let Some(t) = read_table(dir, meta, "parameters")
+                && let (Some(names), Some(initial), Some(fin)) = (
                     strs(&t, "parameter"),
                     f64s(&t, "initial"),
                     f64s(&t, "final"),
-                ) {
-                    for ((n, a), b) in names.iter().zip(initial).zip(fin).take(20) {
-                        let change = if *a != 0.0 {
-                            format!(" ({:+.2} %)", 100.0 * (b - a) / a)
-                        } else {
-                            String::new()
-                        };
-                        out.push(format!("  {n}: {a:.6e} → {b:.6e}{change}"));
-                    }
-                    if names.len() > 20 {
-                        out.push(format!("  … ({} more parameters)", names.len() - 20));
-                    }
+                )
+            {
+                for ((n, a), b) in names.iter().zip(initial).zip(fin).take(20) {
+                    let change = if *a != 0.0 {
+                        format!(" ({:+.2} %)", 100.0 * (b - a) / a)
+                    } else {
+                        String::new()
+                    };
+                    out.push(format!("  {n}: {a:.6e} → {b:.6e}{change}"));
+                }
+                if names.len() > 20 {
+                    out.push(format!("  … ({} more parameters)", names.len() - 20));
                 }
             }
-            if let Some(t) = read_table(dir, meta, "iterations") {
-                if let (Some(cs), Some(ca)) = (f64s(&t, "mean_chi_s"), f64s(&t, "mean_chi_a")) {
-                    if let (Some(s0), Some(a0), Some(s1), Some(a1)) =
-                        (cs.first(), ca.first(), cs.last(), ca.last())
-                    {
-                        out.push(format!(
-                            "  mean χ_s {s0:.4} → {s1:.4}, mean χ_a {a0:.4} → {a1:.4}"
-                        ));
-                    }
-                }
+            if let Some(t) = read_table(dir, meta, "iterations")
+                && let (Some(cs), Some(ca)) = (f64s(&t, "mean_chi_s"), f64s(&t, "mean_chi_a"))
+                && let (Some(s0), Some(a0), Some(s1), Some(a1)) =
+                    (cs.first(), ca.first(), cs.last(), ca.last())
+            {
+                out.push(format!(
+                    "  mean χ_s {s0:.4} → {s1:.4}, mean χ_a {a0:.4} → {a1:.4}"
+                ));
             }
         }
         K::ModalCorrelation => {
@@ -184,28 +182,28 @@ pub(super) fn key_results(dir: &Path, meta: &DirMeta) -> Vec<String> {
             }
         }
         K::Leverage => {
-            if let Some(t) = read_table(dir, meta, "candidates") {
-                if let (Some(c), Some(n), Some(r)) = (
+            if let Some(t) = read_table(dir, meta, "candidates")
+                && let (Some(c), Some(n), Some(r)) = (
                     strs(&t, "candidate"),
                     f64s(&t, "normalised"),
                     match t.column("rank") {
                         Some(Column::I64(v)) => Some(v.as_slice()),
                         _ => None,
                     },
-                ) {
-                    let mut order: Vec<usize> = (0..c.len()).collect();
-                    order.sort_by_key(|&i| r[i]);
-                    let top: Vec<String> = order
-                        .iter()
-                        .take(5)
-                        .map(|&i| format!("{} ({:.3})", c[i], n[i]))
-                        .collect();
-                    out.push(format!(
-                        "{} candidates; highest leverage: {}",
-                        c.len(),
-                        top.join(", ")
-                    ));
-                }
+                )
+            {
+                let mut order: Vec<usize> = (0..c.len()).collect();
+                order.sort_by_key(|&i| r[i]);
+                let top: Vec<String> = order
+                    .iter()
+                    .take(5)
+                    .map(|&i| format!("{} ({:.3})", c[i], n[i]))
+                    .collect();
+                out.push(format!(
+                    "{} candidates; highest leverage: {}",
+                    c.len(),
+                    top.join(", ")
+                ));
             }
         }
         _ => {}

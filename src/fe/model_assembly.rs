@@ -549,10 +549,10 @@ pub(crate) fn expand_scalar(
 /// The distinct nodes of an element in the order of its matrix blocks.
 pub(crate) fn block_nodes(e: &Element) -> Vec<u64> {
     let mut nodes = e.nodes();
-    if let Some((dof, Some(o))) = e.scalar_dofs() {
-        if o.node == dof.node {
-            nodes.truncate(1);
-        }
+    if let Some((dof, Some(o))) = e.scalar_dofs()
+        && o.node == dof.node
+    {
+        nodes.truncate(1);
     }
     nodes
 }
@@ -659,10 +659,11 @@ pub fn element_dofs(
     let m = named_element_matrices(model, id, e, mass)?;
     let mut out = Vec::new();
     for (i, d) in block_dofs(model, e).into_iter().enumerate() {
-        if let Some(d) = d {
-            if i < m.k.nrows() && (m.k[(i, i)] != 0.0 || m.m[(i, i)] != 0.0) {
-                out.push(d);
-            }
+        if let Some(d) = d
+            && i < m.k.nrows()
+            && (m.k[(i, i)] != 0.0 || m.m[(i, i)] != 0.0)
+        {
+            out.push(d);
         }
     }
     Ok(out)

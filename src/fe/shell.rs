@@ -2294,7 +2294,7 @@ mod tests {
         fn split(&self, nx: usize) -> Mesh {
             let mut trias = Vec::new();
             for (e, q) in self.quads.iter().enumerate() {
-                if (e % nx + e / nx) % 2 == 0 {
+                if (e % nx + e / nx).is_multiple_of(2) {
                     trias.push([q[0], q[1], q[2]]);
                     trias.push([q[0], q[2], q[3]]);
                 } else {

@@ -350,14 +350,14 @@ pub fn eigenvalue_map(
         ModeChoice::Band([_, hi]) => ModeSelection::BelowHz(*hi),
     };
     let sys = assemble(model, mass)?;
-    if let ModeChoice::Numbers(v) = choice {
-        if let Some(n) = v.iter().find(|n| **n == 0 || **n > sys.n()) {
-            return Err(LocalisationError::Settings(format!(
-                "modes: mode {n} does not exist; the model has {} free DOFs, so modes 1 to {} (1-based, rigid-body modes first)",
-                sys.n(),
-                sys.n()
-            )));
-        }
+    if let ModeChoice::Numbers(v) = choice
+        && let Some(n) = v.iter().find(|n| **n == 0 || **n > sys.n())
+    {
+        return Err(LocalisationError::Settings(format!(
+            "modes: mode {n} does not exist; the model has {} free DOFs, so modes 1 to {} (1-based, rigid-body modes first)",
+            sys.n(),
+            sys.n()
+        )));
     }
     if let ModeChoice::Band([lo, hi]) = choice {
         // A frequency limit below the first elastic mode of a free model leaves only

@@ -444,10 +444,10 @@ impl Model {
     fn own_properties(&mut self, in_set: &std::collections::BTreeSet<u64>, shell: bool) {
         let mut outside = std::collections::BTreeSet::new();
         for (id, e) in &self.elements {
-            if !in_set.contains(id) {
-                if let Some(pid) = e.property() {
-                    outside.insert(pid);
-                }
+            if !in_set.contains(id)
+                && let Some(pid) = e.property()
+            {
+                outside.insert(pid);
             }
         }
         let mut next = self

@@ -1187,13 +1187,12 @@ impl Model {
                 section: RodSection::Own(p),
                 ..
             } = e
+                && !self.materials.contains_key(&p.material)
             {
-                if !self.materials.contains_key(&p.material) {
-                    return Err(ModelError::MissingElementMaterial {
-                        element: id,
-                        material: p.material,
-                    });
-                }
+                return Err(ModelError::MissingElementMaterial {
+                    element: id,
+                    material: p.material,
+                });
             }
         }
         for (&id, p) in &self.beam_properties {
@@ -1234,14 +1233,14 @@ impl Model {
                 for d in std::iter::once(a).chain(b) {
                     self.check_component(d, || format!("element {id} ({})", e.type_name()))?;
                 }
-            } else if !self.scalar_points.is_empty() {
-                if let Some(n) = e.nodes().into_iter().find(|n| self.is_scalar_point(*n)) {
-                    return Err(ModelError::ComponentMismatch {
-                        origin: format!("element {id} ({})", e.type_name()),
-                        dof: DofId::new(n, Component::Scalar),
-                        problem: "only scalar elements (springs, masses, dampers) connect scalar points",
-                    });
-                }
+            } else if !self.scalar_points.is_empty()
+                && let Some(n) = e.nodes().into_iter().find(|n| self.is_scalar_point(*n))
+            {
+                return Err(ModelError::ComponentMismatch {
+                    origin: format!("element {id} ({})", e.type_name()),
+                    dof: DofId::new(n, Component::Scalar),
+                    problem: "only scalar elements (springs, masses, dampers) connect scalar points",
+                });
             }
         }
         self.validate_mpcs()

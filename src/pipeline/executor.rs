@@ -488,10 +488,10 @@ impl Produced {
 
     /// Keeps an output of node `node` for its readers (an output nobody reads is not kept).
     fn put(&self, node: usize, port: String, a: Artefact) {
-        if let Ok(mut m) = self.0.lock() {
-            if let Some(h) = m.get_mut(&(node, port)).filter(|h| h.readers > 0) {
-                h.artefact = Some(Arc::new(a));
-            }
+        if let Ok(mut m) = self.0.lock()
+            && let Some(h) = m.get_mut(&(node, port)).filter(|h| h.readers > 0)
+        {
+            h.artefact = Some(Arc::new(a));
         }
     }
 

@@ -59,16 +59,16 @@ impl PartCache {
         let cache_err = |e: crate::cache::CacheError| {
             StageError::Failed(format!("cached part {part_kind} {k}: {e}"))
         };
-        if !self.force {
-            if let Lookup::Hit(_) = self.cache.lookup(&k) {
-                // A verified entry that fails to decode is evicted and recomputed like a corrupt one.
-                match self.cache.read(&k, PART_PORT, kind) {
-                    Ok(a) => {
-                        self.note(&k, true);
-                        return Ok(a);
-                    }
-                    Err(_) => self.cache.evict(&k).map_err(cache_err)?,
+        if !self.force
+            && let Lookup::Hit(_) = self.cache.lookup(&k)
+        {
+            // A verified entry that fails to decode is evicted and recomputed like a corrupt one.
+            match self.cache.read(&k, PART_PORT, kind) {
+                Ok(a) => {
+                    self.note(&k, true);
+                    return Ok(a);
                 }
+                Err(_) => self.cache.evict(&k).map_err(cache_err)?,
             }
         }
         let a = compute()?;

@@ -11,10 +11,10 @@ use serde_json::{Map, Value, json};
 fn prefix_refs(v: &mut Value, prefix: &str) {
     match v {
         Value::Object(map) => {
-            if let Some(Value::String(r)) = map.get_mut("$ref") {
-                if let Some(name) = r.strip_prefix("#/$defs/") {
-                    *r = format!("#/$defs/{prefix}{name}");
-                }
+            if let Some(Value::String(r)) = map.get_mut("$ref")
+                && let Some(name) = r.strip_prefix("#/$defs/")
+            {
+                *r = format!("#/$defs/{prefix}{name}");
             }
             for x in map.values_mut() {
                 prefix_refs(x, prefix);

@@ -122,14 +122,14 @@ impl Partition {
                         element: *id,
                     });
                 }
-                if let Some(prev) = owner.insert(*id, g) {
-                    if prev != g {
-                        return Err(ReductionError::Overlap {
-                            element: *id,
-                            first: groups[prev].0.clone(),
-                            second: name.clone(),
-                        });
-                    }
+                if let Some(prev) = owner.insert(*id, g)
+                    && prev != g
+                {
+                    return Err(ReductionError::Overlap {
+                        element: *id,
+                        first: groups[prev].0.clone(),
+                        second: name.clone(),
+                    });
                 }
             }
         }
@@ -431,13 +431,15 @@ fn refine(model: &Model, ids: &[u64], parts: usize, part: &mut [usize]) {
                 .iter()
                 .filter(|(p, _)| **p != own)
                 .max_by(|a, b| a.1.cmp(b.1).then(b.0.cmp(a.0)));
-            if let Some((&p, &c)) = best {
-                if c > own_count && size[p] < max_size && size[own] > min_size {
-                    part[e] = p;
-                    size[p] += 1;
-                    size[own] -= 1;
-                    moved += 1;
-                }
+            if let Some((&p, &c)) = best
+                && c > own_count
+                && size[p] < max_size
+                && size[own] > min_size
+            {
+                part[e] = p;
+                size[p] += 1;
+                size[own] -= 1;
+                moved += 1;
             }
         }
         if moved == 0 {

@@ -60,13 +60,13 @@ impl std::str::FromStr for Coordinate {
         if let Some(n) = s.strip_prefix("interface:m").and_then(|n| n.parse().ok()) {
             return Ok(Coordinate::InterfaceMode(n));
         }
-        if let Some((sub, q)) = s.rsplit_once(":q") {
-            if let Ok(mode) = q.parse::<usize>() {
-                return Ok(Coordinate::Modal {
-                    substructure: sub.to_string(),
-                    mode,
-                });
-            }
+        if let Some((sub, q)) = s.rsplit_once(":q")
+            && let Ok(mode) = q.parse::<usize>()
+        {
+            return Ok(Coordinate::Modal {
+                substructure: sub.to_string(),
+                mode,
+            });
         }
         s.parse::<DofId>().map(Coordinate::Dof).map_err(|e| {
             format!("`{s}` is neither a DOF (node:comp), a modal coordinate (<substructure>:q<n>), an interface mode (interface:m<n>) nor a force (F:node:comp): {e}")

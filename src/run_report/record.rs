@@ -69,14 +69,14 @@ pub fn meta_warnings(meta: &Map<String, Value>) -> Vec<String> {
             "cards dropped as `ignore_cards` or `on_unsupported` asks (the model lacks what they define)",
         ),
     ] {
-        if let Some(Value::Object(cards)) = meta.get(key) {
-            if !cards.is_empty() {
-                let counts: Vec<String> = cards
-                    .iter()
-                    .map(|(card, n)| format!("{card} ×{n}"))
-                    .collect();
-                out.push(format!("{what}: {}", counts.join(", ")));
-            }
+        if let Some(Value::Object(cards)) = meta.get(key)
+            && !cards.is_empty()
+        {
+            let counts: Vec<String> = cards
+                .iter()
+                .map(|(card, n)| format!("{card} ×{n}"))
+                .collect();
+            out.push(format!("{what}: {}", counts.join(", ")));
         }
     }
     out

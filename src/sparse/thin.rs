@@ -104,7 +104,7 @@ pub fn backward(panel: Panel<'_>, x: &mut [f64], a: &[f64], k: usize, par: Par) 
 fn check(panel: Panel<'_>, own: &[f64], k: usize) {
     assert!(available(), "the thin kernels need AVX2 and FMA");
     assert!(
-        k % 4 == 0 && (4..=MAX_COLUMNS).contains(&k),
+        k.is_multiple_of(4) && (4..=MAX_COLUMNS).contains(&k),
         "rows of 4 to {MAX_COLUMNS} right-hand sides, a multiple of 4 (pad with zeros)"
     );
     assert_eq!(own.len(), panel.w * k);

@@ -226,13 +226,13 @@ fn pair_and_line_issues(p: &Params, earlier: bool) -> Vec<ParamIssue> {
             "give `band_hz: [start, stop]` with `step_hz`, or `lines_hz: [...]`",
         )),
     }
-    if let Some(l) = &p.lines_hz {
-        if l.is_empty() || l.windows(2).any(|w| w[1] <= w[0]) {
-            issues.push(ParamIssue::at(
-                "lines_hz",
-                "lines must be non-negative and strictly increasing",
-            ));
-        }
+    if let Some(l) = &p.lines_hz
+        && (l.is_empty() || l.windows(2).any(|w| w[1] <= w[0]))
+    {
+        issues.push(ParamIssue::at(
+            "lines_hz",
+            "lines must be non-negative and strictly increasing",
+        ));
     }
     if let (true, Some(Band { lo: a, hi: b }), Some(step)) = (
         !earlier && issues.is_empty(),
@@ -256,13 +256,13 @@ fn pair_and_line_issues(p: &Params, earlier: bool) -> Vec<ParamIssue> {
             Some(_) => {}
         }
     }
-    if let Some(l) = &p.lines_hz {
-        if l.len() > MAX_LINES {
-            issues.push(ParamIssue::at(
-                "lines_hz",
-                format!("{} lines exceed the limit of {MAX_LINES}", l.len()),
-            ));
-        }
+    if let Some(l) = &p.lines_hz
+        && l.len() > MAX_LINES
+    {
+        issues.push(ParamIssue::at(
+            "lines_hz",
+            format!("{} lines exceed the limit of {MAX_LINES}", l.len()),
+        ));
     }
     issues
 }
@@ -460,13 +460,13 @@ fn synthesise(
 ) -> Result<(FrfSet, Option<KrylovReport>), StageError> {
     match p.method {
         Some(Method::Modal) => {
-            if let Some(model) = inputs.get("model") {
-                if matrices_from_artefact(model)?.c.is_some() {
-                    return Err(StageError::input(
-                        "",
-                        "the model has element dampers (its matrices hold a viscous C from CDAMP, CVISC or CBUSH B), which are not proportional and are not in the modal damping; use `method: direct` to include them, or remove the dampers",
-                    ));
-                }
+            if let Some(model) = inputs.get("model")
+                && matrices_from_artefact(model)?.c.is_some()
+            {
+                return Err(StageError::input(
+                    "",
+                    "the model has element dampers (its matrices hold a viscous C from CDAMP, CVISC or CBUSH B), which are not proportional and are not in the modal damping; use `method: direct` to include them, or remove the dampers",
+                ));
             }
             let m = modes_from_artefact(inputs.require("modes")?)?;
             let pairs = pairs_of(&m.dofs);

@@ -119,13 +119,13 @@ impl TypedStage for LocaliseEigensensitivity {
                 issues.push(ParamIssue::at("modes", "a mode is listed twice"));
             }
         }
-        if let Some(n) = p.elastic_modes {
-            if !(1..=MAX_MODES).contains(&n) {
-                issues.push(ParamIssue::at(
-                    "elastic_modes",
-                    format!("{n} must be 1 to {MAX_MODES}"),
-                ));
-            }
+        if let Some(n) = p.elastic_modes
+            && !(1..=MAX_MODES).contains(&n)
+        {
+            issues.push(ParamIssue::at(
+                "elastic_modes",
+                format!("{n} must be 1 to {MAX_MODES}"),
+            ));
         }
         if !(1..=8).contains(&p.columns) {
             issues.push(ParamIssue::at(

@@ -182,10 +182,10 @@ impl TypedStage for MeshGenerate {
                         format!("{dofs} must be 1000 to {}", 6 * MAX_NODES),
                     ));
                 }
-                if let Params::Muffler { baffles, .. } = p {
-                    if *baffles > 50 {
-                        issues.push(ParamIssue::at("baffles", "at most 50"));
-                    }
+                if let Params::Muffler { baffles, .. } = p
+                    && *baffles > 50
+                {
+                    issues.push(ParamIssue::at("baffles", "at most 50"));
                 }
             }
             Params::ThreeBeam {

@@ -104,13 +104,13 @@ impl TypedStage for MeshParameters {
                 ));
             }
             for (field, v) in [("lower", d.lower), ("upper", d.upper)] {
-                if let Some(v) = v {
-                    if !(v.is_finite() && v > 0.0) {
-                        issues.push(ParamIssue::at(
-                            &format!("declare.{i}.{field}"),
-                            format!("{v} must be a positive finite number"),
-                        ));
-                    }
+                if let Some(v) = v
+                    && !(v.is_finite() && v > 0.0)
+                {
+                    issues.push(ParamIssue::at(
+                        &format!("declare.{i}.{field}"),
+                        format!("{v} must be a positive finite number"),
+                    ));
                 }
             }
         }
@@ -158,13 +158,13 @@ impl TypedStage for MeshParameters {
                         _ => "kind",
                     };
                     let mut message = e.to_string();
-                    if let E::MissingSet { set, .. } = &e {
-                        if let Some(near) = crate::pipeline::diagnostic::nearest(
+                    if let E::MissingSet { set, .. } = &e
+                        && let Some(near) = crate::pipeline::diagnostic::nearest(
                             set,
                             model.sets.keys().map(String::as_str),
-                        ) {
-                            message.push_str(&format!("; did you mean `{near}`?"));
-                        }
+                        )
+                    {
+                        message.push_str(&format!("; did you mean `{near}`?"));
                     }
                     issues.push(ParamIssue {
                         path: vec!["declare".into(), i.to_string(), field.into()],

@@ -111,13 +111,13 @@ impl TypedStage for ModesImport {
     }
 
     fn validate(p: &mut Params, ctx: &CheckContext) -> Vec<ParamIssue> {
-        if let Some([lo, hi]) = p.band_hz {
-            if !(lo.is_finite() && hi.is_finite() && 0.0 <= lo && lo < hi) {
-                return vec![ParamIssue::at(
-                    "band_hz",
-                    format!("[{lo}, {hi}] is not a band; give [low, high] with 0 <= low < high"),
-                )];
-            }
+        if let Some([lo, hi]) = p.band_hz
+            && !(lo.is_finite() && hi.is_finite() && 0.0 <= lo && lo < hi)
+        {
+            return vec![ParamIssue::at(
+                "band_hz",
+                format!("[{lo}, {hi}] is not a band; give [low, high] with 0 <= low < high"),
+            )];
         }
         match import(&ctx.base_dir, p) {
             Ok((modes, geometry)) => {

@@ -83,16 +83,16 @@ impl TypedStage for ReduceForceCoupling {
                 ),
             ));
         }
-        if let Some(s) = &p.second_level {
-            if s.modes == 0 || s.keep < s.modes {
-                v.push(ParamIssue::at(
-                    "second_level",
-                    format!(
-                        "need 1 <= modes <= keep; got modes {} and keep {}",
-                        s.modes, s.keep
-                    ),
-                ));
-            }
+        if let Some(s) = &p.second_level
+            && (s.modes == 0 || s.keep < s.modes)
+        {
+            v.push(ParamIssue::at(
+                "second_level",
+                format!(
+                    "need 1 <= modes <= keep; got modes {} and keep {}",
+                    s.modes, s.keep
+                ),
+            ));
         }
         v
     }

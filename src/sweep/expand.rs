@@ -378,15 +378,15 @@ fn range_values(
         }
     };
     let step = map.get("step");
-    if let Some(s) = step {
-        if !s.is_number() {
-            let mut sp = at.to_vec();
-            sp.push("step");
-            return Err(sweep
-                .at_value(&sp, "`step` must be a number")
-                .field(format!("{}.step", at.join(".")))
-                .help(help));
-        }
+    if let Some(s) = step
+        && !s.is_number()
+    {
+        let mut sp = at.to_vec();
+        sp.push("step");
+        return Err(sweep
+            .at_value(&sp, "`step` must be a number")
+            .field(format!("{}.step", at.join(".")))
+            .help(help));
     }
     let ints = bounds.iter().chain(step).all(|v| v.is_i64());
     let values = if ints {

@@ -63,16 +63,16 @@ pub fn run_point(
         message: None,
         stages: BTreeMap::new(),
     };
-    if let Some(want) = expect_plan {
-        if want != planned.plan_hash {
-            status.state = PointState::Failed;
-            status.message = Some(
+    if let Some(want) = expect_plan
+        && want != planned.plan_hash
+    {
+        status.state = PointState::Failed;
+        status.message = Some(
                 "the sweep file or its pipeline changed after the sweep started; run `femu sweep` again"
                     .into(),
             );
-            state.write_status(&status)?;
-            return Ok(status);
-        }
+        state.write_status(&status)?;
+        return Ok(status);
     }
     state.write_status(&status)?;
     let opts = RunOptions {
@@ -368,7 +368,7 @@ impl WorkerProgress {
                 b.inc(1)
             }
             // Plain lines at every tenth of the way, for logs.
-            None if self.show && finished % self.step == 0 => {
+            None if self.show && finished.is_multiple_of(self.step) => {
                 let elapsed = self.t0.elapsed().as_secs_f64();
                 let left = elapsed / finished as f64 * (self.total - finished) as f64;
                 eprintln!(
@@ -446,10 +446,11 @@ fn finish_worker(
     p: &super::PlannedPoint,
     code: std::process::ExitStatus,
 ) -> Result<PointStatus, SweepError> {
-    if let Some(s) = state.status(&p.point.name) {
-        if s.state != PointState::Running && s.plan_hash == p.plan_hash {
-            return Ok(s);
-        }
+    if let Some(s) = state.status(&p.point.name)
+        && s.state != PointState::Running
+        && s.plan_hash == p.plan_hash
+    {
+        return Ok(s);
     }
     let log = std::fs::read_to_string(state.log_path(&p.point.name)).unwrap_or_default();
     let tail: Vec<&str> = log.lines().rev().take(5).collect();

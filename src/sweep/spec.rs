@@ -370,9 +370,9 @@ fn too_large(file: &str, limit: u64) -> Diagnostics {
 }
 
 fn show_bytes(n: u64) -> String {
-    if n >= 1 << 20 && n % (1 << 20) == 0 {
+    if n >= 1 << 20 && n.is_multiple_of(1 << 20) {
         format!("{} MiB", n >> 20)
-    } else if n >= 1 << 10 && n % (1 << 10) == 0 {
+    } else if n >= 1 << 10 && n.is_multiple_of(1 << 10) {
         format!("{} KiB", n >> 10)
     } else {
         format!("{n} bytes")
@@ -527,28 +527,26 @@ fn check_slurm(s: &SourcedSweep) -> Vec<Diagnostic> {
     let mut out = Vec::new();
     let sl = &s.spec.slurm;
     let field = |name: &str| format!("slurm.{name}");
-    if let Some(t) = &sl.time {
-        if !valid_time(t) {
-            out.push(
+    if let Some(t) = &sl.time
+        && !valid_time(t)
+    {
+        out.push(
                 s.at_value(&["slurm", "time"], format!("{t:?} is not a Slurm time limit"))
                     .field(field("time"))
                     .help("write minutes `MM`, `MM:SS`, `HH:MM:SS`, `D-HH`, `D-HH:MM` or `D-HH:MM:SS`, e.g. `00:30:00`"),
             );
-        }
     }
-    if let Some(m) = &sl.mem {
-        if !valid_mem(m) {
-            out.push(
-                s.at_value(
-                    &["slurm", "mem"],
-                    format!("{m:?} is not a Slurm memory size"),
-                )
-                .field(field("mem"))
-                .help(
-                    "write a whole number with an optional unit K, M, G or T, e.g. `2G` or `500M`",
-                ),
-            );
-        }
+    if let Some(m) = &sl.mem
+        && !valid_mem(m)
+    {
+        out.push(
+            s.at_value(
+                &["slurm", "mem"],
+                format!("{m:?} is not a Slurm memory size"),
+            )
+            .field(field("mem"))
+            .help("write a whole number with an optional unit K, M, G or T, e.g. `2G` or `500M`"),
+        );
     }
     for (name, v) in [
         ("cpus_per_task", sl.cpus_per_task),
@@ -568,9 +566,10 @@ fn check_slurm(s: &SourcedSweep) -> Vec<Diagnostic> {
         ("partition", &sl.partition, true),
         ("account", &sl.account, false),
     ] {
-        if let Some(v) = v {
-            if !valid_slurm_word(v, list) {
-                out.push(
+        if let Some(v) = v
+            && !valid_slurm_word(v, list)
+        {
+            out.push(
                     s.at_value(&["slurm", name], format!("{v:?} is not a usable Slurm {name}"))
                         .field(field(name))
                         .help(if list {
@@ -579,17 +578,16 @@ fn check_slurm(s: &SourcedSweep) -> Vec<Diagnostic> {
                             "give an account name of ASCII letters, digits, `.`, `_` and `-`, e.g. `proj-42`"
                         }),
                 );
-            }
         }
     }
-    if let Some(v) = &sl.femu {
-        if !valid_executable(v) {
-            out.push(
+    if let Some(v) = &sl.femu
+        && !valid_executable(v)
+    {
+        out.push(
                 s.at_value(&["slurm", "femu"], format!("{v:?} is not a usable path of the femu executable"))
                     .field(field("femu"))
                     .help("give the path of femu on the compute nodes: not empty, without line breaks or other control characters"),
             );
-        }
     }
     for (i, e) in sl.extra.iter().enumerate() {
         let idx = i.to_string();
@@ -634,10 +632,10 @@ pub fn valid_time(t: &str) -> bool {
         Some((d, r)) => (Some(d), r),
         None => (None, t),
     };
-    if let Some(d) = days {
-        if !num(d) {
-            return false;
-        }
+    if let Some(d) = days
+        && !num(d)
+    {
+        return false;
     }
     let parts: Vec<&str> = rest.split(':').collect();
     if !parts.iter().all(|p| num(p)) {

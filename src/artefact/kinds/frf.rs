@@ -194,10 +194,10 @@ mod tests {
         };
         let a = frf_to_artefact(&set);
         let mut broken = a.clone();
-        if let Some((t, _)) = broken.tables.get_mut("frf") {
-            if let Column::F64(f) = &mut t.columns[0].1 {
-                f[4] = 2.5;
-            }
+        if let Some((t, _)) = broken.tables.get_mut("frf")
+            && let Column::F64(f) = &mut t.columns[0].1
+        {
+            f[4] = 2.5;
         }
         let e = frf_from_artefact(&broken).unwrap_err().to_string();
         assert!(e.contains("2:uz/1:ux"), "{e}");

@@ -208,15 +208,15 @@ fn quantity_of(
                     t.file
                 )
             })?;
-            if let Some(q) = named {
-                if q != uq {
-                    return Err(format!(
-                        "{}: quantity `{}` but unit `{u}` is a {} unit",
-                        t.file,
-                        q.name(),
-                        uq.name()
-                    ));
-                }
+            if let Some(q) = named
+                && q != uq
+            {
+                return Err(format!(
+                    "{}: quantity `{}` but unit `{u}` is a {} unit",
+                    t.file,
+                    q.name(),
+                    uq.name()
+                ));
             }
             if factor != 1.0 {
                 notes.push(format!(

@@ -255,10 +255,10 @@ impl<'a> Writer<'a> {
                         w.used_properties.insert(id);
                     }
                 }
-            } else if is_element(name) {
-                if let Some(id) = card_id(c, 1) {
-                    w.elements.insert(id, i);
-                }
+            } else if is_element(name)
+                && let Some(id) = card_id(c, 1)
+            {
+                w.elements.insert(id, i);
             }
         }
         w
@@ -566,10 +566,9 @@ fn materials(
         };
         if let (Some(mid), Some(mid0)) =
             (element_material(updated, e), element_material(original, e0))
+            && !original.materials.contains_key(&mid)
         {
-            if !original.materials.contains_key(&mid) {
-                source_of.insert(mid, mid0);
-            }
+            source_of.insert(mid, mid0);
         }
     }
     let mut ids = BTreeMap::new();
@@ -644,10 +643,9 @@ fn anisotropic_materials(
         };
         if let (Some(mid), Some(mid0)) =
             (element_material(updated, e), element_material(original, e0))
+            && !original.anisotropic_materials.contains_key(&mid)
         {
-            if !original.anisotropic_materials.contains_key(&mid) {
-                source_of.insert(mid, mid0);
-            }
+            source_of.insert(mid, mid0);
         }
     }
     let mut ids = BTreeMap::new();
@@ -717,10 +715,9 @@ fn properties(
         if let (Some(pid), Some(pid0)) = (
             e.property(),
             original.elements.get(eid).and_then(Element::property),
-        ) {
-            if pid != pid0 {
-                source_of.insert(pid, pid0);
-            }
+        ) && pid != pid0
+        {
+            source_of.insert(pid, pid0);
         }
     }
     let mid_text = |mid: u64| new_materials.get(&mid).copied().unwrap_or(mid).to_string();
@@ -946,11 +943,11 @@ fn elements(
             what: "element",
             id: *eid,
         })?;
-        if let (Some(p), Some(p0)) = (e.property(), e0.property()) {
-            if p != p0 {
-                let text = new_properties.get(&p).copied().unwrap_or(p).to_string();
-                w.set(i, 2, "PID", text);
-            }
+        if let (Some(p), Some(p0)) = (e.property(), e0.property())
+            && p != p0
+        {
+            let text = new_properties.get(&p).copied().unwrap_or(p).to_string();
+            w.set(i, 2, "PID", text);
         }
         match (e, e0) {
             (

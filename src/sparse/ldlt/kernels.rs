@@ -726,14 +726,26 @@ mod tests {
                 let close = |a: c64, b: c64, tol: f64| (a - b).norm() < tol;
                 for i in 0..n {
                     assert_eq!(plain.add[i], fast.add[i], "{level:?} add {n} {i}");
-                    assert!(close(plain.sub[i], fast.sub[i], 1e-15), "{level:?} sub {n} {i}");
-                    assert!(close(plain.sub4[i], fast.sub4[i], 4e-15), "{level:?} sub4 {n}");
-                    assert!(close(plain.product[i], fast.product[i], 4e-15), "{level:?} {n}");
+                    assert!(
+                        close(plain.sub[i], fast.sub[i], 1e-15),
+                        "{level:?} sub {n} {i}"
+                    );
+                    assert!(
+                        close(plain.sub4[i], fast.sub4[i], 4e-15),
+                        "{level:?} sub4 {n}"
+                    );
+                    assert!(
+                        close(plain.product[i], fast.product[i], 4e-15),
+                        "{level:?} {n}"
+                    );
                 }
                 let tol = 1e-14 * (1.0 + n as f64);
                 assert!(close(plain.dot, fast.dot, tol), "{level:?} dot {n}");
                 for k in 0..4 {
-                    assert!(close(plain.dot4[k], fast.dot4[k], tol), "{level:?} dot4 {n}");
+                    assert!(
+                        close(plain.dot4[k], fast.dot4[k], tol),
+                        "{level:?} dot4 {n}"
+                    );
                 }
             }
             if n > 0 {

@@ -86,8 +86,8 @@ pub(super) fn parse_record_6(at: &At<'_>, raw: &[u8]) -> Result<DofRecord, UffEr
         Err(e) => {
             let toks: Vec<&str> = t.split_whitespace().collect();
             let num = |i: usize| toks.get(i).and_then(|s| s.parse::<i64>().ok());
-            if toks.len() == 10 {
-                if let (Some(a), Some(b), Some(_), Some(c), Some(d), Some(e2), Some(f), Some(g)) = (
+            if toks.len() == 10
+                && let (Some(a), Some(b), Some(_), Some(c), Some(d), Some(e2), Some(f), Some(g)) = (
                     num(0),
                     num(1),
                     num(2),
@@ -96,17 +96,17 @@ pub(super) fn parse_record_6(at: &At<'_>, raw: &[u8]) -> Result<DofRecord, UffEr
                     num(6),
                     num(8),
                     num(9),
-                ) {
-                    return Ok(DofRecord {
-                        function_type: a,
-                        function_id: b,
-                        load_case: c,
-                        response_node: d,
-                        response_direction: e2,
-                        reference_node: f,
-                        reference_direction: g,
-                    });
-                }
+                )
+            {
+                return Ok(DofRecord {
+                    function_type: a,
+                    function_id: b,
+                    load_case: c,
+                    response_node: d,
+                    response_direction: e2,
+                    reference_node: f,
+                    reference_direction: g,
+                });
             }
             Err(e)
         }

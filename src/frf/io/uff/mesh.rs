@@ -37,13 +37,13 @@ pub(super) fn add_node(
 }
 
 pub(super) fn note_node_conversion(ctx: &Ctx<'_>, out: &mut UffFile, b: &Block<'_>, count: usize) {
-    if let Some((f, source)) = length_conversion(ctx) {
-        if count > 0 {
-            out.conversions.push(format!(
-                "{}:{}: dataset {} coordinates of {count} nodes converted to m from {source}: ×{f:e}",
-                ctx.file, b.header_line, b.number
-            ));
-        }
+    if let Some((f, source)) = length_conversion(ctx)
+        && count > 0
+    {
+        out.conversions.push(format!(
+            "{}:{}: dataset {} coordinates of {count} nodes converted to m from {source}: ×{f:e}",
+            ctx.file, b.header_line, b.number
+        ));
     }
 }
 

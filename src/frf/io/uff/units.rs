@@ -394,32 +394,32 @@ impl Ordinate<'_> {
                     ),
                 ));
             }
-            if let Some(f) = f {
-                if f.moment != rot_reference {
-                    return Err(at9.err(
-                        "field 6 (units label)",
-                        &num.unit,
-                        format!(
-                            "a label over a {}, as the reference direction is a {}",
-                            force(rot_reference),
-                            sense(rot_reference)
-                        ),
-                    ));
-                }
-            }
-        }
-        if let Some(f) = den_label {
-            if f.moment != rot_reference {
-                return Err(at10.err(
+            if let Some(f) = f
+                && f.moment != rot_reference
+            {
+                return Err(at9.err(
                     "field 6 (units label)",
-                    &den.unit,
+                    &num.unit,
                     format!(
-                        "a {} unit, as the reference direction is a {}",
+                        "a label over a {}, as the reference direction is a {}",
                         force(rot_reference),
                         sense(rot_reference)
                     ),
                 ));
             }
+        }
+        if let Some(f) = den_label
+            && f.moment != rot_reference
+        {
+            return Err(at10.err(
+                "field 6 (units label)",
+                &den.unit,
+                format!(
+                    "a {} unit, as the reference direction is a {}",
+                    force(rot_reference),
+                    sense(rot_reference)
+                ),
+            ));
         }
         Ok(())
     }

@@ -21,15 +21,15 @@ impl Builder {
             return Err(duplicate(c, 1, "SID", "EIGRL", sid, first));
         }
         let (v1, v2) = (c.real(2, "V1")?, c.real(3, "V2")?);
-        if let (Some(a), Some(b)) = (v1, v2) {
-            if a >= b {
-                return Err(c.err(
-                    3,
-                    "V2",
-                    format!("V2 = {b} is not above V1 = {a}"),
-                    "a frequency range V1 < V2 in Hz, or blank",
-                ));
-            }
+        if let (Some(a), Some(b)) = (v1, v2)
+            && a >= b
+        {
+            return Err(c.err(
+                3,
+                "V2",
+                format!("V2 = {b} is not above V1 = {a}"),
+                "a frequency range V1 < V2 in Hz, or blank",
+            ));
         }
         if let Some(b) = v2.filter(|b| *b <= 0.0) {
             return Err(c.err(

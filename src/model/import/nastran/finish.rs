@@ -118,10 +118,10 @@ impl Builder {
                     "0 or blank (basic) or the id of a CORD1R/C/S or CORD2R/C/S card",
                 ));
             }
-            if let (_, Some(dirs)) = self.grid_directions(geo, id) {
-                if dirs != IDENTITY {
-                    model.displacement_systems.insert(id, dirs);
-                }
+            if let (_, Some(dirs)) = self.grid_directions(geo, id)
+                && dirs != IDENTITY
+            {
+                model.displacement_systems.insert(id, dirs);
             }
             for &comp in self.grid_ps(g) {
                 ps.push((g.loc.clone(), None, DofId::new(id, comp)));

@@ -197,15 +197,15 @@ impl Builder {
                 ));
             }
         };
-        if let Some(b) = b {
-            if b.dof == a.dof {
-                return Err(c.err(
-                    b.field,
-                    if scalar_only { "S2" } else { "G2" },
-                    format!("both ends are DOF {}", a.dof),
-                    "two different DOFs, or one and blank for ground",
-                ));
-            }
+        if let Some(b) = b
+            && b.dof == a.dof
+        {
+            return Err(c.err(
+                b.field,
+                if scalar_only { "S2" } else { "G2" },
+                format!("both ends are DOF {}", a.dof),
+                "two different DOFs, or one and blank for ground",
+            ));
         }
         if kind == ScalarKind::Spring && form == 2 {
             if c.real_or(7, "GE", 0.0)? != 0.0 {

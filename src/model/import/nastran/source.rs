@@ -145,19 +145,17 @@ impl Loader {
     ) -> Result<bool, NastranError> {
         let raw: Vec<&str> = text.lines().collect();
         let mut i = 0;
-        if top {
-            if let Some(begin) = raw.iter().position(|l| is_begin_bulk(l)) {
-                self.case_control = case_control_spcs(&raw[..begin], &file);
-                self.case_control_mpc = case_control_selections(&raw[..begin], &file, "MPC");
-                let mut method = case_control_selections(&raw[..begin], &file, "METHOD");
-                method.extend(case_control_selections(&raw[..begin], &file, "METH"));
-                method.sort_by_key(|(loc, _)| loc.line);
-                self.case_control_method = method;
-                self.has_case_control = raw[..begin]
-                    .iter()
-                    .any(|l| starts_with_ci(strip_comment(l).trim(), "CEND"));
-                i = begin + 1;
-            }
+        if top && let Some(begin) = raw.iter().position(|l| is_begin_bulk(l)) {
+            self.case_control = case_control_spcs(&raw[..begin], &file);
+            self.case_control_mpc = case_control_selections(&raw[..begin], &file, "MPC");
+            let mut method = case_control_selections(&raw[..begin], &file, "METHOD");
+            method.extend(case_control_selections(&raw[..begin], &file, "METH"));
+            method.sort_by_key(|(loc, _)| loc.line);
+            self.case_control_method = method;
+            self.has_case_control = raw[..begin]
+                .iter()
+                .any(|l| starts_with_ci(strip_comment(l).trim(), "CEND"));
+            i = begin + 1;
         }
         while i < raw.len() {
             let line_no = i + 1;
@@ -401,10 +399,10 @@ fn part_sections(rest: &[&str], first: usize) -> String {
         }
         if starts_with_ci(text, "BEGIN") {
             sections.push((text.to_string(), first + k, 0));
-        } else if !text.is_empty() {
-            if let Some(s) = sections.last_mut() {
-                s.2 += 1;
-            }
+        } else if !text.is_empty()
+            && let Some(s) = sections.last_mut()
+        {
+            s.2 += 1;
         }
     }
     let listed: Vec<String> = sections
