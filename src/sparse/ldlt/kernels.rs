@@ -7,8 +7,10 @@
 //! complex numbers to a register), the real ones the plain loops, which the compiler vectorises
 //! for the set. [`Isa::detected`] picks the best the machine runs, once per process.
 //!
-//! A kernel's operation order is fixed per instruction set, so a result is the same on every
-//! machine that runs the same set; the sets differ from each other in the last bits.
+//! The AVX2 and AVX-512 kernels do the same operations on each entry in the same order (the
+//! AVX2 kernels' last odd entry in half a register, the AVX-512 dot products by the AVX2
+//! kernel), so a result is the same to the bit on every machine with AVX2 and FMA, whichever
+//! of the two it runs; the plain loops differ from them in the last bits.
 
 use super::SymbolicLdlt;
 use super::{LdltScalar, unblocked_ldlt};
@@ -341,9 +343,15 @@ pub mod avx2 {
                     let y = _mm256_loadu_pd(tp.add(4 * p));
                     _mm256_storeu_pd(tp.add(4 * p), _mm256_sub_pd(y, product));
                 }
-            }
-            if n % 2 == 1 {
-                t[n - 1] -= v[n - 1] * l;
+                if n % 2 == 1 {
+                    // The last entry by the same operations in half a register.
+                    let at = 2 * (n - 1);
+                    let x = _mm_loadu_pd(vp.add(at));
+                    let swapped = _mm_permute_pd::<0b01>(x);
+                    let im = _mm_mul_pd(swapped, _mm_set1_pd(l.im));
+                    let product = _mm_fmaddsub_pd(x, _mm_set1_pd(l.re), im);
+                    _mm_storeu_pd(tp.add(at), _mm_sub_pd(_mm_loadu_pd(tp.add(at)), product));
+                }
             }
         }
 
@@ -368,10 +376,21 @@ pub mod avx2 {
                     let product = _mm256_addsub_pd(same, crossed);
                     _mm256_storeu_pd(tp.add(4 * p), _mm256_sub_pd(y, product));
                 }
-            }
-            if n % 2 == 1 {
-                let i = n - 1;
-                t[i] -= (v[0][i] * l[0] + v[1][i] * l[1]) + (v[2][i] * l[2] + v[3][i] * l[3]);
+                if n % 2 == 1 {
+                    // The last entry by the same operations in half a register.
+                    let at = 2 * (n - 1);
+                    let x = _mm_loadu_pd(vp[0].add(at));
+                    let mut same = _mm_mul_pd(x, _mm_set1_pd(l[0].re));
+                    let mut crossed = _mm_mul_pd(_mm_permute_pd::<0b01>(x), _mm_set1_pd(l[0].im));
+                    for k in 1..4 {
+                        let x = _mm_loadu_pd(vp[k].add(at));
+                        same = _mm_fmadd_pd(x, _mm_set1_pd(l[k].re), same);
+                        let swapped = _mm_permute_pd::<0b01>(x);
+                        crossed = _mm_fmadd_pd(swapped, _mm_set1_pd(l[k].im), crossed);
+                    }
+                    let y = _mm_loadu_pd(tp.add(at));
+                    _mm_storeu_pd(tp.add(at), _mm_sub_pd(y, _mm_addsub_pd(same, crossed)));
+                }
             }
         }
 
@@ -398,34 +417,48 @@ pub mod avx2 {
                     let product = _mm256_addsub_pd(same, crossed);
                     _mm256_storeu_pd(tp.add(4 * p), _mm256_sub_pd(y, product));
                 }
-            }
-            if n % 2 == 1 {
-                let i = n - 1;
-                let sum: c64 = l.iter().enumerate().map(|(k, &l)| v[k * ld + i] * l).sum();
-                t[i] -= sum;
+                if n % 2 == 1 {
+                    // The last entry by the same operations in half a register.
+                    let at = 2 * (n - 1);
+                    let (mut same, mut crossed) = (_mm_setzero_pd(), _mm_setzero_pd());
+                    for k in 0..l.len() {
+                        let x = _mm_loadu_pd(vp.add(2 * k * ld + at));
+                        same = _mm_fmadd_pd(x, _mm_set1_pd(*lp.add(2 * k)), same);
+                        let swapped = _mm_permute_pd::<0b01>(x);
+                        crossed = _mm_fmadd_pd(swapped, _mm_set1_pd(*lp.add(2 * k + 1)), crossed);
+                    }
+                    let y = _mm_loadu_pd(tp.add(at));
+                    _mm_storeu_pd(tp.add(at), _mm_sub_pd(y, _mm_addsub_pd(same, crossed)));
+                }
             }
         }
 
         #[inline(always)]
         fn dot(&self, a: &[c64], b: &[c64]) -> c64 {
-            let [sum] = dots([a], b);
+            // SAFETY: the token proves AVX2 and FMA.
+            let [sum] = unsafe { dots([a], b) };
             sum
         }
 
         #[inline(always)]
         fn dot4(&self, a: [&[c64]; 4], b: &[c64]) -> [c64; 4] {
-            dots(a, b)
+            // SAFETY: as in `dot`.
+            unsafe { dots(a, b) }
         }
     }
 
     /// `Σ a_kᵢ bᵢ` for each `a_k`: `(aʳbʳ, aⁱbⁱ)` and `(aʳbⁱ, aⁱbʳ)` summed in two registers
-    /// per sum, combined at the end.
+    /// per sum, combined at the end. The AVX-512 kernels take their dot products from here
+    /// too, so both sets give the same bits.
+    ///
+    /// # Safety
+    /// AVX2 and FMA (inlined into a function that enables them).
     #[inline(always)]
-    fn dots<const K: usize>(a: [&[c64]; K], b: &[c64]) -> [c64; K] {
+    pub(super) unsafe fn dots<const K: usize>(a: [&[c64]; K], b: &[c64]) -> [c64; K] {
         let n = a.iter().fold(b.len(), |n, a| n.min(a.len()));
         let (ap, bp) = (a.map(doubles), doubles(b));
         let mut sums = [c64::ZERO; K];
-        // SAFETY: the caller's token proves AVX2 and FMA; complex entries `2p` and `2p + 1`
+        // SAFETY: the caller guarantees AVX2 and FMA; complex entries `2p` and `2p + 1`
         // of every slice are the four doubles at `4p`, inside their first `n` entries.
         unsafe {
             let mut same = [_mm256_setzero_pd(); K];
@@ -582,49 +615,20 @@ pub mod avx512 {
             }
         }
 
+        /// By the AVX2 kernel: a dot product is read-bound, and the same summation order on
+        /// both sets keeps their results equal to the bit.
         #[inline(always)]
         fn dot(&self, a: &[c64], b: &[c64]) -> c64 {
-            let [sum] = dots([a], b);
+            // SAFETY: the token proves AVX-512F, whose machines have AVX2 and FMA.
+            let [sum] = unsafe { super::avx2::dots([a], b) };
             sum
         }
 
         #[inline(always)]
         fn dot4(&self, a: [&[c64]; 4], b: &[c64]) -> [c64; 4] {
-            dots(a, b)
+            // SAFETY: as in `dot`.
+            unsafe { super::avx2::dots(a, b) }
         }
-    }
-
-    /// `Σ a_kᵢ bᵢ` for each `a_k`, as [`avx2`](super::avx2)'s in wider registers.
-    #[inline(always)]
-    fn dots<const K: usize>(a: [&[c64]; K], b: &[c64]) -> [c64; K] {
-        let n = a.iter().fold(b.len(), |n, a| n.min(a.len()));
-        let (ap, bp) = (a.map(doubles), doubles(b));
-        let mut sums = [c64::ZERO; K];
-        // SAFETY: the caller's token proves AVX-512F; a step's doubles under its mask are
-        // inside every slice's first `n` entries.
-        unsafe {
-            let mut same = [_mm512_setzero_pd(); K];
-            let mut crossed = [_mm512_setzero_pd(); K];
-            for p in steps(n) {
-                let (at, mask) = step(p, n);
-                let y = _mm512_maskz_loadu_pd(mask, bp.add(at));
-                let swapped = swap(y);
-                for k in 0..K {
-                    let x = _mm512_maskz_loadu_pd(mask, ap[k].add(at));
-                    same[k] = _mm512_fmadd_pd(x, y, same[k]);
-                    crossed[k] = _mm512_fmadd_pd(x, swapped, crossed[k]);
-                }
-            }
-            for k in 0..K {
-                let (mut s, mut c) = ([0.0; 8], [0.0; 8]);
-                _mm512_storeu_pd(s.as_mut_ptr(), same[k]);
-                _mm512_storeu_pd(c.as_mut_ptr(), crossed[k]);
-                let re = ((s[0] - s[1]) + (s[2] - s[3])) + ((s[4] - s[5]) + (s[6] - s[7]));
-                let im = ((c[0] + c[1]) + (c[2] + c[3])) + ((c[4] + c[5]) + (c[6] + c[7]));
-                sums[k] = c64::new(re, im);
-            }
-        }
-        sums
     }
 }
 
@@ -713,6 +717,7 @@ mod tests {
                 t: (0..n).map(|i| entry(i, 1.7)).collect(),
             };
             let plain = results(&Plain, &o);
+            let mut vector: Vec<Results> = Vec::new();
             for level in [Level::Avx2, Level::Avx512] {
                 if isa.level() < level {
                     continue;
@@ -747,6 +752,15 @@ mod tests {
                         "{level:?} dot4 {n}"
                     );
                 }
+                vector.push(fast);
+            }
+            if let [avx2, avx512] = &vector[..] {
+                // The two sets agree to the bit.
+                assert_eq!(avx2.add, avx512.add, "{n}");
+                assert_eq!(avx2.sub, avx512.sub, "{n}");
+                assert_eq!(avx2.sub4, avx512.sub4, "{n}");
+                assert_eq!(avx2.product, avx512.product, "{n}");
+                assert_eq!((avx2.dot, avx2.dot4), (avx512.dot, avx512.dot4), "{n}");
             }
             if n > 0 {
                 // The kernels changed the target, by order one.
