@@ -37,8 +37,15 @@
     var step = Math.pow(10, Math.floor(Math.log10(span / 5)));
     var m = span / 5 / step;
     step *= m >= 5 ? 5 : m >= 2 ? 2 : 1;
+    // Ticks by an integer count: a span below the values' own rounding (a flat history) would
+    // never advance `t += step`.
+    var first = Math.ceil(lo / step), count = Math.floor(hi / step + 1e-9) - first + 1;
+    if (!(count >= 1 && count <= 50) || lo + step === lo) { return [lo, hi]; }
     var out = [];
-    for (var t = Math.ceil(lo / step) * step; t <= hi + step * 1e-9; t += step) { out.push(Math.abs(t) < step * 1e-9 ? 0 : t); }
+    for (var k = 0; k < count; k++) {
+      var t = (first + k) * step;
+      out.push(Math.abs(t) < step * 1e-9 ? 0 : t);
+    }
     return out;
   }
 
