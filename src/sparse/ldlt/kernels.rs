@@ -292,23 +292,24 @@ macro_rules! dispatch {
 }
 pub(super) use dispatch;
 
+/// Pointer to the doubles of a complex slice (`c64` is `#[repr(C)]` `{re, im}`).
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn doubles(v: &[faer::c64]) -> *const f64 {
+    v.as_ptr().cast()
+}
+
 /// The complex kernels in AVX2 and FMA: two complex numbers to a register. A product
 /// `x l` is `(xʳlʳ, xⁱlʳ)` and `(xⁱlⁱ, xʳlⁱ)` (the swapped `x` times `lⁱ`) combined by one
 /// `fmaddsub`; sums of products keep the two halves apart and combine them once.
 #[cfg(target_arch = "x86_64")]
 pub mod avx2 {
-    use super::Kernels;
+    use super::{Kernels, doubles};
     use faer::c64;
     use std::arch::x86_64::*;
 
     /// The AVX2 kernels' token: made only inside entry points compiled for AVX2 and FMA.
     pub struct Avx2(pub(super) ());
-
-    /// Pointer to the doubles of a complex slice.
-    #[inline(always)]
-    fn doubles(v: &[c64]) -> *const f64 {
-        v.as_ptr().cast()
-    }
 
     impl Kernels<c64> for Avx2 {
         #[inline(always)]
@@ -492,18 +493,12 @@ pub mod avx2 {
 /// [`avx2`]'s; a tail of one to three entries by masked loads and stores.
 #[cfg(target_arch = "x86_64")]
 pub mod avx512 {
-    use super::Kernels;
+    use super::{Kernels, doubles};
     use faer::c64;
     use std::arch::x86_64::*;
 
     /// The AVX-512 kernels' token: made only inside entry points compiled for AVX-512F.
     pub struct Avx512(pub(super) ());
-
-    /// Pointer to the doubles of a complex slice.
-    #[inline(always)]
-    fn doubles(v: &[c64]) -> *const f64 {
-        v.as_ptr().cast()
-    }
 
     /// The register-sized steps over `n` complex entries (the last one possibly partial).
     #[inline(always)]
