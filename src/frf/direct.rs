@@ -483,13 +483,13 @@ impl DynamicStiffness {
         value: impl Fn(usize) -> c64,
     ) -> (f64, Mat<c64>) {
         let n = self.n;
-        let mut residual = Mat::<c64>::from_fn(n, b.ncols(), |i, c| -b[(i, c)]);
+        let mut residual = Mat::<c64>::zeros(n, b.ncols());
         let mut row_sums = vec![0.0f64; n];
         let mut x_column = vec![c64::ZERO; n];
         let mut r_column = vec![c64::ZERO; n];
         let mut worst = 0.0f64;
-        let max_abs = |v: &mut dyn Iterator<Item = c64>| {
-            v.fold(0.0f64, |a, v| {
+        let max_abs = |v: &[c64]| {
+            v.iter().fold(0.0f64, |a, v| {
                 let m = v.norm();
                 if m.is_nan() { f64::INFINITY } else { a.max(m) }
             })
@@ -505,8 +505,8 @@ impl DynamicStiffness {
                 .for_each(|(t, v)| *t = *v);
             r_column
                 .iter_mut()
-                .zip(residual.col(col).iter())
-                .for_each(|(t, v)| *t = *v);
+                .zip(b.col(col).iter())
+                .for_each(|(t, v)| *t = -*v);
             let mut e = 0;
             for j in 0..n {
                 let xj = x_column[j];
@@ -539,8 +539,7 @@ impl DynamicStiffness {
                 .for_each(|(t, v)| *t = *v);
             let z_norm = row_sums.iter().fold(0.0f64, |a, &v| a.max(v));
             let b_norm = b.col(col).iter().fold(0.0f64, |a, v| a.max(v.norm()));
-            let error = max_abs(&mut r_column.iter().copied())
-                / (z_norm * max_abs(&mut x_column.iter().copied()) + b_norm);
+            let error = max_abs(&r_column) / (z_norm * max_abs(&x_column) + b_norm);
             // NaN (a non-finite solution) compares false: it is never accepted.
             worst = if error <= worst {
                 worst

@@ -39,12 +39,11 @@ impl Isa {
             use std::sync::OnceLock;
             static DETECTED: OnceLock<Level> = OnceLock::new();
             Isa(*DETECTED.get_or_init(|| {
-                let has = |f: &str| match f {
-                    "avx2" => std::arch::is_x86_feature_detected!("avx2"),
-                    "fma" => std::arch::is_x86_feature_detected!("fma"),
-                    _ => std::arch::is_x86_feature_detected!("avx512f"),
-                };
-                match (has("avx2") && has("fma"), has("avx512f")) {
+                // AVX2 and FMA as the Cholesky's thin kernels ask for them.
+                match (
+                    crate::sparse::thin::available(),
+                    std::arch::is_x86_feature_detected!("avx512f"),
+                ) {
                     (true, true) => Level::Avx512,
                     (true, false) => Level::Avx2,
                     _ => Level::Plain,

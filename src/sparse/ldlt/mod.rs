@@ -112,7 +112,6 @@ pub trait LdltScalar:
     + std::iter::Sum
     + Send
     + Sync
-    + 'static
 {
     /// `0`.
     const NIL: Self;
