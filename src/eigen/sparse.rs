@@ -35,10 +35,9 @@
 use super::dense::{EigenError, ModeSelection, Modes, dense_generalized, fix_sign, median_ratio};
 use crate::core::DofId;
 use crate::core::memory::parallel_zeros;
-use crate::core::sparse::{SparseMatrix, sparse_to_dense};
+use crate::core::sparse::SparseMatrix;
 use crate::sparse::{
-    FactorError, FactorInfo, SparseSolve, SpdFactor, SymmetricFactor, lower_combination,
-    sym_matvec, sym_matvec_pair,
+    FactorError, FactorInfo, LowerPencil, SparseSolve, SpdFactor, SymmetricFactor,
 };
 use faer::linalg::triangular_solve::solve_lower_triangular_in_place;
 use faer::{Mat, MatMut, MatRef, Par, Side};
@@ -109,18 +108,9 @@ pub struct SparseEigenInfo {
     pub third_passes: usize,
 }
 
-fn diag(a: &SparseMatrix, j: usize) -> f64 {
-    let rows = a.row_idx_of_col_raw(j);
-    rows.iter()
-        .zip(a.val_of_col(j))
-        .filter(|(i, _)| **i == j)
-        .map(|(_, v)| *v)
-        .sum()
-}
-
 /// The median of `K_jj / M_jj` over DOFs with mass: the scale of the model's eigenvalues.
-fn eigenvalue_scale(k: &SparseMatrix, m: &SparseMatrix) -> f64 {
-    median_ratio((0..k.ncols()).map(|j| (diag(k, j), diag(m, j))))
+fn eigenvalue_scale(pencil: &LowerPencil) -> f64 {
+    median_ratio((0..pencil.n()).map(|j| (pencil.k_diagonal(j), pencil.m_diagonal(j))))
 }
 
 /// The Cholesky factor of `K − σM` the modes were found with, kept for static solutions
@@ -150,14 +140,13 @@ pub const FEW_MASSIVE: usize = 1000;
 /// through the factor of `A = K − σM` (module doc), in the order and count `selection` asks.
 fn few_massive_modes(
     llt: &SpdFactor,
-    k: &SparseMatrix,
-    m: &SparseMatrix,
+    pencil: &LowerPencil,
     massive: &[usize],
     selection: ModeSelection,
     shift: f64,
     par: Par,
 ) -> Result<RefinedModes, EigenError> {
-    let n = k.nrows();
+    let n = pencil.n();
     let nm = massive.len();
     let solve = |mut x: Mat<f64>| {
         llt.solve_forward_in_place(x.as_mut(), par);
@@ -180,15 +169,19 @@ fn few_massive_modes(
             }
         }
     }
+    // M_mm from the lower triangle (a massive DOF's entries with a massless one are zero).
     let mut mm = Mat::<f64>::zeros(nm, nm);
     for (c, &j) in massive.iter().enumerate() {
-        for (&i, &v) in m.row_idx_of_col_raw(j).iter().zip(m.val_of_col(j)) {
-            if let Ok(r) = massive.binary_search(&i) {
+        let (rows, values) = pencil.m_lower_column(j);
+        for (&i, &v) in rows.iter().zip(values) {
+            if let Ok(r) = massive.binary_search(&(i as usize)) {
                 mm[(r, c)] += v;
+                if r != c {
+                    mm[(c, r)] += v;
+                }
             }
         }
     }
-    let mm = Mat::from_fn(nm, nm, |i, j| 0.5 * (mm[(i, j)] + mm[(j, i)]));
     let lm = mm
         .llt(Side::Lower)
         .map_err(|_| EigenError::IndefiniteMass)?;
@@ -225,11 +218,11 @@ fn few_massive_modes(
     }
     let shapes = solve(rhs);
     let (mut kphi, mut mphi) = (Mat::<f64>::zeros(n, keep), Mat::<f64>::zeros(n, keep));
-    sym_matvec_pair(k, m, shapes.as_ref(), kphi.as_mut(), mphi.as_mut(), par);
+    pencil.products(shapes.as_ref(), kphi.as_mut(), mphi.as_mut(), par);
     Ok((lambdas_all[..keep].to_vec(), shapes, kphi, mphi))
 }
 
-/// Lowest modes of `K φ = λ M φ`; `dofs` labels the rows.
+/// Lowest modes of `K φ = λ M φ` for `K` and `M` stored in full; `dofs` labels the rows.
 pub fn lowest_modes(
     k: &SparseMatrix,
     m: &SparseMatrix,
@@ -257,8 +250,28 @@ pub fn lowest_modes_keeping_factor(
             dofs: n,
         });
     }
+    let pencil = LowerPencil::from_full(k, m).map_err(|_| EigenError::FactorTooLarge { n })?;
+    pencil_modes(&pencil, dofs, selection, params)
+}
+
+/// [`lowest_modes_keeping_factor`] of a pencil held as lower triangles (what the `modes` stage
+/// reads from a matrices artefact: no full matrices are built).
+pub fn pencil_modes(
+    pencil: &LowerPencil,
+    dofs: &[DofId],
+    selection: ModeSelection,
+    params: &SparseEigenParams,
+) -> Result<(Modes, SparseEigenInfo, Option<ShiftedFactor>), EigenError> {
+    let n = dofs.len();
+    if pencil.n() != n {
+        return Err(EigenError::Shape {
+            k: pencil.n(),
+            m: pencil.n(),
+            dofs: n,
+        });
+    }
     for (j, dof) in dofs.iter().enumerate() {
-        let (kj, mj) = (diag(k, j), diag(m, j));
+        let (kj, mj) = (pencil.k_diagonal(j), pencil.m_diagonal(j));
         if !(mj >= 0.0) {
             return Err(EigenError::MasslessDof {
                 dof: *dof,
@@ -271,8 +284,8 @@ pub fn lowest_modes_keeping_factor(
     }
     if n <= params.dense_limit {
         let modes = dense_generalized(
-            sparse_to_dense(k).as_ref(),
-            sparse_to_dense(m).as_ref(),
+            pencil.k_dense().as_ref(),
+            pencil.m_dense().as_ref(),
             dofs,
             selection,
         )?;
@@ -285,7 +298,7 @@ pub fn lowest_modes_keeping_factor(
             None,
         ));
     }
-    let scale = eigenvalue_scale(k, m);
+    let scale = eigenvalue_scale(pencil);
     let shift = params.shift.unwrap_or(match selection {
         ModeSelection::BelowHz(f) => {
             -0.01 * (2.0 * std::f64::consts::PI * f).powi(2).max(1e-12 * scale)
@@ -298,7 +311,7 @@ pub fn lowest_modes_keeping_factor(
     };
     let t0 = Instant::now();
     // A = K − σM over the union pattern, lower triangle.
-    let a = lower_combination(1.0, k, -shift, m);
+    let a = pencil.lower_combination(1.0, -shift);
     let llt = SpdFactor::consuming(a, params.par).map_err(|e| match e {
         FactorError::NotPositiveDefinite => EigenError::NotPositiveDefinite { shift },
         FactorError::OutOfMemory => EigenError::FactorTooLarge { n },
@@ -318,15 +331,13 @@ pub fn lowest_modes_keeping_factor(
         0,
         0,
     );
-    let massive: Vec<usize> = (0..n)
-        .filter(|&j| m.val_of_col(j).iter().any(|v| *v != 0.0))
-        .collect();
+    let massive: Vec<usize> = (0..n).filter(|&j| pencil.has_mass(j)).collect();
     if massive.len() < n && massive.len() <= FEW_MASSIVE {
         let t = Instant::now();
         let (lambdas, vecs, kphi, mphi) =
-            few_massive_modes(&llt, k, m, &massive, selection, shift, params.par)?;
+            few_massive_modes(&llt, pencil, &massive, selection, shift, params.par)?;
         info.solves += massive.len() + lambdas.len();
-        let modes = finish(k, lambdas, vecs, kphi, mphi, shift, scale)?;
+        let modes = finish(pencil, lambdas, vecs, kphi, mphi, shift, scale)?;
         info.refinement_seconds = t.elapsed().as_secs_f64();
         let factor = ShiftedFactor { factor: llt, shift };
         return Ok((modes, info, Some(factor)));
@@ -335,7 +346,7 @@ pub fn lowest_modes_keeping_factor(
     let (mut lambdas, mut ritz_images, counted) = match selection {
         ModeSelection::All => return Err(EigenError::AllModesOfLargeModel { n }),
         ModeSelection::Count(c) => {
-            let (l, v) = lanczos(&llt, m, n, c.min(n / 2), shift, params, &mut info)?;
+            let (l, v) = lanczos(&llt, pencil, n, c.min(n / 2), shift, params, &mut info)?;
             (l, v, c.min(n / 2))
         }
         ModeSelection::BelowHz(f) => {
@@ -345,7 +356,7 @@ pub fn lowest_modes_keeping_factor(
                 None => 20.min(n),
             };
             loop {
-                let (l, v) = lanczos(&llt, m, n, count, shift, params, &mut info)?;
+                let (l, v) = lanczos(&llt, pencil, n, count, shift, params, &mut info)?;
                 if l.last().is_some_and(|x| *x > limit) || count >= n / 2 {
                     let keep = l.iter().take_while(|x| **x <= limit).count();
                     break (l, v, keep);
@@ -359,10 +370,10 @@ pub fn lowest_modes_keeping_factor(
     let (mut vecs, mut kphi, mut mphi) = (Mat::zeros(n, 0), Mat::zeros(n, 0), Mat::zeros(n, 0));
     let t = Instant::now();
     if counted > 0 {
-        (lambdas, vecs, kphi, mphi) = refine(&llt, k, m, ritz_images, params.par)?;
+        (lambdas, vecs, kphi, mphi) = refine(&llt, pencil, ritz_images, params.par)?;
         info.solves += counted;
     }
-    let modes = finish(k, lambdas, vecs, kphi, mphi, shift, scale)?;
+    let modes = finish(pencil, lambdas, vecs, kphi, mphi, shift, scale)?;
     info.refinement_seconds = t.elapsed().as_secs_f64();
     let factor = ShiftedFactor { factor: llt, shift };
     Ok((modes, info, Some(factor)))
@@ -379,8 +390,7 @@ type RefinedModes = (Vec<f64>, Mat<f64>, Mat<f64>, Mat<f64>);
 /// their share by `ν_high/ν_low`, so the residuals `‖Kφ − λMφ‖ / ‖Kφ‖` reach round-off level.
 fn refine(
     llt: &impl SymmetricFactor,
-    k: &SparseMatrix,
-    m: &SparseMatrix,
+    pencil: &LowerPencil,
     cy: Mat<f64>,
     par: Par,
 ) -> Result<RefinedModes, EigenError> {
@@ -388,7 +398,7 @@ fn refine(
     let mut x = cy;
     llt.solve_backward_in_place(x.as_mut(), par);
     let (mut kx, mut mx) = (parallel_zeros(n, c), parallel_zeros(n, c));
-    sym_matvec_pair(k, m, x.as_ref(), kx.as_mut(), mx.as_mut(), par);
+    pencil.products(x.as_ref(), kx.as_mut(), mx.as_mut(), par);
     let kr = x.transpose() * &kx;
     let mr = x.transpose() * &mx;
     let kr = Mat::from_fn(c, c, |i, j| 0.5 * (kr[(i, j)] + kr[(j, i)]));
@@ -422,7 +432,7 @@ fn refine(
 /// Rayleigh quotients, residuals, orthogonality and sign convention for computed pairs.
 /// `kphi`, `mphi` are `KΦ` and `MΦ`, handed on by [`refine`] so no sparse product is repeated.
 fn finish(
-    k: &SparseMatrix,
+    pencil: &LowerPencil,
     mut lambdas: Vec<f64>,
     mut shapes: Mat<f64>,
     mut kphi: Mat<f64>,
@@ -432,7 +442,9 @@ fn finish(
 ) -> Result<Modes, EigenError> {
     let (n, c) = (shapes.nrows(), shapes.ncols());
     let largest = lambdas.iter().fold(0.0f64, |s, l| s.max(l.abs()));
-    let k_norm = (0..n).map(|j| diag(k, j).abs()).fold(0.0f64, f64::max);
+    let k_norm = (0..n)
+        .map(|j| pencil.k_diagonal(j).abs())
+        .fold(0.0f64, f64::max);
     // Each mode on its own (in parallel over the modes, each sum in row order as on one
     // thread): `(λ, residual, rigid)`, or the first indefinite mode's error.
     let per_mode: Vec<Result<(f64, f64, bool), EigenError>> = shapes
@@ -716,7 +728,7 @@ fn cancellation(c: MatRef<'_, f64>, r: MatRef<'_, f64>) -> f64 {
 /// `A⁻¹ M`, `ν = 1/(λ − σ)`, with eigenvectors `y = Lᵀ Pᵀ φ`.
 fn apply_operator(
     llt: &impl SymmetricFactor,
-    m: &SparseMatrix,
+    pencil: &LowerPencil,
     mut x: Mat<f64>,
     par: Par,
     info: &mut SparseEigenInfo,
@@ -726,7 +738,7 @@ fn apply_operator(
     info.solve_seconds += t.elapsed().as_secs_f64();
     let t = Instant::now();
     let mut y = Mat::<f64>::zeros(x.nrows(), x.ncols());
-    sym_matvec(m, x.as_ref(), y.as_mut(), par);
+    pencil.mass_product(x.as_ref(), y.as_mut(), par);
     drop(x);
     info.mass_product_seconds += t.elapsed().as_secs_f64();
     let t = Instant::now();
@@ -748,14 +760,14 @@ type RitzPairs = (Vec<f64>, Mat<f64>, usize);
 /// starts from: `P L⁻ᵀ C Y = A⁻¹ M Φ` for the modes `Φ = P L⁻ᵀ Y`).
 fn lanczos(
     llt: &impl SymmetricFactor,
-    m: &SparseMatrix,
+    pencil: &LowerPencil,
     n: usize,
     nev: usize,
     shift: f64,
     params: &SparseEigenParams,
     info: &mut SparseEigenInfo,
 ) -> Result<(Vec<f64>, Mat<f64>), EigenError> {
-    let mut process = Lanczos::start(llt, m, n, nev, params, info)?;
+    let mut process = Lanczos::start(llt, pencil, n, nev, params, info)?;
     let mut kept = 0usize;
     for restart in 0..=params.max_restarts {
         info.restarts = restart;
@@ -797,7 +809,7 @@ fn lanczos(
 /// `E` selecting the last block).
 struct Lanczos<'a, F> {
     llt: &'a F,
-    m: &'a SparseMatrix,
+    pencil: &'a LowerPencil,
     params: &'a SparseEigenParams,
     b: usize,
     p: usize,
@@ -813,7 +825,7 @@ impl<'a, F: SymmetricFactor> Lanczos<'a, F> {
     /// Sizes the block and the basis for `nev` pairs and sets the first block.
     fn start(
         llt: &'a F,
-        m: &'a SparseMatrix,
+        pencil: &'a LowerPencil,
         n: usize,
         nev: usize,
         params: &'a SparseEigenParams,
@@ -829,7 +841,7 @@ impl<'a, F: SymmetricFactor> Lanczos<'a, F> {
         }
         let mut process = Lanczos {
             llt,
-            m,
+            pencil,
             params,
             b,
             p,
@@ -851,7 +863,7 @@ impl<'a, F: SymmetricFactor> Lanczos<'a, F> {
     fn random_block(&mut self, info: &mut SparseEigenInfo) -> Mat<f64> {
         let (n, b) = (self.v.nrows(), self.b);
         let x: Mat<f64> = Mat::from_fn(n, b, |_, _| self.rng.random::<f64>() - 0.5);
-        apply_operator(self.llt, self.m, x, self.params.par, info)
+        apply_operator(self.llt, self.pencil, x, self.params.par, info)
     }
 
     /// Fills the basis block by block from column `kept`. Past `nev + b` vectors the wanted
@@ -896,7 +908,7 @@ impl<'a, F: SymmetricFactor> Lanczos<'a, F> {
     ) -> Result<(), EigenError> {
         let b = self.b;
         let x = self.v.as_ref().subcols(s0, b).to_owned();
-        let mut w = apply_operator(self.llt, self.m, x, self.params.par, info);
+        let mut w = apply_operator(self.llt, self.pencil, x, self.params.par, info);
         let t = Instant::now();
         let upto = s0 + b;
         // In exact arithmetic the new block couples only to the current and the previous
@@ -1074,7 +1086,7 @@ fn combine_in_place(v: MatMut<'_, f64>, y: MatRef<'_, f64>) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::core::sparse::sparse_from_triplets;
+    use crate::core::sparse::{sparse_from_triplets, sparse_to_dense};
 
     /// A free-free chain of `n` masses: one rigid mode, `λ_r = (4k/m) sin²(rπ/(2n))`.
     fn free_chain(n: usize, k: f64, m: f64) -> (SparseMatrix, SparseMatrix, Vec<DofId>) {
@@ -1164,12 +1176,13 @@ mod tests {
         let (k, _, dofs) = free_chain(n, 1000.0, 1.0);
         let m = banded_mass(n, |j| 2.0 + (j % 3) as f64, 0.5);
         let shift = -10.0;
-        let a = lower_combination(1.0, &k, -shift, &m);
+        let a = crate::sparse::lower_combination(1.0, &k, -shift, &m);
         let llt = SpdFactor::new(&a, Par::rayon(0)).unwrap();
         let mut info = SparseEigenInfo::default();
+        let pencil = LowerPencil::from_full(&k, &m).unwrap();
         let c = apply_operator(
             &llt,
-            &m,
+            &pencil,
             Mat::<f64>::identity(n, n),
             Par::rayon(0),
             &mut info,

@@ -12,6 +12,9 @@
 //! - [`Lu`]: the LU factor of a general sparse matrix (faer's supernodal LU on a shared
 //!   [`SymbolicLu`]), the direct FRF's fallback where the `LDLᵀ` leaves a poor residual.
 //!
+//! - [`LowerPencil`]: `K` and `M` as lower triangles on one pattern, with the products `K X`,
+//!   `M X` the eigensolver needs (half the memory of two full matrices).
+//!
 //! Both solve through [`SparseSolve`], which takes the parallelism of every call explicitly
 //! (faer's [`Par`](faer::Par)): [`Par::Seq`](faer::Par::Seq) runs the call on the calling thread
 //! alone; `Par::Rayon(n)` shares it among the current rayon pool's threads, dense kernels split
@@ -25,6 +28,7 @@ mod lu;
 mod multifrontal;
 mod operator;
 mod ordering;
+mod pencil;
 mod product;
 mod thin;
 
@@ -33,4 +37,5 @@ pub use factor::{FactorError, FactorInfo, SOLVE_COLUMNS, SpdFactor};
 pub use ldlt::{LdltError, LdltScalar, LdltWorkspace, SymbolicLdlt};
 pub use lu::{Lu, SymbolicLu};
 pub use operator::{SparseSolve, SymmetricFactor};
+pub use pencil::{LowerPencil, PencilError};
 pub use product::{sym_matvec, sym_matvec_pair};

@@ -30,7 +30,11 @@ pub fn sym_matvec(a: &SparseMatrix, x: MatRef<'_, f64>, y: MatMut<'_, f64>, par:
         (x.nrows(), x.nrows(), x.nrows(), x.ncols()),
         "Y = A X needs a square A and X, Y of its rows and of equal width"
     );
-    in_passes(a, [a.val()], x, [y], par);
+    let source = FullRows {
+        pattern: a,
+        values: [a.val()],
+    };
+    in_passes(&source, x, [y], par);
 }
 
 /// `KX = K X` and `MX = M X`, in one pass over the pattern when `K` and `M` share it.
@@ -66,7 +70,129 @@ pub fn sym_matvec_pair(
         ),
         "K X, M X need square K, M and X, KX, MX of their rows and of equal width"
     );
-    in_passes(k, [k.val(), m.val()], x, [kx.as_mut(), mx.as_mut()], par);
+    let source = FullRows {
+        pattern: k,
+        values: [k.val(), m.val()],
+    };
+    in_passes(&source, x, [kx.as_mut(), mx.as_mut()], par);
+}
+
+/// A run of a row's entries: column indices and the `N` matrices' values, entry `t` of
+/// `len()`. A row is two runs, read one after the other.
+pub(super) trait Entries<const N: usize> {
+    /// Entries in the run.
+    fn len(&self) -> usize;
+    /// Column index of entry `t`.
+    fn index(&self, t: usize) -> usize;
+    /// Matrix `q`'s value of entry `t`.
+    fn value(&self, q: usize, t: usize) -> f64;
+}
+
+/// Entries stored contiguously: `indices[t]`, `values[q][t]`.
+pub(super) struct Contiguous<'a, I, const N: usize> {
+    pub indices: &'a [I],
+    pub values: [&'a [f64]; N],
+}
+
+impl<const N: usize> Entries<N> for Contiguous<'_, usize, N> {
+    #[inline(always)]
+    fn len(&self) -> usize {
+        self.indices.len()
+    }
+    #[inline(always)]
+    fn index(&self, t: usize) -> usize {
+        self.indices[t]
+    }
+    #[inline(always)]
+    fn value(&self, q: usize, t: usize) -> f64 {
+        self.values[q][t]
+    }
+}
+
+impl<const N: usize> Entries<N> for Contiguous<'_, u32, N> {
+    #[inline(always)]
+    fn len(&self) -> usize {
+        self.indices.len()
+    }
+    #[inline(always)]
+    fn index(&self, t: usize) -> usize {
+        self.indices[t] as usize
+    }
+    #[inline(always)]
+    fn value(&self, q: usize, t: usize) -> f64 {
+        self.values[q][t]
+    }
+}
+
+/// Entries whose values lie elsewhere: `indices[t]`, `values[q][positions[t]]`.
+pub(super) struct Gathered<'a, const N: usize> {
+    pub indices: &'a [u32],
+    pub positions: &'a [u32],
+    pub values: [&'a [f64]; N],
+}
+
+impl<const N: usize> Entries<N> for Gathered<'_, N> {
+    #[inline(always)]
+    fn len(&self) -> usize {
+        self.indices.len()
+    }
+    #[inline(always)]
+    fn index(&self, t: usize) -> usize {
+        self.indices[t] as usize
+    }
+    #[inline(always)]
+    fn value(&self, q: usize, t: usize) -> f64 {
+        self.values[q][self.positions[t] as usize]
+    }
+}
+
+/// The rows of `N` symmetric matrices on one pattern, as the products read them: row `j` as
+/// two runs of entries whose column indices ascend from the first run's start to the second
+/// run's end, with each matrix's values. (The order fixes the round-off: equal rows give
+/// equal bits whichever storage they come from.)
+pub(super) trait SymmetricRows<const N: usize>: Sync {
+    /// The first run's type.
+    type First<'s>: Entries<N>
+    where
+        Self: 's;
+    /// The second run's type.
+    type Second<'s>: Entries<N>
+    where
+        Self: 's;
+    /// Row `j`.
+    fn row(&self, j: usize) -> (Self::First<'_>, Self::Second<'_>);
+}
+
+/// Symmetric matrices stored in full on `pattern`: row `j` is column `j`, read in place (the
+/// second run is empty).
+struct FullRows<'a, const N: usize> {
+    pattern: &'a SparseMatrix,
+    values: [&'a [f64]; N],
+}
+
+impl<const N: usize> SymmetricRows<N> for FullRows<'_, N> {
+    type First<'s>
+        = Contiguous<'s, usize, N>
+    where
+        Self: 's;
+    type Second<'s>
+        = Contiguous<'s, usize, N>
+    where
+        Self: 's;
+
+    fn row(&self, j: usize) -> (Self::First<'_>, Self::Second<'_>) {
+        let indices = self.pattern.row_idx_of_col_raw(j);
+        let start = self.pattern.symbolic().col_ptr()[j];
+        let first = Contiguous {
+            indices,
+            values: self.values.map(|v| &v[start..start + indices.len()]),
+        };
+        let second = Contiguous {
+            indices: &[],
+            values: [&[][..]; N],
+        };
+        (first, second)
+    }
 }
 
 /// Whether `a` and `b` store the same entries.
@@ -82,9 +208,8 @@ fn same_pattern(a: &SparseMatrix, b: &SparseMatrix) -> bool {
 /// [`products`] over the columns of `x` (and alike of every `y`) in passes of equal width, at
 /// most [`PRODUCT_COLUMNS`] wide (50 columns: four passes of 13 and 12, not three of 16 and
 /// one of 2).
-fn in_passes<const N: usize>(
-    pattern: &SparseMatrix,
-    values: [&[f64]; N],
+pub(super) fn in_passes<const N: usize>(
+    source: &impl SymmetricRows<N>,
     x: MatRef<'_, f64>,
     mut ys: [MatMut<'_, f64>; N],
     par: Par,
@@ -98,15 +223,14 @@ fn in_passes<const N: usize>(
     for c0 in (0..b).step_by(width) {
         let w = width.min(b - c0);
         let parts = ys.each_mut().map(|y| y.as_mut().subcols_mut(c0, w));
-        products(pattern, values, x.subcols(c0, w), parts, par);
+        products(source, x.subcols(c0, w), parts, par);
     }
 }
 
 /// `Y_q = A_q X` for the matrices of `pattern`'s pattern with values `values[q]`, `X` at
 /// most [`PRODUCT_COLUMNS`] wide.
-fn products<const N: usize>(
-    pattern: &SparseMatrix,
-    values: [&[f64]; N],
+fn products<const N: usize, S: SymmetricRows<N>>(
+    source: &S,
     x: MatRef<'_, f64>,
     ys: [MatMut<'_, f64>; N],
     par: Par,
@@ -117,8 +241,7 @@ fn products<const N: usize>(
     let mut xt = vec![0.0; n * s];
     to_row_major(x, &mut xt, par);
     let ctx = RowProducts {
-        pattern,
-        values,
+        source,
         xt: &xt,
         s,
         fast,
@@ -128,9 +251,8 @@ fn products<const N: usize>(
 }
 
 /// What every block of output rows of [`products`] reads.
-struct RowProducts<'a, const N: usize> {
-    pattern: &'a SparseMatrix,
-    values: [&'a [f64]; N],
+struct RowProducts<'a, const N: usize, S> {
+    source: &'a S,
     /// `X` by rows of `s` values.
     xt: &'a [f64],
     s: usize,
@@ -140,7 +262,7 @@ struct RowProducts<'a, const N: usize> {
     parallel: bool,
 }
 
-impl<const N: usize> RowProducts<'_, N> {
+impl<const N: usize, S: SymmetricRows<N>> RowProducts<'_, N, S> {
     /// Rows `first..` of every `Y_q` (`ys`), halved among the threads down to blocks of
     /// [`MIN_ROWS_PER_TASK`]; each row is written straight into the column-major results, so
     /// no row-major result is held beside them.
@@ -162,27 +284,9 @@ impl<const N: usize> RowProducts<'_, N> {
         let mut ys = ys;
         let mut out = [0.0f64; 2 * PRODUCT_COLUMNS];
         let out = &mut out[..N * s];
-        let col_ptr = self.pattern.symbolic().col_ptr();
         for r in 0..rows {
-            let j = first + r;
-            let indices = self.pattern.row_idx_of_col_raw(j);
-            let range = col_ptr[j]..col_ptr[j] + indices.len();
-            let vals = self.values.map(|v| &v[range.clone()]);
-            if self.fast {
-                #[cfg(target_arch = "x86_64")]
-                // SAFETY: `fast` is `thin::available()`: the machine has AVX2 and FMA, which is
-                // all `fma::row` needs beyond its arguments' lengths (it reads and writes
-                // through bounds-checked slices of them). `s` is 4, 8, 12 or 16: `b` is 1 to
-                // PRODUCT_COLUMNS (`in_passes`), rounded up to a multiple of four; `out` is
-                // `N s` long; and every row index is below `n`, the rows of `xt`.
-                unsafe {
-                    fma::row(indices, vals, self.xt, out, s)
-                };
-            } else {
-                for (q, v) in vals.iter().enumerate() {
-                    portable_row(indices, v, self.xt, &mut out[q * s..(q + 1) * s]);
-                }
-            }
+            let (head, tail) = self.source.row(first + r);
+            self.row(&head, &tail, out);
             for (q, y) in ys.iter_mut().enumerate() {
                 for c in 0..y.ncols() {
                     y[(r, c)] = out[q * s + c];
@@ -190,48 +294,69 @@ impl<const N: usize> RowProducts<'_, N> {
             }
         }
     }
-}
 
-/// One output row, `out = Σ_t v_t x_{rows_t}` over the rows of `xt` (`out.len()` wide), in
-/// groups of eight columns in registers and the rest one by one.
-fn portable_row(rows: &[usize], vals: &[f64], xt: &[f64], out: &mut [f64]) {
-    let s = out.len();
-    let groups = s / 8;
-    for g in 0..groups {
-        let mut acc = [0.0f64; 8];
-        for (&i, &v) in rows.iter().zip(vals) {
-            let xi: &[f64; 8] = xt[i * s + 8 * g..i * s + 8 * g + 8]
-                .try_into()
-                .expect("a group is eight wide");
-            for c in 0..8 {
-                acc[c] += v * xi[c];
+    /// One output row of every product into `out` (`N s` values): the entries of `head`,
+    /// then of `tail`.
+    fn row(&self, head: &impl Entries<N>, tail: &impl Entries<N>, out: &mut [f64]) {
+        let s = self.s;
+        if self.fast {
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: `fast` is `thin::available()`: the machine has AVX2 and FMA, which is
+            // all `fma::row` needs beyond its arguments' lengths (it reads and writes through
+            // bounds-checked slices of them). `s` is 4, 8, 12 or 16: `b` is 1 to
+            // PRODUCT_COLUMNS (`in_passes`), rounded up to a multiple of four; `out` is `N s`
+            // long; and every row index is below `n`, the rows of `xt`.
+            unsafe {
+                fma::row(head, tail, self.xt, out, s)
+            };
+        } else {
+            for q in 0..N {
+                portable_row(head, tail, q, self.xt, &mut out[q * s..(q + 1) * s]);
             }
         }
-        out[8 * g..8 * g + 8].copy_from_slice(&acc);
     }
-    for c in 8 * groups..s {
-        out[c] = rows
-            .iter()
-            .zip(vals)
-            .map(|(&i, &v)| v * xt[i * s + c])
-            .sum();
+}
+
+/// One output row of matrix `q`, `out = Σ_t v_t x_{i_t}` over the entries of `head` then
+/// `tail` and the rows of `xt` (`out.len()` wide).
+fn portable_row<const N: usize>(
+    head: &impl Entries<N>,
+    tail: &impl Entries<N>,
+    q: usize,
+    xt: &[f64],
+    out: &mut [f64],
+) {
+    let s = out.len();
+    out.fill(0.0);
+    let mut add = |i: usize, v: f64| {
+        for (o, x) in out.iter_mut().zip(&xt[i * s..i * s + s]) {
+            *o += v * x;
+        }
+    };
+    for t in 0..head.len() {
+        add(head.index(t), head.value(q, t));
+    }
+    for t in 0..tail.len() {
+        add(tail.index(t), tail.value(q, t));
     }
 }
 
 #[cfg(target_arch = "x86_64")]
 mod fma {
+    use super::Entries;
     use std::arch::x86_64::*;
 
-    /// The output rows of the `N` products for one pattern row, side by side in `out`.
+    /// The output rows of the `N` products for one pattern row (the entries of `head`, then of
+    /// `tail`), side by side in `out`.
     ///
     /// # Safety
     /// The machine must have AVX2 and FMA. For the right result, `s ∈ {4, 8, 12, 16}`, `out`
-    /// holds `N s` values, `xt` rows of `s`, and every index of `rows` is a row of `xt`; the
-    /// accesses themselves are bounds-checked, so other lengths panic.
+    /// holds `N s` values, `xt` rows of `s`, and every index of the entries is a row of `xt`;
+    /// the accesses themselves are bounds-checked, so other lengths panic.
     #[target_feature(enable = "avx2,fma")]
     pub unsafe fn row<const N: usize>(
-        rows: &[usize],
-        vals: [&[f64]; N],
+        head: &impl Entries<N>,
+        tail: &impl Entries<N>,
         xt: &[f64],
         out: &mut [f64],
         s: usize,
@@ -240,23 +365,24 @@ mod fma {
         // and its caller guarantees.
         unsafe {
             match s {
-                4 => row_v::<1, N>(rows, vals, xt, out),
-                8 => row_v::<2, N>(rows, vals, xt, out),
-                12 => row_v::<3, N>(rows, vals, xt, out),
-                16 => row_v::<4, N>(rows, vals, xt, out),
+                4 => row_v::<1, N>(head, tail, xt, out),
+                8 => row_v::<2, N>(head, tail, xt, out),
+                12 => row_v::<3, N>(head, tail, xt, out),
+                16 => row_v::<4, N>(head, tail, xt, out),
                 _ => unreachable!("rows of 4, 8, 12 or 16 values"),
             }
         }
     }
 
-    /// [`row`] for rows of `4 V` values: even and odd entries summed apart, then added.
+    /// [`row`] for rows of `4 V` values: the row's even and odd entries (counted across both
+    /// runs) summed apart, then added.
     ///
     /// # Safety
     /// The machine must have AVX2 and FMA (inlined into [`row`], which enables them).
     #[inline(always)]
     unsafe fn row_v<const V: usize, const N: usize>(
-        rows: &[usize],
-        vals: [&[f64]; N],
+        head: &impl Entries<N>,
+        tail: &impl Entries<N>,
         xt: &[f64],
         out: &mut [f64],
     ) {
@@ -264,19 +390,12 @@ mod fma {
         debug_assert_eq!(out.len(), N * s);
         // SAFETY: AVX2, as the caller guarantees.
         let zero = unsafe { _mm256_setzero_pd() };
-        let (mut even, mut odd) = ([[zero; V]; N], [[zero; V]; N]);
-        let pairs = rows.len() / 2;
-        for p in 0..pairs {
-            // SAFETY: AVX2 and FMA, as the caller guarantees; `2 p + 1 < rows.len()`.
-            unsafe {
-                add_entry(&mut even, rows, vals, xt, 2 * p);
-                add_entry(&mut odd, rows, vals, xt, 2 * p + 1);
-            }
-        }
-        if rows.len() % 2 == 1 {
-            // SAFETY: AVX2 and FMA, as the caller guarantees; the last entry, alone.
-            unsafe { add_entry(&mut even, rows, vals, xt, rows.len() - 1) };
-        }
+        let mut sums = [[[zero; V]; N]; 2];
+        // SAFETY: AVX2 and FMA, as the caller guarantees.
+        let odd = unsafe { add_run(&mut sums, head, false, xt) };
+        // SAFETY: as above.
+        unsafe { add_run(&mut sums, tail, odd, xt) };
+        let [even, odd] = sums;
         for q in 0..N {
             let o: &mut [f64] = &mut out[q * s..(q + 1) * s];
             for c in 0..V {
@@ -292,28 +411,63 @@ mod fma {
         }
     }
 
-    /// `acc_q += vals_q[t] · xt[rows[t]]` for every product `q`.
+    /// Adds a run's entries into the even and odd sums, alternately, starting with the odd
+    /// sums when `odd`; returns whether the next entry is odd.
     ///
     /// # Safety
-    /// The machine must have AVX2 and FMA. `t`, `rows[t]` and the row's range of `xt` are
-    /// bounds-checked.
+    /// The machine must have AVX2 and FMA.
+    #[inline(always)]
+    unsafe fn add_run<const V: usize, const N: usize>(
+        sums: &mut [[[__m256d; V]; N]; 2],
+        run: &impl Entries<N>,
+        odd: bool,
+        xt: &[f64],
+    ) -> bool {
+        let len = run.len();
+        let mut t = 0;
+        let [even_sums, odd_sums] = sums;
+        if odd && len > 0 {
+            // SAFETY: AVX2 and FMA, as the caller guarantees; `t < len`.
+            unsafe { add_entry(odd_sums, run, xt, 0) };
+            t = 1;
+        }
+        while t + 1 < len {
+            // SAFETY: AVX2 and FMA, as the caller guarantees; `t + 1 < len`.
+            unsafe {
+                add_entry(even_sums, run, xt, t);
+                add_entry(odd_sums, run, xt, t + 1);
+            }
+            t += 2;
+        }
+        if t < len {
+            // SAFETY: AVX2 and FMA, as the caller guarantees; the run's last entry.
+            unsafe { add_entry(even_sums, run, xt, t) };
+            return true;
+        }
+        odd && len == 0
+    }
+
+    /// `acc_q += value_q(t) · xt[index(t)]` for every product `q`.
+    ///
+    /// # Safety
+    /// The machine must have AVX2 and FMA. `t`, the entry's index and the row's range of `xt`
+    /// are bounds-checked.
     #[inline(always)]
     unsafe fn add_entry<const V: usize, const N: usize>(
         acc: &mut [[__m256d; V]; N],
-        rows: &[usize],
-        vals: [&[f64]; N],
+        run: &impl Entries<N>,
         xt: &[f64],
         t: usize,
     ) {
         let s = 4 * V;
-        let i = rows[t];
+        let i = run.index(t);
         let xi = &xt[i * s..i * s + s];
-        for q in 0..N {
+        for (q, acc_q) in acc.iter_mut().enumerate() {
             // SAFETY: AVX2 and FMA, as the caller guarantees; `xi` is a bounds-checked slice of
             // `4 V` values, so the loads at `4 c` for `c < V` stay in it.
             unsafe {
-                let v = _mm256_set1_pd(vals[q][t]);
-                for (c, a) in acc[q].iter_mut().enumerate() {
+                let v = _mm256_set1_pd(run.value(q, t));
+                for (c, a) in acc_q.iter_mut().enumerate() {
                     *a = _mm256_fmadd_pd(v, _mm256_loadu_pd(xi.as_ptr().add(4 * c)), *a);
                 }
             }

@@ -4,8 +4,8 @@
 use super::params::{Count, Modes, Positive};
 use crate::artefact::ArtefactKind;
 use crate::artefact::kinds::modes::dependent_shapes_table;
-use crate::artefact::kinds::{matrices_from_artefact, modes_to_artefact};
-use crate::eigen::{EigenRequest, ModeSelection, SparseEigenParams, lowest_modes};
+use crate::artefact::kinds::{modes_to_artefact, pencil_from_matrices};
+use crate::eigen::{EigenRequest, ModeSelection, SparseEigenParams, pencil_modes};
 use crate::fe::multipoint::recover;
 use crate::pipeline::{
     CheckContext, ParamIssue, PortSpec, StageError, StageInputs, StageOutputs, TypedStage,
@@ -110,7 +110,8 @@ impl TypedStage for ModesStage {
             return run_reduced(p, r);
         }
         let matrices = inputs.take("model")?;
-        let sys = matrices_from_artefact(&matrices)?;
+        // K and M as lower triangles on one pattern, as the artefact stores them.
+        let (pencil, dofs) = pencil_from_matrices(&matrices)?;
         let dependent = crate::artefact::kinds::matrices::dependent_from_matrices(&matrices)?;
         let deck_request: Option<EigenRequest> = match matrices.meta.get("eigenvalue_request") {
             Some(v) if p.count.is_none() && p.max_freq_hz.is_none() => {
@@ -120,19 +121,16 @@ impl TypedStage for ModesStage {
             }
             _ => None,
         };
-        // The tables are read into `sys`: free them (when this stage holds the run's last
+        // The tables are read into the pencil: free them (when this stage holds the run's last
         // reference) before the factor and the Krylov basis are allocated.
         drop(matrices);
-        if sys.n() > DENSE_LIMIT
-            && p.count.is_none()
-            && p.max_freq_hz.is_none()
-            && deck_request.is_none()
+        let n = dofs.len();
+        if n > DENSE_LIMIT && p.count.is_none() && p.max_freq_hz.is_none() && deck_request.is_none()
         {
             return Err(StageError::input(
                 "",
                 format!(
-                    "the model has {} DOFs: give `count` or `max_freq_hz` (all modes only up to {DENSE_LIMIT} DOFs)",
-                    sys.n()
+                    "the model has {n} DOFs: give `count` or `max_freq_hz` (all modes only up to {DENSE_LIMIT} DOFs)"
                 ),
             ));
         }
@@ -149,9 +147,8 @@ impl TypedStage for ModesStage {
             },
             ..Default::default()
         };
-        let solve = |selection| {
-            lowest_modes(&sys.k, &sys.m, &sys.dofs, selection, &params).map(|(modes, _)| modes)
-        };
+        let solve =
+            |selection| pencil_modes(&pencil, &dofs, selection, &params).map(|(modes, _, _)| modes);
         let modes = match &deck_request {
             Some(request) => {
                 let modes = request
@@ -177,15 +174,15 @@ impl TypedStage for ModesStage {
         };
         if modes.is_empty() {
             // Say where the first mode lies, so the limit can be set right.
-            let (first, _) =
-                lowest_modes(&sys.k, &sys.m, &sys.dofs, ModeSelection::Count(1), &params)
-                    .map_err(StageError::from_numerics(""))?;
+            let (first, _, _) = pencil_modes(&pencil, &dofs, ModeSelection::Count(1), &params)
+                .map_err(StageError::from_numerics(""))?;
             return Err(no_mode_below(p, &first.frequencies_hz()));
         }
-        let mut a = modes_to_artefact(&sys.dofs, &modes);
+        drop(pencil);
+        let mut a = modes_to_artefact(&dofs, &modes);
         if !dependent.is_empty() {
             // Shapes at the DOFs rigid elements and MPCs eliminated: u_d = Σ c u.
-            let shapes = recover(&dependent, &sys.dofs, modes.shapes.as_ref());
+            let shapes = recover(&dependent, &dofs, modes.shapes.as_ref());
             let dofs: Vec<crate::core::DofId> = dependent.iter().map(|d| d.dof).collect();
             a = a.with_table(
                 "dependent_shapes",

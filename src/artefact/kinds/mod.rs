@@ -64,6 +64,7 @@ pub use correlation::{CorrelationKind, correlation_from_artefact, correlation_to
 pub use frf::{FrfKind, frf_from_artefact, frf_to_artefact};
 pub use matrices::{
     MatricesKind, linear_parameters_from_matrices, matrices_from_artefact, matrices_to_artefact,
+    pencil_from_matrices,
 };
 pub use modes::{ModesArtefact, ModesKind, modes_from_artefact, modes_to_artefact};
 pub use plot::{Plot, PlotKind, plot_artefact};

@@ -771,6 +771,80 @@ fn a_large_matrix_table_holds_its_lower_triangle_in_column_order() {
     assert_eq!(back.k.val(), m.val());
 }
 
+/// The `modes` stage's pencil read straight from the lower tables equals the pencil of the
+/// matrices read whole, in its dense copies and its products (bit for bit); tables in another
+/// writer's order and full tables (no `triangle`) give the same through the general path; a
+/// value that is not finite is named by its DOFs; a lying `triangle` is refused as before.
+#[test]
+fn the_pencil_reads_straight_from_the_lower_tables() {
+    use crate::artefact::kinds::pencil_from_matrices;
+    let sys = assemble_lumped(&LumpedModel::chain(&[1.0, 1.3, 1.0, 0.7], 10.0)).unwrap();
+    let a = matrices_to_artefact(&sys);
+    let (pencil, dofs) = pencil_from_matrices(&a).unwrap();
+    assert_eq!(dofs, sys.dofs);
+    assert_eq!(pencil.k_dense(), sparse_to_dense(&sys.k));
+    assert_eq!(pencil.m_dense(), sparse_to_dense(&sys.m));
+    let n = sys.n();
+    let x = faer::Mat::from_fn(n, 3, |i, c| 1.0 + (i * 3 + c) as f64 / 7.0);
+    let products = |p: &crate::sparse::LowerPencil| {
+        let (mut kx, mut mx) = (faer::Mat::zeros(n, 3), faer::Mat::zeros(n, 3));
+        p.products(x.as_ref(), kx.as_mut(), mx.as_mut(), faer::Par::Seq);
+        (kx, mx)
+    };
+    let want = products(&pencil);
+    // Reversed rows (another writer's order) and full tables: the general path.
+    let mut reversed = a.clone();
+    for name in ["K", "M"] {
+        let t = &a.tables[name].0;
+        let rev_i = |c: &str| Column::I64(t.i64s(name, c).unwrap().iter().rev().copied().collect());
+        let values = t
+            .f64s(name, "value")
+            .unwrap()
+            .iter()
+            .rev()
+            .copied()
+            .collect();
+        let table = Table::new()
+            .with("row", rev_i("row"))
+            .with("col", rev_i("col"))
+            .with("value", Column::F64(values));
+        reversed = reversed.with_table(name, table, Storage::Ipc);
+    }
+    let mut whole = a.clone();
+    whole.meta.remove("triangle");
+    for name in ["K", "M"] {
+        let m = if name == "K" { &sys.k } else { &sys.m };
+        whole = whole.with_table(name, triplet_table(m), Storage::Ipc);
+    }
+    for other in [&reversed, &whole] {
+        let (p, d) = pencil_from_matrices(other).unwrap();
+        assert_eq!(d, sys.dofs);
+        assert_eq!(products(&p), want);
+    }
+    // A NaN in M is named by its DOFs.
+    let mut nan = a.clone();
+    let t = &a.tables["M"].0;
+    let mut values = t.f64s("M", "value").unwrap().to_vec();
+    let (rows, cols) = (t.i64s("M", "row").unwrap(), t.i64s("M", "col").unwrap());
+    let last = values.len() - 1;
+    values[last] = f64::NAN;
+    let table = Table::new()
+        .with("row", Column::I64(rows.to_vec()))
+        .with("col", Column::I64(cols.to_vec()))
+        .with("value", Column::F64(values));
+    nan = nan.with_table("M", table, Storage::Ipc);
+    let e = pencil_from_matrices(&nan).unwrap_err().to_string();
+    let (r, c) = (sys.dofs[rows[last] as usize], sys.dofs[cols[last] as usize]);
+    assert!(
+        e.contains("matrix M") && e.contains(&format!("({r}, {c})")) && e.contains("NaN"),
+        "{e}"
+    );
+    let mut lying = whole.clone();
+    lying.meta.insert("triangle".into(), "lower".into());
+    let e = pencil_from_matrices(&lying).unwrap_err().to_string();
+    assert!(e.contains("lies above the diagonal"), "{e}");
+}
+
 #[test]
 fn a_matrix_table_in_any_row_order_reads_as_the_same_matrix() {
     // The sorted table takes the direct path, shuffled and duplicated rows the triplet path.
