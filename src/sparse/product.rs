@@ -94,14 +94,14 @@ pub(super) struct Contiguous<'a, I, const N: usize> {
     pub values: [&'a [f64]; N],
 }
 
-impl<const N: usize> Entries<N> for Contiguous<'_, usize, N> {
+impl<I: RowIndex, const N: usize> Entries<N> for Contiguous<'_, I, N> {
     #[inline(always)]
     fn len(&self) -> usize {
         self.indices.len()
     }
     #[inline(always)]
     fn index(&self, t: usize) -> usize {
-        self.indices[t]
+        self.indices[t].get()
     }
     #[inline(always)]
     fn value(&self, q: usize, t: usize) -> f64 {
@@ -109,18 +109,24 @@ impl<const N: usize> Entries<N> for Contiguous<'_, usize, N> {
     }
 }
 
-impl<const N: usize> Entries<N> for Contiguous<'_, u32, N> {
+/// A row index of a sparse pattern: `usize` in faer's matrices, `u32` in
+/// [`super::LowerPencil`].
+pub(super) trait RowIndex: Copy {
+    /// The index.
+    fn get(self) -> usize;
+}
+
+impl RowIndex for usize {
     #[inline(always)]
-    fn len(&self) -> usize {
-        self.indices.len()
+    fn get(self) -> usize {
+        self
     }
+}
+
+impl RowIndex for u32 {
     #[inline(always)]
-    fn index(&self, t: usize) -> usize {
-        self.indices[t] as usize
-    }
-    #[inline(always)]
-    fn value(&self, q: usize, t: usize) -> f64 {
-        self.values[q][t]
+    fn get(self) -> usize {
+        self as usize
     }
 }
 
