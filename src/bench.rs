@@ -180,7 +180,7 @@ pub fn model_bench(
             tolerance: 1e-8,
             ..Default::default()
         };
-        let (m, info, _) = pencil_modes(&pencil, &dofs, ModeSelection::Count(count), &params)
+        let (m, info) = pencil_modes(&pencil, &dofs, ModeSelection::Count(count), &params)
             .map_err(|e| e.to_string())?;
         let f = m.frequencies_hz();
         modes.push(ModesBench {

@@ -106,6 +106,78 @@ pub fn parallel_zeros(nrows: usize, ncols: usize) -> faer::Mat<f64> {
     m
 }
 
+/// An `nrows × ncols` column-major matrix in a plain vector, column `j` at `j · nrows`.
+///
+/// Unlike a `faer::Mat`, its storage can give up its trailing columns in place
+/// ([`Columns::keep_leading`]: the allocator shortens the block, nothing is copied). The
+/// eigensolver's Krylov basis is one: at its end the Ritz images are formed over the basis's
+/// leading columns and the rest handed back, so the images never sit beside the basis (400 MB
+/// of the solver's peak at a million DOFs).
+#[derive(Clone, Debug)]
+pub struct Columns {
+    data: Vec<f64>,
+    nrows: usize,
+    ncols: usize,
+}
+
+impl Columns {
+    /// Zeros, first touched by the pool's threads (see [`parallel_zeros`]).
+    pub fn zeros(nrows: usize, ncols: usize) -> Self {
+        use rayon::prelude::*;
+        let len = nrows * ncols;
+        let mut data: Vec<f64> = Vec::with_capacity(len);
+        let chunk = nrows.max(1 << 16);
+        data.spare_capacity_mut()
+            .par_chunks_mut(chunk)
+            .for_each(|c| {
+                for x in c {
+                    x.write(0.0);
+                }
+            });
+        // SAFETY: every one of the `len` entries was initialised just above.
+        unsafe { data.set_len(len) };
+        Columns { data, nrows, ncols }
+    }
+
+    /// A copy of `a`.
+    pub fn from_mat(a: faer::MatRef<'_, f64>) -> Self {
+        let (nrows, ncols) = (a.nrows(), a.ncols());
+        let mut data = Vec::with_capacity(nrows * ncols);
+        for j in 0..ncols {
+            data.extend(a.col(j).iter().copied());
+        }
+        Columns { data, nrows, ncols }
+    }
+
+    /// Rows.
+    pub fn nrows(&self) -> usize {
+        self.nrows
+    }
+
+    /// Columns.
+    pub fn ncols(&self) -> usize {
+        self.ncols
+    }
+
+    /// The matrix.
+    pub fn as_ref(&self) -> faer::MatRef<'_, f64> {
+        faer::MatRef::from_column_major_slice(&self.data, self.nrows, self.ncols)
+    }
+
+    /// The matrix, writable.
+    pub fn as_mut(&mut self) -> faer::MatMut<'_, f64> {
+        faer::MatMut::from_column_major_slice_mut(&mut self.data, self.nrows, self.ncols)
+    }
+
+    /// Keeps the leading `ncols` columns (at most those it has) and returns the storage of
+    /// the others to the allocator.
+    pub fn keep_leading(&mut self, ncols: usize) {
+        self.ncols = ncols.min(self.ncols);
+        self.data.truncate(self.nrows * self.ncols);
+        self.data.shrink_to_fit();
+    }
+}
+
 /// `data` cut into consecutive slices, slice `j` of length `offsets[j + 1] − offsets[j]`
 /// (`offsets` ascending from 0 to at most `data.len()`), for filling the parts side by side.
 pub fn split_at_offsets<'a, T>(mut data: &'a mut [T], offsets: &[usize]) -> Vec<&'a mut [T]> {

@@ -9,5 +9,5 @@ pub use dense::{EigenError, ModeSelection, Modes, dense_generalized};
 pub use request::EigenRequest;
 pub use sparse::{
     ShiftedFactor, SparseEigenInfo, SparseEigenParams, lowest_modes, lowest_modes_keeping_factor,
-    pencil_modes,
+    pencil_modes, pencil_modes_keeping_factor,
 };

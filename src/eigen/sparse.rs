@@ -34,7 +34,7 @@
 
 use super::dense::{EigenError, ModeSelection, Modes, dense_generalized, fix_sign, median_ratio};
 use crate::core::DofId;
-use crate::core::memory::parallel_zeros;
+use crate::core::memory::{Columns, parallel_zeros};
 use crate::core::sparse::SparseMatrix;
 use crate::sparse::{
     FactorError, FactorInfo, LowerPencil, SparseSolve, SpdFactor, SymmetricFactor,
@@ -219,7 +219,12 @@ fn few_massive_modes(
     let shapes = solve(rhs);
     let (mut kphi, mut mphi) = (Mat::<f64>::zeros(n, keep), Mat::<f64>::zeros(n, keep));
     pencil.products(shapes.as_ref(), kphi.as_mut(), mphi.as_mut(), par);
-    Ok((lambdas_all[..keep].to_vec(), shapes, kphi, mphi))
+    Ok((
+        lambdas_all[..keep].to_vec(),
+        Columns::from_mat(shapes.as_ref()),
+        kphi,
+        mphi,
+    ))
 }
 
 /// Lowest modes of `K φ = λ M φ` for `K` and `M` stored in full; `dofs` labels the rows.
@@ -230,7 +235,20 @@ pub fn lowest_modes(
     selection: ModeSelection,
     params: &SparseEigenParams,
 ) -> Result<(Modes, SparseEigenInfo), EigenError> {
-    lowest_modes_keeping_factor(k, m, dofs, selection, params).map(|(modes, info, _)| (modes, info))
+    let pencil = full_pencil(k, m, dofs.len())?;
+    pencil_modes(&pencil, dofs, selection, params)
+}
+
+/// The pencil of `K` and `M` stored in full, over `n` DOFs.
+fn full_pencil(k: &SparseMatrix, m: &SparseMatrix, n: usize) -> Result<LowerPencil, EigenError> {
+    if k.nrows() != n || k.ncols() != n || m.nrows() != n || m.ncols() != n {
+        return Err(EigenError::Shape {
+            k: k.nrows(),
+            m: m.nrows(),
+            dofs: n,
+        });
+    }
+    LowerPencil::from_full(k, m).map_err(|_| EigenError::FactorTooLarge { n })
 }
 
 /// [`lowest_modes`], handing back the factor of `K − σM` as well (`None` on the dense path), so
@@ -242,25 +260,41 @@ pub fn lowest_modes_keeping_factor(
     selection: ModeSelection,
     params: &SparseEigenParams,
 ) -> Result<(Modes, SparseEigenInfo, Option<ShiftedFactor>), EigenError> {
-    let n = dofs.len();
-    if k.nrows() != n || k.ncols() != n || m.nrows() != n || m.ncols() != n {
-        return Err(EigenError::Shape {
-            k: k.nrows(),
-            m: m.nrows(),
-            dofs: n,
-        });
-    }
-    let pencil = LowerPencil::from_full(k, m).map_err(|_| EigenError::FactorTooLarge { n })?;
-    pencil_modes(&pencil, dofs, selection, params)
+    let pencil = full_pencil(k, m, dofs.len())?;
+    pencil_modes_keeping_factor(&pencil, dofs, selection, params)
 }
 
-/// [`lowest_modes_keeping_factor`] of a pencil held as lower triangles (what the `modes` stage
-/// reads from a matrices artefact: no full matrices are built).
+/// [`lowest_modes`] of a pencil held as lower triangles (what the `modes` stage reads from a
+/// matrices artefact: no full matrices are built). The factor is freed as soon as the last
+/// solve is made, before the refinement's products are allocated (at a million DOFs the
+/// solver's peak is then the Lanczos process's).
 pub fn pencil_modes(
     pencil: &LowerPencil,
     dofs: &[DofId],
     selection: ModeSelection,
     params: &SparseEigenParams,
+) -> Result<(Modes, SparseEigenInfo), EigenError> {
+    solve_pencil(pencil, dofs, selection, params, false).map(|(modes, info, _)| (modes, info))
+}
+
+/// [`lowest_modes_keeping_factor`] of a pencil held as lower triangles.
+pub fn pencil_modes_keeping_factor(
+    pencil: &LowerPencil,
+    dofs: &[DofId],
+    selection: ModeSelection,
+    params: &SparseEigenParams,
+) -> Result<(Modes, SparseEigenInfo, Option<ShiftedFactor>), EigenError> {
+    solve_pencil(pencil, dofs, selection, params, true)
+}
+
+/// The lowest modes of the pencil, with the factor of `K − σM` when `keep_factor` (and a
+/// sparse path was taken).
+fn solve_pencil(
+    pencil: &LowerPencil,
+    dofs: &[DofId],
+    selection: ModeSelection,
+    params: &SparseEigenParams,
+    keep_factor: bool,
 ) -> Result<(Modes, SparseEigenInfo, Option<ShiftedFactor>), EigenError> {
     let n = dofs.len();
     if pencil.n() != n {
@@ -366,41 +400,39 @@ pub fn pencil_modes(
         }
     };
     lambdas.truncate(counted);
-    ritz_images.truncate(n, counted);
-    let (mut vecs, mut kphi, mut mphi) = (Mat::zeros(n, 0), Mat::zeros(n, 0), Mat::zeros(n, 0));
+    ritz_images.keep_leading(counted);
+    let (mut vecs, mut kphi, mut mphi) = (Columns::zeros(n, 0), Mat::zeros(n, 0), Mat::zeros(n, 0));
     let t = Instant::now();
+    // X = A⁻¹ M Φ = P L⁻ᵀ (C Y) for the Ritz vectors (see `refine`): the last solve.
     if counted > 0 {
-        (lambdas, vecs, kphi, mphi) = refine(&llt, pencil, ritz_images, params.par)?;
+        llt.solve_backward_in_place(ritz_images.as_mut(), params.par);
+    }
+    let factor = keep_factor.then_some(ShiftedFactor { factor: llt, shift });
+    if counted > 0 {
+        (lambdas, vecs, kphi, mphi) = refine(pencil, ritz_images, params.par)?;
         info.solves += counted;
     }
     let modes = finish(pencil, lambdas, vecs, kphi, mphi, shift, scale)?;
     info.refinement_seconds = t.elapsed().as_secs_f64();
-    let factor = ShiftedFactor { factor: llt, shift };
-    Ok((modes, info, Some(factor)))
+    Ok((modes, info, factor))
 }
 
 /// Eigenvalues, shapes `Φ`, and the products `KΦ`, `MΦ`.
-type RefinedModes = (Vec<f64>, Mat<f64>, Mat<f64>, Mat<f64>);
+type RefinedModes = (Vec<f64>, Columns, Mat<f64>, Mat<f64>);
 
 /// One block inverse-iteration step and a Rayleigh–Ritz projection: `X = A⁻¹ M Φ` for the
-/// Ritz vectors `Φ = P L⁻ᵀ Y`, as `P L⁻ᵀ (C Y)` from the `C Y` that [`lanczos`] hands over (one
-/// backward sweep, in passes of [`crate::sparse::SOLVE_COLUMNS`], the widest the thin solve
-/// kernels take), then the small pencil `(XᵀKX, XᵀMX)`. The Lanczos residual bounds the
-/// error of `Y` in the metric of `C`, where the stiff modes weigh little; this step divides
-/// their share by `ν_high/ν_low`, so the residuals `‖Kφ − λMφ‖ / ‖Kφ‖` reach round-off level.
-fn refine(
-    llt: &impl SymmetricFactor,
-    pencil: &LowerPencil,
-    cy: Mat<f64>,
-    par: Par,
-) -> Result<RefinedModes, EigenError> {
-    let (n, c) = (cy.nrows(), cy.ncols());
-    let mut x = cy;
-    llt.solve_backward_in_place(x.as_mut(), par);
+/// Ritz vectors `Φ = P L⁻ᵀ Y`, which the caller forms as `P L⁻ᵀ (C Y)` from the `C Y` that
+/// [`lanczos`] hands over (one backward sweep), then the small pencil `(XᵀKX, XᵀMX)`. The
+/// Lanczos residual bounds the error of `Y` in the metric of `C`, where the stiff modes weigh
+/// little; this step divides their share by `ν_high/ν_low`, so the residuals
+/// `‖Kφ − λMφ‖ / ‖Kφ‖` reach round-off level.
+fn refine(pencil: &LowerPencil, x: Columns, par: Par) -> Result<RefinedModes, EigenError> {
+    let (n, c) = (x.nrows(), x.ncols());
+    let mut x = x;
     let (mut kx, mut mx) = (parallel_zeros(n, c), parallel_zeros(n, c));
     pencil.products(x.as_ref(), kx.as_mut(), mx.as_mut(), par);
-    let kr = x.transpose() * &kx;
-    let mr = x.transpose() * &mx;
+    let kr = x.as_ref().transpose() * &kx;
+    let mr = x.as_ref().transpose() * &mx;
     let kr = Mat::from_fn(c, c, |i, j| 0.5 * (kr[(i, j)] + kr[(j, i)]));
     let mr = Mat::from_fn(c, c, |i, j| 0.5 * (mr[(i, j)] + mr[(j, i)]));
     // XᵀMX is well conditioned (X is nearly M-orthogonal): reduce by its Cholesky factor.
@@ -423,7 +455,8 @@ fn refine(
         Par::Seq,
     );
     // Φ = X y, and KΦ, MΦ from the products already formed, each in place.
-    for z in [&mut x, &mut kx, &mut mx] {
+    combine_in_place(x.as_mut(), y.as_ref());
+    for z in [&mut kx, &mut mx] {
         combine_in_place(z.as_mut(), y.as_ref());
     }
     Ok((lambdas, x, kx, mx))
@@ -434,7 +467,7 @@ fn refine(
 fn finish(
     pencil: &LowerPencil,
     mut lambdas: Vec<f64>,
-    mut shapes: Mat<f64>,
+    mut shapes: Columns,
     mut kphi: Mat<f64>,
     mut mphi: Mat<f64>,
     shift: f64,
@@ -511,11 +544,11 @@ fn finish(
         rigid += usize::from(is_rigid);
     }
     // ΦᵀMΦ − I before the re-sort, which permutes its rows and columns alike.
-    let gram = shapes.transpose() * &mphi;
+    let gram = shapes.as_ref().transpose() * &mphi;
     drop(mphi);
     drop(kphi);
-    // The shapes' storage may have been the Krylov basis's, wider than `c` columns: the modes
-    // keep a copy of their own size, made where the products just freed their memory.
+    // The shapes' storage was the Krylov basis's: the modes keep a matrix of their own, copied
+    // where the products just freed their memory.
     let mut shapes = shapes.as_ref().to_owned();
     // Re-sort: Rayleigh quotients may swap nearly repeated pairs.
     let mut order: Vec<usize> = (0..c).collect();
@@ -766,7 +799,7 @@ fn lanczos(
     shift: f64,
     params: &SparseEigenParams,
     info: &mut SparseEigenInfo,
-) -> Result<(Vec<f64>, Mat<f64>), EigenError> {
+) -> Result<(Vec<f64>, Columns), EigenError> {
     let mut process = Lanczos::start(llt, pencil, n, nev, params, info)?;
     let mut kept = 0usize;
     for restart in 0..=params.max_restarts {
@@ -793,7 +826,7 @@ fn lanczos(
                     restarts: restart,
                 });
             }
-            let images = process.ritz_images(&theta[..nev], y.subcols(0, nev), filled);
+            let images = process.into_ritz_images(&theta[..nev], y.subcols(0, nev), filled);
             info.orthogonalisation_seconds += t.elapsed().as_secs_f64();
             let lambdas: Vec<f64> = theta[..nev].iter().map(|nu| shift + 1.0 / nu).collect();
             return Ok((lambdas, images));
@@ -813,7 +846,7 @@ struct Lanczos<'a, F> {
     params: &'a SparseEigenParams,
     b: usize,
     p: usize,
-    v: Mat<f64>,
+    v: Columns,
     h: Mat<f64>,
     /// `F` and `R`: set by every block before they are read.
     f: Mat<f64>,
@@ -846,7 +879,7 @@ impl<'a, F: SymmetricFactor> Lanczos<'a, F> {
             b,
             p,
             // A gigabyte at 10⁶ DOFs: first touched by all threads.
-            v: parallel_zeros(n, p),
+            v: Columns::zeros(n, p),
             h: Mat::zeros(p, p),
             f: Mat::new(),
             r_last: Mat::new(),
@@ -959,21 +992,23 @@ impl<'a, F: SymmetricFactor> Lanczos<'a, F> {
 
     /// `C V Y = V (H Y) + F R Y_last = V Y Θ + F R Y_last` (the Lanczos relation) for the Ritz
     /// vectors `Y` with values `theta`, over the `filled` columns of the basis: formed in one
-    /// parallel pass over the basis's rows into storage of the size of the modes (the
-    /// refinement's work then fits where the basis was).
-    fn ritz_images(&self, theta: &[f64], y: MatRef<'_, f64>, filled: usize) -> Mat<f64> {
+    /// parallel pass over the basis's rows, in place of its leading columns, whose storage is
+    /// then all that is kept (the images are never held beside the basis, and the
+    /// refinement's work fits where the rest of it was).
+    fn into_ritz_images(self, theta: &[f64], y: MatRef<'_, f64>, filled: usize) -> Columns {
         let b = self.b;
         let coupling = &self.r_last * y.subrows(filled - b, b);
-        let mut images = parallel_zeros(self.v.nrows(), y.ncols());
-        ritz_images_by_tiles(
-            self.v.as_ref().subcols(0, filled),
+        let mut v = self.v;
+        ritz_images_in_place(
+            v.as_mut(),
+            filled,
             y,
             theta,
             self.f.as_ref(),
             coupling.as_ref(),
-            images.as_mut(),
         );
-        images
+        v.keep_leading(y.ncols());
+        v
     }
 
     /// Thick restart: the basis becomes the leading Ritz vectors (at least one more than
@@ -1038,34 +1073,34 @@ fn block_size(nev: usize) -> usize {
     if 2 * nev >= 12 * 16 { 16 } else { 8 }
 }
 
-/// `out = V Y Θ + F G` (the Ritz vectors' images `C V Y` by the Lanczos relation, `G = R Y_last`)
-/// by tiles of rows in parallel, each formed while its rows of `V` and `F` are in cache: one
-/// read of the basis, and the result's fresh pages first touched by every thread. (Done as an
-/// in-place combination, a copy, a scaling and a product one after the other, the same work
-/// read the basis several times and faulted the pages in on one thread.)
-fn ritz_images_by_tiles(
-    v: MatRef<'_, f64>,
+/// `V[:, ..k] ← V[:, ..filled] Y Θ + F G` for `Y` of `k` columns (the Ritz vectors' images
+/// `C V Y` by the Lanczos relation, `G = R Y_last`) by tiles of rows in parallel, each formed
+/// while its rows of `V` and `F` are in cache: one read of the basis. A tile's rows depend on
+/// its own rows alone, so each is written back over the basis once formed.
+fn ritz_images_in_place(
+    v: MatMut<'_, f64>,
+    filled: usize,
     y: MatRef<'_, f64>,
     theta: &[f64],
     f: MatRef<'_, f64>,
     g: MatRef<'_, f64>,
-    out: MatMut<'_, f64>,
 ) {
-    if let Some(half) = tile_split(out.nrows()) {
-        let (v_top, v_bottom) = v.split_at_row(half);
+    if let Some(half) = tile_split(v.nrows()) {
+        let (v_top, v_bottom) = v.split_at_row_mut(half);
         let (f_top, f_bottom) = f.split_at_row(half);
-        let (out_top, out_bottom) = out.split_at_row_mut(half);
         rayon::join(
-            || ritz_images_by_tiles(v_top, y, theta, f_top, g, out_top),
-            || ritz_images_by_tiles(v_bottom, y, theta, f_bottom, g, out_bottom),
+            || ritz_images_in_place(v_top, filled, y, theta, f_top, g),
+            || ritz_images_in_place(v_bottom, filled, y, theta, f_bottom, g),
         );
     } else {
-        let mut out = out;
-        faer::linalg::matmul::matmul(out.as_mut(), faer::Accum::Replace, v, y, 1.0, Par::Seq);
+        let mut out = Mat::<f64>::zeros(v.nrows(), y.ncols());
+        let basis = v.as_ref().subcols(0, filled);
+        faer::linalg::matmul::matmul(out.as_mut(), faer::Accum::Replace, basis, y, 1.0, Par::Seq);
         for (c, &nu) in theta.iter().enumerate() {
             faer::zip!(out.as_mut().col_mut(c)).for_each(|faer::unzip!(x)| *x *= nu);
         }
-        faer::linalg::matmul::matmul(out, faer::Accum::Add, f, g, 1.0, Par::Seq);
+        faer::linalg::matmul::matmul(out.as_mut(), faer::Accum::Add, f, g, 1.0, Par::Seq);
+        v.subcols_mut(0, y.ncols()).copy_from(&out);
     }
 }
 

@@ -148,7 +148,7 @@ impl TypedStage for ModesStage {
             ..Default::default()
         };
         let solve =
-            |selection| pencil_modes(&pencil, &dofs, selection, &params).map(|(modes, _, _)| modes);
+            |selection| pencil_modes(&pencil, &dofs, selection, &params).map(|(modes, _)| modes);
         let modes = match &deck_request {
             Some(request) => {
                 let modes = request
@@ -174,7 +174,7 @@ impl TypedStage for ModesStage {
         };
         if modes.is_empty() {
             // Say where the first mode lies, so the limit can be set right.
-            let (first, _, _) = pencil_modes(&pencil, &dofs, ModeSelection::Count(1), &params)
+            let (first, _) = pencil_modes(&pencil, &dofs, ModeSelection::Count(1), &params)
                 .map_err(StageError::from_numerics(""))?;
             return Err(no_mode_below(p, &first.frequencies_hz()));
         }
