@@ -212,6 +212,30 @@ mod tests {
         assert_eq!(super::zeroed_f64(1).unwrap(), vec![0.0]);
     }
 
+    /// `Columns`: zeros of every shape (the threads' chunks cross column boundaries), a copy
+    /// of a matrix, writes through the view, and the leading columns kept with their values
+    /// while the storage shrinks to them (asking for more columns than held keeps all).
+    #[test]
+    fn columns_hold_a_matrix_and_give_back_trailing_columns() {
+        use super::Columns;
+        for (r, c) in [(0, 0), (0, 3), (3, 0), (1, 1), (7, 5), (70_001, 3)] {
+            let z = Columns::zeros(r, c);
+            assert_eq!((z.nrows(), z.ncols()), (r, c));
+            assert_eq!(z.as_ref(), faer::Mat::<f64>::zeros(r, c));
+        }
+        let a = faer::Mat::from_fn(9, 6, |i, j| (10 * i + j) as f64);
+        let mut cols = Columns::from_mat(a.as_ref());
+        assert_eq!(cols.as_ref(), a);
+        cols.as_mut()[(8, 5)] = -1.0;
+        assert_eq!(cols.as_ref()[(8, 5)], -1.0);
+        cols.keep_leading(4);
+        assert_eq!((cols.nrows(), cols.ncols()), (9, 4));
+        assert_eq!(cols.as_ref(), a.as_ref().subcols(0, 4));
+        assert_eq!(cols.data.capacity(), 9 * 4);
+        cols.keep_leading(10);
+        assert_eq!(cols.ncols(), 4);
+    }
+
     /// A matrix zeroed by the threads is an ordinary matrix of zeros of its shape, and empty
     /// shapes work.
     #[test]
