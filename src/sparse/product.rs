@@ -11,6 +11,10 @@
 //! union pattern), one pass reads the row indices and gathers `X` once for both products.
 //! `par` shares the rows among the threads; [`Par::Seq`] keeps them on the calling thread. Every
 //! row is summed in the same order either way.
+//!
+//! The kernels read a row through [`SymmetricRows`]: matrices stored in full give column `j`
+//! in place; a [`super::LowerPencil`] gives the entries left of the diagonal through its index,
+//! then its column `j`. Both runs are summed as one sequence, so equal rows give equal bits.
 
 use super::layout::to_row_major;
 use crate::core::sparse::SparseMatrix;
