@@ -10,6 +10,7 @@
 //! [`super::sym_matvec_pair`] on the mirrored matrices.
 
 use super::product::{Contiguous, Gathered, SymmetricRows, in_passes};
+use crate::core::memory::split_at_offsets;
 use crate::core::sparse::SparseMatrix;
 use faer::sparse::{SparseColMat, SymbolicSparseColMat};
 use faer::{Mat, MatMut, MatRef, Par};
@@ -62,9 +63,6 @@ pub struct LowerPencil {
     upper_pos: Vec<u32>,
 }
 
-/// A run of merged columns: their entry counts, rows, and values of `K` and `M`.
-type MergedColumns = (Vec<usize>, Vec<u32>, Vec<f64>, Vec<f64>);
-
 /// Columns per task when columns are merged in parallel.
 const COLUMNS_PER_TASK: usize = 4096;
 
@@ -83,44 +81,44 @@ impl LowerPencil {
             });
         }
         check_size(n, (k.compute_nnz() + m.compute_nnz()) / 2 + n)?;
-        // Runs of columns merged in parallel, then laid end to end.
-        let runs: Vec<MergedColumns> = (0..n)
-            .step_by(COLUMNS_PER_TASK)
-            .collect::<Vec<_>>()
+        // Each column merged twice on all threads: once to count its entries, once to write
+        // them where the counts put them (no intermediate arrays).
+        let counts: Vec<usize> = (0..n)
             .into_par_iter()
-            .map(|first| {
-                let end = (first + COLUMNS_PER_TASK).min(n);
-                let (mut counts, mut rows, mut kv, mut mv) =
-                    (Vec::new(), Vec::new(), Vec::new(), Vec::new());
-                let mut column = Vec::new();
-                for j in first..end {
-                    merge_lower_column(j, k, m, &mut column);
-                    counts.push(column.len());
-                    for &(i, a, b) in &column {
-                        rows.push(i as u32);
-                        kv.push(a);
-                        mv.push(b);
-                    }
-                }
-                (counts, rows, kv, mv)
+            .with_min_len(COLUMNS_PER_TASK)
+            .map_init(Vec::new, |column, j| {
+                merge_lower_column(j, k, m, column);
+                column.len()
             })
             .collect();
-        let nnz = runs.iter().map(|r| r.1.len()).sum();
         let mut col_ptr = Vec::with_capacity(n + 1);
         col_ptr.push(0);
-        let (mut rows, mut kv, mut mv) = (
-            Vec::with_capacity(nnz),
-            Vec::with_capacity(nnz),
-            Vec::with_capacity(nnz),
-        );
-        for (counts, r, a, b) in runs {
-            for c in counts {
-                col_ptr.push(col_ptr[col_ptr.len() - 1] + c);
-            }
-            rows.extend_from_slice(&r);
-            kv.extend_from_slice(&a);
-            mv.extend_from_slice(&b);
+        for c in counts {
+            col_ptr.push(col_ptr[col_ptr.len() - 1] + c);
         }
+        let nnz = col_ptr[n];
+        let (mut rows, mut kv, mut mv) = (vec![0u32; nnz], vec![0.0; nnz], vec![0.0; nnz]);
+        let firsts: Vec<usize> = (0..n).step_by(COLUMNS_PER_TASK).collect();
+        let offsets: Vec<usize> = firsts.iter().map(|&j| col_ptr[j]).chain([nnz]).collect();
+        let parts = split_at_offsets(&mut rows, &offsets)
+            .into_iter()
+            .zip(split_at_offsets(&mut kv, &offsets))
+            .zip(split_at_offsets(&mut mv, &offsets))
+            .zip(firsts);
+        parts
+            .collect::<Vec<_>>()
+            .into_par_iter()
+            .for_each(|(((rows, kv), mv), first)| {
+                let mut column = Vec::new();
+                let mut at = 0;
+                for j in first..(first + COLUMNS_PER_TASK).min(n) {
+                    merge_lower_column(j, k, m, &mut column);
+                    for (t, &(i, a, b)) in column.iter().enumerate() {
+                        (rows[at + t], kv[at + t], mv[at + t]) = (i as u32, a, b);
+                    }
+                    at += column.len();
+                }
+            });
         Ok(Self::with_upper_index(col_ptr, rows, kv, mv))
     }
 
@@ -623,6 +621,34 @@ mod tests {
                 assert_eq!(pencil.has_mass(j), massive, "DOF {j}");
             }
         }
+    }
+
+    /// Over several tasks of columns (the merge of `from_full` writes each run of columns
+    /// where the counts put it): both constructors give the combination of the full matrices
+    /// and the same products.
+    #[test]
+    fn pencils_over_many_column_runs_agree() {
+        let n = 2 * COLUMNS_PER_TASK + 37;
+        let (k, m) = (symmetric(n, 4, 0.3, 7), symmetric(n, 4, 1.7, 5));
+        let (kt, mt) = (lower_triplets(&k), lower_triplets(&m));
+        let full = LowerPencil::from_full(&k, &m).unwrap();
+        let sorted =
+            LowerPencil::from_sorted_lower(n, (&kt.0, &kt.1, &kt.2), (&mt.0, &mt.1, &mt.2))
+                .unwrap();
+        let want = lower_combination(1.0, &k, 0.5, &m);
+        for p in [&full, &sorted] {
+            let a = p.lower_combination(1.0, 0.5);
+            assert_eq!(a.symbolic().col_ptr(), want.symbolic().col_ptr());
+            assert_eq!(a.symbolic().row_idx(), want.symbolic().row_idx());
+            assert_eq!(a.val(), want.val());
+        }
+        let x = Mat::from_fn(n, 5, |i, c| ((i * 13 + c * 7) % 31) as f64 - 15.0);
+        let products = |p: &LowerPencil| {
+            let (mut kx, mut mx) = (Mat::zeros(n, 5), Mat::zeros(n, 5));
+            p.products(x.as_ref(), kx.as_mut(), mx.as_mut(), Par::rayon(2));
+            (kx, mx)
+        };
+        assert_eq!(products(&full), products(&sorted));
     }
 
     /// Matrices of different sizes are refused; lists out of order, above the diagonal or out
