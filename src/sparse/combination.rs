@@ -17,16 +17,7 @@ pub fn lower_combination(
     use rayon::prelude::*;
     let n = a.ncols();
     assert!(a.nrows() == n && b.nrows() == n && b.ncols() == n);
-    let merge = |j: usize, out: &mut Vec<(usize, f64)>| {
-        merged_lower_column(
-            j,
-            [
-                (a.row_idx_of_col_raw(j), a.val_of_col(j), alpha),
-                (b.row_idx_of_col_raw(j), b.val_of_col(j), beta),
-            ],
-            out,
-        );
-    };
+    let merge = |j: usize, out: &mut Vec<(usize, f64, f64)>| merge_lower_column(j, a, b, out);
     let counts: Vec<usize> = (0..n)
         .into_par_iter()
         .with_min_len(COMBINATION_COLUMNS_PER_TASK)
@@ -64,9 +55,9 @@ pub fn lower_combination(
         let mut at = 0;
         for j in columns {
             merge(j, &mut column);
-            for (k, &(i, v)) in column.iter().enumerate() {
+            for (k, &(i, x, y)) in column.iter().enumerate() {
                 rows[at + k] = i;
-                vals[at + k] = v;
+                vals[at + k] = alpha * x + beta * y;
             }
             at += column.len();
         }
@@ -78,40 +69,50 @@ pub fn lower_combination(
 /// Columns per task of [`lower_combination`].
 const COMBINATION_COLUMNS_PER_TASK: usize = 4096;
 
-/// Column `j`'s entries on or below the diagonal of `Σ f M` over `parts` `(rows, values, f)`,
-/// sorted by row, entries of one row summed: a merge when every part's rows are sorted, else
-/// a sort.
-fn merged_lower_column(j: usize, parts: [(&[usize], &[f64], f64); 2], out: &mut Vec<(usize, f64)>) {
+/// Column `j`'s entries on or below the diagonal of two matrices `K` and `M`, `(row, k, m)`
+/// (an entry one of them lacks is zero there), sorted by row, entries of one row summed: a merge when both columns' rows are sorted, else a sort.
+pub(super) fn merge_lower_column(
+    j: usize,
+    k: &SparseMatrix,
+    m: &SparseMatrix,
+    out: &mut Vec<(usize, f64, f64)>,
+) {
     out.clear();
-    let push = |out: &mut Vec<(usize, f64)>, (i, v): (usize, f64)| match out.last_mut() {
-        Some(last) if last.0 == i => last.1 += v,
-        _ => out.push((i, v)),
+    let push = |out: &mut Vec<(usize, f64, f64)>, (i, a, b): (usize, f64, f64)| match out.last_mut()
+    {
+        Some(last) if last.0 == i => {
+            last.1 += a;
+            last.2 += b;
+        }
+        _ => out.push((i, a, b)),
     };
-    if parts.iter().all(|(rows, _, _)| rows.is_sorted()) {
-        let [(ra, va, fa), (rb, vb, fb)] = parts;
+    let (rk, vk) = (k.row_idx_of_col_raw(j), k.val_of_col(j));
+    let (rm, vm) = (m.row_idx_of_col_raw(j), m.val_of_col(j));
+    if rk.is_sorted() && rm.is_sorted() {
         let (mut p, mut q) = (
-            ra.partition_point(|&i| i < j),
-            rb.partition_point(|&i| i < j),
+            rk.partition_point(|&i| i < j),
+            rm.partition_point(|&i| i < j),
         );
-        while p < ra.len() || q < rb.len() {
-            if q == rb.len() || (p < ra.len() && ra[p] <= rb[q]) {
-                push(out, (ra[p], fa * va[p]));
+        while p < rk.len() || q < rm.len() {
+            if q == rm.len() || (p < rk.len() && rk[p] < rm[q]) {
+                push(out, (rk[p], vk[p], 0.0));
                 p += 1;
-            } else {
-                push(out, (rb[q], fb * vb[q]));
+            } else if p == rk.len() || rm[q] < rk[p] {
+                push(out, (rm[q], 0.0, vm[q]));
                 q += 1;
+            } else {
+                push(out, (rk[p], vk[p], vm[q]));
+                (p, q) = (p + 1, q + 1);
             }
         }
         return;
     }
-    let mut entries: Vec<(usize, f64)> = parts
+    let mut entries: Vec<(usize, f64, f64)> = rk
         .iter()
-        .flat_map(|&(rows, vals, f)| {
-            rows.iter()
-                .zip(vals)
-                .filter(|(i, _)| **i >= j)
-                .map(move |(&i, &v)| (i, f * v))
-        })
+        .zip(vk)
+        .map(|(&i, &v)| (i, v, 0.0))
+        .chain(rm.iter().zip(vm).map(|(&i, &v)| (i, 0.0, v)))
+        .filter(|e| e.0 >= j)
         .collect();
     entries.sort_by_key(|e| e.0);
     for e in entries {

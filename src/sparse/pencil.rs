@@ -9,6 +9,7 @@
 //! in the same order as column `j` of the full matrix: the products are bit for bit those of
 //! [`super::sym_matvec_pair`] on the mirrored matrices.
 
+use super::combination::merge_lower_column;
 use super::product::{Contiguous, Gathered, SymmetricRows, in_passes};
 use crate::core::memory::split_at_offsets;
 use crate::core::sparse::SparseMatrix;
@@ -349,7 +350,7 @@ impl LowerPencil {
 
     /// The lower triangle of `α K + β M`, in faer's storage (what [`super::SpdFactor`] takes).
     /// Every stored entry is `α k + β m`, an entry absent from one matrix counting as zero:
-    /// for non-zero sums, bit for bit [`super::lower_combination`] of the full matrices.
+    /// bit for bit [`super::lower_combination`] of the full matrices (the same merge and sum).
     pub fn lower_combination(&self, alpha: f64, beta: f64) -> SparseMatrix {
         let nnz = self.rows.len();
         let mut rows = vec![0usize; nnz];
@@ -415,57 +416,6 @@ fn check_size(n: usize, entries: usize) -> Result<(), PencilError> {
         return Err(PencilError::TooLarge { entries, n, max });
     }
     Ok(())
-}
-
-/// Column `j`'s entries on or below the diagonal of `K` and `M`, `(row, k, m)`, sorted by
-/// row, entries of one row summed: a merge when both columns' rows are sorted, else a sort.
-fn merge_lower_column(
-    j: usize,
-    k: &SparseMatrix,
-    m: &SparseMatrix,
-    out: &mut Vec<(usize, f64, f64)>,
-) {
-    out.clear();
-    let push = |out: &mut Vec<(usize, f64, f64)>, (i, a, b): (usize, f64, f64)| match out.last_mut()
-    {
-        Some(last) if last.0 == i => {
-            last.1 += a;
-            last.2 += b;
-        }
-        _ => out.push((i, a, b)),
-    };
-    let (rk, vk) = (k.row_idx_of_col_raw(j), k.val_of_col(j));
-    let (rm, vm) = (m.row_idx_of_col_raw(j), m.val_of_col(j));
-    if rk.is_sorted() && rm.is_sorted() {
-        let (mut p, mut q) = (
-            rk.partition_point(|&i| i < j),
-            rm.partition_point(|&i| i < j),
-        );
-        while p < rk.len() || q < rm.len() {
-            if q == rm.len() || (p < rk.len() && rk[p] < rm[q]) {
-                push(out, (rk[p], vk[p], 0.0));
-                p += 1;
-            } else if p == rk.len() || rm[q] < rk[p] {
-                push(out, (rm[q], 0.0, vm[q]));
-                q += 1;
-            } else {
-                push(out, (rk[p], vk[p], vm[q]));
-                (p, q) = (p + 1, q + 1);
-            }
-        }
-        return;
-    }
-    let mut entries: Vec<(usize, f64, f64)> = rk
-        .iter()
-        .zip(vk)
-        .map(|(&i, &v)| (i, v, 0.0))
-        .chain(rm.iter().zip(vm).map(|(&i, &v)| (i, 0.0, v)))
-        .filter(|e| e.0 >= j)
-        .collect();
-    entries.sort_by_key(|e| e.0);
-    for e in entries {
-        push(out, e);
-    }
 }
 
 /// A pencil's rows for the products: row `j`'s entries left of the diagonal, through the
