@@ -338,6 +338,10 @@ fn column_array(col: &Column, start: usize, end: usize) -> (DataType, ArrayRef) 
             DataType::Int64,
             Arc::new(Int64Array::from(v[start..end].to_vec())),
         ),
+        Column::I32(v) => (
+            DataType::Int32,
+            Arc::new(Int32Array::from(v[start..end].to_vec())),
+        ),
         Column::Str(v) => (
             DataType::Utf8,
             Arc::new(StringArray::from(v[start..end].to_vec())),
@@ -404,14 +408,12 @@ fn append_batch(table: &mut Table, batch: &RecordBatch, path: &Path) -> Result<(
                     .values()
                     .to_vec(),
             ),
-            DataType::Int32 => Column::I64(
+            DataType::Int32 => Column::I32(
                 arr.as_any()
                     .downcast_ref::<Int32Array>()
                     .ok_or_else(bad)?
                     .values()
-                    .iter()
-                    .map(|v| *v as i64)
-                    .collect(),
+                    .to_vec(),
             ),
             DataType::Utf8 => Column::Str(
                 arr.as_any()
@@ -437,6 +439,7 @@ fn append_batch(table: &mut Table, batch: &RecordBatch, path: &Path) -> Result<(
             match (&mut table.columns[i].1, col) {
                 (Column::F64(a), Column::F64(b)) => a.extend(b),
                 (Column::I64(a), Column::I64(b)) => a.extend(b),
+                (Column::I32(a), Column::I32(b)) => a.extend(b),
                 (Column::Str(a), Column::Str(b)) => a.extend(b),
                 _ => return Err(bad()),
             }
@@ -633,6 +636,7 @@ mod tests {
                 Table::new()
                     .with("freq_hz", Column::F64(vec![0.0, 0.5, 1.0]))
                     .with("n", Column::I64(vec![1, -2, 3]))
+                    .with("i", Column::I32(vec![i32::MIN, 0, i32::MAX]))
                     .with(
                         "dof",
                         Column::Str(vec!["1:ux".into(), "2:uy".into(), "3:rz".into()]),
@@ -641,7 +645,9 @@ mod tests {
             )
             .with_table(
                 "shapes",
-                Table::new().with("phi_1", Column::F64(vec![1.5, -0.25])),
+                Table::new()
+                    .with("phi_1", Column::F64(vec![1.5, -0.25]))
+                    .with("row", Column::I32(vec![7, -8])),
                 Storage::Ipc,
             )
     }

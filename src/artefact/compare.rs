@@ -320,6 +320,7 @@ impl<'t> RowNames<'t> {
                         format!("{rounded}")
                     }
                     Column::I64(v) => v[row].to_string(),
+                    Column::I32(v) => v[row].to_string(),
                     Column::Str(v) => v[row].clone(),
                 };
                 format!("{n} {v}")
@@ -551,8 +552,12 @@ fn compare_table(
                 }
                 out.max_abs.insert(loc, worst);
             }
-            (Column::I64(x), Column::I64(y)) => {
-                for (row, (u, v)) in x.iter().zip(y).enumerate() {
+            (Column::I64(_) | Column::I32(_), Column::I64(_) | Column::I32(_)) => {
+                let (Some(x), Some(y)) = (x.integers(), y.integers()) else {
+                    unreachable!("both columns are integers")
+                };
+                for row in 0..x.len() {
+                    let (u, v) = (x.get(row), y.get(row));
                     if u != v {
                         out.push(
                             &mut listed,
@@ -693,13 +698,13 @@ fn best_sign(x: &[f64], y: &[f64]) -> f64 {
 
 fn sparse_map(t: &Table, name: &str) -> Option<BTreeMap<(i64, i64), f64>> {
     let (r, c, v) = (
-        t.i64s(name, "row").ok()?,
-        t.i64s(name, "col").ok()?,
+        t.indices(name, "row").ok()?,
+        t.indices(name, "col").ok()?,
         t.f64s(name, "value").ok()?,
     );
     let mut m = BTreeMap::new();
-    for ((r, c), v) in r.iter().zip(c).zip(v) {
-        *m.entry((*r, *c)).or_insert(0.0) += v;
+    for (k, v) in v.iter().enumerate().take(r.len().min(c.len())) {
+        *m.entry((r.get(k), c.get(k))).or_insert(0.0) += v;
     }
     Some(m)
 }

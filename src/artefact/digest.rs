@@ -98,6 +98,11 @@ pub fn artefact_digest(a: &Artefact) -> String {
                         h.bytes(&x.to_le_bytes());
                     }
                 }
+                Column::I32(v) => {
+                    for x in v {
+                        h.bytes(&x.to_le_bytes());
+                    }
+                }
                 Column::Str(v) => {
                     for s in v {
                         h.field(s.as_bytes());
@@ -171,9 +176,11 @@ mod tests {
         // Columns larger than the buffer, strings and a blob, against the stream hashed at once.
         let x: Vec<f64> = (0..300_000).map(|i| (i as f64).sin()).collect();
         let n: Vec<i64> = (0..200_000).map(|i| i * 7 - 3).collect();
+        let i: Vec<i32> = (0..150_000).map(|i| i * 5 - 7).collect();
         let table = Table::new()
             .with("x", Column::F64(x.clone()))
             .with("n", Column::I64(n.clone()))
+            .with("i", Column::I32(i.clone()))
             .with("s", Column::Str(vec!["ab".into(), String::new()]));
         let mut a = Artefact::new(ArtefactKind::Frf).with_table("t", table, Storage::Parquet);
         a.blobs.insert("b".into(), vec![7u8; 3 << 20]);
@@ -187,7 +194,7 @@ mod tests {
         field(&mut stream, &a.kind.schema_version().to_le_bytes());
         field(&mut stream, b"{}");
         field(&mut stream, b"t");
-        // Columns in the table's own order: x, n, s.
+        // Columns in the table's own order: x, n, i, s.
         field(&mut stream, b"x");
         field(&mut stream, b"float64");
         stream.extend_from_slice(&(x.len() as u64).to_le_bytes());
@@ -199,6 +206,11 @@ mod tests {
         field(&mut stream, b"int64");
         stream.extend_from_slice(&(n.len() as u64).to_le_bytes());
         n.iter()
+            .for_each(|v| stream.extend_from_slice(&v.to_le_bytes()));
+        field(&mut stream, b"i");
+        field(&mut stream, b"int32");
+        stream.extend_from_slice(&(i.len() as u64).to_le_bytes());
+        i.iter()
             .for_each(|v| stream.extend_from_slice(&v.to_le_bytes()));
         field(&mut stream, b"s");
         field(&mut stream, b"string");

@@ -130,6 +130,9 @@ fn write_table(root: &Group, table: &Table, name: &str, path: &Path) -> Result<(
             Column::I64(v) => builder
                 .with_data(ArrayView1::from(v.as_slice()))
                 .create(col_name.as_str()),
+            Column::I32(v) => builder
+                .with_data(ArrayView1::from(v.as_slice()))
+                .create(col_name.as_str()),
             Column::Str(v) => {
                 let mut cells = Vec::with_capacity(v.len());
                 for (row, s) in v.iter().enumerate() {
@@ -277,6 +280,8 @@ fn read_column(ds: &Dataset, path: &Path, here: &str) -> Result<Column, Artefact
     })?;
     let column = match desc {
         TypeDescriptor::Float(_) => Column::F64(read_numbers::<f64>(ds, path, here)?),
+        // 32-bit integers stay 32-bit (femu's matrix indices), so a round trip keeps the digest.
+        TypeDescriptor::Integer(IntSize::U4) => Column::I32(read_numbers::<i32>(ds, path, here)?),
         TypeDescriptor::Integer(_)
         | TypeDescriptor::Unsigned(IntSize::U1 | IntSize::U2 | IntSize::U4) => {
             Column::I64(read_numbers::<i64>(ds, path, here)?)
@@ -394,6 +399,7 @@ mod tests {
                 Table::new()
                     .with("freq_hz", Column::F64(vec![0.0, 0.5, 1.0e300, -2.5e-310]))
                     .with("n", Column::I64(vec![1, -2, i64::MAX, i64::MIN]))
+                    .with("i", Column::I32(vec![0, -1, i32::MAX, i32::MIN]))
                     .with(
                         "dof",
                         Column::Str(vec![
@@ -436,7 +442,7 @@ mod tests {
         let back = read(&path).unwrap();
         assert_eq!(back, tables(&a));
         let names: Vec<&str> = back["frf"].columns.iter().map(|c| c.0.as_str()).collect();
-        assert_eq!(names, ["freq_hz", "n", "dof", "a_last"]);
+        assert_eq!(names, ["freq_hz", "n", "i", "dof", "a_last"]);
         assert_eq!(back["empty"].rows(), 0);
         assert_eq!(back["empty"].columns.len(), 3);
     }
@@ -519,7 +525,7 @@ mod tests {
         assert_eq!(
             t,
             Table::new()
-                .with("a_i32", Column::I64(vec![7, -8]))
+                .with("a_i32", Column::I32(vec![7, -8]))
                 .with("b_f32", Column::F64(vec![1.5, 2.5]))
                 .with("c_u64", Column::I64(vec![9, 10]))
         );

@@ -44,7 +44,7 @@ pub mod modal_correlation {
     pub use super::kinds::modal_correlation::*;
 }
 
-pub use table::{Column, Storage, Table, TableError};
+pub use table::{Column, Indices, Storage, Table, TableError};
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};

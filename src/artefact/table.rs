@@ -9,6 +9,9 @@ pub enum Column {
     F64(Vec<f64>),
     /// 64-bit integers.
     I64(Vec<i64>),
+    /// 32-bit integers (the row and column indices of matrix tables: half the bytes of
+    /// [`Column::I64`] to write, hash and read back).
+    I32(Vec<i32>),
     /// UTF-8 text.
     Str(Vec<String>),
 }
@@ -19,6 +22,7 @@ impl Column {
         match self {
             Column::F64(v) => v.len(),
             Column::I64(v) => v.len(),
+            Column::I32(v) => v.len(),
             Column::Str(v) => v.len(),
         }
     }
@@ -33,7 +37,17 @@ impl Column {
         match self {
             Column::F64(_) => "float64",
             Column::I64(_) => "int64",
+            Column::I32(_) => "int32",
             Column::Str(_) => "string",
+        }
+    }
+
+    /// The column as indices, when it holds integers of either width.
+    pub fn integers(&self) -> Option<Indices<'_>> {
+        match self {
+            Column::I32(v) => Some(Indices::I32(v)),
+            Column::I64(v) => Some(Indices::I64(v)),
+            _ => None,
         }
     }
 
@@ -42,6 +56,7 @@ impl Column {
         match self {
             Column::F64(v) => format!("{:.6e}", v[row]),
             Column::I64(v) => v[row].to_string(),
+            Column::I32(v) => v[row].to_string(),
             Column::Str(v) => v[row].clone(),
         }
     }
@@ -109,13 +124,14 @@ impl Table {
         Ok(())
     }
 
-    fn typed<'a, T>(
+    /// Column `name` as what `pick` makes of it; `want` names what it accepts.
+    fn typed<'a, R>(
         &'a self,
         table: &str,
         name: &str,
         want: &str,
-        pick: impl Fn(&'a Column) -> Option<&'a Vec<T>>,
-    ) -> Result<&'a [T], TableError> {
+        pick: impl Fn(&'a Column) -> Option<R>,
+    ) -> Result<R, TableError> {
         let col = self.column(name).ok_or_else(|| TableError {
             table: table.into(),
             problem: format!(
@@ -127,7 +143,7 @@ impl Table {
                     .join(", ")
             ),
         })?;
-        pick(col).map(|v| v.as_slice()).ok_or_else(|| TableError {
+        pick(col).ok_or_else(|| TableError {
             table: table.into(),
             problem: format!("column `{name}` is {}, expected {want}", col.type_name()),
         })
@@ -136,7 +152,7 @@ impl Table {
     /// A float column by name.
     pub fn f64s(&self, table: &str, name: &str) -> Result<&[f64], TableError> {
         self.typed(table, name, "float64", |c| match c {
-            Column::F64(v) => Some(v),
+            Column::F64(v) => Some(v.as_slice()),
             _ => None,
         })
     }
@@ -144,17 +160,62 @@ impl Table {
     /// An integer column by name.
     pub fn i64s(&self, table: &str, name: &str) -> Result<&[i64], TableError> {
         self.typed(table, name, "int64", |c| match c {
-            Column::I64(v) => Some(v),
+            Column::I64(v) => Some(v.as_slice()),
             _ => None,
         })
+    }
+
+    /// An index column by name: 32-bit or 64-bit integers.
+    pub fn indices(&self, table: &str, name: &str) -> Result<Indices<'_>, TableError> {
+        self.typed(table, name, "int32 or int64", Column::integers)
     }
 
     /// A text column by name.
     pub fn strs(&self, table: &str, name: &str) -> Result<&[String], TableError> {
         self.typed(table, name, "string", |c| match c {
-            Column::Str(v) => Some(v),
+            Column::Str(v) => Some(v.as_slice()),
             _ => None,
         })
+    }
+}
+
+/// An integer column read as indices, whichever width it was written in.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Indices<'a> {
+    /// 32-bit indices (as femu writes matrix tables).
+    I32(&'a [i32]),
+    /// 64-bit indices (tables written by other tools, or by femu before schema version 3).
+    I64(&'a [i64]),
+}
+
+impl<'a> Indices<'a> {
+    /// Number of indices.
+    pub fn len(&self) -> usize {
+        match self {
+            Indices::I32(v) => v.len(),
+            Indices::I64(v) => v.len(),
+        }
+    }
+
+    /// True when there are none.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Index `k` (which must be below [`Indices::len`]).
+    pub fn get(&self, k: usize) -> i64 {
+        match self {
+            Indices::I32(v) => i64::from(v[k]),
+            Indices::I64(v) => v[k],
+        }
+    }
+
+    /// The indices as 64-bit integers: borrowed when they are, converted otherwise.
+    pub fn to_i64(&self) -> std::borrow::Cow<'a, [i64]> {
+        match self {
+            Indices::I32(v) => v.iter().map(|&i| i64::from(i)).collect(),
+            Indices::I64(v) => std::borrow::Cow::Borrowed(v),
+        }
     }
 }
 
@@ -182,5 +243,43 @@ impl fmt::Display for Table {
     /// A preview: header and the first 8 rows.
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(&self.preview(8))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Index columns read at either width give the same indices; another type is an error
+    /// naming the table, the column and what would be valid.
+    #[test]
+    fn indices_read_at_either_width() {
+        let t = Table::new()
+            .with("narrow", Column::I32(vec![3, -1, i32::MAX]))
+            .with("wide", Column::I64(vec![3, -1, i64::from(i32::MAX)]))
+            .with("x", Column::F64(vec![0.0; 3]));
+        let (narrow, wide) = (
+            t.indices("t", "narrow").unwrap(),
+            t.indices("t", "wide").unwrap(),
+        );
+        assert!(matches!(narrow, Indices::I32(_)) && matches!(wide, Indices::I64(_)));
+        assert_eq!(narrow.len(), 3);
+        assert_eq!(
+            (0..3).map(|k| narrow.get(k)).collect::<Vec<_>>(),
+            *wide.to_i64()
+        );
+        assert_eq!(narrow.to_i64(), wide.to_i64());
+        assert!(matches!(wide.to_i64(), std::borrow::Cow::Borrowed(_)));
+        let e = t.indices("t", "x").unwrap_err().to_string();
+        assert!(
+            e.contains("table `t`") && e.contains("`x` is float64, expected int32 or int64"),
+            "{e}"
+        );
+        assert!(
+            t.i64s("t", "narrow").is_err(),
+            "a 64-bit read of 32-bit indices"
+        );
+        assert_eq!(Column::I32(vec![1, 2]).type_name(), "int32");
+        assert_eq!(Column::I32(vec![1, -2]).cell(1), "-2");
     }
 }

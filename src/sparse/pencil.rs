@@ -67,6 +67,13 @@ pub struct LowerPencil {
 /// Columns per task when columns are merged in parallel.
 const COLUMNS_PER_TASK: usize = 4096;
 
+/// A row or column index given as a signed integer, 32-bit or 64-bit (as lists of triplets
+/// store them).
+pub trait IntegerIndex: Copy + Into<i64> + PartialEq + Send + Sync {}
+
+impl IntegerIndex for i32 {}
+impl IntegerIndex for i64 {}
+
 impl LowerPencil {
     /// The pencil of `K` and `M` stored in full (or as lower triangles; entries above the
     /// diagonal are not read), on the union of their lower patterns. Entries of one row in one
@@ -128,11 +135,12 @@ impl LowerPencil {
     /// them), merged without sorting; an entry only one of them stores is zero in the other.
     /// `None` when a list is out of that order, holds an entry above the diagonal or an index
     /// outside `0..n`, or when the pencil is too large for its indices: the caller then reads
-    /// the matrices through the general path, which names the fault.
-    pub fn from_sorted_lower(
+    /// the matrices through the general path, which names the fault. The indices are 32-bit or
+    /// 64-bit integers (`I`), as the tables hold them.
+    pub fn from_sorted_lower<I: IntegerIndex>(
         n: usize,
-        k: (&[i64], &[i64], &[f64]),
-        m: (&[i64], &[i64], &[f64]),
+        k: (&[I], &[I], &[f64]),
+        m: (&[I], &[I], &[f64]),
     ) -> Option<Self> {
         let (kr, kc, kv) = k;
         let (mr, mc, mv) = m;
@@ -143,8 +151,11 @@ impl LowerPencil {
             return None;
         }
         check_size(n, kr.len().max(mr.len())).ok()?;
-        let key = |r: i64, c: i64| -> Option<(usize, usize)> {
-            let (r, c) = (usize::try_from(r).ok()?, usize::try_from(c).ok()?);
+        let key = |r: I, c: I| -> Option<(usize, usize)> {
+            let (r, c) = (
+                usize::try_from(r.into()).ok()?,
+                usize::try_from(c.into()).ok()?,
+            );
             (r < n && c <= r).then_some((c, r))
         };
         if kr == mr && kc == mc {
@@ -202,12 +213,12 @@ impl LowerPencil {
     /// [`Self::from_sorted_lower`] when `K` and `M` store the same entries (as the assembly
     /// writes them, on the union of their patterns): the order is checked and the arrays
     /// converted on all threads, with no merge.
-    fn from_one_sorted_pattern(
+    fn from_one_sorted_pattern<I: IntegerIndex>(
         n: usize,
-        (rows, cols): (&[i64], &[i64]),
+        (rows, cols): (&[I], &[I]),
         k: &[f64],
         m: &[f64],
-        key: impl Fn(i64, i64) -> Option<(usize, usize)> + Sync,
+        key: impl Fn(I, I) -> Option<(usize, usize)> + Sync,
     ) -> Option<Self> {
         const CHUNK: usize = 1 << 16;
         let ordered = rows
@@ -232,13 +243,14 @@ impl LowerPencil {
             return None;
         }
         let mut col_ptr = vec![0usize; n + 1];
+        // Every index was checked above: 0 ≤ col ≤ row < n.
         for &c in cols {
-            col_ptr[c as usize + 1] += 1;
+            col_ptr[c.into() as usize + 1] += 1;
         }
         for j in 0..n {
             col_ptr[j + 1] += col_ptr[j];
         }
-        let rows: Vec<u32> = rows.par_iter().map(|&r| r as u32).collect();
+        let rows: Vec<u32> = rows.par_iter().map(|&r| r.into() as u32).collect();
         let (k, m) = rayon::join(|| k.to_vec(), || m.to_vec());
         Some(Self::with_upper_index(col_ptr, rows, k, m))
     }

@@ -359,6 +359,7 @@ pub fn table_digest(t: &Table) -> String {
         match c {
             Column::F64(v) => v.iter().for_each(|x| field(&x.to_le_bytes())),
             Column::I64(v) => v.iter().for_each(|x| field(&x.to_le_bytes())),
+            Column::I32(v) => v.iter().for_each(|x| field(&x.to_le_bytes())),
             Column::Str(v) => v.iter().for_each(|x| field(x.as_bytes())),
         }
     }
@@ -394,12 +395,14 @@ fn reduce(c: &Column, r: Reduce, what: &str) -> Result<Column, SweepError> {
         return Ok(match c {
             Column::F64(v) => Column::F64(vec![v[i]]),
             Column::I64(v) => Column::I64(vec![v[i]]),
+            Column::I32(v) => Column::I32(vec![v[i]]),
             Column::Str(v) => Column::Str(vec![v[i].clone()]),
         });
     }
     let v: Vec<f64> = match c {
         Column::F64(v) => v.clone(),
         Column::I64(v) => v.iter().map(|x| *x as f64).collect(),
+        Column::I32(v) => v.iter().map(|x| f64::from(*x)).collect(),
         Column::Str(_) => {
             return Err(SweepError::Collect(format!(
                 "{what}: `{r:?}` needs numbers but the column holds text"
@@ -490,6 +493,7 @@ fn repeat(c: &Column, n: usize) -> Column {
     match c {
         Column::F64(v) => Column::F64(vec![v[0]; n]),
         Column::I64(v) => Column::I64(vec![v[0]; n]),
+        Column::I32(v) => Column::I32(vec![v[0]; n]),
         Column::Str(v) => Column::Str(vec![v[0].clone(); n]),
     }
 }
@@ -500,7 +504,15 @@ fn append(acc: &mut Option<Column>, add: Column, name: &str) -> Result<(), Sweep
         *acc = Some(add);
         return Ok(());
     };
-    match (cur, add) {
+    // Integers of both widths are collected as 64-bit ones.
+    let widen = |c: Column| match c {
+        Column::I32(v) => Column::I64(v.into_iter().map(i64::from).collect()),
+        c => c,
+    };
+    if matches!(cur, Column::I32(_)) {
+        *cur = widen(std::mem::replace(cur, Column::I64(Vec::new())));
+    }
+    match (cur, widen(add)) {
         (Column::F64(a), Column::F64(b)) => a.extend(b),
         (Column::I64(a), Column::I64(b)) => a.extend(b),
         (Column::Str(a), Column::Str(b)) => a.extend(b),
@@ -740,6 +752,7 @@ fn cell_label(c: &Column, i: usize) -> String {
             }
         }
         Column::I64(v) => v[i].to_string(),
+        Column::I32(v) => v[i].to_string(),
         Column::Str(v) => v[i].clone(),
     }
 }
@@ -749,6 +762,7 @@ fn cell_key(c: &Column, i: usize) -> (f64, String) {
     match c {
         Column::F64(v) => (v[i], String::new()),
         Column::I64(v) => (v[i] as f64, String::new()),
+        Column::I32(v) => (f64::from(v[i]), String::new()),
         Column::Str(v) => (0.0, v[i].clone()),
     }
 }
@@ -776,6 +790,7 @@ fn write_plot(
     let ys: Vec<f64> = match get(&p.column)? {
         Column::F64(v) => v.clone(),
         Column::I64(v) => v.iter().map(|x| *x as f64).collect(),
+        Column::I32(v) => v.iter().map(|x| f64::from(*x)).collect(),
         Column::Str(_) => {
             return Err(SweepError::Collect(format!(
                 "plot: column `{}` holds text; a box plot needs numbers",

@@ -31,10 +31,11 @@
 //! | `test_map` | [`test_map`] |
 //! | `tmcmc_population` | [`tmcmc_population`] |
 
-use super::{Artefact, ArtefactError, ArtefactKind, Column, Storage, Table};
+use super::{Artefact, ArtefactError, ArtefactKind, Column, Indices, Storage, Table};
 use crate::core::DofId;
 use crate::core::memory::split_at_offsets;
 use crate::core::sparse::{SparseMatrix, sparse_from_triplets};
+use crate::sparse::IntegerIndex;
 use faer::Mat;
 use faer::sparse::{SparseColMat, SymbolicSparseColMat};
 
@@ -269,16 +270,22 @@ pub(crate) fn triplet_layout(
     value_doc: &'static str,
 ) -> TableLayout {
     let (row, column) = match index {
-        "dofs" => ("row index into `dofs`", "column index into `dofs`"),
-        _ => ("row index into `coords`", "column index into `coords`"),
+        "dofs" => (
+            "row index into `dofs` (int64 above 2^31 DOFs; int64 is also read)",
+            "column index into `dofs` (as `row`)",
+        ),
+        _ => (
+            "row index into `coords` (int64 above 2^31; int64 is also read)",
+            "column index into `coords` (as `row`)",
+        ),
     };
     table(
         name,
         Storage::Ipc,
         required,
         vec![
-            col("row", "int64", "", row),
-            col("col", "int64", "", column),
+            col("row", "int32", "", row),
+            col("col", "int32", "", column),
             col("value", "float64", unit, value_doc),
         ],
     )
@@ -478,6 +485,26 @@ pub(crate) fn meta_value<T: serde::de::DeserializeOwned>(
         .map_err(|e| ArtefactError::schema(a.kind, format!("metadata `{key}`: {e}")))
 }
 
+/// Most rows or columns a matrix table indexes with 32-bit integers (indices up to
+/// `i32::MAX`); larger matrices get 64-bit ones.
+const INT32_INDEXED: usize = 1 << 31;
+
+/// The `row, col, value` table of a matrix with `dim` rows and columns (the larger), from its
+/// entries as `(row, col)` indices and values: 32-bit indices when every index fits.
+fn matrix_table(dim: usize, row: Vec<usize>, col: Vec<usize>, value: Vec<f64>) -> Table {
+    let column = |v: Vec<usize>| {
+        if dim <= INT32_INDEXED {
+            Column::I32(v.into_iter().map(|i| i as i32).collect())
+        } else {
+            Column::I64(v.into_iter().map(|i| i as i64).collect())
+        }
+    };
+    Table::new()
+        .with("row", column(row))
+        .with("col", column(col))
+        .with("value", Column::F64(value))
+}
+
 /// A sparse matrix as a `row, col, value` table (the layout of every matrix table), in
 /// column-major order.
 pub fn triplet_table(mat: &SparseMatrix) -> Table {
@@ -489,19 +516,39 @@ pub fn triplet_table(mat: &SparseMatrix) -> Table {
     );
     for j in 0..mat.ncols() {
         let rows = mat.row_idx_of_col_raw(j);
-        row.extend(rows.iter().map(|&i| i as i64));
-        col.extend(std::iter::repeat_n(j as i64, rows.len()));
+        row.extend_from_slice(rows);
+        col.extend(std::iter::repeat_n(j, rows.len()));
         value.extend_from_slice(mat.val_of_col(j));
     }
-    Table::new()
-        .with("row", Column::I64(row))
-        .with("col", Column::I64(col))
-        .with("value", Column::F64(value))
+    matrix_table(mat.nrows().max(mat.ncols()), row, col, value)
 }
 
 /// The lower triangle (`row ≥ col`) of a symmetric matrix as a `row, col, value` table, in
-/// column-major order: half the bytes of [`triplet_table`] to write, hash and read back.
+/// column-major order: half the bytes of [`triplet_table`] to write, hash and read back. The
+/// columns are filled in place on all threads (hundreds of megabytes at 10⁶ DOFs).
 pub fn lower_triplet_table(mat: &SparseMatrix) -> Table {
+    let n = mat.ncols();
+    if n <= INT32_INDEXED {
+        let (row, col, value) = lower_triplet_columns(mat, |i| i as i32);
+        Table::new()
+            .with("row", Column::I32(row))
+            .with("col", Column::I32(col))
+            .with("value", Column::F64(value))
+    } else {
+        let (row, col, value) = lower_triplet_columns(mat, |i| i as i64);
+        Table::new()
+            .with("row", Column::I64(row))
+            .with("col", Column::I64(col))
+            .with("value", Column::F64(value))
+    }
+}
+
+/// The row indices, column indices and values of a symmetric matrix's lower triangle in
+/// column-major order, each index written as `index` makes it.
+fn lower_triplet_columns<I: Copy + Default + Send + Sync>(
+    mat: &SparseMatrix,
+    index: impl Fn(usize) -> I + Sync,
+) -> (Vec<I>, Vec<I>, Vec<f64>) {
     use rayon::prelude::*;
     /// Columns per parallel task.
     const COLUMNS: usize = 4096;
@@ -521,7 +568,11 @@ pub fn lower_triplet_table(mat: &SparseMatrix) -> Table {
         offsets.push(offsets[offsets.len() - 1] + c);
     }
     let nnz = offsets[counts.len()];
-    let (mut row, mut col, mut value) = (vec![0i64; nnz], vec![0i64; nnz], vec![0.0f64; nnz]);
+    let (mut row, mut col, mut value) = (
+        vec![I::default(); nnz],
+        vec![I::default(); nnz],
+        vec![0.0f64; nnz],
+    );
     split_at_offsets(&mut row, &offsets)
         .into_par_iter()
         .zip(split_at_offsets(&mut col, &offsets))
@@ -531,15 +582,12 @@ pub fn lower_triplet_table(mat: &SparseMatrix) -> Table {
             let mut k = 0;
             for j in columns(b) {
                 for (&i, &v) in lower(j) {
-                    (row[k], col[k], value[k]) = (i as i64, j as i64, v);
+                    (row[k], col[k], value[k]) = (index(i), index(j), v);
                     k += 1;
                 }
             }
         });
-    Table::new()
-        .with("row", Column::I64(row))
-        .with("col", Column::I64(col))
-        .with("value", Column::F64(value))
+    (row, col, value)
 }
 
 /// The symmetric matrix whose lower triangle (diagonal included) is `lower`, with rows ascending
@@ -558,10 +606,10 @@ pub(crate) fn mirror_lower(lower: &SparseMatrix) -> SparseMatrix {
 /// mirrored straight from the table's columns: one counting pass that also checks the order, no
 /// intermediate matrix. `None` for a table out of that order or with an entry above the
 /// diagonal (read through the general path, which names the entry).
-pub(crate) fn mirror_sorted_lower(
+pub(crate) fn mirror_sorted_lower<I: IntegerIndex>(
     n: usize,
-    rows: &[i64],
-    cols: &[i64],
+    rows: &[I],
+    cols: &[I],
     vals: &[f64],
 ) -> Option<SparseMatrix> {
     if rows.len() != cols.len() || rows.len() != vals.len() {
@@ -579,7 +627,7 @@ pub(crate) fn mirror_sorted_lower(
         rows.iter()
             .zip(cols)
             .zip(vals)
-            .map(|((&r, &c), &v)| (r as usize, c as usize, v))
+            .map(|((&r, &c), &v)| (r.into() as usize, c.into() as usize, v))
     }))
 }
 
@@ -618,13 +666,16 @@ where
 
 /// Entry `(r, c)` of a table read in order as indices, when both lie in `0..n` and the entry
 /// follows `previous` in column-major order with rows strictly ascending; `None` otherwise.
-fn next_in_column_order(
+fn next_in_column_order<I: IntegerIndex>(
     n: usize,
-    r: i64,
-    c: i64,
+    r: I,
+    c: I,
     previous: &mut Option<(usize, usize)>,
 ) -> Option<(usize, usize)> {
-    let (r, c) = (usize::try_from(r).ok()?, usize::try_from(c).ok()?);
+    let (r, c) = (
+        usize::try_from(r.into()).ok()?,
+        usize::try_from(c.into()).ok()?,
+    );
     if r >= n || c >= n || previous.is_some_and(|p| (c, r) <= p) {
         return None;
     }
@@ -635,7 +686,12 @@ fn next_in_column_order(
 /// The matrix of a table in column-major order with rows strictly ascending in each column (as
 /// [`triplet_table`] writes every matrix femu builds), built without sorting; `None` for any
 /// other table, which is then read through the general triplet path.
-fn sorted_column_major(n: usize, rows: &[i64], cols: &[i64], vals: &[f64]) -> Option<SparseMatrix> {
+fn sorted_column_major<I: IntegerIndex>(
+    n: usize,
+    rows: &[I],
+    cols: &[I],
+    vals: &[f64],
+) -> Option<SparseMatrix> {
     if rows.len() != cols.len() || rows.len() != vals.len() {
         return None;
     }
@@ -664,24 +720,28 @@ pub(crate) fn read_sparse(
         return Ok(None);
     };
     let (r, c, v) = (
-        t.i64s(name, "row")?,
-        t.i64s(name, "col")?,
+        t.indices(name, "row")?,
+        t.indices(name, "col")?,
         t.f64s(name, "value")?,
     );
-    if let Some(m) = sorted_column_major(n, r, c, v) {
+    let sorted = match (r, c) {
+        (Indices::I32(r), Indices::I32(c)) => sorted_column_major(n, r, c, v),
+        (r, c) => sorted_column_major(n, &r.to_i64(), &c.to_i64(), v),
+    };
+    if let Some(m) = sorted {
         return Ok(Some(m));
     }
-    let trip: Vec<(usize, usize, f64)> = r
+    if r.len() != v.len() || c.len() != v.len() {
+        return Err(ArtefactError::schema(
+            a.kind,
+            format!("table `{name}`: columns of unequal length"),
+        ));
+    }
+    let index = |i: i64| usize::try_from(i).unwrap_or(usize::MAX);
+    let trip: Vec<(usize, usize, f64)> = v
         .iter()
-        .zip(c)
-        .zip(v)
-        .map(|((r, c), v)| {
-            (
-                usize::try_from(*r).unwrap_or(usize::MAX),
-                usize::try_from(*c).unwrap_or(usize::MAX),
-                *v,
-            )
-        })
+        .enumerate()
+        .map(|(k, v)| (index(r.get(k)), index(c.get(k)), *v))
         .collect();
     sparse_from_triplets("matrix", n, &trip)
         .map(Some)
@@ -694,16 +754,13 @@ pub fn dense_triplet_table(m: &Mat<f64>) -> Table {
     for j in 0..m.ncols() {
         for i in 0..m.nrows() {
             if m[(i, j)] != 0.0 {
-                r.push(i as i64);
-                c.push(j as i64);
+                r.push(i);
+                c.push(j);
                 v.push(m[(i, j)]);
             }
         }
     }
-    Table::new()
-        .with("row", Column::I64(r))
-        .with("col", Column::I64(c))
-        .with("value", Column::F64(v))
+    matrix_table(m.nrows().max(m.ncols()), r, c, v)
 }
 
 /// The dense `rows × cols` matrix of triplet table `name`.
@@ -715,20 +772,26 @@ pub(crate) fn dense_from(
 ) -> Result<Mat<f64>, ArtefactError> {
     let t = a.table(name)?;
     let (r, c, v) = (
-        t.i64s(name, "row")?,
-        t.i64s(name, "col")?,
+        t.indices(name, "row")?,
+        t.indices(name, "col")?,
         t.f64s(name, "value")?,
     );
+    if r.len() != v.len() || c.len() != v.len() {
+        return Err(ArtefactError::schema(
+            a.kind,
+            format!("table `{name}`: columns of unequal length"),
+        ));
+    }
     let mut m = Mat::zeros(rows, cols);
-    for k in 0..r.len() {
-        let (i, j) = (r[k], c[k]);
+    for (k, value) in v.iter().enumerate() {
+        let (i, j) = (r.get(k), c.get(k));
         if i < 0 || j < 0 || i as usize >= rows || j as usize >= cols {
             return Err(ArtefactError::schema(
                 a.kind,
                 format!("table `{name}` row {k}: entry ({i}, {j}) outside {rows}x{cols}"),
             ));
         }
-        m[(i as usize, j as usize)] += v[k];
+        m[(i as usize, j as usize)] += value;
     }
     Ok(m)
 }

@@ -26,6 +26,8 @@ pub struct ReducedComponentKind;
 impl Kind for ReducedComponentKind {
     const KIND: ArtefactKind = ArtefactKind::ReducedComponent;
     const NAME: &'static str = "reduced_component";
+    /// 2: the matrix tables' indices are 32-bit integers.
+    const VERSION: u32 = 2;
     type Value = ComponentReduction;
 
     fn layout() -> Layout {

@@ -48,6 +48,8 @@ pub struct ReducedModelKind;
 impl Kind for ReducedModelKind {
     const KIND: ArtefactKind = ArtefactKind::ReducedModel;
     const NAME: &'static str = "reduced_model";
+    /// 2: the matrix tables' indices are 32-bit integers.
+    const VERSION: u32 = 2;
     type Value = ReducedModelArtefact;
 
     fn layout() -> Layout {

@@ -681,8 +681,16 @@ fn matrices_are_stored_as_lower_triangles_and_read_back_whole() {
     let a = matrices_to_artefact(&sys);
     assert_eq!(a.meta["triangle"], "lower");
     let k = &a.tables["K"].0;
-    let (rows, cols) = (k.i64s("K", "row").unwrap(), k.i64s("K", "col").unwrap());
-    assert!(rows.iter().zip(cols).all(|(r, c)| r >= c));
+    assert!(
+        matches!(k.column("row"), Some(Column::I32(_))),
+        "32-bit indices"
+    );
+    let (rows, cols) = (
+        k.indices("K", "row").unwrap(),
+        k.indices("K", "col").unwrap(),
+    );
+    let (rows, cols) = (rows.to_i64(), cols.to_i64());
+    assert!(rows.iter().zip(cols.iter()).all(|(r, c)| r >= c));
     let full = sys.k.compute_nnz();
     assert_eq!(
         rows.len(),
@@ -733,11 +741,15 @@ fn a_large_matrix_table_holds_its_lower_triangle_in_column_order() {
         .filter(|(i, j, _)| i >= j)
         .map(|&(i, j, v)| (i as i64, j as i64, v))
         .collect();
-    let (rows, cols) = (t.i64s("K", "row").unwrap(), t.i64s("K", "col").unwrap());
+    let (rows, cols) = (
+        t.indices("K", "row").unwrap(),
+        t.indices("K", "col").unwrap(),
+    );
+    let (rows, cols) = (rows.to_i64(), cols.to_i64());
     let values = t.f64s("K", "value").unwrap();
     let got: Vec<(i64, i64, f64)> = rows
         .iter()
-        .zip(cols)
+        .zip(cols.iter())
         .zip(values)
         .map(|((&i, &j), &v)| (i, j, v))
         .collect();
@@ -756,11 +768,22 @@ fn a_large_matrix_table_holds_its_lower_triangle_in_column_order() {
     assert_eq!(back.k.col_ptr(), m.col_ptr());
     assert_eq!(back.k.row_idx(), m.row_idx());
     assert_eq!(back.k.val(), m.val());
+    // The same table with 64-bit indices (schema version 2, or another writer's) takes the
+    // direct mirror too, and gives the same bits.
+    let wide = a.clone().with_table(
+        "K",
+        Table::new()
+            .with("row", Column::I64(rows.to_vec()))
+            .with("col", Column::I64(cols.to_vec()))
+            .with("value", Column::F64(values.to_vec())),
+        Storage::Ipc,
+    );
+    let back = matrices_from_artefact(&wide).unwrap();
+    assert_eq!(back.k.row_idx(), m.row_idx());
+    assert_eq!(back.k.val(), m.val());
     // The same lower triangle in reverse order (another writer's) reads as the same matrix,
     // through the general path instead of the direct mirror.
     let mut reversed = a.clone();
-    let (rows, cols) = (t.i64s("K", "row").unwrap(), t.i64s("K", "col").unwrap());
-    let values = t.f64s("K", "value").unwrap();
     let table = Table::new()
         .with("row", Column::I64(rows.iter().rev().copied().collect()))
         .with("col", Column::I64(cols.iter().rev().copied().collect()))
@@ -796,7 +819,10 @@ fn the_pencil_reads_straight_from_the_lower_tables() {
     let mut reversed = a.clone();
     for name in ["K", "M"] {
         let t = &a.tables[name].0;
-        let rev_i = |c: &str| Column::I64(t.i64s(name, c).unwrap().iter().rev().copied().collect());
+        let rev_i = |c: &str| {
+            let indices = t.indices(name, c).unwrap().to_i64();
+            Column::I64(indices.iter().rev().copied().collect())
+        };
         let values = t
             .f64s(name, "value")
             .unwrap()
@@ -816,7 +842,26 @@ fn the_pencil_reads_straight_from_the_lower_tables() {
         let m = if name == "K" { &sys.k } else { &sys.m };
         whole = whole.with_table(name, triplet_table(m), Storage::Ipc);
     }
-    for other in [&reversed, &whole] {
+    // 64-bit indices in order (schema version 2): the direct path, for both matrices or for
+    // `M` alone beside `K`'s 32-bit ones.
+    let widened = |names: &[&str]| {
+        let mut b = a.clone();
+        for &name in names {
+            let t = &a.tables[name].0;
+            let wide = |c: &str| Column::I64(t.indices(name, c).unwrap().to_i64().into_owned());
+            let table = Table::new()
+                .with("row", wide("row"))
+                .with("col", wide("col"))
+                .with(
+                    "value",
+                    Column::F64(t.f64s(name, "value").unwrap().to_vec()),
+                );
+            b = b.with_table(name, table, Storage::Ipc);
+        }
+        b
+    };
+    let (both, mass_only) = (widened(&["K", "M"]), widened(&["M"]));
+    for other in [&reversed, &whole, &both, &mass_only] {
         let (p, d) = pencil_from_matrices(other).unwrap();
         assert_eq!(d, sys.dofs);
         assert_eq!(products(&p), want);
@@ -825,7 +870,11 @@ fn the_pencil_reads_straight_from_the_lower_tables() {
     let mut nan = a.clone();
     let t = &a.tables["M"].0;
     let mut values = t.f64s("M", "value").unwrap().to_vec();
-    let (rows, cols) = (t.i64s("M", "row").unwrap(), t.i64s("M", "col").unwrap());
+    let (rows, cols) = (
+        t.indices("M", "row").unwrap(),
+        t.indices("M", "col").unwrap(),
+    );
+    let (rows, cols) = (rows.to_i64(), cols.to_i64());
     let last = values.len() - 1;
     values[last] = f64::NAN;
     let table = Table::new()
@@ -864,8 +913,8 @@ fn a_matrix_table_in_any_row_order_reads_as_the_same_matrix() {
     let mut shuffled = Table::new();
     let order = [5usize, 0, 7, 2, 1, 6, 3, 4];
     let (r, c, v) = (
-        sorted.i64s("K", "row").unwrap(),
-        sorted.i64s("K", "col").unwrap(),
+        sorted.indices("K", "row").unwrap().to_i64(),
+        sorted.indices("K", "col").unwrap().to_i64(),
         sorted.f64s("K", "value").unwrap(),
     );
     // (1, 1) split into two halves: duplicates are summed.
