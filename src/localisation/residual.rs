@@ -19,7 +19,7 @@ use crate::sensitivity::ProjectedDerivative;
 use crate::sensitivity::frf::{
     CLUSTER_TOLERANCE, ShiftedStaticError, shifted_static_solutions, static_shape_correction,
 };
-use crate::sensitivity::project_between;
+use crate::sensitivity::{project_between, project_between_symmetric};
 use faer::{Mat, MatRef};
 
 /// `G = (K − σM)⁻¹` at chosen DOFs and the shift `σ`.
@@ -115,8 +115,8 @@ impl StaticShare {
         p: &ProjectedDerivative,
     ) -> (Mat<f64>, Mat<f64>) {
         let (xl, pl) = (d.gather(self.x.as_ref()), d.gather(phi));
-        let mut ck = project_between(&d.dk, xl.as_ref(), pl.as_ref());
-        let mut cm = project_between(&d.dm, xl.as_ref(), pl.as_ref());
+        let mut ck = project_between_symmetric(&d.dk, xl.as_ref(), pl.as_ref());
+        let mut cm = project_between_symmetric(&d.dm, xl.as_ref(), pl.as_ref());
         ck *= faer::Scale(value);
         cm *= faer::Scale(value);
         let rho =

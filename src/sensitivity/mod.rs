@@ -12,5 +12,8 @@ pub mod sensors;
 pub use correlation::{ChiSensitivity, chi_sensitivity};
 pub use frf::{ModalFrfModel, damping_sensitivities, frf_sensitivities, log_magnitude_sensitivity};
 pub use modes::mode_shape_sensitivities;
-pub use projection::{ProjectedDerivative, eigenvalue_sensitivity, project, project_between};
+pub use projection::{
+    ProjectedDerivative, eigenvalue_sensitivity, project, project_between,
+    project_between_symmetric,
+};
 pub use sensors::{RowWeights, SensorMap};

@@ -810,8 +810,12 @@ impl ModalState {
             .zip(values.par_iter())
             .zip(self.projected.par_iter())
             .map(|(((dk, dm), &v), d)| {
-                let ck = crate::sensitivity::project_between(dk, x.as_ref(), phi) * faer::Scale(v);
-                let cm = crate::sensitivity::project_between(dm, x.as_ref(), phi) * faer::Scale(v);
+                // `Xᵀ ∂K Φ` through `∂K X`: a column per measured DOF rather than per mode.
+                let project = |a| {
+                    crate::sensitivity::project_between_symmetric(a, x.as_ref(), phi)
+                        * faer::Scale(v)
+                };
+                let (ck, cm) = (project(dk), project(dm));
                 crate::sensitivity::frf::static_shape_correction(
                     &self.modes.eigenvalues,
                     shift,
