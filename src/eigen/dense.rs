@@ -134,6 +134,9 @@ pub enum EigenError {
         /// DOF count.
         n: usize,
     },
+    /// `K` and `M` hold more entries than the eigensolver's 32-bit indices address.
+    #[error("{0}; reduce the model (CMS)")]
+    PencilTooLarge(crate::sparse::PencilError),
     /// Not every wanted mode converged.
     #[error(
         "only {converged} of {wanted} modes converged after {restarts} restarts; loosen the tolerance, ask for fewer modes, or give a shift near the wanted frequencies"

@@ -248,7 +248,7 @@ fn full_pencil(k: &SparseMatrix, m: &SparseMatrix, n: usize) -> Result<LowerPenc
             dofs: n,
         });
     }
-    LowerPencil::from_full(k, m).map_err(|_| EigenError::FactorTooLarge { n })
+    LowerPencil::from_full(k, m).map_err(EigenError::PencilTooLarge)
 }
 
 /// [`lowest_modes`], handing back the factor of `K − σM` as well (`None` on the dense path), so
