@@ -37,7 +37,7 @@ use crate::core::DofId;
 use crate::core::memory::{Columns, parallel_zeros};
 use crate::core::sparse::SparseMatrix;
 use crate::sparse::{
-    FactorError, FactorInfo, LowerPencil, SparseSolve, SpdFactor, SymmetricFactor,
+    FactorError, FactorInfo, FullPencil, SparseSolve, SpdFactor, SymmetricFactor, SymmetricPencil,
 };
 use faer::linalg::triangular_solve::solve_lower_triangular_in_place;
 use faer::{Mat, MatMut, MatRef, Par, Side};
@@ -109,7 +109,7 @@ pub struct SparseEigenInfo {
 }
 
 /// The median of `K_jj / M_jj` over DOFs with mass: the scale of the model's eigenvalues.
-fn eigenvalue_scale(pencil: &LowerPencil) -> f64 {
+fn eigenvalue_scale(pencil: &dyn SymmetricPencil) -> f64 {
     median_ratio((0..pencil.n()).map(|j| (pencil.k_diagonal(j), pencil.m_diagonal(j))))
 }
 
@@ -140,7 +140,7 @@ pub const FEW_MASSIVE: usize = 1000;
 /// through the factor of `A = K − σM` (module doc), in the order and count `selection` asks.
 fn few_massive_modes(
     llt: &SpdFactor,
-    pencil: &LowerPencil,
+    pencil: &dyn SymmetricPencil,
     massive: &[usize],
     selection: ModeSelection,
     shift: f64,
@@ -172,9 +172,8 @@ fn few_massive_modes(
     // M_mm from the lower triangle (a massive DOF's entries with a massless one are zero).
     let mut mm = Mat::<f64>::zeros(nm, nm);
     for (c, &j) in massive.iter().enumerate() {
-        let (rows, values) = pencil.m_lower_column(j);
-        for (&i, &v) in rows.iter().zip(values) {
-            if let Ok(r) = massive.binary_search(&(i as usize)) {
+        for (i, v) in pencil.m_lower_entries(j) {
+            if let Ok(r) = massive.binary_search(&i) {
                 mm[(r, c)] += v;
                 if r != c {
                     mm[(c, r)] += v;
@@ -239,8 +238,12 @@ pub fn lowest_modes(
     pencil_modes(&pencil, dofs, selection, params)
 }
 
-/// The pencil of `K` and `M` stored in full, over `n` DOFs.
-fn full_pencil(k: &SparseMatrix, m: &SparseMatrix, n: usize) -> Result<LowerPencil, EigenError> {
+/// The pencil of `K` and `M` stored in full, over `n` DOFs: the matrices borrowed, not copied.
+fn full_pencil<'a>(
+    k: &'a SparseMatrix,
+    m: &'a SparseMatrix,
+    n: usize,
+) -> Result<FullPencil<'a>, EigenError> {
     if k.nrows() != n || k.ncols() != n || m.nrows() != n || m.ncols() != n {
         return Err(EigenError::Shape {
             k: k.nrows(),
@@ -248,7 +251,7 @@ fn full_pencil(k: &SparseMatrix, m: &SparseMatrix, n: usize) -> Result<LowerPenc
             dofs: n,
         });
     }
-    LowerPencil::from_full(k, m).map_err(EigenError::PencilTooLarge)
+    FullPencil::new(k, m).map_err(EigenError::PencilTooLarge)
 }
 
 /// [`lowest_modes`], handing back the factor of `K − σM` as well (`None` on the dense path), so
@@ -264,12 +267,13 @@ pub fn lowest_modes_keeping_factor(
     pencil_modes_keeping_factor(&pencil, dofs, selection, params)
 }
 
-/// [`lowest_modes`] of a pencil held as lower triangles (what the `modes` stage reads from a
-/// matrices artefact: no full matrices are built). The factor is freed as soon as the last
+/// [`lowest_modes`] of a pencil: held as lower triangles ([`crate::sparse::LowerPencil`], what
+/// the `modes` stage reads from a matrices artefact: no full matrices are built), or as full
+/// matrices borrowed ([`FullPencil`], what [`lowest_modes`] passes). The factor is freed as soon as the last
 /// solve is made, before the refinement's products are allocated (at a million DOFs the
 /// solver's peak is then the Lanczos process's).
 pub fn pencil_modes(
-    pencil: &LowerPencil,
+    pencil: &dyn SymmetricPencil,
     dofs: &[DofId],
     selection: ModeSelection,
     params: &SparseEigenParams,
@@ -277,9 +281,9 @@ pub fn pencil_modes(
     solve_pencil(pencil, dofs, selection, params, false).map(|(modes, info, _)| (modes, info))
 }
 
-/// [`lowest_modes_keeping_factor`] of a pencil held as lower triangles.
+/// [`lowest_modes_keeping_factor`] of a pencil (see [`pencil_modes`]).
 pub fn pencil_modes_keeping_factor(
-    pencil: &LowerPencil,
+    pencil: &dyn SymmetricPencil,
     dofs: &[DofId],
     selection: ModeSelection,
     params: &SparseEigenParams,
@@ -290,7 +294,7 @@ pub fn pencil_modes_keeping_factor(
 /// The lowest modes of the pencil, with the factor of `K − σM` when `keep_factor` (and a
 /// sparse path was taken).
 fn solve_pencil(
-    pencil: &LowerPencil,
+    pencil: &dyn SymmetricPencil,
     dofs: &[DofId],
     selection: ModeSelection,
     params: &SparseEigenParams,
@@ -426,7 +430,7 @@ type RefinedModes = (Vec<f64>, Columns, Mat<f64>, Mat<f64>);
 /// Lanczos residual bounds the error of `Y` in the metric of `C`, where the stiff modes weigh
 /// little; this step divides their share by `ν_high/ν_low`, so the residuals
 /// `‖Kφ − λMφ‖ / ‖Kφ‖` reach round-off level.
-fn refine(pencil: &LowerPencil, x: Columns, par: Par) -> Result<RefinedModes, EigenError> {
+fn refine(pencil: &dyn SymmetricPencil, x: Columns, par: Par) -> Result<RefinedModes, EigenError> {
     let (n, c) = (x.nrows(), x.ncols());
     let mut x = x;
     let (mut kx, mut mx) = (parallel_zeros(n, c), parallel_zeros(n, c));
@@ -465,7 +469,7 @@ fn refine(pencil: &LowerPencil, x: Columns, par: Par) -> Result<RefinedModes, Ei
 /// Rayleigh quotients, residuals, orthogonality and sign convention for computed pairs.
 /// `kphi`, `mphi` are `KΦ` and `MΦ`, handed on by [`refine`] so no sparse product is repeated.
 fn finish(
-    pencil: &LowerPencil,
+    pencil: &dyn SymmetricPencil,
     mut lambdas: Vec<f64>,
     mut shapes: Columns,
     mut kphi: Mat<f64>,
@@ -761,7 +765,7 @@ fn cancellation(c: MatRef<'_, f64>, r: MatRef<'_, f64>) -> f64 {
 /// `A⁻¹ M`, `ν = 1/(λ − σ)`, with eigenvectors `y = Lᵀ Pᵀ φ`.
 fn apply_operator(
     llt: &impl SymmetricFactor,
-    pencil: &LowerPencil,
+    pencil: &dyn SymmetricPencil,
     mut x: Mat<f64>,
     par: Par,
     info: &mut SparseEigenInfo,
@@ -793,7 +797,7 @@ type RitzPairs = (Vec<f64>, Mat<f64>, usize);
 /// starts from: `P L⁻ᵀ C Y = A⁻¹ M Φ` for the modes `Φ = P L⁻ᵀ Y`).
 fn lanczos(
     llt: &impl SymmetricFactor,
-    pencil: &LowerPencil,
+    pencil: &dyn SymmetricPencil,
     n: usize,
     nev: usize,
     shift: f64,
@@ -842,7 +846,7 @@ fn lanczos(
 /// `E` selecting the last block).
 struct Lanczos<'a, F> {
     llt: &'a F,
-    pencil: &'a LowerPencil,
+    pencil: &'a dyn SymmetricPencil,
     params: &'a SparseEigenParams,
     b: usize,
     p: usize,
@@ -858,7 +862,7 @@ impl<'a, F: SymmetricFactor> Lanczos<'a, F> {
     /// Sizes the block and the basis for `nev` pairs and sets the first block.
     fn start(
         llt: &'a F,
-        pencil: &'a LowerPencil,
+        pencil: &'a dyn SymmetricPencil,
         n: usize,
         nev: usize,
         params: &'a SparseEigenParams,
@@ -1122,6 +1126,7 @@ fn combine_in_place(v: MatMut<'_, f64>, y: MatRef<'_, f64>) {
 mod tests {
     use super::*;
     use crate::core::sparse::{sparse_from_triplets, sparse_to_dense};
+    use crate::sparse::LowerPencil;
 
     /// A free-free chain of `n` masses: one rigid mode, `λ_r = (4k/m) sin²(rπ/(2n))`.
     fn free_chain(n: usize, k: f64, m: f64) -> (SparseMatrix, SparseMatrix, Vec<DofId>) {

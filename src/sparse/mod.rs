@@ -37,5 +37,5 @@ pub use factor::{FactorError, FactorInfo, SOLVE_COLUMNS, SpdFactor};
 pub use ldlt::{LdltError, LdltScalar, LdltWorkspace, SymbolicLdlt};
 pub use lu::{Lu, SymbolicLu};
 pub use operator::{SparseSolve, SymmetricFactor};
-pub use pencil::{IntegerIndex, LowerPencil, PencilError};
+pub use pencil::{FullPencil, IntegerIndex, LowerPencil, PencilError, SymmetricPencil};
 pub use product::{sym_matvec, sym_matvec_pair};

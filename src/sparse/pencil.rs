@@ -464,6 +464,165 @@ impl<const N: usize> SymmetricRows<N> for PencilRows<'_, N> {
     }
 }
 
+/// A symmetric pencil `(K, M)` as the eigensolver reads it: held as lower triangles on one
+/// pattern ([`LowerPencil`], what the `modes` stage reads from an artefact), or as two full
+/// matrices that their owner holds anyway ([`FullPencil`], an update's model).
+pub trait SymmetricPencil: Sync {
+    /// Order of `K` and `M`.
+    fn n(&self) -> usize;
+    /// `K_jj`.
+    fn k_diagonal(&self, j: usize) -> f64;
+    /// `M_jj`.
+    fn m_diagonal(&self, j: usize) -> f64;
+    /// Whether row (and column) `j` of `M` holds a non-zero.
+    fn has_mass(&self, j: usize) -> bool;
+    /// Column `j`'s entries of `M` on and below the diagonal: `(row, value)`, rows ascending.
+    fn m_lower_entries(&self, j: usize) -> Vec<(usize, f64)>;
+    /// Dense `K` (small models: the dense eigensolver).
+    fn k_dense(&self) -> Mat<f64>;
+    /// Dense `M`.
+    fn m_dense(&self) -> Mat<f64>;
+    /// The lower triangle of `α K + β M` on the union of the patterns, in faer's storage.
+    fn lower_combination(&self, alpha: f64, beta: f64) -> SparseMatrix;
+    /// `KX = K X` and `MX = M X`.
+    fn products(&self, x: MatRef<'_, f64>, kx: MatMut<'_, f64>, mx: MatMut<'_, f64>, par: Par);
+    /// `Y = M X`.
+    fn mass_product(&self, x: MatRef<'_, f64>, y: MatMut<'_, f64>, par: Par);
+}
+
+impl SymmetricPencil for LowerPencil {
+    fn n(&self) -> usize {
+        LowerPencil::n(self)
+    }
+    fn k_diagonal(&self, j: usize) -> f64 {
+        LowerPencil::k_diagonal(self, j)
+    }
+    fn m_diagonal(&self, j: usize) -> f64 {
+        LowerPencil::m_diagonal(self, j)
+    }
+    fn has_mass(&self, j: usize) -> bool {
+        LowerPencil::has_mass(self, j)
+    }
+    fn m_lower_entries(&self, j: usize) -> Vec<(usize, f64)> {
+        let (rows, values) = self.m_lower_column(j);
+        rows.iter()
+            .map(|&i| i as usize)
+            .zip(values.iter().copied())
+            .collect()
+    }
+    fn k_dense(&self) -> Mat<f64> {
+        LowerPencil::k_dense(self)
+    }
+    fn m_dense(&self) -> Mat<f64> {
+        LowerPencil::m_dense(self)
+    }
+    fn lower_combination(&self, alpha: f64, beta: f64) -> SparseMatrix {
+        LowerPencil::lower_combination(self, alpha, beta)
+    }
+    fn products(&self, x: MatRef<'_, f64>, kx: MatMut<'_, f64>, mx: MatMut<'_, f64>, par: Par) {
+        LowerPencil::products(self, x, kx, mx, par)
+    }
+    fn mass_product(&self, x: MatRef<'_, f64>, y: MatMut<'_, f64>, par: Par) {
+        LowerPencil::mass_product(self, x, y, par)
+    }
+}
+
+/// `K` and `M` stored in full (both triangles, rows ascending in each column), borrowed from
+/// their owner: no copy is made (an update's model holds them for its derivatives anyway,
+/// 0.9 GB of pencil at a million DOFs), and the products read the contiguous columns
+/// ([`super::sym_matvec_pair`]). With one pattern, every product and combination is the same
+/// bits as the [`LowerPencil`] of the same matrices.
+pub struct FullPencil<'a> {
+    k: &'a SparseMatrix,
+    m: &'a SparseMatrix,
+    k_diagonal: Vec<f64>,
+    m_diagonal: Vec<f64>,
+}
+
+impl<'a> FullPencil<'a> {
+    /// The pencil of `k` and `m`, which must be square of one order.
+    pub fn new(k: &'a SparseMatrix, m: &'a SparseMatrix) -> Result<Self, PencilError> {
+        let n = k.nrows();
+        if k.ncols() != n || m.nrows() != n || m.ncols() != n {
+            return Err(PencilError::Shape {
+                k_rows: k.nrows(),
+                k_cols: k.ncols(),
+                m_rows: m.nrows(),
+                m_cols: m.ncols(),
+            });
+        }
+        let diagonal = |a: &SparseMatrix| -> Vec<f64> {
+            (0..n)
+                .into_par_iter()
+                .map(|j| {
+                    let rows = a.row_idx_of_col_raw(j);
+                    match rows.binary_search(&j) {
+                        Ok(p) => a.val_of_col(j)[p],
+                        Err(_) => 0.0,
+                    }
+                })
+                .collect()
+        };
+        let (k_diagonal, m_diagonal) = rayon::join(|| diagonal(k), || diagonal(m));
+        Ok(FullPencil {
+            k,
+            m,
+            k_diagonal,
+            m_diagonal,
+        })
+    }
+}
+
+/// The dense symmetric matrix of `a`'s lower triangle (as [`LowerPencil`]'s dense copies).
+fn mirrored_lower(a: &SparseMatrix) -> Mat<f64> {
+    let n = a.ncols();
+    let mut d = Mat::zeros(n, n);
+    for j in 0..n {
+        let rows = a.row_idx_of_col_raw(j).iter();
+        for (&i, &v) in rows.zip(a.val_of_col(j)).filter(|(i, _)| **i >= j) {
+            d[(i, j)] = v;
+            d[(j, i)] = v;
+        }
+    }
+    d
+}
+
+impl SymmetricPencil for FullPencil<'_> {
+    fn n(&self) -> usize {
+        self.k.nrows()
+    }
+    fn k_diagonal(&self, j: usize) -> f64 {
+        self.k_diagonal[j]
+    }
+    fn m_diagonal(&self, j: usize) -> f64 {
+        self.m_diagonal[j]
+    }
+    fn has_mass(&self, j: usize) -> bool {
+        self.m.val_of_col(j).iter().any(|v| *v != 0.0)
+    }
+    fn m_lower_entries(&self, j: usize) -> Vec<(usize, f64)> {
+        let rows = self.m.row_idx_of_col_raw(j).iter().copied();
+        rows.zip(self.m.val_of_col(j).iter().copied())
+            .filter(|(i, _)| *i >= j)
+            .collect()
+    }
+    fn k_dense(&self) -> Mat<f64> {
+        mirrored_lower(self.k)
+    }
+    fn m_dense(&self) -> Mat<f64> {
+        mirrored_lower(self.m)
+    }
+    fn lower_combination(&self, alpha: f64, beta: f64) -> SparseMatrix {
+        super::lower_combination(alpha, self.k, beta, self.m)
+    }
+    fn products(&self, x: MatRef<'_, f64>, kx: MatMut<'_, f64>, mx: MatMut<'_, f64>, par: Par) {
+        super::sym_matvec_pair(self.k, self.m, x, kx, mx, par)
+    }
+    fn mass_product(&self, x: MatRef<'_, f64>, y: MatMut<'_, f64>, par: Par) {
+        super::sym_matvec(self.m, x, y, par)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -583,6 +742,67 @@ mod tests {
                 assert_eq!(pencil.has_mass(j), massive, "DOF {j}");
             }
         }
+    }
+
+    /// The full matrices borrowed read as their lower pencil: the same combination (bits),
+    /// diagonals, mass test, dense copies and lower mass columns; with one pattern the same
+    /// products bit for bit, with two the products of the full storage (to round-off of the
+    /// dense algebra: sums of at most 21 terms).
+    #[test]
+    fn the_full_pencil_reads_as_the_lower_one() {
+        let n = 1024 + 37;
+        for m_skip in [5, 7] {
+            let (k, m) = (symmetric(n, 9, 0.3, 7), symmetric(n, 9, 1.7, m_skip));
+            let lower = LowerPencil::from_full(&k, &m).unwrap();
+            let full = FullPencil::new(&k, &m).unwrap();
+            let (lower, full): (&dyn SymmetricPencil, &dyn SymmetricPencil) = (&lower, &full);
+            assert_eq!(full.n(), n);
+            let (a, b) = (
+                lower.lower_combination(1.0, 0.25),
+                full.lower_combination(1.0, 0.25),
+            );
+            assert_eq!(a.symbolic().row_idx(), b.symbolic().row_idx());
+            assert_eq!(a.val(), b.val());
+            assert_eq!(full.k_dense(), lower.k_dense());
+            assert_eq!(full.m_dense(), lower.m_dense());
+            for j in 0..n {
+                assert_eq!(full.k_diagonal(j), lower.k_diagonal(j));
+                assert_eq!(full.m_diagonal(j), lower.m_diagonal(j));
+                assert_eq!(full.has_mass(j), lower.has_mass(j));
+                // The lower pencil stores the union pattern: its explicit zeros aside.
+                let nonzero = |e: Vec<(usize, f64)>| -> Vec<(usize, f64)> {
+                    e.into_iter().filter(|(_, v)| *v != 0.0).collect()
+                };
+                assert_eq!(
+                    nonzero(full.m_lower_entries(j)),
+                    nonzero(lower.m_lower_entries(j))
+                );
+            }
+            let x = Mat::from_fn(n, 16, |i, c| ((i * 31 + c * 17) % 97) as f64 / 97.0 - 0.5);
+            let products = |p: &dyn SymmetricPencil| {
+                let (mut kx, mut mx, mut y) =
+                    (Mat::zeros(n, 16), Mat::zeros(n, 16), Mat::zeros(n, 16));
+                p.products(x.as_ref(), kx.as_mut(), mx.as_mut(), Par::rayon(2));
+                p.mass_product(x.as_ref(), y.as_mut(), Par::rayon(2));
+                (kx, mx, y)
+            };
+            let (got, want) = (products(full), products(lower));
+            if m_skip == 7 {
+                assert_eq!(got, want, "one pattern");
+            }
+            let (kd, md) = (sparse_to_dense(&k), sparse_to_dense(&m));
+            for (g, w) in [(&got.0, &kd * &x), (&got.1, &md * &x), (&got.2, &md * &x)] {
+                assert!((g - &w).norm_max() < 1e-13 * w.norm_max());
+            }
+        }
+        let square = symmetric(8, 2, 0.1, 7);
+        let one_mass = sparse_from_triplets("M", 8, &[(0, 0, 1.0)]).unwrap();
+        assert!(FullPencil::new(&square, &one_mass).is_ok());
+        let other = symmetric(9, 2, 0.1, 7);
+        assert!(matches!(
+            FullPencil::new(&square, &other),
+            Err(PencilError::Shape { .. })
+        ));
     }
 
     /// Over several tasks of columns (the merge of `from_full` writes each run of columns
