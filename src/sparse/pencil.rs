@@ -527,7 +527,7 @@ impl SymmetricPencil for LowerPencil {
     }
 }
 
-/// `K` and `M` stored in full (both triangles, rows ascending in each column), borrowed from
+/// `K` and `M` stored in full (both triangles), borrowed from
 /// their owner: no copy is made (an update's model holds them for its derivatives anyway,
 /// 0.9 GB of pencil at a million DOFs), and the products read the contiguous columns
 /// ([`super::sym_matvec_pair`]). With one pattern, every product and combination is the same
@@ -555,11 +555,12 @@ impl<'a> FullPencil<'a> {
             (0..n)
                 .into_par_iter()
                 .map(|j| {
-                    let rows = a.row_idx_of_col_raw(j);
-                    match rows.binary_search(&j) {
-                        Ok(p) => a.val_of_col(j)[p],
-                        Err(_) => 0.0,
-                    }
+                    // Duplicates summed, in whatever order the column stores its rows.
+                    let rows = a.row_idx_of_col_raw(j).iter();
+                    rows.zip(a.val_of_col(j))
+                        .filter(|(i, _)| **i == j)
+                        .map(|(_, v)| *v)
+                        .sum()
                 })
                 .collect()
         };
