@@ -264,11 +264,13 @@ pub fn read_dir(dir: &Path) -> Result<Artefact, ArtefactError> {
             Some("arrow_ipc") => Storage::Ipc,
             other => return Err(bad(format!("table `{name}`: unknown storage {other:?}"))),
         };
-        let table = match &hdf5_tables {
-            Some(h) => h
-                .get(name)
-                .cloned()
-                .ok_or_else(|| bad(format!("table `{name}` is missing from {HDF5_FILE}")))?,
+        let (table, source) = match &hdf5_tables {
+            Some(h) => (
+                h.get(name)
+                    .cloned()
+                    .ok_or_else(|| bad(format!("table `{name}` is missing from {HDF5_FILE}")))?,
+                dir.join(HDF5_FILE),
+            ),
             None => {
                 let file = t
                     .get("file")
@@ -280,12 +282,21 @@ pub fn read_dir(dir: &Path) -> Result<Artefact, ArtefactError> {
                     )));
                 }
                 let path = dir.join(file);
-                match storage {
+                let table = match storage {
                     Storage::Parquet => read_parquet(&path)?,
                     Storage::Ipc => read_ipc(&path)?,
-                }
+                };
+                (table, path)
             }
         };
+        // Readers may index one column by another's rows: a file whose columns differ in
+        // length (a hostile HDF5 file can hold that) is refused here, naming file and table.
+        table
+            .check_lengths(name)
+            .map_err(|e| ArtefactError::Decode {
+                path: source,
+                message: e.to_string(),
+            })?;
         a.tables.insert(name.clone(), (table, storage));
     }
     if let Some(blobs) = m.raw.get("blobs").and_then(|v| v.as_array()) {

@@ -556,7 +556,7 @@ fn compare_table(
                 let (Some(x), Some(y)) = (x.integers(), y.integers()) else {
                     unreachable!("both columns are integers")
                 };
-                for row in 0..x.len() {
+                for row in 0..x.len().min(y.len()) {
                     let (u, v) = (x.get(row), y.get(row));
                     if u != v {
                         out.push(

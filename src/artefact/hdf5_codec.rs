@@ -581,6 +581,31 @@ mod tests {
         assert_eq!(digest, a.digest());
     }
 
+    /// A table whose columns differ in length (which one HDF5 file can hold, unlike an Arrow
+    /// record batch) is refused on reading, naming the file, the table and the column.
+    #[test]
+    fn columns_of_unequal_length_are_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        write_dir(&sample(), dir.path(), Format::Hdf5, None).unwrap();
+        {
+            let f = File::open_rw(dir.path().join(HDF5_FILE)).unwrap();
+            f.unlink("tables/frf/n").unwrap();
+            f.group("tables/frf")
+                .unwrap()
+                .new_dataset_builder()
+                .with_data(&[1i64, 2])
+                .create("n")
+                .unwrap();
+        }
+        let e = read_dir(dir.path()).unwrap_err().to_string();
+        assert!(
+            e.contains(HDF5_FILE)
+                && e.contains("table `frf`")
+                && e.contains("column `n` has 2 rows"),
+            "{e}"
+        );
+    }
+
     #[test]
     fn many_columns_exceeding_the_compact_attribute_limit_round_trip() {
         // 6000 names make `column_order` larger than the 64 KiB an old-style object header holds.
