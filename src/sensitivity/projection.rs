@@ -6,6 +6,8 @@
 //! `nnz(∂K/∂φ)·m + |support|·m²`, independent of the model size.
 
 use crate::core::sparse::SparseMatrix;
+#[cfg(target_arch = "x86_64")]
+use crate::sparse::{Isa, Level};
 use faer::{Mat, MatRef};
 
 /// `Φᵀ (∂K/∂φ) Φ` and `Φᵀ (∂M/∂φ) Φ` of one parameter (`m × m`, symmetric).
@@ -177,18 +179,16 @@ impl Entries<'_> {
     /// `AR[slot(i)] += a_ij R[jj]` for every stored entry, `m` values a row (row-major `AR` and
     /// `R`, `R`'s rows in the order of `columns`): on AVX-512 or AVX2 where the machine has them,
     /// the same multiplications and additions (no fused ones) in the same order, so the same
-    /// bits as the plain loop.
+    /// bits as the plain loop. The set is the one the sparse kernels detected
+    /// (`sparse::Isa`).
     fn accumulate(&self, right_rows: &[f64], ar: &mut [f64], m: usize) {
         #[cfg(target_arch = "x86_64")]
-        {
-            if std::arch::is_x86_feature_detected!("avx512f") {
-                // SAFETY: the machine has AVX-512F.
-                return unsafe { self.accumulate_avx512(right_rows, ar, m) };
-            }
-            if std::arch::is_x86_feature_detected!("avx2") {
-                // SAFETY: the machine has AVX2.
-                return unsafe { self.accumulate_avx2(right_rows, ar, m) };
-            }
+        match Isa::detected().level() {
+            // SAFETY: `Isa::detected` found AVX-512F on this machine.
+            Level::Avx512 => return unsafe { self.accumulate_avx512(right_rows, ar, m) },
+            // SAFETY: `Isa::detected` found AVX2 on this machine.
+            Level::Avx2 => return unsafe { self.accumulate_avx2(right_rows, ar, m) },
+            Level::Plain => {}
         }
         self.accumulate_plain(right_rows, ar, m)
     }

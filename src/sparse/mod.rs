@@ -34,6 +34,7 @@ mod thin;
 
 pub use combination::lower_combination;
 pub use factor::{FactorError, FactorInfo, SOLVE_COLUMNS, SpdFactor};
+pub(crate) use ldlt::{Isa, Level};
 pub use ldlt::{LdltError, LdltScalar, LdltWorkspace, SymbolicLdlt};
 pub use lu::{Lu, SymbolicLu};
 pub use operator::{SparseSolve, SymmetricFactor};

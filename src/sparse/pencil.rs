@@ -67,6 +67,20 @@ pub struct LowerPencil {
 /// Columns per task when columns are merged in parallel.
 const COLUMNS_PER_TASK: usize = 4096;
 
+/// The common order of `K` and `M`, or the error naming both shapes.
+fn square_order(k: &SparseMatrix, m: &SparseMatrix) -> Result<usize, PencilError> {
+    let n = k.nrows();
+    if k.ncols() != n || m.nrows() != n || m.ncols() != n {
+        return Err(PencilError::Shape {
+            k_rows: k.nrows(),
+            k_cols: k.ncols(),
+            m_rows: m.nrows(),
+            m_cols: m.ncols(),
+        });
+    }
+    Ok(n)
+}
+
 /// A row or column index given as a signed integer, 32-bit or 64-bit (as lists of triplets
 /// store them).
 pub trait IntegerIndex: Copy + Into<i64> + PartialEq + Send + Sync {}
@@ -79,15 +93,7 @@ impl LowerPencil {
     /// diagonal are not read), on the union of their lower patterns. Entries of one row in one
     /// column are summed.
     pub fn from_full(k: &SparseMatrix, m: &SparseMatrix) -> Result<Self, PencilError> {
-        let n = k.ncols();
-        if k.nrows() != n || m.nrows() != n || m.ncols() != n {
-            return Err(PencilError::Shape {
-                k_rows: k.nrows(),
-                k_cols: k.ncols(),
-                m_rows: m.nrows(),
-                m_cols: m.ncols(),
-            });
-        }
+        let n = square_order(k, m)?;
         check_size(n, (k.compute_nnz() + m.compute_nnz()) / 2 + n)?;
         // Each column merged twice on all threads: once to count its entries, once to write
         // them where the counts put them (no intermediate arrays).
@@ -294,24 +300,9 @@ impl LowerPencil {
         }
     }
 
-    /// Order of `K` and `M`.
-    pub fn n(&self) -> usize {
-        self.col_ptr.len() - 1
-    }
-
     /// Entries stored (lower triangle, diagonal included).
     pub fn lower_entries(&self) -> usize {
         self.rows.len()
-    }
-
-    /// `K_jj`.
-    pub fn k_diagonal(&self, j: usize) -> f64 {
-        self.diagonal(&self.k, j)
-    }
-
-    /// `M_jj`.
-    pub fn m_diagonal(&self, j: usize) -> f64 {
-        self.diagonal(&self.m, j)
     }
 
     fn diagonal(&self, values: &[f64], j: usize) -> f64 {
@@ -320,31 +311,6 @@ impl LowerPencil {
             Some(&i) if start < self.col_ptr[j + 1] && i as usize == j => values[start],
             _ => 0.0,
         }
-    }
-
-    /// Whether row (and column) `j` of `M` holds a non-zero.
-    pub fn has_mass(&self, j: usize) -> bool {
-        let lower = self.m[self.col_ptr[j]..self.col_ptr[j + 1]].iter();
-        let upper = self.upper_pos[self.upper_ptr[j]..self.upper_ptr[j + 1]]
-            .iter()
-            .map(|&p| &self.m[p as usize]);
-        lower.chain(upper).any(|v| *v != 0.0)
-    }
-
-    /// Column `j`'s lower entries of `M`: rows (ascending, from `j`) and values.
-    pub fn m_lower_column(&self, j: usize) -> (&[u32], &[f64]) {
-        let range = self.col_ptr[j]..self.col_ptr[j + 1];
-        (&self.rows[range.clone()], &self.m[range])
-    }
-
-    /// Dense `K` (small models: the dense eigensolver).
-    pub fn k_dense(&self) -> Mat<f64> {
-        self.dense(&self.k)
-    }
-
-    /// Dense `M`.
-    pub fn m_dense(&self) -> Mat<f64> {
-        self.dense(&self.m)
     }
 
     fn dense(&self, values: &[f64]) -> Mat<f64> {
@@ -358,58 +324,6 @@ impl LowerPencil {
             }
         }
         a
-    }
-
-    /// The lower triangle of `α K + β M`, in faer's storage (what [`super::SpdFactor`] takes).
-    /// Every stored entry is `α k + β m`, an entry absent from one matrix counting as zero:
-    /// bit for bit [`super::lower_combination`] of the full matrices (the same merge and sum).
-    pub fn lower_combination(&self, alpha: f64, beta: f64) -> SparseMatrix {
-        let nnz = self.rows.len();
-        let mut rows = vec![0usize; nnz];
-        let mut vals = vec![0.0f64; nnz];
-        const CHUNK: usize = 1 << 16;
-        rows.par_chunks_mut(CHUNK)
-            .zip(vals.par_chunks_mut(CHUNK))
-            .enumerate()
-            .for_each(|(c, (r, v))| {
-                let start = c * CHUNK;
-                for (t, (r, v)) in r.iter_mut().zip(v).enumerate() {
-                    let p = start + t;
-                    *r = self.rows[p] as usize;
-                    *v = alpha * self.k[p] + beta * self.m[p];
-                }
-            });
-        let n = self.n();
-        let symbolic = SymbolicSparseColMat::new_checked(n, n, self.col_ptr.clone(), None, rows);
-        SparseColMat::new(symbolic, vals)
-    }
-
-    /// `KX = K X` and `MX = M X`, in one pass over the pattern (as [`super::sym_matvec_pair`],
-    /// whose sums it repeats in order: the results are the same bits).
-    pub fn products(
-        &self,
-        x: MatRef<'_, f64>,
-        mut kx: MatMut<'_, f64>,
-        mut mx: MatMut<'_, f64>,
-        par: Par,
-    ) {
-        self.check_shapes(x, kx.as_ref(), "KX");
-        self.check_shapes(x, mx.as_ref(), "MX");
-        let source = PencilRows {
-            pencil: self,
-            values: [&self.k, &self.m],
-        };
-        in_passes(&source, x, [kx.as_mut(), mx.as_mut()], par);
-    }
-
-    /// `Y = M X` (as [`super::sym_matvec`] of the full `M`).
-    pub fn mass_product(&self, x: MatRef<'_, f64>, mut y: MatMut<'_, f64>, par: Par) {
-        self.check_shapes(x, y.as_ref(), "MX");
-        let source = PencilRows {
-            pencil: self,
-            values: [&self.m],
-        };
-        in_passes(&source, x, [y.as_mut()], par);
     }
 
     fn check_shapes(&self, x: MatRef<'_, f64>, y: MatRef<'_, f64>, name: &str) {
@@ -492,38 +406,88 @@ pub trait SymmetricPencil: Sync {
 
 impl SymmetricPencil for LowerPencil {
     fn n(&self) -> usize {
-        LowerPencil::n(self)
+        self.col_ptr.len() - 1
     }
+
     fn k_diagonal(&self, j: usize) -> f64 {
-        LowerPencil::k_diagonal(self, j)
+        self.diagonal(&self.k, j)
     }
+
     fn m_diagonal(&self, j: usize) -> f64 {
-        LowerPencil::m_diagonal(self, j)
+        self.diagonal(&self.m, j)
     }
+
     fn has_mass(&self, j: usize) -> bool {
-        LowerPencil::has_mass(self, j)
+        let lower = self.m[self.col_ptr[j]..self.col_ptr[j + 1]].iter();
+        let upper = self.upper_pos[self.upper_ptr[j]..self.upper_ptr[j + 1]]
+            .iter()
+            .map(|&p| &self.m[p as usize]);
+        lower.chain(upper).any(|v| *v != 0.0)
     }
+
     fn m_lower_entries(&self, j: usize) -> Vec<(usize, f64)> {
-        let (rows, values) = self.m_lower_column(j);
-        rows.iter()
-            .map(|&i| i as usize)
-            .zip(values.iter().copied())
-            .collect()
+        let range = self.col_ptr[j]..self.col_ptr[j + 1];
+        let rows = self.rows[range.clone()].iter().map(|&i| i as usize);
+        rows.zip(self.m[range].iter().copied()).collect()
     }
+
     fn k_dense(&self) -> Mat<f64> {
-        LowerPencil::k_dense(self)
+        self.dense(&self.k)
     }
+
     fn m_dense(&self) -> Mat<f64> {
-        LowerPencil::m_dense(self)
+        self.dense(&self.m)
     }
+
+    /// Every stored entry is `α k + β m`, an entry absent from one matrix counting as zero:
+    /// bit for bit [`super::lower_combination`] of the full matrices (the same merge and sum).
     fn lower_combination(&self, alpha: f64, beta: f64) -> SparseMatrix {
-        LowerPencil::lower_combination(self, alpha, beta)
+        let nnz = self.rows.len();
+        let mut rows = vec![0usize; nnz];
+        let mut vals = vec![0.0f64; nnz];
+        const CHUNK: usize = 1 << 16;
+        rows.par_chunks_mut(CHUNK)
+            .zip(vals.par_chunks_mut(CHUNK))
+            .enumerate()
+            .for_each(|(c, (r, v))| {
+                let start = c * CHUNK;
+                for (t, (r, v)) in r.iter_mut().zip(v).enumerate() {
+                    let p = start + t;
+                    *r = self.rows[p] as usize;
+                    *v = alpha * self.k[p] + beta * self.m[p];
+                }
+            });
+        let n = self.n();
+        let symbolic = SymbolicSparseColMat::new_checked(n, n, self.col_ptr.clone(), None, rows);
+        SparseColMat::new(symbolic, vals)
     }
-    fn products(&self, x: MatRef<'_, f64>, kx: MatMut<'_, f64>, mx: MatMut<'_, f64>, par: Par) {
-        LowerPencil::products(self, x, kx, mx, par)
+
+    /// In one pass over the pattern, as [`super::sym_matvec_pair`], whose sums it repeats in
+    /// order: the results are the same bits.
+    fn products(
+        &self,
+        x: MatRef<'_, f64>,
+        mut kx: MatMut<'_, f64>,
+        mut mx: MatMut<'_, f64>,
+        par: Par,
+    ) {
+        self.check_shapes(x, kx.as_ref(), "KX");
+        self.check_shapes(x, mx.as_ref(), "MX");
+        let source = PencilRows {
+            pencil: self,
+            values: [&self.k, &self.m],
+        };
+        in_passes(&source, x, [kx.as_mut(), mx.as_mut()], par);
     }
-    fn mass_product(&self, x: MatRef<'_, f64>, y: MatMut<'_, f64>, par: Par) {
-        LowerPencil::mass_product(self, x, y, par)
+
+    /// As [`super::sym_matvec`] of the full `M`.
+    fn mass_product(&self, x: MatRef<'_, f64>, mut y: MatMut<'_, f64>, par: Par) {
+        self.check_shapes(x, y.as_ref(), "MX");
+        let source = PencilRows {
+            pencil: self,
+            values: [&self.m],
+        };
+        in_passes(&source, x, [y.as_mut()], par);
     }
 }
 
@@ -542,15 +506,7 @@ pub struct FullPencil<'a> {
 impl<'a> FullPencil<'a> {
     /// The pencil of `k` and `m`, which must be square of one order.
     pub fn new(k: &'a SparseMatrix, m: &'a SparseMatrix) -> Result<Self, PencilError> {
-        let n = k.nrows();
-        if k.ncols() != n || m.nrows() != n || m.ncols() != n {
-            return Err(PencilError::Shape {
-                k_rows: k.nrows(),
-                k_cols: k.ncols(),
-                m_rows: m.nrows(),
-                m_cols: m.ncols(),
-            });
-        }
+        let n = square_order(k, m)?;
         let diagonal = |a: &SparseMatrix| -> Vec<f64> {
             (0..n)
                 .into_par_iter()

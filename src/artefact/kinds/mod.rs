@@ -499,9 +499,14 @@ fn matrix_table(dim: usize, row: Vec<usize>, col: Vec<usize>, value: Vec<f64>) -
             Column::I64(v.into_iter().map(|i| i as i64).collect())
         }
     };
+    triplet_columns(column(row), column(col), value)
+}
+
+/// The `row, col, value` table of these columns.
+fn triplet_columns(row: Column, col: Column, value: Vec<f64>) -> Table {
     Table::new()
-        .with("row", column(row))
-        .with("col", column(col))
+        .with("row", row)
+        .with("col", col)
         .with("value", Column::F64(value))
 }
 
@@ -527,19 +532,12 @@ pub fn triplet_table(mat: &SparseMatrix) -> Table {
 /// column-major order: half the bytes of [`triplet_table`] to write, hash and read back. The
 /// columns are filled in place on all threads (hundreds of megabytes at 10⁶ DOFs).
 pub fn lower_triplet_table(mat: &SparseMatrix) -> Table {
-    let n = mat.ncols();
-    if n <= INT32_INDEXED {
+    if mat.ncols() <= INT32_INDEXED {
         let (row, col, value) = lower_triplet_columns(mat, |i| i as i32);
-        Table::new()
-            .with("row", Column::I32(row))
-            .with("col", Column::I32(col))
-            .with("value", Column::F64(value))
+        triplet_columns(Column::I32(row), Column::I32(col), value)
     } else {
         let (row, col, value) = lower_triplet_columns(mat, |i| i as i64);
-        Table::new()
-            .with("row", Column::I64(row))
-            .with("col", Column::I64(col))
-            .with("value", Column::F64(value))
+        triplet_columns(Column::I64(row), Column::I64(col), value)
     }
 }
 

@@ -801,6 +801,7 @@ fn a_large_matrix_table_holds_its_lower_triangle_in_column_order() {
 #[test]
 fn the_pencil_reads_straight_from_the_lower_tables() {
     use crate::artefact::kinds::pencil_from_matrices;
+    use crate::sparse::SymmetricPencil;
     let sys = assemble_lumped(&LumpedModel::chain(&[1.0, 1.3, 1.0, 0.7], 10.0)).unwrap();
     let a = matrices_to_artefact(&sys);
     let (pencil, dofs) = pencil_from_matrices(&a).unwrap();

@@ -22,7 +22,8 @@ use faer::linalg::matmul::matmul;
 use faer::linalg::matmul::triangular::{self, BlockStructure};
 use faer::sparse::linalg::cholesky::{SymbolicCholeskyRaw, SymmetricOrdering};
 use faer::{Accum, MatMut, MatRef, Par, c64};
-use kernels::{Isa, Kernels, Level};
+use kernels::Kernels;
+pub(crate) use kernels::{Isa, Level};
 
 mod kernels;
 
