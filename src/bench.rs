@@ -363,14 +363,14 @@ fn pc_basis(
     values: &[f64],
     modes: usize,
 ) -> Result<PcBasis, String> {
-    use crate::updating::model::{ModalState, project_derivatives};
+    use crate::updating::model::{ModalState, project_derivatives, update_eigen_params};
     let t = Instant::now();
     let (found, eigen, factor) = lowest_modes_keeping_factor(
         &evaluated.system.k,
         &evaluated.system.m,
         &evaluated.system.dofs,
         ModeSelection::Count(modes),
-        &SparseEigenParams::default(),
+        &update_eigen_params(None),
     )
     .map_err(|e| e.to_string())?;
     let eigen_seconds = t.elapsed().as_secs_f64();
