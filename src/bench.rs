@@ -1048,8 +1048,12 @@ pub struct PipelineBench {
     pub dofs: usize,
     /// Modes asked for.
     pub modes: usize,
-    /// Wall seconds of each stage (`mesh.generate`, `assemble`, `modes`), in order.
+    /// Wall seconds of each stage (`mesh.generate`, `assemble`, `modes`), in order: its work
+    /// and its outputs' digests.
     pub stage_seconds: Vec<(String, f64)>,
+    /// Wall seconds of writing each stage's cache entry, in the background beside the stages
+    /// after it (the last stage's is waited for by the run).
+    pub cache_write_seconds: Vec<(String, f64)>,
     /// Wall seconds of the whole run (planning, cache writes and reads included).
     pub run_seconds: f64,
     /// Peak resident memory of the run, MiB (Linux only).
@@ -1115,22 +1119,37 @@ fn run_on_fresh_cache(
 /// fresh cache in a temporary folder, then the same steps by the kernels.
 pub fn pipeline_bench(target_dofs: usize, count: usize) -> Result<PipelineBench, String> {
     let side = ((target_dofs as f64 / 6.0).sqrt().round() as usize).max(2);
-    let (stage_seconds, run_seconds, run_peak_rss_mib) = in_scratch_folder("pipeline", |folder| {
-        let file = folder.join("plate-modes.yaml");
-        let text = format!(
-            "name: plate-modes\nstages:\n  plate:\n    kind: mesh.generate\n    with: {{geometry: flat_plate, a_m: 1.0, b_m: 1.0, nx: {side}, ny: {side}, thickness_m: 0.005, support: clamped_edge}}\n  matrices:\n    kind: assemble\n    inputs: {{mesh: plate}}\n  modes:\n    kind: modes\n    inputs: {{model: matrices}}\n    with: {{count: {count}, tolerance: 1.0e-8}}\n"
-        );
-        std::fs::write(&file, text).map_err(|e| format!("{}: {e}", file.display()))?;
-        let spec = crate::pipeline::read_pipeline(&file).map_err(|e| e.to_string())?;
-        let run = run_on_fresh_cache(folder, &spec, &[])?;
-        let stage_seconds = run
-            .report
-            .stages
-            .iter()
-            .map(|s| (s.kind.clone(), s.elapsed.as_secs_f64()))
-            .collect();
-        Ok((stage_seconds, run.seconds, run.peak_rss_mib))
-    })?;
+    type Timed = (Vec<(String, f64)>, Vec<(String, f64)>, f64, Option<f64>);
+    let (stage_seconds, cache_write_seconds, run_seconds, run_peak_rss_mib) = in_scratch_folder(
+        "pipeline",
+        |folder| -> Result<Timed, String> {
+            let file = folder.join("plate-modes.yaml");
+            let text = format!(
+                "name: plate-modes\nstages:\n  plate:\n    kind: mesh.generate\n    with: {{geometry: flat_plate, a_m: 1.0, b_m: 1.0, nx: {side}, ny: {side}, thickness_m: 0.005, support: clamped_edge}}\n  matrices:\n    kind: assemble\n    inputs: {{mesh: plate}}\n  modes:\n    kind: modes\n    inputs: {{model: matrices}}\n    with: {{count: {count}, tolerance: 1.0e-8}}\n"
+            );
+            std::fs::write(&file, text).map_err(|e| format!("{}: {e}", file.display()))?;
+            let spec = crate::pipeline::read_pipeline(&file).map_err(|e| e.to_string())?;
+            let run = run_on_fresh_cache(folder, &spec, &[])?;
+            let stage_seconds = run
+                .report
+                .stages
+                .iter()
+                .map(|s| (s.kind.clone(), s.elapsed.as_secs_f64()))
+                .collect();
+            let cache_write_seconds = run
+                .report
+                .stages
+                .iter()
+                .filter_map(|s| Some((s.kind.clone(), s.cache_write?.as_secs_f64())))
+                .collect();
+            Ok((
+                stage_seconds,
+                cache_write_seconds,
+                run.seconds,
+                run.peak_rss_mib,
+            ))
+        },
+    )?;
     reset_peak_rss();
     let kernel = plate_bench(target_dofs, &[count])?;
     let solve = kernel
@@ -1141,6 +1160,7 @@ pub fn pipeline_bench(target_dofs: usize, count: usize) -> Result<PipelineBench,
         dofs: kernel.dofs,
         modes: count,
         stage_seconds,
+        cache_write_seconds,
         run_seconds,
         run_peak_rss_mib,
         kernel_generate_seconds: kernel.generate_seconds,

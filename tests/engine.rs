@@ -255,3 +255,57 @@ fn hdf5_outputs_have_the_same_digests() {
             .exists()
     );
 }
+
+/// Cache entries are written in the background while the stages downstream run: when the run
+/// returns, every stage that ran has its entry committed (a second run is served whole from the
+/// cache, with the same digests) and its write time reported; a cached stage reports none.
+#[test]
+fn background_commits_are_complete_when_the_run_returns() {
+    let dir = tempfile::tempdir().unwrap();
+    let (_, first, cache) = run(&pipeline("four-dof"), dir.path(), &[]);
+    for s in &first.stages {
+        assert!(
+            s.cache_write.is_some(),
+            "{} ran: its write is timed",
+            s.name
+        );
+        assert!(
+            matches!(cache.lookup(&s.key), femu::cache::Lookup::Hit(_)),
+            "{}'s entry is committed",
+            s.name
+        );
+    }
+    let (_, second, _) = run(&pipeline("four-dof"), dir.path(), &[]);
+    assert_eq!(executed(&second), Vec::<String>::new());
+    assert!(second.stages.iter().all(|s| s.cache_write.is_none()));
+    assert_eq!(digests(&first), digests(&second));
+}
+
+/// A cache entry that cannot be written fails the run, naming the stage, once every other
+/// write has finished; nothing of it is left committed or half-written.
+#[test]
+fn a_failed_background_commit_fails_the_run_naming_its_stage() {
+    let dir = tempfile::tempdir().unwrap();
+    let cache = femu::cache::Cache::open(dir.path()).unwrap();
+    // Work in progress goes under `tmp/`: a file there makes every commit fail (whoever runs
+    // the test, root included), while the cache still opens and counts as writable.
+    let tmp = dir.path().join("tmp");
+    std::fs::remove_dir_all(&tmp).ok();
+    std::fs::write(&tmp, b"not a directory").unwrap();
+    let plan = load(&pipeline("four-dof"), &[]);
+    let opts = femu::pipeline::RunOptions {
+        progress: femu::pipeline::ProgressMode::Quiet,
+        ..Default::default()
+    };
+    let err = femu::pipeline::execute(&plan, &cache, &opts).unwrap_err();
+    let first = &plan.nodes[0].name;
+    match &err {
+        femu::pipeline::executor::RunError::Cache { stage, .. } => assert_eq!(stage, first, "{err}"),
+        other => panic!("expected a cache error, got {other}"),
+    }
+    assert!(err.to_string().contains(first.as_str()), "{err}");
+    let entries = std::fs::read_dir(dir.path().join("entries"))
+        .map(|d| d.count())
+        .unwrap_or(0);
+    assert_eq!(entries, 0, "no entry is committed");
+}

@@ -36,6 +36,29 @@ pub fn write_dir_hashed(
     format: Format,
     producer: Option<serde_json::Value>,
 ) -> Result<(String, BTreeMap<String, String>), ArtefactError> {
+    write_dir_with_digest(a, dir, format, producer, || a.digest())
+}
+
+/// [`write_dir_hashed`] for an artefact whose content digest `digest` ([`Artefact::digest`])
+/// is already known: it is recorded, not computed again.
+pub fn write_dir_digested(
+    a: &Artefact,
+    dir: &Path,
+    format: Format,
+    producer: Option<serde_json::Value>,
+    digest: &str,
+) -> Result<(String, BTreeMap<String, String>), ArtefactError> {
+    write_dir_with_digest(a, dir, format, producer, || digest.to_string())
+}
+
+/// Writes `a` into `dir`, its digest given by `digest` (run beside the tables' writing).
+fn write_dir_with_digest(
+    a: &Artefact,
+    dir: &Path,
+    format: Format,
+    producer: Option<serde_json::Value>,
+    digest: impl FnOnce() -> String + Send,
+) -> Result<(String, BTreeMap<String, String>), ArtefactError> {
     use rayon::prelude::*;
     for (name, (table, _)) in &a.tables {
         table.check_lengths(name)?;
@@ -84,7 +107,7 @@ pub fn write_dir_hashed(
         }
         Ok((hashes, tables))
     };
-    let (digest, written) = rayon::join(|| a.digest(), write_tables);
+    let (digest, written) = rayon::join(digest, write_tables);
     let (mut hashes, tables) = written?;
     for (name, bytes) in &a.blobs {
         let path = dir.join(name);

@@ -22,7 +22,7 @@
 pub mod names;
 pub mod owner;
 
-use crate::artefact::codec::{read_dir, read_meta, write_dir_hashed};
+use crate::artefact::codec::{read_dir, read_meta, write_dir_digested, write_dir_hashed};
 use crate::artefact::digest::{canonical_json, hash_bytes, hash_file};
 use crate::artefact::{Artefact, ArtefactError, ArtefactKind, Format};
 use rayon::prelude::*;
@@ -111,6 +111,14 @@ pub struct Manifest {
     /// Keys of the entry's parts, cached as entries of their own (see `pipeline::memo`).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub parts: Vec<String>,
+}
+
+/// One output of an entry being written: its port, the artefact and, when known, its digest.
+#[derive(Clone, Copy)]
+struct EntryOutput<'a> {
+    port: &'a str,
+    artefact: &'a Artefact,
+    digest: Option<&'a str>,
 }
 
 /// Result of a lookup.
@@ -233,7 +241,8 @@ impl Cache {
         self.read_only.as_deref()
     }
 
-    fn writable(&self) -> Result<(), CacheError> {
+    /// Whether entries can be committed: [`CacheError::ReadOnly`] says why not.
+    pub fn writable(&self) -> Result<(), CacheError> {
         match &self.read_only {
             None => Ok(()),
             Some(reason) => Err(CacheError::ReadOnly {
@@ -474,6 +483,56 @@ impl Cache {
         format: Format,
         parts: &[String],
     ) -> Result<Manifest, CacheError> {
+        let outputs: Vec<EntryOutput<'_>> = outputs
+            .iter()
+            .map(|(port, artefact)| EntryOutput {
+                port,
+                artefact,
+                digest: None,
+            })
+            .collect();
+        self.commit_outputs(key, stage_kind, impl_version, &outputs, format, parts)
+    }
+
+    /// [`Cache::commit_with_parts`] for outputs whose content digests are already known (the
+    /// pipeline computes them first, for the keys of the stages downstream, and commits in the
+    /// background): each `(port, artefact, digest)` is written with its digest recorded, not
+    /// computed again. `replace` evicts an entry under `key` first (`--force`).
+    #[allow(clippy::too_many_arguments)]
+    pub fn commit_digested(
+        &self,
+        key: &str,
+        stage_kind: &str,
+        impl_version: u32,
+        outputs: &[(&str, &Artefact, &str)],
+        format: Format,
+        parts: &[String],
+        replace: bool,
+    ) -> Result<Manifest, CacheError> {
+        if replace {
+            self.evict(key)?;
+        }
+        let outputs: Vec<EntryOutput<'_>> = outputs
+            .iter()
+            .map(|&(port, artefact, digest)| EntryOutput {
+                port,
+                artefact,
+                digest: Some(digest),
+            })
+            .collect();
+        self.commit_outputs(key, stage_kind, impl_version, &outputs, format, parts)
+    }
+
+    /// Writes `outputs` into a temporary directory and renames it to the entry of `key`.
+    fn commit_outputs(
+        &self,
+        key: &str,
+        stage_kind: &str,
+        impl_version: u32,
+        outputs: &[EntryOutput<'_>],
+        format: Format,
+        parts: &[String],
+    ) -> Result<Manifest, CacheError> {
         self.writable()?;
         let dest = self.entry_dir(key)?;
         let tmp = self.tmp_path(key);
@@ -534,25 +593,33 @@ impl Cache {
         key: &str,
         stage_kind: &str,
         impl_version: u32,
-        outputs: &BTreeMap<String, Artefact>,
+        outputs: &[EntryOutput<'_>],
         format: Format,
         parts: &[String],
     ) -> Result<Manifest, CacheError> {
         let mut records = BTreeMap::new();
         // Files hashed as they were written, by path relative to the entry.
         let mut written = BTreeMap::new();
-        for (port, a) in outputs {
+        for &EntryOutput {
+            port,
+            artefact: a,
+            digest,
+        } in outputs
+        {
             let dir = Self::join_checked(tmp, "output port", port)?;
             std::fs::create_dir_all(&dir).map_err(io(&dir))?;
             let producer = serde_json::json!({"stage_kind": stage_kind, "impl_version": impl_version, "key": key, "port": port});
-            let (digest, hashes) = write_dir_hashed(a, &dir, format, Some(producer))?;
+            let (digest, hashes) = match digest {
+                Some(d) => write_dir_digested(a, &dir, format, Some(producer), d)?,
+                None => write_dir_hashed(a, &dir, format, Some(producer))?,
+            };
             written.extend(
                 hashes
                     .into_iter()
                     .map(|(file, hash)| (format!("{port}/{file}"), hash)),
             );
             records.insert(
-                port.clone(),
+                port.to_string(),
                 OutputRecord {
                     kind: a.kind.name().to_string(),
                     digest,

@@ -116,6 +116,16 @@ fn pipeline(a: BenchArgs) -> Result<u8, Failure> {
             b.kernel_peak_rss_mib.unwrap_or(f64::NAN),
             b.run_seconds / kernel
         );
+        let writes: Vec<String> = b
+            .cache_write_seconds
+            .iter()
+            .map(|(kind, seconds)| format!("{kind} {seconds:.2} s"))
+            .collect();
+        println!(
+            "{:>9} cache entries written in the background: {}",
+            "",
+            writes.join(", ")
+        );
         all.push(b);
     }
     write_json(a.json, &all)?;

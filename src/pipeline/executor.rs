@@ -71,8 +71,11 @@ pub struct StageReport {
     pub key: String,
     /// Ran or cached.
     pub status: Status,
-    /// Wall time.
+    /// Wall time: the stage's work and its outputs' digests.
     pub elapsed: Duration,
+    /// Wall time of writing the stage's cache entry, which runs in the background beside the
+    /// stages after it (`None` when the stage was served from the cache).
+    pub cache_write: Option<Duration>,
     /// Outputs by port.
     pub outputs: BTreeMap<String, OutputRecord>,
     /// A warning to show (e.g. why an entry was recomputed).
@@ -409,6 +412,49 @@ pub fn execute(plan: &Plan, cache: &Cache, opts: &RunOptions) -> Result<RunRepor
             .values()
             .map(|r| (r.node, r.port.clone()))
     }));
+    // Cache entries being written in the background, joined before the run returns, whether
+    // it succeeded or not (no writer outlives the run).
+    let commits = Mutex::new(Vec::new());
+    let mut written = Vec::new();
+    let waves = run_waves(
+        plan,
+        &selected,
+        &mut reports,
+        &produced,
+        cache,
+        opts,
+        &display,
+        &commits,
+        &mut written,
+    );
+    let running = commits.into_inner().unwrap_or_else(|e| e.into_inner());
+    let joined = join_commits(plan, running, &mut written);
+    waves?;
+    joined?;
+    for (i, seconds) in written {
+        if let Some(r) = reports[i].as_mut() {
+            r.cache_write = Some(seconds);
+        }
+    }
+    Ok(RunReport {
+        stages: reports.into_iter().flatten().collect(),
+    })
+}
+
+/// Runs the selected nodes wave by wave (a wave: every node whose inputs are ready, run side by
+/// side), filling `reports`; stops at the first failure.
+#[allow(clippy::too_many_arguments)]
+fn run_waves(
+    plan: &Plan,
+    selected: &BTreeSet<usize>,
+    reports: &mut [Option<StageReport>],
+    produced: &Produced,
+    cache: &Cache,
+    opts: &RunOptions,
+    display: &Arc<Display>,
+    commits: &Mutex<Vec<PendingCommit>>,
+    written: &mut Vec<(usize, Duration)>,
+) -> Result<(), RunError> {
     loop {
         let wave: Vec<usize> = selected
             .iter()
@@ -428,11 +474,11 @@ pub fn execute(plan: &Plan, cache: &Cache, opts: &RunOptions) -> Result<RunRepor
             let handles: Vec<_> = wave
                 .iter()
                 .map(|&i| {
-                    let reports = &reports;
-                    let produced = &produced;
-                    let display = &display;
+                    let reports = &*reports;
                     s.spawn(move || {
-                        run_node(plan, i, reports, produced, cache, opts.force, display)
+                        run_node(
+                            plan, i, reports, produced, cache, opts.force, display, commits,
+                        )
                     })
                 })
                 .collect();
@@ -453,10 +499,105 @@ pub fn execute(plan: &Plan, cache: &Cache, opts: &RunOptions) -> Result<RunRepor
         for (i, r) in wave.iter().zip(results) {
             reports[*i] = Some(r?);
         }
+        // A cache entry that could not be written stops the run here, not after it.
+        let finished: Vec<PendingCommit> = match commits.lock() {
+            Ok(mut c) => {
+                let (done, running) = c.drain(..).partition(|p| p.handle.is_finished());
+                *c = running;
+                done
+            }
+            Err(_) => Vec::new(),
+        };
+        join_commits(plan, finished, written)?;
     }
-    Ok(RunReport {
-        stages: reports.into_iter().flatten().collect(),
-    })
+    Ok(())
+}
+
+/// A stage's cache entry being written on a thread of its own.
+struct PendingCommit {
+    node: usize,
+    handle: std::thread::JoinHandle<Result<Duration, CacheError>>,
+}
+
+/// Waits for `commits`, adding the write time of each that succeeded to `written`; the first
+/// failure (in plan order) names its stage.
+fn join_commits(
+    plan: &Plan,
+    mut commits: Vec<PendingCommit>,
+    written: &mut Vec<(usize, Duration)>,
+) -> Result<(), RunError> {
+    commits.sort_by_key(|c| c.node);
+    let mut first_error = None;
+    for c in commits {
+        let outcome = c.handle.join().unwrap_or_else(|_| {
+            Err(CacheError::Corrupt {
+                key: String::new(),
+                reason: "internal error: the cache writer panicked (a femu bug; please report it)"
+                    .into(),
+            })
+        });
+        match outcome {
+            Ok(seconds) => written.push((c.node, seconds)),
+            Err(source) => {
+                first_error.get_or_insert(RunError::Cache {
+                    stage: plan.nodes[c.node].name.clone(),
+                    source,
+                });
+            }
+        }
+    }
+    first_error.map_or(Ok(()), Err)
+}
+
+/// Starts writing node `node`'s outputs, whose digests are `digests`, into the cache under
+/// `key` on a thread of its own (with a rayon pool of its own, so the stages running meanwhile
+/// do not hold up its jobs, nor it theirs).
+fn commit_in_background(
+    plan: &Plan,
+    node: usize,
+    cache: &Cache,
+    key: &str,
+    outputs: &BTreeMap<String, Arc<Artefact>>,
+    digests: &BTreeMap<String, OutputRecord>,
+    parts: &[String],
+    force: bool,
+) -> Result<PendingCommit, RunError> {
+    let n = &plan.nodes[node];
+    let root = cache.root().to_path_buf();
+    let (cache, key, parts) = (cache.clone(), key.to_string(), parts.to_vec());
+    let (kind, version, format) = (n.stage.kind(), n.stage.impl_version(), n.format);
+    let outputs: Vec<(String, Arc<Artefact>, String)> = outputs
+        .iter()
+        .map(|(port, a)| (port.clone(), a.clone(), digests[port].digest.clone()))
+        .collect();
+    let write = move || -> Result<Duration, CacheError> {
+        let t = Instant::now();
+        let outputs: Vec<(&str, &Artefact, &str)> = outputs
+            .iter()
+            .map(|(port, a, digest)| (port.as_str(), &**a, digest.as_str()))
+            .collect();
+        let commit = || cache.commit_digested(&key, kind, version, &outputs, format, &parts, force);
+        match rayon::ThreadPoolBuilder::new()
+            .num_threads(rayon::current_num_threads())
+            .thread_name(|i| format!("femu-cache-write-{i}"))
+            .build()
+        {
+            Ok(pool) => pool.install(commit),
+            Err(_) => commit(),
+        }?;
+        Ok(t.elapsed())
+    };
+    let handle = std::thread::Builder::new()
+        .name(format!("femu-cache-write-{}", n.name))
+        .spawn(write)
+        .map_err(|e| RunError::Cache {
+            stage: n.name.clone(),
+            source: CacheError::Io {
+                path: root,
+                source: e,
+            },
+        })?;
+    Ok(PendingCommit { node, handle })
 }
 
 /// Artefacts produced in this run, by (node, output port), each held in memory until the last
@@ -487,11 +628,11 @@ impl Produced {
     }
 
     /// Keeps an output of node `node` for its readers (an output nobody reads is not kept).
-    fn put(&self, node: usize, port: String, a: Artefact) {
+    fn put(&self, node: usize, port: String, a: Arc<Artefact>) {
         if let Ok(mut m) = self.0.lock()
             && let Some(h) = m.get_mut(&(node, port)).filter(|h| h.readers > 0)
         {
-            h.artefact = Some(Arc::new(a));
+            h.artefact = Some(a);
         }
     }
 
@@ -511,7 +652,9 @@ impl Produced {
 }
 
 /// Node `i`: served by the cache when its key is there (unless `force`), else its stage run
-/// on its inputs and the outputs committed.
+/// on its inputs, its outputs digested (the keys downstream need the digests) and handed to
+/// the stages downstream, and their commit started in the background (added to `commits`).
+#[allow(clippy::too_many_arguments)]
 fn run_node(
     plan: &Plan,
     i: usize,
@@ -520,6 +663,7 @@ fn run_node(
     cache: &Cache,
     force: bool,
     display: &Arc<Display>,
+    commits: &Mutex<Vec<PendingCommit>>,
 ) -> Result<StageReport, RunError> {
     let node = &plan.nodes[i];
     let kind = node.stage.kind();
@@ -542,6 +686,7 @@ fn run_node(
                     key,
                     status: Status::Cached,
                     elapsed: t0.elapsed(),
+                    cache_write: None,
                     parts: PartCounts {
                         keys: m.parts.clone(),
                         ..Default::default()
@@ -560,6 +705,8 @@ fn run_node(
             Lookup::Miss => {}
         }
     }
+    // A cache that cannot take the entry fails the stage before it runs, not after the run.
+    cache.writable().map_err(cache_err)?;
     display.start(&node.name, kind);
     let parts = Arc::new(PartCache::new(cache.clone(), node.format, force));
     let inputs = node_inputs(plan, i, reports, produced, cache, parts.clone())?;
@@ -573,13 +720,28 @@ fn run_node(
         crate::core::progress::scope_with_pool(&node.name, sink, || run_stage(plan, i, inputs))?
     };
     let parts = parts.counts();
-    let version = node.stage.impl_version();
-    let manifest = if force {
-        cache.recommit(&key, kind, version, &outputs, node.format, &parts.keys)
-    } else {
-        cache.commit_with_parts(&key, kind, version, &outputs, node.format, &parts.keys)
+    let outputs: BTreeMap<String, Arc<Artefact>> = outputs
+        .into_iter()
+        .map(|(port, a)| (port, Arc::new(a)))
+        .collect();
+    let records: BTreeMap<String, OutputRecord> = {
+        use rayon::prelude::*;
+        outputs
+            .par_iter()
+            .map(|(port, a)| {
+                let record = OutputRecord {
+                    kind: a.kind.name().to_string(),
+                    digest: a.digest(),
+                };
+                (port.clone(), record)
+            })
+            .collect()
+    };
+    let pending =
+        commit_in_background(plan, i, cache, &key, &outputs, &records, &parts.keys, force)?;
+    if let Ok(mut c) = commits.lock() {
+        c.push(pending);
     }
-    .map_err(cache_err)?;
     for (port, a) in outputs {
         produced.put(i, port, a);
     }
@@ -594,7 +756,8 @@ fn run_node(
         key,
         status,
         elapsed: t0.elapsed(),
-        outputs: manifest.outputs,
+        cache_write: None,
+        outputs: records,
         note,
         parts,
     };
@@ -1033,8 +1196,16 @@ mod tests {
     fn produced_outputs_are_released_by_their_last_reader() {
         let port = |p: &str| p.to_string();
         let produced = Produced::new([(0, port("model")), (0, port("model")), (1, port("modes"))]);
-        produced.put(0, port("model"), Artefact::new(ArtefactKind::Matrices));
-        produced.put(2, port("unread"), Artefact::new(ArtefactKind::Modes));
+        produced.put(
+            0,
+            port("model"),
+            Arc::new(Artefact::new(ArtefactKind::Matrices)),
+        );
+        produced.put(
+            2,
+            port("unread"),
+            Arc::new(Artefact::new(ArtefactKind::Modes)),
+        );
         let first = produced
             .take(0, "model")
             .expect("held for its second reader");
