@@ -300,7 +300,9 @@ fn a_failed_background_commit_fails_the_run_naming_its_stage() {
     let err = femu::pipeline::execute(&plan, &cache, &opts).unwrap_err();
     let first = &plan.nodes[0].name;
     match &err {
-        femu::pipeline::executor::RunError::Cache { stage, .. } => assert_eq!(stage, first, "{err}"),
+        femu::pipeline::executor::RunError::Cache { stage, .. } => {
+            assert_eq!(stage, first, "{err}")
+        }
         other => panic!("expected a cache error, got {other}"),
     }
     assert!(err.to_string().contains(first.as_str()), "{err}");

@@ -351,7 +351,7 @@ fn whole_columns_are_collected_in_long_form() {
     );
     // Four FRFs per point.
     assert_eq!(c.table.rows(), 8);
-    assert_eq!(c.table.i64s("t", "row").unwrap(), [0, 1, 2, 3, 0, 1, 2, 3]);
+    assert_eq!(*c.table.i64s("t", "row").unwrap(), [0, 1, 2, 3, 0, 1, 2, 3]);
 }
 
 #[test]

@@ -288,7 +288,7 @@ fn three_beam_reproduces_c4() {
     assert_eq!(moves.as_array().map(|m| m.len()), Some(6), "{moves}");
     let damping = read_dir(&out.join("damping").join("result")).unwrap();
     let t = damping.table("modal_damping").unwrap();
-    assert_eq!(t.i64s("modal_damping", "mode").unwrap(), &[1, 2]);
+    assert_eq!(*t.i64s("modal_damping", "mode").unwrap(), [1, 2]);
 
     let view = femu::run_report::collect(&out, &Default::default()).unwrap();
     let post = view

@@ -157,12 +157,17 @@ impl Table {
         })
     }
 
-    /// An integer column by name.
-    pub fn i64s(&self, table: &str, name: &str) -> Result<&[i64], TableError> {
-        self.typed(table, name, "int64", |c| match c {
-            Column::I64(v) => Some(v.as_slice()),
-            _ => None,
-        })
+    /// An integer column by name, as 64-bit integers: borrowed when it holds them, widened
+    /// when it holds 32-bit ones (as other tools often write counts and ids).
+    pub fn i64s(&self, table: &str, name: &str) -> Result<std::borrow::Cow<'_, [i64]>, TableError> {
+        self.indices(table, name)
+            .map(|ix| ix.to_i64())
+            .map_err(|e| TableError {
+                problem: e
+                    .problem
+                    .replace("int32 or int64", "an integer column (int64 or int32)"),
+                ..e
+            })
     }
 
     /// An index column by name: 32-bit or 64-bit integers.
@@ -275,9 +280,20 @@ mod tests {
             e.contains("table `t`") && e.contains("`x` is float64, expected int32 or int64"),
             "{e}"
         );
+        // Integer columns of either width read as 64-bit integers (other tools write counts
+        // and ids as int32): borrowed when they are 64-bit, widened otherwise.
+        assert_eq!(
+            *t.i64s("t", "narrow").unwrap(),
+            [3, -1, i64::from(i32::MAX)]
+        );
+        assert!(matches!(
+            t.i64s("t", "wide").unwrap(),
+            std::borrow::Cow::Borrowed(_)
+        ));
+        let e = t.i64s("t", "x").unwrap_err().to_string();
         assert!(
-            t.i64s("t", "narrow").is_err(),
-            "a 64-bit read of 32-bit indices"
+            e.contains("`x` is float64, expected an integer column (int64 or int32)"),
+            "{e}"
         );
         assert_eq!(Column::I32(vec![1, 2]).type_name(), "int32");
         assert_eq!(Column::I32(vec![1, -2]).cell(1), "-2");

@@ -186,10 +186,7 @@ pub(super) fn key_results(dir: &Path, meta: &DirMeta) -> Vec<String> {
                 && let (Some(c), Some(n), Some(r)) = (
                     strs(&t, "candidate"),
                     f64s(&t, "normalised"),
-                    match t.column("rank") {
-                        Some(Column::I64(v)) => Some(v.as_slice()),
-                        _ => None,
-                    },
+                    t.i64s("candidates", "rank").ok(),
                 )
             {
                 let mut order: Vec<usize> = (0..c.len()).collect();

@@ -500,13 +500,11 @@ fn run_waves(
             reports[*i] = Some(r?);
         }
         // A cache entry that could not be written stops the run here, not after it.
-        let finished: Vec<PendingCommit> = match commits.lock() {
-            Ok(mut c) => {
-                let (done, running) = c.drain(..).partition(|p| p.handle.is_finished());
-                *c = running;
-                done
-            }
-            Err(_) => Vec::new(),
+        let finished: Vec<PendingCommit> = {
+            let mut c = commits.lock().unwrap_or_else(|e| e.into_inner());
+            let (done, running) = c.drain(..).partition(|p| p.handle.is_finished());
+            *c = running;
+            done
         };
         join_commits(plan, finished, written)?;
     }
@@ -516,6 +514,7 @@ fn run_waves(
 /// A stage's cache entry being written on a thread of its own.
 struct PendingCommit {
     node: usize,
+    key: String,
     handle: std::thread::JoinHandle<Result<Duration, CacheError>>,
 }
 
@@ -531,9 +530,8 @@ fn join_commits(
     for c in commits {
         let outcome = c.handle.join().unwrap_or_else(|_| {
             Err(CacheError::Corrupt {
-                key: String::new(),
-                reason: "internal error: the cache writer panicked (a femu bug; please report it)"
-                    .into(),
+                key: c.key.clone(),
+                reason: "internal error: its writer panicked (a femu bug; please report it)".into(),
             })
         });
         match outcome {
@@ -549,27 +547,23 @@ fn join_commits(
     first_error.map_or(Ok(()), Err)
 }
 
-/// Starts writing node `node`'s outputs, whose digests are `digests`, into the cache under
-/// `key` on a thread of its own (with a rayon pool of its own, so the stages running meanwhile
-/// do not hold up its jobs, nor it theirs).
+/// Starts writing node `node`'s `(port, artefact, digest)` outputs into the cache under `key`
+/// on a thread of its own (with a rayon pool of its own, so the stages running meanwhile do
+/// not hold up its jobs, nor it theirs).
 fn commit_in_background(
     plan: &Plan,
     node: usize,
     cache: &Cache,
     key: &str,
-    outputs: &BTreeMap<String, Arc<Artefact>>,
-    digests: &BTreeMap<String, OutputRecord>,
+    outputs: Vec<(String, Arc<Artefact>, String)>,
     parts: &[String],
     force: bool,
 ) -> Result<PendingCommit, RunError> {
     let n = &plan.nodes[node];
     let root = cache.root().to_path_buf();
+    let entry = key.to_string();
     let (cache, key, parts) = (cache.clone(), key.to_string(), parts.to_vec());
     let (kind, version, format) = (n.stage.kind(), n.stage.impl_version(), n.format);
-    let outputs: Vec<(String, Arc<Artefact>, String)> = outputs
-        .iter()
-        .map(|(port, a)| (port.clone(), a.clone(), digests[port].digest.clone()))
-        .collect();
     let write = move || -> Result<Duration, CacheError> {
         let t = Instant::now();
         let outputs: Vec<(&str, &Artefact, &str)> = outputs
@@ -597,12 +591,17 @@ fn commit_in_background(
                 source: e,
             },
         })?;
-    Ok(PendingCommit { node, handle })
+    Ok(PendingCommit {
+        node,
+        key: entry,
+        handle,
+    })
 }
 
 /// Artefacts produced in this run, by (node, output port), each held in memory until the last
-/// node of the run that reads it has taken it: a model's matrices (gigabytes at 10⁶ DOFs) are
-/// not kept beside the eigensolver's factor, nor for the rest of the run.
+/// node of the run that reads it has taken it (and its cache entry is written, which takes a
+/// second or two at 10⁶ DOFs): a model's matrices (gigabytes at 10⁶ DOFs) are not kept beside
+/// the eigensolver's factor, nor for the rest of the run.
 struct Produced(Mutex<HashMap<(usize, String), Held>>);
 
 /// An output of this run and the number of its readers still to run.
@@ -737,11 +736,15 @@ fn run_node(
             })
             .collect()
     };
-    let pending =
-        commit_in_background(plan, i, cache, &key, &outputs, &records, &parts.keys, force)?;
-    if let Ok(mut c) = commits.lock() {
-        c.push(pending);
-    }
+    let digested = outputs
+        .iter()
+        .map(|(port, a)| (port.clone(), a.clone(), records[port].digest.clone()))
+        .collect();
+    let pending = commit_in_background(plan, i, cache, &key, digested, &parts.keys, force)?;
+    commits
+        .lock()
+        .unwrap_or_else(|e| e.into_inner())
+        .push(pending);
     for (port, a) in outputs {
         produced.put(i, port, a);
     }

@@ -687,7 +687,7 @@ fn leverage_field(id: &str, mesh: &str, a: &Artefact) -> Option<FieldView> {
         m.i64s("members", "element").ok()?,
     );
     let mut values = BTreeMap::new();
-    for (c, &e) in cand.iter().zip(elem) {
+    for (c, &e) in cand.iter().zip(elem.iter()) {
         if let (Some(v), Ok(e)) = (of.get(c.as_str()), u64::try_from(e)) {
             let slot = values.entry(e).or_insert(f64::NEG_INFINITY);
             *slot = f64::max(*slot, *v);
@@ -760,7 +760,7 @@ fn mac_view(id: &str, a: &Artefact) -> Option<MacView> {
     );
     let mac: BTreeMap<(i64, i64), f64> = r
         .iter()
-        .zip(p)
+        .zip(p.iter())
         .zip(v)
         .map(|((&r, &p), &v)| ((r, p), v))
         .collect();

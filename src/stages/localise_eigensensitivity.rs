@@ -268,7 +268,7 @@ mod tests {
             "plot": {"highlight_set": "strip_7"}}))
         .unwrap();
         let t = out["sensitivity"].table("modes").unwrap();
-        assert_eq!(t.i64s("modes", "mode").unwrap(), &[7, 8]);
+        assert_eq!(*t.i64s("modes", "mode").unwrap(), [7, 8]);
         assert!(out["maps"].blobs["maps.png"].starts_with(b"\x89PNG"));
     }
 }

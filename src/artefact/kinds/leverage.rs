@@ -406,7 +406,7 @@ pub fn leverages(a: &Artefact) -> Result<Vec<(String, f64, i64)>, ArtefactError>
     Ok(names
         .iter()
         .zip(lev)
-        .zip(rank)
+        .zip(rank.iter())
         .map(|((n, l), r)| (n.clone(), *l, *r))
         .collect())
 }

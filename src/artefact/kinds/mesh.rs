@@ -1113,7 +1113,7 @@ GRID,4,,0.,.1,0.,7\nCQUAD4,1,1,1,2,3,4\nSPC1,1,123456,1\n";
         assert_eq!(mesh_from_artefact(&a).unwrap(), m);
         assert_eq!(a.meta["rod_sections"]["3"]["area"], 1e-4);
         let t = a.table("elements").unwrap();
-        assert_eq!(t.i64s("elements", "property").unwrap(), &[2, 5, -1]);
+        assert_eq!(*t.i64s("elements", "property").unwrap(), [2, 5, -1]);
         let mut plain = m.clone();
         plain.elements.retain(|_, e| e.type_name() != "rod");
         plain.rod_properties.clear();

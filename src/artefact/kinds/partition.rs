@@ -176,7 +176,7 @@ pub fn partition_from_artefact(a: &Artefact) -> Result<Partition, ArtefactError>
     let elems = t.i64s("substructures", "element")?;
     let mut order: Vec<String> = Vec::new();
     let mut subs: BTreeMap<String, Substructure> = BTreeMap::new();
-    for (name, e) in names.iter().zip(elems) {
+    for (name, e) in names.iter().zip(elems.iter()) {
         let s = subs.entry(name.clone()).or_insert_with(|| {
             order.push(name.clone());
             Substructure {

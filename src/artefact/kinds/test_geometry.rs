@@ -183,7 +183,7 @@ pub fn test_geometry_from_artefact(a: &Artefact) -> Result<TestGeometry, Artefac
             tl.i64s("trace_lines", "trace_line")?,
             tl.i64s("trace_lines", "node")?,
         );
-        for (i, (&l, &n)) in line.iter().zip(node).enumerate() {
+        for (i, (&l, &n)) in line.iter().zip(node.iter()).enumerate() {
             let l = label(kind, "trace_lines", i, l)?;
             let n = label(kind, "trace_lines", i, n)?;
             match g.trace_lines.last_mut() {
