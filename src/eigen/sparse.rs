@@ -37,7 +37,8 @@ use crate::core::DofId;
 use crate::core::memory::{Columns, parallel_zeros};
 use crate::core::sparse::SparseMatrix;
 use crate::sparse::{
-    FactorError, FactorInfo, FullPencil, SparseSolve, SpdFactor, SymmetricFactor, SymmetricPencil,
+    FactorError, FactorInfo, FactorStructure, FullPencil, SparseSolve, SpdFactor, SymmetricFactor,
+    SymmetricPencil,
 };
 use faer::linalg::triangular_solve::solve_lower_triangular_in_place;
 use faer::{Mat, MatMut, MatRef, Par, Side};
@@ -65,6 +66,10 @@ pub struct SparseEigenParams {
     /// lies above the limit): the count an analysis of a similar model found, with a margin,
     /// spares the runs that doubling from 20 would make. `None`: 20.
     pub first_count: Option<usize>,
+    /// The factor structure (ordering, supernodes) of an earlier analysis: used, without a new
+    /// ordering and symbolic analysis, when `K − σM` has the pattern it was found for (an
+    /// update's model at new parameter values), with the same results to the bit.
+    pub structure: Option<FactorStructure>,
 }
 
 impl Default for SparseEigenParams {
@@ -77,6 +82,7 @@ impl Default for SparseEigenParams {
             seed: 1,
             par: Par::rayon(0),
             first_count: None,
+            structure: None,
         }
     }
 }
@@ -350,10 +356,11 @@ fn solve_pencil(
     let t0 = Instant::now();
     // A = K − σM over the union pattern, lower triangle.
     let a = pencil.lower_combination(1.0, -shift);
-    let llt = SpdFactor::consuming(a, params.par).map_err(|e| match e {
-        FactorError::NotPositiveDefinite => EigenError::NotPositiveDefinite { shift },
-        FactorError::OutOfMemory => EigenError::FactorTooLarge { n },
-    })?;
+    let llt =
+        SpdFactor::consuming_on(a, params.par, params.structure.as_ref()).map_err(|e| match e {
+            FactorError::NotPositiveDefinite => EigenError::NotPositiveDefinite { shift },
+            FactorError::OutOfMemory => EigenError::FactorTooLarge { n },
+        })?;
     // The factorisation's work arrays are freed; hand their pages back before the Krylov
     // basis is allocated, so the two peaks do not add up.
     crate::core::memory::release_freed_memory();
@@ -1264,6 +1271,33 @@ mod tests {
         for count in [12, 110] {
             free_chain_modes_match(count);
         }
+    }
+
+    /// An analysis on the factor structure of an earlier one (another chain of the same
+    /// pattern, as an update's model at new values) gives the modes of its own analysis to the
+    /// bit; a chain of another length is analysed afresh.
+    #[test]
+    fn an_earlier_analysis_structure_gives_the_same_modes() {
+        let selection = ModeSelection::Count(8);
+        let params = SparseEigenParams::default();
+        let (k, m, dofs) = free_chain(1500, 1e6, 0.5);
+        let (_, info, factor) =
+            lowest_modes_keeping_factor(&k, &m, &dofs, selection, &params).unwrap();
+        assert!(!info.dense && !info.factor.structure_reused);
+        let held = SparseEigenParams {
+            structure: factor.map(|f| f.factor.structure().clone()),
+            ..params.clone()
+        };
+        let (k2, m2, _) = free_chain(1500, 2e6, 0.7);
+        let (on_held, info) = lowest_modes(&k2, &m2, &dofs, selection, &held).unwrap();
+        assert!(info.factor.structure_reused);
+        let (fresh, info) = lowest_modes(&k2, &m2, &dofs, selection, &params).unwrap();
+        assert!(!info.factor.structure_reused);
+        assert_eq!(on_held.eigenvalues, fresh.eigenvalues);
+        assert_eq!(on_held.shapes, fresh.shapes);
+        let (k3, m3, dofs3) = free_chain(1600, 1e6, 0.5);
+        let (_, info) = lowest_modes(&k3, &m3, &dofs3, selection, &held).unwrap();
+        assert!(!info.factor.structure_reused);
     }
 
     fn free_chain_modes_match(count: usize) {

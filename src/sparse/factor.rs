@@ -25,13 +25,18 @@ use faer::sparse::linalg::cholesky::{
     factorize_symbolic_cholesky,
 };
 use faer::{MatMut, Par, Side};
+use std::sync::Arc;
 use std::time::Instant;
 
 /// Where a factorisation's time went, and its size.
 #[derive(Clone, Copy, Debug, Default, serde::Serialize)]
 pub struct FactorInfo {
-    /// Seconds in the ordering and the symbolic factorisation (elimination tree, supernodes).
+    /// Seconds in the ordering and the symbolic factorisation (elimination tree, supernodes),
+    /// or in checking that an earlier one's pattern is this matrix's.
     pub symbolic_seconds: f64,
+    /// Whether the ordering and structure of an earlier factorisation were used
+    /// ([`FactorStructure`]).
+    pub structure_reused: bool,
     /// Seconds in the numeric factorisation.
     pub numeric_seconds: f64,
     /// Stored entries of the factor (dense supernodal blocks included).
@@ -112,10 +117,68 @@ fn inverse_permutation(forward: &[usize]) -> Vec<usize> {
     inverse
 }
 
-/// `A = P L Lᵀ Pᵀ` of a sparse symmetric positive definite `A`.
-pub struct SpdFactor {
+/// The ordering and supernodal structure of a factorisation, with a fingerprint of the pattern
+/// it was found for. A later matrix of the same pattern (an update's `K(φ) − σM(φ)` at new
+/// parameter values: the elements and their connections do not change) is factored on it
+/// without a second ordering and symbolic analysis, to the same bits, since both depend on the
+/// pattern alone.
+#[derive(Clone)]
+pub struct FactorStructure(Arc<Structure>);
+
+struct Structure {
     symbolic: SymbolicCholesky<usize>,
     tree: multifrontal::Tree,
+    pattern: PatternKey,
+}
+
+impl std::fmt::Debug for FactorStructure {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("FactorStructure")
+            .field("n", &self.0.pattern.n)
+            .field("pattern_entries", &self.0.pattern.entries)
+            .field("factor_entries", &self.0.symbolic.len_val())
+            .finish()
+    }
+}
+
+/// A sparse matrix's pattern as a key: its order, its stored entries and a blake3 hash of its
+/// column pointers and row indices (and column counts, for storage with gaps).
+#[derive(Clone, Debug, PartialEq, Eq)]
+struct PatternKey {
+    n: usize,
+    entries: usize,
+    hash: [u8; 32],
+}
+
+impl PatternKey {
+    fn of(a: &SparseMatrix) -> Self {
+        let pattern = a.symbolic();
+        let mut hasher = blake3::Hasher::new();
+        let mut buffer = Vec::with_capacity(1 << 16);
+        let mut feed = |values: &[usize]| {
+            hasher.update(&(values.len() as u64).to_le_bytes());
+            for chunk in values.chunks(1 << 13) {
+                buffer.clear();
+                buffer.extend(chunk.iter().flat_map(|&v| (v as u64).to_le_bytes()));
+                hasher.update(&buffer);
+            }
+        };
+        feed(pattern.col_ptr());
+        feed(pattern.row_idx());
+        if let Some(counts) = pattern.col_nnz() {
+            feed(counts);
+        }
+        PatternKey {
+            n: pattern.nrows(),
+            entries: pattern.row_idx().len(),
+            hash: *hasher.finalize().as_bytes(),
+        }
+    }
+}
+
+/// `A = P L Lᵀ Pᵀ` of a sparse symmetric positive definite `A`.
+pub struct SpdFactor {
+    structure: FactorStructure,
     values: Vec<f64>,
     /// Timings and size.
     pub info: FactorInfo,
@@ -125,27 +188,78 @@ impl SpdFactor {
     /// Factors `A`, of which the lower triangle is read (full or lower storage), with
     /// parallelism `par`.
     pub fn new(a: &SparseMatrix, par: Par) -> Result<Self, FactorError> {
-        Self::factor(a, par)
+        Self::factor(a, par, None)
     }
 
     /// Factors `A` and frees it as soon as its permuted copy is made, before the factor's
     /// storage is allocated, so `A` is not held beside its copy and the factor at the peak.
     pub fn consuming(a: SparseMatrix, par: Par) -> Result<Self, FactorError> {
-        Self::factor(a, par)
+        Self::factor(a, par, None)
     }
 
-    /// Factors `a`, borrowed or owned; an owned one is dropped once permuted.
-    fn factor(a: impl std::borrow::Borrow<SparseMatrix>, par: Par) -> Result<Self, FactorError> {
+    /// [`SpdFactor::consuming`] on the structure of an earlier factorisation when `a` has the
+    /// pattern it was found for (see [`FactorStructure`]); otherwise the structure is found.
+    pub fn consuming_on(
+        a: SparseMatrix,
+        par: Par,
+        structure: Option<&FactorStructure>,
+    ) -> Result<Self, FactorError> {
+        Self::factor(a, par, structure)
+    }
+
+    /// The ordering and supernodal structure, for factoring matrices of the same pattern.
+    pub fn structure(&self) -> &FactorStructure {
+        &self.structure
+    }
+
+    /// Factors `a`, borrowed or owned (an owned one is dropped once permuted), on `held` when
+    /// its pattern is `a`'s.
+    fn factor(
+        a: impl std::borrow::Borrow<SparseMatrix>,
+        par: Par,
+        held: Option<&FactorStructure>,
+    ) -> Result<Self, FactorError> {
         let mut info = FactorInfo::default();
         let t = Instant::now();
+        let pattern = PatternKey::of(a.borrow());
+        let structure = match held.filter(|h| h.0.pattern == pattern) {
+            Some(h) => {
+                info.structure_reused = true;
+                h.clone()
+            }
+            None => Self::analyse(a.borrow(), pattern)?,
+        };
+        info.symbolic_seconds = t.elapsed().as_secs_f64();
+        let symbolic = &structure.0.symbolic;
+        info.factor_entries = symbolic.len_val();
+        let t = Instant::now();
+        let supernodal = supernodes(symbolic);
+        let inverse = symbolic.perm().map(|p| p.arrays().1);
+        let lower = multifrontal::PermutedLower::new(a.borrow(), inverse).map_err(front_error)?;
+        drop(a);
+        let mut values =
+            crate::core::memory::zeroed_f64(symbolic.len_val()).ok_or(FactorError::OutOfMemory)?;
+        multifrontal::factorize(supernodal, &structure.0.tree, &lower, &mut values, par)
+            .map_err(front_error)?;
+        info.numeric_seconds = t.elapsed().as_secs_f64();
+        Ok(SpdFactor {
+            structure,
+            values,
+            info,
+        })
+    }
+
+    /// The ordering (AMD on the node graph, in a postorder of the supernodal tree) and the
+    /// supernodal structure of `a`, whose pattern is `pattern`.
+    fn analyse(a: &SparseMatrix, pattern: PatternKey) -> Result<FactorStructure, FactorError> {
         // The structure for an ordering `forward[new] = old`.
         let analyse = |forward: &[usize]| {
             let inverse = inverse_permutation(forward);
             let ordering = faer::perm::PermRef::new_checked(forward, &inverse, forward.len());
-            supernodal_symbolic(a.borrow(), SymmetricOrdering::Custom(ordering))
+            supernodal_symbolic(a, SymmetricOrdering::Custom(ordering))
                 .map_err(|_| FactorError::OutOfMemory)
         };
-        let order = super::ordering::node_amd(a.borrow()).ok_or(FactorError::OutOfMemory)?;
+        let order = super::ordering::node_amd(a).ok_or(FactorError::OutOfMemory)?;
         let mut symbolic = analyse(&order)?;
         drop(order);
         let mut tree = multifrontal::Tree::new(supernodes(&symbolic));
@@ -156,24 +270,11 @@ impl SpdFactor {
             symbolic = analyse(&postordered_ordering(&symbolic, &tree))?;
             tree = multifrontal::Tree::new(supernodes(&symbolic));
         }
-        info.symbolic_seconds = t.elapsed().as_secs_f64();
-        info.factor_entries = symbolic.len_val();
-        let t = Instant::now();
-        let supernodal = supernodes(&symbolic);
-        let inverse = symbolic.perm().map(|p| p.arrays().1);
-        let lower = multifrontal::PermutedLower::new(a.borrow(), inverse).map_err(front_error)?;
-        drop(a);
-        let mut values =
-            crate::core::memory::zeroed_f64(symbolic.len_val()).ok_or(FactorError::OutOfMemory)?;
-        multifrontal::factorize(supernodal, &tree, &lower, &mut values, par)
-            .map_err(front_error)?;
-        info.numeric_seconds = t.elapsed().as_secs_f64();
-        Ok(SpdFactor {
+        Ok(FactorStructure(Arc::new(Structure {
             symbolic,
             tree,
-            values,
-            info,
-        })
+            pattern,
+        })))
     }
 
     /// [`SymmetricFactor::solve_backward_in_place`] with up to `columns` columns per pass.
@@ -182,11 +283,11 @@ impl SpdFactor {
     }
 
     fn sweeps(&self, x: MatMut<'_, f64>, columns: usize, sweeps: multifrontal::Sweeps, par: Par) {
-        let supernodal = supernodes(&self.symbolic);
-        let permutation = self.symbolic.perm().map(|p| p.arrays());
+        let Structure { symbolic, tree, .. } = &*self.structure.0;
+        let permutation = symbolic.perm().map(|p| p.arrays());
         multifrontal::solve(
-            supernodal,
-            &self.tree,
+            supernodes(symbolic),
+            tree,
             permutation,
             &self.values,
             x,
@@ -205,11 +306,10 @@ impl SpdFactor {
         if x.ncols() == 0 {
             return;
         }
-        let scratch = self
-            .symbolic
-            .solve_in_place_scratch::<f64>(x.ncols(), Par::Seq);
+        let symbolic = &self.structure.0.symbolic;
+        let scratch = symbolic.solve_in_place_scratch::<f64>(x.ncols(), Par::Seq);
         let mut buffer = MemBuffer::new(scratch);
-        LltRef::<'_, usize, f64>::new(&self.symbolic, &self.values).solve_in_place_with_conj(
+        LltRef::<'_, usize, f64>::new(symbolic, &self.values).solve_in_place_with_conj(
             Conj::No,
             x,
             Par::Seq,
@@ -222,7 +322,7 @@ impl SpdFactor {
 /// [`SOLVE_COLUMNS`] columns per pass over the factor.
 impl SparseSolve<f64> for SpdFactor {
     fn n(&self) -> usize {
-        self.symbolic.nrows()
+        self.structure.0.symbolic.nrows()
     }
 
     fn solve_in_place(&self, x: MatMut<'_, f64>, par: Par) {
@@ -323,7 +423,7 @@ mod tests {
             "the test needs a matrix whose AMD tree is not postordered"
         );
         let f = SpdFactor::new(&a, Par::rayon(0)).unwrap();
-        assert!(f.tree.is_postordered());
+        assert!(f.structure.0.tree.is_postordered());
         assert_eq!(f.info.factor_entries, amd.len_val());
         let n = a.ncols();
         let b = Mat::from_fn(n, SOLVE_COLUMNS + 3, |i, j| {
@@ -364,6 +464,48 @@ mod tests {
         f.solve_forward_in_place(whitened.as_mut(), Par::rayon(0));
         let identity = Mat::<f64>::identity(n, n);
         assert!((&whitened - &identity).norm_max() < 1e-12);
+    }
+
+    /// A matrix of the same pattern is factored on the held structure, to the bits of its own
+    /// factorisation; a matrix of another pattern (one more entry, or the same entries in
+    /// lower storage) is analysed afresh, and still solved to round-off.
+    #[test]
+    fn the_held_structure_serves_a_matrix_of_the_same_pattern_only() {
+        let a = super::multifrontal::grid_laplacian(9);
+        let n = a.ncols();
+        let first = SpdFactor::new(&a, Par::rayon(0)).unwrap();
+        assert!(!first.info.structure_reused);
+        // The same pattern, other values (as an update's model at new parameter values).
+        let mut t = Vec::new();
+        for j in 0..n {
+            for (&i, &v) in a.row_idx_of_col_raw(j).iter().zip(a.val_of_col(j)) {
+                t.push((i, j, if i == j { v * 1.3 + 0.2 } else { v * 0.9 }));
+            }
+        }
+        let b = sparse_from_triplets("B", n, &t).unwrap();
+        let held =
+            SpdFactor::consuming_on(b.clone(), Par::rayon(0), Some(first.structure())).unwrap();
+        let fresh = SpdFactor::new(&b, Par::rayon(0)).unwrap();
+        assert!(held.info.structure_reused && !fresh.info.structure_reused);
+        assert_eq!(held.values, fresh.values, "the same bits");
+        // One more coupling (and its mirror): another pattern.
+        t.push((0, n - 1, -0.01));
+        t.push((n - 1, 0, -0.01));
+        let c = sparse_from_triplets("C", n, &t).unwrap();
+        let other =
+            SpdFactor::consuming_on(c.clone(), Par::rayon(0), Some(first.structure())).unwrap();
+        assert!(!other.info.structure_reused);
+        let rhs = Mat::from_fn(n, 3, |i, j| ((i * 7 + j * 3) % 11) as f64 - 5.0);
+        let mut x = rhs.clone();
+        other.solve_in_place(x.as_mut(), Par::rayon(0));
+        let r = crate::core::sparse::sparse_to_dense(&c) * &x - &rhs;
+        assert!(r.norm_max() < 1e-12 * rhs.norm_max(), "{}", r.norm_max());
+        // The lower triangle alone is another storage of `B`: analysed afresh, the same factor.
+        let lower = crate::sparse::lower_combination(1.0, &b, 0.0, &b);
+        let relowered =
+            SpdFactor::consuming_on(lower, Par::rayon(0), Some(held.structure())).unwrap();
+        assert!(!relowered.info.structure_reused);
+        assert_eq!(relowered.info.factor_entries, fresh.info.factor_entries);
     }
 
     #[test]

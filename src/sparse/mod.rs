@@ -33,7 +33,7 @@ mod product;
 mod thin;
 
 pub use combination::lower_combination;
-pub use factor::{FactorError, FactorInfo, SOLVE_COLUMNS, SpdFactor};
+pub use factor::{FactorError, FactorInfo, FactorStructure, SOLVE_COLUMNS, SpdFactor};
 pub(crate) use ldlt::{Isa, Level};
 pub use ldlt::{LdltError, LdltScalar, LdltWorkspace, SymbolicLdlt};
 pub use lu::{Lu, SymbolicLu};

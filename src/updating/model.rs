@@ -19,6 +19,7 @@ use crate::model::{Model, Parameter};
 use crate::reduction::{Method, Partition, ReducedModel};
 use crate::sensitivity::ProjectedDerivative;
 use crate::sensitivity::{RowWeights, SensorMap};
+use crate::sparse::FactorStructure;
 use faer::{Mat, MatRef};
 use rayon::prelude::*;
 use std::collections::HashMap;
@@ -32,11 +33,16 @@ use std::collections::HashMap;
 pub const UPDATE_LANCZOS_TOLERANCE: f64 = 1e-8;
 
 /// The eigensolver's settings for an update's modal analyses: [`UPDATE_LANCZOS_TOLERANCE`],
-/// and `first_count` for a frequency limit (see [`SparseEigenParams::first_count`]).
-pub fn update_eigen_params(first_count: Option<usize>) -> SparseEigenParams {
+/// `first_count` for a frequency limit (see [`SparseEigenParams::first_count`]) and the factor
+/// structure of the last analysis (see [`SparseEigenParams::structure`]).
+pub fn update_eigen_params(
+    first_count: Option<usize>,
+    structure: Option<FactorStructure>,
+) -> SparseEigenParams {
     SparseEigenParams {
         tolerance: UPDATE_LANCZOS_TOLERANCE,
         first_count,
+        structure,
         ..SparseEigenParams::default()
     }
 }
@@ -279,6 +285,8 @@ struct Held {
     dofs: Vec<DofId>,
     rigid: usize,
     projection: std::sync::Mutex<Projection>,
+    /// The analysis's factor structure, for the next analysis (sparse path only).
+    structure: Option<FactorStructure>,
 }
 
 /// Where the held basis's [`ParametricProjection`] stands.
@@ -318,7 +326,13 @@ impl HeldModes {
         self.0.lock().ok()?.clone()
     }
 
-    fn set(&self, values: &[f64], modes: &Modes, dofs: &[DofId]) {
+    fn set(
+        &self,
+        values: &[f64],
+        modes: &Modes,
+        dofs: &[DofId],
+        structure: Option<FactorStructure>,
+    ) {
         if let Ok(mut held) = self.0.lock() {
             // The old basis goes first, so that two are never held at once.
             *held = None;
@@ -328,6 +342,7 @@ impl HeldModes {
                 dofs: dofs.to_vec(),
                 rigid: modes.rigid_body_modes,
                 projection: std::sync::Mutex::new(Projection::Absent),
+                structure,
             }));
         }
     }
@@ -432,13 +447,18 @@ impl ParametricModel for FeModel {
         // Below a frequency limit, the count the last analysis found, with a margin for modes
         // that the parameters' change brings under it, is the first Lanczos run's: doubling
         // from 20 would repeat the run two or three times on a large model.
-        let first_count = self.held.get().map(|held| {
+        // The last analysis's factor structure serves this one when the pattern is the same
+        // (it is, unless a parameter changes which elements connect).
+        let held = self.held.get();
+        let first_count = held.as_ref().map(|held| {
             let found = held.shapes.ncols();
             found + (found / 10).max(4)
         });
-        let params = update_eigen_params(first_count);
+        let structure = held.and_then(|held| held.structure.clone());
+        let params = update_eigen_params(first_count, structure);
         let state = ModalState::with_params(&evaluated, values, selection, &params)?;
-        self.held.set(values, &state.modes, &state.dofs);
+        let structure = state.factor.as_ref().map(|f| f.factor.structure().clone());
+        self.held.set(values, &state.modes, &state.dofs, structure);
         Ok((state, Some(evaluated)))
     }
 
@@ -668,7 +688,12 @@ impl ModalState {
         values: &[f64],
         selection: ModeSelection,
     ) -> Result<Self, UpdatingError> {
-        Self::with_params(evaluated, values, selection, &update_eigen_params(None))
+        Self::with_params(
+            evaluated,
+            values,
+            selection,
+            &update_eigen_params(None, None),
+        )
     }
 
     /// [`ModalState::new`] with the eigensolver's settings given.
