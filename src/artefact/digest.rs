@@ -80,29 +80,19 @@ pub fn artefact_digest(a: &Artefact) -> String {
             h.field(col.type_name().as_bytes());
             h.bytes(&(col.len() as u64).to_le_bytes());
             match col {
-                Column::F64(v) => {
-                    for x in v {
-                        // -0.0 and 0.0 hash alike; every NaN hashes alike.
-                        let bits = if *x == 0.0 {
-                            0u64
-                        } else if x.is_nan() {
-                            f64::NAN.to_bits()
-                        } else {
-                            x.to_bits()
-                        };
-                        h.bytes(&bits.to_le_bytes());
-                    }
-                }
-                Column::I64(v) => {
-                    for x in v {
-                        h.bytes(&x.to_le_bytes());
-                    }
-                }
-                Column::I32(v) => {
-                    for x in v {
-                        h.bytes(&x.to_le_bytes());
-                    }
-                }
+                // -0.0 and 0.0 hash alike; every NaN hashes alike.
+                Column::F64(v) => h.values(v, |x| {
+                    let bits = if x == 0.0 {
+                        0u64
+                    } else if x.is_nan() {
+                        f64::NAN.to_bits()
+                    } else {
+                        x.to_bits()
+                    };
+                    bits.to_le_bytes()
+                }),
+                Column::I64(v) => h.values(v, i64::to_le_bytes),
+                Column::I32(v) => h.values(v, i32::to_le_bytes),
                 Column::Str(v) => {
                     for s in v {
                         h.field(s.as_bytes());
@@ -118,15 +108,16 @@ pub fn artefact_digest(a: &Artefact) -> String {
     h.finish()
 }
 
-/// blake3 fed through a buffer, so that the hasher sees large slices (its many-chunk SIMD path)
-/// rather than one 8-byte value at a time; the digest equals that of the unbuffered stream.
+/// blake3 fed through a buffer, so that the hasher sees large slices rather than one 8-byte
+/// value at a time, each hashed on all threads (blake3's tree splits a slice among them); the
+/// digest equals that of the unbuffered stream, however it is cut.
 struct BufferedHasher {
     hasher: blake3::Hasher,
     buffer: Vec<u8>,
 }
 
 impl BufferedHasher {
-    const CAPACITY: usize = 1 << 20;
+    const CAPACITY: usize = 1 << 22;
 
     fn new() -> Self {
         Self {
@@ -135,15 +126,46 @@ impl BufferedHasher {
         }
     }
 
+    fn flush(&mut self) {
+        self.hasher.update_rayon(&self.buffer);
+        self.buffer.clear();
+    }
+
     fn bytes(&mut self, bytes: &[u8]) {
         if self.buffer.len() + bytes.len() > Self::CAPACITY {
-            self.hasher.update(&self.buffer);
-            self.buffer.clear();
+            self.flush();
         }
         if bytes.len() > Self::CAPACITY {
-            self.hasher.update(bytes);
+            self.hasher.update_rayon(bytes);
         } else {
             self.buffer.extend_from_slice(bytes);
+        }
+    }
+
+    /// Every value of `values` as the `N` bytes `encode` gives, in order, a buffer at a time,
+    /// each buffer filled on all threads.
+    fn values<T: Copy + Sync, const N: usize>(
+        &mut self,
+        values: &[T],
+        encode: impl Fn(T) -> [u8; N] + Sync,
+    ) {
+        use rayon::prelude::*;
+        /// Values encoded by one task.
+        const PER_TASK: usize = 1 << 14;
+        for chunk in values.chunks(Self::CAPACITY / N) {
+            if self.buffer.len() + chunk.len() * N > Self::CAPACITY {
+                self.flush();
+            }
+            let start = self.buffer.len();
+            self.buffer.resize(start + chunk.len() * N, 0);
+            self.buffer[start..]
+                .par_chunks_mut(PER_TASK * N)
+                .zip(chunk.par_chunks(PER_TASK))
+                .for_each(|(out, part)| {
+                    for (bytes, &x) in out.chunks_exact_mut(N).zip(part) {
+                        bytes.copy_from_slice(&encode(x));
+                    }
+                });
         }
     }
 
@@ -154,7 +176,7 @@ impl BufferedHasher {
     }
 
     fn finish(mut self) -> String {
-        self.hasher.update(&self.buffer);
+        self.flush();
         self.hasher.finalize().to_hex().to_string()
     }
 }

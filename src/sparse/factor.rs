@@ -14,7 +14,8 @@
 //! [`SOLVE_COLUMNS`] columns, independent subtrees run on separate threads, and only the large
 //! fronts of the top of the tree split their dense kernels. The forward and the backward sweep are
 //! also available apart, for the symmetric shift-invert operator `L⁻¹ Pᵀ M P L⁻ᵀ` of the Lanczos
-//! process.
+//! process. The ordering and structure depend on the pattern alone ([`FactorStructure`]): an
+//! update's later analyses factor on the first one's, skipping AMD and the symbolic analysis.
 
 use super::multifrontal::{self, FrontError};
 use super::operator::{SparseSolve, SymmetricFactor};
