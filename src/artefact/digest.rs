@@ -2,6 +2,7 @@
 //! JSON (sorted keys, no white space) for cache keys.
 
 use super::{Artefact, Column};
+use crate::core::hashing::StreamHasher;
 
 /// Canonical JSON text: object keys sorted at every level, compact.
 pub fn canonical_json(v: &serde_json::Value) -> String {
@@ -68,7 +69,7 @@ pub fn hash_file(path: &std::path::Path) -> std::io::Result<String> {
 /// The content digest of an artefact: kind, schema version, canonical metadata, every table's
 /// columns (name, type, values as little-endian bytes) and every blob, in sorted order.
 pub fn artefact_digest(a: &Artefact) -> String {
-    let mut h = BufferedHasher::new();
+    let mut h = StreamHasher::new();
     h.field(b"femu-artefact-v1");
     h.field(a.kind.name().as_bytes());
     h.field(&a.kind.schema_version().to_le_bytes());
@@ -105,80 +106,7 @@ pub fn artefact_digest(a: &Artefact) -> String {
         h.field(name.as_bytes());
         h.field(bytes);
     }
-    h.finish()
-}
-
-/// blake3 fed through a buffer, so that the hasher sees large slices rather than one 8-byte
-/// value at a time, each hashed on all threads (blake3's tree splits a slice among them); the
-/// digest equals that of the unbuffered stream, however it is cut.
-struct BufferedHasher {
-    hasher: blake3::Hasher,
-    buffer: Vec<u8>,
-}
-
-impl BufferedHasher {
-    const CAPACITY: usize = 1 << 22;
-
-    fn new() -> Self {
-        Self {
-            hasher: blake3::Hasher::new(),
-            buffer: Vec::with_capacity(Self::CAPACITY),
-        }
-    }
-
-    fn flush(&mut self) {
-        self.hasher.update_rayon(&self.buffer);
-        self.buffer.clear();
-    }
-
-    fn bytes(&mut self, bytes: &[u8]) {
-        if self.buffer.len() + bytes.len() > Self::CAPACITY {
-            self.flush();
-        }
-        if bytes.len() > Self::CAPACITY {
-            self.hasher.update_rayon(bytes);
-        } else {
-            self.buffer.extend_from_slice(bytes);
-        }
-    }
-
-    /// Every value of `values` as the `N` bytes `encode` gives, in order, a buffer at a time,
-    /// each buffer filled on all threads.
-    fn values<T: Copy + Sync, const N: usize>(
-        &mut self,
-        values: &[T],
-        encode: impl Fn(T) -> [u8; N] + Sync,
-    ) {
-        use rayon::prelude::*;
-        /// Values encoded by one task.
-        const PER_TASK: usize = 1 << 14;
-        for chunk in values.chunks(Self::CAPACITY / N) {
-            if self.buffer.len() + chunk.len() * N > Self::CAPACITY {
-                self.flush();
-            }
-            let start = self.buffer.len();
-            self.buffer.resize(start + chunk.len() * N, 0);
-            self.buffer[start..]
-                .par_chunks_mut(PER_TASK * N)
-                .zip(chunk.par_chunks(PER_TASK))
-                .for_each(|(out, part)| {
-                    for (bytes, &x) in out.chunks_exact_mut(N).zip(part) {
-                        bytes.copy_from_slice(&encode(x));
-                    }
-                });
-        }
-    }
-
-    /// A length-prefixed field.
-    fn field(&mut self, bytes: &[u8]) {
-        self.bytes(&(bytes.len() as u64).to_le_bytes());
-        self.bytes(bytes);
-    }
-
-    fn finish(mut self) -> String {
-        self.flush();
-        self.hasher.finalize().to_hex().to_string()
-    }
+    h.finish().to_hex().to_string()
 }
 
 #[cfg(test)]

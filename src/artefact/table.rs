@@ -160,14 +160,10 @@ impl Table {
     /// An integer column by name, as 64-bit integers: borrowed when it holds them, widened
     /// when it holds 32-bit ones (as other tools often write counts and ids).
     pub fn i64s(&self, table: &str, name: &str) -> Result<std::borrow::Cow<'_, [i64]>, TableError> {
-        self.indices(table, name)
-            .map(|ix| ix.to_i64())
-            .map_err(|e| TableError {
-                problem: e
-                    .problem
-                    .replace("int32 or int64", "an integer column (int64 or int32)"),
-                ..e
-            })
+        let integers = self.typed(table, name, "an integer column (int64 or int32)", |c| {
+            c.integers()
+        })?;
+        Ok(integers.to_i64())
     }
 
     /// An index column by name: 32-bit or 64-bit integers.

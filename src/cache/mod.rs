@@ -113,6 +113,16 @@ pub struct Manifest {
     pub parts: Vec<String>,
 }
 
+/// An entry being written: its key, producer, format, parts and outputs.
+struct NewEntry<'a> {
+    key: &'a str,
+    stage_kind: &'a str,
+    impl_version: u32,
+    format: Format,
+    parts: &'a [String],
+    outputs: Vec<EntryOutput<'a>>,
+}
+
 /// One output of an entry being written: its port, the artefact and, when known, its digest.
 #[derive(Clone, Copy)]
 struct EntryOutput<'a> {
@@ -483,22 +493,27 @@ impl Cache {
         format: Format,
         parts: &[String],
     ) -> Result<Manifest, CacheError> {
-        let outputs: Vec<EntryOutput<'_>> = outputs
-            .iter()
-            .map(|(port, artefact)| EntryOutput {
-                port,
-                artefact,
-                digest: None,
-            })
-            .collect();
-        self.commit_outputs(key, stage_kind, impl_version, &outputs, format, parts)
+        self.commit_entry(&NewEntry {
+            key,
+            stage_kind,
+            impl_version,
+            format,
+            parts,
+            outputs: outputs
+                .iter()
+                .map(|(port, artefact)| EntryOutput {
+                    port,
+                    artefact,
+                    digest: None,
+                })
+                .collect(),
+        })
     }
 
     /// [`Cache::commit_with_parts`] for outputs whose content digests are already known (the
     /// pipeline computes them first, for the keys of the stages downstream, and commits in the
     /// background): each `(port, artefact, digest)` is written with its digest recorded, not
-    /// computed again. `replace` evicts an entry under `key` first (`--force`).
-    #[allow(clippy::too_many_arguments)]
+    /// computed again.
     pub fn commit_digested(
         &self,
         key: &str,
@@ -507,37 +522,32 @@ impl Cache {
         outputs: &[(&str, &Artefact, &str)],
         format: Format,
         parts: &[String],
-        replace: bool,
     ) -> Result<Manifest, CacheError> {
-        if replace {
-            self.evict(key)?;
-        }
-        let outputs: Vec<EntryOutput<'_>> = outputs
-            .iter()
-            .map(|&(port, artefact, digest)| EntryOutput {
-                port,
-                artefact,
-                digest: Some(digest),
-            })
-            .collect();
-        self.commit_outputs(key, stage_kind, impl_version, &outputs, format, parts)
+        self.commit_entry(&NewEntry {
+            key,
+            stage_kind,
+            impl_version,
+            format,
+            parts,
+            outputs: outputs
+                .iter()
+                .map(|&(port, artefact, digest)| EntryOutput {
+                    port,
+                    artefact,
+                    digest: Some(digest),
+                })
+                .collect(),
+        })
     }
 
-    /// Writes `outputs` into a temporary directory and renames it to the entry of `key`.
-    fn commit_outputs(
-        &self,
-        key: &str,
-        stage_kind: &str,
-        impl_version: u32,
-        outputs: &[EntryOutput<'_>],
-        format: Format,
-        parts: &[String],
-    ) -> Result<Manifest, CacheError> {
+    /// Writes `entry` into a temporary directory and renames it to the entry of its key.
+    fn commit_entry(&self, entry: &NewEntry<'_>) -> Result<Manifest, CacheError> {
+        let key = entry.key;
         self.writable()?;
         let dest = self.entry_dir(key)?;
         let tmp = self.tmp_path(key);
         std::fs::create_dir_all(&tmp).map_err(io(&tmp))?;
-        let result = self.write_entry(&tmp, key, stage_kind, impl_version, outputs, format, parts);
+        let result = self.write_entry(&tmp, entry);
         let manifest = match result {
             Ok(m) => m,
             Err(e) => {
@@ -586,17 +596,15 @@ impl Cache {
         self.commit_with_parts(key, stage_kind, impl_version, outputs, format, parts)
     }
 
-    #[allow(clippy::too_many_arguments)]
-    fn write_entry(
-        &self,
-        tmp: &Path,
-        key: &str,
-        stage_kind: &str,
-        impl_version: u32,
-        outputs: &[EntryOutput<'_>],
-        format: Format,
-        parts: &[String],
-    ) -> Result<Manifest, CacheError> {
+    fn write_entry(&self, tmp: &Path, entry: &NewEntry<'_>) -> Result<Manifest, CacheError> {
+        let NewEntry {
+            key,
+            stage_kind,
+            impl_version,
+            format,
+            parts,
+            ref outputs,
+        } = *entry;
         let mut records = BTreeMap::new();
         // Files hashed as they were written, by path relative to the entry.
         let mut written = BTreeMap::new();

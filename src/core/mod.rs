@@ -4,6 +4,7 @@
 pub mod dense;
 mod dof;
 mod fault;
+pub mod hashing;
 pub mod input;
 pub mod memory;
 pub mod progress;

@@ -570,7 +570,13 @@ fn commit_in_background(
             .iter()
             .map(|(port, a, digest)| (port.as_str(), &**a, digest.as_str()))
             .collect();
-        let commit = || cache.commit_digested(&key, kind, version, &outputs, format, &parts, force);
+        // `--force`: the entry is replaced.
+        let commit = || {
+            if force {
+                cache.evict(&key)?;
+            }
+            cache.commit_digested(&key, kind, version, &outputs, format, &parts)
+        };
         match rayon::ThreadPoolBuilder::new()
             .num_threads(rayon::current_num_threads())
             .thread_name(|i| format!("femu-cache-write-{i}"))

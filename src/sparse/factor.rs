@@ -19,6 +19,7 @@
 
 use super::multifrontal::{self, FrontError};
 use super::operator::{SparseSolve, SymmetricFactor};
+use crate::core::hashing::StreamHasher;
 use crate::core::sparse::SparseMatrix;
 use faer::sparse::linalg::SupernodalThreshold;
 use faer::sparse::linalg::cholesky::{
@@ -154,15 +155,10 @@ struct PatternKey {
 impl PatternKey {
     fn of(a: &SparseMatrix) -> Self {
         let pattern = a.symbolic();
-        let mut hasher = blake3::Hasher::new();
-        let mut buffer = Vec::with_capacity(1 << 16);
+        let mut hasher = StreamHasher::new();
         let mut feed = |values: &[usize]| {
-            hasher.update(&(values.len() as u64).to_le_bytes());
-            for chunk in values.chunks(1 << 13) {
-                buffer.clear();
-                buffer.extend(chunk.iter().flat_map(|&v| (v as u64).to_le_bytes()));
-                hasher.update(&buffer);
-            }
+            hasher.bytes(&(values.len() as u64).to_le_bytes());
+            hasher.values(values, |v| (v as u64).to_le_bytes());
         };
         feed(pattern.col_ptr());
         feed(pattern.row_idx());
@@ -172,7 +168,7 @@ impl PatternKey {
         PatternKey {
             n: pattern.nrows(),
             entries: pattern.row_idx().len(),
-            hash: *hasher.finalize().as_bytes(),
+            hash: *hasher.finish().as_bytes(),
         }
     }
 }

@@ -47,6 +47,13 @@ pub fn update_eigen_params(
     }
 }
 
+/// The modes the first Lanczos run of an analysis asks for below a frequency limit, when the
+/// last analysis found `found` there: a margin for the modes the parameters' change brings
+/// under the limit.
+pub(crate) fn first_count_after(found: usize) -> usize {
+    found + (found / 10).max(4)
+}
+
 /// An updating parameter as the methods see it: name, initial value and bounds (SI).
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct UpdatingParameter {
@@ -444,16 +451,14 @@ impl ParametricModel for FeModel {
         selection: ModeSelection,
     ) -> Result<(ModalState, Option<Evaluated>), UpdatingError> {
         let evaluated = self.evaluate(values)?;
-        // Below a frequency limit, the count the last analysis found, with a margin for modes
-        // that the parameters' change brings under it, is the first Lanczos run's: doubling
-        // from 20 would repeat the run two or three times on a large model.
-        // The last analysis's factor structure serves this one when the pattern is the same
-        // (it is, unless a parameter changes which elements connect).
+        // From the last analysis: below a frequency limit, the count it found sizes the first
+        // Lanczos run (doubling from 20 would repeat the run two or three times on a large
+        // model); its factor structure serves when the pattern is the same (it is, unless a
+        // parameter changes which elements connect).
         let held = self.held.get();
-        let first_count = held.as_ref().map(|held| {
-            let found = held.shapes.ncols();
-            found + (found / 10).max(4)
-        });
+        let first_count = held
+            .as_ref()
+            .map(|held| first_count_after(held.shapes.ncols()));
         let structure = held.and_then(|held| held.structure.clone());
         let params = update_eigen_params(first_count, structure);
         let state = ModalState::with_params(&evaluated, values, selection, &params)?;

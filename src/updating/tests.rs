@@ -1512,8 +1512,7 @@ fn analyses_after_the_first_reuse_the_factor_structure() {
     let (second, evaluated) = fe.modal_state(&moved, selection).unwrap();
     assert!(reused(&second));
     // With the first Lanczos run sized as `modal_state` sizes it after an analysis.
-    let found = first.modes.len();
-    let first_count = Some(found + (found / 10).max(4));
+    let first_count = Some(super::model::first_count_after(first.modes.len()));
     let params = super::model::update_eigen_params(first_count, None);
     let fresh = ModalState::with_params(&evaluated.unwrap(), &moved, selection, &params).unwrap();
     assert!(!reused(&fresh));
