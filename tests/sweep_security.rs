@@ -376,12 +376,34 @@ fn prepare_refuses_hostile_values_set_in_code() {
 
 /// Eight threads racing for the lock of one state directory, 200 rounds: exactly one holds it
 /// each round (the old create-then-take-over-if-stale lock let two through in ~10 % of rounds),
-/// and the others are told who (this process) at once.
+/// and the others are told who (this process) at once. Meanwhile another thread forks and
+/// execs processes without pause, as the other tests of this binary do: a fork shares the lock
+/// file's open description until its exec, so a released lock can stay held for a moment (all
+/// eight were once refused, with no holder named).
 #[test]
 fn the_sweep_lock_admits_exactly_one_of_many_racing_takers() {
     let dir = tempfile::tempdir().unwrap();
     let state = StateDir::open(dir.path()).unwrap();
     let me = std::process::id();
+    let racing = std::sync::atomic::AtomicBool::new(true);
+    std::thread::scope(|s| {
+        s.spawn(|| {
+            while racing.load(std::sync::atomic::Ordering::Relaxed) {
+                let _ = std::process::Command::new("true").status();
+            }
+        });
+        let raced = std::panic::catch_unwind(|| race_for_the_lock(&state, me));
+        racing.store(false, std::sync::atomic::Ordering::Relaxed);
+        if let Err(panic) = raced {
+            std::panic::resume_unwind(panic);
+        }
+    });
+    // Released: the next taker gets it.
+    drop(state.lock().unwrap());
+}
+
+/// 200 rounds of eight threads taking `state`'s lock at once (see the test above).
+fn race_for_the_lock(state: &StateDir, me: u32) {
     for round in 0..200 {
         let n = 8;
         let start = std::sync::Barrier::new(n);
@@ -413,8 +435,6 @@ fn the_sweep_lock_admits_exactly_one_of_many_racing_takers() {
             assert!(m.contains("exit code 1"), "{m}");
         }
     }
-    // Released: the next taker gets it.
-    drop(state.lock().unwrap());
 }
 
 /// A four-DOF sweep of 12 points in `dir`, for the process tests.

@@ -251,6 +251,12 @@ impl StateDir {
     /// by the kernel when the holder exits or dies, so there is no stale lock to clean up); the
     /// file says who holds it, for the message of the process that is refused. Taking the lock
     /// and testing it are one system call, so two processes started together cannot both pass.
+    ///
+    /// A refused taker that finds the file empty tries again for up to two seconds: either the
+    /// holder has only just taken the lock and not yet written its name, or the lock outlives
+    /// its holder for a moment because a process forked elsewhere still shares the descriptor
+    /// until it execs (the descriptor is close-on-exec, but `flock` belongs to the open file,
+    /// which the fork duplicates).
     pub fn lock(&self) -> Result<SweepLock, SweepError> {
         let path = self.root.join("sweep.lock");
         let mut file = std::fs::OpenOptions::new()
@@ -260,13 +266,18 @@ impl StateDir {
             .truncate(false)
             .open(&path)
             .map_err(io(&path))?;
-        if !try_lock_file(&file).map_err(io(&path))? {
-            let (pid, host) = read_holder(&path);
-            return Err(SweepError::Busy {
-                pid,
-                host,
-                lock: path,
-            });
+        let deadline = std::time::Instant::now() + std::time::Duration::from_secs(2);
+        while !try_lock_file(&file).map_err(io(&path))? {
+            let holder = read_holder(&path);
+            if holder.is_some() || std::time::Instant::now() >= deadline {
+                let (pid, host) = holder.unwrap_or_default();
+                return Err(SweepError::Busy {
+                    pid,
+                    host,
+                    lock: path,
+                });
+            }
+            std::thread::sleep(std::time::Duration::from_millis(2));
         }
         // The holder's identity, written under the lock; a reader may see it empty for a moment.
         let me = format!("{} {}\n", std::process::id(), host_name());
@@ -305,21 +316,12 @@ fn try_lock_file(file: &std::fs::File) -> std::io::Result<bool> {
     }
 }
 
-/// The pid and host written in a held lock file (waiting up to two seconds for a holder that
-/// has only just taken it, however loaded the machine); `(0, "")` when it never says.
-fn read_holder(path: &Path) -> (u32, String) {
-    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(2);
-    loop {
-        let text = std::fs::read_to_string(path).unwrap_or_default();
-        let mut it = text.split_whitespace();
-        if let Some(pid) = it.next().and_then(|p| p.parse().ok()) {
-            return (pid, it.next().unwrap_or_default().to_string());
-        }
-        if std::time::Instant::now() >= deadline {
-            return (0, String::new());
-        }
-        std::thread::sleep(std::time::Duration::from_millis(2));
-    }
+/// The pid and host written in a held lock file; `None` while it is empty.
+fn read_holder(path: &Path) -> Option<(u32, String)> {
+    let text = std::fs::read_to_string(path).unwrap_or_default();
+    let mut it = text.split_whitespace();
+    let pid = it.next()?.parse().ok()?;
+    Some((pid, it.next().unwrap_or_default().to_string()))
 }
 
 /// The held sweep lock; released when dropped (or when the process ends, however it ends).
