@@ -81,24 +81,28 @@ pub fn artefact_digest(a: &Artefact) -> String {
             h.field(col.type_name().as_bytes());
             h.bytes(&(col.len() as u64).to_le_bytes());
             match col {
-                // -0.0 and 0.0 hash alike; every NaN hashes alike.
-                Column::F64(v) => h.values(v, |x| {
-                    let bits = if x == 0.0 {
-                        0u64
-                    } else if x.is_nan() {
-                        f64::NAN.to_bits()
-                    } else {
-                        x.to_bits()
+                // -0.0 and 0.0 hash alike; every NaN hashes alike. A column without -0.0 and
+                // other NaNs (nearly every one) is its own canonical bytes.
+                Column::F64(v) => {
+                    use rayon::prelude::*;
+                    let canonical = |x: f64| {
+                        if x == 0.0 {
+                            0u64
+                        } else if x.is_nan() {
+                            f64::NAN.to_bits()
+                        } else {
+                            x.to_bits()
+                        }
                     };
-                    bits.to_le_bytes()
-                }),
-                Column::I64(v) => h.values(v, i64::to_le_bytes),
-                Column::I32(v) => h.values(v, i32::to_le_bytes),
-                Column::Str(v) => {
-                    for s in v {
-                        h.field(s.as_bytes());
+                    if v.par_iter().all(|&x| canonical(x) == x.to_bits()) {
+                        h.le_values(v, f64::to_le_bytes);
+                    } else {
+                        h.values(v, |x| canonical(x).to_le_bytes());
                     }
                 }
+                Column::I64(v) => h.le_values(v, i64::to_le_bytes),
+                Column::I32(v) => h.le_values(v, i32::to_le_bytes),
+                Column::Str(v) => h.fields(v),
             }
         }
     }
@@ -127,11 +131,17 @@ mod tests {
         let x: Vec<f64> = (0..300_000).map(|i| (i as f64).sin()).collect();
         let n: Vec<i64> = (0..200_000).map(|i| i * 7 - 3).collect();
         let i: Vec<i32> = (0..150_000).map(|i| i * 5 - 7).collect();
+        // Values that are not their own canonical bytes: -0.0 and a NaN of another payload.
+        let mut z = x.clone();
+        (z[7], z[200_000]) = (-0.0, f64::from_bits(f64::NAN.to_bits() | 1));
+        // More labels than one batch of the parallel encoding, of every length from 0 to 12.
+        let labels: Vec<String> = (0..300_000).map(|k| "ab".repeat(k % 7)).collect();
         let table = Table::new()
             .with("x", Column::F64(x.clone()))
             .with("n", Column::I64(n.clone()))
             .with("i", Column::I32(i.clone()))
-            .with("s", Column::Str(vec!["ab".into(), String::new()]));
+            .with("z", Column::F64(z.clone()))
+            .with("s", Column::Str(labels.clone()));
         let mut a = Artefact::new(ArtefactKind::Frf).with_table("t", table, Storage::Parquet);
         a.blobs.insert("b".into(), vec![7u8; 3 << 20]);
         let mut stream = Vec::new();
@@ -144,14 +154,21 @@ mod tests {
         field(&mut stream, &a.kind.schema_version().to_le_bytes());
         field(&mut stream, b"{}");
         field(&mut stream, b"t");
-        // Columns in the table's own order: x, n, i, s.
-        field(&mut stream, b"x");
-        field(&mut stream, b"float64");
-        stream.extend_from_slice(&(x.len() as u64).to_le_bytes());
-        x.iter().for_each(|v| {
-            let bits = if *v == 0.0 { 0u64 } else { v.to_bits() };
-            stream.extend_from_slice(&bits.to_le_bytes())
-        });
+        // Columns in the table's own order: x, n, i, z, s.
+        let floats = |stream: &mut Vec<u8>, name: &[u8], x: &[f64]| {
+            field(stream, name);
+            field(stream, b"float64");
+            stream.extend_from_slice(&(x.len() as u64).to_le_bytes());
+            x.iter().for_each(|v| {
+                let bits = match *v {
+                    0.0 => 0u64,
+                    v if v.is_nan() => f64::NAN.to_bits(),
+                    v => v.to_bits(),
+                };
+                stream.extend_from_slice(&bits.to_le_bytes())
+            });
+        };
+        floats(&mut stream, b"x", &x);
         field(&mut stream, b"n");
         field(&mut stream, b"int64");
         stream.extend_from_slice(&(n.len() as u64).to_le_bytes());
@@ -162,11 +179,11 @@ mod tests {
         stream.extend_from_slice(&(i.len() as u64).to_le_bytes());
         i.iter()
             .for_each(|v| stream.extend_from_slice(&v.to_le_bytes()));
+        floats(&mut stream, b"z", &z);
         field(&mut stream, b"s");
         field(&mut stream, b"string");
-        stream.extend_from_slice(&2u64.to_le_bytes());
-        field(&mut stream, b"ab");
-        field(&mut stream, b"");
+        stream.extend_from_slice(&(labels.len() as u64).to_le_bytes());
+        labels.iter().for_each(|l| field(&mut stream, l.as_bytes()));
         field(&mut stream, b"b");
         field(&mut stream, &vec![7u8; 3 << 20]);
         assert_eq!(a.digest(), hash_bytes(&stream));

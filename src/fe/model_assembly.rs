@@ -778,6 +778,10 @@ pub fn parameter_derivatives(
     mass: MassKind,
 ) -> Result<Vec<(SparseMatrix, SparseMatrix)>, ModelAssemblyError> {
     use rayon::prelude::*;
+    if parameters.is_empty() {
+        // Nothing to index the DOFs for (a million-entry map at 10⁶ DOFs).
+        return Ok(Vec::new());
+    }
     let index: DofIndex = dofs.iter().enumerate().map(|(i, d)| (*d, i)).collect();
     let dependents = model_dependents(model)?;
     parameters

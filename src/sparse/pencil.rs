@@ -261,34 +261,65 @@ impl LowerPencil {
         Some(Self::with_upper_index(col_ptr, rows, k, m))
     }
 
-    /// The pencil of the lower columns given, with its row index built.
+    /// The pencil of the lower columns given (rows strictly ascending in each), with its row
+    /// index built.
+    ///
+    /// The rows are cut into blocks, each indexed by one task: it finds its rows in each column
+    /// by bisection (a column whose last row lies above the block is passed over at once) and
+    /// writes its own part of the index, so the blocks need no merge. Each row's list comes out
+    /// in ascending column order.
     fn with_upper_index(col_ptr: Vec<usize>, rows: Vec<u32>, k: Vec<f64>, m: Vec<f64>) -> Self {
         let n = col_ptr.len() - 1;
-        let mut upper_ptr = vec![0usize; n + 1];
-        for j in 0..n {
-            for &i in &rows[col_ptr[j]..col_ptr[j + 1]] {
-                if i as usize != j {
-                    upper_ptr[i as usize + 1] += 1;
-                }
+        let blocks = (4 * rayon::current_num_threads()).clamp(1, n.max(1));
+        let bounds: Vec<usize> = (0..=blocks).map(|b| b * n / blocks).collect();
+        // Positions in `rows` of column `j`'s entries in rows `first..end`, below the diagonal.
+        let entries_in = |j: usize, first: usize, end: usize| {
+            let column = &rows[col_ptr[j]..col_ptr[j + 1]];
+            if column.last().is_none_or(|&i| (i as usize) < first) {
+                return 0..0;
             }
-        }
-        for j in 0..n {
-            upper_ptr[j + 1] += upper_ptr[j];
+            let from = column.partition_point(|&i| (i as usize) < first.max(j + 1));
+            let to = column.partition_point(|&i| (i as usize) < end);
+            col_ptr[j] + from..col_ptr[j] + to.max(from)
+        };
+        // Entries left of the diagonal in each row, block by block.
+        let counts: Vec<Vec<usize>> = bounds
+            .par_windows(2)
+            .map(|b| {
+                let (first, end) = (b[0], b[1]);
+                let mut count = vec![0usize; end - first];
+                for j in 0..end {
+                    for &i in &rows[entries_in(j, first, end)] {
+                        count[i as usize - first] += 1;
+                    }
+                }
+                count
+            })
+            .collect();
+        let mut upper_ptr = Vec::with_capacity(n + 1);
+        upper_ptr.push(0);
+        for c in counts.iter().flatten() {
+            upper_ptr.push(upper_ptr[upper_ptr.len() - 1] + c);
         }
         let entries = upper_ptr[n];
         let (mut upper_cols, mut upper_pos) = (vec![0u32; entries], vec![0u32; entries]);
-        let mut next = upper_ptr[..n].to_vec();
-        // Columns in ascending order: each row's list fills in ascending column order.
-        for j in 0..n {
-            let start = col_ptr[j];
-            for (p, &i) in rows[start..col_ptr[j + 1]].iter().enumerate() {
-                let i = i as usize;
-                if i != j {
-                    (upper_cols[next[i]], upper_pos[next[i]]) = (j as u32, (start + p) as u32);
-                    next[i] += 1;
+        let offsets: Vec<usize> = bounds.iter().map(|&r| upper_ptr[r]).collect();
+        split_at_offsets(&mut upper_cols, &offsets)
+            .into_par_iter()
+            .zip(split_at_offsets(&mut upper_pos, &offsets))
+            .zip(bounds.par_windows(2))
+            .for_each(|((cols, pos), b)| {
+                let (first, end) = (b[0], b[1]);
+                let base = upper_ptr[first];
+                let mut next: Vec<usize> = upper_ptr[first..end].iter().map(|p| p - base).collect();
+                for j in 0..end {
+                    for p in entries_in(j, first, end) {
+                        let slot = &mut next[rows[p] as usize - first];
+                        (cols[*slot], pos[*slot]) = (j as u32, p as u32);
+                        *slot += 1;
+                    }
                 }
-            }
-        }
+            });
         LowerPencil {
             col_ptr,
             rows,
@@ -788,6 +819,41 @@ mod tests {
             (kx, mx)
         };
         assert_eq!(products(&full), products(&sorted));
+    }
+
+    /// The row index lists, for every row, the entries left of the diagonal in ascending
+    /// column order with their positions, however the rows are cut into blocks (four on one
+    /// thread, twelve on three), with entries far from the diagonal crossing blocks.
+    #[test]
+    fn the_row_index_lists_every_entry_left_of_the_diagonal() {
+        let n = 1000 + 37;
+        let (k, m) = (symmetric(n, 4, 0.3, 7), symmetric(n, 4, 1.7, 5));
+        for threads in [1, 3] {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            let p = pool.install(|| LowerPencil::from_full(&k, &m).unwrap());
+            let mut want = vec![Vec::new(); n];
+            for j in 0..n {
+                for at in p.col_ptr[j]..p.col_ptr[j + 1] {
+                    let i = p.rows[at] as usize;
+                    if i != j {
+                        want[i].push((j as u32, at as u32));
+                    }
+                }
+            }
+            assert!(want.iter().any(|w| w.len() > 4), "entries far off the band");
+            for (i, want) in want.iter().enumerate() {
+                let r = p.upper_ptr[i]..p.upper_ptr[i + 1];
+                let got: Vec<(u32, u32)> = p.upper_cols[r.clone()]
+                    .iter()
+                    .copied()
+                    .zip(p.upper_pos[r].iter().copied())
+                    .collect();
+                assert_eq!(&got, want, "row {i} on {threads} thread(s)");
+            }
+        }
     }
 
     /// Matrices of different sizes are refused; lists out of order, above the diagonal or out

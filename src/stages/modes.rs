@@ -178,7 +178,7 @@ impl TypedStage for ModesStage {
                 .map_err(StageError::from_numerics(""))?;
             return Err(no_mode_below(p, &first.frequencies_hz()));
         }
-        drop(pencil);
+        crate::core::memory::drop_in_background(pencil);
         let mut a = modes_to_artefact(&dofs, &modes);
         if !dependent.is_empty() {
             // Shapes at the DOFs rigid elements and MPCs eliminated: u_d = Σ c u.

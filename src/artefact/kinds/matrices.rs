@@ -112,21 +112,31 @@ impl Kind for MatricesKind {
     }
 
     fn to_artefact(sys: &SystemMatrices) -> Artefact {
+        // The matrices' tables (each hundreds of megabytes at 10⁶ DOFs) and the DOFs' labels
+        // built side by side.
+        let ((dof_index, dofs), tables) = rayon::join(
+            || {
+                rayon::join(
+                    || super::dof_index_digest(&sys.dofs),
+                    || dof_table(&sys.dofs),
+                )
+            },
+            || {
+                sys.named()
+                    .into_par_iter()
+                    .map(|(name, mat)| (name, lower_triplet_table(mat)))
+                    .collect::<Vec<(&str, Table)>>()
+            },
+        );
         let mut a = Artefact::new(Self::KIND)
             .with_meta("n_dofs", sys.n().into())
-            .with_meta("dof_index", super::dof_index_digest(&sys.dofs).into())
+            .with_meta("dof_index", dof_index.into())
             .with_meta(
                 "units",
                 serde_json::json!({"K": "N/m", "M": "kg", "C": "N*s/m", "D": "N/m"}),
             )
             .with_meta(TRIANGLE, LOWER.into())
-            .with_table("dofs", dof_table(&sys.dofs), Storage::Parquet);
-        // The matrices' tables built side by side (each is hundreds of megabytes at 10⁶ DOFs).
-        let tables: Vec<(&str, Table)> = sys
-            .named()
-            .into_par_iter()
-            .map(|(name, mat)| (name, lower_triplet_table(mat)))
-            .collect();
+            .with_table("dofs", dofs, Storage::Parquet);
         for (name, table) in tables {
             a = a.with_table(name, table, Storage::Ipc);
         }
@@ -221,17 +231,18 @@ fn read_symmetric(
 }
 
 fn dof_table(dofs: &[DofId]) -> Table {
+    let (labels, comps) = rayon::join(
+        || super::dof_strs(dofs),
+        || Column::Str(dofs.par_iter().map(|d| d.comp.name().to_string()).collect()),
+    );
     Table::new()
         .with("index", Column::I64((0..dofs.len() as i64).collect()))
-        .with("dof", super::dof_strs(dofs))
+        .with("dof", labels)
         .with(
             "node",
             Column::I64(dofs.iter().map(|d| d.node as i64).collect()),
         )
-        .with(
-            "comp",
-            Column::Str(dofs.iter().map(|d| d.comp.name().to_string()).collect()),
-        )
+        .with("comp", comps)
 }
 
 /// The `dependent` table: each dependent DOF's terms, one row per term.
