@@ -221,15 +221,12 @@ fn few_massive_modes(
             rhs[(i, j)] = lv / nu[j];
         }
     }
-    let shapes = solve(rhs);
-    let (mut kphi, mut mphi) = (Mat::<f64>::zeros(n, keep), Mat::<f64>::zeros(n, keep));
-    pencil.products(shapes.as_ref(), kphi.as_mut(), mphi.as_mut(), par);
-    Ok((
-        lambdas_all[..keep].to_vec(),
-        Columns::from_mat(shapes.as_ref()),
-        kphi,
-        mphi,
-    ))
+    let mut shapes = Columns::from_mat(solve(rhs).as_ref());
+    shapes.reserve_spare(keep);
+    let mut mphi = Mat::<f64>::zeros(n, keep);
+    let (phi, kphi) = shapes.split_spare();
+    pencil.products(phi.as_ref(), kphi.subcols_mut(0, keep), mphi.as_mut(), par);
+    Ok((lambdas_all[..keep].to_vec(), shapes, mphi))
 }
 
 /// Lowest modes of `K φ = λ M φ` for `K` and `M` stored in full; `dofs` labels the rows.
@@ -379,10 +376,10 @@ fn solve_pencil(
     let massive: Vec<usize> = (0..n).filter(|&j| pencil.has_mass(j)).collect();
     if massive.len() < n && massive.len() <= FEW_MASSIVE {
         let t = Instant::now();
-        let (lambdas, vecs, kphi, mphi) =
+        let (lambdas, vecs, mphi) =
             few_massive_modes(&llt, pencil, &massive, selection, shift, params.par)?;
         info.solves += massive.len() + lambdas.len();
-        let modes = finish(pencil, lambdas, vecs, kphi, mphi, shift, scale)?;
+        let modes = finish(pencil, lambdas, vecs, mphi, shift, scale)?;
         info.refinement_seconds = t.elapsed().as_secs_f64();
         let factor = ShiftedFactor { factor: llt, shift };
         return Ok((modes, info, Some(factor)));
@@ -411,8 +408,8 @@ fn solve_pencil(
         }
     };
     lambdas.truncate(counted);
-    ritz_images.keep_leading(counted);
-    let (mut vecs, mut kphi, mut mphi) = (Columns::zeros(n, 0), Mat::zeros(n, 0), Mat::zeros(n, 0));
+    ritz_images.keep_leading_with_spare(counted, counted);
+    let (mut vecs, mut mphi) = (Columns::zeros(n, 0), Mat::zeros(n, 0));
     let t = Instant::now();
     // X = A⁻¹ M Φ = P L⁻ᵀ (C Y) for the Ritz vectors (see `refine`): the last solve.
     if counted > 0 {
@@ -420,16 +417,16 @@ fn solve_pencil(
     }
     let factor = keep_factor.then_some(ShiftedFactor { factor: llt, shift });
     if counted > 0 {
-        (lambdas, vecs, kphi, mphi) = refine(pencil, ritz_images, params.par)?;
+        (lambdas, vecs, mphi) = refine(pencil, ritz_images, params.par)?;
         info.solves += counted;
     }
-    let modes = finish(pencil, lambdas, vecs, kphi, mphi, shift, scale)?;
+    let modes = finish(pencil, lambdas, vecs, mphi, shift, scale)?;
     info.refinement_seconds = t.elapsed().as_secs_f64();
     Ok((modes, info, factor))
 }
 
-/// Eigenvalues, shapes `Φ`, and the products `KΦ`, `MΦ`.
-type RefinedModes = (Vec<f64>, Columns, Mat<f64>, Mat<f64>);
+/// Eigenvalues, shapes `Φ` with `KΦ` in their spare columns, and `MΦ`.
+type RefinedModes = (Vec<f64>, Columns, Mat<f64>);
 
 /// One block inverse-iteration step and a Rayleigh–Ritz projection: `X = A⁻¹ M Φ` for the
 /// Ritz vectors `Φ = P L⁻ᵀ Y`, which the caller forms as `P L⁻ᵀ (C Y)` from the `C Y` that
@@ -440,10 +437,14 @@ type RefinedModes = (Vec<f64>, Columns, Mat<f64>, Mat<f64>);
 fn refine(pencil: &dyn SymmetricPencil, x: Columns, par: Par) -> Result<RefinedModes, EigenError> {
     let (n, c) = (x.nrows(), x.ncols());
     let mut x = x;
-    let (mut kx, mut mx) = (parallel_zeros(n, c), parallel_zeros(n, c));
-    pencil.products(x.as_ref(), kx.as_mut(), mx.as_mut(), par);
-    let kr = x.as_ref().transpose() * &kx;
-    let mr = x.as_ref().transpose() * &mx;
+    // `K X` where the basis's next columns were (spare), `M X` fresh.
+    x.reserve_spare(c);
+    let mut mx = parallel_zeros(n, c);
+    let (mut x_cols, kx) = x.split_spare();
+    let mut kx = kx.subcols_mut(0, c);
+    pencil.products(x_cols.as_ref(), kx.as_mut(), mx.as_mut(), par);
+    let kr = x_cols.as_ref().transpose() * kx.as_ref();
+    let mr = x_cols.as_ref().transpose() * &mx;
     let kr = Mat::from_fn(c, c, |i, j| 0.5 * (kr[(i, j)] + kr[(j, i)]));
     let mr = Mat::from_fn(c, c, |i, j| 0.5 * (mr[(i, j)] + mr[(j, i)]));
     // XᵀMX is well conditioned (X is nearly M-orthogonal): reduce by its Cholesky factor.
@@ -466,20 +467,19 @@ fn refine(pencil: &dyn SymmetricPencil, x: Columns, par: Par) -> Result<RefinedM
         Par::Seq,
     );
     // Φ = X y, and KΦ, MΦ from the products already formed, each in place.
-    combine_in_place(x.as_mut(), y.as_ref());
-    for z in [&mut kx, &mut mx] {
-        combine_in_place(z.as_mut(), y.as_ref());
+    for z in [x_cols.as_mut(), kx.as_mut(), mx.as_mut()] {
+        combine_in_place(z, y.as_ref());
     }
-    Ok((lambdas, x, kx, mx))
+    Ok((lambdas, x, mx))
 }
 
 /// Rayleigh quotients, residuals, orthogonality and sign convention for computed pairs.
-/// `kphi`, `mphi` are `KΦ` and `MΦ`, handed on by [`refine`] so no sparse product is repeated.
+/// `KΦ` (in the spare columns of `shapes`) and `mphi` = `MΦ` are handed on by [`refine`] so
+/// no sparse product is repeated.
 fn finish(
     pencil: &dyn SymmetricPencil,
     mut lambdas: Vec<f64>,
     mut shapes: Columns,
-    mut kphi: Mat<f64>,
     mut mphi: Mat<f64>,
     shift: f64,
     scale: f64,
@@ -491,10 +491,10 @@ fn finish(
         .fold(0.0f64, f64::max);
     // Each mode on its own (in parallel over the modes, each sum in row order as on one
     // thread): `(λ, residual, rigid)`, or the first indefinite mode's error.
-    let per_mode: Vec<Result<(f64, f64, bool), EigenError>> = shapes
-        .as_mut()
+    let (phis, kphi) = shapes.split_spare();
+    let per_mode: Vec<Result<(f64, f64, bool), EigenError>> = phis
         .par_col_iter_mut()
-        .zip(kphi.as_mut().par_col_iter_mut())
+        .zip(kphi.subcols_mut(0, c).par_col_iter_mut())
         .zip(mphi.as_mut().par_col_iter_mut())
         .map(|((mut phi, mut kp), mut mp)| {
             let (mut pkp, mut pmp) = (0.0, 0.0);
@@ -557,7 +557,7 @@ fn finish(
     // ΦᵀMΦ − I before the re-sort, which permutes its rows and columns alike.
     let gram = shapes.as_ref().transpose() * &mphi;
     drop(mphi);
-    drop(kphi);
+    shapes.keep_leading(c);
     // The shapes' storage was the Krylov basis's: the modes keep a matrix of their own, copied
     // where the products just freed their memory.
     let mut shapes = shapes.as_ref().to_owned();
@@ -1018,7 +1018,8 @@ impl<'a, F: SymmetricFactor> Lanczos<'a, F> {
             self.f.as_ref(),
             coupling.as_ref(),
         );
-        v.keep_leading(y.ncols());
+        // The columns after the images stay as spare, for the refinement's `K X`.
+        v.keep_leading_with_spare(y.ncols(), y.ncols());
         v
     }
 
