@@ -556,11 +556,12 @@ fn finish(
     }
     // ΦᵀMΦ − I before the re-sort, which permutes its rows and columns alike.
     let gram = shapes.as_ref().transpose() * &mphi;
-    drop(mphi);
-    shapes.keep_leading(c);
-    // The shapes' storage was the Krylov basis's: the modes keep a matrix of their own, copied
-    // where the products just freed their memory.
-    let mut shapes = shapes.as_ref().to_owned();
+    // The shapes' storage was the Krylov basis's: the modes keep a matrix of their own, the
+    // one `MΦ` (no longer needed, of the same shape) was in, rather than fresh memory.
+    let mut owned = mphi;
+    owned.copy_from(shapes.as_ref());
+    drop(shapes);
+    let mut shapes = owned;
     // Re-sort: Rayleigh quotients may swap nearly repeated pairs.
     let mut order: Vec<usize> = (0..c).collect();
     order.sort_by(|a, b| lambdas[*a].total_cmp(&lambdas[*b]));
