@@ -156,9 +156,10 @@ impl PatternKey {
     fn of(a: &SparseMatrix) -> Self {
         let pattern = a.symbolic();
         let mut hasher = StreamHasher::new();
+        // In memory only (never stored): the native-width indices are hashed in place.
         let mut feed = |values: &[usize]| {
             hasher.bytes(&(values.len() as u64).to_le_bytes());
-            hasher.values(values, |v| (v as u64).to_le_bytes());
+            hasher.le_values(values, usize::to_le_bytes);
         };
         feed(pattern.col_ptr());
         feed(pattern.row_idx());

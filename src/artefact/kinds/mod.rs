@@ -447,11 +447,11 @@ pub fn dof_index_digest(dofs: &[DofId]) -> String {
             text
         })
         .collect();
-    let mut hasher = blake3::Hasher::new();
+    let mut hasher = crate::core::hashing::StreamHasher::new();
     for piece in &pieces {
-        hasher.update(piece.as_bytes());
+        hasher.bytes(piece.as_bytes());
     }
-    hasher.finalize().to_hex().to_string()
+    hasher.finish().to_hex().to_string()
 }
 
 /// A text column.

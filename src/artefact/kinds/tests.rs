@@ -1142,3 +1142,21 @@ impl Example for tmcmc_population::TmcmcPopulationKind {
             .collect()
     }
 }
+
+/// The DOF index digest is blake3 of the labels joined by newlines, however many pieces the
+/// labels are formatted in (200,000 DOFs: four pieces).
+#[test]
+fn the_dof_index_digest_is_the_hash_of_the_joined_labels() {
+    let dofs: Vec<DofId> = (0..200_000u64)
+        .map(|i| DofId::new(i / 6 + 1, crate::core::Component::ALL[(i % 6) as usize]))
+        .collect();
+    let joined: Vec<String> = dofs.iter().map(|d| d.to_string()).collect();
+    assert_eq!(
+        dof_index_digest(&dofs),
+        crate::artefact::digest::hash_bytes(joined.join("\n").as_bytes())
+    );
+    assert_eq!(
+        dof_index_digest(&dofs[..1]),
+        crate::artefact::digest::hash_bytes(b"1:ux")
+    );
+}
