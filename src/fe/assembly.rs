@@ -11,9 +11,11 @@
 //! AUTOSPC does.
 
 use super::element::ElementMatrices;
-use super::system::SystemMatrices;
+use super::system::{LowerSystem, SystemMatrices};
 use crate::core::memory::split_at_offsets;
-use crate::core::sparse::SparseMatrix;
+use crate::core::sparse::{
+    INT32_INDEXED, LowerTriplets, SparseMatrix, TripletIndices, gather_triplets,
+};
 use crate::core::{Component, DofId};
 use faer::sparse::SymbolicSparseColMat;
 use rayon::prelude::*;
@@ -147,6 +149,81 @@ where
     F: Fn(usize) -> Result<Contribution, E> + Sync,
     E: Send,
 {
+    let (scattered, mut info) = scatter(
+        node_ids,
+        scalar,
+        elements,
+        constraints,
+        keep_dofs,
+        contribution,
+    )?;
+    let sys = scattered.full();
+    info.nnz = sys.k.compute_nnz();
+    Ok((sys, info))
+}
+
+/// [`assemble_points`] gathering only the lower triangles of `K` and `M` (what the matrices
+/// artefact stores): half the entries, and no full matrices built to be converted.
+pub fn assemble_points_lower<E, F>(
+    node_ids: &[u64],
+    scalar: &BTreeSet<u64>,
+    elements: &[Vec<usize>],
+    constraints: &BTreeSet<DofId>,
+    keep_dofs: &BTreeSet<DofId>,
+    contribution: F,
+) -> Result<(LowerSystem, AssemblyInfo), E>
+where
+    F: Fn(usize) -> Result<Contribution, E> + Sync,
+    E: Send,
+{
+    let (scattered, mut info) = scatter(
+        node_ids,
+        scalar,
+        elements,
+        constraints,
+        keep_dofs,
+        contribution,
+    )?;
+    let sys = scattered.lower();
+    // Stored entries of the full matrix: each off-diagonal one twice.
+    info.nnz = 2 * sys.k.values.len() - sys.dofs.len();
+    Ok((sys, info))
+}
+
+/// Element matrices scattered into the pattern of every DOF (`6` per node), with the free
+/// DOFs chosen: what is left is to gather the free DOFs' entries.
+struct Scattered {
+    /// Column pointers of the pattern over every DOF.
+    col_ptr: Vec<usize>,
+    /// Row indices of the pattern, sorted within each column.
+    row_idx: Vec<usize>,
+    /// Stiffness and mass on the pattern.
+    kv: Vec<f64>,
+    mv: Vec<f64>,
+    /// Whether each DOF is free.
+    keep: Vec<bool>,
+    /// Each DOF's index among the free ones (`usize::MAX` when not free).
+    new_index: Vec<usize>,
+    /// The free DOFs' indices in the pattern, ascending.
+    kept_columns: Vec<usize>,
+    /// The free DOFs' labels.
+    dofs: Vec<DofId>,
+}
+
+/// Builds the pattern, scatters every element's contribution colour by colour, and chooses
+/// the free DOFs (see [`assemble_points`]); the info's `nnz` is left for the gather to set.
+fn scatter<E, F>(
+    node_ids: &[u64],
+    scalar: &BTreeSet<u64>,
+    elements: &[Vec<usize>],
+    constraints: &BTreeSet<DofId>,
+    keep_dofs: &BTreeSet<DofId>,
+    contribution: F,
+) -> Result<(Scattered, AssemblyInfo), E>
+where
+    F: Fn(usize) -> Result<Contribution, E> + Sync,
+    E: Send,
+{
     let n_nodes = node_ids.len();
     // Node adjacency (sorted neighbour lists, self included).
     let mut adj: Vec<Vec<u32>> = (0..n_nodes).map(|a| vec![a as u32]).collect();
@@ -193,7 +270,7 @@ where
         for group in &colours {
             group.par_iter().try_for_each(|&e| -> Result<(), E> {
                 let c = contribution(e)?;
-                scatter(&c, &adj, &col_ptr, &kp, &mp);
+                scatter_element(&c, &adj, &col_ptr, &kp, &mp);
                 Ok(())
             })?;
         }
@@ -242,51 +319,122 @@ where
             })
             .collect()
     };
-    // The free DOFs' pattern, once for both matrices, then each matrix's values; every
-    // column is filled on its own (in parallel, the same result whatever the threads).
     let kept_columns: Vec<usize> = (0..n).filter(|&j| keep[j]).collect();
-    let kept_rows = |j: usize| (col_ptr[j]..col_ptr[j + 1]).filter(|&p| keep[row_idx[p]]);
-    let counts: Vec<usize> = kept_columns
-        .par_iter()
-        .map(|&j| kept_rows(j).count())
-        .collect();
-    let mut ptr = Vec::with_capacity(kept_columns.len() + 1);
-    ptr.push(0usize);
-    for c in &counts {
-        ptr.push(ptr[ptr.len() - 1] + c);
-    }
-    drop(counts);
-    let rows = gather_kept(&ptr, &kept_columns, &kept_rows, |p| new_index[row_idx[p]]);
-    let extract = |vals: Vec<f64>| gather_kept(&ptr, &kept_columns, &kept_rows, |p| vals[p]);
-    let k_values = extract(kv);
-    let m_values = extract(mv);
-    drop(row_idx);
-    let nf = kept_columns.len();
-    // Rows are sorted within each column and in range by construction.
-    let symbolic = SymbolicSparseColMat::new_checked(nf, nf, ptr, None, rows);
-    let k = SparseMatrix::new(symbolic.clone(), k_values);
-    let m = SparseMatrix::new(symbolic, m_values);
     let info = AssemblyInfo {
         total_dofs: total,
         free_dofs: dofs.len(),
-        nnz: k.compute_nnz(),
+        nnz: 0,
         colours: colours.len(),
         auto_constrained: auto,
         dependent: Vec::new(),
     };
-    Ok((
-        SystemMatrices {
-            dofs,
-            k,
-            m,
-            c: None,
-            d: None,
-        },
-        info,
-    ))
+    let scattered = Scattered {
+        col_ptr,
+        row_idx,
+        kv,
+        mv,
+        keep,
+        new_index,
+        kept_columns,
+        dofs,
+    };
+    Ok((scattered, info))
 }
 
-fn scatter(
+impl Scattered {
+    /// The free DOFs' full `K` and `M`: the pattern once for both, then each matrix's values;
+    /// every column is filled on its own (in parallel, the same result whatever the threads).
+    fn full(self) -> SystemMatrices {
+        let Self {
+            col_ptr,
+            row_idx,
+            kv,
+            mv,
+            keep,
+            new_index,
+            kept_columns,
+            dofs,
+        } = self;
+        let kept_rows = |j: usize| (col_ptr[j]..col_ptr[j + 1]).filter(|&p| keep[row_idx[p]]);
+        let counts: Vec<usize> = kept_columns
+            .par_iter()
+            .map(|&j| kept_rows(j).count())
+            .collect();
+        let mut ptr = Vec::with_capacity(kept_columns.len() + 1);
+        ptr.push(0usize);
+        for c in &counts {
+            ptr.push(ptr[ptr.len() - 1] + c);
+        }
+        drop(counts);
+        let rows = gather_kept(&ptr, &kept_columns, &kept_rows, |p| new_index[row_idx[p]]);
+        let extract = |vals: Vec<f64>| gather_kept(&ptr, &kept_columns, &kept_rows, |p| vals[p]);
+        let k_values = extract(kv);
+        let m_values = extract(mv);
+        drop(row_idx);
+        let nf = kept_columns.len();
+        // Rows are sorted within each column and in range by construction.
+        let symbolic = SymbolicSparseColMat::new_checked(nf, nf, ptr, None, rows);
+        SystemMatrices {
+            dofs,
+            k: SparseMatrix::new(symbolic.clone(), k_values),
+            m: SparseMatrix::new(symbolic, m_values),
+            c: None,
+            d: None,
+        }
+    }
+
+    /// The free DOFs' `K` and `M` as lower triangles, gathered straight into triplets.
+    fn lower(self) -> LowerSystem {
+        let Self {
+            col_ptr,
+            row_idx,
+            kv,
+            mv,
+            keep,
+            new_index,
+            kept_columns,
+            dofs,
+        } = self;
+        let nf = kept_columns.len();
+        let (rows, cols, [k, m]) = {
+            let (col_ptr, row_idx, keep, new_index) = (&col_ptr, &row_idx, &keep, &new_index);
+            // Free column `c` (pattern column `j`): its free rows from `j` down, as free
+            // indices, with their positions in the pattern.
+            let entries = |c: usize| {
+                let j = kept_columns[c];
+                (col_ptr[j]..col_ptr[j + 1]).filter_map(move |p| {
+                    let r = row_idx[p];
+                    (r >= j && keep[r]).then(|| (new_index[r], p))
+                })
+            };
+            if nf <= INT32_INDEXED {
+                let (r, c, v) = gather_triplets(nf, entries, |i| i as i32, [&kv, &mv]);
+                (TripletIndices::I32(r), TripletIndices::I32(c), v)
+            } else {
+                let (r, c, v) = gather_triplets(nf, entries, |i| i as i64, [&kv, &mv]);
+                (TripletIndices::I64(r), TripletIndices::I64(c), v)
+            }
+        };
+        crate::core::memory::drop_in_background((col_ptr, row_idx, kv, mv));
+        // `M` has the same pattern; its own copy of the indices, for a table of its own.
+        let (m_rows, m_cols) = rayon::join(|| rows.clone(), || cols.clone());
+        LowerSystem {
+            dofs,
+            k: LowerTriplets {
+                rows,
+                cols,
+                values: k,
+            },
+            m: LowerTriplets {
+                rows: m_rows,
+                cols: m_cols,
+                values: m,
+            },
+        }
+    }
+}
+
+fn scatter_element(
     c: &Contribution,
     adj: &[Vec<u32>],
     col_ptr: &[usize],

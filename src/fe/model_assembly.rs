@@ -1,7 +1,9 @@
 //! From a [`Model`] to `K` and `M`: each element's kernel (shell, beam, rod, spring, mass)
 //! evaluated in parallel and scattered by [`assemble`](super::assembly::assemble).
 
-use super::assembly::{AssemblyInfo, Contribution, assemble_points, node_index};
+use super::assembly::{
+    AssemblyInfo, Contribution, assemble_points, assemble_points_lower, node_index,
+};
 use super::beam::{BeamData, EndConditions, Section, beam2_centred};
 use super::beam_offset::SectionCentres;
 use super::beam_tapered::{
@@ -12,10 +14,11 @@ use super::lumped_elements::{LumpedMass, SpringEnds, conm2, scalar_spring, sprin
 use super::multipoint::{DependentDof, MultipointError, eliminate, independent_dofs, resolve};
 use super::shell::{ShellSection, quad4, tria3};
 use super::shell_quadratic::{quad8, quadratic_geometry, tria6};
-use super::system::SystemMatrices;
+use super::system::{LowerSystem, SystemMatrices};
 use crate::core::sparse::SparseMatrix;
 use crate::model::{BeamEnds, BeamProperty, BeamSection, Element, Model, ModelError};
 use faer::Mat;
+use rayon::prelude::*;
 use std::collections::{BTreeMap, BTreeSet};
 
 /// Why a model could not be assembled.
@@ -594,37 +597,120 @@ pub fn assemble_model(
     model: &Model,
     mass: MassKind,
 ) -> Result<(SystemMatrices, AssemblyInfo), ModelAssemblyError> {
-    model.validate()?;
-    if model.elements.is_empty() {
-        return Err(ModelAssemblyError::Empty);
-    }
-    let node_ids: Vec<u64> = point_ids(model);
-    let index = node_index(&node_ids);
-    let elements: Vec<(u64, &Element)> = model.elements.iter().map(|(id, e)| (*id, e)).collect();
-    let lists: Vec<Vec<usize>> = elements
-        .iter()
-        .map(|(_, e)| block_nodes(e).iter().map(|n| index[n]).collect())
-        .collect();
-    let constraints: BTreeSet<_> = model.constraints.iter().copied().collect();
-    let dependents = resolve(&model.mpcs, &constraints)?;
-    let keep = independent_dofs(&dependents);
-    let scalar = &model.scalar_points;
-    let (sys, info) = assemble_points(&node_ids, scalar, &lists, &constraints, &keep, |i| {
-        let (id, e) = elements[i];
-        let matrices = named_element_matrices(model, id, e, mass)?;
-        Ok::<_, ModelAssemblyError>(Contribution {
-            nodes: lists[i].clone(),
-            matrices,
-        })
-    })?;
-    let nodes: BTreeSet<u64> = node_ids.iter().copied().collect();
-    let (sys, info) = without_dependent(sys, info, &dependents, &nodes)?;
-    if sys.dofs.is_empty() {
-        return Err(ModelAssemblyError::NoFreeDofs {
-            constrained: constraints.len(),
-        });
-    }
+    let p = Prepared::of(model)?;
+    let (sys, info) = assemble_points(
+        &p.node_ids,
+        &model.scalar_points,
+        &p.lists,
+        &p.constraints,
+        &p.keep,
+        |i| p.contribution(model, mass, i),
+    )?;
+    let (sys, info) = without_dependent(sys, info, &p.dependents, &p.node_ids)?;
+    p.some_free(&sys.dofs)?;
     Ok((sys, info))
+}
+
+/// [`assemble_model`]'s `K` and `M` as lower triangles (what the matrices artefact stores):
+/// gathered straight from the scatter, or, when multipoint constraints eliminate DOFs, from
+/// the full matrices the elimination works on.
+pub fn assemble_model_lower(
+    model: &Model,
+    mass: MassKind,
+) -> Result<(LowerSystem, AssemblyInfo), ModelAssemblyError> {
+    let p = Prepared::of(model)?;
+    let (sys, info) = if p.dependents.is_empty() {
+        assemble_points_lower(
+            &p.node_ids,
+            &model.scalar_points,
+            &p.lists,
+            &p.constraints,
+            &p.keep,
+            |i| p.contribution(model, mass, i),
+        )?
+    } else {
+        let (sys, info) = assemble_points(
+            &p.node_ids,
+            &model.scalar_points,
+            &p.lists,
+            &p.constraints,
+            &p.keep,
+            |i| p.contribution(model, mass, i),
+        )?;
+        let (sys, info) = without_dependent(sys, info, &p.dependents, &p.node_ids)?;
+        (LowerSystem::of(&sys), info)
+    };
+    p.some_free(&sys.dofs)?;
+    Ok((sys, info))
+}
+
+/// What an assembly of a whole model needs before the scatter: the model checked, its points,
+/// each element's blocks, the constraints and the multipoint constraints resolved.
+struct Prepared<'m> {
+    /// Grid and scalar point ids, sorted.
+    node_ids: Vec<u64>,
+    /// The elements, in id order.
+    elements: Vec<(u64, &'m Element)>,
+    /// Each element's blocks, as indices into `node_ids`.
+    lists: Vec<Vec<usize>>,
+    /// Single-point constraints.
+    constraints: BTreeSet<crate::core::DofId>,
+    /// The dependent DOFs of multipoint constraints.
+    dependents: BTreeMap<crate::core::DofId, DependentDof>,
+    /// DOFs kept even without stiffness or mass (independent DOFs of multipoint constraints).
+    keep: BTreeSet<crate::core::DofId>,
+}
+
+impl<'m> Prepared<'m> {
+    fn of(model: &'m Model) -> Result<Self, ModelAssemblyError> {
+        model.validate()?;
+        if model.elements.is_empty() {
+            return Err(ModelAssemblyError::Empty);
+        }
+        let node_ids: Vec<u64> = point_ids(model);
+        let index = node_index(&node_ids);
+        let elements: Vec<(u64, &Element)> =
+            model.elements.iter().map(|(id, e)| (*id, e)).collect();
+        let lists: Vec<Vec<usize>> = elements
+            .par_iter()
+            .map(|(_, e)| block_nodes(e).iter().map(|n| index[n]).collect())
+            .collect();
+        let constraints: BTreeSet<_> = model.constraints.iter().copied().collect();
+        let dependents = resolve(&model.mpcs, &constraints)?;
+        let keep = independent_dofs(&dependents);
+        Ok(Self {
+            node_ids,
+            elements,
+            lists,
+            constraints,
+            dependents,
+            keep,
+        })
+    }
+
+    /// Element `i`'s matrices, on its blocks.
+    fn contribution(
+        &self,
+        model: &Model,
+        mass: MassKind,
+        i: usize,
+    ) -> Result<Contribution, ModelAssemblyError> {
+        let (id, e) = self.elements[i];
+        Ok(Contribution {
+            nodes: self.lists[i].clone(),
+            matrices: named_element_matrices(model, id, e, mass)?,
+        })
+    }
+
+    /// An error when no DOF is left free.
+    fn some_free(&self, dofs: &[crate::core::DofId]) -> Result<(), ModelAssemblyError> {
+        if dofs.is_empty() {
+            return Err(ModelAssemblyError::NoFreeDofs {
+                constrained: self.constraints.len(),
+            });
+        }
+        Ok(())
+    }
 }
 
 /// The assembled system with the dependent DOFs of multipoint constraints eliminated
@@ -634,12 +720,13 @@ fn without_dependent(
     sys: SystemMatrices,
     mut info: AssemblyInfo,
     dependents: &BTreeMap<crate::core::DofId, DependentDof>,
-    nodes: &BTreeSet<u64>,
+    node_ids: &[u64],
 ) -> Result<(SystemMatrices, AssemblyInfo), ModelAssemblyError> {
     if dependents.is_empty() {
         return Ok((sys, info));
     }
-    let e = eliminate(&sys, dependents, nodes)?;
+    let nodes: BTreeSet<u64> = node_ids.iter().copied().collect();
+    let e = eliminate(&sys, dependents, &nodes)?;
     info.auto_constrained.extend(e.dropped);
     info.auto_constrained.sort();
     info.free_dofs = e.system.n();
@@ -720,8 +807,7 @@ pub fn assemble_elements(
             matrices,
         })
     })?;
-    let nodes: BTreeSet<u64> = node_ids.iter().copied().collect();
-    without_dependent(sys, info, &dependents, &nodes)
+    without_dependent(sys, info, &dependents, &node_ids)
 }
 
 /// `∂K/∂φ` and `∂M/∂φ` of one updating parameter over the free DOFs `dofs` of an assembled
@@ -1275,6 +1361,54 @@ mod tests {
             ((total - expected) / expected).abs() < 1e-12,
             "{total} vs {expected}"
         );
+    }
+
+    /// The lower triangles gathered straight from the scatter are, entry for entry and in the
+    /// same order, the full assembly's lower triangles: on a clamped plate (constrained DOFs,
+    /// drilling DOFs auto-constrained), on beams with springs and masses, on scalar points, and
+    /// on a deck with RBE2 and RBE3 (through the elimination).
+    #[test]
+    fn the_lower_assembly_is_the_full_assemblys_lower_triangle() {
+        use crate::model::import::nastran::read_bulk;
+        let dir = tempfile::tempdir().unwrap();
+        let scalar = dir.path().join("scalar.bdf");
+        std::fs::write(
+            &scalar,
+            "SPOINT,1,2\nCELAS4,1,1.+4,1,2\nCELAS4,5,3.+3,2\nCMASS2,2,4.,1\nCMASS2,3,2.,2\nENDDATA\n",
+        )
+        .unwrap();
+        let panel = concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/pipelines/decks/stiffened-panel.bdf"
+        );
+        let models = [
+            flat_plate(&FlatPlate {
+                a: 1.0,
+                b: 0.5,
+                nx: 7,
+                ny: 5,
+                thickness: 0.01,
+                material: crate::model::generate::steel(),
+                support: PlateSupport::ClampedEdge,
+            }),
+            three_beam(&ThreeBeam::default()),
+            read_bulk(&scalar).unwrap().model,
+            read_bulk(panel).unwrap().model,
+        ];
+        for (which, model) in models.iter().enumerate() {
+            for mass in [MassKind::Consistent, MassKind::Lumped] {
+                let (full, full_info) = assemble_model(model, mass).unwrap();
+                let (lower, lower_info) = assemble_model_lower(model, mass).unwrap();
+                assert_eq!(lower, LowerSystem::of(&full), "model {which}, {mass:?}");
+                assert_eq!(lower_info.nnz, full_info.nnz, "model {which}");
+                assert_eq!(lower_info.total_dofs, full_info.total_dofs);
+                assert_eq!(lower_info.auto_constrained, full_info.auto_constrained);
+                assert_eq!(lower_info.dependent, full_info.dependent);
+            }
+        }
+        // The deck's rigid elements do eliminate DOFs: the second branch was taken.
+        let (_, info) = assemble_model_lower(&models[3], MassKind::Consistent).unwrap();
+        assert!(!info.dependent.is_empty());
     }
 
     #[test]

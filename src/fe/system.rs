@@ -2,7 +2,7 @@
 //! `M ẍ + C ẋ + (K + iD) x = f` (docs/theory.md §1), sparse column-major, with their DOF labels.
 
 use crate::core::DofId;
-use crate::core::sparse::{SparseError, SparseMatrix, sparse_to_dense};
+use crate::core::sparse::{LowerTriplets, SparseError, SparseMatrix, sparse_to_dense};
 use faer::Mat;
 use rayon::prelude::*;
 use std::borrow::Cow;
@@ -21,6 +21,30 @@ pub struct SystemMatrices {
     pub c: Option<SparseMatrix>,
     /// Structural damping, N/m (enters as `iD`).
     pub d: Option<SparseMatrix>,
+}
+
+/// Symmetric `K` and `M` over a list of DOFs as their lower triangles (column-major triplets):
+/// what the matrices artefact stores, assembled without building the full matrices.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LowerSystem {
+    /// Row/column labels.
+    pub dofs: Vec<DofId>,
+    /// Stiffness, N/m.
+    pub k: LowerTriplets,
+    /// Mass, kg.
+    pub m: LowerTriplets,
+}
+
+impl LowerSystem {
+    /// The lower triangles of `sys`'s `K` and `M`.
+    pub fn of(sys: &SystemMatrices) -> Self {
+        let (k, m) = rayon::join(|| LowerTriplets::of(&sys.k), || LowerTriplets::of(&sys.m));
+        Self {
+            dofs: sys.dofs.clone(),
+            k,
+            m,
+        }
+    }
 }
 
 /// Why matrices could not be built or are inconsistent.

@@ -4,6 +4,7 @@
 //! is a matrix row number.
 
 use crate::core::{Component, DofId};
+use rayon::prelude::*;
 use std::collections::BTreeMap;
 
 /// An isotropic linear-elastic material (Nastran MAT1).
@@ -1096,44 +1097,6 @@ impl Model {
                 });
             }
         }
-        for (&id, e) in &self.elements {
-            for n in e.nodes() {
-                if !self.has_point(n) {
-                    return Err(ModelError::MissingNode {
-                        element: id,
-                        kind: e.type_name(),
-                        node: n,
-                    });
-                }
-            }
-            let (ok, wanted) = match e {
-                Element::Quad4 { property, .. }
-                | Element::Tria3 { property, .. }
-                | Element::Quad8 { property, .. }
-                | Element::Tria6 { property, .. } => {
-                    (self.shell_properties.contains_key(property), "shell")
-                }
-                Element::Beam { property, .. } => {
-                    (self.beam_properties.contains_key(property), "beam")
-                }
-                Element::Rod {
-                    section: RodSection::Property(p),
-                    ..
-                } => (self.rod_properties.contains_key(p), "rod"),
-                Element::Solid { property, .. } => {
-                    (self.solid_properties.contains_key(property), "solid")
-                }
-                _ => (true, ""),
-            };
-            if !ok {
-                return Err(ModelError::MissingProperty {
-                    element: id,
-                    kind: e.type_name(),
-                    property: e.property().unwrap_or(0),
-                    wanted,
-                });
-            }
-        }
         for (&id, p) in &self.shell_properties {
             for material in p.material_ids() {
                 if !self.materials.contains_key(&material)
@@ -1142,24 +1105,6 @@ impl Model {
                     return Err(ModelError::MissingMaterial {
                         property: id,
                         material,
-                    });
-                }
-            }
-        }
-        for (&id, e) in &self.elements {
-            if let Element::Quad8 { property, .. } | Element::Tria6 { property, .. } = e {
-                let p = &self.shell_properties[property];
-                let isotropic = p.laminate.is_none()
-                    && p.coupling_material.is_none()
-                    && p.material_ids()
-                        .iter()
-                        .all(|m| self.materials.contains_key(m));
-                if !isotropic {
-                    return Err(ModelError::MissingProperty {
-                        element: id,
-                        kind: e.type_name(),
-                        property: *property,
-                        wanted: "homogeneous-material (PSHELL with MAT1, no MID4) shell",
                     });
                 }
             }
@@ -1182,19 +1127,6 @@ impl Model {
                 });
             }
         }
-        for (&id, e) in &self.elements {
-            if let Element::Rod {
-                section: RodSection::Own(p),
-                ..
-            } = e
-                && !self.materials.contains_key(&p.material)
-            {
-                return Err(ModelError::MissingElementMaterial {
-                    element: id,
-                    material: p.material,
-                });
-            }
-        }
         for (&id, p) in &self.beam_properties {
             if !self.materials.contains_key(&p.material) {
                 return Err(ModelError::MissingMaterial {
@@ -1202,6 +1134,15 @@ impl Model {
                     material: p.material,
                 });
             }
+        }
+        // Every element, on all threads; the first fault in id order.
+        let grid: Vec<u64> = self.nodes.keys().copied().collect();
+        let elements: Vec<(&u64, &Element)> = self.elements.iter().collect();
+        if let Some(fault) = elements
+            .par_iter()
+            .find_map_first(|&(&id, e)| self.element_fault(&grid, id, e))
+        {
+            return Err(fault);
         }
         for (name, ids) in &self.sets {
             for e in ids {
@@ -1228,22 +1169,95 @@ impl Model {
             }
             self.check_component(*d, || "a constraint".to_string())?;
         }
-        for (&id, e) in &self.elements {
-            if let Some((a, b)) = e.scalar_dofs() {
-                for d in std::iter::once(a).chain(b) {
-                    self.check_component(d, || format!("element {id} ({})", e.type_name()))?;
-                }
-            } else if !self.scalar_points.is_empty()
-                && let Some(n) = e.nodes().into_iter().find(|n| self.is_scalar_point(*n))
-            {
-                return Err(ModelError::ComponentMismatch {
-                    origin: format!("element {id} ({})", e.type_name()),
-                    dof: DofId::new(n, Component::Scalar),
-                    problem: "only scalar elements (springs, masses, dampers) connect scalar points",
+        self.validate_mpcs()
+    }
+
+    /// What is wrong with element `id`: a point it names that is not defined (`grid` holds the
+    /// grid points' ids, ascending), a property or material of its kind that is not, a
+    /// quadratic shell on a section it cannot take, or a scalar point where it takes a grid
+    /// point or the other way round; `None` when nothing is.
+    fn element_fault(&self, grid: &[u64], id: u64, e: &Element) -> Option<ModelError> {
+        let is_point = |n: u64| grid.binary_search(&n).is_ok() || self.scalar_points.contains(&n);
+        for n in e.nodes() {
+            if !is_point(n) {
+                return Some(ModelError::MissingNode {
+                    element: id,
+                    kind: e.type_name(),
+                    node: n,
                 });
             }
         }
-        self.validate_mpcs()
+        let (ok, wanted) = match e {
+            Element::Quad4 { property, .. }
+            | Element::Tria3 { property, .. }
+            | Element::Quad8 { property, .. }
+            | Element::Tria6 { property, .. } => {
+                (self.shell_properties.contains_key(property), "shell")
+            }
+            Element::Beam { property, .. } => (self.beam_properties.contains_key(property), "beam"),
+            Element::Rod {
+                section: RodSection::Property(p),
+                ..
+            } => (self.rod_properties.contains_key(p), "rod"),
+            Element::Solid { property, .. } => {
+                (self.solid_properties.contains_key(property), "solid")
+            }
+            _ => (true, ""),
+        };
+        if !ok {
+            return Some(ModelError::MissingProperty {
+                element: id,
+                kind: e.type_name(),
+                property: e.property().unwrap_or(0),
+                wanted,
+            });
+        }
+
+        if let Element::Quad8 { property, .. } | Element::Tria6 { property, .. } = e {
+            let p = &self.shell_properties[property];
+            let isotropic = p.laminate.is_none()
+                && p.coupling_material.is_none()
+                && p.material_ids()
+                    .iter()
+                    .all(|m| self.materials.contains_key(m));
+            if !isotropic {
+                return Some(ModelError::MissingProperty {
+                    element: id,
+                    kind: e.type_name(),
+                    property: *property,
+                    wanted: "homogeneous-material (PSHELL with MAT1, no MID4) shell",
+                });
+            }
+        }
+        if let Element::Rod {
+            section: RodSection::Own(p),
+            ..
+        } = e
+            && !self.materials.contains_key(&p.material)
+        {
+            return Some(ModelError::MissingElementMaterial {
+                element: id,
+                material: p.material,
+            });
+        }
+        if let Some((a, b)) = e.scalar_dofs() {
+            for d in std::iter::once(a).chain(b) {
+                if let Err(fault) =
+                    self.check_component(d, || format!("element {id} ({})", e.type_name()))
+                {
+                    return Some(fault);
+                }
+            }
+        } else if !self.scalar_points.is_empty()
+            && let Some(n) = e.nodes().into_iter().find(|n| self.is_scalar_point(*n))
+        {
+            return Some(ModelError::ComponentMismatch {
+                origin: format!("element {id} ({})", e.type_name()),
+                dof: DofId::new(n, Component::Scalar),
+                problem: "only scalar elements (springs, masses, dampers) connect scalar points",
+            });
+        }
+        None
     }
 
     /// Whether `id` is a grid point or a scalar point of the model.

@@ -4,10 +4,10 @@
 
 use crate::artefact::ArtefactKind;
 use crate::artefact::Storage;
-use crate::artefact::kinds::{lower_triplet_table, matrices_to_artefact};
+use crate::artefact::kinds::{lower_matrices_to_artefact, lower_triplet_table};
 use crate::artefact::mesh::mesh_from_artefact;
 use crate::fe::element::MassKind;
-use crate::fe::model_assembly::{assemble_model, parameter_derivatives};
+use crate::fe::model_assembly::{assemble_model_lower, parameter_derivatives};
 use crate::pipeline::{PortSpec, StageError, StageInputs, StageOutputs, TypedStage};
 
 /// The stage.
@@ -44,14 +44,6 @@ impl TypedStage for Assemble {
     fn run(p: &Params, inputs: &StageInputs) -> Result<StageOutputs, StageError> {
         let mesh = inputs.require("mesh")?;
         let model = mesh_from_artefact(mesh)?;
-        let (mut sys, info) =
-            assemble_model(&model, p.mass).map_err(StageError::from_numerics(""))?;
-        // The dampers' viscous C (CDAMP, CVISC, CBUSH B), only when the model has any, so other
-        // models' matrices keep their bytes.
-        sys.c = crate::fe::damping::damping_matrix(&model, &sys.dofs)
-            .map_err(StageError::from_numerics(""))?;
-        let mut a = matrices_to_artefact(&sys);
-        // Per updating parameter, the assembled derivatives `dK__<name>`, `dM__<name>` (2.13).
         for param in &model.parameters {
             if !param
                 .name
@@ -67,8 +59,17 @@ impl TypedStage for Assemble {
                 ));
             }
         }
+        // K and M straight as the lower triangles the artefact stores.
+        let (sys, info) =
+            assemble_model_lower(&model, p.mass).map_err(StageError::from_numerics(""))?;
+        // The dampers' viscous C (CDAMP, CVISC, CBUSH B), only when the model has any, so other
+        // models' matrices keep their bytes.
+        let c = crate::fe::damping::damping_matrix(&model, &sys.dofs)
+            .map_err(StageError::from_numerics(""))?;
+        // Per updating parameter, the assembled derivatives `dK__<name>`, `dM__<name>` (2.13).
         let derivatives = parameter_derivatives(&model, &model.parameters, &sys.dofs, p.mass)
             .map_err(StageError::from_numerics(""))?;
+        let mut a = lower_matrices_to_artefact(sys, c.as_ref());
         for (param, (dk, dm)) in model.parameters.iter().zip(&derivatives) {
             for (prefix, mat) in [("dK", dk), ("dM", dm)] {
                 a = a.with_table(
@@ -99,8 +100,6 @@ impl TypedStage for Assemble {
                 .collect::<Vec<_>>()
                 .into(),
         );
-        // K and M in full (0.5 GB at 10⁶ DOFs), now in the artefact's tables.
-        crate::core::memory::drop_in_background(sys);
         Ok(StageOutputs::from([("model".to_string(), a)]))
     }
 }

@@ -9,7 +9,7 @@
 //! | `dependent` (Parquet; written by `assemble` for a model with rigid elements or MPCs) | `dof, independent, coefficient, origin`: each DOF eliminated by a multipoint constraint as `Σ coefficient · u_independent` over DOFs of `dofs`, one row per term (none: one row with an empty `independent`) |
 
 use super::{
-    Kind, Layout, col, expect_kind, lower_triplet_table, meta, meta_opt, mirror_lower,
+    Kind, Layout, col, expect_kind, lower_table, lower_triplet_table, meta, meta_opt, mirror_lower,
     mirror_sorted_lower, parse_dofs, read_sparse, table, triplet_layout,
 };
 use crate::artefact::{Artefact, ArtefactError, ArtefactKind, Column, Indices, Storage, Table};
@@ -17,6 +17,7 @@ use crate::core::DofId;
 use crate::core::sparse::{SparseMatrix, sparse_from_triplets};
 use crate::fe::SystemMatrices;
 use crate::fe::multipoint::DependentDof;
+use crate::fe::system::LowerSystem;
 use crate::sparse::LowerPencil;
 use rayon::prelude::*;
 
@@ -114,13 +115,8 @@ impl Kind for MatricesKind {
     fn to_artefact(sys: &SystemMatrices) -> Artefact {
         // The matrices' tables (each hundreds of megabytes at 10⁶ DOFs) and the DOFs' labels
         // built side by side.
-        let ((dof_index, dofs), tables) = rayon::join(
-            || {
-                rayon::join(
-                    || super::dof_index_digest(&sys.dofs),
-                    || dof_table(&sys.dofs),
-                )
-            },
+        let (dofs, tables) = rayon::join(
+            || DofTables::of(&sys.dofs),
             || {
                 sys.named()
                     .into_par_iter()
@@ -128,19 +124,7 @@ impl Kind for MatricesKind {
                     .collect::<Vec<(&str, Table)>>()
             },
         );
-        let mut a = Artefact::new(Self::KIND)
-            .with_meta("n_dofs", sys.n().into())
-            .with_meta("dof_index", dof_index.into())
-            .with_meta(
-                "units",
-                serde_json::json!({"K": "N/m", "M": "kg", "C": "N*s/m", "D": "N/m"}),
-            )
-            .with_meta(TRIANGLE, LOWER.into())
-            .with_table("dofs", dofs, Storage::Parquet);
-        for (name, table) in tables {
-            a = a.with_table(name, table, Storage::Ipc);
-        }
-        a
+        dofs.with_matrices(tables)
     }
 
     fn from_artefact(a: &Artefact) -> Result<SystemMatrices, ArtefactError> {
@@ -170,6 +154,42 @@ impl Kind for MatricesKind {
         };
         checked.map_err(|e| ArtefactError::schema(kind, e.to_string()))?;
         Ok(sys)
+    }
+}
+
+/// The DOFs' part of a matrices artefact: their labels' digest and table.
+struct DofTables {
+    n: usize,
+    dof_index: String,
+    table: Table,
+}
+
+impl DofTables {
+    /// The digest and the table, built side by side.
+    fn of(dofs: &[DofId]) -> Self {
+        let (dof_index, table) = rayon::join(|| super::dof_index_digest(dofs), || dof_table(dofs));
+        Self {
+            n: dofs.len(),
+            dof_index,
+            table,
+        }
+    }
+
+    /// The artefact of these DOFs and the lower triangles `tables` of their matrices.
+    fn with_matrices(self, tables: Vec<(&str, Table)>) -> Artefact {
+        let mut a = Artefact::new(MatricesKind::KIND)
+            .with_meta("n_dofs", self.n.into())
+            .with_meta("dof_index", self.dof_index.into())
+            .with_meta(
+                "units",
+                serde_json::json!({"K": "N/m", "M": "kg", "C": "N*s/m", "D": "N/m"}),
+            )
+            .with_meta(TRIANGLE, LOWER.into())
+            .with_table("dofs", self.table, Storage::Parquet);
+        for (name, table) in tables {
+            a = a.with_table(name, table, Storage::Ipc);
+        }
+        a
     }
 }
 
@@ -308,6 +328,17 @@ pub fn dependent_from_matrices(a: &Artefact) -> Result<Vec<DependentDof>, Artefa
 /// System matrices as an artefact.
 pub fn matrices_to_artefact(sys: &SystemMatrices) -> Artefact {
     MatricesKind::to_artefact(sys)
+}
+
+/// System matrices as an artefact, from `K` and `M` already as lower triangles (from
+/// [`crate::fe::model_assembly::assemble_model_lower`]) and the viscous damping `c`, if any:
+/// the triangles' columns become the tables as they are.
+pub fn lower_matrices_to_artefact(sys: LowerSystem, c: Option<&SparseMatrix>) -> Artefact {
+    let LowerSystem { dofs, k, m } = sys;
+    let (dofs, c) = rayon::join(|| DofTables::of(&dofs), || c.map(lower_triplet_table));
+    let mut tables = vec![("K", lower_table(k)), ("M", lower_table(m))];
+    tables.extend(c.map(|c| ("C", c)));
+    dofs.with_matrices(tables)
 }
 
 /// System matrices from an artefact.

@@ -766,9 +766,22 @@ fn read_nodes(a: &Artefact, m: &mut Model) -> Result<(), ArtefactError> {
         t.f64s("nodes", "y_m")?,
         t.f64s("nodes", "z_m")?,
     );
+    let mut nodes = Vec::with_capacity(ids.len());
     for r in 0..ids.len() {
-        m.nodes.insert(id(ids[r], "nodes", r)?, [x[r], y[r], z[r]]);
+        nodes.push((id(ids[r], "nodes", r)?, r));
     }
+    // Ascending as femu writes them; other writers' rows in any order.
+    if !nodes.is_sorted() {
+        nodes.sort_unstable();
+    }
+    if let Some(w) = nodes.windows(2).find(|w| w[0].0 == w[1].0) {
+        return Err(bad(format!(
+            "nodes rows {} and {}: node {} is defined twice",
+            w[0].1, w[1].1, w[0].0
+        )));
+    }
+    // Built from the ascending ids at once, not node by node.
+    m.nodes = BTreeMap::from_iter(nodes.into_iter().map(|(n, r)| (n, [x[r], y[r], z[r]])));
     Ok(())
 }
 
@@ -802,6 +815,7 @@ fn read_elements(a: &Artefact, m: &mut Model) -> Result<(), ArtefactError> {
         t.i64s(n, "n4")?,
     ];
     let vs = [t.f64s(n, "v_x")?, t.f64s(n, "v_y")?, t.f64s(n, "v_z")?];
+    let mut elements = Vec::with_capacity(eid.len());
     for r in 0..eid.len() {
         let node = |k: usize| id(ns[k][r], n, r);
         let eid = id(eid[r], n, r)?;
@@ -815,13 +829,14 @@ fn read_elements(a: &Artefact, m: &mut Model) -> Result<(), ArtefactError> {
             } else {
                 RodSection::Property(id(prop[r], n, r)?)
             };
-            m.elements.insert(
+            elements.push((
                 eid,
+                r,
                 Element::Rod {
                     nodes: [node(0)?, node(1)?],
                     section,
                 },
-            );
+            ));
             continue;
         }
         let p = id(prop[r], n, r)?;
@@ -869,8 +884,20 @@ fn read_elements(a: &Artefact, m: &mut Model) -> Result<(), ArtefactError> {
                 )));
             }
         };
-        m.elements.insert(eid, e);
+        elements.push((eid, r, e));
     }
+    // Ascending as femu writes them; other writers' rows in any order.
+    if !elements.is_sorted_by_key(|(eid, r, _)| (*eid, *r)) {
+        elements.sort_unstable_by_key(|(eid, r, _)| (*eid, *r));
+    }
+    if let Some(w) = elements.windows(2).find(|w| w[0].0 == w[1].0) {
+        return Err(bad(format!(
+            "elements rows {} and {}: element {} is defined twice",
+            w[0].1, w[1].1, w[0].0
+        )));
+    }
+    // Built from the ascending ids at once, not element by element.
+    m.elements = BTreeMap::from_iter(elements.into_iter().map(|(eid, _, e)| (eid, e)));
     Ok(())
 }
 

@@ -33,8 +33,9 @@
 
 use super::{Artefact, ArtefactError, ArtefactKind, Column, Indices, Storage, Table};
 use crate::core::DofId;
-use crate::core::memory::split_at_offsets;
-use crate::core::sparse::{SparseMatrix, sparse_from_triplets};
+use crate::core::sparse::{
+    INT32_INDEXED, LowerTriplets, SparseMatrix, TripletIndices, sparse_from_triplets,
+};
 use crate::sparse::IntegerIndex;
 use faer::Mat;
 use faer::sparse::{SparseColMat, SymbolicSparseColMat};
@@ -64,8 +65,8 @@ pub mod update_result;
 pub use correlation::{CorrelationKind, correlation_from_artefact, correlation_to_artefact};
 pub use frf::{FrfKind, frf_from_artefact, frf_to_artefact};
 pub use matrices::{
-    MatricesKind, linear_parameters_from_matrices, matrices_from_artefact, matrices_to_artefact,
-    pencil_from_matrices,
+    MatricesKind, linear_parameters_from_matrices, lower_matrices_to_artefact,
+    matrices_from_artefact, matrices_to_artefact, pencil_from_matrices,
 };
 pub use modes::{ModesArtefact, ModesKind, modes_from_artefact, modes_to_artefact};
 pub use plot::{Plot, PlotKind, plot_artefact};
@@ -508,10 +509,6 @@ pub(crate) fn meta_value<T: serde::de::DeserializeOwned>(
         .map_err(|e| ArtefactError::schema(a.kind, format!("metadata `{key}`: {e}")))
 }
 
-/// Most rows or columns a matrix table indexes with 32-bit integers (indices up to
-/// `i32::MAX`); larger matrices get 64-bit ones.
-const INT32_INDEXED: usize = 1 << 31;
-
 /// The `row, col, value` table of a matrix with `dim` rows and columns (the larger), from its
 /// entries as `(row, col)` indices and values: 32-bit indices when every index fits.
 fn matrix_table(dim: usize, row: Vec<usize>, col: Vec<usize>, value: Vec<f64>) -> Table {
@@ -555,60 +552,16 @@ pub fn triplet_table(mat: &SparseMatrix) -> Table {
 /// column-major order: half the bytes of [`triplet_table`] to write, hash and read back. The
 /// columns are filled in place on all threads (hundreds of megabytes at 10⁶ DOFs).
 pub fn lower_triplet_table(mat: &SparseMatrix) -> Table {
-    if mat.ncols() <= INT32_INDEXED {
-        let (row, col, value) = lower_triplet_columns(mat, |i| i as i32);
-        triplet_columns(Column::I32(row), Column::I32(col), value)
-    } else {
-        let (row, col, value) = lower_triplet_columns(mat, |i| i as i64);
-        triplet_columns(Column::I64(row), Column::I64(col), value)
-    }
+    lower_table(LowerTriplets::of(mat))
 }
 
-/// The row indices, column indices and values of a symmetric matrix's lower triangle in
-/// column-major order, each index written as `index` makes it.
-fn lower_triplet_columns<I: Copy + Default + Send + Sync>(
-    mat: &SparseMatrix,
-    index: impl Fn(usize) -> I + Sync,
-) -> (Vec<I>, Vec<I>, Vec<f64>) {
-    use rayon::prelude::*;
-    /// Columns per parallel task.
-    const COLUMNS: usize = 4096;
-    let n = mat.ncols();
-    let columns = |b: usize| b * COLUMNS..((b + 1) * COLUMNS).min(n);
-    let lower = |j: usize| {
-        let rows = mat.row_idx_of_col_raw(j).iter();
-        rows.zip(mat.val_of_col(j)).filter(move |(i, _)| **i >= j)
+/// The `row, col, value` table of a lower triangle's triplets, taking their columns as they are.
+pub fn lower_table(lower: LowerTriplets) -> Table {
+    let index = |i: TripletIndices| match i {
+        TripletIndices::I32(v) => Column::I32(v),
+        TripletIndices::I64(v) => Column::I64(v),
     };
-    // Entries before each block of columns, so the blocks fill their parts side by side.
-    let counts: Vec<usize> = (0..n.div_ceil(COLUMNS))
-        .into_par_iter()
-        .map(|b| columns(b).map(|j| lower(j).count()).sum())
-        .collect();
-    let mut offsets = vec![0];
-    for c in &counts {
-        offsets.push(offsets[offsets.len() - 1] + c);
-    }
-    let nnz = offsets[counts.len()];
-    let (mut row, mut col, mut value) = (
-        vec![I::default(); nnz],
-        vec![I::default(); nnz],
-        vec![0.0f64; nnz],
-    );
-    split_at_offsets(&mut row, &offsets)
-        .into_par_iter()
-        .zip(split_at_offsets(&mut col, &offsets))
-        .zip(split_at_offsets(&mut value, &offsets))
-        .enumerate()
-        .for_each(|(b, ((row, col), value))| {
-            let mut k = 0;
-            for j in columns(b) {
-                for (&i, &v) in lower(j) {
-                    (row[k], col[k], value[k]) = (index(i), index(j), v);
-                    k += 1;
-                }
-            }
-        });
-    (row, col, value)
+    triplet_columns(index(lower.rows), index(lower.cols), lower.values)
 }
 
 /// The symmetric matrix whose lower triangle (diagonal included) is `lower`, with rows ascending

@@ -696,6 +696,48 @@ fn beam_ends_round_trip_through_the_mesh_artefact() {
     );
 }
 
+/// The mesh artefact's node and element rows read in any order (femu writes them ascending; the
+/// tables are built at once from the sorted rows), and a node or element defined twice is an
+/// error naming both rows, not the later row silently replacing the earlier.
+#[test]
+fn mesh_rows_read_in_any_order_and_each_id_once() {
+    use crate::model::import::nastran::parse_bulk;
+    let deck = "MAT1,1,2.1+11,,.3,7850.\nPBAR,7,1,1.-3,3.-7,3.-7,1.-7\nGRID,1,,0.,0.,0.\n\
+                GRID,2,,1.,0.,0.\nGRID,3,,2.,0.,0.\nCBAR,1,7,1,2,0.,1.,0.\nCBAR,2,7,2,3,0.,1.,0.\n";
+    let m = parse_bulk(deck, "order.bdf").unwrap().model;
+    let a = mesh::mesh_to_artefact(&m);
+    // Every column of table `name` with its rows taken in the order `rows`.
+    let reorder = |a: &Artefact, name: &str, rows: &[usize]| {
+        let mut a = a.clone();
+        let (t, _) = a.tables.get_mut(name).unwrap();
+        for (_, c) in &mut t.columns {
+            *c = match c {
+                Column::F64(v) => Column::F64(rows.iter().map(|&r| v[r]).collect()),
+                Column::I64(v) => Column::I64(rows.iter().map(|&r| v[r]).collect()),
+                Column::I32(v) => Column::I32(rows.iter().map(|&r| v[r]).collect()),
+                Column::Str(v) => Column::Str(rows.iter().map(|&r| v[r].clone()).collect()),
+            };
+        }
+        a
+    };
+    let reversed = reorder(&reorder(&a, "nodes", &[2, 1, 0]), "elements", &[1, 0]);
+    assert_eq!(mesh::mesh_from_artefact(&reversed).unwrap(), m);
+    let e = mesh::mesh_from_artefact(&reorder(&a, "nodes", &[0, 1, 2, 1]))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("nodes rows 1 and 3: node 2 is defined twice"),
+        "{e}"
+    );
+    let e = mesh::mesh_from_artefact(&reorder(&a, "elements", &[1, 0, 1]))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("elements rows 0 and 2: element 2 is defined twice"),
+        "{e}"
+    );
+}
+
 /// Matrices are written as lower triangles (half the entries of the full tables, plus the
 /// diagonal) and read back as the same symmetric matrices, bit for bit; a full table without
 /// the meta still reads (and is checked for symmetry); a lower-marked table with an entry above
