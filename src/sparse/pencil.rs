@@ -64,6 +64,15 @@ pub struct LowerPencil {
     upper_pos: Vec<u32>,
 }
 
+/// Whether two slices are equal, compared on all threads.
+fn same<T: PartialEq + Sync>(a: &[T], b: &[T]) -> bool {
+    const CHUNK: usize = 1 << 16;
+    a.len() == b.len()
+        && a.par_chunks(CHUNK)
+            .zip(b.par_chunks(CHUNK))
+            .all(|(x, y)| x == y)
+}
+
 /// Columns per task when columns are merged in parallel.
 const COLUMNS_PER_TASK: usize = 4096;
 
@@ -164,7 +173,7 @@ impl LowerPencil {
             );
             (r < n && c <= r).then_some((c, r))
         };
-        if kr == mr && kc == mc {
+        if same(kr, mr) && same(kc, mc) {
             return Self::from_one_sorted_pattern(n, (kr, kc), kv, mv, key);
         }
         let (mut p, mut q) = (0, 0);

@@ -472,6 +472,17 @@ pub(crate) fn parse_dofs(
     table: &str,
     labels: &[String],
 ) -> Result<Vec<DofId>, ArtefactError> {
+    use rayon::prelude::*;
+    // On all threads (a million labels at 10⁶ DOFs); a faulty label is then looked for in
+    // order, so that the first is named.
+    let parsed: Option<Vec<DofId>> = labels
+        .par_iter()
+        .with_min_len(4096)
+        .map(|s| s.parse().ok())
+        .collect();
+    if let Some(dofs) = parsed {
+        return Ok(dofs);
+    }
     labels
         .iter()
         .enumerate()
