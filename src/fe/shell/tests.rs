@@ -2,6 +2,8 @@
 //! orientation, exact masses, patch tests, layered and offset sections against the homogeneous
 //! element, drilling, warping, locking, central differences for every derivative, and errors.
 
+use super::super::laminate::ShellLaw;
+use super::general::{law_mass, quad4_law_local};
 use super::*;
 use crate::core::{Component, DofId};
 use crate::eigen::{ModeSelection, dense_generalized};
