@@ -124,102 +124,78 @@ where
     F: Fn(usize) -> Result<Contribution, E> + Sync,
     E: Send,
 {
-    assemble_points(
+    let scalar = BTreeSet::new();
+    scatter(
         node_ids,
-        &BTreeSet::new(),
+        &scalar,
         elements,
         constraints,
         keep_dofs,
         contribution,
     )
-}
-
-/// [`assemble_keeping`] where the ids of `scalar` among `node_ids` are scalar points: their one
-/// DOF (`id:s`) is slot 0 of their 6-DOF block, the other five slots are never DOFs (not
-/// reported as auto-constrained). Elements place a scalar point's DOF at slot 0 of its block.
-pub fn assemble_points<E, F>(
-    node_ids: &[u64],
-    scalar: &BTreeSet<u64>,
-    elements: &[Vec<usize>],
-    constraints: &BTreeSet<DofId>,
-    keep_dofs: &BTreeSet<DofId>,
-    contribution: F,
-) -> Result<(SystemMatrices, AssemblyInfo), E>
-where
-    F: Fn(usize) -> Result<Contribution, E> + Sync,
-    E: Send,
-{
-    let (scattered, mut info) = scatter(
-        node_ids,
-        scalar,
-        elements,
-        constraints,
-        keep_dofs,
-        contribution,
-    )?;
-    let sys = scattered.full();
-    info.nnz = sys.k.compute_nnz();
-    Ok((sys, info))
-}
-
-/// [`assemble_points`] gathering only the lower triangles of `K` and `M` (what the matrices
-/// artefact stores): half the entries, and no full matrices built to be converted.
-pub fn assemble_points_lower<E, F>(
-    node_ids: &[u64],
-    scalar: &BTreeSet<u64>,
-    elements: &[Vec<usize>],
-    constraints: &BTreeSet<DofId>,
-    keep_dofs: &BTreeSet<DofId>,
-    contribution: F,
-) -> Result<(LowerSystem, AssemblyInfo), E>
-where
-    F: Fn(usize) -> Result<Contribution, E> + Sync,
-    E: Send,
-{
-    let (scattered, mut info) = scatter(
-        node_ids,
-        scalar,
-        elements,
-        constraints,
-        keep_dofs,
-        contribution,
-    )?;
-    let sys = scattered.lower();
-    // Stored entries of the full matrix: each off-diagonal one twice.
-    info.nnz = 2 * sys.k.values.len() - sys.dofs.len();
-    Ok((sys, info))
+    .map(Scattered::full)
 }
 
 /// Element matrices scattered into the pattern of every DOF (`6` per node), with the free
-/// DOFs chosen: what is left is to gather the free DOFs' entries.
-struct Scattered {
-    /// Column pointers of the pattern over every DOF.
-    col_ptr: Vec<usize>,
-    /// Row indices of the pattern, sorted within each column.
-    row_idx: Vec<usize>,
+/// DOFs chosen: what is left is to gather the free DOFs' entries, as full matrices
+/// ([`Scattered::full`]) or as the lower triangles the matrices artefact stores
+/// ([`Scattered::lower`]).
+pub struct Scattered {
+    /// The pattern over every DOF and which of them are free.
+    pattern: FreePattern,
     /// Stiffness and mass on the pattern.
     kv: Vec<f64>,
     mv: Vec<f64>,
+    /// The free DOFs' labels.
+    dofs: Vec<DofId>,
+    /// The figures of the assembly, but for `nnz` (set by the gather).
+    info: AssemblyInfo,
+}
+
+/// The assembly's pattern over every DOF, with the free DOFs marked.
+struct FreePattern {
+    /// Column pointers of the pattern.
+    col_ptr: Vec<usize>,
+    /// Row indices of the pattern, sorted within each column.
+    row_idx: Vec<usize>,
     /// Whether each DOF is free.
     keep: Vec<bool>,
     /// Each DOF's index among the free ones (`usize::MAX` when not free).
     new_index: Vec<usize>,
     /// The free DOFs' indices in the pattern, ascending.
     kept_columns: Vec<usize>,
-    /// The free DOFs' labels.
-    dofs: Vec<DofId>,
 }
 
-/// Builds the pattern, scatters every element's contribution colour by colour, and chooses
-/// the free DOFs (see [`assemble_points`]); the info's `nnz` is left for the gather to set.
-fn scatter<E, F>(
+impl FreePattern {
+    /// Positions in the pattern of pattern column `j`'s free rows.
+    fn kept_rows(&self, j: usize) -> impl Iterator<Item = usize> + '_ {
+        (self.col_ptr[j]..self.col_ptr[j + 1]).filter(|&p| self.keep[self.row_idx[p]])
+    }
+
+    /// Free column `c`'s rows from the diagonal down, as free indices, with their positions in
+    /// the pattern.
+    fn lower_entries(&self, c: usize) -> impl Iterator<Item = (usize, usize)> + '_ {
+        let j = self.kept_columns[c];
+        (self.col_ptr[j]..self.col_ptr[j + 1]).filter_map(move |p| {
+            let r = self.row_idx[p];
+            (r >= j && self.keep[r]).then(|| (self.new_index[r], p))
+        })
+    }
+}
+
+/// The first half of [`assemble_keeping`], where moreover the ids of `scalar` among `node_ids`
+/// are scalar points: their one DOF (`id:s`) is slot 0 of their 6-DOF block, the other five
+/// slots are never DOFs (not reported as auto-constrained); elements place a scalar point's DOF
+/// at slot 0 of its block. Builds the pattern, scatters every element's contribution colour by
+/// colour and chooses the free DOFs, for [`Scattered::full`] or [`Scattered::lower`] to gather.
+pub fn scatter<E, F>(
     node_ids: &[u64],
     scalar: &BTreeSet<u64>,
     elements: &[Vec<usize>],
     constraints: &BTreeSet<DofId>,
     keep_dofs: &BTreeSet<DofId>,
     contribution: F,
-) -> Result<(Scattered, AssemblyInfo), E>
+) -> Result<Scattered, E>
 where
     F: Fn(usize) -> Result<Contribution, E> + Sync,
     E: Send,
@@ -328,97 +304,86 @@ where
         auto_constrained: auto,
         dependent: Vec::new(),
     };
-    let scattered = Scattered {
+    let pattern = FreePattern {
         col_ptr,
         row_idx,
-        kv,
-        mv,
         keep,
         new_index,
         kept_columns,
-        dofs,
     };
-    Ok((scattered, info))
+    Ok(Scattered {
+        pattern,
+        kv,
+        mv,
+        dofs,
+        info,
+    })
 }
 
 impl Scattered {
     /// The free DOFs' full `K` and `M`: the pattern once for both, then each matrix's values;
     /// every column is filled on its own (in parallel, the same result whatever the threads).
-    fn full(self) -> SystemMatrices {
+    pub fn full(self) -> (SystemMatrices, AssemblyInfo) {
         let Self {
-            col_ptr,
-            row_idx,
+            pattern,
             kv,
             mv,
-            keep,
-            new_index,
-            kept_columns,
             dofs,
+            mut info,
         } = self;
-        let kept_rows = |j: usize| (col_ptr[j]..col_ptr[j + 1]).filter(|&p| keep[row_idx[p]]);
-        let counts: Vec<usize> = kept_columns
-            .par_iter()
-            .map(|&j| kept_rows(j).count())
-            .collect();
-        let mut ptr = Vec::with_capacity(kept_columns.len() + 1);
+        let kept = &pattern.kept_columns;
+        let kept_rows = |j: usize| pattern.kept_rows(j);
+        let counts: Vec<usize> = kept.par_iter().map(|&j| kept_rows(j).count()).collect();
+        let mut ptr = Vec::with_capacity(kept.len() + 1);
         ptr.push(0usize);
         for c in &counts {
             ptr.push(ptr[ptr.len() - 1] + c);
         }
         drop(counts);
-        let rows = gather_kept(&ptr, &kept_columns, &kept_rows, |p| new_index[row_idx[p]]);
-        let extract = |vals: Vec<f64>| gather_kept(&ptr, &kept_columns, &kept_rows, |p| vals[p]);
+        let row_idx = &pattern.row_idx;
+        let rows = gather_kept(&ptr, kept, &kept_rows, |p| pattern.new_index[row_idx[p]]);
+        let extract = |vals: Vec<f64>| gather_kept(&ptr, kept, &kept_rows, |p| vals[p]);
         let k_values = extract(kv);
         let m_values = extract(mv);
-        drop(row_idx);
-        let nf = kept_columns.len();
+        let nf = kept.len();
+        drop(pattern);
         // Rows are sorted within each column and in range by construction.
         let symbolic = SymbolicSparseColMat::new_checked(nf, nf, ptr, None, rows);
-        SystemMatrices {
+        let sys = SystemMatrices {
             dofs,
             k: SparseMatrix::new(symbolic.clone(), k_values),
             m: SparseMatrix::new(symbolic, m_values),
             c: None,
             d: None,
-        }
+        };
+        info.nnz = sys.k.compute_nnz();
+        (sys, info)
     }
 
     /// The free DOFs' `K` and `M` as lower triangles, gathered straight into triplets.
-    fn lower(self) -> LowerSystem {
+    pub fn lower(self) -> (LowerSystem, AssemblyInfo) {
         let Self {
-            col_ptr,
-            row_idx,
+            pattern,
             kv,
             mv,
-            keep,
-            new_index,
-            kept_columns,
             dofs,
+            mut info,
         } = self;
-        let nf = kept_columns.len();
-        let (rows, cols, [k, m]) = {
-            let (col_ptr, row_idx, keep, new_index) = (&col_ptr, &row_idx, &keep, &new_index);
-            // Free column `c` (pattern column `j`): its free rows from `j` down, as free
-            // indices, with their positions in the pattern.
-            let entries = |c: usize| {
-                let j = kept_columns[c];
-                (col_ptr[j]..col_ptr[j + 1]).filter_map(move |p| {
-                    let r = row_idx[p];
-                    (r >= j && keep[r]).then(|| (new_index[r], p))
-                })
-            };
-            if nf <= INT32_INDEXED {
-                let (r, c, v) = gather_triplets(nf, entries, |i| i as i32, [&kv, &mv]);
-                (TripletIndices::I32(r), TripletIndices::I32(c), v)
-            } else {
-                let (r, c, v) = gather_triplets(nf, entries, |i| i as i64, [&kv, &mv]);
-                (TripletIndices::I64(r), TripletIndices::I64(c), v)
-            }
+        let nf = pattern.kept_columns.len();
+        let entries = |c: usize| pattern.lower_entries(c);
+        let (rows, cols, [k, m]) = if nf <= INT32_INDEXED {
+            let (r, c, v) = gather_triplets(nf, entries, |i| i as i32, [&kv, &mv]);
+            (TripletIndices::I32(r), TripletIndices::I32(c), v)
+        } else {
+            let (r, c, v) = gather_triplets(nf, entries, |i| i as i64, [&kv, &mv]);
+            (TripletIndices::I64(r), TripletIndices::I64(c), v)
         };
-        crate::core::memory::drop_in_background((col_ptr, row_idx, kv, mv));
+        crate::core::memory::drop_in_background((pattern, kv, mv));
         // `M` has the same pattern; its own copy of the indices, for a table of its own.
         let (m_rows, m_cols) = rayon::join(|| rows.clone(), || cols.clone());
-        LowerSystem {
+        // Stored entries of the full matrix: each off-diagonal one twice.
+        info.nnz = 2 * k.len() - dofs.len();
+        let sys = LowerSystem {
             dofs,
             k: LowerTriplets {
                 rows,
@@ -430,7 +395,8 @@ impl Scattered {
                 cols: m_cols,
                 values: m,
             },
-        }
+        };
+        (sys, info)
     }
 }
 

@@ -1,9 +1,7 @@
 //! From a [`Model`] to `K` and `M`: each element's kernel (shell, beam, rod, spring, mass)
 //! evaluated in parallel and scattered by [`assemble`](super::assembly::assemble).
 
-use super::assembly::{
-    AssemblyInfo, Contribution, assemble_points, assemble_points_lower, node_index,
-};
+use super::assembly::{AssemblyInfo, Contribution, Scattered, node_index, scatter};
 use super::beam::{BeamData, EndConditions, Section, beam2_centred};
 use super::beam_offset::SectionCentres;
 use super::beam_tapered::{
@@ -598,14 +596,7 @@ pub fn assemble_model(
     mass: MassKind,
 ) -> Result<(SystemMatrices, AssemblyInfo), ModelAssemblyError> {
     let p = Prepared::of(model)?;
-    let (sys, info) = assemble_points(
-        &p.node_ids,
-        &model.scalar_points,
-        &p.lists,
-        &p.constraints,
-        &p.keep,
-        |i| p.contribution(model, mass, i),
-    )?;
+    let (sys, info) = p.scatter(model, mass)?.full();
     let (sys, info) = without_dependent(sys, info, &p.dependents, &p.node_ids)?;
     p.some_free(&sys.dofs)?;
     Ok((sys, info))
@@ -619,24 +610,11 @@ pub fn assemble_model_lower(
     mass: MassKind,
 ) -> Result<(LowerSystem, AssemblyInfo), ModelAssemblyError> {
     let p = Prepared::of(model)?;
+    let scattered = p.scatter(model, mass)?;
     let (sys, info) = if p.dependents.is_empty() {
-        assemble_points_lower(
-            &p.node_ids,
-            &model.scalar_points,
-            &p.lists,
-            &p.constraints,
-            &p.keep,
-            |i| p.contribution(model, mass, i),
-        )?
+        scattered.lower()
     } else {
-        let (sys, info) = assemble_points(
-            &p.node_ids,
-            &model.scalar_points,
-            &p.lists,
-            &p.constraints,
-            &p.keep,
-            |i| p.contribution(model, mass, i),
-        )?;
+        let (sys, info) = scattered.full();
         let (sys, info) = without_dependent(sys, info, &p.dependents, &p.node_ids)?;
         (LowerSystem::of(&sys), info)
     };
@@ -688,18 +666,24 @@ impl<'m> Prepared<'m> {
         })
     }
 
-    /// Element `i`'s matrices, on its blocks.
-    fn contribution(
-        &self,
-        model: &Model,
-        mass: MassKind,
-        i: usize,
-    ) -> Result<Contribution, ModelAssemblyError> {
-        let (id, e) = self.elements[i];
-        Ok(Contribution {
-            nodes: self.lists[i].clone(),
-            matrices: named_element_matrices(model, id, e, mass)?,
-        })
+    /// Every element's matrices scattered, the free DOFs chosen.
+    fn scatter(&self, model: &Model, mass: MassKind) -> Result<Scattered, ModelAssemblyError> {
+        let contribution = |i: usize| {
+            let (id, e) = self.elements[i];
+            Ok(Contribution {
+                nodes: self.lists[i].clone(),
+                matrices: named_element_matrices(model, id, e, mass)?,
+            })
+        };
+        let (scalar, lists) = (&model.scalar_points, &self.lists);
+        scatter(
+            &self.node_ids,
+            scalar,
+            lists,
+            &self.constraints,
+            &self.keep,
+            contribution,
+        )
     }
 
     /// An error when no DOF is left free.
@@ -799,14 +783,15 @@ pub fn assemble_elements(
     let dependents = resolve(&model.mpcs, &all_constraints)?;
     let keep = independent_dofs(&dependents);
     let scalar = &model.scalar_points;
-    let (sys, info) = assemble_points(&node_ids, scalar, &lists, &constraints, &keep, |i| {
+    let (sys, info) = scatter(&node_ids, scalar, &lists, &constraints, &keep, |i| {
         let (id, e) = elements[i];
         let matrices = named_element_matrices(model, id, e, mass)?;
         Ok::<_, ModelAssemblyError>(Contribution {
             nodes: lists[i].clone(),
             matrices,
         })
-    })?;
+    })?
+    .full();
     without_dependent(sys, info, &dependents, &node_ids)
 }
 
