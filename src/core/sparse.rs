@@ -83,21 +83,6 @@ pub enum TripletIndices {
     I64(Vec<i64>),
 }
 
-impl TripletIndices {
-    /// Number of indices.
-    pub fn len(&self) -> usize {
-        match self {
-            Self::I32(v) => v.len(),
-            Self::I64(v) => v.len(),
-        }
-    }
-
-    /// Whether there are none.
-    pub fn is_empty(&self) -> bool {
-        self.len() == 0
-    }
-}
-
 /// A symmetric matrix's lower triangle (`row ≥ col`, diagonal included) as triplets in
 /// column-major order, rows ascending within each column: half the entries of the full matrix,
 /// the layout the matrices artefact stores.
