@@ -52,11 +52,6 @@ fn measured(eta: f64, freqs: &[f64]) -> FrfSet {
     .unwrap()
 }
 
-/// C1: with complete noise-free data the RFM recovers all four masses at any non-resonant
-/// line — the equation is exact for parameters that enter linearly, so the first step lands
-/// on the truth and the second confirms it. Tolerance 1e-8 (issue 5).
-/// The C2 bent plate of `geometry` with the thicknesses of `strips` as parameters (bounds
-/// 0.1–10 mm), named `t<strip>`.
 /// The clamped bent plate without its bar, thickness parameters on strips 1, 4 and 9: the
 /// model of the FRF sensitivity checks.
 pub(super) fn clamped_plate_three_strips() -> crate::model::Model {
@@ -78,6 +73,8 @@ pub(super) fn three_measured_dofs() -> Vec<crate::core::DofId> {
         .collect()
 }
 
+/// The C2 bent plate of `geometry` with the thicknesses of `strips` as parameters (bounds
+/// 0.1–10 mm), named `t<strip>`.
 fn bent_plate_with_strip_thicknesses(
     geometry: crate::model::generate::BentPlate,
     strips: &[usize],
@@ -96,6 +93,9 @@ fn bent_plate_with_strip_thicknesses(
     model
 }
 
+/// C1: with complete noise-free data the RFM recovers all four masses at any non-resonant
+/// line — the equation is exact for parameters that enter linearly, so the first step lands
+/// on the truth and the second confirms it. Tolerance 1e-8 (issue 5).
 #[test]
 fn rfm_recovers_the_masses_from_complete_data_at_any_line() {
     let freqs = frequency_lines(0.0, 40.0, 0.5);
