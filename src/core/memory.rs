@@ -213,15 +213,9 @@ impl Columns {
         )
     }
 
-    /// Keeps the leading `ncols` columns (at most those it has) and returns the storage of
-    /// the others, spare ones included, to the allocator.
-    pub fn keep_leading(&mut self, ncols: usize) {
-        self.keep_leading_with_spare(ncols, 0);
-    }
-
     /// Keeps the leading `ncols` columns (at most those it has) and up to `spare` of the
     /// columns stored after them as spare; returns the storage of the rest to the allocator.
-    pub fn keep_leading_with_spare(&mut self, ncols: usize, spare: usize) {
+    pub fn keep_leading(&mut self, ncols: usize, spare: usize) {
         self.ncols = ncols.min(self.ncols);
         self.stored = (self.ncols + spare).min(self.stored);
         self.data.truncate(self.nrows * self.stored);
@@ -261,14 +255,14 @@ mod tests {
         assert_eq!((c.ncols(), c.spare()), (3, 2));
         c.split_spare().1.fill(7.0);
         assert_eq!(c.as_ref(), a.as_ref());
-        c.keep_leading_with_spare(2, 1);
+        c.keep_leading(2, 1);
         assert_eq!((c.ncols(), c.spare()), (2, 1));
         assert_eq!(c.as_ref(), a.as_ref().subcols(0, 2));
         // The spare column is the matrix's old third.
         assert_eq!(c.split_spare().1.col(0), a.col(2));
-        c.keep_leading_with_spare(2, 5);
+        c.keep_leading(2, 5);
         assert_eq!(c.spare(), 1, "no more spare than was stored");
-        c.keep_leading(1);
+        c.keep_leading(1, 0);
         assert_eq!((c.ncols(), c.spare()), (1, 0));
         assert_eq!(c.as_ref(), a.as_ref().subcols(0, 1));
     }
@@ -326,11 +320,11 @@ mod tests {
         assert_eq!(cols.as_ref(), a);
         cols.as_mut()[(8, 5)] = -1.0;
         assert_eq!(cols.as_ref()[(8, 5)], -1.0);
-        cols.keep_leading(4);
+        cols.keep_leading(4, 0);
         assert_eq!((cols.nrows(), cols.ncols()), (9, 4));
         assert_eq!(cols.as_ref(), a.as_ref().subcols(0, 4));
         assert_eq!(cols.data.capacity(), 9 * 4);
-        cols.keep_leading(10);
+        cols.keep_leading(10, 0);
         assert_eq!(cols.ncols(), 4);
     }
 

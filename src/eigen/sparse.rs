@@ -408,7 +408,7 @@ fn solve_pencil(
         }
     };
     lambdas.truncate(counted);
-    ritz_images.keep_leading_with_spare(counted, counted);
+    ritz_images.keep_leading(counted, counted);
     let (mut vecs, mut mphi) = (Columns::zeros(n, 0), Mat::zeros(n, 0));
     let t = Instant::now();
     // X = A⁻¹ M Φ = P L⁻ᵀ (C Y) for the Ritz vectors (see `refine`): the last solve.
@@ -1020,7 +1020,7 @@ impl<'a, F: SymmetricFactor> Lanczos<'a, F> {
             coupling.as_ref(),
         );
         // The columns after the images stay as spare, for the refinement's `K X`.
-        v.keep_leading_with_spare(y.ncols(), y.ncols());
+        v.keep_leading(y.ncols(), y.ncols());
         v
     }
 

@@ -622,8 +622,9 @@ pub fn assemble_model_lower(
     Ok((sys, info))
 }
 
-/// What an assembly of a whole model needs before the scatter: the model checked, its points,
-/// each element's blocks, the constraints and the multipoint constraints resolved.
+/// What an assembly of a model's elements (all of them, or a substructure's) needs before the
+/// scatter: the points, each element's blocks, the constraints at those points and the
+/// multipoint constraints resolved.
 struct Prepared<'m> {
     /// Grid and scalar point ids, sorted.
     node_ids: Vec<u64>,
@@ -631,7 +632,7 @@ struct Prepared<'m> {
     elements: Vec<(u64, &'m Element)>,
     /// Each element's blocks, as indices into `node_ids`.
     lists: Vec<Vec<usize>>,
-    /// Single-point constraints.
+    /// Single-point constraints at the points.
     constraints: BTreeSet<crate::core::DofId>,
     /// The dependent DOFs of multipoint constraints.
     dependents: BTreeMap<crate::core::DofId, DependentDof>,
@@ -640,22 +641,36 @@ struct Prepared<'m> {
 }
 
 impl<'m> Prepared<'m> {
+    /// The whole model, checked.
     fn of(model: &'m Model) -> Result<Self, ModelAssemblyError> {
         model.validate()?;
         if model.elements.is_empty() {
             return Err(ModelAssemblyError::Empty);
         }
-        let node_ids: Vec<u64> = point_ids(model);
+        let elements = model.elements.iter().map(|(id, e)| (*id, e)).collect();
+        Self::on_points(model, elements, point_ids(model))
+    }
+
+    /// `elements` of `model` on the points `node_ids` (sorted, every element's points among
+    /// them), with the model's constraints at those points.
+    fn on_points(
+        model: &'m Model,
+        elements: Vec<(u64, &'m Element)>,
+        node_ids: Vec<u64>,
+    ) -> Result<Self, ModelAssemblyError> {
         let index = node_index(&node_ids);
-        let elements: Vec<(u64, &Element)> =
-            model.elements.iter().map(|(id, e)| (*id, e)).collect();
         let lists: Vec<Vec<usize>> = elements
             .par_iter()
             .map(|(_, e)| block_nodes(e).iter().map(|n| index[n]).collect())
             .collect();
-        let constraints: BTreeSet<_> = model.constraints.iter().copied().collect();
-        let dependents = resolve(&model.mpcs, &constraints)?;
+        // Multipoint constraints are resolved against all the model's constraints.
+        let all_constraints: BTreeSet<_> = model.constraints.iter().copied().collect();
+        let dependents = resolve(&model.mpcs, &all_constraints)?;
         let keep = independent_dofs(&dependents);
+        let constraints = all_constraints
+            .into_iter()
+            .filter(|d| index.contains_key(&d.node))
+            .collect();
         Ok(Self {
             node_ids,
             elements,
@@ -768,31 +783,9 @@ pub fn assemble_elements(
         .collect::<BTreeSet<u64>>()
         .into_iter()
         .collect();
-    let index = node_index(&node_ids);
-    let lists: Vec<Vec<usize>> = elements
-        .iter()
-        .map(|(_, e)| block_nodes(e).iter().map(|n| index[n]).collect())
-        .collect();
-    let constraints: BTreeSet<_> = model
-        .constraints
-        .iter()
-        .filter(|d| index.contains_key(&d.node))
-        .copied()
-        .collect();
-    let all_constraints: BTreeSet<_> = model.constraints.iter().copied().collect();
-    let dependents = resolve(&model.mpcs, &all_constraints)?;
-    let keep = independent_dofs(&dependents);
-    let scalar = &model.scalar_points;
-    let (sys, info) = scatter(&node_ids, scalar, &lists, &constraints, &keep, |i| {
-        let (id, e) = elements[i];
-        let matrices = named_element_matrices(model, id, e, mass)?;
-        Ok::<_, ModelAssemblyError>(Contribution {
-            nodes: lists[i].clone(),
-            matrices,
-        })
-    })?
-    .full();
-    without_dependent(sys, info, &dependents, &node_ids)
+    let p = Prepared::on_points(model, elements, node_ids)?;
+    let (sys, info) = p.scatter(model, mass)?.full();
+    without_dependent(sys, info, &p.dependents, &p.node_ids)
 }
 
 /// `∂K/∂φ` and `∂M/∂φ` of one updating parameter over the free DOFs `dofs` of an assembled

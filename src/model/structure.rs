@@ -1178,7 +1178,8 @@ impl Model {
     /// point or the other way round; `None` when nothing is.
     fn element_fault(&self, grid: &[u64], id: u64, e: &Element) -> Option<ModelError> {
         let is_point = |n: u64| grid.binary_search(&n).is_ok() || self.scalar_points.contains(&n);
-        for n in e.nodes() {
+        let nodes = e.nodes();
+        for &n in &nodes {
             if !is_point(n) {
                 return Some(ModelError::MissingNode {
                     element: id,
@@ -1249,7 +1250,7 @@ impl Model {
                 }
             }
         } else if !self.scalar_points.is_empty()
-            && let Some(n) = e.nodes().into_iter().find(|n| self.is_scalar_point(*n))
+            && let Some(&n) = nodes.iter().find(|&&n| self.is_scalar_point(n))
         {
             return Some(ModelError::ComponentMismatch {
                 origin: format!("element {id} ({})", e.type_name()),

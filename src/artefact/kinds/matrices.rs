@@ -382,9 +382,7 @@ pub fn pencil_from_matrices(a: &Artefact) -> Result<(LowerPencil, Vec<DofId>), A
         if let Some(pencil) = pencil {
             // The indices were checked above; a value that is not finite is named.
             for (name, (rows, cols, values)) in [("K", kt), ("M", mt)] {
-                if values.par_iter().any(|v| !v.is_finite())
-                    && let Some(t) = values.iter().position(|v| !v.is_finite())
-                {
+                if let Some(t) = values.par_iter().position_first(|v| !v.is_finite()) {
                     let e = crate::fe::SystemMatricesError::NotFinite {
                         name,
                         row_dof: dofs[rows.get(t) as usize],

@@ -768,20 +768,9 @@ fn read_nodes(a: &Artefact, m: &mut Model) -> Result<(), ArtefactError> {
     );
     let mut nodes = Vec::with_capacity(ids.len());
     for r in 0..ids.len() {
-        nodes.push((id(ids[r], "nodes", r)?, r));
+        nodes.push((id(ids[r], "nodes", r)?, r, [x[r], y[r], z[r]]));
     }
-    // Ascending as femu writes them; other writers' rows in any order.
-    if !nodes.is_sorted() {
-        nodes.sort_unstable();
-    }
-    if let Some(w) = nodes.windows(2).find(|w| w[0].0 == w[1].0) {
-        return Err(bad(format!(
-            "nodes rows {} and {}: node {} is defined twice",
-            w[0].1, w[1].1, w[0].0
-        )));
-    }
-    // Built from the ascending ids at once, not node by node.
-    m.nodes = BTreeMap::from_iter(nodes.into_iter().map(|(n, r)| (n, [x[r], y[r], z[r]])));
+    m.nodes = by_id(nodes, "nodes", "node")?;
     Ok(())
 }
 
@@ -886,19 +875,30 @@ fn read_elements(a: &Artefact, m: &mut Model) -> Result<(), ArtefactError> {
         };
         elements.push((eid, r, e));
     }
-    // Ascending as femu writes them; other writers' rows in any order.
-    if !elements.is_sorted_by_key(|(eid, r, _)| (*eid, *r)) {
-        elements.sort_unstable_by_key(|(eid, r, _)| (*eid, *r));
+    m.elements = by_id(elements, "elements", "element")?;
+    Ok(())
+}
+
+/// The `(id, row, value)` rows of table `table` as a map by id, built at once from the ids in
+/// ascending order (as femu writes them; other writers' rows may come in any order); an id on
+/// two rows is an error naming both.
+fn by_id<T>(
+    mut rows: Vec<(u64, usize, T)>,
+    table: &str,
+    what: &str,
+) -> Result<BTreeMap<u64, T>, ArtefactError> {
+    if !rows.is_sorted_by_key(|(id, r, _)| (*id, *r)) {
+        rows.sort_unstable_by_key(|(id, r, _)| (*id, *r));
     }
-    if let Some(w) = elements.windows(2).find(|w| w[0].0 == w[1].0) {
+    if let Some(w) = rows.windows(2).find(|w| w[0].0 == w[1].0) {
         return Err(bad(format!(
-            "elements rows {} and {}: element {} is defined twice",
+            "{table} rows {} and {}: {what} {} is defined twice",
             w[0].1, w[1].1, w[0].0
         )));
     }
-    // Built from the ascending ids at once, not element by element.
-    m.elements = BTreeMap::from_iter(elements.into_iter().map(|(eid, _, e)| (eid, e)));
-    Ok(())
+    Ok(BTreeMap::from_iter(
+        rows.into_iter().map(|(id, _, value)| (id, value)),
+    ))
 }
 
 /// Scalar points, bush systems and the lumped elements kept as JSON.
