@@ -47,12 +47,12 @@ pub const MAX_PANELS: usize = 12;
 pub fn band_plot(plot: &BandPlot) -> Result<Figure, PlotError> {
     let panels = &plot.panels[..plot.panels.len().min(MAX_PANELS)];
     if panels.is_empty() {
-        return Err(PlotError::Backend("no FRF has a predictive band".into()));
+        return Err(PlotError::Input("no FRF has a predictive band".into()));
     }
     for p in panels {
         let n = p.freqs_hz.len();
         if n < 2 || p.value.len() != n || p.sd.len() != n || p.measured.len() != n {
-            return Err(PlotError::Backend(format!(
+            return Err(PlotError::Input(format!(
                 "the band of {} needs at least two lines and one value, sd and measurement per line",
                 p.label
             )));
@@ -185,7 +185,8 @@ mod tests {
         }
     }
 
-    /// Equal inputs give equal files; a panel without lines is refused by name.
+    /// Equal inputs give equal files; a panel without a value per line, or with one line, is
+    /// refused by name as the data's limit.
     #[test]
     fn band_figure_is_deterministic_and_checked() {
         let plot = BandPlot {
@@ -202,5 +203,17 @@ mod tests {
         bad.panels[1].sd.pop();
         let e = band_plot(&bad).unwrap_err().to_string();
         assert!(e.contains("2:ux/1:ux"), "{e}");
+        // A band at one line (an update at single lines) is the data's limit, not a fault of
+        // the backend.
+        let mut single = plot.clone();
+        for p in &mut single.panels {
+            p.freqs_hz.truncate(1);
+            p.value.truncate(1);
+            p.sd.truncate(1);
+            p.measured.truncate(1);
+        }
+        let e = band_plot(&single).unwrap_err();
+        assert!(matches!(e, PlotError::Input(_)), "{e:?}");
+        assert!(!e.to_string().contains("backend"), "{e}");
     }
 }

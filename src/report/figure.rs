@@ -168,6 +168,9 @@ pub enum PlotError {
         "the embedded DejaVu Sans font could not be registered with plotters; the font bytes must be a valid TrueType file"
     )]
     Font,
+    /// The data cannot make this figure (what is missing, and what would do).
+    #[error("nothing to draw: {0}")]
+    Input(String),
     /// The drawing backend failed.
     #[error("drawing failed: {0}; the inputs were valid, this is a fault of the plotting backend")]
     Backend(String),

@@ -93,8 +93,8 @@ fn histogram(values: impl Iterator<Item = f64>, lo: f64, hi: f64) -> Vec<f64> {
 fn check(plot: &PosteriorPlot<'_>) -> Result<(), PlotError> {
     let n = plot.names.len();
     if n == 0 || plot.samples.is_empty() {
-        return Err(PlotError::Backend(format!(
-            "nothing to draw: {n} parameter(s), {} sample(s); give at least one of each",
+        return Err(PlotError::Input(format!(
+            "{n} parameter(s), {} sample(s); give at least one of each",
             plot.samples.len()
         )));
     }
@@ -102,7 +102,7 @@ fn check(plot: &PosteriorPlot<'_>) -> Result<(), PlotError> {
         || plot.truth.as_ref().is_some_and(|t| t.len() != n)
         || plot.gaussian.as_ref().is_some_and(|g| g.len() != n)
     {
-        return Err(PlotError::Backend(format!(
+        return Err(PlotError::Input(format!(
             "every sample, the truth and the Gaussian need one value per parameter ({n})"
         )));
     }

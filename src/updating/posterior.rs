@@ -45,6 +45,11 @@ pub const UNIDENTIFIED: f64 = 1e-12;
 /// (16 ε): the correlations take every direction above it, identified or not.
 pub const RIDGE_ROUNDOFF: f64 = 16.0 * f64::EPSILON;
 
+/// An estimated noise below this fraction of its data's rms is round-off: a model that fits
+/// its data that closely was given noise-free data (measured noise, even of a good test, is
+/// 10⁻⁴–10⁻² of the signal; the solvers' round-off is 10⁻¹⁶–10⁻¹²).
+pub const ROUNDOFF_NOISE: f64 = 1e-9;
+
 /// The model's predictions of the fitted quantities at parameter values.
 #[derive(Clone, Debug)]
 pub struct Prediction {
@@ -341,25 +346,59 @@ pub(crate) fn row_sigmas(
                 per = vec![first; ng];
             }
             // No noise below round-off can be claimed: σ_g ≥ ε·rms(y_g) (noise-free data).
-            let y = lik.measured();
-            let (mut ys, mut yc) = (vec![0.0; ng], vec![0usize; ng]);
-            for (&g, v) in groups.iter().zip(y) {
-                let g = if lik.pooled() { 0 } else { g };
-                ys[g] += v * v;
-                yc[g] += 1;
-            }
-            let overall = (ys.iter().sum::<f64>() / m.max(1) as f64).sqrt();
-            let per: Vec<f64> = (0..ng)
-                .map(|g| {
-                    let k = if lik.pooled() { 0 } else { g };
-                    let rms = (ys[k] / yc[k].max(1) as f64).sqrt();
-                    let rms = if rms > 0.0 { rms } else { overall };
-                    per[g].max(f64::EPSILON * rms).max(f64::MIN_POSITIVE)
-                })
+            let per: Vec<f64> = per
+                .iter()
+                .zip(data_rms(lik))
+                .map(|(s, rms)| s.max(f64::EPSILON * rms).max(f64::MIN_POSITIVE))
                 .collect();
             Ok((groups.iter().map(|&g| per[g]).collect(), per))
         }
     }
+}
+
+/// At most `shown` of `names`, then how many more.
+fn first_names<'a>(names: impl ExactSizeIterator<Item = &'a str>, shown: usize) -> String {
+    let total = names.len();
+    let mut text: Vec<&str> = names.take(shown).collect();
+    let more = format!("and {} more", total.saturating_sub(shown));
+    if total > shown {
+        text.push(&more);
+    }
+    text.join(", ")
+}
+
+/// The rms of the measured values of every noise group (of all of them when the noise is
+/// pooled, or when a group's values are all zero).
+fn data_rms(lik: &dyn Likelihood) -> Vec<f64> {
+    let ng = lik.group_names().len();
+    let y = lik.measured();
+    let (mut ys, mut yc) = (vec![0.0; ng], vec![0usize; ng]);
+    for (&g, v) in lik.groups().iter().zip(y) {
+        let g = if lik.pooled() { 0 } else { g };
+        ys[g] += v * v;
+        yc[g] += 1;
+    }
+    let overall = (ys.iter().sum::<f64>() / y.len().max(1) as f64).sqrt();
+    (0..ng)
+        .map(|g| {
+            let k = if lik.pooled() { 0 } else { g };
+            let rms = (ys[k] / yc[k].max(1) as f64).sqrt();
+            if rms > 0.0 { rms } else { overall }
+        })
+        .collect()
+}
+
+/// The noise groups whose estimated noise `per_group` lies below [`ROUNDOFF_NOISE`] of their
+/// data's rms, with that ratio: the model fits those data to working precision (noise-free
+/// data, e.g. simulated by the model being updated), so a posterior on that noise shows
+/// round-off, not measurement uncertainty.
+pub fn noise_at_roundoff(lik: &dyn Likelihood, per_group: &[f64]) -> Vec<(String, f64)> {
+    lik.group_names()
+        .into_iter()
+        .zip(per_group.iter().zip(data_rms(lik)))
+        .map(|(name, (s, rms))| (name, s / rms))
+        .filter(|(_, ratio)| *ratio < ROUNDOFF_NOISE)
+        .collect()
 }
 
 /// `Q(φ)` and the weighted, stacked Gauss-Newton system at `values` (rows `r_i/σ_i`, `J/σ_i`,
@@ -621,6 +660,15 @@ pub fn laplace(
         (sigma, per_group) = row_sigmas(lik, &settings.noise, &r, n)?;
         refinement.objective_start = objective(&r0, &sigma, prior, updated);
         refinement.objective_mode = objective(&r, &sigma, prior, &mode);
+        let exact = noise_at_roundoff(lik, &per_group);
+        if let Some((_, worst)) = exact.iter().min_by(|a, b| a.1.total_cmp(&b.1)) {
+            tracing::warn!(
+                "posterior: the noise estimated for {} of {} noise groups ({}) is at round-off, down to {worst:.0e} of the data's rms: the model fits these data to working precision (noise-free data?), so the posterior's spreads show round-off, not measurement uncertainty — give `posterior.noise` (e.g. `{{relative: 0.01}}`) for the spread a measurement would leave",
+                exact.len(),
+                per_group.len(),
+                first_names(exact.iter().map(|(name, _)| name.as_str()), 5)
+            );
+        }
     }
     let lin = linearise(y, &pred, &sigma, prior, &mode);
     let (mu, v) = precision_eigen(lin.a.as_ref())?;
@@ -1084,6 +1132,35 @@ mod tests {
     }
 
     /// Estimated noise with no degree of freedom left: reported as unknown, not as certainty.
+    /// Data the model reproduces exactly (`y = A x`) leave an estimated noise at round-off,
+    /// and it is named as such; the noisy data of [`linear_problem`] (rms residual 0.2 of
+    /// rms 1.0) are not, nor is a stated noise however small.
+    #[test]
+    fn noise_estimated_at_round_off_is_named() {
+        let noisy = linear_problem();
+        let x = [0.8, -0.4, 1.7];
+        let exact = Linear {
+            y: (0..12)
+                .map(|i| (0..3).map(|j| noisy.a[(i, j)] * x[j]).sum())
+                .collect(),
+            ..linear_problem()
+        };
+        let start = [1.0, 1.0, 1.0];
+        let post = laplace(&exact, &params(&start), &start, &Default::default(), None).unwrap();
+        let named = noise_at_roundoff(&exact, &post.sigma);
+        assert_eq!(named.len(), 1, "{named:?} (sigma {:?})", post.sigma);
+        assert_eq!(named[0].0, "all");
+        let rms = (exact.y.iter().map(|v| v * v).sum::<f64>() / 12.0).sqrt();
+        assert!((named[0].1 - post.sigma[0] / rms).abs() <= 1e-12 * named[0].1);
+        assert!(named[0].1 < ROUNDOFF_NOISE);
+        let post = laplace(&noisy, &params(&start), &start, &Default::default(), None).unwrap();
+        assert!(post.sigma[0] > 0.01, "{:?}", post.sigma);
+        assert!(noise_at_roundoff(&noisy, &post.sigma).is_empty());
+        // Only an estimate is checked by the posterior; the function itself compares levels.
+        assert_eq!(noise_at_roundoff(&noisy, &[1e-12]).len(), 1);
+        assert!(noise_at_roundoff(&noisy, &[1e-8]).is_empty());
+    }
+
     #[test]
     fn noise_that_cannot_be_estimated_gives_an_unknown_posterior() {
         let a = Mat::from_fn(3, 3, |i, j| if i == j { 1.0 } else { 0.1 });

@@ -470,6 +470,15 @@ fn band_figure(
     if bands.is_empty() {
         return None;
     }
+    // A band over fewer than two lines (an update at single lines) is not a figure.
+    let mut lines: std::collections::HashMap<&str, usize> = std::collections::HashMap::new();
+    for b in bands {
+        *lines.entry(b.label.as_str()).or_default() += 1;
+    }
+    if let Some((label, _)) = lines.iter().find(|(_, n)| **n < 2) {
+        tracing::debug!("no `frf_band` figure: {label} has a band at one line");
+        return None;
+    }
     let pair_of: std::collections::HashMap<String, usize> = measured
         .pairs
         .iter()
