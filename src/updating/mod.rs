@@ -487,6 +487,14 @@ pub fn run_from(
     finish(current.record, iterations, values, stop)
 }
 
+/// `a` and `b` written with four decimals, or as many more (up to 15) as show them apart.
+fn apart(a: f64, b: f64) -> (String, String) {
+    let digits = (4..=15)
+        .find(|&d| format!("{a:.d$}") != format!("{b:.d$}"))
+        .unwrap_or(15);
+    (format!("{a:.digits$}"), format!("{b:.digits$}"))
+}
+
 /// An update that did not meet its stop rule (iterations exhausted, or stalled) and whose last
 /// iterate has a lower merit than an earlier one returns the best iterate's values instead,
 /// with a warning: a model worse than the one the user started from must never be handed on
@@ -517,17 +525,18 @@ fn keep_best_iterate(method: &dyn UpdateMethod, history: &mut UpdateHistory) {
     }
     let record = &history.iterations[best];
     if last < first {
+        let (last, first) = apart(last, first);
         tracing::warn!(
-            "the update ended ({:?}) worse than it began: merit {last:.4} against {first:.4} at the start; returning iteration {} (merit {:.4}) instead of the last iterate",
+            "the update ended ({:?}) worse than it began: merit {last} against {first} at the start; returning iteration {} (merit {:.4}) instead of the last iterate",
             history.stop,
             record.iteration,
             merits[best]
         );
     } else {
+        let (last, best) = apart(last, merits[best]);
         tracing::warn!(
-            "the update ended ({:?}) below its best iterate: merit {last:.4} against {:.4} at iteration {}; returning that iteration",
+            "the update ended ({:?}) below its best iterate: merit {last} against {best} at iteration {}; returning that iteration",
             history.stop,
-            merits[best],
             record.iteration
         );
     }

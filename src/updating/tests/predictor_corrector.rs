@@ -302,3 +302,16 @@ fn pc_defaults_reach_their_stop_rule_when_no_line_passes_kappa_f() {
         h.final_values
     );
 }
+
+/// Merits in the best-iterate warnings are written with enough decimals to differ.
+#[test]
+fn merits_in_warnings_are_written_apart() {
+    let apart = super::super::apart;
+    assert_eq!(apart(0.5, 0.25), ("0.5000".into(), "0.2500".into()));
+    assert_eq!(
+        apart(0.977612, 0.977641),
+        ("0.97761".into(), "0.97764".into())
+    );
+    let (a, b) = apart(0.1, 0.1);
+    assert_eq!((a.len(), a == b), (17, true));
+}
