@@ -391,6 +391,21 @@ fn an_update_that_ends_worse_than_it_began_returns_its_best_iterate() {
     assert_eq!(h.final_values, vec![1.2]);
     let a = femu::artefact::update::update_result_to_artefact(&h, "pc");
     assert_eq!(a.meta["returned_iteration"], serde_json::json!(0));
+    // The warning is the result's, so that a cached result tells it again.
+    assert_eq!(h.warnings.len(), 1, "{:?}", h.warnings);
+    assert!(
+        h.warnings[0].contains("worse than it began") && h.warnings[0].contains("iteration 0"),
+        "{:?}",
+        h.warnings
+    );
+    assert_eq!(
+        a.meta["update_warnings"],
+        serde_json::json!(h.warnings),
+        "{:?}",
+        a.meta
+    );
+    let shown = femu::run_report::record::meta_warnings(&a.meta);
+    assert_eq!(shown, h.warnings);
 }
 
 /// Old parameter spellings still read, for one release: `femu validate` and `femu run` warn and

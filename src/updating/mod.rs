@@ -300,6 +300,10 @@ pub struct UpdateHistory {
     /// the iteration whose values are returned as `final_values` instead (the best seen).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub returned_iteration: Option<usize>,
+    /// What the user should know about this result (e.g. that the best iterate was returned),
+    /// recorded with it so that a cached result tells it again.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub warnings: Vec<String>,
 }
 
 /// Applies a relative step with the bounds: `φ (1 + Δ)` clamped to `[lower, upper]`; returns the
@@ -432,6 +436,7 @@ pub fn run_from(
             final_values: values,
             stop,
             returned_iteration: None,
+            warnings: Vec::new(),
         };
         keep_best_iterate(method, &mut history);
         Ok(history)
@@ -497,8 +502,8 @@ fn apart(a: f64, b: f64) -> (String, String) {
 
 /// An update that did not meet its stop rule (iterations exhausted, or stalled) and whose last
 /// iterate has a lower merit than an earlier one returns the best iterate's values instead,
-/// with a warning: a model worse than the one the user started from must never be handed on
-/// silently as "updated".
+/// with a warning in the history: a model worse than the one the user started from must never
+/// be handed on silently as "updated".
 fn keep_best_iterate(method: &dyn UpdateMethod, history: &mut UpdateHistory) {
     if matches!(
         history.stop,
@@ -524,22 +529,20 @@ fn keep_best_iterate(method: &dyn UpdateMethod, history: &mut UpdateHistory) {
         return;
     }
     let record = &history.iterations[best];
-    if last < first {
+    let warning = if last < first {
         let (last, first) = apart(last, first);
-        tracing::warn!(
-            "the update ended ({:?}) worse than it began: merit {last} against {first} at the start; returning iteration {} (merit {:.4}) instead of the last iterate",
-            history.stop,
-            record.iteration,
-            merits[best]
-        );
+        format!(
+            "the update ended ({:?}) worse than it began: merit {last} against {first} at the start; iteration {} (merit {:.4}) is returned instead of the last iterate",
+            history.stop, record.iteration, merits[best]
+        )
     } else {
         let (last, best) = apart(last, merits[best]);
-        tracing::warn!(
-            "the update ended ({:?}) below its best iterate: merit {last} against {best} at iteration {}; returning that iteration",
-            history.stop,
-            record.iteration
-        );
-    }
+        format!(
+            "the update ended ({:?}) below its best iterate: merit {last} against {best} at iteration {}, which is returned",
+            history.stop, record.iteration
+        )
+    };
+    history.warnings.push(warning);
     history.final_values = record.values.clone();
     history.returned_iteration = Some(record.iteration);
 }

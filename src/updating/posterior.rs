@@ -240,6 +240,9 @@ pub struct Posterior {
     pub frf: Vec<Band>,
     /// The seed.
     pub seed: u64,
+    /// What the user should know about this posterior (e.g. a noise estimated at round-off),
+    /// recorded with it so that a cached result tells it again.
+    pub warnings: Vec<String>,
 }
 
 /// Standard normal CDF, `Φ(x) = ½(1 + erf(x/√2))`, with `erf` from its everywhere-positive
@@ -615,12 +618,14 @@ pub fn laplace(
     let y = lik.measured();
     let estimated = settings.noise == Noise::Estimated;
     if estimated && y.len() <= n {
-        tracing::warn!(
-            "posterior: {} data for {n} parameters leave no degree of freedom to estimate the noise; give it (`posterior.noise`) — the posterior is reported as unknown (NaN)",
+        let mut p = unknown(lik, params, updated, settings);
+        p.warnings.push(format!(
+            "{} data for {n} parameters leave no degree of freedom to estimate the noise; give it (`posterior.noise`) — the posterior is reported as unknown (NaN)",
             y.len()
-        );
-        return Ok(unknown(lik, params, updated, settings));
+        ));
+        return Ok(p);
     }
+    let mut warnings = Vec::new();
     // Noise at the update's result, the mode under it, and (estimated) the noise again there.
     // One analysis serves both: its Jacobian starts the refinement.
     let start_pred = lik.predict(updated, true)?;
@@ -649,11 +654,11 @@ pub fn laplace(
         .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))
         && moved.abs() > FAR_MODE
     {
-        tracing::warn!(
-            "posterior: the likelihood's mode lies far from the update's result ({} moved by {:+.0} %): this likelihood and the method's objective disagree — check the noise model (e.g. `relative` for noise proportional to |H|), or set `refine_iterations: 0` to describe the update's result",
+        warnings.push(format!(
+            "the likelihood's mode lies far from the update's result ({} moved by {:+.0} %): this likelihood and the method's objective disagree — check the noise model (e.g. `relative` for noise proportional to |H|), or set `refine_iterations: 0` to describe the update's result",
             params[j].name,
             100.0 * moved
-        );
+        ));
     }
     let r: Vec<f64> = y.iter().zip(&pred.values).map(|(a, b)| a - b).collect();
     if estimated {
@@ -661,13 +666,14 @@ pub fn laplace(
         refinement.objective_start = objective(&r0, &sigma, prior, updated);
         refinement.objective_mode = objective(&r, &sigma, prior, &mode);
         let exact = noise_at_roundoff(lik, &per_group);
-        if let Some((_, worst)) = exact.iter().min_by(|a, b| a.1.total_cmp(&b.1)) {
-            tracing::warn!(
-                "posterior: the noise estimated for {} of {} noise groups ({}) is at round-off, down to {worst:.0e} of the data's rms: the model fits these data to working precision (noise-free data?), so the posterior's spreads show round-off, not measurement uncertainty — give `posterior.noise` (e.g. `{{relative: 0.01}}`) for the spread a measurement would leave",
+        // The message holds no value at round-off, so that it is the same on every machine.
+        if !exact.is_empty() {
+            warnings.push(format!(
+                "the noise estimated for {} of {} noise groups ({}) is at round-off (below {ROUNDOFF_NOISE:.0e} of the data's rms): the model fits these data to working precision (noise-free data?), so the posterior's spreads show round-off, not measurement uncertainty — give `posterior.noise` (e.g. `{{relative: 0.01}}`) for the spread a measurement would leave",
                 exact.len(),
                 per_group.len(),
                 first_names(exact.iter().map(|(name, _)| name.as_str()), 5)
-            );
+            ));
         }
     }
     let lin = linearise(y, &pred, &sigma, prior, &mode);
@@ -883,6 +889,7 @@ pub fn laplace(
         natural_frequencies,
         frf,
         seed: settings.seed,
+        warnings,
     })
 }
 
@@ -927,6 +934,7 @@ pub fn unknown(
         natural_frequencies: Vec::new(),
         frf: Vec::new(),
         seed: settings.seed,
+        warnings: Vec::new(),
     }
 }
 
@@ -1153,9 +1161,12 @@ mod tests {
         let rms = (exact.y.iter().map(|v| v * v).sum::<f64>() / 12.0).sqrt();
         assert!((named[0].1 - post.sigma[0] / rms).abs() <= 1e-12 * named[0].1);
         assert!(named[0].1 < ROUNDOFF_NOISE);
+        let at_roundoff = |p: &Posterior| p.warnings.iter().any(|w| w.contains("round-off"));
+        assert!(at_roundoff(&post), "{:?}", post.warnings);
         let post = laplace(&noisy, &params(&start), &start, &Default::default(), None).unwrap();
         assert!(post.sigma[0] > 0.01, "{:?}", post.sigma);
         assert!(noise_at_roundoff(&noisy, &post.sigma).is_empty());
+        assert!(!at_roundoff(&post), "{:?}", post.warnings);
         // Only an estimate is checked by the posterior; the function itself compares levels.
         assert_eq!(noise_at_roundoff(&noisy, &[1e-12]).len(), 1);
         assert!(noise_at_roundoff(&noisy, &[1e-8]).is_empty());
@@ -1177,6 +1188,11 @@ mod tests {
                 .all(|m| m.sd.is_nan() && m.mean == 1.0)
         );
         assert!(post.sigma[0].is_nan() && post.samples.is_empty());
+        assert!(
+            post.warnings.len() == 1 && post.warnings[0].contains("no degree of freedom"),
+            "{:?}",
+            post.warnings
+        );
     }
 
     #[test]

@@ -1037,6 +1037,7 @@ pub fn summarise(
         natural_frequencies: Vec::new(),
         frf: Vec::new(),
         seed,
+        warnings: Vec::new(),
     }
 }
 

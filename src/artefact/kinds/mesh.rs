@@ -27,7 +27,7 @@
 //! Quadratic shells (`quad8`, `tria6`) have their corners in `n1 …` and their midside nodes in
 //! `midside_nodes` (element id → list, `null` for an omitted one; absent when the model has none).
 
-use super::{ColumnLayout, Kind, Layout, col, meta, meta_opt, meta_value, table};
+use super::{ColumnLayout, Kind, Layout, col, meta, meta_opt, meta_value, optional_meta, table};
 use crate::artefact::{Artefact, ArtefactError, ArtefactKind, Column, Storage, Table};
 use crate::core::DofId;
 use crate::model::{BeamEnds, Element, Model, RodProperty, RodSection};
@@ -772,18 +772,6 @@ fn read_nodes(a: &Artefact, m: &mut Model) -> Result<(), ArtefactError> {
     }
     m.nodes = by_id(nodes, "nodes", "node")?;
     Ok(())
-}
-
-/// An optional metadata key's value, its default when absent.
-fn optional_meta<T: serde::de::DeserializeOwned + Default>(
-    a: &Artefact,
-    key: &str,
-) -> Result<T, ArtefactError> {
-    if a.meta.contains_key(key) {
-        meta_value(a, key)
-    } else {
-        Ok(T::default())
-    }
 }
 
 fn read_elements(a: &Artefact, m: &mut Model) -> Result<(), ArtefactError> {

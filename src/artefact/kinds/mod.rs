@@ -520,6 +520,18 @@ pub(crate) fn meta_value<T: serde::de::DeserializeOwned>(
         .map_err(|e| ArtefactError::schema(a.kind, format!("metadata `{key}`: {e}")))
 }
 
+/// An optional metadata key's value, its default when absent.
+pub(crate) fn optional_meta<T: serde::de::DeserializeOwned + Default>(
+    a: &Artefact,
+    key: &str,
+) -> Result<T, ArtefactError> {
+    if a.meta.contains_key(key) {
+        meta_value(a, key)
+    } else {
+        Ok(T::default())
+    }
+}
+
 /// The `row, col, value` table of a matrix with `dim` rows and columns (the larger), from its
 /// entries as `(row, col)` indices and values: 32-bit indices when every index fits.
 fn matrix_table(dim: usize, row: Vec<usize>, col: Vec<usize>, value: Vec<f64>) -> Table {

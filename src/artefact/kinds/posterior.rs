@@ -19,7 +19,9 @@
 //! MALA ones `sampler: mala`; figures (`marginals`, `pairs`)
 //! are stored as `<name>.png` and `<name>.svg` blobs.
 
-use super::{Kind, Layout, TableLayout, col, expect_kind, meta, meta_opt, meta_value, table};
+use super::{
+    Kind, Layout, TableLayout, col, expect_kind, meta, meta_opt, meta_value, optional_meta, table,
+};
 use crate::artefact::{Artefact, ArtefactError, ArtefactKind, Column, Storage, Table};
 use crate::updating::mala::ChainReport;
 use crate::updating::posterior::{Band, Direction, Marginal, Posterior, Refinement};
@@ -130,6 +132,10 @@ impl Kind for PosteriorKind {
                 meta_opt(
                     "sampler",
                     "the Markov-chain sampler that drew the samples (mala)",
+                ),
+                meta_opt(
+                    "posterior_warnings",
+                    "what the user should know about the posterior (e.g. a noise estimated at round-off)",
                 ),
             ],
             blobs: vec!["{name}.png", "{name}.svg"],
@@ -492,6 +498,9 @@ fn write(r: &PosteriorRecord) -> Artefact {
         .with_meta("predictive_samples", p.predictive_samples.into())
         .with_meta("seed", p.seed.into())
         .with_meta("unidentified", serde_json::json!(unidentified));
+    if !p.warnings.is_empty() {
+        a = a.with_meta("posterior_warnings", p.warnings.clone().into());
+    }
     if !p.natural_frequencies.is_empty() {
         let b = &p.natural_frequencies;
         a = a.with_table(
@@ -694,6 +703,7 @@ fn read(a: &Artefact) -> Result<PosteriorRecord, ArtefactError> {
             natural_frequencies,
             frf,
             seed: meta_value::<u64>(a, "seed")?,
+            warnings: optional_meta(a, "posterior_warnings")?,
         },
     })
 }

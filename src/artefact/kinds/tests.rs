@@ -93,6 +93,25 @@ fn every_kind_round_trips_and_fits_its_layout() {
     }
 }
 
+/// The warnings a posterior or an update result records are its stage's warnings: `femu run`
+/// prints them (for a cached stage too), the run record and the report list them.
+#[test]
+fn recorded_warnings_are_the_stages_warnings() {
+    use crate::run_report::record::meta_warnings;
+    let mut shown = 0;
+    for r in <posterior::PosteriorKind as Example>::examples() {
+        let a = posterior::PosteriorKind::to_artefact(&r);
+        assert_eq!(meta_warnings(&a.meta), r.posterior.warnings);
+        shown += r.posterior.warnings.len();
+    }
+    for r in <update_result::UpdateResultKind as Example>::examples() {
+        let a = update_result::UpdateResultKind::to_artefact(&r);
+        assert_eq!(meta_warnings(&a.meta), r.history.warnings);
+        shown += r.history.warnings.len();
+    }
+    assert_eq!(shown, 2, "one example of each records a warning");
+}
+
 /// The registry is the engine's list of kinds: each entry reports its own tag, names are
 /// unique and found again, and `schemas/artefacts/` holds exactly one schema per kind.
 #[test]
@@ -299,11 +318,13 @@ impl Example for update_result::UpdateResultKind {
             final_values: vec![1.1, 2.0],
             returned_iteration: None,
             stop: StopReason::MaxIterations,
+            warnings: Vec::new(),
         };
         let damped = UpdateResult {
             history: UpdateHistory {
                 returned_iteration: Some(1),
                 stop: StopReason::Converged,
+                warnings: vec!["the update ended (MaxIterations) below its best iterate".into()],
                 ..history.clone()
             },
             method: "damping".into(),
@@ -1062,6 +1083,7 @@ impl Example for posterior::PosteriorKind {
             natural_frequencies: vec![band("mode 1", 9.8), band("mode 2", 18.7)],
             frf: vec![band("1:ux/1:ux", 1.0), band("2:ux/1:ux", 1.0)],
             seed: 7,
+            warnings: Vec::new(),
         };
         let unidentified = Posterior {
             marginals: vec![marginal("k", 1e4, f64::INFINITY)],
@@ -1078,6 +1100,10 @@ impl Example for posterior::PosteriorKind {
             frf: Vec::new(),
             samples: Vec::new(),
             predictive_samples: 0,
+            warnings: vec![
+                "the noise estimated for 2 of 2 noise groups (9.8 Hz, 18.7 Hz) is at round-off"
+                    .into(),
+            ],
             ..frf.clone()
         };
         vec![

@@ -4,7 +4,9 @@
 //! directions (docs/theory.md §11), per parameter the initial and final values, and for a
 //! damping identification the identified damping per mode.
 
-use super::{Kind, Layout, TableLayout, col, expect_kind, meta, meta_opt, meta_value, table};
+use super::{
+    Kind, Layout, TableLayout, col, expect_kind, meta, meta_opt, meta_value, optional_meta, table,
+};
 use crate::artefact::{Artefact, ArtefactError, ArtefactKind, Column, Storage, Table};
 use crate::updating::{Diagnostics, IterationRecord, UpdateHistory, UpdatingParameter};
 use std::collections::HashMap;
@@ -68,6 +70,10 @@ impl Kind for UpdateResultKind {
                 meta_opt(
                     "returned_iteration",
                     "the iteration whose values were returned, when not the last",
+                ),
+                meta_opt(
+                    "update_warnings",
+                    "what the user should know about the result (e.g. that the best iterate was returned)",
                 ),
                 meta_opt(
                     "damping_model",
@@ -250,6 +256,11 @@ pub fn update_result_to_artefact(h: &UpdateHistory, method: &str) -> Artefact {
     let a = match h.returned_iteration {
         Some(i) => a.with_meta("returned_iteration", i.into()),
         None => a,
+    };
+    let a = if h.warnings.is_empty() {
+        a
+    } else {
+        a.with_meta("update_warnings", h.warnings.clone().into())
     };
     a.with_meta("method", method.into())
         .with_meta(
@@ -447,6 +458,7 @@ fn read_history(a: &Artefact) -> Result<UpdateHistory, ArtefactError> {
         final_values: t.f64s(n, "final")?.to_vec(),
         stop: meta_value(a, "stop")?,
         returned_iteration: meta_value(a, "returned_iteration")?,
+        warnings: optional_meta(a, "update_warnings")?,
     })
 }
 
@@ -708,6 +720,7 @@ mod tests {
             final_values: vec![1.1, 2.0],
             returned_iteration: None,
             stop: StopReason::MaxIterations,
+            warnings: Vec::new(),
         };
         let a = update_result_to_artefact(&h, "pc");
         let dir = tempfile::tempdir().unwrap();

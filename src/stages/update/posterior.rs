@@ -294,10 +294,11 @@ impl PosteriorParams {
             Err(e) if e.is_input() => return Err(StageError::from_numerics("posterior")(e)),
             // The update stands; its posterior is reported as unknown rather than failing it.
             Err(e) => {
-                tracing::warn!(
+                let mut u = unknown(lik, params, final_values, &settings);
+                u.warnings.push(format!(
                     "the posterior could not be computed ({e}); it is reported as unknown (NaN)"
-                );
-                unknown(lik, params, final_values, &settings)
+                ));
+                u
             }
         };
         for m in &posterior.marginals {
@@ -405,7 +406,10 @@ impl PosteriorParams {
         let r = match run {
             Ok(r) => r,
             Err(e) if matches!(e, crate::updating::UpdatingError::Settings(_)) => {
-                tracing::warn!("posterior.mala: {e}; the Laplace posterior is reported");
+                let mut laplace = laplace;
+                laplace.warnings.push(format!(
+                    "posterior.mala: {e}; the Laplace posterior is reported"
+                ));
                 return Ok((laplace, None));
             }
             Err(e) => return Err(StageError::from_numerics("posterior.mala")(e)),
@@ -418,13 +422,14 @@ impl PosteriorParams {
                 ch.failed
             );
         }
+        let mut warnings = laplace.warnings;
         for (q, (rh, ess)) in params.iter().zip(r.r_hat.iter().zip(&r.ess)) {
             tracing::info!("MALA {}: R-hat {rh:.4}, effective samples {ess:.0}", q.name);
             if *rh > 1.05 || *ess < 100.0 {
-                tracing::warn!(
+                warnings.push(format!(
                     "MALA {}: R-hat {rh:.3}, {ess:.0} effective samples — the chains have not mixed well; raise `posterior.mala.warmup` or `samples`",
                     q.name
-                );
+                ));
             }
         }
         let mut p = summarise(
@@ -449,6 +454,7 @@ impl PosteriorParams {
         p.predictive_samples = laplace.predictive_samples;
         p.natural_frequencies = laplace.natural_frequencies;
         p.frf = laplace.frf;
+        p.warnings = warnings;
         let mcmc = Mcmc {
             sampler: "mala".into(),
             chains: r.chains,
