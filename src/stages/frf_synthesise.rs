@@ -414,17 +414,20 @@ impl TypedStage for FrfSynthesise {
     fn run(p: &Params, inputs: &StageInputs) -> Result<StageOutputs, StageError> {
         if let Some(t) = inputs.get("template") {
             let template = frf_from_artefact(t)?;
-            let (set, report) = match inputs.get("map") {
+            let (set, report, warnings) = match inputs.get("map") {
                 Some(m) => through_map(p, inputs, &template, &test_map_from_artefact(m)?)?,
-                None => synthesise(
-                    p,
-                    inputs,
-                    |_| template.pairs.clone(),
-                    &template.freqs_hz,
-                    template.quantity,
-                )?,
+                None => {
+                    let (set, report) = synthesise(
+                        p,
+                        inputs,
+                        |_| template.pairs.clone(),
+                        &template.freqs_hz,
+                        template.quantity,
+                    )?;
+                    (set, report, Vec::new())
+                }
             };
-            return Ok(frf_output(&set, report, p));
+            return Ok(frf_output(&set, report, &warnings, p));
         }
         let lines = p.lines();
         // Responses: the listed DOFs, then every model DOF of the listed components.
@@ -445,7 +448,7 @@ impl TypedStage for FrfSynthesise {
             &lines,
             p.quantity,
         )?;
-        Ok(frf_output(&set, report, p))
+        Ok(frf_output(&set, report, &[], p))
     }
 }
 
@@ -535,14 +538,14 @@ fn model_dofs(inputs: &StageInputs, method: Option<Method>) -> Result<Vec<DofId>
 
 /// The template's FRFs predicted through the map (14.7): the model FRFs between every pair of
 /// model DOFs the map names for a measured pair, combined with the weights. Model DOFs the map
-/// names that the model does not have (constrained ones) contribute zero; a measured DOF with
-/// none of its model DOFs left is refused.
+/// names that the model does not have (constrained ones) contribute zero, with a warning; a
+/// measured DOF with none of its model DOFs left is refused.
 fn through_map(
     p: &Params,
     inputs: &StageInputs,
     template: &FrfSet,
     map: &crate::pairing::TestMap,
-) -> Result<(FrfSet, Option<KrylovReport>), StageError> {
+) -> Result<(FrfSet, Option<KrylovReport>, Vec<String>), StageError> {
     let free: BTreeSet<DofId> = model_dofs(inputs, p.method)?.into_iter().collect();
     let combos: BTreeMap<DofId, Vec<(DofId, f64)>> = map.combinations().into_iter().collect();
     let mut dropped: BTreeSet<DofId> = BTreeSet::new();
@@ -603,15 +606,16 @@ fn through_map(
         }
         combos_of_pairs.push(terms);
     }
+    let mut warnings = Vec::new();
     if !dropped.is_empty() {
-        tracing::warn!(
-            "frf.synthesise: the map names model DOFs the model does not have (constrained?), taken as zero: {}",
+        warnings.push(format!(
+            "the map names model DOFs the model does not have (constrained?), taken as zero: {}",
             dropped
                 .iter()
                 .map(|d| d.to_string())
                 .collect::<Vec<_>>()
                 .join(", ")
-        );
+        ));
     }
     let (fe, report) = synthesise(
         p,
@@ -644,13 +648,22 @@ fn through_map(
         pairs: template.pairs.clone(),
         values,
     };
-    Ok((set, report))
+    Ok((set, report, warnings))
 }
 
 /// The FRF artefact, with the Krylov sweep's expansion points, basis size and estimates in
-/// its meta when it made the values.
-fn frf_output(set: &FrfSet, report: Option<KrylovReport>, p: &Params) -> StageOutputs {
+/// its meta when it made the values, and the synthesis's `warnings` when there are any.
+fn frf_output(
+    set: &FrfSet,
+    report: Option<KrylovReport>,
+    warnings: &[String],
+    p: &Params,
+) -> StageOutputs {
     let mut a = frf_to_artefact(set);
+    if !warnings.is_empty() {
+        a.meta
+            .insert("synthesis_warnings".into(), warnings.to_vec().into());
+    }
     if let Some(r) = report {
         let worst = r.estimates.iter().copied().fold(0.0, f64::max);
         a.meta.insert(

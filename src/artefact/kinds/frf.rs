@@ -39,6 +39,10 @@ impl Kind for FrfKind {
                 meta("n_lines", "frequency lines"),
                 meta("n_frfs", "response/excitation pairs"),
                 meta_opt("import_notes", "what frf.import noted about the file"),
+                meta_opt(
+                    "synthesis_warnings",
+                    "what frf.synthesise warned about (e.g. map DOFs the model lacks, taken as zero)",
+                ),
             ],
             blobs: vec![],
         }
