@@ -691,6 +691,86 @@ mod tests {
         Typed::<FrfSynthesise>::new().check(&with, &CheckContext::with_ports(ports))
     }
 
+    /// A map term on a model DOF the model lacks (a constrained one) contributes zero, and the
+    /// FRF artefact records the warning that names it, so that it is shown again when cached.
+    #[test]
+    fn map_dofs_the_model_lacks_are_zero_with_a_recorded_warning() {
+        use crate::pairing::{MapRow, RigidTransform, TestMap};
+        let dof = |s: &str| -> DofId { s.parse().unwrap() };
+        // Two masses of 1 kg on springs of 1e4 N/m: ground–1–2.
+        let k = crate::core::sparse::sparse_from_triplets(
+            "K",
+            2,
+            &[(0, 0, 2e4), (1, 0, -1e4), (0, 1, -1e4), (1, 1, 1e4)],
+        )
+        .unwrap();
+        let m =
+            crate::core::sparse::sparse_from_triplets("M", 2, &[(0, 0, 1.0), (1, 1, 1.0)]).unwrap();
+        let sys = crate::fe::SystemMatrices {
+            dofs: vec![dof("1:ux"), dof("2:ux")],
+            k,
+            m,
+            c: None,
+            d: None,
+        };
+        let pair = |r: &str, e: &str| crate::frf::FrfPair {
+            response: dof(r),
+            excitation: dof(e),
+        };
+        let template = FrfSet {
+            quantity: Quantity::Receptance,
+            freqs_hz: vec![5.0, 10.0, 30.0],
+            pairs: vec![pair("101:ux", "102:ux")],
+            values: Mat::zeros(3, 1),
+        };
+        let row = |t: &str, f: &str, weight: f64| MapRow {
+            test_dof: dof(t),
+            fe_dof: dof(f),
+            weight,
+        };
+        let map = TestMap {
+            transform: RigidTransform::identity(),
+            fit: None,
+            method: "stated".into(),
+            tolerance: 1e-3,
+            points: Vec::new(),
+            rows: vec![
+                row("101:ux", "1:ux", 0.5),
+                row("101:ux", "3:ux", 0.5),
+                row("102:ux", "2:ux", 1.0),
+            ],
+            warnings: Vec::new(),
+        };
+        let mut inputs = StageInputs::default();
+        inputs.artefacts.insert(
+            "model".into(),
+            std::sync::Arc::new(crate::artefact::kinds::matrices_to_artefact(&sys)),
+        );
+        let p: Params = serde_json::from_value(serde_json::json!({
+            "method": "direct", "damping": {"structural": 0.01}
+        }))
+        .unwrap();
+        let (set, report, warnings) = through_map(&p, &inputs, &template, &map).unwrap();
+        assert_eq!(warnings.len(), 1, "{warnings:?}");
+        assert!(warnings[0].ends_with("taken as zero: 3:ux"), "{warnings:?}");
+        // The measured 101 is half of model DOF 1: H(101, 102) = 0.5 H(1:ux, 2:ux), from
+        // Z(ω) = K(1 + iη) − ω²M inverted by hand.
+        for (l, f) in template.freqs_hz.iter().enumerate() {
+            let w2 = (2.0 * std::f64::consts::PI * f).powi(2);
+            let s = c64::new(1.0, 0.01);
+            let (a, b, d) = (s * 2e4 - w2, s * -1e4, s * 1e4 - w2);
+            let h12 = -b / (a * d - b * b);
+            let got = set.values[(l, 0)];
+            assert!(
+                (got - h12 * 0.5).norm() <= 1e-12 * h12.norm(),
+                "{f} Hz: {got}"
+            );
+        }
+        let out = frf_output(&set, report, &warnings, &p);
+        let shown = crate::run_report::record::meta_warnings(&out["frf"].meta);
+        assert_eq!(shown, warnings);
+    }
+
     #[test]
     fn method_defaults_from_the_wiring() {
         let base = serde_json::json!({"responses": ["1:ux"], "excitations": ["1:ux"], "band_hz": [0, 10], "step_hz": 1});
