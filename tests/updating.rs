@@ -369,6 +369,66 @@ impl femu::updating::UpdateMethod for Diverging {
     }
 }
 
+/// A method that steps toward x = 1 (10 % of x a step) and stops, converged, at its third
+/// analysis.
+struct Approaching;
+
+impl femu::updating::UpdateMethod for Approaching {
+    fn iterate(
+        &self,
+        model: &dyn femu::updating::ParametricModel,
+        values: &[f64],
+        iteration: usize,
+    ) -> Result<femu::updating::Step, femu::updating::UpdatingError> {
+        let mut step = Diverging.iterate(model, values, iteration)?;
+        step.record.relative_change = vec![-0.1];
+        if iteration == 2 {
+            step.stop = Some(femu::updating::StopReason::Converged);
+        }
+        Ok(step)
+    }
+    fn merit(&self, record: &femu::updating::IterationRecord) -> Option<f64> {
+        Some(record.mean_chi())
+    }
+}
+
+/// In a continuation the best iterate returned by a later phase is numbered in the whole
+/// update, and the warning says so; an earlier phase's warning is kept, named by its phase.
+#[test]
+fn phases_number_the_returned_iterate_on_and_keep_every_warning() {
+    let model = Untouched(vec![femu::updating::UpdatingParameter {
+        name: "x".into(),
+        initial: 1.2,
+        lower: 0.1,
+        upper: 100.0,
+    }]);
+    // Approaching: analyses 0, 1 and its closing 2 (which gives way to the next phase's 0);
+    // Diverging: analyses 2, 3, 4 of the whole update, its best returned.
+    let h = femu::updating::run_phases(&[&Approaching, &Diverging], &model, &[1.2], 4).unwrap();
+    let numbers: Vec<usize> = h.iterations.iter().map(|r| r.iteration).collect();
+    assert_eq!(numbers, [0, 1, 2, 3, 4]);
+    let merit = |i: usize| h.iterations[i].mean_chi();
+    let best = (2..5)
+        .max_by(|&a, &b| merit(a).total_cmp(&merit(b)))
+        .unwrap();
+    assert!(merit(best) > merit(4));
+    assert_eq!(h.returned_iteration, Some(best));
+    assert_eq!(h.final_values, h.iterations[best].values);
+    assert_eq!(h.warnings.len(), 1, "{:?}", h.warnings);
+    assert!(
+        h.warnings[0].contains(&format!("at iteration {best},")),
+        "{:?}",
+        h.warnings
+    );
+    // Diverging first: its warning is phase 1's; the start is returned to phase 2.
+    let h = femu::updating::run_phases(&[&Diverging, &Approaching], &model, &[1.2], 6).unwrap();
+    assert!(
+        h.warnings.len() == 1 && h.warnings[0].starts_with("phase 1 of 2: the update ended"),
+        "{:?}",
+        h.warnings
+    );
+}
+
 #[test]
 fn an_update_that_ends_worse_than_it_began_returns_its_best_iterate() {
     let model = Untouched(vec![femu::updating::UpdatingParameter {

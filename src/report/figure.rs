@@ -169,7 +169,7 @@ pub enum PlotError {
     )]
     Font,
     /// The data cannot make this figure (what is missing, and what would do).
-    #[error("nothing to draw: {0}")]
+    #[error("the data do not make this figure: {0}")]
     Input(String),
     /// The drawing backend failed.
     #[error("drawing failed: {0}; the inputs were valid, this is a fault of the plotting backend")]

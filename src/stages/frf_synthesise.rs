@@ -272,7 +272,8 @@ impl TypedStage for FrfSynthesise {
     const KIND: &'static str = "frf.synthesise";
     const SUMMARY: &'static str =
         "FRFs (receptance, mobility, accelerance) by modal summation or direct solution of Z(w)";
-    const IMPL_VERSION: u32 = 1;
+    /// 2: the map's missing model DOFs recorded as `synthesis_warnings`.
+    const IMPL_VERSION: u32 = 2;
 
     fn inputs() -> Vec<PortSpec> {
         vec![
@@ -551,13 +552,11 @@ fn through_map(
     let mut dropped: BTreeSet<DofId> = BTreeSet::new();
     let mut terms_of = |d: DofId| -> Result<Vec<(DofId, f64)>, StageError> {
         let Some(all) = combos.get(&d) else {
-            let known: Vec<String> = combos.keys().take(12).map(|k| k.to_string()).collect();
             return Err(StageError::input(
                 "",
                 format!(
-                    "measured DOF {d} is not in the map; the map holds {}{} (pair the FRFs it was made from)",
-                    known.join(", "),
-                    if combos.len() > 12 { ", …" } else { "" }
+                    "measured DOF {d} is not in the map; the map holds {} (pair the FRFs it was made from)",
+                    crate::core::first_of(combos.keys(), 12)
                 ),
             ));
         };
@@ -610,11 +609,7 @@ fn through_map(
     if !dropped.is_empty() {
         warnings.push(format!(
             "the map names model DOFs the model does not have (constrained?), taken as zero: {}",
-            dropped
-                .iter()
-                .map(|d| d.to_string())
-                .collect::<Vec<_>>()
-                .join(", ")
+            crate::core::first_of(dropped.iter(), 12)
         ));
     }
     let (fe, report) = synthesise(
@@ -767,6 +762,7 @@ mod tests {
             );
         }
         let out = frf_output(&set, report, &warnings, &p);
+        crate::artefact::kinds::check_layout(&out["frf"]).unwrap();
         let shown = crate::run_report::record::meta_warnings(&out["frf"].meta);
         assert_eq!(shown, warnings);
     }

@@ -354,7 +354,7 @@ pub fn run(
 /// P-C's smoothing phases before the P-C proper), sharing `max_iterations`: a phase that ends
 /// early leaves its iterations to the next. The history holds every phase's iterations,
 /// numbered on; a phase's closing analysis gives way to the next phase's opening one at the
-/// same values. The stop reason is the last phase's.
+/// same values. The stop reason is the last phase's; every phase's warnings are kept.
 pub fn run_phases(
     phases: &[&dyn UpdateMethod],
     model: &dyn ParametricModel,
@@ -365,20 +365,28 @@ pub fn run_phases(
         return Err(UpdatingError::Settings("no updating method to run".into()));
     };
     let mut done: Vec<IterationRecord> = Vec::new();
+    let mut warnings = Vec::new();
     let mut values = start.to_vec();
     let mut remaining = max_iterations;
-    for phase in first {
-        let mut h = run_from(*phase, model, &values, remaining)?;
+    for (k, phase) in first.iter().enumerate() {
+        let mut h = run_numbered(*phase, model, &values, remaining, done.len())?;
         h.iterations.pop();
         remaining -= h.iterations.len();
         renumber(&mut h.iterations, done.len());
         done.append(&mut h.iterations);
+        warnings.extend(
+            h.warnings
+                .into_iter()
+                .map(|w| format!("phase {} of {}: {w}", k + 1, phases.len())),
+        );
         values = h.final_values;
     }
-    let mut h = run_from(*last, model, &values, remaining)?;
+    let mut h = run_numbered(*last, model, &values, remaining, done.len())?;
     renumber(&mut h.iterations, done.len());
     done.append(&mut h.iterations);
     h.iterations = done;
+    warnings.append(&mut h.warnings);
+    h.warnings = warnings;
     Ok(h)
 }
 
@@ -395,6 +403,18 @@ pub fn run_from(
     model: &dyn ParametricModel,
     start: &[f64],
     max_iterations: usize,
+) -> Result<UpdateHistory, UpdatingError> {
+    run_numbered(method, model, start, max_iterations, 0)
+}
+
+/// [`run_from`] as a phase whose iterations [`run_phases`] numbers on from `first`: the
+/// returned iteration and the warnings count from there.
+fn run_numbered(
+    method: &dyn UpdateMethod,
+    model: &dyn ParametricModel,
+    start: &[f64],
+    max_iterations: usize,
+    first: usize,
 ) -> Result<UpdateHistory, UpdatingError> {
     let params = model.parameters().to_vec();
     if start.len() != params.len() {
@@ -438,7 +458,7 @@ pub fn run_from(
             returned_iteration: None,
             warnings: Vec::new(),
         };
-        keep_best_iterate(method, &mut history);
+        keep_best_iterate(method, &mut history, first);
         Ok(history)
     };
     for it in 0..max_iterations {
@@ -492,19 +512,42 @@ pub fn run_from(
     finish(current.record, iterations, values, stop)
 }
 
-/// `a` and `b` written with four decimals, or as many more (up to 15) as show them apart.
-fn apart(a: f64, b: f64) -> (String, String) {
-    let digits = (4..=15)
-        .find(|&d| format!("{a:.d$}") != format!("{b:.d$}"))
-        .unwrap_or(15);
-    (format!("{a:.digits$}"), format!("{b:.digits$}"))
+/// `values` written with four significant digits, or as many more (up to 10) as show the
+/// different ones apart (merits [`keep_best_iterate`] tells apart differ by more than
+/// [`MERIT_TIE`]).
+fn apart<const N: usize>(values: [f64; N]) -> [String; N] {
+    let magnitude = values.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let leading = if magnitude > 0.0 && magnitude.is_finite() {
+        magnitude.log10().floor() as i32
+    } else {
+        0
+    };
+    let write = |significant: i32| {
+        let decimals = (significant - 1 - leading).clamp(0, 17) as usize;
+        values.map(|x| format!("{x:.decimals$}"))
+    };
+    let shows_apart =
+        |w: &[String; N]| (0..N).all(|i| (0..i).all(|j| values[i] == values[j] || w[i] != w[j]));
+    (4..=10)
+        .map(write)
+        .find(shows_apart)
+        .unwrap_or_else(|| write(10))
 }
+
+/// Merits closer than this fraction of the larger are taken as equal: an iterate is not
+/// returned for a gain at round-off (which would make the result depend on the machine).
+const MERIT_TIE: f64 = 1e-9;
 
 /// An update that did not meet its stop rule (iterations exhausted, or stalled) and whose last
 /// iterate has a lower merit than an earlier one returns the best iterate's values instead,
 /// with a warning in the history: a model worse than the one the user started from must never
-/// be handed on silently as "updated".
-fn keep_best_iterate(method: &dyn UpdateMethod, history: &mut UpdateHistory) {
+/// be handed on silently as "updated". The history's iterations are numbered from
+/// `first_iteration` in the whole update (a later phase of [`run_phases`]).
+fn keep_best_iterate(
+    method: &dyn UpdateMethod,
+    history: &mut UpdateHistory,
+    first_iteration: usize,
+) {
     if matches!(
         history.stop,
         StopReason::Converged | StopReason::NothingToUpdate
@@ -519,32 +562,32 @@ fn keep_best_iterate(method: &dyn UpdateMethod, history: &mut UpdateHistory) {
     if merits.len() != history.iterations.len() {
         return;
     }
-    let (Some(&last), Some(&first)) = (merits.last(), merits.first()) else {
+    let (Some(&last), Some(&start)) = (merits.last(), merits.first()) else {
         return;
     };
     let best = (0..merits.len())
         .max_by(|&a, &b| merits[a].total_cmp(&merits[b]).then(b.cmp(&a)))
         .unwrap_or(0);
-    if !(merits[best] > last) {
+    if !(merits[best] - last > MERIT_TIE * merits[best].abs().max(last.abs())) {
         return;
     }
     let record = &history.iterations[best];
-    let warning = if last < first {
-        let (last, first) = apart(last, first);
+    let returned = first_iteration + record.iteration;
+    let [last_text, start_text, best_text] = apart([last, start, merits[best]]);
+    let warning = if last < start {
         format!(
-            "the update ended ({:?}) worse than it began: merit {last} against {first} at the start; iteration {} (merit {:.4}) is returned instead of the last iterate",
-            history.stop, record.iteration, merits[best]
+            "the update ended ({:?}) worse than it began: merit {last_text} against {start_text} at the start; iteration {returned} (merit {best_text}) is returned instead of the last iterate",
+            history.stop
         )
     } else {
-        let (last, best) = apart(last, merits[best]);
         format!(
-            "the update ended ({:?}) below its best iterate: merit {last} against {best} at iteration {}, which is returned",
-            history.stop, record.iteration
+            "the update ended ({:?}) below its best iterate: merit {last_text} against {best_text} at iteration {returned}, which is returned",
+            history.stop
         )
     };
     history.warnings.push(warning);
     history.final_values = record.values.clone();
-    history.returned_iteration = Some(record.iteration);
+    history.returned_iteration = Some(returned);
 }
 
 #[cfg(test)]

@@ -359,17 +359,6 @@ pub(crate) fn row_sigmas(
     }
 }
 
-/// At most `shown` of `names`, then how many more.
-fn first_names<'a>(names: impl ExactSizeIterator<Item = &'a str>, shown: usize) -> String {
-    let total = names.len();
-    let mut text: Vec<&str> = names.take(shown).collect();
-    let more = format!("and {} more", total.saturating_sub(shown));
-    if total > shown {
-        text.push(&more);
-    }
-    text.join(", ")
-}
-
 /// The rms of the measured values of every noise group (of all of them when the noise is
 /// pooled, or when a group's values are all zero).
 fn data_rms(lik: &dyn Likelihood) -> Vec<f64> {
@@ -668,11 +657,23 @@ pub fn laplace(
         let exact = noise_at_roundoff(lik, &per_group);
         // The message holds no value at round-off, so that it is the same on every machine.
         if !exact.is_empty() {
+            let names = crate::core::first_of(exact.iter().map(|(name, _)| name), 5);
+            let noise = if lik.pooled() {
+                format!(
+                    "the noise estimated for all {} groups together",
+                    per_group.len()
+                )
+            } else if per_group.len() == 1 {
+                format!("the noise estimated for {names}")
+            } else {
+                format!(
+                    "the noise estimated for {} of {} noise groups ({names})",
+                    exact.len(),
+                    per_group.len()
+                )
+            };
             warnings.push(format!(
-                "the noise estimated for {} of {} noise groups ({}) is at round-off (below {ROUNDOFF_NOISE:.0e} of the data's rms): the model fits these data to working precision (noise-free data?), so the posterior's spreads show round-off, not measurement uncertainty — give `posterior.noise` (e.g. `{{relative: 0.01}}`) for the spread a measurement would leave",
-                exact.len(),
-                per_group.len(),
-                first_names(exact.iter().map(|(name, _)| name.as_str()), 5)
+                "{noise} is at round-off (below {ROUNDOFF_NOISE:.0e} of the data's rms): the model fits these data to working precision (noise-free data?), so the posterior's spreads show round-off, not measurement uncertainty — give `posterior.noise` (e.g. `{{relative: 0.01}}`) for the spread a measurement would leave"
             ));
         }
     }
@@ -1139,10 +1140,9 @@ mod tests {
         assert!(post.directions.iter().any(|d| d.vector == [0.0, 0.0, 1.0]));
     }
 
-    /// Estimated noise with no degree of freedom left: reported as unknown, not as certainty.
     /// Data the model reproduces exactly (`y = A x`) leave an estimated noise at round-off,
-    /// and it is named as such; the noisy data of [`linear_problem`] (rms residual 0.2 of
-    /// rms 1.0) are not, nor is a stated noise however small.
+    /// and it is named as such; the noisy data of [`linear_problem`] are not, nor is a stated
+    /// noise however small.
     #[test]
     fn noise_estimated_at_round_off_is_named() {
         let noisy = linear_problem();
@@ -1158,11 +1158,16 @@ mod tests {
         let named = noise_at_roundoff(&exact, &post.sigma);
         assert_eq!(named.len(), 1, "{named:?} (sigma {:?})", post.sigma);
         assert_eq!(named[0].0, "all");
-        let rms = (exact.y.iter().map(|v| v * v).sum::<f64>() / 12.0).sqrt();
-        assert!((named[0].1 - post.sigma[0] / rms).abs() <= 1e-12 * named[0].1);
         assert!(named[0].1 < ROUNDOFF_NOISE);
         let at_roundoff = |p: &Posterior| p.warnings.iter().any(|w| w.contains("round-off"));
         assert!(at_roundoff(&post), "{:?}", post.warnings);
+        // A stated noise is the user's: no warning, however small.
+        let stated = PosteriorSettings {
+            noise: Noise::Absolute(vec![1e-14]),
+            ..Default::default()
+        };
+        let post = laplace(&exact, &params(&start), &start, &stated, None).unwrap();
+        assert!(!at_roundoff(&post), "{:?}", post.warnings);
         let post = laplace(&noisy, &params(&start), &start, &Default::default(), None).unwrap();
         assert!(post.sigma[0] > 0.01, "{:?}", post.sigma);
         assert!(noise_at_roundoff(&noisy, &post.sigma).is_empty());
@@ -1172,6 +1177,7 @@ mod tests {
         assert!(noise_at_roundoff(&noisy, &[1e-8]).is_empty());
     }
 
+    /// Estimated noise with no degree of freedom left: reported as unknown, not as certainty.
     #[test]
     fn noise_that_cannot_be_estimated_gives_an_unknown_posterior() {
         let a = Mat::from_fn(3, 3, |i, j| if i == j { 1.0 } else { 0.1 });

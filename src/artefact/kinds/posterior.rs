@@ -14,8 +14,8 @@
 //! | `mcmc_chains` (optional, `posterior.mala`) | `chain, step, acceptance, failed` |
 //! | `mcmc_parameters` (optional, `posterior.mala`) | `parameter, r_hat, ess` |
 //!
-//! An update's posterior with FRF bands also carries the figure `frf_band` (the predicted `|H|`
-//! with its band and the measurement). TMCMC posteriors carry `log_evidence` in the metadata,
+//! An update's posterior with FRF bands over two lines or more also carries the figure
+//! `frf_band` (the predicted `|H|` with its band and the measurement). TMCMC posteriors carry `log_evidence` in the metadata,
 //! MALA ones `sampler: mala`; figures (`marginals`, `pairs`)
 //! are stored as `<name>.png` and `<name>.svg` blobs.
 

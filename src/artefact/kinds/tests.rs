@@ -323,7 +323,7 @@ impl Example for update_result::UpdateResultKind {
         let damped = UpdateResult {
             history: UpdateHistory {
                 returned_iteration: Some(1),
-                stop: StopReason::Converged,
+                stop: StopReason::MaxIterations,
                 warnings: vec!["the update ended (MaxIterations) below its best iterate".into()],
                 ..history.clone()
             },

@@ -251,8 +251,10 @@ impl TypedStage for Update {
     /// 6: the result records the component mode synthesis reuse (`cms`); 8: the RFM reads
     /// measured DOFs through multi-term test maps (14.11); 9: trial states from the parametric
     /// projection, the posterior started from the update's last analysis, and each analysis's
-    /// first Lanczos run sized by the last (results move in round-off).
-    const IMPL_VERSION: u32 = 9;
+    /// first Lanczos run sized by the last (results move in round-off); 10: warnings recorded
+    /// in the result and the posterior (`update_warnings`, `posterior_warnings`), a best iterate
+    /// not returned for a gain at round-off, and numbered in the whole continuation.
+    const IMPL_VERSION: u32 = 10;
 
     fn inputs() -> Vec<PortSpec> {
         vec![

@@ -285,6 +285,9 @@ impl PosteriorParams {
         let posterior = match laplace(lik, params, final_values, &settings, natural) {
             Ok(p) => match &self.mala {
                 None => p,
+                // An unknown Laplace posterior (its noise unknown) gives MALA nothing to
+                // start from: it stays unknown, with the warning that says why.
+                Some(_) if p.sigma.iter().any(|s| s.is_nan()) => p,
                 Some(m) => {
                     let (sampled, chains) = self.sampled(lik, params, &settings, p, m)?;
                     mcmc = chains;
@@ -467,7 +470,8 @@ impl PosteriorParams {
 
 /// The FRF overlay of the predictive bands `bands` (`|H| ± 2 sd`, the sampled sd where there
 /// is one, else the first-order one) with the measured `|H|` at the same lines; `None` without
-/// bands, or with a warning when it cannot be drawn.
+/// bands or where they make no figure (a band at one line: an update at single lines), and
+/// with a warning when the drawing fails.
 fn band_figure(
     bands: &[crate::updating::posterior::Band],
     measured: &FrfSet,
@@ -477,14 +481,6 @@ fn band_figure(
         return None;
     }
     // A band over fewer than two lines (an update at single lines) is not a figure.
-    let mut lines: std::collections::HashMap<&str, usize> = std::collections::HashMap::new();
-    for b in bands {
-        *lines.entry(b.label.as_str()).or_default() += 1;
-    }
-    if let Some((label, _)) = lines.iter().find(|(_, n)| **n < 2) {
-        tracing::debug!("no `frf_band` figure: {label} has a band at one line");
-        return None;
-    }
     let pair_of: std::collections::HashMap<String, usize> = measured
         .pairs
         .iter()
@@ -534,6 +530,11 @@ fn band_figure(
     };
     match band_plot(&plot) {
         Ok(f) => Some(f),
+        // E.g. an update at single lines: a band over one line is no figure.
+        Err(e @ crate::report::figure::PlotError::Input(_)) => {
+            tracing::debug!("no figure `frf_band`: {e}");
+            None
+        }
         Err(e) => {
             tracing::warn!("the figure `frf_band` was not drawn: {e}");
             None
