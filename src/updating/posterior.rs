@@ -955,12 +955,9 @@ fn sign_fixed(mut v: Vec<f64>) -> Vec<f64> {
 mod tests {
     use super::*;
     use crate::eigen::ModeSelection;
-    use crate::fe::lumped::{LumpedTarget, assemble_lumped, lumped_derivative};
-    use crate::frf::{DirectDamping, FrfSet, ModalDamping, direct_receptance, frequency_lines};
-    use crate::model::LumpedModel;
-    use crate::updating::LinearModel;
+    use crate::frf::{ModalDamping, frequency_lines};
     use crate::updating::ParametricModel;
-
+    use crate::updating::tests::{chain_model, measured};
     use crate::updating::toy::Linear;
 
     fn params(values: &[f64]) -> Vec<UpdatingParameter> {
@@ -1209,43 +1206,6 @@ mod tests {
         assert!((normal_cdf(-3.0) - 0.0013498980316301).abs() < 1e-13);
     }
 
-    fn chain(masses: &[f64]) -> LinearModel {
-        let lumped = LumpedModel::chain(masses, 1e4);
-        let sys = assemble_lumped(&lumped).unwrap();
-        let params = (0..masses.len())
-            .map(|i| {
-                let (dk, dm) = lumped_derivative(&lumped, LumpedTarget::Mass(i)).unwrap();
-                (
-                    UpdatingParameter {
-                        name: format!("m{}", i + 1),
-                        initial: masses[i],
-                        lower: 0.01,
-                        upper: 100.0,
-                    },
-                    dk,
-                    dm,
-                )
-            })
-            .collect();
-        LinearModel::new(sys, params).unwrap()
-    }
-
-    fn measured(eta: f64, freqs: &[f64]) -> FrfSet {
-        let sys = assemble_lumped(&LumpedModel::chain(&[1.0; 4], 1e4)).unwrap();
-        let pairs = FrfSet::all_pairs(&sys.dofs, &sys.dofs[..1]);
-        direct_receptance(
-            &sys,
-            &DirectDamping {
-                structural_eta: eta,
-                rayleigh: None,
-            },
-            &pairs,
-            freqs,
-            crate::frf::Quantity::Receptance,
-        )
-        .unwrap()
-    }
-
     /// Every Jacobian column against a central difference `(f(φ(1+h)) − f(φ(1−h)))/2h`,
     /// `h = 1e-6`, to 1e-6 of the column's largest entry.
     fn check_jacobian(lik: &dyn Likelihood, values: &[f64]) {
@@ -1285,7 +1245,7 @@ mod tests {
     fn jacobians_match_central_differences() {
         use crate::correlation::frf::{amplitude_correlation, shape_correlation};
         use faer::c64;
-        let model = chain(&[1.0, 1.3, 1.0, 1.0]);
+        let model = chain_model(&[1.0, 1.3, 1.0, 1.0]);
         let values = model.initial_values();
         let freqs = frequency_lines(1.0, 40.0, 0.5);
         let x = measured(0.02, &freqs);
@@ -1313,7 +1273,7 @@ mod tests {
         check_jacobian(&freq, &values);
         // Frequencies and MAC-paired shapes at three DOFs, the shapes of the true chain scaled
         // and flipped (the rows see neither).
-        let truth = chain(&[1.0; 4]);
+        let truth = chain_model(&[1.0; 4]);
         let (t, _) = truth
             .modal_state(&truth.initial_values(), ModeSelection::All)
             .unwrap();
@@ -1403,7 +1363,7 @@ mod tests {
     /// bands come out for every elastic mode.
     #[test]
     fn predictive_bands_agree_to_first_order() {
-        let model = chain(&[1.0, 1.0, 1.0, 1.0]);
+        let model = chain_model(&[1.0, 1.0, 1.0, 1.0]);
         let values = model.initial_values();
         let freqs = frequency_lines(1.0, 40.0, 0.5);
         let x = measured(0.02, &freqs);

@@ -17,7 +17,8 @@ use crate::fe::lumped::{LumpedTarget, assemble_lumped, lumped_derivative};
 use crate::frf::{DirectDamping, FrfSet, ModalDamping, Quantity, direct_receptance};
 use crate::model::LumpedModel;
 
-fn chain_model(masses: &[f64]) -> LinearModel {
+/// The four-DOF chain (springs 1e4 N/m) with `masses`, each mass an updating parameter.
+pub(crate) fn chain_model(masses: &[f64]) -> LinearModel {
     let lumped = LumpedModel::chain(masses, 1e4);
     let sys = assemble_lumped(&lumped).unwrap();
     let params = (0..masses.len())
@@ -38,7 +39,9 @@ fn chain_model(masses: &[f64]) -> LinearModel {
     LinearModel::new(sys, params).unwrap()
 }
 
-fn measured(eta: f64, freqs: &[f64]) -> FrfSet {
+/// The true chain's (1 kg masses) receptances to a force at its first DOF, structural
+/// damping `eta`.
+pub(crate) fn measured(eta: f64, freqs: &[f64]) -> FrfSet {
     let sys = assemble_lumped(&LumpedModel::chain(&[1.0; 4], 1e4)).unwrap();
     let pairs = FrfSet::all_pairs(&sys.dofs, &sys.dofs[..1]);
     direct_receptance(
