@@ -596,8 +596,7 @@ pub fn assemble_model(
     mass: MassKind,
 ) -> Result<(SystemMatrices, AssemblyInfo), ModelAssemblyError> {
     let p = Prepared::of(model)?;
-    let (sys, info) = p.scatter(model, mass)?.full();
-    let (sys, info) = without_dependent(sys, info, &p.dependents, &p.node_ids)?;
+    let (sys, info) = p.without_dependent(p.scatter(mass)?.full())?;
     p.some_free(&sys.dofs)?;
     Ok((sys, info))
 }
@@ -610,12 +609,11 @@ pub fn assemble_model_lower(
     mass: MassKind,
 ) -> Result<(LowerSystem, AssemblyInfo), ModelAssemblyError> {
     let p = Prepared::of(model)?;
-    let scattered = p.scatter(model, mass)?;
+    let scattered = p.scatter(mass)?;
     let (sys, info) = if p.dependents.is_empty() {
         scattered.lower()
     } else {
-        let (sys, info) = scattered.full();
-        let (sys, info) = without_dependent(sys, info, &p.dependents, &p.node_ids)?;
+        let (sys, info) = p.without_dependent(scattered.full())?;
         (LowerSystem::of(&sys), info)
     };
     p.some_free(&sys.dofs)?;
@@ -626,6 +624,8 @@ pub fn assemble_model_lower(
 /// scatter: the points, each element's blocks, the constraints at those points and the
 /// multipoint constraints resolved.
 struct Prepared<'m> {
+    /// The model.
+    model: &'m Model,
     /// Grid and scalar point ids, sorted.
     node_ids: Vec<u64>,
     /// The elements, in id order.
@@ -672,6 +672,7 @@ impl<'m> Prepared<'m> {
             .filter(|d| index.contains_key(&d.node))
             .collect();
         Ok(Self {
+            model,
             node_ids,
             elements,
             lists,
@@ -682,23 +683,31 @@ impl<'m> Prepared<'m> {
     }
 
     /// Every element's matrices scattered, the free DOFs chosen.
-    fn scatter(&self, model: &Model, mass: MassKind) -> Result<Scattered, ModelAssemblyError> {
+    fn scatter(&self, mass: MassKind) -> Result<Scattered, ModelAssemblyError> {
         let contribution = |i: usize| {
             let (id, e) = self.elements[i];
             Ok(Contribution {
                 nodes: self.lists[i].clone(),
-                matrices: named_element_matrices(model, id, e, mass)?,
+                matrices: named_element_matrices(self.model, id, e, mass)?,
             })
         };
-        let (scalar, lists) = (&model.scalar_points, &self.lists);
         scatter(
             &self.node_ids,
-            scalar,
-            lists,
+            &self.model.scalar_points,
+            &self.lists,
             &self.constraints,
             &self.keep,
             contribution,
         )
+    }
+
+    /// The assembled `(system, info)` with the multipoint constraints' dependent DOFs
+    /// eliminated ([`without_dependent`]).
+    fn without_dependent(
+        &self,
+        (sys, info): (SystemMatrices, AssemblyInfo),
+    ) -> Result<(SystemMatrices, AssemblyInfo), ModelAssemblyError> {
+        without_dependent(sys, info, &self.dependents, &self.node_ids)
     }
 
     /// An error when no DOF is left free.
@@ -784,8 +793,7 @@ pub fn assemble_elements(
         .into_iter()
         .collect();
     let p = Prepared::on_points(model, elements, node_ids)?;
-    let (sys, info) = p.scatter(model, mass)?.full();
-    without_dependent(sys, info, &p.dependents, &p.node_ids)
+    p.without_dependent(p.scatter(mass)?.full())
 }
 
 /// `∂K/∂φ` and `∂M/∂φ` of one updating parameter over the free DOFs `dofs` of an assembled
