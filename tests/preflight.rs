@@ -79,6 +79,7 @@ fn measured_dofs_are_checked_against_the_model() {
             && text.contains("6 measured DOF(s) are not DOFs of the model")
             && text.contains("120:uz (excitation: no grid 120)")
             && text.contains("9001:uz (response: no grid 9001)")
+            && text.contains(", and 1 more. Measured DOFs must be model DOFs")
             && text.contains("test.pair"),
         "{text}"
     );

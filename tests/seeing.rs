@@ -72,7 +72,8 @@ fn update_prints_one_line_per_iteration() {
     assert!(lines.len() >= 2, "{err}");
     assert!(
         lines[0].starts_with("[femu] rfm_complete_5hz: iteration 0: mean χ_s ")
-            && lines[0].contains("parameters active, step ")
+            && lines[0].contains("parameters active, ")
+            && lines[0].contains(" lines, step ")
             && lines[0].contains("condition "),
         "{err}"
     );
@@ -165,6 +166,16 @@ fn show_summarises_a_run_directory() {
     let s = text(&femu().arg("show").arg(&rfm_out).output().unwrap().stdout);
     assert!(s.contains("rfm_complete_5hz (update): rfm: "), "{s}");
     assert!(s.contains(" → "), "{s}");
+    // The update's posterior: what it is, then each parameter's mean, sd and interval.
+    assert!(
+        s.contains("rfm_complete_5hz (update): Laplace posterior about the rfm result, "),
+        "{s}"
+    );
+    assert!(
+        s.lines()
+            .any(|l| l.contains(" ± ") && l.contains("(90 % interval ") && l.contains(" to ")),
+        "{s}"
+    );
 
     let one = femu()
         .arg("show")

@@ -148,8 +148,19 @@ fn print_summary(name: &str, report: &RunReport) {
             .filter(|s| s.status == Status::Cached)
             .count()
     );
+    // Columns as wide as their longest entry (at least as wide as they were), so that a long
+    // stage name does not push its row out of line.
+    let stages = &report.stages;
+    let name_w = stages
+        .iter()
+        .map(|s| s.name.chars().count())
+        .fold(20, usize::max);
+    let kind_w = stages
+        .iter()
+        .map(|s| s.kind.chars().count())
+        .fold(18, usize::max);
     println!(
-        "{:<20} {:<18} {:<34} {:>9}  outputs",
+        "{:<name_w$} {:<kind_w$} {:<34} {:>9}  outputs",
         "stage", "kind", "status", "time (s)"
     );
     for s in &report.stages {
@@ -159,7 +170,7 @@ fn print_summary(name: &str, report: &RunReport) {
             .map(|(p, r)| format!("{p}={}", &r.digest[..12]))
             .collect();
         println!(
-            "{:<20} {:<18} {:<34} {:>9.3}  {}",
+            "{:<name_w$} {:<kind_w$} {:<34} {:>9.3}  {}",
             s.name,
             s.kind,
             s.status.label(),

@@ -112,8 +112,14 @@ fn show_run(dir: &Path) -> anyhow::Result<()> {
         }
         None => println!("(no {RUN_RECORD_FILE}: statuses and times were not recorded)"),
     }
+    // Columns as wide as their longest entry (at least as wide as they were).
+    let name_w = order.iter().map(|n| n.chars().count()).fold(20, usize::max);
+    let kind_w = order
+        .iter()
+        .map(|n| lock.stages[n].kind.chars().count())
+        .fold(18, usize::max);
     println!(
-        "\n{:<20} {:<18} {:<10} {:>9}  outputs",
+        "\n{:<name_w$} {:<kind_w$} {:<10} {:>9}  outputs",
         "stage", "kind", "status", "time (s)"
     );
     for name in &order {
@@ -128,7 +134,7 @@ fn show_run(dir: &Path) -> anyhow::Result<()> {
             .map(|(p, o)| format!("{p}={}", o.digest.get(..12).unwrap_or(&o.digest)))
             .collect();
         println!(
-            "{name:<20} {:<18} {status:<10} {time:>9}  {}",
+            "{name:<name_w$} {:<kind_w$} {status:<10} {time:>9}  {}",
             s.kind,
             outs.join(" ")
         );

@@ -160,6 +160,49 @@ pub(super) fn key_results(dir: &Path, meta: &DirMeta) -> Vec<String> {
                 ));
             }
         }
+        K::Posterior => {
+            // TMCMC samples the posterior itself; an update's posterior is Laplace's Gaussian
+            // about the likelihood's mode near the update's result, or MCMC samples from there.
+            let method = m.get("method").and_then(|v| v.as_str()).unwrap_or("?");
+            let mut head = match (method, m.get("sampler").and_then(|v| v.as_str())) {
+                ("tmcmc", _) => "TMCMC posterior".to_string(),
+                (_, Some(sampler)) => {
+                    format!(
+                        "{} posterior about the {method} result",
+                        sampler.to_uppercase()
+                    )
+                }
+                _ => format!("Laplace posterior about the {method} result"),
+            };
+            if let Some(n) = num("samples").filter(|&n| n > 0.0) {
+                head += &format!(", {n} samples");
+            }
+            if let Some(e) = num("log_evidence") {
+                head += &format!(", ln evidence {e:.6e}");
+            }
+            let level = num("credible_level")
+                .map_or("credible".to_string(), |l| format!("{:.0} %", 100.0 * l));
+            out.push(head);
+            if let Some(t) = read_table(dir, meta, "parameters")
+                && let (Some(names), Some(mean), Some(sd), Some(lower), Some(upper)) = (
+                    strs(&t, "parameter"),
+                    f64s(&t, "mean"),
+                    f64s(&t, "sd"),
+                    f64s(&t, "lower"),
+                    f64s(&t, "upper"),
+                )
+            {
+                let rows = names.iter().zip(mean).zip(sd).zip(lower.iter().zip(upper));
+                for (((n, mean), sd), (lo, hi)) in rows.take(20) {
+                    out.push(format!(
+                        "  {n}: {mean:.6e} ± {sd:.3e} ({level} interval {lo:.6e} to {hi:.6e})"
+                    ));
+                }
+                if names.len() > 20 {
+                    out.push(format!("  … ({} more parameters)", names.len() - 20));
+                }
+            }
+        }
         K::ModalCorrelation => {
             if let Some(n) = num("n_pairs") {
                 out.push(format!(
@@ -222,6 +265,38 @@ pub(super) fn output_meta(dir: &Path) -> Option<DirMeta> {
 mod tests {
     use super::*;
     use crate::run_report::record::meta_warnings;
+
+    /// A sampled posterior is summarised by its method, samples and evidence, then each
+    /// parameter's mean, sd and credible interval.
+    #[test]
+    fn a_tmcmc_posterior_shows_its_evidence_and_intervals() {
+        use crate::artefact::{Artefact, ArtefactKind, Storage};
+        let parameters = Table::new()
+            .with("parameter", Column::Str(vec!["t2_2".into()]))
+            .with("updated", Column::F64(vec![1.7e-3]))
+            .with("mean", Column::F64(vec![1.699955e-3]))
+            .with("sd", Column::F64(vec![2.478e-8]))
+            .with("lower", Column::F64(vec![1.699917e-3]))
+            .with("upper", Column::F64(vec![1.699998e-3]))
+            .with("relative_sd", Column::F64(vec![1.46e-5]));
+        let a = Artefact::new(ArtefactKind::Posterior)
+            .with_meta("method", "tmcmc".into())
+            .with_meta("samples", 200.into())
+            .with_meta("log_evidence", 349049.656.into())
+            .with_meta("credible_level", 0.9.into())
+            .with_table("parameters", parameters, Storage::Parquet);
+        let dir = tempfile::tempdir().unwrap();
+        crate::artefact::codec::write_dir(&a, dir.path(), crate::artefact::Format::Arrow, None)
+            .unwrap();
+        let meta = read_meta(dir.path()).unwrap();
+        assert_eq!(
+            key_results(dir.path(), &meta),
+            [
+                "TMCMC posterior, 200 samples, ln evidence 3.490497e5",
+                "  t2_2: 1.699955e-3 ± 2.478e-8 (90 % interval 1.699917e-3 to 1.699998e-3)",
+            ]
+        );
+    }
 
     #[test]
     fn warnings_come_from_warning_and_note_keys_and_dropped_cards() {

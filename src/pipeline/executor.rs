@@ -245,7 +245,7 @@ impl Display {
                             sb.bar.set_message(task.to_string());
                         }
                     } else {
-                        sb.bar.set_message(format!("{task} {done}"));
+                        sb.bar.set_message(uncounted(task, done));
                     }
                 }
                 Event::Note(line) => {
@@ -297,6 +297,16 @@ impl Display {
 
 /// A clock for [`PlainLines`]: time since some fixed start.
 type Clock = Box<dyn Fn() -> Duration + Send + Sync>;
+
+/// A step without a total as shown: the task and its count, or the task alone when nothing is
+/// counted (`done` 0: a status such as "K − σM factorised").
+fn uncounted(task: &str, done: u64) -> String {
+    if done == 0 {
+        task.to_string()
+    } else {
+        format!("{task} {done}")
+    }
+}
 
 /// Plain progress lines for logs: each stage's start and end, every note, and a stage's steps
 /// at most once per `interval` (the first step of a stage at once).
@@ -367,7 +377,7 @@ impl PlainLines {
                             100.0 * done as f64 / total as f64
                         )
                     } else {
-                        format!("{stage}: {task} {done}")
+                        format!("{stage}: {}", uncounted(task, done))
                     });
                 }
             }
@@ -1260,6 +1270,36 @@ mod tests {
         fn flush(&mut self) -> std::io::Result<()> {
             Ok(())
         }
+    }
+
+    /// A step without a total shows its count, or only its task when it counts nothing (a
+    /// status line ended in a stray " 0").
+    #[test]
+    fn an_uncounted_step_shows_its_count_or_its_task_alone() {
+        let out = Shared::default();
+        let plain = PlainLines::new(
+            Box::new(out.clone()),
+            Box::new(|| Duration::ZERO),
+            Duration::ZERO,
+        );
+        for (task, done) in [
+            ("modes: K − σM factorised (8 DOFs, 0.0 s)", 0),
+            ("samples", 3),
+        ] {
+            plain.event(
+                "modes",
+                Event::Step {
+                    task,
+                    done,
+                    total: 0,
+                },
+            );
+        }
+        let text = String::from_utf8(out.0.lock().unwrap().clone()).unwrap();
+        assert_eq!(
+            text,
+            "[femu] modes: modes: K − σM factorised (8 DOFs, 0.0 s)\n[femu] modes: samples 3\n"
+        );
     }
 
     /// Plain lines keep every start, end and note, and show a stage's steps at most once per

@@ -548,18 +548,12 @@ pub fn measured_dofs_issue(
     if bad.is_empty() {
         return None;
     }
-    let shown = bad.len().min(5);
-    let more = if bad.len() > shown {
-        format!(" and {} more", bad.len() - shown)
-    } else {
-        String::new()
-    };
     Some(ParamIssue {
         path: Vec::new(),
         message: format!(
-            "input `{port}`: {} measured DOF(s) are not DOFs of the model: {}{more}. Measured DOFs must be model DOFs: pair the test to the model with `test.pair` and connect its `map`, or measure at model DOFs",
+            "input `{port}`: {} measured DOF(s) are not DOFs of the model: {}. Measured DOFs must be model DOFs: pair the test to the model with `test.pair` and connect its `map`, or measure at model DOFs",
             bad.len(),
-            bad[..shown].join(", ")
+            crate::core::first_of(bad.iter(), 5)
         ),
     })
 }

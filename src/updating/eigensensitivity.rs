@@ -120,6 +120,10 @@ pub fn mac_pairs(
 }
 
 impl UpdateMethod for InverseEigensensitivity<'_> {
+    fn equations_from(&self) -> &'static str {
+        "modes"
+    }
+
     fn iterate(
         &self,
         model: &dyn ParametricModel,

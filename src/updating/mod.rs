@@ -65,9 +65,10 @@ impl IterationRecord {
         0.5 * (self.mean_chi_s + self.mean_chi_a)
     }
 
-    /// One progress line: mean `χ_s`, `χ_a`, the active parameters, the largest relative step
-    /// and the condition number of `S` (`step: false` for the closing analysis, which takes none).
-    pub fn progress_line(&self, step: bool) -> String {
+    /// One progress line: mean `χ_s`, `χ_a`, the active parameters, the lines used (`used`
+    /// names them: [`UpdateMethod::equations_from`]), the largest relative step and the
+    /// condition number of `S` (`step: false` for the closing analysis, which takes none).
+    pub fn progress_line(&self, step: bool, used: &str) -> String {
         let mut line = format!(
             "iteration {}: mean χ_s {:.4}, χ_a {:.4}",
             self.iteration, self.mean_chi_s, self.mean_chi_a
@@ -78,10 +79,16 @@ impl IterationRecord {
                 .relative_change
                 .iter()
                 .fold(0.0_f64, |a, d| a.max(d.abs()));
+            // Fewer equations than parameters (few lines chosen) leave `S` rank-deficient: its
+            // condition number is then infinite, which says less than the word.
+            let condition = match self.diagnostics.condition {
+                c if c.is_infinite() => "S rank-deficient".to_string(),
+                c => format!("condition {c:.3e}"),
+            };
             line += &format!(
-                ", {active}/{} parameters active, step {biggest:.3e}, condition {:.3e}",
+                ", {active}/{} parameters active, {} {used}, step {biggest:.3e}, {condition}",
                 self.active.len(),
-                self.diagnostics.condition
+                self.lines_used,
             );
         } else {
             line += " (final analysis)";
@@ -148,6 +155,10 @@ pub trait UpdateMethod {
     /// (for methods whose data cannot be matched exactly, so the step never vanishes).
     fn converged_by_merit(&self, _before: &IterationRecord, _after: &IterationRecord) -> bool {
         false
+    }
+    /// What its equations come from, as [`IterationRecord::lines_used`] counts them.
+    fn equations_from(&self) -> &'static str {
+        "lines"
     }
     /// A figure that a good step raises (none: every step is taken as computed).
     fn merit(&self, _record: &IterationRecord) -> Option<f64> {
@@ -448,7 +459,7 @@ fn run_numbered(
                   stop: StopReason| {
         record.relative_change = vec![0.0; n];
         record.active = vec![false; n];
-        crate::core::progress::note(|| record.progress_line(false));
+        crate::core::progress::note(|| record.progress_line(false, ""));
         iterations.push(record);
         let mut history = UpdateHistory {
             parameters: params.clone(),
@@ -495,7 +506,7 @@ fn run_numbered(
         let stalled = applied.iter().all(|d| d.abs() < 1e-12);
         let mut record = current.record;
         record.relative_change = applied;
-        crate::core::progress::note(|| record.progress_line(true));
+        crate::core::progress::note(|| record.progress_line(true, method.equations_from()));
         iterations.push(record);
         values = next_values;
         current = next;

@@ -318,3 +318,41 @@ fn merits_in_warnings_are_written_apart() {
     assert_eq!(apart([0.1, 0.1]), ["0.1000", "0.1000"]);
     assert_eq!(apart([1.0, 1.0 + 2e-9]), ["1.000000000", "1.000000002"]);
 }
+
+/// An iteration's progress line names what its equations come from and says "rank-deficient"
+/// for an `S` whose condition number is infinite (fewer equations than parameters), where it
+/// printed `condition inf`.
+#[test]
+fn progress_lines_name_the_lines_used_and_a_rank_deficient_s() {
+    let mut record = IterationRecord {
+        iteration: 3,
+        values: vec![1.0, 1.0],
+        relative_change: vec![0.01, -0.02],
+        active: vec![true, false],
+        lines_used: 7,
+        mean_chi_s: 0.9,
+        mean_chi_a: 0.8,
+        residual_norm: 1.0,
+        condition_limit: f64::NAN,
+        smoothing: 0.0,
+        smoothed_mean_chi: f64::NAN,
+        diagnostics: crate::updating::Diagnostics {
+            condition: 12.5,
+            ..Default::default()
+        },
+    };
+    assert_eq!(
+        record.progress_line(true, "lines"),
+        "iteration 3: mean χ_s 0.9000, χ_a 0.8000, 1/2 parameters active, 7 lines, step 2.000e-2, condition 1.250e1"
+    );
+    record.diagnostics.condition = f64::INFINITY;
+    assert!(
+        record
+            .progress_line(true, "modes")
+            .ends_with("7 modes, step 2.000e-2, S rank-deficient")
+    );
+    assert_eq!(
+        record.progress_line(false, ""),
+        "iteration 3: mean χ_s 0.9000, χ_a 0.8000 (final analysis)"
+    );
+}
