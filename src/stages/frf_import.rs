@@ -157,7 +157,7 @@ fn import(base: &Path, p: &Params) -> Result<Imported, String> {
                 UffError::NoFrfs => format!("{}: {e}", full.display()),
                 e => e.to_string(),
             })?;
-            let mut notes = file.conversions.clone();
+            let mut notes = crate::frf::io::uff::grouped_conversions(&file);
             notes.extend(file.warnings.iter().cloned());
             if let Some(h) = &file.header {
                 notes.push(format!(
@@ -189,8 +189,9 @@ impl TypedStage for FrfImport {
     type Params = Params;
     const KIND: &'static str = "frf.import";
     const SUMMARY: &'static str = "Measured FRFs from a Universal File (dataset 58/58b) or a CSV/Parquet long table, converted to SI";
-    // 2: the test geometry is a second output.
-    const IMPL_VERSION: u32 = 2;
+    // 2: the test geometry is a second output; 3: a note many FRF records share is recorded
+    // once, with the records it applies to.
+    const IMPL_VERSION: u32 = 3;
     const PREFLIGHT: bool = true;
 
     fn inputs() -> Vec<PortSpec> {

@@ -65,15 +65,19 @@ impl IterationRecord {
         0.5 * (self.mean_chi_s + self.mean_chi_a)
     }
 
-    /// One progress line: mean `χ_s`, `χ_a`, the active parameters, the lines used (`used`
-    /// names them: [`UpdateMethod::equations_from`]), the largest relative step and the
-    /// condition number of `S` (`step: false` for the closing analysis, which takes none).
-    pub fn progress_line(&self, step: bool, used: &str) -> String {
+    /// One progress line, numbered `first + iteration` (`first`: the iterations of earlier
+    /// phases): mean `χ_s`, `χ_a`, then for a step the active parameters, the lines used
+    /// (`used` names them: [`UpdateMethod::equations_from`]), the largest relative step and
+    /// the condition number of `S`, or for the closing analysis, which takes no step, what it
+    /// closes (`Closing`).
+    pub fn progress_line(&self, first: usize, step: Result<&str, Closing>) -> String {
         let mut line = format!(
             "iteration {}: mean χ_s {:.4}, χ_a {:.4}",
-            self.iteration, self.mean_chi_s, self.mean_chi_a
+            first + self.iteration,
+            self.mean_chi_s,
+            self.mean_chi_a
         );
-        if step {
+        if let Ok(used) = step {
             let active = self.active.iter().filter(|a| **a).count();
             let biggest = self
                 .relative_change
@@ -90,14 +94,31 @@ impl IterationRecord {
                 self.active.len(),
                 self.lines_used,
             );
-        } else {
-            line += " (final analysis)";
+        } else if let Err(closing) = step {
+            line += &match closing {
+                Closing::Update => " (final analysis)".to_string(),
+                Closing::Phase { phase, phases } => format!(" (end of phase {phase} of {phases})"),
+            };
         }
         if self.smoothing > 0.0 {
             line += &format!(", smoothed (g = {:.3e})", self.smoothing);
         }
         line
     }
+}
+
+/// What the analysis closing a run of iterations closes (its progress line says it).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Closing {
+    /// The update: its final analysis.
+    Update,
+    /// A phase of a continuation ([`run_phases`]); the next phase opens at the same values.
+    Phase {
+        /// Which phase, from 1.
+        phase: usize,
+        /// How many phases the update has.
+        phases: usize,
+    },
 }
 
 /// Why the iterations ended.
@@ -380,7 +401,11 @@ pub fn run_phases(
     let mut values = start.to_vec();
     let mut remaining = max_iterations;
     for (k, phase) in first.iter().enumerate() {
-        let mut h = run_numbered(*phase, model, &values, remaining, done.len())?;
+        let closing = Closing::Phase {
+            phase: k + 1,
+            phases: phases.len(),
+        };
+        let mut h = run_numbered(*phase, model, &values, remaining, (done.len(), closing))?;
         h.iterations.pop();
         remaining -= h.iterations.len();
         renumber(&mut h.iterations, done.len());
@@ -392,7 +417,13 @@ pub fn run_phases(
         );
         values = h.final_values;
     }
-    let mut h = run_numbered(*last, model, &values, remaining, done.len())?;
+    let mut h = run_numbered(
+        *last,
+        model,
+        &values,
+        remaining,
+        (done.len(), Closing::Update),
+    )?;
     renumber(&mut h.iterations, done.len());
     done.append(&mut h.iterations);
     h.iterations = done;
@@ -415,17 +446,18 @@ pub fn run_from(
     start: &[f64],
     max_iterations: usize,
 ) -> Result<UpdateHistory, UpdatingError> {
-    run_numbered(method, model, start, max_iterations, 0)
+    run_numbered(method, model, start, max_iterations, (0, Closing::Update))
 }
 
 /// [`run_from`] as a phase whose iterations [`run_phases`] numbers on from `first`: the
-/// returned iteration and the warnings count from there.
+/// returned iteration, the warnings and the progress lines count from there, and the closing
+/// analysis's line says what it closes.
 fn run_numbered(
     method: &dyn UpdateMethod,
     model: &dyn ParametricModel,
     start: &[f64],
     max_iterations: usize,
-    first: usize,
+    (first, closing): (usize, Closing),
 ) -> Result<UpdateHistory, UpdatingError> {
     let params = model.parameters().to_vec();
     if start.len() != params.len() {
@@ -459,7 +491,7 @@ fn run_numbered(
                   stop: StopReason| {
         record.relative_change = vec![0.0; n];
         record.active = vec![false; n];
-        crate::core::progress::note(|| record.progress_line(false, ""));
+        crate::core::progress::note(|| record.progress_line(first, Err(closing)));
         iterations.push(record);
         let mut history = UpdateHistory {
             parameters: params.clone(),
@@ -506,7 +538,7 @@ fn run_numbered(
         let stalled = applied.iter().all(|d| d.abs() < 1e-12);
         let mut record = current.record;
         record.relative_change = applied;
-        crate::core::progress::note(|| record.progress_line(true, method.equations_from()));
+        crate::core::progress::note(|| record.progress_line(first, Ok(method.equations_from())));
         iterations.push(record);
         values = next_values;
         current = next;

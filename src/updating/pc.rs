@@ -335,11 +335,15 @@ pub(super) fn open_iteration(
     if chosen.is_empty() {
         let worst = worst_lines(&measured.freqs_hz, &lines, natural_hz, resonance_lines, n);
         if worst.len() > chosen.len() {
-            tracing::warn!(
-                "P-C iteration {iteration}: no line has (χ_s + χ_a)/2 ≤ kappa_f = {kappa_f} (mean χ {:.4}, stop at {stop_chi}); the {} worst-correlated lines off the resonances are used instead, one per parameter (raise kappa_f to choose the lines yourself)",
-                record.mean_chi(),
-                worst.len()
-            );
+            // A routine turn near convergence with the defaults: said beside the iteration's
+            // line (a log warning broke into the progress lines with its own format).
+            crate::core::progress::note(|| {
+                format!(
+                    "no line has (χ_s + χ_a)/2 ≤ kappa_f = {kappa_f} (mean χ {:.4}, stop at {stop_chi}): the {} worst-correlated lines off the resonances are used, one per parameter (raise kappa_f to choose the lines yourself)",
+                    record.mean_chi(),
+                    worst.len()
+                )
+            });
             chosen = worst;
         }
     }

@@ -319,9 +319,10 @@ fn merits_in_warnings_are_written_apart() {
     assert_eq!(apart([1.0, 1.0 + 2e-9]), ["1.000000000", "1.000000002"]);
 }
 
-/// An iteration's progress line names what its equations come from and says "rank-deficient"
-/// for an `S` whose condition number is infinite (fewer equations than parameters), where it
-/// printed `condition inf`.
+/// An iteration's progress line is numbered in the whole update, names what its equations come
+/// from, says "rank-deficient" for an `S` whose condition number is infinite (fewer equations
+/// than parameters), where it printed `condition inf`, and a phase's closing analysis is not
+/// called final.
 #[test]
 fn progress_lines_name_the_lines_used_and_a_rank_deficient_s() {
     let mut record = IterationRecord {
@@ -342,17 +343,31 @@ fn progress_lines_name_the_lines_used_and_a_rank_deficient_s() {
         },
     };
     assert_eq!(
-        record.progress_line(true, "lines"),
+        record.progress_line(0, Ok("lines")),
         "iteration 3: mean χ_s 0.9000, χ_a 0.8000, 1/2 parameters active, 7 lines, step 2.000e-2, condition 1.250e1"
     );
     record.diagnostics.condition = f64::INFINITY;
     assert!(
         record
-            .progress_line(true, "modes")
-            .ends_with("7 modes, step 2.000e-2, S rank-deficient")
+            .progress_line(10, Ok("modes"))
+            .starts_with("iteration 13: ")
+            && record
+                .progress_line(10, Ok("modes"))
+                .ends_with("7 modes, step 2.000e-2, S rank-deficient")
     );
     assert_eq!(
-        record.progress_line(false, ""),
+        record.progress_line(0, Err(Closing::Update)),
         "iteration 3: mean χ_s 0.9000, χ_a 0.8000 (final analysis)"
+    );
+    record.smoothing = 0.1;
+    assert_eq!(
+        record.progress_line(
+            2,
+            Err(Closing::Phase {
+                phase: 1,
+                phases: 3
+            })
+        ),
+        "iteration 5: mean χ_s 0.9000, χ_a 0.8000 (end of phase 1 of 3), smoothed (g = 1.000e-1)"
     );
 }

@@ -63,6 +63,7 @@ mod info;
 mod label;
 mod lex;
 mod mesh;
+mod notes;
 mod set;
 mod shapes;
 mod systems;
@@ -72,6 +73,7 @@ pub mod write;
 
 pub use dataset55::{ModeKind55, Uff55};
 pub use error::{NonFiniteValue, UffError};
+pub use notes::grouped_conversions;
 pub use set::{LINE_TOLERANCE, to_frf_set};
 pub use shapes::{TestModes, realisation, to_test_modes};
 pub use types::{
