@@ -77,28 +77,29 @@ impl IterationRecord {
             self.mean_chi_s,
             self.mean_chi_a
         );
-        if let Ok(used) = step {
-            let active = self.active.iter().filter(|a| **a).count();
-            let biggest = self
-                .relative_change
-                .iter()
-                .fold(0.0_f64, |a, d| a.max(d.abs()));
-            // Fewer equations than parameters (few lines chosen) leave `S` rank-deficient: its
-            // condition number is then infinite, which says less than the word.
-            let condition = match self.diagnostics.condition {
-                c if c.is_infinite() => "S rank-deficient".to_string(),
-                c => format!("condition {c:.3e}"),
-            };
-            line += &format!(
-                ", {active}/{} parameters active, {} {used}, step {biggest:.3e}, {condition}",
-                self.active.len(),
-                self.lines_used,
-            );
-        } else if let Err(closing) = step {
-            line += &match closing {
-                Closing::Update => " (final analysis)".to_string(),
-                Closing::Phase { phase, phases } => format!(" (end of phase {phase} of {phases})"),
-            };
+        match step {
+            Ok(used) => {
+                let active = self.active.iter().filter(|a| **a).count();
+                let biggest = self
+                    .relative_change
+                    .iter()
+                    .fold(0.0_f64, |a, d| a.max(d.abs()));
+                // Fewer equations than parameters (few lines chosen) leave `S` rank-deficient:
+                // its condition number is then infinite, which says less than the word.
+                let condition = match self.diagnostics.condition {
+                    c if c.is_infinite() => "S rank-deficient".to_string(),
+                    c => format!("condition {c:.3e}"),
+                };
+                line += &format!(
+                    ", {active}/{} parameters active, {} {used}, step {biggest:.3e}, {condition}",
+                    self.active.len(),
+                    self.lines_used,
+                );
+            }
+            Err(Closing::Update) => line += " (final analysis)",
+            Err(Closing::Phase { phase, phases }) => {
+                line += &format!(" (end of phase {phase} of {phases})")
+            }
         }
         if self.smoothing > 0.0 {
             line += &format!(", smoothed (g = {:.3e})", self.smoothing);
