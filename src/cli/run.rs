@@ -2,7 +2,8 @@
 
 use super::load::load_sourced_plan;
 use super::summary::{
-    RUN_RECORD_FILE, RunRecord, RunRecordStage, artefact_meta, print_warnings, stage_warnings,
+    RUN_RECORD_FILE, RunRecord, RunRecordStage, artefact_meta, column_width, print_warnings,
+    stage_warnings,
 };
 use super::{CacheArgs, Failure, PipelineArgs};
 use crate::artefact::codec::read_meta;
@@ -151,14 +152,8 @@ fn print_summary(name: &str, report: &RunReport) {
     // Columns as wide as their longest entry (at least as wide as they were), so that a long
     // stage name does not push its row out of line.
     let stages = &report.stages;
-    let name_w = stages
-        .iter()
-        .map(|s| s.name.chars().count())
-        .fold(20, usize::max);
-    let kind_w = stages
-        .iter()
-        .map(|s| s.kind.chars().count())
-        .fold(18, usize::max);
+    let name_w = column_width(stages.iter().map(|s| s.name.as_str()), 20);
+    let kind_w = column_width(stages.iter().map(|s| s.kind.as_str()), 18);
     println!(
         "{:<name_w$} {:<kind_w$} {:<34} {:>9}  outputs",
         "stage", "kind", "status", "time (s)"

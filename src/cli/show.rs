@@ -4,7 +4,7 @@
 
 use super::Failure;
 use super::summary::{
-    RUN_RECORD_FILE, RunRecord, artefact_meta, is_artefact, key_results, output_meta,
+    RUN_RECORD_FILE, RunRecord, artefact_meta, column_width, is_artefact, key_results, output_meta,
     print_warnings, stage_warnings,
 };
 use crate::artefact::codec::{read_dir, read_meta};
@@ -113,11 +113,8 @@ fn show_run(dir: &Path) -> anyhow::Result<()> {
         None => println!("(no {RUN_RECORD_FILE}: statuses and times were not recorded)"),
     }
     // Columns as wide as their longest entry (at least as wide as they were).
-    let name_w = order.iter().map(|n| n.chars().count()).fold(20, usize::max);
-    let kind_w = order
-        .iter()
-        .map(|n| lock.stages[n].kind.chars().count())
-        .fold(18, usize::max);
+    let name_w = column_width(order.iter().map(String::as_str), 20);
+    let kind_w = column_width(order.iter().map(|n| lock.stages[n].kind.as_str()), 18);
     println!(
         "\n{:<name_w$} {:<kind_w$} {:<10} {:>9}  outputs",
         "stage", "kind", "status", "time (s)"

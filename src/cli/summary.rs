@@ -138,7 +138,7 @@ pub(super) fn key_results(dir: &Path, meta: &DirMeta) -> Vec<String> {
                     f64s(&t, "final"),
                 )
             {
-                for ((n, a), b) in names.iter().zip(initial).zip(fin).take(20) {
+                for ((n, a), b) in names.iter().zip(initial).zip(fin).take(SHOWN_PARAMETERS) {
                     let change = if *a != 0.0 {
                         format!(" ({:+.2} %)", 100.0 * (b - a) / a)
                     } else {
@@ -146,9 +146,7 @@ pub(super) fn key_results(dir: &Path, meta: &DirMeta) -> Vec<String> {
                     };
                     out.push(format!("  {n}: {a:.6e} → {b:.6e}{change}"));
                 }
-                if names.len() > 20 {
-                    out.push(format!("  … ({} more parameters)", names.len() - 20));
-                }
+                out.extend(more_parameters(names.len()));
             }
             if let Some(t) = read_table(dir, meta, "iterations")
                 && let (Some(cs), Some(ca)) = (f64s(&t, "mean_chi_s"), f64s(&t, "mean_chi_a"))
@@ -193,14 +191,12 @@ pub(super) fn key_results(dir: &Path, meta: &DirMeta) -> Vec<String> {
                 )
             {
                 let rows = names.iter().zip(mean).zip(sd).zip(lower.iter().zip(upper));
-                for (((n, mean), sd), (lo, hi)) in rows.take(20) {
+                for (((n, mean), sd), (lo, hi)) in rows.take(SHOWN_PARAMETERS) {
                     out.push(format!(
                         "  {n}: {mean:.6e} ± {sd:.3e} ({level} interval {lo:.6e} to {hi:.6e})"
                     ));
                 }
-                if names.len() > 20 {
-                    out.push(format!("  … ({} more parameters)", names.len() - 20));
-                }
+                out.extend(more_parameters(names.len()));
             }
         }
         K::ModalCorrelation => {
@@ -249,6 +245,20 @@ pub(super) fn key_results(dir: &Path, meta: &DirMeta) -> Vec<String> {
         _ => {}
     }
     out
+}
+
+/// Parameters listed one per line in a result's summary; the rest are counted.
+const SHOWN_PARAMETERS: usize = 20;
+
+/// The line that counts the parameters past [`SHOWN_PARAMETERS`] of `total`, if any.
+fn more_parameters(total: usize) -> Option<String> {
+    (total > SHOWN_PARAMETERS)
+        .then(|| format!("  … ({} more parameters)", total - SHOWN_PARAMETERS))
+}
+
+/// The width of a table column: its longest entry, at least `least` (the width it had).
+pub(super) fn column_width<'a>(entries: impl Iterator<Item = &'a str>, least: usize) -> usize {
+    entries.map(|e| e.chars().count()).fold(least, usize::max)
 }
 
 /// Whether `dir` holds an artefact.
