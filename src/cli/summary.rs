@@ -190,13 +190,27 @@ pub(super) fn key_results(dir: &Path, meta: &DirMeta) -> Vec<String> {
                     f64s(&t, "upper"),
                 )
             {
+                // An unidentified parameter (infinite sd) has no interval to show: those are
+                // named together, after the identified ones.
                 let rows = names.iter().zip(mean).zip(sd).zip(lower.iter().zip(upper));
-                for (((n, mean), sd), (lo, hi)) in rows.take(SHOWN_PARAMETERS) {
+                let (identified, unidentified): (Vec<_>, Vec<_>) =
+                    rows.partition(|((_, sd), _)| sd.is_finite());
+                for (((n, mean), sd), (lo, hi)) in identified.iter().take(SHOWN_PARAMETERS) {
                     out.push(format!(
                         "  {n}: {mean:.6e} ± {sd:.3e} ({level} interval {lo:.6e} to {hi:.6e})"
                     ));
                 }
-                out.extend(more_parameters(names.len()));
+                out.extend(more_parameters(identified.len()));
+                if !unidentified.is_empty() {
+                    let names = unidentified.iter().map(|(((n, _), _), _)| n);
+                    out.push(format!(
+                        "  unidentified (the data leave them unbounded): {}",
+                        crate::core::first_of(names, SHOWN_NAMES)
+                    ));
+                }
+            }
+            if let Some(t) = read_table(dir, meta, "covariance") {
+                out.extend(ridges(&t));
             }
         }
         K::ModalCorrelation => {
@@ -249,6 +263,44 @@ pub(super) fn key_results(dir: &Path, meta: &DirMeta) -> Vec<String> {
 
 /// Parameters listed one per line in a result's summary; the rest are counted.
 const SHOWN_PARAMETERS: usize = 20;
+
+/// Names listed on one line of a summary (parameters, ridges); the rest are counted.
+const SHOWN_NAMES: usize = 5;
+
+/// The line naming a posterior's ridges, strongest first: parameter pairs whose correlation
+/// (the `covariance` table's, over every direction above round-off) exceeds
+/// [`crate::run_report::RUN_RIDGE`] in magnitude — parameters the data can trade
+/// against each other, the sign telling which way.
+fn ridges(covariance: &Table) -> Option<String> {
+    let (Some(a), Some(b), Some(r)) = (
+        strs(covariance, "parameter_i"),
+        strs(covariance, "parameter_j"),
+        f64s(covariance, "correlation"),
+    ) else {
+        return None;
+    };
+    let mut pairs: Vec<(&String, &String, f64)> = a
+        .iter()
+        .zip(b)
+        .zip(r)
+        .filter(|((a, b), r)| a < b && r.abs() > crate::run_report::RUN_RIDGE)
+        .map(|((a, b), &r)| (a, b, r))
+        .collect();
+    if pairs.is_empty() {
+        return None;
+    }
+    pairs.sort_by(|x, y| {
+        y.2.abs()
+            .total_cmp(&x.2.abs())
+            .then((x.0, x.1).cmp(&(y.0, y.1)))
+    });
+    let named = pairs.iter().map(|(a, b, r)| format!("{a} ~ {b} {r:+.3}"));
+    Some(format!(
+        "  ridges (|correlation| > {}): {}",
+        crate::run_report::RUN_RIDGE,
+        crate::core::first_of(named, SHOWN_NAMES)
+    ))
+}
 
 /// The line that counts the parameters past [`SHOWN_PARAMETERS`] of `total`, if any.
 fn more_parameters(total: usize) -> Option<String> {
@@ -304,6 +356,66 @@ mod tests {
             [
                 "TMCMC posterior, 200 samples, ln evidence 3.490497e5",
                 "  t2_2: 1.699955e-3 ± 2.478e-8 (90 % interval 1.699917e-3 to 1.699998e-3)",
+            ]
+        );
+    }
+
+    /// A Laplace posterior with an unidentified parameter names it apart (its interval would
+    /// read "-inf to inf"), and its ridges strongest first, each pair once.
+    #[test]
+    fn unidentified_parameters_are_named_apart_and_ridges_listed() {
+        use crate::artefact::{Artefact, ArtefactKind, Storage};
+        let inf = f64::INFINITY;
+        let parameters = Table::new()
+            .with(
+                "parameter",
+                Column::Str(vec!["a".into(), "b".into(), "c".into()]),
+            )
+            .with("mean", Column::F64(vec![1.0, 2.0, 3.0]))
+            .with("sd", Column::F64(vec![0.1, inf, 0.2]))
+            .with("lower", Column::F64(vec![0.8, -inf, 2.6]))
+            .with("upper", Column::F64(vec![1.2, inf, 3.4]));
+        let (names, pairs): (Vec<String>, Vec<(usize, usize)>) = (
+            ["a", "b", "c"].map(String::from).to_vec(),
+            (0..3).flat_map(|i| (0..3).map(move |j| (i, j))).collect(),
+        );
+        let rho = |i: usize, j: usize| match (i.min(j), i.max(j)) {
+            _ if i == j => 1.0,
+            (0, 2) => -0.95,
+            (1, 2) => 0.99,
+            _ => 0.5,
+        };
+        let covariance = Table::new()
+            .with(
+                "parameter_i",
+                Column::Str(pairs.iter().map(|p| names[p.0].clone()).collect()),
+            )
+            .with(
+                "parameter_j",
+                Column::Str(pairs.iter().map(|p| names[p.1].clone()).collect()),
+            )
+            .with(
+                "correlation",
+                Column::F64(pairs.iter().map(|&(i, j)| rho(i, j)).collect()),
+            );
+        let a = Artefact::new(ArtefactKind::Posterior)
+            .with_meta("method", "pc".into())
+            .with_meta("samples", 100.into())
+            .with_meta("credible_level", 0.9.into())
+            .with_table("parameters", parameters, Storage::Parquet)
+            .with_table("covariance", covariance, Storage::Parquet);
+        let dir = tempfile::tempdir().unwrap();
+        crate::artefact::codec::write_dir(&a, dir.path(), crate::artefact::Format::Arrow, None)
+            .unwrap();
+        let meta = read_meta(dir.path()).unwrap();
+        assert_eq!(
+            key_results(dir.path(), &meta),
+            [
+                "Laplace posterior about the pc result, 100 samples",
+                "  a: 1.000000e0 ± 1.000e-1 (90 % interval 8.000000e-1 to 1.200000e0)",
+                "  c: 3.000000e0 ± 2.000e-1 (90 % interval 2.600000e0 to 3.400000e0)",
+                "  unidentified (the data leave them unbounded): b",
+                "  ridges (|correlation| > 0.9): b ~ c +0.990, a ~ c -0.950",
             ]
         );
     }

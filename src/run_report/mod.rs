@@ -13,7 +13,7 @@ mod page;
 pub mod record;
 mod svg;
 
-pub use collect::{RunView, StageTiming, collect};
+pub use collect::{RUN_RIDGE, RunView, StageTiming, collect};
 pub use page::render_html;
 
 use std::path::{Path, PathBuf};

@@ -430,6 +430,7 @@ pub fn run_phases(
     h.iterations = done;
     warnings.append(&mut h.warnings);
     h.warnings = warnings;
+    h.warnings.extend(never_selected(&h));
     Ok(h)
 }
 
@@ -447,7 +448,41 @@ pub fn run_from(
     start: &[f64],
     max_iterations: usize,
 ) -> Result<UpdateHistory, UpdatingError> {
-    run_numbered(method, model, start, max_iterations, (0, Closing::Update))
+    let mut h = run_numbered(method, model, start, max_iterations, (0, Closing::Update))?;
+    h.warnings.extend(never_selected(&h));
+    Ok(h)
+}
+
+/// The warning for the parameters that no step of an update selected: the subset selection
+/// (5.14) left them out every time — the data barely see them — so they keep their start
+/// values, which the data neither confirm nor correct. `None` when every parameter was
+/// selected at least once, or no step was taken.
+pub(crate) fn never_selected(history: &UpdateHistory) -> Option<String> {
+    // The last record is the closing analysis, which takes no step.
+    let (_, steps) = history.iterations.split_last()?;
+    if steps.is_empty() {
+        return None;
+    }
+    let left_out: Vec<&str> = (history.parameters.iter().enumerate())
+        .filter(|(j, _)| !steps.iter().any(|r| r.active.get(*j) == Some(&true)))
+        .map(|(_, p)| p.name.as_str())
+        .collect();
+    if left_out.is_empty() {
+        return None;
+    }
+    let (were, keep, them) = if left_out.len() == 1 {
+        ("was", "keeps its start value", "it")
+    } else {
+        ("were", "keep their start values", "them")
+    };
+    Some(format!(
+        "{} of {} parameters {were} never selected in {} iteration{} and {keep}: {} — the subset selection left {them} out of every step (the data barely see {them})",
+        left_out.len(),
+        history.parameters.len(),
+        steps.len(),
+        if steps.len() == 1 { "" } else { "s" },
+        crate::core::first_of(left_out.iter(), 8)
+    ))
 }
 
 /// [`run_from`] as a phase whose iterations [`run_phases`] numbers on from `first`: the

@@ -303,6 +303,56 @@ fn pc_defaults_reach_their_stop_rule_when_no_line_passes_kappa_f() {
     );
 }
 
+/// The parameters that no step selected are named in one warning, with how many steps were
+/// taken; none when every parameter was selected at least once (a parameter already right
+/// takes a step of zero, and is not named) or no step was taken (the closing analysis is not a
+/// step).
+#[test]
+fn parameters_no_step_selected_are_named() {
+    use super::super::never_selected;
+    let record = |active: [bool; 3]| IterationRecord {
+        iteration: 0,
+        values: vec![1.0; 3],
+        relative_change: vec![0.0; 3],
+        active: active.to_vec(),
+        lines_used: 7,
+        mean_chi_s: 0.9,
+        mean_chi_a: 0.8,
+        residual_norm: 1.0,
+        condition_limit: f64::NAN,
+        smoothing: 0.0,
+        smoothed_mean_chi: f64::NAN,
+        diagnostics: Default::default(),
+    };
+    let parameter = |name: &str| UpdatingParameter {
+        name: name.into(),
+        initial: 1.0,
+        lower: 0.1,
+        upper: 10.0,
+    };
+    let history = |steps: &[[bool; 3]]| UpdateHistory {
+        parameters: ["a", "b", "c"].map(parameter).to_vec(),
+        iterations: (steps.iter().map(|&s| record(s)))
+            .chain([record([false; 3])])
+            .collect(),
+        final_values: vec![1.0; 3],
+        stop: StopReason::Converged,
+        returned_iteration: None,
+        warnings: Vec::new(),
+    };
+    let (t, f) = (true, false);
+    assert_eq!(
+        never_selected(&history(&[[t, f, f], [f, f, t]])).as_deref(),
+        Some(
+            "1 of 3 parameters was never selected in 2 iterations and keeps its start value: b — the subset selection left it out of every step (the data barely see it)"
+        )
+    );
+    assert!(never_selected(&history(&[[f, f, t]])).is_some_and(|w| w
+        .starts_with("2 of 3 parameters were never selected in 1 iteration and keep their start values: a, b — ")));
+    assert_eq!(never_selected(&history(&[[t, t, t]])), None);
+    assert_eq!(never_selected(&history(&[])), None);
+}
+
 /// Merits in the best-iterate warnings are written with four significant digits, or as many
 /// more as show the different ones apart (up to 10: a tie within `MERIT_TIE` returns nothing).
 #[test]
