@@ -119,13 +119,14 @@ pub(super) fn key_results(dir: &Path, meta: &DirMeta) -> Vec<String> {
         }
         K::UpdateResult => {
             let stop = m.get("stop").and_then(|v| v.as_str()).unwrap_or("?");
-            let iterations = m
-                .get("iterations")
-                .map(|v| v.to_string())
-                .unwrap_or_default();
+            let iterations = match m.get("iterations") {
+                Some(n) if n.as_u64() == Some(1) => "1 iteration".to_string(),
+                Some(n) => format!("{n} iterations"),
+                None => "? iterations".to_string(),
+            };
             let method = m.get("method").and_then(|v| v.as_str()).unwrap_or("?");
             out.push(format!(
-                "{method}: {iterations} iterations, stopped: {stop}{}",
+                "{method}: {iterations}, stopped: {stop}{}",
                 m.get("returned_iteration")
                     .filter(|v| !v.is_null())
                     .map(|v| format!(" (returned iteration {v})"))

@@ -190,8 +190,9 @@ impl TypedStage for FrfImport {
     const KIND: &'static str = "frf.import";
     const SUMMARY: &'static str = "Measured FRFs from a Universal File (dataset 58/58b) or a CSV/Parquet long table, converted to SI";
     // 2: the test geometry is a second output; 3: a note many FRF records share is recorded
-    // once, with the records it applies to.
-    const IMPL_VERSION: u32 = 3;
+    // once, with the records it applies to; 4: nodes in local displacement systems are named
+    // in one warning.
+    const IMPL_VERSION: u32 = 4;
     const PREFLIGHT: bool = true;
 
     fn inputs() -> Vec<PortSpec> {

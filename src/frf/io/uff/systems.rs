@@ -423,11 +423,26 @@ pub(super) fn nodes_to_global(ctx: &mut Ctx<'_>, out: &mut UffFile) -> Result<()
         d.dedup();
         d
     };
-    for s in disp {
-        let count = out.node_systems.iter().filter(|n| n[1] == s).count();
+    // One warning for every node off the global axes, by system, naming the nodes.
+    let by_system: Vec<String> = disp
+        .iter()
+        .map(|&s| {
+            let nodes: Vec<u64> = (out.nodes.iter().zip(&out.node_systems))
+                .filter(|(_, systems)| systems[1] == s)
+                .map(|((id, _), _)| *id)
+                .collect();
+            let noun = if nodes.len() == 1 { "node" } else { "nodes" };
+            format!(
+                "system {s}: {noun} {}",
+                crate::core::first_of(nodes.iter(), 5)
+            )
+        })
+        .collect();
+    if !by_system.is_empty() {
         ctx.warn(format!(
-            "{}: {count} node(s) measure in displacement system {s}: the directions of their DOFs (in dataset 58 and 55) are that system's axes, not global; see coordinate_systems",
-            ctx.file
+            "{}: nodes measure in displacement systems other than the global one ({}): the directions of their DOFs (in datasets 58 and 55) are those systems' axes, not global; see coordinate_systems",
+            ctx.file,
+            by_system.join("; ")
         ));
     }
     Ok(())
