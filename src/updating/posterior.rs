@@ -525,6 +525,37 @@ fn refine(
 /// which the posterior warns that it describes another point than the update's.
 const FAR_MODE: f64 = 0.1;
 
+/// The warning for identified parameters whose Gaussian credible interval reaches past the
+/// parameter's own bounds (a loss factor's below zero, or a mode at a bound): there the
+/// posterior, whose prior stops at the bounds, is cut off, which a Gaussian about the mode does
+/// not describe. `None` when every finite interval lies within its bounds.
+fn intervals_past_bounds(
+    marginals: &[Marginal],
+    params: &[UpdatingParameter],
+    credible_level: f64,
+) -> Option<String> {
+    let past: Vec<(&Marginal, &UpdatingParameter)> = (marginals.iter().zip(params))
+        .filter(|(m, p)| m.sd.is_finite() && (m.lower < p.lower || m.upper > p.upper))
+        .collect();
+    let (m, p) = past.first()?;
+    let (intervals, reach, eg) = if past.len() == 1 {
+        ("interval", "reaches past its bounds", "")
+    } else {
+        ("intervals", "reach past their bounds", "e.g. ")
+    };
+    Some(format!(
+        "the {:.0} % {intervals} of {} {reach} ({eg}{}: mode {:.3e}, interval {:.3e} to {:.3e}, bounds {:e} to {:e}): the posterior is cut off at a bound, which the Laplace (Gaussian) approximation about the mode does not describe — `bayes.tmcmc` samples the posterior within the bounds",
+        100.0 * credible_level,
+        crate::core::first_of(past.iter().map(|(m, _)| &m.name), 8),
+        m.name,
+        m.mean,
+        m.lower,
+        m.upper,
+        p.lower,
+        p.upper,
+    ))
+}
+
 /// Eigen-decomposition of the precision `F` in unity coordinates: `(μ, V)`, μ descending.
 fn precision_eigen(a: MatRef<'_, f64>) -> Result<(Vec<f64>, Mat<f64>), UpdatingError> {
     // `AᵀA` by fixed-order sums: a parallel product's last bits could depend on the thread
@@ -742,7 +773,7 @@ pub fn laplace(
                 .collect()
         })
         .collect();
-    let marginals = (0..n)
+    let marginals: Vec<Marginal> = (0..n)
         .map(|i| Marginal {
             name: params[i].name.clone(),
             updated: updated[i],
@@ -752,6 +783,9 @@ pub fn laplace(
             upper: mode[i] + z * sd[i],
         })
         .collect();
+    if let Some(w) = intervals_past_bounds(&marginals, params, settings.credible_level) {
+        warnings.push(w);
+    }
     let directions: Vec<Direction> = (0..n)
         .rev()
         .map(|k| Direction {
@@ -1002,6 +1036,53 @@ mod tests {
     /// reaches the least-squares solution and the Laplace covariance is `σ²(AᵀA)⁻¹` to 1e-12
     /// (relative to the largest entry); with a Gaussian prior `(AᵀA/σ² + diag(1/s₀²))⁻¹`, and
     /// the mean moves toward the prior mean. The estimated noise is `rᵀr/(m − n)`.
+    /// An identified parameter whose Gaussian interval reaches past its bounds is named (the
+    /// first with its mode, interval and bounds); an unidentified one (infinite sd) and one
+    /// inside its bounds are not.
+    #[test]
+    fn intervals_past_their_bounds_are_named() {
+        let marginal = |name: &str, sd: f64| Marginal {
+            name: name.into(),
+            updated: 0.01,
+            mean: 0.01,
+            sd,
+            lower: 0.01 - 1.645 * sd,
+            upper: 0.01 + 1.645 * sd,
+        };
+        let parameter = |name: &str| UpdatingParameter {
+            name: name.into(),
+            initial: 0.01,
+            lower: 1e-4,
+            upper: 1.0,
+        };
+        let params = ["eta_1", "eta_2", "eta_3", "eta_4"].map(parameter);
+        let marginals = [
+            marginal("eta_1", 0.001),
+            marginal("eta_2", 0.02),
+            marginal("eta_3", f64::INFINITY),
+            marginal("eta_4", 0.03),
+        ];
+        assert_eq!(
+            intervals_past_bounds(&marginals, &params, 0.9).as_deref(),
+            Some(
+                "the 90 % intervals of eta_2, eta_4 reach past their bounds (e.g. eta_2: mode 1.000e-2, interval -2.290e-2 to 4.290e-2, bounds 1e-4 to 1e0): the posterior is cut off at a bound, which the Laplace (Gaussian) approximation about the mode does not describe — `bayes.tmcmc` samples the posterior within the bounds"
+            )
+        );
+        assert!(
+            intervals_past_bounds(&marginals[..2], &params[..2], 0.9).is_some_and(
+                |w| w.starts_with("the 90 % interval of eta_2 reaches past its bounds")
+            )
+        );
+        assert_eq!(
+            intervals_past_bounds(&marginals[..1], &params[..1], 0.9),
+            None
+        );
+        assert_eq!(
+            intervals_past_bounds(&marginals[2..3], &params[2..3], 0.9),
+            None
+        );
+    }
+
     #[test]
     fn linear_gaussian_covariance_is_exact() {
         let lik = linear_problem();

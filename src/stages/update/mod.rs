@@ -253,8 +253,9 @@ impl TypedStage for Update {
     /// projection, the posterior started from the update's last analysis, and each analysis's
     /// first Lanczos run sized by the last (results move in round-off); 10: warnings recorded
     /// in the result and the posterior (`update_warnings`, `posterior_warnings`), a best iterate
-    /// not returned for a gain at round-off, and numbered in the whole continuation; 11: a
-    /// warning names the parameters no step selected.
+    /// not returned for a gain at round-off, and numbered in the whole continuation; 11:
+    /// warnings name the parameters no step selected and the Laplace intervals that reach past
+    /// their parameters' bounds.
     const IMPL_VERSION: u32 = 11;
 
     fn inputs() -> Vec<PortSpec> {
