@@ -329,6 +329,15 @@ mod tests {
     use super::*;
     use crate::run_report::record::meta_warnings;
 
+    /// The key results `femu show` prints for artefact `a`, written to a folder and read back.
+    fn summary_of(a: &crate::artefact::Artefact) -> Vec<String> {
+        let dir = tempfile::tempdir().unwrap();
+        crate::artefact::codec::write_dir(a, dir.path(), crate::artefact::Format::Arrow, None)
+            .unwrap();
+        let meta = read_meta(dir.path()).unwrap();
+        key_results(dir.path(), &meta)
+    }
+
     /// A sampled posterior is summarised by its method, samples and evidence, then each
     /// parameter's mean, sd and credible interval.
     #[test]
@@ -348,12 +357,8 @@ mod tests {
             .with_meta("log_evidence", 349049.656.into())
             .with_meta("credible_level", 0.9.into())
             .with_table("parameters", parameters, Storage::Parquet);
-        let dir = tempfile::tempdir().unwrap();
-        crate::artefact::codec::write_dir(&a, dir.path(), crate::artefact::Format::Arrow, None)
-            .unwrap();
-        let meta = read_meta(dir.path()).unwrap();
         assert_eq!(
-            key_results(dir.path(), &meta),
+            summary_of(&a),
             [
                 "TMCMC posterior, 200 samples, ln evidence 3.490497e5",
                 "  t2_2: 1.699955e-3 ± 2.478e-8 (90 % interval 1.699917e-3 to 1.699998e-3)",
@@ -405,12 +410,8 @@ mod tests {
             .with_meta("credible_level", 0.9.into())
             .with_table("parameters", parameters, Storage::Parquet)
             .with_table("covariance", covariance, Storage::Parquet);
-        let dir = tempfile::tempdir().unwrap();
-        crate::artefact::codec::write_dir(&a, dir.path(), crate::artefact::Format::Arrow, None)
-            .unwrap();
-        let meta = read_meta(dir.path()).unwrap();
         assert_eq!(
-            key_results(dir.path(), &meta),
+            summary_of(&a),
             [
                 "Laplace posterior about the pc result, 100 samples",
                 "  a: 1.000000e0 ± 1.000e-1 (90 % interval 8.000000e-1 to 1.200000e0)",

@@ -303,17 +303,18 @@ fn pc_defaults_reach_their_stop_rule_when_no_line_passes_kappa_f() {
     );
 }
 
-/// The parameters that no step selected are named in one warning, with how many steps were
-/// taken; none when every parameter was selected at least once (a parameter already right
-/// takes a step of zero, and is not named) or no step was taken (the closing analysis is not a
-/// step).
-#[test]
-fn parameters_no_step_selected_are_named() {
-    use super::super::never_selected;
-    let record = |active: [bool; 3]| IterationRecord {
-        iteration: 0,
-        values: vec![1.0; 3],
-        relative_change: vec![0.0; 3],
+/// An iteration record at values 1 with `relative_change`, `active`, 7 lines, mean `χ_s` 0.9,
+/// `χ_a` 0.8 and the condition number `condition` of `S`.
+fn iteration_record(
+    iteration: usize,
+    relative_change: &[f64],
+    active: &[bool],
+    condition: f64,
+) -> IterationRecord {
+    IterationRecord {
+        iteration,
+        values: vec![1.0; active.len()],
+        relative_change: relative_change.to_vec(),
         active: active.to_vec(),
         lines_used: 7,
         mean_chi_s: 0.9,
@@ -322,8 +323,21 @@ fn parameters_no_step_selected_are_named() {
         condition_limit: f64::NAN,
         smoothing: 0.0,
         smoothed_mean_chi: f64::NAN,
-        diagnostics: Default::default(),
-    };
+        diagnostics: crate::updating::Diagnostics {
+            condition,
+            ..Default::default()
+        },
+    }
+}
+
+/// The parameters that no step selected are named in one warning, with how many steps were
+/// taken; none when every parameter was selected at least once (a parameter already right
+/// takes a step of zero, and is not named) or no step was taken (the closing analysis is not a
+/// step).
+#[test]
+fn parameters_no_step_selected_are_named() {
+    use super::super::never_selected;
+    let record = |active: [bool; 3]| iteration_record(0, &[0.0; 3], &active, 0.0);
     let parameter = |name: &str| UpdatingParameter {
         name: name.into(),
         initial: 1.0,
@@ -375,23 +389,7 @@ fn merits_in_warnings_are_written_apart() {
 /// called final.
 #[test]
 fn progress_lines_name_the_lines_used_and_a_rank_deficient_s() {
-    let mut record = IterationRecord {
-        iteration: 3,
-        values: vec![1.0, 1.0],
-        relative_change: vec![0.01, -0.02],
-        active: vec![true, false],
-        lines_used: 7,
-        mean_chi_s: 0.9,
-        mean_chi_a: 0.8,
-        residual_norm: 1.0,
-        condition_limit: f64::NAN,
-        smoothing: 0.0,
-        smoothed_mean_chi: f64::NAN,
-        diagnostics: crate::updating::Diagnostics {
-            condition: 12.5,
-            ..Default::default()
-        },
-    };
+    let mut record = iteration_record(3, &[0.01, -0.02], &[true, false], 12.5);
     assert_eq!(
         record.progress_line(0, Ok("lines")),
         "iteration 3: mean χ_s 0.9000, χ_a 0.8000, 1/2 parameters active, 7 lines, step 2.000e-2, condition 1.250e1"
