@@ -193,20 +193,22 @@ pub(super) fn key_results(dir: &Path, meta: &DirMeta) -> Vec<String> {
             {
                 // An unidentified parameter (infinite sd) has no interval to show: those are
                 // named together, after the identified ones.
-                let rows = names.iter().zip(mean).zip(sd).zip(lower.iter().zip(upper));
-                let (identified, unidentified): (Vec<_>, Vec<_>) =
-                    rows.partition(|((_, sd), _)| sd.is_finite());
-                for (((n, mean), sd), (lo, hi)) in identified.iter().take(SHOWN_PARAMETERS) {
+                let rows = [mean.len(), sd.len(), lower.len(), upper.len()]
+                    .into_iter()
+                    .fold(names.len(), usize::min);
+                let (identified, unidentified): (Vec<usize>, Vec<usize>) =
+                    (0..rows).partition(|&i| sd[i].is_finite());
+                for &i in identified.iter().take(SHOWN_PARAMETERS) {
+                    let (n, mean, sd, lo, hi) = (&names[i], mean[i], sd[i], lower[i], upper[i]);
                     out.push(format!(
                         "  {n}: {mean:.6e} ± {sd:.3e} ({level} interval {lo:.6e} to {hi:.6e})"
                     ));
                 }
                 out.extend(more_parameters(identified.len()));
                 if !unidentified.is_empty() {
-                    let names = unidentified.iter().map(|(((n, _), _), _)| n);
                     out.push(format!(
                         "  unidentified (the data leave them unbounded): {}",
-                        crate::core::first_of(names, SHOWN_NAMES)
+                        crate::core::first_of(unidentified.iter().map(|&i| &names[i]), SHOWN_NAMES)
                     ));
                 }
             }

@@ -412,25 +412,17 @@ pub(super) fn nodes_to_global(ctx: &mut Ctx<'_>, out: &mut UffFile) -> Result<()
             if kind == CoordKind::Cartesian { "" } else { " (angles in degrees)" }
         ));
     }
-    let disp: Vec<u32> = {
-        let mut d: Vec<u32> = out
-            .node_systems
-            .iter()
-            .map(|s| s[1])
-            .filter(|&s| s != 0 && out.coordinate_systems.iter().any(|c| c.id == s))
-            .collect();
-        d.sort_unstable();
-        d.dedup();
-        d
-    };
-    // One warning for every node off the global axes, by system, naming the nodes.
-    let by_system: Vec<String> = disp
+    // One warning for every node off the global axes, naming the nodes by system.
+    let mut nodes_by_system: std::collections::BTreeMap<u32, Vec<u64>> = Default::default();
+    for ((id, _), systems) in out.nodes.iter().zip(&out.node_systems) {
+        let s = systems[1];
+        if s != 0 && out.coordinate_systems.iter().any(|c| c.id == s) {
+            nodes_by_system.entry(s).or_default().push(*id);
+        }
+    }
+    let by_system: Vec<String> = nodes_by_system
         .iter()
-        .map(|&s| {
-            let nodes: Vec<u64> = (out.nodes.iter().zip(&out.node_systems))
-                .filter(|(_, systems)| systems[1] == s)
-                .map(|((id, _), _)| *id)
-                .collect();
+        .map(|(s, nodes)| {
             let noun = if nodes.len() == 1 { "node" } else { "nodes" };
             format!(
                 "system {s}: {noun} {}",
